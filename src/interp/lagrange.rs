@@ -1,0 +1,189 @@
+//! Tensor-product Lagrange interpolation of degrees m×n×q (seed 001, Eq. for P_{m,n,q}).
+//!
+//! P(x, y, z) = Σ_h Σ_j Σ_i ℓ_h(z) ℓ_j(y) ℓ_i(x) e_ijh, where ℓ are the 1-D Lagrange basis
+//! polynomials through d + 1 consecutive nodes along each axis (d the degree on that axis).
+//!
+//! **Window rule.** Degree d uses d + 1 consecutive nodes chosen around the query:
+//! - odd d (an even number of nodes): the cell containing the query sits in the middle,
+//!   start = i − (d − 1)/2, where x_i ≤ x < x_{i+1};
+//! - even d (an odd number of nodes): the node nearest the query sits in the middle,
+//!   start = k − d/2 (ties go to the higher node); degree 0 is nearest-node interpolation;
+//! - the start is clamped to 0 ..= n − 1 − d, so near the ends the window is shifted
+//!   inwards, and outside the grid the end window's polynomial is evaluated
+//!   (extrapolation, flagged by [`Interpolator::outside`]).
+//!
+//! With d = n − 1 the window is every node: the single global polynomial of the paper.
+//! A degree above n − 1 is refused ([`InterpError::OrderTooHigh`]), never clamped.
+//!
+//! **Cost.** Fit: barycentric weights b_j = 1/Π_{k≠j}(x_j − x_k) for every window,
+//! O(n·d²) per axis. Evaluation: an interval search, d + 1 weights per axis
+//! (w_j = ℓ(x)·b_j/(x − x_j), ℓ(x) = Π(x − x_k)), and (m+1)(n+1)(q+1) multiply–adds.
+//! Reproduces every polynomial of degree ≤ d along each axis exactly.
+
+use super::{InterpError, Interpolator, Order};
+use crate::table::{Axis, Grid, interval};
+
+/// Highest degree supported along one axis (weights live on the stack).
+pub const MAX_DEGREE: usize = 31;
+
+#[derive(Debug, Clone)]
+struct AxisBasis {
+    degree: usize,
+    nodes: Vec<f64>,
+    /// Barycentric weights, (d + 1) per window start.
+    bary: Vec<f64>,
+}
+
+impl AxisBasis {
+    fn new(nodes: &[f64], degree: usize) -> Self {
+        let n = nodes.len();
+        let starts = n - degree;
+        let mut bary = Vec::with_capacity(starts * (degree + 1));
+        for s in 0..starts {
+            let window = &nodes[s..=s + degree];
+            for (j, &xj) in window.iter().enumerate() {
+                let prod: f64 = window
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| k != j)
+                    .map(|(_, &xk)| xj - xk)
+                    .product();
+                bary.push(1.0 / prod);
+            }
+        }
+        Self {
+            degree,
+            nodes: nodes.to_vec(),
+            bary,
+        }
+    }
+
+    /// First node of the window used at `x` (the rule in the module docs).
+    fn start(&self, x: f64) -> usize {
+        let (n, d) = (self.nodes.len(), self.degree);
+        if d + 1 >= n {
+            return 0;
+        }
+        let i = interval(&self.nodes, x);
+        let s = if d % 2 == 1 {
+            i as isize - ((d - 1) / 2) as isize
+        } else {
+            let k = if x - self.nodes[i] < self.nodes[i + 1] - x {
+                i
+            } else {
+                i + 1
+            };
+            k as isize - (d / 2) as isize
+        };
+        s.clamp(0, (n - 1 - d) as isize) as usize
+    }
+
+    /// Writes the d + 1 basis weights at `x` into `w` and returns the window start.
+    #[inline]
+    fn weights(&self, x: f64, w: &mut [f64; MAX_DEGREE + 1]) -> usize {
+        let s = self.start(x);
+        let d = self.degree;
+        let window = &self.nodes[s..=s + d];
+        if let Some(hit) = window.iter().position(|&xk| xk == x) {
+            w[..=d].fill(0.0);
+            w[hit] = 1.0;
+            return s;
+        }
+        let ell: f64 = window.iter().map(|&xk| x - xk).product();
+        let b = &self.bary[s * (d + 1)..(s + 1) * (d + 1)];
+        for j in 0..=d {
+            w[j] = ell * b[j] / (x - window[j]);
+        }
+        s
+    }
+}
+
+/// A fitted tensor Lagrange interpolator.
+#[derive(Debug, Clone)]
+pub struct Lagrange {
+    grid: Grid,
+    order: Order,
+    axes: [AxisBasis; 3],
+}
+
+impl Lagrange {
+    /// Refuses a degree that needs more nodes than the axis has.
+    pub fn new(grid: &Grid, order: Order) -> Result<Self, InterpError> {
+        for axis in Axis::ALL {
+            let a = axis.index();
+            let nodes = grid.axis(a).len();
+            let d = order.0[a];
+            if d + 1 > nodes {
+                return Err(InterpError::OrderTooHigh {
+                    axis,
+                    order: d,
+                    nodes,
+                });
+            }
+            if d > MAX_DEGREE {
+                return Err(InterpError::OrderUnsupported {
+                    axis,
+                    order: d,
+                    max: MAX_DEGREE,
+                });
+            }
+        }
+        let axes = [0, 1, 2].map(|a| AxisBasis::new(grid.axis(a), order.0[a]));
+        Ok(Self {
+            grid: grid.clone(),
+            order,
+            axes,
+        })
+    }
+
+    pub fn order(&self) -> Order {
+        self.order
+    }
+}
+
+impl Interpolator for Lagrange {
+    fn predict(&self, p: [f64; 3]) -> f64 {
+        let mut wx = [0.0; MAX_DEGREE + 1];
+        let mut wy = [0.0; MAX_DEGREE + 1];
+        let mut wz = [0.0; MAX_DEGREE + 1];
+        let sx = self.axes[0].weights(p[0], &mut wx);
+        let sy = self.axes[1].weights(p[1], &mut wy);
+        let sz = self.axes[2].weights(p[2], &mut wz);
+        let [dx, dy, dz] = self.order.0;
+        let [nx, ny, _] = self.grid.shape();
+        let v = &self.grid.values;
+        let mut sum = 0.0;
+        for (k, &wzk) in wz[..=dz].iter().enumerate() {
+            let mut plane = 0.0;
+            for (j, &wyj) in wy[..=dy].iter().enumerate() {
+                let base = sx + nx * (sy + j + ny * (sz + k));
+                let line: f64 = wx[..=dx]
+                    .iter()
+                    .zip(&v[base..=base + dx])
+                    .map(|(w, e)| w * e)
+                    .sum();
+                plane += wyj * line;
+            }
+            sum += wzk * plane;
+        }
+        sum
+    }
+
+    fn outside(&self, p: [f64; 3]) -> bool {
+        self.grid.outside(p)
+    }
+}
+
+/// Every order admissible on a grid of this shape, each degree capped at `max_degree`.
+pub fn admissible_orders(shape: [usize; 3], max_degree: usize) -> Vec<Order> {
+    let cap = |n: usize| n.saturating_sub(1).min(max_degree).min(MAX_DEGREE);
+    let mut out = Vec::new();
+    for m in 0..=cap(shape[0]) {
+        for n in 0..=cap(shape[1]) {
+            for q in 0..=cap(shape[2]) {
+                out.push(Order([m, n, q]));
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,247 @@
+//! Interpolators of an error grid: one small trait, one module per method, one enum
+//! that maps a command-line choice to a method.
+//!
+//! | method | module | fit cost | evaluation cost per point | reference |
+//! |---|---|---|---|---|
+//! | Lagrange m×n×q | [`lagrange`] | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | seed 001, Eq. P_{m,n,q} |
+//! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 1–4 |
+//! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | seed 000, Eqs. 5–7 |
+//! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 8–13 |
+//!
+//! N is the number of grid nodes. Every method evaluates outside the grid too (the rule
+//! is in each module's docs) and the caller is told by [`Interpolator::outside`], so
+//! extrapolated predictions are always flagged.
+
+pub mod fuzzy;
+pub mod lagrange;
+pub mod spline;
+pub mod trilinear;
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::table::{Axis, Grid, interval};
+
+/// What a fitted model can do: predict the error (µm) at a position (mm).
+pub trait Interpolator: Send + Sync + fmt::Debug {
+    /// The predicted error at `p = [x, y, z]` mm, in µm.
+    fn predict(&self, p: [f64; 3]) -> f64;
+
+    /// Whether `p` lies outside the fitted nodes (the prediction is an extrapolation).
+    fn outside(&self, p: [f64; 3]) -> bool;
+
+    /// Batch evaluation into a caller's buffer (no allocation per point).
+    fn predict_into(&self, points: &[[f64; 3]], out: &mut [f64]) {
+        for (p, o) in points.iter().zip(out.iter_mut()) {
+            *o = self.predict(*p);
+        }
+    }
+}
+
+/// Polynomial degrees along x, y and z (the paper's m×n×q).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Order(pub [usize; 3]);
+
+impl fmt::Display for Order {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}x{}x{}", self.0[0], self.0[1], self.0[2])
+    }
+}
+
+impl FromStr for Order {
+    type Err = String;
+    /// Parses `4x1x2` (also `4×1×2` or `4,1,2`).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let parts: Vec<&str> = s
+            .split(['x', 'X', '×', ','])
+            .map(str::trim)
+            .collect();
+        if parts.len() != 3 {
+            return Err(format!(
+                "order `{s}` must be three degrees MxNxQ, e.g. 4x1x2"
+            ));
+        }
+        let mut o = [0usize; 3];
+        for (slot, part) in o.iter_mut().zip(&parts) {
+            *slot = part
+                .parse()
+                .map_err(|_| format!("order `{s}`: `{part}` is not a whole number"))?;
+        }
+        Ok(Order(o))
+    }
+}
+
+/// The methods errmap fits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Tensor Lagrange of the given degrees.
+    Lagrange(Order),
+    Trilinear,
+    /// Tensor natural cubic spline.
+    Spline,
+    /// Gaussian-membership fuzzy interpolator; `sigma` is the membership width as a
+    /// fraction of the cell size.
+    Fuzzy { sigma: f64 },
+}
+
+impl Method {
+    /// The method's name as the command line spells it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Lagrange(_) => "lagrange",
+            Method::Trilinear => "trilinear",
+            Method::Spline => "spline",
+            Method::Fuzzy { .. } => "fuzzy",
+        }
+    }
+
+    pub fn order(&self) -> Option<Order> {
+        match self {
+            Method::Lagrange(o) => Some(*o),
+            _ => None,
+        }
+    }
+
+    /// A label for tables and figures, e.g. `lagrange 4×1×2`.
+    pub fn label(&self) -> String {
+        match self {
+            Method::Lagrange(o) => format!("lagrange {}×{}×{}", o.0[0], o.0[1], o.0[2]),
+            Method::Fuzzy { sigma } if (*sigma - fuzzy::DEFAULT_SIGMA).abs() > 1e-12 => {
+                format!("fuzzy σ={sigma}")
+            }
+            m => m.name().to_string(),
+        }
+    }
+
+    /// Fits the method to a grid. Every method needs at least one node per axis (an axis
+    /// with one node is treated as constant along it); Lagrange also checks its degrees.
+    pub fn fit(&self, grid: &Grid) -> Result<Box<dyn Interpolator>, InterpError> {
+        check_grid(grid)?;
+        Ok(match *self {
+            Method::Lagrange(order) => Box::new(lagrange::Lagrange::new(grid, order)?),
+            Method::Trilinear => Box::new(trilinear::Trilinear::new(grid)),
+            Method::Spline => Box::new(spline::Spline::new(grid)),
+            Method::Fuzzy { sigma } => Box::new(fuzzy::Fuzzy::new(grid, sigma)?),
+        })
+    }
+}
+
+/// Why a model cannot be fitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InterpError {
+    #[error(
+        "degree {order} along {axis} needs {needed} nodes but the table has {nodes} on that axis \
+         (the highest admissible degree is {max})",
+        needed = order + 1,
+        max = nodes.saturating_sub(1)
+    )]
+    OrderTooHigh {
+        axis: Axis,
+        order: usize,
+        nodes: usize,
+    },
+    #[error("degree {order} along {axis} exceeds the supported maximum {max}")]
+    OrderUnsupported {
+        axis: Axis,
+        order: usize,
+        max: usize,
+    },
+    #[error("the grid has no nodes along {axis}")]
+    EmptyAxis { axis: Axis },
+    #[error("grid nodes along {axis} are not strictly increasing at index {index}")]
+    NotIncreasing { axis: Axis, index: usize },
+    #[error("the grid has {values} values for {nodes} nodes")]
+    Shape { values: usize, nodes: usize },
+    #[error("grid value at node index {index} is not finite")]
+    NonFinite { index: usize },
+    #[error("fuzzy membership width σ = {sigma} must be a positive finite fraction of the cell")]
+    BadSigma { sigma: f64 },
+}
+
+fn check_grid(grid: &Grid) -> Result<(), InterpError> {
+    for axis in Axis::ALL {
+        let v = grid.axis(axis.index());
+        if v.is_empty() {
+            return Err(InterpError::EmptyAxis { axis });
+        }
+        if let Some(index) = v.windows(2).position(|w| !(w[1] > w[0])) {
+            return Err(InterpError::NotIncreasing {
+                axis,
+                index: index + 1,
+            });
+        }
+    }
+    let nodes = grid.xs.len() * grid.ys.len() * grid.zs.len();
+    if grid.values.len() != nodes {
+        return Err(InterpError::Shape {
+            values: grid.values.len(),
+            nodes,
+        });
+    }
+    if let Some(index) = grid.values.iter().position(|v| !v.is_finite()) {
+        return Err(InterpError::NonFinite { index });
+    }
+    Ok(())
+}
+
+/// Weights of a two-node (cell) scheme along one axis: the low node's index and the
+/// weights of the low and high node. An axis with a single node gets weight 1 on it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CellWeights {
+    pub lo: usize,
+    pub w: [f64; 2],
+}
+
+/// The cell containing `x` (clamped to the end cells) and `x`'s position in it,
+/// u = (x − x_i)/(x_{i+1} − x_i), not clamped (u < 0 or u > 1 outside the grid).
+/// `None` for a single-node axis.
+#[inline]
+pub(crate) fn cell(nodes: &[f64], x: f64) -> Option<(usize, f64)> {
+    if nodes.len() < 2 {
+        return None;
+    }
+    let i = interval(nodes, x);
+    Some((i, (x - nodes[i]) / (nodes[i + 1] - nodes[i])))
+}
+
+/// Σ over the 8 cell corners of w_x · w_y · w_z · value.
+#[inline]
+pub(crate) fn cell_sum(grid: &Grid, w: [CellWeights; 3]) -> f64 {
+    let [nx, ny, _] = grid.shape();
+    let mut sum = 0.0;
+    for dk in 0..2 {
+        let wz = w[2].w[dk];
+        if wz == 0.0 {
+            continue;
+        }
+        for dj in 0..2 {
+            let wy = w[1].w[dj];
+            if wy == 0.0 {
+                continue;
+            }
+            let base = w[0].lo + nx * (w[1].lo + dj + ny * (w[2].lo + dk));
+            let mut line = w[0].w[0] * grid.values[base];
+            if w[0].w[1] != 0.0 {
+                line += w[0].w[1] * grid.values[base + 1];
+            }
+            sum += wz * wy * line;
+        }
+    }
+    sum
+}
+
+/// Cell weights for a single-node axis: all weight on node 0, none on the (absent) next.
+pub(crate) const SINGLE: CellWeights = CellWeights { lo: 0, w: [1.0, 0.0] };
+
+/// Evaluates a scheme given by a per-axis weight rule over the grid's cells. Single-node
+/// axes get [`SINGLE`]; on such an axis `lo + 1` is never read because its weight is 0.
+#[inline]
+pub(crate) fn eval_cells(grid: &Grid, p: [f64; 3], rule: impl Fn(f64) -> [f64; 2]) -> f64 {
+    let mut w = [SINGLE; 3];
+    for (a, slot) in w.iter_mut().enumerate() {
+        if let Some((lo, u)) = cell(grid.axis(a), p[a]) {
+            *slot = CellWeights { lo, w: rule(u) };
+        }
+    }
+    cell_sum(grid, w)
+}
