@@ -100,7 +100,10 @@ pub fn compare(
             method: *method,
             rms_um: rms(resid()).unwrap_or(f64::NAN),
             max_abs_um: resid().fold(0.0, |m, r| m.max(r.abs())),
-            inside_rms_um: rms(resid().zip(&extrapolated).filter(|(_, e)| !**e).map(|(r, _)| r)),
+            inside_rms_um: rms(resid()
+                .zip(&extrapolated)
+                .filter(|(_, e)| !**e)
+                .map(|(r, _)| r)),
             cv,
             predictions,
         });
@@ -194,8 +197,42 @@ impl Comparison {
                 ));
             }
         }
+        for (a, name) in ["x", "y", "z"].iter().enumerate() {
+            let nodes = self.grid.axis(a);
+            let on_nodes = self
+                .test
+                .points
+                .iter()
+                .all(|p| nodes.contains(&p.position()[a]));
+            if on_nodes && shape[a] > 1 {
+                out.push(format!(
+                    "Every test point's {name} coordinate is one of the {name} nodes, so the {name} degree \
+                     changes no test prediction: models differing only in it tie on the test points, and the \
+                     test points say nothing about how well any model interpolates between {name} nodes."
+                ));
+            }
+        }
         let rec = self.recommended_row();
-        let best = &self.rows[self.best_on_test()];
+        let best_idx = self.best_on_test();
+        let best = &self.rows[best_idx];
+        let ties: Vec<String> = self
+            .rows
+            .iter()
+            .enumerate()
+            .filter(|(i, r)| {
+                *i != best_idx && (r.rms_um - best.rms_um).abs() <= 1e-9 * best.rms_um.max(1.0)
+            })
+            .map(|(_, r)| r.method.label())
+            .collect();
+        if !ties.is_empty() {
+            out.push(format!(
+                "{} models tie for the lowest test RMS ({:.4} µm): {}, {}.",
+                ties.len() + 1,
+                best.rms_um,
+                best.method.label(),
+                ties.join(", ")
+            ));
+        }
         out.push(format!(
             "Cross-validation on the fitting table recommends {} (CV RMS {:.3} µm). On the test points the \
              best model is {} (RMS {:.3} µm); the recommended model scores {:.3} µm there, rank {} of {}.",
@@ -247,4 +284,23 @@ impl Comparison {
         }
         out
     }
+}
+
+/// The Lagrange order with the lowest leave-one-plane-out CV RMS among every admissible
+/// order up to `max_degree` per axis (`--orders auto`); ties go to the lower total degree.
+pub fn auto_order(grid: &Grid, max_degree: usize) -> Result<(Order, CvResult), InterpError> {
+    let mut best: Option<(Order, CvResult)> = None;
+    for order in admissible_orders(grid.shape(), max_degree) {
+        let cv = leave_one_plane_out(grid, &Method::Lagrange(order))?;
+        let better = match &best {
+            None => true,
+            Some((_, b)) => cv.rms_um < b.rms_um,
+        };
+        if better && cv.rms_um.is_finite() {
+            best = Some((order, cv));
+        }
+    }
+    best.ok_or(InterpError::EmptyAxis {
+        axis: crate::table::Axis::X,
+    })
 }

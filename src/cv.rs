@@ -81,7 +81,9 @@ pub fn leave_one_plane_out(grid: &Grid, method: &Method) -> Result<CvResult, Int
             }
         }
     }
-    let rms = |v: &[f64]| (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt());
+    let rms = |v: &[f64]| {
+        (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt())
+    };
     Ok(CvResult {
         rms_um: rms(&all).unwrap_or(f64::NAN),
         max_abs_um: all.iter().fold(0.0, |m, r| m.max(r.abs())),

@@ -15,7 +15,8 @@ pub mod compare;
 pub mod cv;
 pub mod experiment;
 pub mod interp;
-// pub mod plot;
+pub mod plot;
+pub mod report;
 pub mod table;
 
 pub use errmap_drivers as drivers;

@@ -1,1 +1,354 @@
-fn main() {}
+//! The `errmap` binary: argument parsing and glue. Each subcommand is one short function
+//! that validates its flags into library configuration and calls the library.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+
+use errmap::compare::{self, DEFAULT_MAX_DEGREE};
+use errmap::experiment::{self, FuzzySimConfig};
+use errmap::interp::{Method, Order, fuzzy};
+use errmap::report;
+use errmap::table::{ErrorPoint, ErrorTable};
+
+/// Measure and model the volumetric error of coordinate measuring machines.
+#[derive(Debug, Parser)]
+#[command(name = "errmap", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the whole pipeline on built-in data and write the reports.
+    Demo(DemoArgs),
+    /// Fit one model to an error table and predict at points.
+    Fit(FitArgs),
+    /// Compare methods and Lagrange orders on test points, with cross-validation.
+    Compare(CompareArgs),
+    /// Seed 000's simulation: fuzzy vs trilinear vs spline on random node errors.
+    FuzzySim(FuzzySimArgs),
+}
+
+#[derive(Debug, Args)]
+struct DemoArgs {
+    /// Directory for the demo's reports.
+    #[arg(long, default_value = "reports/demo")]
+    out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+struct ModelArgs {
+    /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    fuzzy_sigma: f64,
+    /// Highest Lagrange degree per axis tried by `auto`/`all`.
+    #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
+    max_degree: usize,
+}
+
+#[derive(Debug, Args)]
+struct FitArgs {
+    /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
+    table: PathBuf,
+    /// lagrange | trilinear | spline | fuzzy
+    #[arg(long)]
+    method: String,
+    /// Lagrange degrees MxNxQ along x, y, z, or `auto` (chosen by cross-validation).
+    #[arg(long)]
+    order: Option<String>,
+    /// Points to predict at (CSV or Parquet with x_mm,y_mm,z_mm; e_um optional).
+    #[arg(long)]
+    predict: PathBuf,
+    /// Write the predictions as a table (CSV or Parquet).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print one JSON document on stdout.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+struct CompareArgs {
+    /// Error table to fit (CSV or Parquet).
+    table: PathBuf,
+    /// Test points with measured e_um (CSV or Parquet); `paper_MxNxQ` columns are compared too.
+    #[arg(long)]
+    test: PathBuf,
+    /// Comma list of methods (default: all).
+    #[arg(long, value_delimiter = ',')]
+    methods: Option<Vec<String>>,
+    /// Lagrange orders: `all` (every admissible order up to --max-degree), `auto` (only the
+    /// one cross-validation picks), or a comma list like 4x1x2,2x1x2.
+    #[arg(long, default_value = "all")]
+    orders: String,
+    /// Report directory.
+    #[arg(long)]
+    report: PathBuf,
+    /// Print one JSON document on stdout.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+struct FuzzySimArgs {
+    #[arg(long, default_value_t = 2013)]
+    seed: u64,
+    #[arg(long, default_value_t = 200)]
+    trials: usize,
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    fuzzy_sigma: f64,
+    /// Write a markdown report here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("errmap: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Demo(a) => demo(a),
+        Command::Fit(a) => fit(a),
+        Command::Compare(a) => compare_cmd(a),
+        Command::FuzzySim(a) => fuzzy_sim(a),
+    }
+}
+
+fn read_grid_table(path: &Path) -> Result<(ErrorTable, errmap::table::Grid)> {
+    let table = ErrorTable::read(path)?;
+    let grid = table.grid()?;
+    Ok((table, grid))
+}
+
+/// Turns `--method`/`--order` into a method; `auto` runs the cross-validation.
+fn parse_method(
+    name: &str,
+    order: Option<&str>,
+    model: &ModelArgs,
+    grid: &errmap::table::Grid,
+) -> Result<Method> {
+    Ok(match name {
+        "lagrange" => match order {
+            None => bail!(
+                "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
+            ),
+            Some("auto") => Method::Lagrange(compare::auto_order(grid, model.max_degree)?.0),
+            Some(o) => Method::Lagrange(o.parse::<Order>().map_err(anyhow::Error::msg)?),
+        },
+        "trilinear" | "spline" | "fuzzy" if order.is_some() => {
+            bail!("--order applies to lagrange only, not to {name}")
+        }
+        "trilinear" => Method::Trilinear,
+        "spline" => Method::Spline,
+        "fuzzy" => Method::Fuzzy {
+            sigma: model.fuzzy_sigma,
+        },
+        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy)"),
+    })
+}
+
+fn fit(a: FitArgs) -> Result<()> {
+    let (_, grid) = read_grid_table(&a.table)?;
+    let method = parse_method(&a.method, a.order.as_deref(), &a.model, &grid)?;
+    let model = method
+        .fit(&grid)
+        .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
+    let points = ErrorTable::read_points(&a.predict)?;
+    let preds: Vec<(ErrorPoint, bool)> = points
+        .points
+        .iter()
+        .map(|p| {
+            let mut q = ErrorPoint::new(p.x_mm, p.y_mm, p.z_mm, model.predict(p.position()));
+            q.n = None;
+            (q, model.outside(p.position()))
+        })
+        .collect();
+    if let Some(out) = &a.out {
+        errmap::table::write_predictions(out, &preds)?;
+    }
+    let n_out = preds.iter().filter(|p| p.1).count();
+    if a.json {
+        let json = serde_json::json!({
+            "method": method.name(),
+            "order": method.order().map(|o| o.0),
+            "predictions": preds.iter().map(|(p, e)| serde_json::json!({
+                "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "e_um": p.e_um, "extrapolated": e
+            })).collect::<Vec<_>>(),
+        });
+        println!("{json}");
+    } else {
+        eprintln!(
+            "{}: {} predictions ({} extrapolated){}",
+            method.label(),
+            preds.len(),
+            n_out,
+            a.out
+                .as_ref()
+                .map(|p| format!(", written to {}", p.display()))
+                .unwrap_or_default()
+        );
+        for (p, e) in &preds {
+            eprintln!(
+                "  {:>10.4} {:>10.4} {:>10.4}  {:>10.4} µm{}",
+                p.x_mm,
+                p.y_mm,
+                p.z_mm,
+                p.e_um,
+                if *e { "  (extrapolated)" } else { "" }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The model list of `compare` from `--methods` and `--orders`.
+fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
+    let names: Vec<String> = a.methods.clone().unwrap_or_else(|| {
+        ["trilinear", "spline", "fuzzy", "lagrange"]
+            .map(String::from)
+            .to_vec()
+    });
+    let mut out = Vec::new();
+    for name in &names {
+        match name.trim() {
+            "lagrange" => match a.orders.trim() {
+                "all" => out.extend(
+                    errmap::interp::lagrange::admissible_orders(grid.shape(), a.model.max_degree)
+                        .into_iter()
+                        .map(Method::Lagrange),
+                ),
+                "auto" => out.push(Method::Lagrange(
+                    compare::auto_order(grid, a.model.max_degree)?.0,
+                )),
+                list => {
+                    for o in list.split(',') {
+                        let order: Order = o.parse().map_err(anyhow::Error::msg)?;
+                        Method::Lagrange(order).fit(grid).with_context(|| {
+                            format!("{}: order {order} cannot be fitted", a.table.display())
+                        })?;
+                        out.push(Method::Lagrange(order));
+                    }
+                }
+            },
+            other => out.push(parse_method(other, None, &a.model, grid)?),
+        }
+    }
+    if out.is_empty() {
+        bail!("no methods to compare");
+    }
+    Ok(out)
+}
+
+fn compare_cmd(a: CompareArgs) -> Result<()> {
+    let (table, grid) = read_grid_table(&a.table)?;
+    let test = ErrorTable::read(&a.test)?;
+    let methods = compare_methods(&a, &grid)?;
+    let comparison = compare::compare(&table, &grid, &test, &methods)
+        .with_context(|| format!("{}: comparison failed", a.table.display()))?;
+    let command = format!(
+        "errmap compare {} --test {} --report {}{}",
+        a.table.display(),
+        a.test.display(),
+        a.report.display(),
+        if a.orders == "all" {
+            String::new()
+        } else {
+            format!(" --orders {}", a.orders)
+        }
+    );
+    report::write_report(&comparison, &a.report, &command)?;
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&comparison.to_json(Some(&a.report)))?
+        );
+    } else {
+        print_summary(&comparison, &a.report);
+    }
+    Ok(())
+}
+
+fn print_summary(c: &compare::Comparison, dir: &Path) {
+    let rec = c.recommended_row();
+    eprintln!(
+        "{} models compared on {} test points ({} extrapolated).",
+        c.rows.len(),
+        c.test.points.len(),
+        c.extrapolated.iter().filter(|e| **e).count()
+    );
+    eprintln!(
+        "recommended by cross-validation: {} (CV RMS {:.4} µm; test RMS {:.4} µm)",
+        rec.method.label(),
+        rec.cv.rms_um,
+        rec.rms_um
+    );
+    eprintln!("report: {}", dir.join("report.md").display());
+}
+
+fn demo(a: DemoArgs) -> Result<()> {
+    let inputs = a.out.join("inputs");
+    std::fs::create_dir_all(&inputs)
+        .with_context(|| format!("cannot create {}", inputs.display()))?;
+    let t1 = inputs.join("table1.csv");
+    let t2 = inputs.join("table2.csv");
+    std::fs::write(&t1, include_str!("../datasets/table1.csv"))
+        .with_context(|| format!("cannot write {}", t1.display()))?;
+    std::fs::write(&t2, include_str!("../datasets/table2.csv"))
+        .with_context(|| format!("cannot write {}", t2.display()))?;
+    eprintln!("errmap demo: Table 1 → Table 2 comparison (seed 001)");
+    let report_dir = a.out.join("table2");
+    compare_cmd(CompareArgs {
+        table: t1,
+        test: t2,
+        methods: None,
+        orders: "all".into(),
+        report: report_dir,
+        json: false,
+        model: ModelArgs {
+            fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
+            max_degree: DEFAULT_MAX_DEGREE,
+        },
+    })?;
+    eprintln!("errmap demo: done; reports under {}", a.out.display());
+    Ok(())
+}
+
+fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
+    let config = FuzzySimConfig {
+        seed: a.seed,
+        trials: a.trials.max(1),
+        fuzzy_sigma: a.fuzzy_sigma,
+        ..FuzzySimConfig::default()
+    };
+    let result = experiment::run(&config)?;
+    let md = experiment::markdown(&result);
+    if let Some(dir) = &a.report {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let path = dir.join("report.md");
+        std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&result)?);
+    } else {
+        eprint!("{md}");
+    }
+    Ok(())
+}

@@ -358,7 +358,22 @@ impl ErrorTable {
     }
 
     pub fn from_frame(path: &Path, df: &DataFrame) -> Result<Self, TableError> {
-        let required = REQUIRED
+        let table = Self::parse(path, df, true)?;
+        table.check_duplicates()?;
+        Ok(table)
+    }
+
+    /// Reads query points: `x_mm,y_mm,z_mm` required, `e_um` optional (NaN where absent),
+    /// repeated positions allowed.
+    pub fn read_points(path: &Path) -> Result<Self, TableError> {
+        let df = read_frame(path)?;
+        Self::parse(path, &df, false)
+    }
+
+    fn parse(path: &Path, df: &DataFrame, require_e: bool) -> Result<Self, TableError> {
+        let has_e = require_e || df.column("e_um").is_ok();
+        let names = if has_e { &REQUIRED[..] } else { &REQUIRED[..3] };
+        let required = names
             .iter()
             .map(|c| column_cells(path, df, c))
             .collect::<Result<Vec<_>, _>>()?;
@@ -380,9 +395,9 @@ impl ErrorTable {
             .transpose()?;
         let mut points = Vec::with_capacity(rows);
         for r in 0..rows {
-            let mut v = [0.0; 4];
+            let mut v = [0.0, 0.0, 0.0, f64::NAN];
             for (k, cells) in required.iter().enumerate() {
-                v[k] = required_cell(path, cells, r, REQUIRED[k])?;
+                v[k] = required_cell(path, cells, r, names[k])?;
             }
             let n = match &n_cells {
                 Some(c) => match parse_cell(path, c, r, "n")? {
@@ -432,13 +447,11 @@ impl ErrorTable {
                 });
             }
         }
-        let table = ErrorTable {
+        Ok(ErrorTable {
             source: path.display().to_string(),
             points,
             extra,
-        };
-        table.check_duplicates()?;
-        Ok(table)
+        })
     }
 
     /// A table built in memory (tests, simulations).
@@ -552,7 +565,10 @@ impl ErrorTable {
         if self.points.iter().any(|p| p.n.is_some()) {
             cols.push(Column::new(
                 "n".into(),
-                self.points.iter().map(|p| p.n).collect::<Vec<Option<u32>>>(),
+                self.points
+                    .iter()
+                    .map(|p| p.n)
+                    .collect::<Vec<Option<u32>>>(),
             ));
         }
         if self.points.iter().any(|p| p.s_um.is_some()) {
@@ -581,7 +597,12 @@ pub struct Grid {
 impl Grid {
     /// Builds a grid from node coordinates and a function of position (tests, simulations).
     /// Axes may have a single node (the field is then constant along that axis).
-    pub fn from_fn(xs: Vec<f64>, ys: Vec<f64>, zs: Vec<f64>, mut f: impl FnMut([f64; 3]) -> f64) -> Self {
+    pub fn from_fn(
+        xs: Vec<f64>,
+        ys: Vec<f64>,
+        zs: Vec<f64>,
+        mut f: impl FnMut([f64; 3]) -> f64,
+    ) -> Self {
         let mut values = Vec::with_capacity(xs.len() * ys.len() * zs.len());
         for &z in &zs {
             for &y in &ys {
@@ -662,4 +683,26 @@ pub fn interval(nodes: &[f64], x: f64) -> usize {
     // partition_point: first index whose node is > x.
     let p = nodes.partition_point(|&v| v <= x);
     p.saturating_sub(1).min(n - 2)
+}
+
+/// Writes predictions: `x_mm,y_mm,z_mm,e_um,extrapolated`.
+pub fn write_predictions(path: &Path, preds: &[(ErrorPoint, bool)]) -> Result<(), TableError> {
+    let col = |name: &str, f: &dyn Fn(&ErrorPoint) -> f64| {
+        Column::new(
+            name.into(),
+            preds.iter().map(|(p, _)| f(p)).collect::<Vec<f64>>(),
+        )
+    };
+    let cols = vec![
+        col("x_mm", &|p| p.x_mm),
+        col("y_mm", &|p| p.y_mm),
+        col("z_mm", &|p| p.z_mm),
+        col("e_um", &|p| p.e_um),
+        Column::new(
+            "extrapolated".into(),
+            preds.iter().map(|(_, e)| *e).collect::<Vec<bool>>(),
+        ),
+    ];
+    let mut df = DataFrame::new(preds.len(), cols).map_err(|e| format_err(path, e))?;
+    write_frame(path, &mut df)
 }

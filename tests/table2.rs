@@ -6,7 +6,9 @@ use errmap::interp::{InterpError, Method, Order};
 use errmap::table::{Axis, ErrorTable};
 
 fn table(name: &str) -> ErrorTable {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("datasets")
+        .join(name);
     ErrorTable::read(&path).expect("dataset reads")
 }
 
@@ -17,9 +19,13 @@ fn table(name: &str) -> ErrorTable {
 fn lagrange_4x1x2_reproduces_paper_column_to_1e4_um() {
     let grid = table("table1.csv").grid().expect("Table 1 is a 5×2×3 grid");
     assert_eq!(grid.shape(), [5, 2, 3]);
-    let model = Method::Lagrange(Order([4, 1, 2])).fit(&grid).expect("4×1×2 fits");
+    let model = Method::Lagrange(Order([4, 1, 2]))
+        .fit(&grid)
+        .expect("4×1×2 fits");
     let test = table("table2.csv");
-    let paper = test.extra_column("paper_4x1x2").expect("paper column present");
+    let paper = test
+        .extra_column("paper_4x1x2")
+        .expect("paper column present");
     assert_eq!(test.points.len(), 7);
     for (row, (p, expected)) in test.points.iter().zip(&paper.values).enumerate() {
         let mut pos = p.position();
@@ -37,7 +43,10 @@ fn lagrange_4x1x2_reproduces_paper_column_to_1e4_um() {
     }
     // The printed z of row 6 gives 0.1048, a last-digit difference.
     let printed = model.predict(test.points[5].position());
-    assert!((printed - 0.1048).abs() < 5e-5, "printed-z row 6 gives {printed}");
+    assert!(
+        (printed - 0.1048).abs() < 5e-5,
+        "printed-z row 6 gives {printed}"
+    );
 }
 
 #[test]

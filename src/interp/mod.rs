@@ -52,10 +52,7 @@ impl FromStr for Order {
     type Err = String;
     /// Parses `4x1x2` (also `4×1×2` or `4,1,2`).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let parts: Vec<&str> = s
-            .split(['x', 'X', '×', ','])
-            .map(str::trim)
-            .collect();
+        let parts: Vec<&str> = s.split(['x', 'X', '×', ',']).map(str::trim).collect();
         if parts.len() != 3 {
             return Err(format!(
                 "order `{s}` must be three degrees MxNxQ, e.g. 4x1x2"
@@ -81,7 +78,9 @@ pub enum Method {
     Spline,
     /// Gaussian-membership fuzzy interpolator; `sigma` is the membership width as a
     /// fraction of the cell size.
-    Fuzzy { sigma: f64 },
+    Fuzzy {
+        sigma: f64,
+    },
 }
 
 impl Method {
@@ -231,7 +230,10 @@ pub(crate) fn cell_sum(grid: &Grid, w: [CellWeights; 3]) -> f64 {
 }
 
 /// Cell weights for a single-node axis: all weight on node 0, none on the (absent) next.
-pub(crate) const SINGLE: CellWeights = CellWeights { lo: 0, w: [1.0, 0.0] };
+pub(crate) const SINGLE: CellWeights = CellWeights {
+    lo: 0,
+    w: [1.0, 0.0],
+};
 
 /// Evaluates a scheme given by a per-axis weight rule over the grid's cells. Single-node
 /// axes get [`SINGLE`]; on such an axis `lo + 1` is never read because its weight is 0.

@@ -1,0 +1,522 @@
+//! The comparison report: `report.md`, `comparison.csv`, `predictions.csv`, and figures
+//! (PNG and SVG) in one directory. Nothing in it depends on the time or the machine, so a
+//! committed report can be checked against a fresh run byte for byte.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+use serde::Serialize;
+
+use crate::compare::Comparison;
+use crate::interp::Method;
+use crate::plot::{self, PlotError};
+use crate::table::{TableError, write_frame};
+
+/// Why a report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("{path}: cannot write: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Table(#[from] TableError),
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+/// The JSON document of `compare --json` (spec `cli-contract.md`, with extra keys).
+#[derive(Debug, Serialize)]
+pub struct CompareJson {
+    pub rows: Vec<CompareJsonRow>,
+    pub recommended: MethodJson,
+    pub extrapolated: Vec<bool>,
+    pub report: Option<String>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct CompareJsonRow {
+    pub method: String,
+    pub order: Option<[usize; 3]>,
+    pub rms_um: f64,
+    pub max_abs_um: f64,
+    pub cv_rms_um: Option<f64>,
+    pub predictions: Vec<f64>,
+    pub label: String,
+    pub inside_rms_um: Option<f64>,
+    pub cv_interior_rms_um: Option<f64>,
+    pub cv_capped_folds: usize,
+    pub cv_folds: usize,
+}
+
+#[derive(Debug, Serialize)]
+pub struct MethodJson {
+    pub method: String,
+    pub order: Option<[usize; 3]>,
+}
+
+impl From<&Method> for MethodJson {
+    fn from(m: &Method) -> Self {
+        MethodJson {
+            method: m.name().to_string(),
+            order: m.order().map(|o| o.0),
+        }
+    }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+impl Comparison {
+    pub fn to_json(&self, report: Option<&Path>) -> CompareJson {
+        CompareJson {
+            rows: self
+                .rows
+                .iter()
+                .map(|r| CompareJsonRow {
+                    method: r.method.name().to_string(),
+                    order: r.method.order().map(|o| o.0),
+                    rms_um: r.rms_um,
+                    max_abs_um: r.max_abs_um,
+                    cv_rms_um: finite(r.cv.rms_um),
+                    predictions: r.predictions.clone(),
+                    label: r.method.label(),
+                    inside_rms_um: r.inside_rms_um,
+                    cv_interior_rms_um: r.cv.interior_rms_um,
+                    cv_capped_folds: r.cv.capped_folds,
+                    cv_folds: r.cv.folds,
+                })
+                .collect(),
+            recommended: (&self.recommended_row().method).into(),
+            extrapolated: self.extrapolated.clone(),
+            report: report.map(|p| p.display().to_string()),
+        }
+    }
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.filter(|x| x.is_finite())
+        .map(|x| format!("{x:.digits$}"))
+        .unwrap_or_else(|| "—".into())
+}
+
+/// The rows shown in the test-point table and the figure: the recommended model, the
+/// paper's orders we can fit, the three cell methods, and the best on the test points.
+fn featured(c: &Comparison) -> Vec<usize> {
+    let mut idx = vec![c.recommended];
+    for p in &c.paper {
+        if let Some(i) = c.find(&Method::Lagrange(p.order)) {
+            idx.push(i);
+        }
+    }
+    for (i, r) in c.rows.iter().enumerate() {
+        if r.method.order().is_none() {
+            idx.push(i);
+        }
+    }
+    idx.push(c.best_on_test());
+    let mut seen = Vec::new();
+    idx.retain(|i| {
+        let new = !seen.contains(i);
+        seen.push(*i);
+        new
+    });
+    idx
+}
+
+/// Writes the whole report into `dir`; `command` is the command line that regenerates it.
+pub fn write_report(
+    c: &Comparison,
+    dir: &Path,
+    command: &str,
+) -> Result<Vec<PathBuf>, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut written = Vec::new();
+
+    // comparison.csv: one row per model.
+    let n_pts = c.test.points.len();
+    let mut cols = vec![
+        Column::new(
+            "method".into(),
+            c.rows.iter().map(|r| r.method.name()).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "order".into(),
+            c.rows
+                .iter()
+                .map(|r| r.method.order().map(|o| o.to_string()))
+                .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "rms_um".into(),
+            c.rows.iter().map(|r| r.rms_um).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "max_abs_um".into(),
+            c.rows.iter().map(|r| r.max_abs_um).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "inside_rms_um".into(),
+            c.rows.iter().map(|r| r.inside_rms_um).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "cv_rms_um".into(),
+            c.rows
+                .iter()
+                .map(|r| finite(r.cv.rms_um))
+                .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "cv_interior_rms_um".into(),
+            c.rows
+                .iter()
+                .map(|r| r.cv.interior_rms_um)
+                .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "cv_capped_folds".into(),
+            c.rows
+                .iter()
+                .map(|r| r.cv.capped_folds as u32)
+                .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "cv_folds".into(),
+            c.rows.iter().map(|r| r.cv.folds as u32).collect::<Vec<_>>(),
+        ),
+    ];
+    for k in 0..n_pts {
+        cols.push(Column::new(
+            format!("pred_{}", k + 1).into(),
+            c.rows.iter().map(|r| r.predictions[k]).collect::<Vec<_>>(),
+        ));
+    }
+    let path = dir.join("comparison.csv");
+    let mut df = DataFrame::new(c.rows.len(), cols).map_err(|e| TableError::Format {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    write_frame(&path, &mut df)?;
+    written.push(path);
+
+    // predictions.csv: one row per test point, featured models as columns.
+    let feat = featured(c);
+    let mut cols = vec![
+        Column::new(
+            "x_mm".into(),
+            c.test.points.iter().map(|p| p.x_mm).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "y_mm".into(),
+            c.test.points.iter().map(|p| p.y_mm).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "z_mm".into(),
+            c.test.points.iter().map(|p| p.z_mm).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "e_um".into(),
+            c.test.points.iter().map(|p| p.e_um).collect::<Vec<_>>(),
+        ),
+        Column::new("extrapolated".into(), c.extrapolated.clone()),
+    ];
+    for p in &c.paper {
+        cols.push(Column::new(
+            format!("paper_{}", p.order).into(),
+            p.values.clone(),
+        ));
+    }
+    for &i in &feat {
+        let r = &c.rows[i];
+        let name = match r.method.order() {
+            Some(o) => format!("lagrange_{o}"),
+            None => r.method.name().to_string(),
+        };
+        cols.push(Column::new(name.into(), r.predictions.clone()));
+    }
+    let path = dir.join("predictions.csv");
+    let mut df = DataFrame::new(n_pts, cols).map_err(|e| TableError::Format {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    write_frame(&path, &mut df)?;
+    written.push(path);
+
+    // Figures.
+    let categories: Vec<String> = (1..=n_pts).map(|k| format!("P{k}")).collect();
+    let mut series = vec![plot::Series {
+        name: "measured".into(),
+        y: c.test.points.iter().map(|p| p.e_um).collect(),
+        y_err: None,
+    }];
+    for &i in &feat {
+        let r = &c.rows[i];
+        let mut name = r.method.label();
+        if i == c.recommended {
+            name.push_str(" (CV pick)");
+        }
+        series.push(plot::Series {
+            name,
+            y: r.predictions.clone(),
+            y_err: None,
+        });
+    }
+    written.extend(plot::category_lines(
+        &dir.join("measured_vs_predicted"),
+        "Measured vs predicted error at the test points",
+        "test point",
+        "error e (µm)",
+        &categories,
+        &series,
+        &c.extrapolated,
+        "extrapolated (outside the grid)",
+    )?);
+    let mut by_cv: Vec<usize> = (0..c.rows.len()).collect();
+    by_cv.sort_by(|&a, &b| c.rows[a].cv.rms_um.total_cmp(&c.rows[b].cv.rms_um));
+    let shown: Vec<usize> = by_cv.iter().copied().take(24).collect();
+    let mut shown_all = shown.clone();
+    for &i in &feat {
+        if !shown_all.contains(&i) {
+            shown_all.push(i);
+        }
+    }
+    written.extend(plot::bars(
+        &dir.join("cv_per_order"),
+        "Leave-one-plane-out CV RMS per model (bars) and test RMS (markers)",
+        "RMS (µm)",
+        &shown_all
+            .iter()
+            .map(|&i| c.rows[i].method.label())
+            .collect::<Vec<_>>(),
+        &shown_all
+            .iter()
+            .map(|&i| c.rows[i].cv.rms_um)
+            .collect::<Vec<_>>(),
+        Some(&plot::Series {
+            name: "test RMS".into(),
+            y: shown_all.iter().map(|&i| c.rows[i].rms_um).collect(),
+            y_err: None,
+        }),
+        true,
+    )?);
+
+    let md = markdown(c, command, &feat, &by_cv);
+    let path = dir.join("report.md");
+    std::fs::write(&path, md).map_err(|source| ReportError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    written.push(path);
+    Ok(written)
+}
+
+fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> String {
+    let mut s = String::new();
+    let shape = c.grid.shape();
+    let _ = writeln!(s, "# Interpolation order and method comparison\n");
+    let _ = writeln!(s, "Regenerate with `{command}`.\n");
+    let _ = writeln!(
+        s,
+        "- Fitting table: `{}` — a {}×{}×{} grid ({} nodes).",
+        c.fit_source,
+        shape[0],
+        shape[1],
+        shape[2],
+        c.grid.values.len()
+    );
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let nodes: Vec<String> = c.grid.axis(a).iter().map(|v| format!("{v}")).collect();
+        let _ = writeln!(s, "  - {name} nodes (mm): {}", nodes.join(", "));
+    }
+    let _ = writeln!(
+        s,
+        "- Test points: `{}` — {} points, {} outside the grid (extrapolated).",
+        c.test.source,
+        c.test.points.len(),
+        c.extrapolated.iter().filter(|e| **e).count()
+    );
+    let _ = writeln!(
+        s,
+        "- Models: {} ({} Lagrange orders). Errors are e = indicated − reference, µm.\n",
+        c.rows.len(),
+        c.rows.iter().filter(|r| r.method.order().is_some()).count()
+    );
+
+    let _ = writeln!(s, "## Findings\n");
+    for f in c.findings() {
+        let _ = writeln!(s, "- {f}");
+    }
+
+    let rec = c.recommended_row();
+    let _ = writeln!(s, "\n## Recommendation\n");
+    let _ = writeln!(
+        s,
+        "**{}**, chosen by the lowest leave-one-plane-out cross-validated RMS on the fitting table \
+         ({:.4} µm over {} held-out node predictions in {} folds). The test points played no part in \
+         this choice.\n",
+        rec.method.label(),
+        rec.cv.rms_um,
+        rec.cv.predictions,
+        rec.cv.folds
+    );
+    let _ = writeln!(
+        s,
+        "Caveats: each node is predicted with its whole plane removed, so the CV error is pessimistic \
+         for a dense grid and dominated by the end planes (extrapolation) on a coarse one; a CV ranking on \
+         a grid this small separates models only roughly. Treat it as a guide to the order family, and \
+         measure more nodes along the axes flagged above.\n"
+    );
+
+    let _ = writeln!(s, "## Test points (like the paper's Table 2)\n");
+    let mut header = vec![
+        "#".to_string(),
+        "x mm".into(),
+        "y mm".into(),
+        "z mm".into(),
+        "e µm".into(),
+        "outside".into(),
+    ];
+    for p in &c.paper {
+        header.push(format!("paper {}", p.order));
+    }
+    for &i in feat {
+        header.push(c.rows[i].method.label());
+    }
+    let _ = writeln!(s, "| {} |", header.join(" | "));
+    let _ = writeln!(s, "|{}", "---|".repeat(header.len()));
+    for (k, p) in c.test.points.iter().enumerate() {
+        let mut cells = vec![
+            format!("P{}", k + 1),
+            format!("{}", p.x_mm),
+            format!("{}", p.y_mm),
+            format!("{}", p.z_mm),
+            format!("{:.4}", p.e_um),
+            if c.extrapolated[k] {
+                "yes".into()
+            } else {
+                "no".into()
+            },
+        ];
+        for pc in &c.paper {
+            cells.push(opt(pc.values[k], 4));
+        }
+        for &i in feat {
+            cells.push(format!("{:.4}", c.rows[i].predictions[k]));
+        }
+        let _ = writeln!(s, "| {} |", cells.join(" | "));
+    }
+    let mut cells = vec![
+        "RMS".to_string(),
+        String::new(),
+        String::new(),
+        String::new(),
+        String::new(),
+        String::new(),
+    ];
+    for pc in &c.paper {
+        let r: Vec<f64> = pc
+            .values
+            .iter()
+            .zip(&c.test.points)
+            .filter_map(|(v, p)| v.map(|v| v - p.e_um))
+            .collect();
+        cells.push(opt(rms_of(&r), 4));
+    }
+    for &i in feat {
+        cells.push(format!("{:.4}", c.rows[i].rms_um));
+    }
+    let _ = writeln!(s, "| {} |", cells.join(" | "));
+
+    let _ = writeln!(s, "\n## The paper's columns\n");
+    if c.paper.is_empty() {
+        let _ = writeln!(s, "The test table has no `paper_MxNxQ` columns.");
+    }
+    for p in &c.paper {
+        match (&p.ours, &p.refused) {
+            (Some(ours), _) => {
+                let diffs: Vec<(usize, f64)> = ours
+                    .iter()
+                    .zip(&p.values)
+                    .enumerate()
+                    .filter_map(|(k, (o, v))| v.map(|v| (k, (o - v).abs())))
+                    .collect();
+                let worst = diffs
+                    .iter()
+                    .fold((0, 0.0), |m, d| if d.1 > m.1 { *d } else { m });
+                let _ = writeln!(
+                    s,
+                    "- **{}**: reproduced; largest difference from the printed column {:.4} µm (P{}). \
+                     Printed values have 4 decimals; a difference of 1e-4 is the last printed digit.",
+                    p.order,
+                    worst.1,
+                    worst.0 + 1
+                );
+            }
+            (None, Some(why)) => {
+                let _ = writeln!(
+                    s,
+                    "- **{}**: not reproducible from the fitting table — {why}.",
+                    p.order
+                );
+            }
+            (None, None) => {}
+        }
+    }
+
+    let _ = writeln!(s, "\n## All models, by cross-validated RMS\n");
+    let _ = writeln!(
+        s,
+        "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    for &i in by_cv {
+        let r = &c.rows[i];
+        let axes: Vec<String> = r.cv.axis_rms_um.iter().map(|v| opt(*v, 3)).collect();
+        let _ = writeln!(
+            s,
+            "| {}{} | {} | {} | {} | {}/{} | {:.4} | {:.4} | {} |",
+            r.method.label(),
+            if i == c.recommended { " ★" } else { "" },
+            opt(Some(r.cv.rms_um), 4),
+            opt(r.cv.interior_rms_um, 4),
+            axes.join(" / "),
+            r.cv.capped_folds,
+            r.cv.folds,
+            r.rms_um,
+            r.max_abs_um,
+            opt(r.inside_rms_um, 4)
+        );
+    }
+
+    let _ = writeln!(s, "\n## Figures\n");
+    let _ = writeln!(
+        s,
+        "- `measured_vs_predicted.png` / `.svg` — measured error and the featured models' predictions \
+         per test point (like the paper's Fig. 2); extrapolated points are marked.\n\
+         - `cv_per_order.png` / `.svg` — cross-validated RMS per model (bars) with the test RMS (markers).\n\n\
+         ![measured vs predicted](measured_vs_predicted.png)\n\n![CV per order](cv_per_order.png)"
+    );
+    let _ = writeln!(s, "\n## Method\n");
+    let _ = writeln!(
+        s,
+        "Lagrange m×n×q: tensor Lagrange polynomials of degree m, n, q along x, y, z through m+1, n+1, q+1 \
+         consecutive nodes around the query (seed 001). Trilinear, natural tricubic spline and the \
+         Gaussian-membership fuzzy interpolator (σ = {} of the cell) follow seed 000. Cross-validation leaves \
+         out one whole grid plane at a time along each axis, end planes included, fits on the rest and \
+         predicts the removed nodes; where a fold has too few nodes for a Lagrange degree, the degree is \
+         lowered for that fold and counted under \"capped folds\".",
+        crate::interp::fuzzy::DEFAULT_SIGMA
+    );
+    s
+}
+
+fn rms_of(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt())
+}

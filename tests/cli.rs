@@ -1,0 +1,203 @@
+//! The binary's contract (`cli-contract.md`): JSON on stdout, exit 1 with a message naming
+//! the file for bad input, exit 2 for usage errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn errmap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("runs errmap")
+}
+
+fn dataset(name: &str) -> String {
+    format!("datasets/{name}")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn fit_json_predicts_and_flags_extrapolation() {
+    let o = errmap(&[
+        "fit",
+        &dataset("table1.csv"),
+        "--method",
+        "lagrange",
+        "--order",
+        "4x1x2",
+        "--predict",
+        &dataset("table2.csv"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    assert_eq!(v["method"], "lagrange");
+    assert_eq!(v["order"], serde_json::json!([4, 1, 2]));
+    let preds = v["predictions"].as_array().expect("array");
+    assert_eq!(preds.len(), 7);
+    // P2 (200, 560, 600) is outside the grid; P7 (200, 100, 200) is inside.
+    assert_eq!(preds[1]["extrapolated"], true);
+    assert_eq!(preds[6]["extrapolated"], false);
+    assert!((preds[6]["e_um"].as_f64().expect("number") - 0.3666).abs() < 1e-4);
+}
+
+#[test]
+fn order_higher_than_nodes_allow_exits_1_with_a_clear_message() {
+    let o = errmap(&[
+        "fit",
+        &dataset("table1.csv"),
+        "--method",
+        "lagrange",
+        "--order",
+        "2x4x4",
+        "--predict",
+        &dataset("table2.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("table1.csv") && e.contains("along y") && e.contains("has 2"),
+        "{e}"
+    );
+}
+
+#[test]
+fn bad_table_exits_1_naming_file_row_and_column() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p: PathBuf = dir.path().join("bad.csv");
+    std::fs::write(&p, "x_mm,y_mm,z_mm,e_um\n0,0,0,1\n1,0,0,oops\n").expect("write");
+    let o = errmap(&[
+        "fit",
+        p.to_str().expect("utf8"),
+        "--method",
+        "trilinear",
+        "--predict",
+        &dataset("table2.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("bad.csv") && e.contains("row 2") && e.contains("e_um") && e.contains("oops"),
+        "{e}"
+    );
+}
+
+#[test]
+fn usage_error_exits_2() {
+    let o = errmap(&["fit", "--bogus"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn compare_json_rows_and_recommendation_follow_the_contract() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = dir.path().join("r");
+    let o = errmap(&[
+        "compare",
+        &dataset("table1.csv"),
+        "--test",
+        &dataset("table2.csv"),
+        "--report",
+        report.to_str().expect("utf8"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let rows = v["rows"].as_array().expect("rows");
+    // trilinear, spline, fuzzy + 5×2×3 admissible Lagrange orders.
+    assert_eq!(rows.len(), 3 + 30);
+    let row = rows
+        .iter()
+        .find(|r| r["order"] == serde_json::json!([4, 1, 2]))
+        .expect("4×1×2 row");
+    let paper = [-0.2248, 0.2990, 0.2079, 0.0918, 1.0378, 0.1049, 0.3666];
+    let preds = row["predictions"].as_array().expect("predictions");
+    for (k, (p, want)) in preds.iter().zip(paper).enumerate() {
+        let got = p.as_f64().expect("number");
+        // Row 6 of the dataset keeps the printed z = 129.376, which gives 0.1048.
+        let tol = if k == 5 { 1.5e-4 } else { 1e-4 + 1e-12 };
+        assert!((got - want).abs() <= tol, "row {}: {got} vs {want}", k + 1);
+    }
+    for key in ["rms_um", "max_abs_um", "cv_rms_um"] {
+        assert!(row[key].as_f64().is_some(), "{key}");
+    }
+    let rec = &v["recommended"];
+    assert!(rec["method"].is_string());
+    // The recommendation is the minimum CV RMS row.
+    let best_cv = rows
+        .iter()
+        .filter_map(|r| r["cv_rms_um"].as_f64())
+        .fold(f64::INFINITY, f64::min);
+    let rec_row = rows
+        .iter()
+        .find(|r| r["method"] == rec["method"] && r["order"] == rec["order"])
+        .expect("recommended row present");
+    assert_eq!(rec_row["cv_rms_um"].as_f64(), Some(best_cv));
+    for f in [
+        "report.md",
+        "comparison.csv",
+        "measured_vs_predicted.png",
+        "measured_vs_predicted.svg",
+        "cv_per_order.png",
+        "cv_per_order.svg",
+    ] {
+        assert!(report.join(f).is_file(), "{f} written");
+    }
+}
+
+#[test]
+fn compare_refuses_an_explicit_order_the_table_cannot_carry() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let o = errmap(&[
+        "compare",
+        &dataset("table1.csv"),
+        "--test",
+        &dataset("table2.csv"),
+        "--orders",
+        "4x1x2,2x5x4",
+        "--report",
+        dir.path().to_str().expect("utf8"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains("2x5x4") && e.contains("along y"), "{e}");
+}
+
+/// The committed `reports/table2/` is exactly what the documented command produces.
+#[test]
+fn committed_table2_report_matches_a_fresh_run() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let fresh = dir.path().join("table2");
+    let o = errmap(&[
+        "compare",
+        "datasets/table1.csv",
+        "--test",
+        "datasets/table2.csv",
+        "--report",
+        fresh.to_str().expect("utf8"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let committed = Path::new(env!("CARGO_MANIFEST_DIR")).join("reports/table2");
+    for f in [
+        "comparison.csv",
+        "predictions.csv",
+        "measured_vs_predicted.svg",
+        "cv_per_order.svg",
+    ] {
+        let a = std::fs::read(committed.join(f)).unwrap_or_default();
+        let b = std::fs::read(fresh.join(f)).expect("fresh file");
+        assert!(
+            a == b,
+            "reports/table2/{f} is stale: rerun `errmap compare datasets/table1.csv --test datasets/table2.csv --report reports/table2`"
+        );
+    }
+    // report.md differs only in the report directory named in the regenerate line.
+    let a = std::fs::read_to_string(committed.join("report.md")).unwrap_or_default();
+    let b = std::fs::read_to_string(fresh.join("report.md")).expect("fresh report");
+    let b = b.replace(fresh.to_str().expect("utf8"), "reports/table2");
+    assert!(a == b, "reports/table2/report.md is stale");
+}
