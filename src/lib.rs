@@ -4,19 +4,27 @@
 //!
 //! | module | does |
 //! |---|---|
+//! | [`acquire`] | capture, replay and the simulated device (CLI glue over `errmap-drivers`) |
+//! | [`session`] | session tables (one row per sample) and their reduction to error tables |
 //! | [`table`] | error tables (CSV/Parquet via polars), validation, the rectilinear grid |
 //! | [`interp`] | the interpolators: Lagrange m×n×q, trilinear, tricubic spline, fuzzy |
 //! | [`cv`] | leave-one-plane-out cross-validation on the fitting table |
 //! | [`compare`] | order/method comparison like the paper's Table 2, and its report |
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
+//! | [`gp`] | Gaussian-process (kriging) error model with prediction uncertainty |
+//! | [`iso230`] | ISO 230-2 / VDI/DGQ 3441 positioning statistics for one axis |
 //! | [`plot`] | PNG/SVG figures with a bundled font |
 
+pub mod acquire;
 pub mod compare;
 pub mod cv;
 pub mod experiment;
+pub mod gp;
 pub mod interp;
+pub mod iso230;
 pub mod plot;
 pub mod report;
+pub mod session;
 pub mod table;
 
 pub use errmap_drivers as drivers;

@@ -13,6 +13,10 @@ use errmap::interp::{Method, Order, fuzzy};
 use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
 
+#[path = "cli/acquisition.rs"]
+mod acquisition;
+use acquisition::{capture_cmd, ports, replay_cmd, serve_sim, table_cmd};
+
 /// Measure and model the volumetric error of coordinate measuring machines.
 #[derive(Debug, Parser)]
 #[command(name = "errmap", version, about)]
@@ -31,6 +35,108 @@ enum Command {
     Compare(CompareArgs),
     /// Seed 000's simulation: fuzzy vs trilinear vs spline on random node errors.
     FuzzySim(FuzzySimArgs),
+    /// Run the simulated acquisition device on a pseudo-terminal and stream its frames.
+    ServeSim(ServeSimArgs),
+    /// Acquire from a serial device into a session directory.
+    Capture(CaptureArgs),
+    /// Decode a raw capture into a session table.
+    Replay(ReplayArgs),
+    /// Reduce a session table to an error table (with ISO 230-2 statistics).
+    Table(TableArgs),
+    /// List the serial ports of this system.
+    Ports,
+}
+
+#[derive(Debug, Args)]
+struct FaultArgs {
+    /// Probability per frame of a burst of garbage bytes before it.
+    #[arg(long, default_value_t = 0.0)]
+    garbage: f64,
+    /// Probability per frame of one flipped bit.
+    #[arg(long, default_value_t = 0.0)]
+    bit_flips: f64,
+    /// Probability per frame that it is lost on the line.
+    #[arg(long, default_value_t = 0.0)]
+    drop_frames: f64,
+    /// Beam-loss window in session seconds, START:END.
+    #[arg(long)]
+    beam_loss: Option<String>,
+    /// Start both counters this many counts below the 32-bit wrap.
+    #[arg(long)]
+    near_wrap: Option<i32>,
+    #[arg(long, default_value_t = 1)]
+    fault_seed: u64,
+}
+
+#[derive(Debug, Args)]
+struct ServeSimArgs {
+    /// Machine model (TOML).
+    #[arg(long)]
+    model: PathBuf,
+    /// Measurement plan (TOML); a built-in 11-target X plan without it.
+    #[arg(long)]
+    plan: Option<PathBuf>,
+    /// Playback speed (1 = real time; the byte budget holds in the board's own time).
+    #[arg(long, default_value_t = 1.0)]
+    speed: f64,
+    /// Seconds to keep the port open after the last frame.
+    #[arg(long, default_value_t = 1.0)]
+    linger: f64,
+    /// Write the simulated truth per sample (CSV) here.
+    #[arg(long)]
+    truth_out: Option<PathBuf>,
+    #[command(flatten)]
+    faults: FaultArgs,
+}
+
+#[derive(Debug, Args)]
+struct CaptureArgs {
+    /// Serial device path (e.g. /dev/ttyUSB0, or the path serve-sim prints).
+    #[arg(long)]
+    port: String,
+    /// Session directory (created; an existing capture there is never overwritten).
+    #[arg(long)]
+    out: PathBuf,
+    #[arg(long, default_value_t = 115_200)]
+    baud: u32,
+    /// Session table format: csv or parquet.
+    #[arg(long, default_value = "csv")]
+    format: String,
+    /// Stop after this many seconds without a byte.
+    #[arg(long)]
+    idle_timeout: Option<f64>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Print the session description as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct ReplayArgs {
+    /// Raw capture file.
+    raw: PathBuf,
+    /// Session table to write (CSV or Parquet).
+    #[arg(long)]
+    out: PathBuf,
+    /// Print the decoder statistics as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct TableArgs {
+    /// Session table, or a session directory written by capture.
+    session: PathBuf,
+    /// Error table to write (CSV or Parquet).
+    #[arg(long)]
+    out: PathBuf,
+    /// Write the ISO 230-2 report (markdown and figures) here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -129,6 +235,11 @@ fn run(cli: Cli) -> Result<()> {
         Command::Fit(a) => fit(a),
         Command::Compare(a) => compare_cmd(a),
         Command::FuzzySim(a) => fuzzy_sim(a),
+        Command::ServeSim(a) => serve_sim(a),
+        Command::Capture(a) => capture_cmd(a),
+        Command::Replay(a) => replay_cmd(a),
+        Command::Table(a) => table_cmd(a),
+        Command::Ports => ports(),
     }
 }
 

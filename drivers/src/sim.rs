@@ -1,0 +1,596 @@
+//! The simulated acquisition board, sans-IO: a measurement plan and a truth → the frames
+//! a real board would send, with their times on the serial line.
+//!
+//! The board latches the scale and laser counters from a simulated truth and quantises
+//! them like real counters: the scale at its count resolution, the laser at
+//! λ_vac/(F·k) of optical path (the counts a real interferometer board accumulates for the
+//! actual displacement in air). It sends SAMPLE frames on a timer while moving and while
+//! dwelling, MARK frames at every run event, ENV and MATERIAL frames once a second, and a
+//! HELLO at power-up. Every SAMPLE carries the device's sample index.
+//!
+//! **Byte budget.** 8N1 carries baud/10 bytes per second. Each frame is queued on the line
+//! when it happens; a SAMPLE that finds more than [`Device::fifo_bytes`] already queued is
+//! dropped by the board (its index is still consumed, so the host sees a hole) and the next
+//! SAMPLE that gets through carries `OVERRUN`. So a plan that samples faster than the line
+//! can carry is simulated honestly rather than sent impossibly fast.
+//!
+//! **Geometry.** The carriage starts at 0 mm (home) on the first line; the first samples
+//! are taken there, so both counters' origins (the first clean SAMPLE) are at home, and the
+//! decoded error is truth(position) − truth(home on the first line). Each run goes out in
+//! + through the targets and back in − (ISO 230-2), with a MARK at run start, every target
+//! reached and left, the reversal and the run end.
+//!
+//! **Faults** (for tests and demos): garbage bytes between frames, bit flips inside frames,
+//! frames lost on the line (a seq gap), a beam-loss window (BEAM_LOW, laser counter
+//! frozen), and counters that start near the 32-bit wrap.
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+use crate::edlen;
+use crate::frame::{
+    Axis, DeviceId, Env, Frame, Hello, Mark, MarkKind, Material, Sample, SampleFlags, Text,
+    encode_into,
+};
+
+/// A measurement plan along one axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub axis: Axis,
+    /// Lines: the two other coordinates, mm (Y, Z when measuring X; X, Z for Y; X, Y for Z).
+    pub lines_mm: Vec<[f64; 2]>,
+    /// Target positions along the axis, mm, strictly increasing, ≥ 0.
+    pub targets_mm: Vec<f64>,
+    /// Runs per line, each out (+) and back (−).
+    pub runs: u32,
+    pub feed_mm_s: f64,
+    pub dwell_s: f64,
+    /// Timer trigger rate while moving and dwelling.
+    pub sample_hz: f64,
+    /// Time at home before the first run, s.
+    pub settle_s: f64,
+}
+
+impl Default for Plan {
+    fn default() -> Self {
+        Plan {
+            axis: Axis::X,
+            lines_mm: vec![[0.0, 0.0]],
+            targets_mm: (0..=10).map(|i| f64::from(i) * 50.0).collect(),
+            runs: 5,
+            feed_mm_s: 100.0,
+            dwell_s: 0.5,
+            sample_hz: 100.0,
+            settle_s: 0.2,
+        }
+    }
+}
+
+/// The board's fixed description (what its HELLO says) and its line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Device {
+    pub device_id: String,
+    pub grating_period_nm: u32,
+    pub count_resolution_pm: u32,
+    pub laser_wavelength_fm: u32,
+    pub optical_fold: u8,
+    pub edges_per_fringe: u8,
+    pub baud: u32,
+    /// Bytes the board can queue before it must drop SAMPLEs.
+    pub fifo_bytes: usize,
+    /// Period of ENV and MATERIAL frames, s.
+    pub env_period_s: f64,
+}
+
+impl Default for Device {
+    fn default() -> Self {
+        Device {
+            device_id: "errmap-sim".into(),
+            grating_period_nm: 20_000,
+            count_resolution_pm: 100_000,
+            laser_wavelength_fm: 632_991_354,
+            optical_fold: 2,
+            edges_per_fringe: 4,
+            baud: 115_200,
+            fifo_bytes: 512,
+            env_period_s: 1.0,
+        }
+    }
+}
+
+/// Fault injection (all off by default).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Faults {
+    /// Probability per frame of a burst of 1–16 garbage bytes before it.
+    pub garbage_prob: f64,
+    /// Probability per frame of one flipped bit inside it.
+    pub bit_flip_prob: f64,
+    /// Probability per frame that it is lost on the line (seq gap).
+    pub drop_prob: f64,
+    /// Beam-loss window [start, end) in session seconds: BEAM_LOW, laser counter frozen.
+    pub beam_loss_s: Option<(f64, f64)>,
+    /// Start both counters this many counts below the i32 wrap.
+    pub counters_near_wrap: Option<i32>,
+    pub seed: u64,
+}
+
+/// The air and material state the board's sensors report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Environment {
+    pub air_temp_c: f64,
+    pub air_pressure_hpa: f64,
+    pub air_rh_pct: f64,
+    pub scale_temp_c: f64,
+    pub part_temp_c: f64,
+}
+
+impl Default for Environment {
+    fn default() -> Self {
+        Environment {
+            air_temp_c: 20.0,
+            air_pressure_hpa: 1013.25,
+            air_rh_pct: 50.0,
+            scale_temp_c: 20.0,
+            part_temp_c: 20.0,
+        }
+    }
+}
+
+/// What the truth is asked at every latch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthQuery {
+    /// Session seconds.
+    pub t_s: f64,
+    /// Machine position (indicated), mm.
+    pub pos_mm: [f64; 3],
+    pub direction: i8,
+    /// Feed while moving, 0 while dwelling or at rest.
+    pub feed_mm_s: f64,
+    pub run: u32,
+    pub target: i32,
+}
+
+/// The simulated machine: its error (indicated − actual, µm, noise included) and the
+/// environment. The physics simulator and the plain error-map truth both implement it.
+pub trait Truth {
+    fn error_um(&mut self, q: &TruthQuery) -> f64;
+    /// The environment the sensors report (and the air the beam travels through, unless
+    /// [`Truth::true_air`] differs).
+    fn environment(&mut self, _t_s: f64) -> Environment {
+        Environment::default()
+    }
+    /// The air the beam actually travels through (default: what the sensors report).
+    fn true_air(&mut self, t_s: f64) -> Environment {
+        self.environment(t_s)
+    }
+}
+
+/// One sample's ground truth, for tests and for matching a recording to its truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthSample {
+    pub index: u32,
+    pub t_s: f64,
+    pub pos_mm: [f64; 3],
+    pub error_um: f64,
+    pub run: u32,
+    pub direction: i8,
+    pub target: i32,
+    /// Whether the board sent it (false: dropped for the byte budget).
+    pub sent: bool,
+}
+
+/// A frame on the line: its bytes and the device time when its last byte has been sent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Emitted {
+    pub line_time_us: u64,
+    pub bytes: Vec<u8>,
+}
+
+/// The whole simulated stream.
+#[derive(Debug, Clone)]
+pub struct SimStream {
+    pub hello: Hello,
+    pub frames: Vec<Emitted>,
+    pub truth: Vec<TruthSample>,
+    /// SAMPLEs the board dropped because the line was full.
+    pub overruns: usize,
+    /// Frames lost on the line by fault injection.
+    pub dropped: usize,
+    pub duration_s: f64,
+}
+
+impl SimStream {
+    /// The stream's bytes, concatenated.
+    pub fn bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.frames.iter().map(|f| f.bytes.len()).sum());
+        for f in &self.frames {
+            out.extend_from_slice(&f.bytes);
+        }
+        out
+    }
+}
+
+/// Why a plan cannot be simulated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    #[error("plan: {0}")]
+    Plan(String),
+    #[error("device: {0}")]
+    Device(String),
+}
+
+enum Step {
+    Mark(MarkKind, i8, u32, i32),
+    Move(f64, i8),
+    Dwell(f64),
+    Line(usize),
+}
+
+fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
+    let bad = |m: &str| Err(SimError::Plan(m.to_string()));
+    if plan.targets_mm.is_empty() {
+        return bad("no targets");
+    }
+    if plan.targets_mm.windows(2).any(|w| w[1] <= w[0]) || plan.targets_mm[0] < 0.0 {
+        return bad("targets must be ≥ 0 and strictly increasing");
+    }
+    if plan.lines_mm.is_empty() {
+        return bad("no lines");
+    }
+    if !(plan.feed_mm_s > 0.0 && plan.sample_hz > 0.0 && plan.dwell_s >= 0.0 && plan.runs >= 1) {
+        return bad("feed, sample rate and runs must be positive, dwell ≥ 0");
+    }
+    if plan
+        .targets_mm
+        .iter()
+        .chain(plan.lines_mm.iter().flatten())
+        .any(|v| !v.is_finite())
+    {
+        return bad("positions must be finite");
+    }
+    if device.baud < 300 || device.count_resolution_pm == 0 || device.laser_wavelength_fm == 0 {
+        return Err(SimError::Device(
+            "baud ≥ 300, non-zero resolution and wavelength".into(),
+        ));
+    }
+    if device.optical_fold == 0 || device.edges_per_fringe == 0 {
+        return Err(SimError::Device(
+            "fold and edges per fringe must be non-zero".into(),
+        ));
+    }
+    Ok(())
+}
+
+fn steps(plan: &Plan) -> Vec<Step> {
+    let mut s = vec![Step::Dwell(plan.settle_s)];
+    for line in 0..plan.lines_mm.len() {
+        if line > 0 {
+            s.push(Step::Move(0.0, -1));
+            s.push(Step::Line(line));
+            s.push(Step::Dwell(plan.settle_s));
+        }
+        for run in 1..=plan.runs {
+            s.push(Step::Mark(MarkKind::RunStart, 1, run, 0));
+            let n = plan.targets_mm.len();
+            for (j, &t) in plan.targets_mm.iter().enumerate() {
+                s.push(Step::Move(t, 1));
+                s.push(Step::Mark(MarkKind::TargetReached, 1, run, j as i32));
+                s.push(Step::Dwell(plan.dwell_s));
+                s.push(Step::Mark(MarkKind::TargetLeft, 1, run, j as i32));
+            }
+            s.push(Step::Mark(MarkKind::Reversal, -1, run, (n - 1) as i32));
+            for (j, &t) in plan.targets_mm.iter().enumerate().rev() {
+                s.push(Step::Move(t, -1));
+                s.push(Step::Mark(MarkKind::TargetReached, -1, run, j as i32));
+                s.push(Step::Dwell(plan.dwell_s));
+                s.push(Step::Mark(MarkKind::TargetLeft, -1, run, j as i32));
+            }
+            s.push(Step::Mark(MarkKind::RunEnd, -1, run, 0));
+        }
+    }
+    s.push(Step::Move(0.0, -1));
+    s.push(Step::Dwell(plan.settle_s));
+    s
+}
+
+struct Board<'a> {
+    plan: &'a Plan,
+    device: &'a Device,
+    faults: &'a Faults,
+    rng: StdRng,
+    seq: u16,
+    line_free_us: f64,
+    frames: Vec<Emitted>,
+    dropped: usize,
+    us_per_byte: f64,
+}
+
+impl Board<'_> {
+    /// Queues a frame on the line; `droppable` frames (SAMPLEs) are dropped when the FIFO
+    /// is full. Returns whether it was queued.
+    fn send(&mut self, frame: &Frame, t_us: f64, droppable: bool) -> bool {
+        let backlog = (self.line_free_us - t_us).max(0.0) / self.us_per_byte;
+        if droppable && backlog > self.device.fifo_bytes as f64 {
+            return false;
+        }
+        let mut bytes = Vec::with_capacity(64);
+        if self.faults.garbage_prob > 0.0 && self.rng.random_bool(self.faults.garbage_prob.min(1.0))
+        {
+            for _ in 0..self.rng.random_range(1..=16) {
+                bytes.push(self.rng.random());
+            }
+        }
+        let start = bytes.len();
+        if encode_into(frame, self.seq, &mut bytes).is_err() {
+            return false;
+        }
+        self.seq = self.seq.wrapping_add(1);
+        if self.faults.bit_flip_prob > 0.0
+            && self.rng.random_bool(self.faults.bit_flip_prob.min(1.0))
+        {
+            let i = self.rng.random_range(start..bytes.len());
+            bytes[i] ^= 1 << self.rng.random_range(0..8);
+        }
+        self.line_free_us = self.line_free_us.max(t_us) + bytes.len() as f64 * self.us_per_byte;
+        if self.faults.drop_prob > 0.0 && self.rng.random_bool(self.faults.drop_prob.min(1.0)) {
+            self.dropped += 1;
+            return true;
+        }
+        self.frames.push(Emitted {
+            line_time_us: self.line_free_us.round() as u64,
+            bytes,
+        });
+        true
+    }
+
+    fn line_um(&self, line: usize) -> (i32, i32) {
+        let l = self.plan.lines_mm[line];
+        (
+            (l[0] * 1000.0).round() as i32,
+            (l[1] * 1000.0).round() as i32,
+        )
+    }
+}
+
+/// The machine position for axis-coordinate `s` on line `l`.
+fn position(axis: Axis, s: f64, l: [f64; 2]) -> [f64; 3] {
+    match axis {
+        Axis::X => [s, l[0], l[1]],
+        Axis::Y => [l[0], s, l[1]],
+        Axis::Z => [l[0], l[1], s],
+    }
+}
+
+/// Generates the whole stream of a plan.
+pub fn simulate(
+    plan: &Plan,
+    device: &Device,
+    faults: &Faults,
+    truth: &mut dyn Truth,
+) -> Result<SimStream, SimError> {
+    validate(plan, device)?;
+    let hello = Hello {
+        protocol_version: 1,
+        device_id: DeviceId::from_text(&device.device_id),
+        grating_period_nm: device.grating_period_nm,
+        count_resolution_pm: device.count_resolution_pm,
+        laser_wavelength_fm: device.laser_wavelength_fm,
+        optical_fold: device.optical_fold,
+        edges_per_fringe: device.edges_per_fringe,
+        axis_code: plan.axis.code(),
+    };
+    let mut b = Board {
+        plan,
+        device,
+        faults,
+        rng: StdRng::seed_from_u64(faults.seed),
+        seq: 0,
+        line_free_us: 0.0,
+        frames: Vec::new(),
+        dropped: 0,
+        us_per_byte: 10.0e6 / f64::from(device.baud),
+    };
+    let res_mm = f64::from(device.count_resolution_pm) * 1e-9;
+    let lambda_um = f64::from(device.laser_wavelength_fm) * 1e-9;
+    let laser_count_mm =
+        lambda_um * 1e-3 / (f64::from(device.optical_fold) * f64::from(device.edges_per_fringe));
+    let offset = faults
+        .counters_near_wrap
+        .map_or(0i64, |d| i64::from(i32::MAX) - i64::from(d));
+    let dt = 1.0 / plan.sample_hz;
+    let env_period = device.env_period_s.max(dt);
+
+    b.send(&Frame::Hello(hello), 0.0, false);
+    b.send(
+        &Frame::Text(Text {
+            text: format!("{} ready", device.device_id),
+            lossy: false,
+        }),
+        0.0,
+        false,
+    );
+
+    let mut t = 0.0f64; // session seconds of the next event
+    let mut next_sample = 0.0f64;
+    let mut next_env = 0.0f64;
+    let mut index: u32 = 0;
+    let mut overruns = 0usize;
+    let mut pending_overrun = false;
+    let mut pos = 0.0f64;
+    let mut line = 0usize;
+    let (mut run, mut dir, mut target) = (0u32, 0i8, -1i32);
+    let mut in_run = false;
+    let mut last_laser: Option<i64> = None;
+    let mut truth_log = Vec::new();
+
+    // Emits the periodic frames and samples in [t, until), the carriage at pos(t').
+    let mut advance =
+        |b: &mut Board, t: f64, until: f64, from: f64, v: f64, st: (u32, i8, i32, f64, usize)| {
+            let (run, dir, target, feed, line) = st;
+            loop {
+                let next = next_sample.min(next_env);
+                if next >= until {
+                    break;
+                }
+                let tt = next;
+                let t_us = tt * 1e6;
+                if next_env <= next_sample {
+                    let env = truth.environment(tt);
+                    b.send(
+                        &Frame::Env(Env {
+                            t_us: t_us.round() as u64,
+                            air_temp_mc: (env.air_temp_c * 1000.0).round() as i32,
+                            pressure_pa: (env.air_pressure_hpa * 100.0).round().max(0.0) as u32,
+                            rh_permille: (env.air_rh_pct * 10.0).round().clamp(0.0, 1000.0) as u16,
+                        }),
+                        t_us,
+                        false,
+                    );
+                    b.send(
+                        &Frame::Material(Material {
+                            t_us: t_us.round() as u64,
+                            temps_mc: vec![
+                                (env.scale_temp_c * 1000.0).round() as i32,
+                                (env.part_temp_c * 1000.0).round() as i32,
+                            ],
+                        }),
+                        t_us,
+                        false,
+                    );
+                    next_env += env_period;
+                    continue;
+                }
+                let s = from + v * (tt - t);
+                let p = position(plan.axis, s, plan.lines_mm[line]);
+                let q = TruthQuery {
+                    t_s: tt,
+                    pos_mm: p,
+                    direction: dir,
+                    feed_mm_s: feed,
+                    run,
+                    target,
+                };
+                let e_um = truth.error_um(&q);
+                let air = truth.true_air(tt);
+                let n_air = edlen::refractive_index(
+                    lambda_um,
+                    air.air_temp_c,
+                    air.air_pressure_hpa * 100.0,
+                    air.air_rh_pct,
+                );
+                // Actual displacement from home = indicated − error.
+                let actual_mm = s - e_um * 1e-3;
+                let scale = (s / res_mm).round() as i64 + offset;
+                let mut laser = (actual_mm * n_air / laser_count_mm).round() as i64 + offset;
+                let mut flags = 0u8;
+                if let Some((a, z)) = faults.beam_loss_s
+                    && tt >= a
+                    && tt < z
+                {
+                    flags |= SampleFlags::BEAM_LOW;
+                    laser = last_laser.unwrap_or(laser);
+                }
+                if pending_overrun {
+                    flags |= SampleFlags::OVERRUN;
+                }
+                let sample = Sample {
+                    t_us: t_us.round() as u64,
+                    index,
+                    scale_count: scale as i32,
+                    laser_count: laser as i32,
+                    flags: SampleFlags(flags),
+                    trigger_code: 0,
+                };
+                let sent = b.send(&Frame::Sample(sample), t_us, true);
+                if sent {
+                    pending_overrun = false;
+                } else {
+                    overruns += 1;
+                    pending_overrun = true;
+                }
+                last_laser = Some(laser);
+                truth_log.push(TruthSample {
+                    index,
+                    t_s: tt,
+                    pos_mm: p,
+                    error_um: e_um,
+                    run,
+                    direction: dir,
+                    target,
+                    sent,
+                });
+                index = index.wrapping_add(1);
+                next_sample += dt;
+            }
+        };
+
+    for step in steps(plan) {
+        match step {
+            Step::Dwell(secs) => {
+                let st = (if in_run { run } else { 0 }, dir, target, 0.0, line);
+                advance(&mut b, t, t + secs, pos, 0.0, st);
+                t += secs;
+            }
+            Step::Move(to, d) => {
+                let dist = (to - pos).abs();
+                if dist > 0.0 {
+                    let feed = plan.feed_mm_s;
+                    let v = feed * f64::from(d);
+                    let st = (
+                        if in_run { run } else { 0 },
+                        if in_run { dir } else { 0 },
+                        -1,
+                        feed,
+                        line,
+                    );
+                    let dur = dist / feed;
+                    advance(&mut b, t, t + dur, pos, v, st);
+                    t += dur;
+                    pos = to;
+                }
+            }
+            Step::Line(l) => line = l,
+            Step::Mark(kind, d, r, tgt) => {
+                let (l1, l2) = b.line_um(line);
+                match kind {
+                    MarkKind::RunStart => {
+                        in_run = true;
+                        run = r;
+                        target = -1;
+                    }
+                    MarkKind::RunEnd => {
+                        in_run = false;
+                        target = -1;
+                    }
+                    MarkKind::TargetReached => target = tgt,
+                    MarkKind::TargetLeft => target = -1,
+                    MarkKind::Reversal => {}
+                }
+                dir = if in_run { d } else { 0 };
+                b.send(
+                    &Frame::Mark(Mark {
+                        t_us: (t * 1e6).round() as u64,
+                        kind_code: kind.code(),
+                        direction: d,
+                        run: r as u16,
+                        target: tgt.max(0) as u16,
+                        feed_um_s: (plan.feed_mm_s * 1000.0).round() as u32,
+                        line_first_um: l1,
+                        line_second_um: l2,
+                    }),
+                    t * 1e6,
+                    false,
+                );
+            }
+        }
+    }
+    let dropped = b.dropped;
+    Ok(SimStream {
+        hello,
+        frames: b.frames,
+        truth: truth_log,
+        overruns,
+        dropped,
+        duration_s: t,
+    })
+}

@@ -1,0 +1,324 @@
+//! The acquisition subcommands: serve-sim, capture, replay, table, ports. Glue only: the
+//! work is in `errmap::acquire`, `errmap::session` and `errmap-drivers`.
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use errmap::acquire::{self, SessionPaths};
+use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
+use errmap::drivers::serve::{pty_pair, serve_paced};
+use errmap::drivers::sim::{Faults, SimStream};
+use errmap::drivers::transport::{SerialSource, list_ports};
+use errmap::{iso230, session};
+
+use crate::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Ctrl-C sets the stop flag once; a second Ctrl-C is left to the default (the raw file
+/// is on disk either way).
+fn install_ctrlc() {
+    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst));
+}
+
+fn faults(a: &FaultArgs) -> Result<Faults> {
+    let beam_loss_s = match &a.beam_loss {
+        None => None,
+        Some(s) => {
+            let (x, y) = s
+                .split_once(':')
+                .context("--beam-loss takes START:END in seconds")?;
+            Some((x.trim().parse::<f64>()?, y.trim().parse::<f64>()?))
+        }
+    };
+    for (name, p) in [
+        ("--garbage", a.garbage),
+        ("--bit-flips", a.bit_flips),
+        ("--drop-frames", a.drop_frames),
+    ] {
+        if !(0.0..=1.0).contains(&p) {
+            bail!("{name} is a probability in [0, 1], not {p}");
+        }
+    }
+    Ok(Faults {
+        garbage_prob: a.garbage,
+        bit_flip_prob: a.bit_flips,
+        drop_prob: a.drop_frames,
+        beam_loss_s,
+        counters_near_wrap: a.near_wrap,
+        seed: a.fault_seed,
+    })
+}
+
+/// Serves a simulated stream on a fresh pty: prints the path on stdout, streams, lingers.
+pub fn serve_stream(
+    stream: &SimStream,
+    speed: f64,
+    linger_s: f64,
+    announce: impl FnOnce(&str),
+) -> Result<u64> {
+    let (mut master, _slave, path) = pty_pair().context("cannot open a pseudo-terminal pair")?;
+    announce(&path);
+    let written = serve_paced(&stream.frames, &mut master, speed, &STOP)
+        .with_context(|| format!("writing to {path}"))?;
+    std::thread::sleep(Duration::from_secs_f64(linger_s.clamp(0.0, 3600.0)));
+    Ok(written)
+}
+
+pub fn serve_sim(a: ServeSimArgs) -> Result<()> {
+    install_ctrlc();
+    let faults = faults(&a.faults)?;
+    let (stream, _) = acquire::simulate_stream(&a.model, a.plan.as_deref(), &faults)?;
+    if let Some(p) = &a.truth_out {
+        write_truth(p, &stream)?;
+    }
+    eprintln!(
+        "serve-sim: {} frames, {} samples ({} dropped by the byte budget), {:.1} s of board time at {:.1}× speed",
+        stream.frames.len(),
+        stream.truth.len(),
+        stream.overruns,
+        stream.duration_s,
+        a.speed
+    );
+    let written = serve_stream(&stream, a.speed, a.linger, |path| {
+        println!("{path}");
+        let _ = std::io::stdout().flush();
+    })?;
+    eprintln!("serve-sim: sent {written} bytes");
+    Ok(())
+}
+
+fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
+    let mut s = String::from("sample,t_s,x_mm,y_mm,z_mm,error_um,run,direction,target,sent\n");
+    for t in &stream.truth {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{}\n",
+            t.index,
+            t.t_s,
+            t.pos_mm[0],
+            t.pos_mm[1],
+            t.pos_mm[2],
+            t.error_um,
+            t.run,
+            t.direction,
+            t.target,
+            t.sent
+        ));
+    }
+    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// Captures from a serial port into `out`; returns the capture's end.
+pub fn capture_from_port(
+    port: &str,
+    baud: u32,
+    paths: &SessionPaths,
+    config: &CaptureConfig,
+    show_progress: bool,
+) -> Result<errmap::drivers::capture::Capture> {
+    let mut source = SerialSource::open(port, baud, Duration::from_millis(100))?;
+    let bar = (show_progress && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new_spinner();
+        b.enable_steady_tick(Duration::from_millis(120));
+        b
+    });
+    let mut progress = |p: &Progress| {
+        if let Some(b) = &bar {
+            b.set_message(format!(
+                "{} samples, run {}, {:.0} B/s, {} problems, {:.1} s",
+                p.samples,
+                p.runs,
+                p.bytes as f64 / p.elapsed_s.max(1e-3),
+                p.problems,
+                p.elapsed_s
+            ));
+        }
+    };
+    let cap = acquire::capture_session(&mut source, paths, config, &STOP, &mut progress)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok(cap)
+}
+
+pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
+    install_ctrlc();
+    if a.format != "csv" && a.format != "parquet" {
+        bail!("--format is csv or parquet, not {}", a.format);
+    }
+    let paths = SessionPaths::new(&a.out, &a.format);
+    let config = CaptureConfig {
+        idle_timeout: a.idle_timeout.map(Duration::from_secs_f64),
+        max_duration: a.duration.map(Duration::from_secs_f64),
+        ..CaptureConfig::default()
+    };
+    let cap = capture_from_port(&a.port, a.baud, &paths, &config, true)?;
+    let s = &cap.stats;
+    eprintln!(
+        "capture: {} bytes, {} rows, {} frames; CRC failures {}, resyncs {} ({} bytes skipped), seq gaps {} ({} frames lost), wraps {}/{}, flagged samples {}, truncated tail {} bytes",
+        cap.bytes,
+        cap.rows.len(),
+        s.frames.total(),
+        s.crc_failures,
+        s.resyncs,
+        s.bytes_skipped,
+        s.seq_gaps,
+        s.frames_lost,
+        s.counter_wraps.scale,
+        s.counter_wraps.laser,
+        s.flagged_samples,
+        s.truncated_tail_bytes
+    );
+    for (kind, p) in s.problems.iter() {
+        eprintln!(
+            "  {kind}: {} (first at {})",
+            p.count,
+            p.first
+                .iter()
+                .map(|q| format!("{q}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    eprintln!(
+        "capture: session in {} ({}, {}, {})",
+        paths.dir.display(),
+        file(&paths.raw),
+        file(&paths.table),
+        file(&paths.json)
+    );
+    if a.json {
+        println!("{}", std::fs::read_to_string(&paths.json)?);
+    }
+    if let CaptureEnd::Vanished(why) = &cap.end {
+        bail!(
+            "the port vanished during the capture ({why}); everything received is in {} and the session table was written",
+            paths.dir.display()
+        );
+    }
+    Ok(())
+}
+
+fn file(p: &Path) -> String {
+    p.file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
+    let (rows, stats, _) = acquire::replay(&a.raw, &a.out)?;
+    if a.json {
+        let mut v = serde_json::to_value(&stats)?;
+        v["rows"] = serde_json::json!(rows.len());
+        println!("{v}");
+    } else {
+        eprintln!(
+            "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
+            rows.len(),
+            stats.frames.total(),
+            stats.crc_failures,
+            stats.resyncs,
+            stats.seq_gaps,
+            a.out.display()
+        );
+    }
+    Ok(())
+}
+
+/// A session argument: a table file, or a capture directory holding one.
+fn session_file(p: &Path) -> Result<PathBuf> {
+    if p.is_dir() {
+        for name in ["session.parquet", "session.csv"] {
+            if p.join(name).is_file() {
+                return Ok(p.join(name));
+            }
+        }
+        bail!(
+            "{}: no session.csv or session.parquet in this directory",
+            p.display()
+        );
+    }
+    Ok(p.to_path_buf())
+}
+
+pub fn table_cmd(a: TableArgs) -> Result<()> {
+    let path = session_file(&a.session)?;
+    let rows = session::read_session(&path)?;
+    let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
+    table.write(&a.out)?;
+    eprintln!(
+        "table: {} nodes ({} lines × {} targets) from {} dwell samples; {} flagged samples left out, {} rows not dwelling → {}",
+        table.points.len(),
+        summary.lines,
+        summary.targets,
+        summary.used,
+        summary.flagged,
+        summary.not_dwelling,
+        a.out.display()
+    );
+    let axis = summary.axis.clone().unwrap_or_default();
+    let mut iso = Vec::new();
+    for line in session::lines(&rows) {
+        let obs = session::iso_observations(&rows, Some(line));
+        match iso230::axis_stats(&obs) {
+            Ok(stats) => iso.push((line, stats)),
+            Err(e) => eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}"),
+        }
+    }
+    if let Some(dir) = &a.report {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut md = format!(
+            "# ISO 230-2 positioning statistics\n\nSession: `{}`; axis {axis}; {} line(s).\n\n",
+            path.display(),
+            iso.len()
+        );
+        for (k, (line, stats)) in iso.iter().enumerate() {
+            md.push_str(&format!(
+                "## Line {} at ({}, {}) mm\n\n",
+                k + 1,
+                line.0,
+                line.1
+            ));
+            md.push_str(
+                &iso230::markdown(stats, &axis)
+                    .replace("\n## ", "\n### ")
+                    .replacen("## ", "### ", 1),
+            );
+            let stem = dir.join(format!("line{}", k + 1));
+            iso230::plot(
+                stats,
+                &stem,
+                &format!("Axis {axis}, line ({}, {}) mm", line.0, line.1),
+            )?;
+            md.push_str(&format!("\n![line {}](line{}.png)\n\n", k + 1, k + 1));
+        }
+        let p = dir.join("report.md");
+        std::fs::write(&p, md).with_context(|| format!("cannot write {}", p.display()))?;
+        eprintln!("table: ISO 230-2 report in {}", p.display());
+    }
+    if a.json {
+        let lines: Vec<_> = iso
+            .iter()
+            .map(|(l, s)| serde_json::json!({"line_mm": [l.0, l.1], "iso230": s}))
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({"summary": summary, "nodes": table.points.len(), "lines": lines})
+        );
+    }
+    Ok(())
+}
+
+pub fn ports() -> Result<()> {
+    let ports = list_ports()?;
+    if ports.is_empty() {
+        eprintln!("no serial ports found");
+    }
+    for p in ports {
+        println!("{}\t{:?}", p.name, p.kind);
+    }
+    Ok(())
+}

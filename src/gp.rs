@@ -1,0 +1,1 @@
+//! Gaussian-process (kriging) error model — being written.
