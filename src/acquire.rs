@@ -16,15 +16,13 @@ use std::sync::atomic::AtomicBool;
 
 use errmap_drivers::capture::{Capture, CaptureConfig, CaptureEnd, Progress, capture};
 use errmap_drivers::frame::{Axis as WireAxis, Hello};
-use errmap_drivers::sim::{
-    Device, Environment, Faults, Plan, SimStream, Truth, TruthQuery, simulate,
-};
+use errmap_drivers::sim::{Faults, Plan, SimStream};
 use errmap_drivers::{ByteSource, DecoderStats, SessionRow, decode_all};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use crate::interp::{Interpolator, Method, Order, fuzzy};
+use crate::physics::{MachineModel, PhysicsTruth, simulate_plan};
 use crate::session::write_session;
 use crate::table::{ErrorTable, TableError};
 
@@ -64,130 +62,7 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> AcquireError + '_ {
 }
 
 // --------------------------------------------------------------------------------------
-// Model and plan files
-
-/// The simulated machine for `serve-sim` and the demo: an error map plus noise.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SimModel {
-    /// The machine's geometric error map (None: a perfect machine).
-    #[serde(default)]
-    pub error_map: Option<ErrorMapSpec>,
-    /// White noise on every latched error, one sigma, µm.
-    #[serde(default = "default_noise")]
-    pub noise_um: f64,
-    #[serde(default)]
-    pub seed: u64,
-    #[serde(default)]
-    pub environment: EnvSpec,
-    #[serde(default)]
-    pub device: DeviceSpec,
-}
-
-fn default_noise() -> f64 {
-    0.05
-}
-
-/// An error map: a table and the method that interpolates it.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ErrorMapSpec {
-    /// Error table, relative to the model file.
-    pub table: PathBuf,
-    #[serde(default = "default_method")]
-    pub method: String,
-    /// Lagrange degrees MxNxQ.
-    #[serde(default)]
-    pub order: Option<String>,
-    #[serde(default = "default_sigma")]
-    pub fuzzy_sigma: f64,
-}
-
-fn default_method() -> String {
-    "spline".into()
-}
-fn default_sigma() -> f64 {
-    fuzzy::DEFAULT_SIGMA
-}
-
-/// Constant environment the sensors report (°C, hPa, %).
-#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct EnvSpec {
-    pub air_temp_c: f64,
-    pub air_pressure_hpa: f64,
-    pub air_rh_pct: f64,
-    pub scale_temp_c: f64,
-    pub part_temp_c: f64,
-}
-
-impl Default for EnvSpec {
-    fn default() -> Self {
-        let e = Environment::default();
-        EnvSpec {
-            air_temp_c: e.air_temp_c,
-            air_pressure_hpa: e.air_pressure_hpa,
-            air_rh_pct: e.air_rh_pct,
-            scale_temp_c: e.scale_temp_c,
-            part_temp_c: e.part_temp_c,
-        }
-    }
-}
-
-impl From<EnvSpec> for Environment {
-    fn from(e: EnvSpec) -> Self {
-        Environment {
-            air_temp_c: e.air_temp_c,
-            air_pressure_hpa: e.air_pressure_hpa,
-            air_rh_pct: e.air_rh_pct,
-            scale_temp_c: e.scale_temp_c,
-            part_temp_c: e.part_temp_c,
-        }
-    }
-}
-
-/// The board: what its HELLO says and its line.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DeviceSpec {
-    pub device_id: String,
-    pub grating_period_nm: u32,
-    pub count_resolution_pm: u32,
-    pub laser_wavelength_fm: u32,
-    pub optical_fold: u8,
-    pub edges_per_fringe: u8,
-    pub baud: u32,
-}
-
-impl Default for DeviceSpec {
-    fn default() -> Self {
-        let d = Device::default();
-        DeviceSpec {
-            device_id: d.device_id,
-            grating_period_nm: d.grating_period_nm,
-            count_resolution_pm: d.count_resolution_pm,
-            laser_wavelength_fm: d.laser_wavelength_fm,
-            optical_fold: d.optical_fold,
-            edges_per_fringe: d.edges_per_fringe,
-            baud: d.baud,
-        }
-    }
-}
-
-impl DeviceSpec {
-    pub fn device(&self) -> Device {
-        Device {
-            device_id: self.device_id.clone(),
-            grating_period_nm: self.grating_period_nm,
-            count_resolution_pm: self.count_resolution_pm,
-            laser_wavelength_fm: self.laser_wavelength_fm,
-            optical_fold: self.optical_fold,
-            edges_per_fringe: self.edges_per_fringe,
-            baud: self.baud,
-            ..Device::default()
-        }
-    }
-}
+// Plan files
 
 /// A measurement plan file.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -252,7 +127,7 @@ impl PlanSpec {
     }
 }
 
-fn read_toml<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, AcquireError> {
+pub(crate) fn read_toml<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, AcquireError> {
     let text = std::fs::read_to_string(path).map_err(io_err(path))?;
     toml::from_str(&text).map_err(|e| AcquireError::Config {
         path: path.to_path_buf(),
@@ -260,87 +135,9 @@ fn read_toml<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, AcquireErro
     })
 }
 
-impl SimModel {
-    pub fn read(path: &Path) -> Result<Self, AcquireError> {
-        let mut m: SimModel = read_toml(path)?;
-        if let Some(map) = &mut m.error_map
-            && map.table.is_relative()
-        {
-            map.table = path.parent().unwrap_or(Path::new(".")).join(&map.table);
-        }
-        Ok(m)
-    }
-
-    /// The truth this model describes.
-    pub fn truth(&self, path: &Path) -> Result<ErrorMapTruth, AcquireError> {
-        let model: Option<Box<dyn Interpolator>> = match &self.error_map {
-            None => None,
-            Some(spec) => {
-                let table = ErrorTable::read(&spec.table)?;
-                let grid = table.grid()?;
-                let method = match spec.method.as_str() {
-                    "lagrange" => {
-                        let order: Order =
-                            spec.order.as_deref().unwrap_or("1x1x1").parse().map_err(
-                                |message| AcquireError::Config {
-                                    path: path.to_path_buf(),
-                                    message,
-                                },
-                            )?;
-                        Method::Lagrange(order)
-                    }
-                    "trilinear" => Method::Trilinear,
-                    "spline" => Method::Spline,
-                    "fuzzy" => Method::Fuzzy {
-                        sigma: spec.fuzzy_sigma,
-                    },
-                    other => {
-                        return Err(AcquireError::Config {
-                            path: path.to_path_buf(),
-                            message: format!("unknown method `{other}`"),
-                        });
-                    }
-                };
-                Some(method.fit(&grid).map_err(|e| AcquireError::Config {
-                    path: path.to_path_buf(),
-                    message: e.to_string(),
-                })?)
-            }
-        };
-        if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
-            return Err(AcquireError::Config {
-                path: path.to_path_buf(),
-                message: format!("noise_um = {} must be ≥ 0", self.noise_um),
-            });
-        }
-        Ok(ErrorMapTruth {
-            model,
-            noise_um: self.noise_um,
-            rng: StdRng::seed_from_u64(self.seed),
-            env: self.environment.into(),
-        })
-    }
-}
-
 impl PlanSpec {
     pub fn read(path: &Path) -> Result<Self, AcquireError> {
         read_toml(path)
-    }
-}
-
-/// The truth of an error map plus white noise (the physics simulator replaces it).
-#[derive(Debug)]
-pub struct ErrorMapTruth {
-    model: Option<Box<dyn Interpolator>>,
-    noise_um: f64,
-    rng: StdRng,
-    env: Environment,
-}
-
-impl ErrorMapTruth {
-    /// The noiseless error at a position.
-    pub fn map_um(&self, p: [f64; 3]) -> f64 {
-        self.model.as_ref().map_or(0.0, |m| m.predict(p))
     }
 }
 
@@ -351,35 +148,23 @@ pub fn gaussian(rng: &mut StdRng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-impl Truth for ErrorMapTruth {
-    fn error_um(&mut self, q: &TruthQuery) -> f64 {
-        self.map_um(q.pos_mm) + self.noise_um * gaussian(&mut self.rng)
-    }
-
-    fn environment(&mut self, _t_s: f64) -> Environment {
-        self.env
-    }
-}
-
-/// Simulates a whole stream from a model and plan file.
+/// Simulates a whole stream from a model and plan file (noise as the model says).
 pub fn simulate_stream(
     model_path: &Path,
     plan_path: Option<&Path>,
     faults: &Faults,
-) -> Result<(SimStream, ErrorMapTruth), AcquireError> {
-    let model = SimModel::read(model_path)?;
-    let plan = match plan_path {
-        Some(p) => PlanSpec::read(p)?.plan(p)?,
-        None => Plan::default(),
-    };
-    let mut truth = model.truth(model_path)?;
-    let stream = simulate(&plan, &model.device.device(), faults, &mut truth).map_err(|e| {
-        AcquireError::Config {
-            path: plan_path.unwrap_or(model_path).to_path_buf(),
-            message: e.to_string(),
-        }
-    })?;
-    Ok((stream, truth))
+) -> Result<(SimStream, PhysicsTruth), AcquireError> {
+    let model = MachineModel::read(model_path)?;
+    let plan = read_plan(plan_path)?;
+    simulate_plan(&model, model_path, &plan, faults, true)
+}
+
+/// A plan file, or the built-in plan without one.
+pub fn read_plan(plan_path: Option<&Path>) -> Result<Plan, AcquireError> {
+    match plan_path {
+        Some(p) => PlanSpec::read(p)?.plan(p),
+        None => Ok(Plan::default()),
+    }
 }
 
 // --------------------------------------------------------------------------------------
@@ -529,4 +314,32 @@ pub fn replay(
     }
     write_session(out, &rows)?;
     Ok((rows, stats, hello))
+}
+
+/// Test points for a captured error table: `n` random positions inside its grid (seeded)
+/// with the simulated truth's noiseless error, relative to the counters' origin (home on
+/// the first line, where the plan's first sample is taken).
+pub fn truth_test_points(
+    truth: &PhysicsTruth,
+    error_table: &Path,
+    n: usize,
+    seed: u64,
+) -> Result<ErrorTable, AcquireError> {
+    let grid = ErrorTable::read(error_table)?.grid()?;
+    let home_line = [grid.ys[0], grid.zs[0]];
+    let home = truth.map_um([0.0, home_line[0], home_line[1]]);
+    let mut rng = StdRng::seed_from_u64(seed);
+    let points = (0..n)
+        .map(|_| {
+            let p = [0, 1, 2].map(|a| {
+                let v = grid.axis(a);
+                rng.random_range(v[0]..=v[v.len() - 1])
+            });
+            crate::table::ErrorPoint::new(p[0], p[1], p[2], truth.map_um(p) - home)
+        })
+        .collect();
+    Ok(ErrorTable::from_points(
+        format!("simulated truth at {n} random points"),
+        points,
+    ))
 }

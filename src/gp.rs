@@ -1,1 +1,899 @@
-//! Gaussian-process (kriging) error model — being written.
+//! Gaussian-process (kriging) error model: a smooth random-field prior on the error
+//! e(x, y, z), conditioned on measured nodes, that predicts the error anywhere with a
+//! one-sigma uncertainty, and advises where to measure next. Unlike the grid
+//! interpolators in [`crate::interp`] it takes scattered points.
+//!
+//! # Model
+//!
+//! e(p) = m + f(p) with f ~ GP(0, k) and observations yᵢ = e(pᵢ) + εᵢ, εᵢ ~ N(0, σₙ²).
+//! The kernel is anisotropic (ARD: one length scale ℓₐ per axis), with
+//! r² = Σₐ ((pₐ − qₐ)/ℓₐ)²:
+//!
+//! | [`Kernel`] | k(p, q) | sample paths | reference |
+//! |---|---|---|---|
+//! | `SquaredExponential` | σ_f² exp(−r²/2) | infinitely differentiable | R&W Eqs. 4.9, 5.1 |
+//! | `Matern52` (default) | σ_f² (1 + √5 r + 5r²/3) exp(−√5 r) | twice differentiable | R&W Eq. 4.17 |
+//!
+//! Matérn 5/2 is the default: machine errors are smooth but not analytic, and the
+//! squared exponential's extreme smoothness makes it over-confident between nodes
+//! (R&W §4.2.1 quoting Stein). Use the squared exponential for fields known to be analytic.
+//!
+//! The constant mean m is the generalised-least-squares estimate
+//! m̂ = 1ᵀK⁻¹y / 1ᵀK⁻¹1 (ordinary kriging), not the sample mean: with few, clustered
+//! nodes the sample mean is biased towards the clusters. Its estimation uncertainty
+//! enters the predictive variance as in R&W §2.7, Eq. 2.42 with a vague prior on m, so
+//! σ grows honestly when extrapolating far from the data.
+//!
+//! Prediction follows R&W Algorithm 2.1 (a Cholesky factor K + σₙ²I = LLᵀ, then
+//! triangular solves) for the predictive mean and variance, Eqs. 2.25–2.26:
+//! f̄* = m̂ + k*ᵀα with α = (K + σₙ²I)⁻¹(y − m̂), and
+//! V[f*] = k(p*, p*) − vᵀv + (1 − bᵀv)²/bᵀb with v = L⁻¹k*, b = L⁻¹1.
+//! [`Gp::predict_with_sigma`] returns the σ of the latent error f* (what the machine
+//! does); [`Gp::predict_with_sigma_noisy`] adds σₙ² for comparing with a new measurement.
+//!
+//! # Hyperparameters
+//!
+//! θ = (ln ℓ_x, ln ℓ_y, ln ℓ_z, ln σ_f, ln σₙ) maximises the log marginal likelihood
+//! (R&W Eq. 2.30 with y replaced by y − m̂, i.e. the likelihood profiled over m), whose
+//! gradient ½ tr((ααᵀ − K⁻¹) ∂K/∂θⱼ) is analytic (R&W Eq. 5.9). The optimiser is a small
+//! deterministic L-BFGS with Armijo backtracking on unconstrained variables u mapped into
+//! the box below by a logistic function, θ = lo + (hi − lo)/(1 + e⁻ᵘ). It starts once
+//! from a data-driven guess and [`GpConfig::restarts`] more times from log-uniform random
+//! points drawn with [`GpConfig::seed`]; the best likelihood wins.
+//!
+//! Bounds (s = sample sd of e, or 1 µm if every e is equal):
+//! - ℓₐ ∈ [10⁻² × smallest spacing between distinct coordinates on axis a,
+//!   10² × extent of axis a]. An axis on which every point has the same coordinate
+//!   carries no information; its length scale is fixed at 10³ × the largest extent
+//!   (≥ 1 mm), i.e. the model is constant along it, like a one-node grid axis.
+//! - σ_f ∈ [10⁻³ s, 10² s]; σₙ ∈ [10⁻⁶ s, 10 s].
+//! - A nugget of 10⁻¹⁰ σ_f² is always on the diagonal (so noiseless data stay factorable
+//!   at every length scale, however smooth the kernel); it is part of the observation
+//!   noise and included in [`GpHyper::noise_sd_um`]. If the final factorisation still
+//!   fails, the nugget is raised tenfold up to 10⁻⁴ σ_f² before [`GpError::Cholesky`].
+//!
+//! The per-node `n` and `s_um` of [`ErrorPoint`] are ignored: the noise is one
+//! homoscedastic σₙ fitted to the data.
+//!
+//! # Cost
+//!
+//! n fitted points, d ≤ 5 hyperparameters: each likelihood evaluation is O(n³) (the
+//! Cholesky factor and K⁻¹ for the gradient) plus O(d n²), so a fit is O(n³) times the
+//! number of evaluations (typically 30–150 per start). A prediction costs O(n) for the
+//! mean and O(n²) for the variance (one triangular solve). [`Gp::next_nodes`] over C
+//! candidates picking k costs O(C n²) once plus O(k C (n + k)).
+//!
+//! # Reference
+//!
+//! C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for Machine Learning*,
+//! MIT Press, 2006 (R&W): Eqs. 2.25–2.26 (predictive mean and variance), 2.30 (log
+//! marginal likelihood), Algorithm 2.1 (Cholesky-based prediction), Eq. 2.42 (explicit
+//! mean), Eq. 5.9 (likelihood gradient).
+
+use std::collections::VecDeque;
+use std::fmt;
+
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::interp::Interpolator;
+use crate::table::ErrorPoint;
+
+/// The fewest points [`Gp::fit`] accepts.
+pub const MIN_POINTS: usize = 3;
+
+/// Relative nugget: σ_f² × this is always added to the diagonal (see the module docs).
+const NUGGET: f64 = 1e-10;
+/// The largest relative nugget tried before giving up on a factorisation.
+const MAX_NUGGET: f64 = 1e-4;
+/// L-BFGS iterations per start.
+const MAX_ITERATIONS: usize = 200;
+
+/// Covariance function of the latent error field; both are anisotropic (ARD).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub enum Kernel {
+    /// σ_f² exp(−r²/2): infinitely smooth sample paths.
+    SquaredExponential,
+    /// Matérn ν = 5/2, σ_f² (1 + √5 r + 5r²/3) exp(−√5 r): twice-differentiable paths.
+    #[default]
+    Matern52,
+}
+
+impl Kernel {
+    /// The kernel's name as a command line would spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::SquaredExponential => "se",
+            Kernel::Matern52 => "matern52",
+        }
+    }
+
+    /// Correlation ρ(r²) = k/σ_f².
+    #[inline]
+    fn corr(self, r2: f64) -> f64 {
+        match self {
+            Kernel::SquaredExponential => (-0.5 * r2).exp(),
+            Kernel::Matern52 => {
+                let s = (5.0 * r2).sqrt();
+                (1.0 + s + 5.0 / 3.0 * r2) * (-s).exp()
+            }
+        }
+    }
+
+    /// g(r²) = −2 dρ/d(r²), so that ∂k/∂ln ℓₐ = σ_f² g(r²) (Δₐ/ℓₐ)².
+    #[inline]
+    fn slope(self, r2: f64) -> f64 {
+        match self {
+            Kernel::SquaredExponential => (-0.5 * r2).exp(),
+            Kernel::Matern52 => {
+                let s = (5.0 * r2).sqrt();
+                5.0 / 3.0 * (1.0 + s) * (-s).exp()
+            }
+        }
+    }
+}
+
+impl fmt::Display for Kernel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How to fit a [`Gp`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GpConfig {
+    /// Covariance function. Default [`Kernel::Matern52`].
+    pub kernel: Kernel,
+    /// Random optimiser starts in addition to the data-driven one (0 = that one only).
+    /// Default 8. Fit time grows linearly with it.
+    pub restarts: usize,
+    /// Seed of the random starts; the same seed and data give the same fit. Default 0.
+    pub seed: u64,
+}
+
+impl Default for GpConfig {
+    fn default() -> Self {
+        Self {
+            kernel: Kernel::Matern52,
+            restarts: 8,
+            seed: 0,
+        }
+    }
+}
+
+/// Fitted hyperparameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GpHyper {
+    /// Correlation length along x, y, z (mm). An axis where every point has the same
+    /// coordinate gets a fixed, very long length scale (constant along it).
+    pub length_scales_mm: [f64; 3],
+    /// Prior standard deviation σ_f of the latent error about the mean (µm).
+    pub signal_sd_um: f64,
+    /// Observation noise σₙ (µm), including the numerical nugget.
+    pub noise_sd_um: f64,
+    /// The generalised-least-squares constant mean m̂ (µm).
+    pub mean_um: f64,
+}
+
+/// Why a Gaussian process cannot be fitted. Point indices are 0-based positions in the
+/// slice given to [`Gp::fit`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GpError {
+    #[error("a Gaussian-process fit needs at least {min} points, got {got}")]
+    TooFewPoints { got: usize, min: usize },
+    #[error("points[{index}]: {field} = {value} is not finite")]
+    NonFinite {
+        index: usize,
+        field: &'static str,
+        value: f64,
+    },
+    #[error(
+        "points[{first}] and points[{second}] share the position ({x}, {y}, {z}) mm; \
+         average repeated measurements before fitting"
+    )]
+    DuplicatePosition {
+        first: usize,
+        second: usize,
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    #[error(
+        "the covariance matrix is not positive definite even with a nugget of \
+         {relative_nugget:e} × σ_f² on its diagonal"
+    )]
+    Cholesky { relative_nugget: f64 },
+}
+
+/// A Gaussian-process error model fitted to scattered nodes. See the module docs.
+pub struct Gp {
+    kernel: Kernel,
+    hyper: GpHyper,
+    lml: f64,
+    positions: Vec<[f64; 3]>,
+    /// Lower Cholesky factor of K + σₙ²I.
+    l: DMatrix<f64>,
+    /// (K + σₙ²I)⁻¹(y − m̂).
+    alpha: DVector<f64>,
+    /// L⁻¹1 and its squared norm 1ᵀ(K + σₙ²I)⁻¹1.
+    b: DVector<f64>,
+    bb: f64,
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+impl fmt::Debug for Gp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Gp")
+            .field("kernel", &self.kernel)
+            .field("points", &self.positions.len())
+            .field("hyper", &self.hyper)
+            .field("log_marginal_likelihood", &self.lml)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Gp {
+    /// Fits the hyperparameters and conditions on `points`.
+    ///
+    /// Rejects fewer than [`MIN_POINTS`] points, a non-finite coordinate or error, and two
+    /// points at exactly the same position (average repeats first). The points need not
+    /// form a grid; an axis along which every point has the same coordinate is allowed.
+    pub fn fit(points: &[ErrorPoint], config: &GpConfig) -> Result<Gp, GpError> {
+        let positions = validate(points)?;
+        let y: Vec<f64> = points.iter().map(|p| p.e_um).collect();
+        let n = y.len();
+
+        let mean = y.iter().sum::<f64>() / n as f64;
+        let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        let scale = if sd > 0.0 && sd.is_finite() { sd } else { 1.0 };
+
+        // Per-axis extent and smallest spacing of distinct coordinates.
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        let mut spacing = [f64::INFINITY; 3];
+        for a in 0..3 {
+            let mut c: Vec<f64> = positions.iter().map(|p| p[a]).collect();
+            c.sort_by(f64::total_cmp);
+            lo[a] = c[0];
+            hi[a] = c[n - 1];
+            for w in c.windows(2) {
+                let d = w[1] - w[0];
+                if d > 0.0 {
+                    spacing[a] = spacing[a].min(d);
+                }
+            }
+        }
+        let extent: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+        let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 0.0).collect();
+        let longest = extent.iter().copied().fold(1.0, f64::max);
+        let mut fixed_ls = [1e3 * longest; 3];
+
+        let mut bounds = Vec::with_capacity(free.len() + 2);
+        for &a in &free {
+            bounds.push(((1e-2 * spacing[a]).ln(), (1e2 * extent[a]).ln()));
+        }
+        bounds.push(((1e-3 * scale).ln(), (1e2 * scale).ln()));
+        bounds.push(((1e-6 * scale).ln(), (10.0 * scale).ln()));
+
+        let objective = Objective::new(config.kernel, &positions, &y, free.clone(), fixed_ls);
+
+        // Starts: one data-driven, then `restarts` log-uniform random ones.
+        let mut starts = Vec::with_capacity(config.restarts + 1);
+        let mut guess: Vec<f64> = free.iter().map(|&a| (0.5 * extent[a]).ln()).collect();
+        guess.push(scale.ln());
+        guess.push((0.1 * scale).ln());
+        starts.push(guess);
+        let mut rng = StdRng::seed_from_u64(config.seed);
+        let mut log_uniform = |lo: f64, hi: f64| rng.random_range(lo.ln()..=hi.ln());
+        for _ in 0..config.restarts {
+            let mut s: Vec<f64> = free
+                .iter()
+                .map(|&a| log_uniform(0.05 * extent[a], 2.0 * extent[a]))
+                .collect();
+            s.push(log_uniform(0.3 * scale, 3.0 * scale));
+            s.push(log_uniform(1e-4 * scale, 0.5 * scale));
+            starts.push(s);
+        }
+
+        let to_theta = |u: &[f64]| -> (Vec<f64>, Vec<f64>) {
+            u.iter()
+                .zip(&bounds)
+                .map(|(&u, &(lo, hi))| {
+                    let s = logistic(u);
+                    (lo + (hi - lo) * s, (hi - lo) * s * (1.0 - s))
+                })
+                .unzip()
+        };
+        let to_u = |theta: &[f64]| -> Vec<f64> {
+            theta
+                .iter()
+                .zip(&bounds)
+                .map(|(&t, &(lo, hi))| {
+                    let s = ((t - lo) / (hi - lo)).clamp(1e-6, 1.0 - 1e-6);
+                    (s / (1.0 - s)).ln()
+                })
+                .collect()
+        };
+        let cost = |u: &[f64]| -> Option<(f64, Vec<f64>)> {
+            let (theta, dtheta) = to_theta(u);
+            let (lml, grad) = objective.value_grad(&theta)?;
+            let g = grad.iter().zip(&dtheta).map(|(g, d)| -g * d).collect();
+            Some((-lml, g))
+        };
+
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        for start in &starts {
+            if let Some((f, u)) = lbfgs(&cost, to_u(start), MAX_ITERATIONS)
+                && best.as_ref().is_none_or(|(bf, _)| f < *bf)
+            {
+                best = Some((f, u));
+            }
+        }
+        let theta = match best {
+            Some((_, u)) => to_theta(&u).0,
+            // Every start failed to factor: try the data-driven guess with escalating nugget.
+            None => to_theta(&to_u(&starts[0])).0,
+        };
+
+        let (ls, sf2, sn2) = objective.unpack(&theta);
+        for (slot, &a) in free.iter().enumerate() {
+            fixed_ls[a] = theta[slot].exp();
+        }
+        let mut nugget = NUGGET;
+        let factor = loop {
+            if let Some(f) = objective.factor(ls, sf2, sn2, nugget) {
+                break f;
+            }
+            nugget *= 10.0;
+            if nugget > MAX_NUGGET * (1.0 + 1e-9) {
+                return Err(GpError::Cholesky {
+                    relative_nugget: nugget / 10.0,
+                });
+            }
+        };
+        let hyper = GpHyper {
+            length_scales_mm: fixed_ls,
+            signal_sd_um: sf2.sqrt(),
+            noise_sd_um: (sn2 + nugget * sf2).sqrt(),
+            mean_um: factor.mean,
+        };
+        let b = factor.l_inv_ones;
+        let bb = b.norm_squared();
+        Ok(Gp {
+            kernel: config.kernel,
+            hyper,
+            lml: factor.lml,
+            positions,
+            l: factor.chol.unpack(),
+            alpha: factor.alpha,
+            b,
+            bb,
+            lo,
+            hi,
+        })
+    }
+
+    /// The fitted hyperparameters.
+    pub fn hyper(&self) -> &GpHyper {
+        &self.hyper
+    }
+
+    pub fn kernel(&self) -> Kernel {
+        self.kernel
+    }
+
+    /// The number of fitted points.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Always false: a fitted model has at least [`MIN_POINTS`] points.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// ln p(y | X, θ̂) at the fitted hyperparameters, with the mean at its GLS estimate
+    /// (R&W Eq. 2.30 applied to y − m̂).
+    pub fn log_marginal_likelihood(&self) -> f64 {
+        self.lml
+    }
+
+    /// Predictive mean (µm) and one-sigma (µm) of the latent error at `p` (mm), excluding
+    /// observation noise but including the uncertainty of the estimated mean. At a fitted
+    /// node σ is at most about the noise sd. Costs O(n²).
+    pub fn predict_with_sigma(&self, p: [f64; 3]) -> (f64, f64) {
+        let k = self.cross(p);
+        let mean = self.hyper.mean_um + k.dot(&self.alpha);
+        let v = forward_substitute(&self.l, k);
+        (mean, self.latent_variance(&v).sqrt())
+    }
+
+    /// Like [`Gp::predict_with_sigma`], with the observation noise σₙ² added to the
+    /// variance: the one-sigma spread of a new *measurement* at `p`, the right σ for
+    /// judging a measured test value.
+    pub fn predict_with_sigma_noisy(&self, p: [f64; 3]) -> (f64, f64) {
+        let (mean, sigma) = self.predict_with_sigma(p);
+        (mean, sigma.hypot(self.hyper.noise_sd_um))
+    }
+
+    /// The largest latent one-sigma (µm) over `candidates`; 0 for none.
+    pub fn max_sigma(&self, candidates: &[[f64; 3]]) -> f64 {
+        candidates
+            .iter()
+            .map(|&c| self.predict_with_sigma(c).1)
+            .fold(0.0, f64::max)
+    }
+
+    /// Where to measure next: up to `n` of `candidates`, in pick order. Greedy: take the
+    /// candidate with the largest latent variance (the first such on ties), add it as a
+    /// pseudo-observation with the fitted noise (the GP variance does not depend on the
+    /// value observed), and repeat. Each candidate is picked at most once, so fewer than
+    /// `n` come back when there are fewer candidates. Hyperparameters stay fixed.
+    ///
+    /// Cost O(C n²) for C candidates, then O(C (n + k)) per pick k.
+    pub fn next_nodes(&self, candidates: &[[f64; 3]], n: usize) -> Vec<[f64; 3]> {
+        let count = n.min(candidates.len());
+        if count == 0 {
+            return Vec::new();
+        }
+        let sf2 = self.hyper.signal_sd_um.powi(2);
+        let noise2 = self.hyper.noise_sd_um.powi(2);
+        // v_c = L⁻¹k_c and r_c = 1 − bᵀv_c for every candidate: the posterior covariance
+        // given the data is cov₀(c, d) = k(c, d) − v_cᵀv_d + r_c r_d / bᵀb.
+        let v: Vec<DVector<f64>> = candidates
+            .iter()
+            .map(|&c| forward_substitute(&self.l, self.cross(c)))
+            .collect();
+        let r: Vec<f64> = v.iter().map(|v| 1.0 - self.b.dot(v)).collect();
+        let mut var: Vec<f64> = v.iter().map(|v| self.latent_variance(v)).collect();
+        // Rank-one updates after each pseudo-observation: cov_k = cov₀ − Σⱼ uⱼ uⱼᵀ.
+        let mut updates: Vec<Vec<f64>> = Vec::with_capacity(count);
+        let mut picked = vec![false; candidates.len()];
+        let mut out = Vec::with_capacity(count);
+        for _ in 0..count {
+            let mut pick = None;
+            for (c, &vc) in var.iter().enumerate() {
+                if !picked[c] && pick.is_none_or(|(_, best)| vc > best) {
+                    pick = Some((c, vc));
+                }
+            }
+            let Some((p, var_p)) = pick else { break };
+            picked[p] = true;
+            out.push(candidates[p]);
+            let scale = 1.0 / (var_p.max(0.0) + noise2).sqrt();
+            let u: Vec<f64> = (0..candidates.len())
+                .map(|c| {
+                    let mut cov = sf2 * self.kernel.corr(self.r2(candidates[c], candidates[p]))
+                        - v[c].dot(&v[p])
+                        + r[c] * r[p] / self.bb;
+                    for prev in &updates {
+                        cov -= prev[c] * prev[p];
+                    }
+                    cov * scale
+                })
+                .collect();
+            for (vc, uc) in var.iter_mut().zip(&u) {
+                *vc = (*vc - uc * uc).max(0.0);
+            }
+            updates.push(u);
+        }
+        out
+    }
+
+    /// Scaled squared distance r² between two positions.
+    fn r2(&self, p: [f64; 3], q: [f64; 3]) -> f64 {
+        (0..3)
+            .map(|a| ((p[a] - q[a]) / self.hyper.length_scales_mm[a]).powi(2))
+            .sum()
+    }
+
+    /// k* = k(X, p), the covariances between the fitted points and `p`.
+    fn cross(&self, p: [f64; 3]) -> DVector<f64> {
+        let sf2 = self.hyper.signal_sd_um.powi(2);
+        DVector::from_iterator(
+            self.positions.len(),
+            self.positions
+                .iter()
+                .map(|&x| sf2 * self.kernel.corr(self.r2(x, p))),
+        )
+    }
+
+    /// σ_f² − vᵀv + (1 − bᵀv)²/bᵀb for v = L⁻¹k*, clamped at 0.
+    fn latent_variance(&self, v: &DVector<f64>) -> f64 {
+        let r = 1.0 - self.b.dot(v);
+        (self.hyper.signal_sd_um.powi(2) - v.norm_squared() + r * r / self.bb).max(0.0)
+    }
+}
+
+impl Interpolator for Gp {
+    /// The predictive mean (µm).
+    fn predict(&self, p: [f64; 3]) -> f64 {
+        let k = self.cross(p);
+        self.hyper.mean_um + k.dot(&self.alpha)
+    }
+
+    /// Outside the bounding box of the fitted points on any axis (relative tolerance 1e-9).
+    fn outside(&self, p: [f64; 3]) -> bool {
+        (0..3).any(|a| {
+            let tol = 1e-9 * (self.hi[a] - self.lo[a]).abs().max(1.0);
+            p[a] < self.lo[a] - tol || p[a] > self.hi[a] + tol
+        })
+    }
+}
+
+fn validate(points: &[ErrorPoint]) -> Result<Vec<[f64; 3]>, GpError> {
+    if points.len() < MIN_POINTS {
+        return Err(GpError::TooFewPoints {
+            got: points.len(),
+            min: MIN_POINTS,
+        });
+    }
+    for (index, p) in points.iter().enumerate() {
+        for (field, value) in [
+            ("x_mm", p.x_mm),
+            ("y_mm", p.y_mm),
+            ("z_mm", p.z_mm),
+            ("e_um", p.e_um),
+        ] {
+            if !value.is_finite() {
+                return Err(GpError::NonFinite {
+                    index,
+                    field,
+                    value,
+                });
+            }
+        }
+    }
+    let positions: Vec<[f64; 3]> = points.iter().map(ErrorPoint::position).collect();
+    let mut order: Vec<usize> = (0..positions.len()).collect();
+    let key = |i: usize| positions[i];
+    order.sort_by(|&a, &b| {
+        let (pa, pb) = (key(a), key(b));
+        pa[0]
+            .total_cmp(&pb[0])
+            .then(pa[1].total_cmp(&pb[1]))
+            .then(pa[2].total_cmp(&pb[2]))
+            .then(a.cmp(&b))
+    });
+    for w in order.windows(2) {
+        if key(w[0]) == key(w[1]) {
+            let (first, second) = (w[0].min(w[1]), w[0].max(w[1]));
+            let [x, y, z] = positions[second];
+            return Err(GpError::DuplicatePosition {
+                first,
+                second,
+                x,
+                y,
+                z,
+            });
+        }
+    }
+    Ok(positions)
+}
+
+#[inline]
+fn logistic(u: f64) -> f64 {
+    1.0 / (1.0 + (-u).exp())
+}
+
+/// Solves L v = k for lower-triangular L (column-major, forward substitution).
+fn forward_substitute(l: &DMatrix<f64>, mut k: DVector<f64>) -> DVector<f64> {
+    let n = l.nrows();
+    let ls = l.as_slice();
+    let v = k.as_mut_slice();
+    for j in 0..n {
+        let col = &ls[j * n..(j + 1) * n];
+        v[j] /= col[j];
+        let vj = v[j];
+        for (vi, lij) in v[j + 1..].iter_mut().zip(&col[j + 1..]) {
+            *vi -= lij * vj;
+        }
+    }
+    k
+}
+
+/// Index of the pair (i, j), i > j, in a packed strictly-lower triangle.
+#[inline]
+fn packed(i: usize, j: usize) -> usize {
+    i * (i - 1) / 2 + j
+}
+
+/// A Cholesky factorisation of K + σₙ²I and what follows from it.
+struct Factor {
+    chol: Cholesky<f64, Dyn>,
+    mean: f64,
+    alpha: DVector<f64>,
+    l_inv_ones: DVector<f64>,
+    lml: f64,
+}
+
+/// The log marginal likelihood as a function of θ (log parameters of the free axes, then
+/// ln σ_f, ln σₙ), with the pairwise squared coordinate differences precomputed.
+struct Objective<'a> {
+    kernel: Kernel,
+    y: &'a [f64],
+    /// Squared differences per axis over pairs i > j, packed.
+    d2: [Vec<f64>; 3],
+    free: Vec<usize>,
+    fixed_ls: [f64; 3],
+}
+
+impl<'a> Objective<'a> {
+    fn new(
+        kernel: Kernel,
+        positions: &[[f64; 3]],
+        y: &'a [f64],
+        free: Vec<usize>,
+        fixed_ls: [f64; 3],
+    ) -> Self {
+        let n = positions.len();
+        let d2 = std::array::from_fn(|a| {
+            let mut v = Vec::with_capacity(n * (n - 1) / 2);
+            for i in 1..n {
+                for j in 0..i {
+                    v.push((positions[i][a] - positions[j][a]).powi(2));
+                }
+            }
+            v
+        });
+        Self {
+            kernel,
+            y,
+            d2,
+            free,
+            fixed_ls,
+        }
+    }
+
+    /// Length scales, σ_f² and σₙ² from θ.
+    fn unpack(&self, theta: &[f64]) -> ([f64; 3], f64, f64) {
+        let mut ls = self.fixed_ls;
+        for (slot, &a) in self.free.iter().enumerate() {
+            ls[a] = theta[slot].exp();
+        }
+        let k = self.free.len();
+        (ls, (2.0 * theta[k]).exp(), (2.0 * theta[k + 1]).exp())
+    }
+
+    /// Pairwise r² over the packed lower triangle.
+    fn r2(&self, ls: [f64; 3]) -> Vec<f64> {
+        let inv: [f64; 3] = std::array::from_fn(|a| ls[a].powi(-2));
+        let mut r2 = self.d2[0].iter().map(|d| d * inv[0]).collect::<Vec<_>>();
+        for a in 1..3 {
+            for (r, d) in r2.iter_mut().zip(&self.d2[a]) {
+                *r += d * inv[a];
+            }
+        }
+        r2
+    }
+
+    fn factor_with(&self, r2: &[f64], sf2: f64, sn2: f64, nugget: f64) -> Option<Factor> {
+        let n = self.y.len();
+        let diag = sf2 * (1.0 + nugget) + sn2;
+        let mut k = DMatrix::<f64>::zeros(n, n);
+        {
+            let s = k.as_mut_slice();
+            for i in 0..n {
+                s[i + i * n] = diag;
+                for j in 0..i {
+                    let v = sf2 * self.kernel.corr(r2[packed(i, j)]);
+                    s[i + j * n] = v;
+                    s[j + i * n] = v;
+                }
+            }
+        }
+        let chol = Cholesky::new(k)?;
+        let l = chol.l_dirty();
+        let mut log_det = 0.0;
+        for i in 0..n {
+            log_det += 2.0 * l[(i, i)].ln();
+        }
+        let kinv_y = chol.solve(&DVector::from_column_slice(self.y));
+        let kinv_1 = chol.solve(&DVector::from_element(n, 1.0));
+        let ones_kinv_1 = kinv_1.sum();
+        if !(ones_kinv_1 > 0.0) {
+            return None;
+        }
+        let mean = kinv_y.sum() / ones_kinv_1;
+        let alpha = kinv_y - &kinv_1 * mean;
+        let quad: f64 = self
+            .y
+            .iter()
+            .zip(alpha.iter())
+            .map(|(y, a)| (y - mean) * a)
+            .sum();
+        let lml = -0.5 * quad - 0.5 * log_det - 0.5 * n as f64 * (2.0 * std::f64::consts::PI).ln();
+        if !lml.is_finite() {
+            return None;
+        }
+        let l_inv_ones = forward_substitute(&chol.l(), DVector::from_element(n, 1.0));
+        Some(Factor {
+            chol,
+            mean,
+            alpha,
+            l_inv_ones,
+            lml,
+        })
+    }
+
+    fn factor(&self, ls: [f64; 3], sf2: f64, sn2: f64, nugget: f64) -> Option<Factor> {
+        self.factor_with(&self.r2(ls), sf2, sn2, nugget)
+    }
+
+    /// The log marginal likelihood and its gradient with respect to θ (R&W Eq. 5.9);
+    /// `None` when K + σₙ²I does not factor.
+    fn value_grad(&self, theta: &[f64]) -> Option<(f64, Vec<f64>)> {
+        let n = self.y.len();
+        let (ls, sf2, sn2) = self.unpack(theta);
+        let r2 = self.r2(ls);
+        let f = self.factor_with(&r2, sf2, sn2, NUGGET)?;
+        let kinv = f.chol.inverse();
+        let ki = kinv.as_slice();
+        let al = f.alpha.as_slice();
+        // W = ααᵀ − K⁻¹ (symmetric); ∂ln p/∂θⱼ = ½ tr(W ∂K/∂θⱼ).
+        let nf = self.free.len();
+        let mut grad = vec![0.0; nf + 2];
+        let inv: Vec<f64> = self.free.iter().map(|&a| ls[a].powi(-2)).collect();
+        let mut trace_w = 0.0;
+        let mut w_dot_kf = 0.0;
+        for i in 0..n {
+            let w_ii = al[i] * al[i] - ki[i + i * n];
+            trace_w += w_ii;
+            w_dot_kf += w_ii * sf2 * (1.0 + NUGGET);
+            for j in 0..i {
+                let w = al[i] * al[j] - ki[i + j * n];
+                let idx = packed(i, j);
+                let rr = r2[idx];
+                // Off-diagonal terms appear twice in the trace; ½ · 2 = 1.
+                w_dot_kf += 2.0 * w * sf2 * self.kernel.corr(rr);
+                let ws = w * sf2 * self.kernel.slope(rr);
+                for (g, (&a, ia)) in grad.iter_mut().zip(self.free.iter().zip(&inv)) {
+                    *g += ws * self.d2[a][idx] * ia;
+                }
+            }
+        }
+        // ∂K/∂ln σ_f = 2 (K − σₙ²I); ∂K/∂ln σₙ = 2σₙ² I.
+        grad[nf] = w_dot_kf;
+        grad[nf + 1] = sn2 * trace_w;
+        Some((f.lml, grad))
+    }
+}
+
+/// Minimises `f` (value and gradient; `None` where undefined) by L-BFGS with Armijo
+/// backtracking, from `x0`. Returns the best value and point, or `None` if `f` is
+/// undefined at `x0`. Deterministic.
+fn lbfgs(
+    f: &impl Fn(&[f64]) -> Option<(f64, Vec<f64>)>,
+    x0: Vec<f64>,
+    max_iterations: usize,
+) -> Option<(f64, Vec<f64>)> {
+    const MEMORY: usize = 8;
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let mut x = x0;
+    let (mut fx, mut g) = f(&x)?;
+    let mut history: VecDeque<(Vec<f64>, Vec<f64>, f64)> = VecDeque::with_capacity(MEMORY);
+    for _ in 0..max_iterations {
+        // Two-loop recursion: d = −H g.
+        let mut q = g.clone();
+        let mut alphas = Vec::with_capacity(history.len());
+        for (s, y, rho) in history.iter().rev() {
+            let a = rho * dot(s, &q);
+            for (qi, yi) in q.iter_mut().zip(y) {
+                *qi -= a * yi;
+            }
+            alphas.push(a);
+        }
+        if let Some((s, y, _)) = history.back() {
+            let gamma = dot(s, y) / dot(y, y);
+            for qi in &mut q {
+                *qi *= gamma;
+            }
+        } else {
+            // First step: at most 1 in any coordinate.
+            let gmax = g.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+            if gmax > 1.0 {
+                for qi in &mut q {
+                    *qi /= gmax;
+                }
+            }
+        }
+        for ((s, y, rho), a) in history.iter().zip(alphas.iter().rev()) {
+            let b = rho * dot(y, &q);
+            for (qi, si) in q.iter_mut().zip(s) {
+                *qi += (a - b) * si;
+            }
+        }
+        let mut d: Vec<f64> = q.iter().map(|v| -v).collect();
+        let mut slope = dot(&g, &d);
+        if !(slope < 0.0) {
+            history.clear();
+            d = g.iter().map(|v| -v).collect();
+            slope = dot(&g, &d);
+            if !(slope < 0.0) {
+                break;
+            }
+        }
+        // Armijo backtracking.
+        let mut t = 1.0;
+        let mut accepted = None;
+        for _ in 0..40 {
+            let xn: Vec<f64> = x.iter().zip(&d).map(|(xi, di)| xi + t * di).collect();
+            if let Some((fnew, gnew)) = f(&xn)
+                && fnew <= fx + 1e-4 * t * slope
+            {
+                accepted = Some((xn, fnew, gnew));
+                break;
+            }
+            t *= 0.5;
+        }
+        let Some((xn, fnew, gnew)) = accepted else {
+            break;
+        };
+        let s: Vec<f64> = xn.iter().zip(&x).map(|(a, b)| a - b).collect();
+        let y: Vec<f64> = gnew.iter().zip(&g).map(|(a, b)| a - b).collect();
+        let sy = dot(&s, &y);
+        if sy > 1e-12 * dot(&s, &s).sqrt() * dot(&y, &y).sqrt() {
+            if history.len() == MEMORY {
+                history.pop_front();
+            }
+            history.push_back((s, y, 1.0 / sy));
+        }
+        let decrease = fx - fnew;
+        x = xn;
+        fx = fnew;
+        g = gnew;
+        let gmax = g.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        if gmax < 1e-6 || decrease <= 1e-10 * (1.0 + fx.abs()) {
+            break;
+        }
+    }
+    Some((fx, x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The analytic gradient of the log marginal likelihood matches central differences.
+    #[test]
+    fn gradient_matches_finite_differences() {
+        let mut rng = StdRng::seed_from_u64(3);
+        let positions: Vec<[f64; 3]> = (0..25)
+            .map(|_| {
+                [
+                    rng.random_range(0.0..300.0),
+                    rng.random_range(0.0..200.0),
+                    rng.random_range(0.0..100.0),
+                ]
+            })
+            .collect();
+        let y: Vec<f64> = positions
+            .iter()
+            .map(|p| (p[0] / 80.0).sin() + 0.3 * (p[1] / 50.0).cos() + rng.random_range(-0.1..0.1))
+            .collect();
+        for kernel in [Kernel::SquaredExponential, Kernel::Matern52] {
+            let obj = Objective::new(kernel, &positions, &y, vec![0, 1, 2], [1.0; 3]);
+            let theta = [90f64.ln(), 60f64.ln(), 150f64.ln(), 0.8f64.ln(), 0.05f64.ln()];
+            let (_, grad) = obj.value_grad(&theta).expect("factors");
+            for j in 0..theta.len() {
+                let h = 1e-5;
+                let mut tp = theta;
+                let mut tm = theta;
+                tp[j] += h;
+                tm[j] -= h;
+                let fp = obj.value_grad(&tp).expect("factors").0;
+                let fm = obj.value_grad(&tm).expect("factors").0;
+                let fd = (fp - fm) / (2.0 * h);
+                // Central differences are accurate to O(h²) plus rounding ~1e-9 here.
+                assert!(
+                    (fd - grad[j]).abs() <= 1e-5 * (1.0 + fd.abs()),
+                    "{kernel} θ[{j}]: analytic {} vs finite difference {fd}",
+                    grad[j]
+                );
+            }
+        }
+    }
+}

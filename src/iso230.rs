@@ -13,7 +13,7 @@
 //!
 //! [`axis_stats`] takes errmap errors `e` in [`Observation::e_um`] and negates them; every
 //! number in [`TargetStats`], [`AxisStats`] and [`VdiStats`], every table from [`markdown`]
-//! and every curve from [`plot`] is an ISO deviation `x`. A scale that reads 3 µm long
+//! and every curve from [`plot()`] is an ISO deviation `x`. A scale that reads 3 µm long
 //! (`e = +3 µm`) shows up as `x = −3 µm`. Quantities that are ranges or maxima of
 //! absolute values (R, E, M, A, B, Ps, U, P) do not depend on the sign; the per-target
 //! means, the reversal values `B_i` and the mean reversal `B̄` do.
@@ -509,7 +509,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
 
     let _ = writeln!(s, "\n| axis value | symbol | ↑ | ↓ | bidirectional |");
     let _ = writeln!(s, "|---|---|---:|---:|---:|");
-    let rows: [(&str, &str, Option<f64>, Option<f64>, f64); 6] = [
+    let rows = [
         (
             "accuracy of positioning",
             "A",

@@ -13,6 +13,7 @@
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
 //! | [`gp`] | Gaussian-process (kriging) error model with prediction uncertainty |
 //! | [`iso230`] | ISO 230-2 / VDI/DGQ 3441 positioning statistics for one axis |
+//! | [`physics`] | the machine model (TOML) and the physics simulator behind `simulate`, `serve-sim` and the demo |
 //! | [`plot`] | PNG/SVG figures with a bundled font |
 
 pub mod acquire;
@@ -22,6 +23,7 @@ pub mod experiment;
 pub mod gp;
 pub mod interp;
 pub mod iso230;
+pub mod physics;
 pub mod plot;
 pub mod report;
 pub mod session;

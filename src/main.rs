@@ -17,6 +17,7 @@ use errmap::table::{ErrorPoint, ErrorTable};
 mod acquisition;
 use acquisition::{capture_cmd, ports, replay_cmd, serve_sim, table_cmd};
 
+
 /// Measure and model the volumetric error of coordinate measuring machines.
 #[derive(Debug, Parser)]
 #[command(name = "errmap", version, about)]
@@ -45,6 +46,27 @@ enum Command {
     Table(TableArgs),
     /// List the serial ports of this system.
     Ports,
+    /// Simulate a session from a machine model and a measurement plan.
+    Simulate(SimulateArgs),
+}
+
+#[derive(Debug, Args)]
+struct SimulateArgs {
+    /// Machine model (TOML).
+    #[arg(long)]
+    model: PathBuf,
+    /// Measurement plan (TOML).
+    #[arg(long)]
+    plan: PathBuf,
+    /// Session table to write (CSV or Parquet).
+    #[arg(long)]
+    out: PathBuf,
+    /// The model's expectation without its white noise.
+    #[arg(long)]
+    no_noise: bool,
+    /// Also write the board's raw byte stream here (replayable).
+    #[arg(long)]
+    raw: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -240,6 +262,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Replay(a) => replay_cmd(a),
         Command::Table(a) => table_cmd(a),
         Command::Ports => ports(),
+        Command::Simulate(a) => simulate_cmd(a),
     }
 }
 
@@ -414,31 +437,116 @@ fn print_summary(c: &compare::Comparison, dir: &Path) {
     eprintln!("report: {}", dir.join("report.md").display());
 }
 
-fn demo(a: DemoArgs) -> Result<()> {
-    let inputs = a.out.join("inputs");
-    std::fs::create_dir_all(&inputs)
-        .with_context(|| format!("cannot create {}", inputs.display()))?;
-    let t1 = inputs.join("table1.csv");
-    let t2 = inputs.join("table2.csv");
-    std::fs::write(&t1, include_str!("../datasets/table1.csv"))
-        .with_context(|| format!("cannot write {}", t1.display()))?;
-    std::fs::write(&t2, include_str!("../datasets/table2.csv"))
-        .with_context(|| format!("cannot write {}", t2.display()))?;
-    eprintln!("errmap demo: Table 1 → Table 2 comparison (seed 001)");
-    let report_dir = a.out.join("table2");
+fn write_input(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
+    let p = dir.join(name);
+    std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+    Ok(p)
+}
+
+fn demo_compare(table: PathBuf, test: PathBuf, report: PathBuf) -> Result<()> {
     compare_cmd(CompareArgs {
-        table: t1,
-        test: t2,
+        table,
+        test,
         methods: None,
         orders: "all".into(),
-        report: report_dir,
+        report,
         json: false,
         model: ModelArgs {
             fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
             max_degree: DEFAULT_MAX_DEGREE,
         },
+    })
+}
+
+/// The whole pipeline on built-in data: the simulated board on a pseudo-terminal →
+/// capture → error table (+ ISO 230-2) → comparison against the simulated truth; then the
+/// paper's Table 1 → Table 2 comparison.
+fn demo(a: DemoArgs) -> Result<()> {
+    let inputs = a.out.join("inputs");
+    std::fs::create_dir_all(&inputs).with_context(|| format!("cannot create {}", inputs.display()))?;
+    let t1 = write_input(&inputs, "table1.csv", include_str!("../datasets/table1.csv"))?;
+    let t2 = write_input(&inputs, "table2.csv", include_str!("../datasets/table2.csv"))?;
+    let model = write_input(
+        &inputs,
+        "model.toml",
+        &include_str!("../datasets/sim/model.toml").replace("\"../table1.csv\"", "\"table1.csv\""),
+    )?;
+    let plan = write_input(&inputs, "plan.toml", include_str!("../datasets/sim/plan.toml"))?;
+
+    eprintln!("errmap demo [1/4]: simulated board on a pseudo-terminal → capture");
+    let session_dir = a.out.join("session");
+    if session_dir.exists() {
+        std::fs::remove_dir_all(&session_dir)
+            .with_context(|| format!("cannot clear the previous demo session {}", session_dir.display()))?;
+    }
+    let (stream, truth) = errmap::acquire::simulate_stream(&model, Some(&plan), &Default::default())?;
+    let baud = errmap::physics::MachineModel::read(&model)?.device.baud;
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let server = std::thread::spawn(move || {
+        acquisition::serve_stream(&stream, 10.0, 1.5, |path| {
+            let _ = tx.send(path.to_string());
+        })
+    });
+    let port = rx.recv().context("the simulated device did not start")?;
+    eprintln!("  device on {port} (10× real time)");
+    let paths = errmap::acquire::SessionPaths::new(&session_dir, "csv");
+    let config = errmap::drivers::capture::CaptureConfig {
+        idle_timeout: Some(std::time::Duration::from_millis(800)),
+        ..Default::default()
+    };
+    let cap = acquisition::capture_from_port(&port, baud, &paths, &config, true)?;
+    match server.join() {
+        Ok(r) => {
+            r?;
+        }
+        Err(_) => bail!("the simulated device thread failed"),
+    }
+    eprintln!(
+        "  captured {} bytes, {} rows, {} CRC failures → {}",
+        cap.bytes,
+        cap.rows.len(),
+        cap.stats.crc_failures,
+        session_dir.display()
+    );
+
+    eprintln!("errmap demo [2/4]: session → error table (+ ISO 230-2 report)");
+    let errors = session_dir.join("errors.csv");
+    acquisition::table_cmd(TableArgs {
+        session: session_dir.clone(),
+        out: errors.clone(),
+        report: Some(session_dir.join("iso230")),
+        json: false,
     })?;
+
+    eprintln!("errmap demo [3/4]: fit every method to the captured table, compare with the truth");
+    let test = errmap::acquire::truth_test_points(&truth, &errors, 40, 11)?;
+    let test_path = session_dir.join("truth_points.csv");
+    test.write(&test_path)?;
+    demo_compare(errors, test_path, a.out.join("capture_comparison"))?;
+
+    eprintln!("errmap demo [4/4]: the paper's Table 1 → Table 2 (seed 001)");
+    demo_compare(t1, t2, a.out.join("table2"))?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
+    Ok(())
+}
+
+fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    let model = errmap::physics::MachineModel::read(&a.model)?;
+    let plan = errmap::acquire::read_plan(Some(&a.plan))?;
+    let (stream, _) =
+        errmap::physics::simulate_plan(&model, &a.model, &plan, &Default::default(), !a.no_noise)?;
+    let bytes = stream.bytes();
+    if let Some(raw) = &a.raw {
+        std::fs::write(raw, &bytes).with_context(|| format!("cannot write {}", raw.display()))?;
+    }
+    let (rows, _, _) = errmap::drivers::decode_all(&bytes);
+    errmap::session::write_session(&a.out, &rows)?;
+    eprintln!(
+        "simulate: {} rows, {:.1} s of session time → {}",
+        rows.len(),
+        stream.duration_s,
+        a.out.display()
+    );
     Ok(())
 }
 

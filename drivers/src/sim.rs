@@ -17,8 +17,8 @@
 //! **Geometry.** The carriage starts at 0 mm (home) on the first line; the first samples
 //! are taken there, so both counters' origins (the first clean SAMPLE) are at home, and the
 //! decoded error is truth(position) − truth(home on the first line). Each run goes out in
-//! + through the targets and back in − (ISO 230-2), with a MARK at run start, every target
-//! reached and left, the reversal and the run end.
+//! the positive direction through the targets and back in the negative one (ISO 230-2),
+//! with a MARK at run start, every target reached and left, the reversal and the run end.
 //!
 //! **Faults** (for tests and demos): garbage bytes between frames, bit flips inside frames,
 //! frames lost on the line (a seq gap), a beam-loss window (BEAM_LOW, laser counter

@@ -163,7 +163,7 @@ fn check_grid(grid: &Grid) -> Result<(), InterpError> {
         if v.is_empty() {
             return Err(InterpError::EmptyAxis { axis });
         }
-        if let Some(index) = v.windows(2).position(|w| !(w[1] > w[0])) {
+        if let Some(index) = v.windows(2).position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) {
             return Err(InterpError::NotIncreasing {
                 axis,
                 index: index + 1,

@@ -1,0 +1,658 @@
+//! The machine model and the physics simulator.
+//!
+//! A machine model (TOML, commented example in `datasets/physics/example-model.toml`) says
+//! what the simulated CMM's error is made of: a geometric error map, and any of the effects
+//! of the vocabulary in `shared/spec/cli-contract.md`, each switchable, with temperature,
+//! pressure and humidity histories over time. [`PhysicsTruth`] evaluates it at every latch
+//! of the simulated board (`errmap_drivers::sim`), so `simulate`, `serve-sim` and the demo
+//! share one code path: plan → board → wire frames → decoder → session rows.
+//!
+//! Error e = indicated − reference (µm) at machine position p (mm), direction d, feed v
+//! (0 while dwelling), time t (s from the session start t0), with x the coordinate along
+//! the measured axis and c the coordinate along an Abbe offset axis:
+//!
+//! | term | e contribution, µm | section |
+//! |---|---|---|
+//! | geometric map | any errmap interpolator over an error table, or per-axis polynomials | `[error_map]`, `[polynomial]` |
+//! | scale thermal expansion | −α·(T_scale(t) − 20)·(x − x0)·1e−3 | `[scale]` |
+//! | scale factor (pitch, cosine) | k·x·1e−3 (k in ppm; a beam misaligned by θ adds −θ²/2) | `[scale_factor]`, `[laser].alignment_urad` |
+//! | Abbe | c·(θ0 + θ1·x)·1e−3 | `[abbe]` |
+//! | reversal | d·b/2 | `[reversal]` |
+//! | latch delay | d·v·τ·1e−3 | `[latch_delay]` |
+//! | periodic scale error | a·sin(2πx/P + φ), P in µm | `[periodic_scale]` |
+//! | thermal drift | A·(1 − exp(−(t − t0)/τ)) or ρ·(t − t0) | `[thermal_drift]` |
+//! | dead path | −D·(n(t) − n(t0))·1e3 | `[laser].dead_path_mm` |
+//! | refraction (compensation error) | −x·Δn·1e3, Δn·1e6 = a·(T_air − T̄) + b·(p − p̄) | `[refraction]` |
+//! | white noise | N(0, σ²) | `noise_um` |
+//!
+//! T̄ and p̄ are the means of the air histories over the session; n(t) is the modified
+//! Edlén index at the air of time t. Every section has `enabled` (default true), so a term
+//! can be switched off without deleting it.
+
+use std::path::{Path, PathBuf};
+
+use errmap_drivers::edlen;
+use errmap_drivers::frame::Axis as WireAxis;
+use errmap_drivers::sim::{Device, Environment, Faults, Plan, SimStream, Truth, TruthQuery, simulate};
+use errmap_drivers::{SessionRow, decode_all};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use serde::{Deserialize, Serialize};
+
+use crate::acquire::{AcquireError, gaussian};
+use crate::interp::{Interpolator, Method, Order, fuzzy};
+use crate::table::ErrorTable;
+
+const HENE_UM: f64 = 0.632_991_354;
+
+/// A quantity over time (°C, hPa or %).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum History {
+    Constant { value: f64 },
+    /// Linear from `start` to `end` over `duration_s`, then constant.
+    Ramp { start: f64, end: f64, duration_s: f64 },
+    /// mean + amplitude·sin(2π t/period_s + phase_rad).
+    Cycle {
+        mean: f64,
+        amplitude: f64,
+        period_s: f64,
+        #[serde(default)]
+        phase_rad: f64,
+    },
+    /// Exponential approach from `start` to `end` with time constant `tau_s`.
+    Exponential { start: f64, end: f64, tau_s: f64 },
+    /// Piecewise linear through (t_s, value), constant outside.
+    Table { t_s: Vec<f64>, value: Vec<f64> },
+}
+
+impl History {
+    pub fn at(&self, t: f64) -> f64 {
+        match self {
+            History::Constant { value } => *value,
+            History::Ramp {
+                start,
+                end,
+                duration_s,
+            } => {
+                if *duration_s <= 0.0 {
+                    *end
+                } else {
+                    start + (end - start) * (t / duration_s).clamp(0.0, 1.0)
+                }
+            }
+            History::Cycle {
+                mean,
+                amplitude,
+                period_s,
+                phase_rad,
+            } => mean + amplitude * (std::f64::consts::TAU * t / period_s + phase_rad).sin(),
+            History::Exponential { start, end, tau_s } => {
+                end + (start - end) * (-t.max(0.0) / tau_s.max(1e-9)).exp()
+            }
+            History::Table { t_s, value } => {
+                if t_s.is_empty() {
+                    return f64::NAN;
+                }
+                let k = t_s.partition_point(|&v| v <= t);
+                if k == 0 {
+                    value[0]
+                } else if k >= t_s.len() {
+                    value[value.len() - 1]
+                } else {
+                    let (t0, t1) = (t_s[k - 1], t_s[k]);
+                    let f = if t1 > t0 { (t - t0) / (t1 - t0) } else { 0.0 };
+                    value[k - 1] + f * (value[k] - value[k - 1])
+                }
+            }
+        }
+    }
+
+    fn check(&self, what: &str) -> Result<(), String> {
+        match self {
+            History::Table { t_s, value } => {
+                if t_s.len() != value.len() || t_s.is_empty() {
+                    return Err(format!("{what}: t_s and value must have the same non-zero length"));
+                }
+                if t_s.windows(2).any(|w| w[1] < w[0]) {
+                    return Err(format!("{what}: t_s must be increasing"));
+                }
+                Ok(())
+            }
+            History::Cycle { period_s, .. } if *period_s <= 0.0 => {
+                Err(format!("{what}: period_s must be positive"))
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+fn constant(v: f64) -> History {
+    History::Constant { value: v }
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// Temperature, pressure and humidity histories.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Histories {
+    pub air_temp_c: History,
+    pub air_pressure_hpa: History,
+    pub air_rh_pct: History,
+    pub scale_temp_c: History,
+    pub part_temp_c: History,
+}
+
+impl Default for Histories {
+    fn default() -> Self {
+        Histories {
+            air_temp_c: constant(20.0),
+            air_pressure_hpa: constant(1013.25),
+            air_rh_pct: constant(50.0),
+            scale_temp_c: constant(20.0),
+            part_temp_c: constant(20.0),
+        }
+    }
+}
+
+/// A geometric error map: an error table and the method that interpolates it.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorMapSpec {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Error table, relative to the model file.
+    pub table: PathBuf,
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Lagrange degrees MxNxQ.
+    #[serde(default)]
+    pub order: Option<String>,
+    #[serde(default = "default_sigma")]
+    pub fuzzy_sigma: f64,
+}
+
+fn default_method() -> String {
+    "spline".into()
+}
+fn default_sigma() -> f64 {
+    fuzzy::DEFAULT_SIGMA
+}
+
+/// Per-axis polynomials, µm: e = Σ_axis Σ_k c_k·(p_axis/1000)^k (coordinates in metres
+/// so that coefficients stay readable).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Polynomial {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub z: Vec<f64>,
+}
+
+/// The grating scale.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scale {
+    /// Thermal expansion of the scale switched on.
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    #[serde(default)]
+    pub material: String,
+    /// Coefficient of thermal expansion, ppm/K (steel ≈ 11.5, glass ceramic ≈ 0).
+    pub cte_ppm_per_k: f64,
+    /// Fixed point of the expansion, mm along the axis.
+    #[serde(default)]
+    pub x0_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScaleFactor {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub ppm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Abbe {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// "y" or "z" (an axis other than the measured one).
+    pub offset_axis: String,
+    pub theta0_urad: f64,
+    #[serde(default)]
+    pub theta1_urad_per_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reversal {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub b_um: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LatchDelay {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub tau_us: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PeriodicScale {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub amplitude_um: f64,
+    pub period_um: f64,
+    #[serde(default)]
+    pub phase_rad: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalDrift {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Exponential warm-up: A·(1 − exp(−t/τ)).
+    #[serde(default)]
+    pub amplitude_um: f64,
+    #[serde(default)]
+    pub tau_s: Option<f64>,
+    /// Linear drift ρ·t (used when tau_s is absent).
+    #[serde(default)]
+    pub rate_um_per_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Laser {
+    /// Dead path: beam length between the optics and the zero point, mm, left
+    /// uncompensated for the change of refractive index since the start.
+    pub dead_path_mm: f64,
+    /// Beam misalignment, µrad (cosine error −θ²/2 as a scale factor).
+    pub alignment_urad: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Refraction {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    pub ppm_per_k: f64,
+    #[serde(default)]
+    pub ppm_per_hpa: f64,
+}
+
+/// The machine model file.
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineModel {
+    /// White noise on every latched error, one sigma, µm.
+    #[serde(default)]
+    pub noise_um: f64,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default)]
+    pub error_map: Option<ErrorMapSpec>,
+    #[serde(default)]
+    pub polynomial: Option<Polynomial>,
+    #[serde(default)]
+    pub environment: Histories,
+    #[serde(default)]
+    pub scale: Option<Scale>,
+    #[serde(default)]
+    pub scale_factor: Option<ScaleFactor>,
+    #[serde(default)]
+    pub abbe: Option<Abbe>,
+    #[serde(default)]
+    pub reversal: Option<Reversal>,
+    #[serde(default)]
+    pub latch_delay: Option<LatchDelay>,
+    #[serde(default)]
+    pub periodic_scale: Option<PeriodicScale>,
+    #[serde(default)]
+    pub thermal_drift: Option<ThermalDrift>,
+    #[serde(default)]
+    pub laser: Laser,
+    #[serde(default)]
+    pub refraction: Option<Refraction>,
+    #[serde(default)]
+    pub device: DeviceSpec,
+}
+
+/// The board: what its HELLO says and its line.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DeviceSpec {
+    pub device_id: String,
+    pub grating_period_nm: u32,
+    pub count_resolution_pm: u32,
+    pub laser_wavelength_fm: u32,
+    pub optical_fold: u8,
+    pub edges_per_fringe: u8,
+    pub baud: u32,
+}
+
+impl Default for DeviceSpec {
+    fn default() -> Self {
+        let d = Device::default();
+        DeviceSpec {
+            device_id: d.device_id,
+            grating_period_nm: d.grating_period_nm,
+            count_resolution_pm: d.count_resolution_pm,
+            laser_wavelength_fm: d.laser_wavelength_fm,
+            optical_fold: d.optical_fold,
+            edges_per_fringe: d.edges_per_fringe,
+            baud: d.baud,
+        }
+    }
+}
+
+impl DeviceSpec {
+    pub fn device(&self) -> Device {
+        Device {
+            device_id: self.device_id.clone(),
+            grating_period_nm: self.grating_period_nm,
+            count_resolution_pm: self.count_resolution_pm,
+            laser_wavelength_fm: self.laser_wavelength_fm,
+            optical_fold: self.optical_fold,
+            edges_per_fringe: self.edges_per_fringe,
+            baud: self.baud,
+            ..Device::default()
+        }
+    }
+}
+
+fn config_err(path: &Path, message: impl Into<String>) -> AcquireError {
+    AcquireError::Config {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+impl MachineModel {
+    /// Reads a model file; table paths are made relative to the file's directory.
+    pub fn read(path: &Path) -> Result<Self, AcquireError> {
+        let text = std::fs::read_to_string(path).map_err(|source| AcquireError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut m: MachineModel = toml::from_str(&text).map_err(|e| config_err(path, e.to_string()))?;
+        if let Some(map) = &mut m.error_map
+            && map.table.is_relative()
+        {
+            map.table = path.parent().unwrap_or(Path::new(".")).join(&map.table);
+        }
+        m.check().map_err(|e| config_err(path, e))?;
+        Ok(m)
+    }
+
+    /// Writes the model as TOML.
+    pub fn write(&self, path: &Path) -> Result<(), AcquireError> {
+        let text = toml::to_string_pretty(self).map_err(|e| config_err(path, e.to_string()))?;
+        std::fs::write(path, text).map_err(|source| AcquireError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+
+    fn check(&self) -> Result<(), String> {
+        if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
+            return Err(format!("noise_um = {} must be ≥ 0", self.noise_um));
+        }
+        let h = &self.environment;
+        for (name, hist) in [
+            ("environment.air_temp_c", &h.air_temp_c),
+            ("environment.air_pressure_hpa", &h.air_pressure_hpa),
+            ("environment.air_rh_pct", &h.air_rh_pct),
+            ("environment.scale_temp_c", &h.scale_temp_c),
+            ("environment.part_temp_c", &h.part_temp_c),
+        ] {
+            hist.check(name)?;
+        }
+        if let Some(a) = &self.abbe
+            && !matches!(a.offset_axis.as_str(), "x" | "y" | "z")
+        {
+            return Err(format!("abbe.offset_axis `{}` must be x, y or z", a.offset_axis));
+        }
+        if let Some(p) = &self.periodic_scale
+            && p.enabled
+            && !(p.period_um > 0.0)
+        {
+            return Err("periodic_scale.period_um must be positive".into());
+        }
+        if let Some(d) = &self.thermal_drift
+            && let Some(tau) = d.tau_s
+            && !(tau > 0.0)
+        {
+            return Err("thermal_drift.tau_s must be positive".into());
+        }
+        Ok(())
+    }
+
+    /// The fitted geometric map, if any.
+    pub fn geometric_map(&self, path: &Path) -> Result<Option<Box<dyn Interpolator>>, AcquireError> {
+        let Some(spec) = self.error_map.as_ref().filter(|m| m.enabled) else {
+            return Ok(None);
+        };
+        let table = ErrorTable::read(&spec.table)?;
+        let grid = table.grid()?;
+        let method = match spec.method.as_str() {
+            "lagrange" => {
+                let order: Order = spec
+                    .order
+                    .as_deref()
+                    .unwrap_or("1x1x1")
+                    .parse()
+                    .map_err(|m: String| config_err(path, m))?;
+                Method::Lagrange(order)
+            }
+            "trilinear" => Method::Trilinear,
+            "spline" => Method::Spline,
+            "fuzzy" => Method::Fuzzy {
+                sigma: spec.fuzzy_sigma,
+            },
+            other => return Err(config_err(path, format!("unknown error_map.method `{other}`"))),
+        };
+        Ok(Some(method.fit(&grid).map_err(|e| config_err(path, e.to_string()))?))
+    }
+
+    /// The truth of this model over a plan of `duration_s` (for the session means of the
+    /// air histories used by the refraction term).
+    pub fn truth(&self, path: &Path, axis: WireAxis, duration_s: f64) -> Result<PhysicsTruth, AcquireError> {
+        let map = self.geometric_map(path)?;
+        let h = &self.environment;
+        let n = 2000;
+        let mean = |f: &History| (0..=n).map(|k| f.at(duration_s * k as f64 / n as f64)).sum::<f64>() / (n + 1) as f64;
+        let lambda_um = f64::from(self.device.laser_wavelength_fm) * 1e-9;
+        let lambda_um = if lambda_um > 0.0 { lambda_um } else { HENE_UM };
+        let n0 = edlen::refractive_index(
+            lambda_um,
+            h.air_temp_c.at(0.0),
+            h.air_pressure_hpa.at(0.0) * 100.0,
+            h.air_rh_pct.at(0.0),
+        );
+        Ok(PhysicsTruth {
+            model: self.clone(),
+            map,
+            axis,
+            air_temp_mean: mean(&h.air_temp_c),
+            air_pressure_mean: mean(&h.air_pressure_hpa),
+            n0,
+            lambda_um,
+            rng: StdRng::seed_from_u64(self.seed),
+            noise: true,
+        })
+    }
+}
+
+/// The model evaluated at latches (see the module docs).
+#[derive(Debug)]
+pub struct PhysicsTruth {
+    model: MachineModel,
+    map: Option<Box<dyn Interpolator>>,
+    axis: WireAxis,
+    air_temp_mean: f64,
+    air_pressure_mean: f64,
+    n0: f64,
+    lambda_um: f64,
+    rng: StdRng,
+    /// Add the model's white noise (false: the noiseless expectation).
+    pub noise: bool,
+}
+
+fn axis_index(a: WireAxis) -> usize {
+    match a {
+        WireAxis::X => 0,
+        WireAxis::Y => 1,
+        WireAxis::Z => 2,
+    }
+}
+
+impl PhysicsTruth {
+    /// The noiseless error at a latch, µm.
+    pub fn expected_um(&self, q: &TruthQuery) -> f64 {
+        let m = &self.model;
+        let h = &m.environment;
+        let t = q.t_s;
+        let x = q.pos_mm[axis_index(self.axis)];
+        let d = f64::from(q.direction);
+        let v = if q.target >= 0 { 0.0 } else { q.feed_mm_s };
+        let mut e = self.map_um(q.pos_mm);
+        if let Some(s) = m.scale.as_ref().filter(|s| s.enabled) {
+            e += -s.cte_ppm_per_k * (h.scale_temp_c.at(t) - 20.0) * (x - s.x0_mm) * 1e-3;
+        }
+        let mut k_ppm = m.scale_factor.as_ref().filter(|s| s.enabled).map_or(0.0, |s| s.ppm);
+        // Cosine error: the beam measures L·cos θ, the scale L: e = L(1 − cos θ) ≈ Lθ²/2
+        // read as indicated − reference > 0; as a scale factor +θ²/2.
+        let theta = m.laser.alignment_urad * 1e-6;
+        k_ppm += theta * theta / 2.0 * 1e6;
+        e += k_ppm * x * 1e-3;
+        if let Some(a) = m.abbe.as_ref().filter(|a| a.enabled) {
+            let c = match a.offset_axis.as_str() {
+                "x" => q.pos_mm[0],
+                "y" => q.pos_mm[1],
+                _ => q.pos_mm[2],
+            };
+            e += c * (a.theta0_urad + a.theta1_urad_per_mm * x) * 1e-3;
+        }
+        if let Some(r) = m.reversal.as_ref().filter(|r| r.enabled) {
+            e += d * r.b_um / 2.0;
+        }
+        if let Some(l) = m.latch_delay.as_ref().filter(|l| l.enabled) {
+            e += d * v * l.tau_us * 1e-3;
+        }
+        if let Some(p) = m.periodic_scale.as_ref().filter(|p| p.enabled) {
+            e += p.amplitude_um * (std::f64::consts::TAU * x * 1000.0 / p.period_um + p.phase_rad).sin();
+        }
+        if let Some(dr) = m.thermal_drift.as_ref().filter(|d| d.enabled) {
+            e += match dr.tau_s {
+                Some(tau) => dr.amplitude_um * (1.0 - (-t / tau).exp()),
+                None => dr.rate_um_per_s * t,
+            };
+        }
+        if m.laser.dead_path_mm != 0.0 {
+            let n = edlen::refractive_index(
+                self.lambda_um,
+                h.air_temp_c.at(t),
+                h.air_pressure_hpa.at(t) * 100.0,
+                h.air_rh_pct.at(t),
+            );
+            e += -m.laser.dead_path_mm * (n - self.n0) * 1e3;
+        }
+        if let Some(r) = m.refraction.as_ref().filter(|r| r.enabled) {
+            let dn = 1e-6
+                * (r.ppm_per_k * (h.air_temp_c.at(t) - self.air_temp_mean)
+                    + r.ppm_per_hpa * (h.air_pressure_hpa.at(t) - self.air_pressure_mean));
+            e += -x * dn * 1e3;
+        }
+        e
+    }
+}
+
+impl PhysicsTruth {
+    /// The static geometric error at a position (map + polynomials), µm.
+    pub fn map_um(&self, p: [f64; 3]) -> f64 {
+        let mut e = self.map.as_ref().map_or(0.0, |mp| mp.predict(p));
+        if let Some(poly) = self.model.polynomial.as_ref().filter(|p| p.enabled) {
+            let f = |c: &[f64], u: f64| c.iter().rev().fold(0.0, |acc, k| acc * u + k);
+            e += f(&poly.x, p[0] / 1000.0) + f(&poly.y, p[1] / 1000.0) + f(&poly.z, p[2] / 1000.0);
+        }
+        e
+    }
+}
+
+impl Truth for PhysicsTruth {
+    fn error_um(&mut self, q: &TruthQuery) -> f64 {
+        let e = self.expected_um(q);
+        if self.noise && self.model.noise_um > 0.0 {
+            e + self.model.noise_um * gaussian(&mut self.rng)
+        } else {
+            e
+        }
+    }
+
+    fn environment(&mut self, t_s: f64) -> Environment {
+        let h = &self.model.environment;
+        Environment {
+            air_temp_c: h.air_temp_c.at(t_s),
+            air_pressure_hpa: h.air_pressure_hpa.at(t_s),
+            air_rh_pct: h.air_rh_pct.at(t_s),
+            scale_temp_c: h.scale_temp_c.at(t_s),
+            part_temp_c: h.part_temp_c.at(t_s),
+        }
+    }
+}
+
+/// Duration of a plan's stream in board seconds (a dry run with a perfect machine).
+fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, AcquireError> {
+    struct Zero;
+    impl Truth for Zero {
+        fn error_um(&mut self, _q: &TruthQuery) -> f64 {
+            0.0
+        }
+    }
+    simulate(plan, device, &Faults::default(), &mut Zero)
+        .map(|s| s.duration_s)
+        .map_err(|e| AcquireError::Config {
+            path: PathBuf::from("plan"),
+            message: e.to_string(),
+        })
+}
+
+/// Simulates a plan with a model: the board's stream and the truth used.
+pub fn simulate_plan(
+    model: &MachineModel,
+    model_path: &Path,
+    plan: &Plan,
+    faults: &Faults,
+    noise: bool,
+) -> Result<(SimStream, PhysicsTruth), AcquireError> {
+    let device = model.device.device();
+    let duration = plan_duration(plan, &device)?;
+    let mut truth = model.truth(model_path, plan.axis, duration)?;
+    truth.noise = noise;
+    let stream = simulate(plan, &device, faults, &mut truth).map_err(|e| config_err(model_path, e.to_string()))?;
+    Ok((stream, truth))
+}
+
+/// `simulate`: the session rows a capture of this model and plan would give (through the
+/// board's counters, the wire and the decoder).
+pub fn simulate_session(
+    model: &MachineModel,
+    model_path: &Path,
+    plan: &Plan,
+    noise: bool,
+) -> Result<Vec<SessionRow>, AcquireError> {
+    let (stream, _) = simulate_plan(model, model_path, plan, &Faults::default(), noise)?;
+    Ok(decode_all(&stream.bytes()).0)
+}
