@@ -83,6 +83,12 @@ pub struct PlanSpec {
     pub sample_hz: f64,
     #[serde(default = "default_settle")]
     pub settle_s: f64,
+    /// Acceleration of every move, mm/s².
+    #[serde(default = "default_accel")]
+    pub accel_mm_s2: f64,
+    /// Seed of the controller's timing relative to the board's timer.
+    #[serde(default)]
+    pub seed: u64,
 }
 
 fn default_runs() -> u32 {
@@ -99,6 +105,9 @@ fn default_rate() -> f64 {
 }
 fn default_settle() -> f64 {
     0.2
+}
+fn default_accel() -> f64 {
+    2000.0
 }
 
 impl PlanSpec {
@@ -123,6 +132,8 @@ impl PlanSpec {
             dwell_s: self.dwell_s,
             sample_hz: self.sample_hz,
             settle_s: self.settle_s,
+            accel_mm_s2: self.accel_mm_s2,
+            seed: self.seed,
         })
     }
 }

@@ -8,6 +8,7 @@
 //! | [`session`] | session tables (one row per sample) and their reduction to error tables |
 //! | [`table`] | error tables (CSV/Parquet via polars), validation, the rectilinear grid |
 //! | [`interp`] | the interpolators: Lagrange m×n×q, trilinear, tricubic spline, fuzzy |
+//! | [`concealed`] | the concealed-effect recorded/simulated cases of `datasets/concealed/` |
 //! | [`cv`] | leave-one-plane-out cross-validation on the fitting table |
 //! | [`compare`] | order/method comparison like the paper's Table 2, and its report |
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
@@ -18,6 +19,7 @@
 
 pub mod acquire;
 pub mod compare;
+pub mod concealed;
 pub mod cv;
 pub mod experiment;
 pub mod gp;

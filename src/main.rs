@@ -48,6 +48,17 @@ enum Command {
     Ports,
     /// Simulate a session from a machine model and a measurement plan.
     Simulate(SimulateArgs),
+    /// Regenerate the concealed-effect cases (recorded/simulated pairs).
+    GenConcealed(GenConcealedArgs),
+}
+
+#[derive(Debug, Args)]
+struct GenConcealedArgs {
+    #[arg(long, default_value = "datasets/concealed")]
+    out: PathBuf,
+    /// Table 1, the nominal machine's error map.
+    #[arg(long, default_value = "datasets/table1.csv")]
+    table1: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -263,6 +274,11 @@ fn run(cli: Cli) -> Result<()> {
         Command::Table(a) => table_cmd(a),
         Command::Ports => ports(),
         Command::Simulate(a) => simulate_cmd(a),
+        Command::GenConcealed(a) => {
+            let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
+            eprintln!("gen-concealed: {} cases under {}", dirs.len(), a.out.display());
+            Ok(())
+        }
     }
 }
 

@@ -18,7 +18,7 @@
 //! | scale factor (pitch, cosine) | k·x·1e−3 (k in ppm; a beam misaligned by θ adds −θ²/2) | `[scale_factor]`, `[laser].alignment_urad` |
 //! | Abbe | c·(θ0 + θ1·x)·1e−3 | `[abbe]` |
 //! | reversal | d·b/2 | `[reversal]` |
-//! | latch delay | d·v·τ·1e−3 | `[latch_delay]` |
+//! | latch delay | d·v·τ·1e−3, v the carriage's actual speed (trapezoidal moves) | `[latch_delay]` |
 //! | periodic scale error | a·sin(2πx/P + φ), P in µm | `[periodic_scale]` |
 //! | thermal drift | A·(1 − exp(−(t − t0)/τ)) or ρ·(t − t0) | `[thermal_drift]` |
 //! | dead path | −D·(n(t) − n(t0))·1e3 | `[laser].dead_path_mm` |
@@ -299,6 +299,9 @@ pub struct MachineModel {
     /// White noise on every latched error, one sigma, µm.
     #[serde(default)]
     pub noise_um: f64,
+    /// Noise on samples latched while moving, if different (uneven noise), µm.
+    #[serde(default)]
+    pub noise_moving_um: Option<f64>,
     #[serde(default)]
     pub seed: u64,
     #[serde(default)]
@@ -526,7 +529,8 @@ impl PhysicsTruth {
         let t = q.t_s;
         let x = q.pos_mm[axis_index(self.axis)];
         let d = f64::from(q.direction);
-        let v = if q.target >= 0 { 0.0 } else { q.feed_mm_s };
+        // The latch delay acts on the actual speed (the feed once accelerated; 0 at rest).
+        let v = if q.target >= 0 { 0.0 } else { q.speed_mm_s };
         let mut e = self.map_um(q.pos_mm);
         if let Some(s) = m.scale.as_ref().filter(|s| s.enabled) {
             e += -s.cte_ppm_per_k * (h.scale_temp_c.at(t) - 20.0) * (x - s.x0_mm) * 1e-3;
@@ -594,8 +598,12 @@ impl PhysicsTruth {
 impl Truth for PhysicsTruth {
     fn error_um(&mut self, q: &TruthQuery) -> f64 {
         let e = self.expected_um(q);
-        if self.noise && self.model.noise_um > 0.0 {
-            e + self.model.noise_um * gaussian(&mut self.rng)
+        let sigma = match self.model.noise_moving_um {
+            Some(s) if q.target < 0 && q.feed_mm_s > 0.0 => s,
+            _ => self.model.noise_um,
+        };
+        if self.noise && sigma > 0.0 {
+            e + sigma * gaussian(&mut self.rng)
         } else {
             e
         }

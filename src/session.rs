@@ -393,17 +393,27 @@ pub fn iso_observations(rows: &[SessionRow], line: Option<(f64, f64)>) -> Vec<is
         e.1 += r.scale_mm;
         e.2 += 1;
     }
+    // One position per target (ISO 230-2's P_i): the mean scale reading over its dwells.
+    let mut pos_sum: BTreeMap<i32, (f64, usize)> = BTreeMap::new();
+    for (&(target, _, _), &(_, pos, n)) in &acc {
+        let p = pos_sum.entry(target).or_insert((0.0, 0));
+        p.0 += pos / n as f64;
+        p.1 += 1;
+    }
     acc.into_iter()
-        .map(|((target, run, dir), (e, pos, n))| iso230::Observation {
-            target: target as usize,
-            position_mm: pos / n as f64,
-            run,
-            direction: if dir > 0 {
-                iso230::Direction::Up
-            } else {
-                iso230::Direction::Down
-            },
-            e_um: e / n as f64,
+        .map(|((target, run, dir), (e, _, n))| {
+            let (sum, k) = pos_sum[&target];
+            iso230::Observation {
+                target: target as usize,
+                position_mm: sum / k as f64,
+                run,
+                direction: if dir > 0 {
+                    iso230::Direction::Up
+                } else {
+                    iso230::Direction::Down
+                },
+                e_um: e / n as f64,
+            }
         })
         .collect()
 }

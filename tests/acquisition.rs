@@ -59,7 +59,13 @@ fn simulated_device_to_error_table_matches_the_truth() {
     let _ = sim.wait();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_session(&out.join("session.csv")).expect("session table");
-    assert_eq!(rows.len(), 4260, "every simulated sample arrives");
+    let (expected, _) = errmap::acquire::simulate_stream(
+        &root().join("datasets/sim/model.toml"),
+        Some(&root().join("datasets/sim/plan.toml")),
+        &Default::default(),
+    )
+    .expect("same simulation in-process");
+    assert_eq!(rows.len(), expected.truth.len(), "every simulated sample arrives");
     let (table, summary) = error_table("session", &rows).expect("reduces");
     assert_eq!((summary.lines, summary.targets), (4, 5));
     let grid = table.grid().expect("a 5×2×2 grid");
@@ -95,8 +101,8 @@ fn simulated_device_to_error_table_matches_the_truth() {
         std::fs::read(out.join("session.csv")).expect("captured")
     );
     let stats: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
-    assert_eq!(stats["rows"], 4260);
-    assert_eq!(stats["frames"]["sample"], 4260);
+    assert_eq!(stats["rows"], expected.truth.len());
+    assert_eq!(stats["frames"]["sample"], expected.truth.len());
     assert_eq!(stats["crc_failures"], 0);
     // The error table command writes the same table.
     let et = dir.path().join("errors.csv");

@@ -49,6 +49,10 @@ pub struct Plan {
     pub sample_hz: f64,
     /// Time at home before the first run, s.
     pub settle_s: f64,
+    /// Acceleration and deceleration of every move (trapezoidal profile), mm/s².
+    pub accel_mm_s2: f64,
+    /// Seed of the controller's timing (when dwells end relative to the board's timer).
+    pub seed: u64,
 }
 
 impl Default for Plan {
@@ -62,6 +66,8 @@ impl Default for Plan {
             dwell_s: 0.5,
             sample_hz: 100.0,
             settle_s: 0.2,
+            accel_mm_s2: 2000.0,
+            seed: 0,
         }
     }
 }
@@ -146,6 +152,8 @@ pub struct TruthQuery {
     pub direction: i8,
     /// Feed while moving, 0 while dwelling or at rest.
     pub feed_mm_s: f64,
+    /// Instantaneous speed of the carriage (the feed once accelerated), mm/s.
+    pub speed_mm_s: f64,
     pub run: u32,
     pub target: i32,
 }
@@ -237,7 +245,12 @@ fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
     if plan.lines_mm.is_empty() {
         return bad("no lines");
     }
-    if !(plan.feed_mm_s > 0.0 && plan.sample_hz > 0.0 && plan.dwell_s >= 0.0 && plan.runs >= 1) {
+    if !(plan.feed_mm_s > 0.0
+        && plan.sample_hz > 0.0
+        && plan.dwell_s >= 0.0
+        && plan.runs >= 1
+        && plan.accel_mm_s2 > 0.0)
+    {
         return bad("feed, sample rate and runs must be positive, dwell ≥ 0");
     }
     if plan
@@ -352,6 +365,60 @@ impl Board<'_> {
     }
 }
 
+/// A trapezoidal (or, for short moves, triangular) velocity profile over a distance.
+#[derive(Debug, Clone, Copy)]
+struct Trapezoid {
+    dist: f64,
+    accel: f64,
+    peak: f64,
+    t_acc: f64,
+    total: f64,
+}
+
+impl Trapezoid {
+    fn new(dist: f64, feed: f64, accel: f64) -> Self {
+        let t_full = feed / accel;
+        if accel * t_full * t_full >= dist {
+            let t_acc = (dist / accel).sqrt();
+            Trapezoid {
+                dist,
+                accel,
+                peak: accel * t_acc,
+                t_acc,
+                total: 2.0 * t_acc,
+            }
+        } else {
+            Trapezoid {
+                dist,
+                accel,
+                peak: feed,
+                t_acc: t_full,
+                total: 2.0 * t_full + (dist - accel * t_full * t_full) / feed,
+            }
+        }
+    }
+
+    fn duration(&self) -> f64 {
+        self.total
+    }
+
+    /// Distance travelled and speed at time `tau` into the move.
+    fn at(&self, tau: f64) -> (f64, f64) {
+        let tau = tau.clamp(0.0, self.total);
+        if tau < self.t_acc {
+            (0.5 * self.accel * tau * tau, self.accel * tau)
+        } else if tau <= self.total - self.t_acc {
+            (
+                0.5 * self.accel * self.t_acc * self.t_acc + self.peak * (tau - self.t_acc),
+                self.peak,
+            )
+        } else {
+            let r = self.total - tau;
+            (self.dist - 0.5 * self.accel * r * r, self.accel * r)
+        }
+    }
+}
+
 /// The machine position for axis-coordinate `s` on line `l`.
 fn position(axis: Axis, s: f64, l: [f64; 2]) -> [f64; 3] {
     match axis {
@@ -398,6 +465,7 @@ pub fn simulate(
         .counters_near_wrap
         .map_or(0i64, |d| i64::from(i32::MAX) - i64::from(d));
     let dt = 1.0 / plan.sample_hz;
+    let mut motion_rng = StdRng::seed_from_u64(plan.seed);
     let env_period = device.env_period_s.max(dt);
 
     b.send(&Frame::Hello(hello), 0.0, false);
@@ -425,7 +493,11 @@ pub fn simulate(
 
     // Emits the periodic frames and samples in [t, until), the carriage at pos(t').
     let mut advance =
-        |b: &mut Board, t: f64, until: f64, from: f64, v: f64, st: (u32, i8, i32, f64, usize)| {
+        |b: &mut Board,
+         t: f64,
+         until: f64,
+         motion: &dyn Fn(f64) -> (f64, f64),
+         st: (u32, i8, i32, f64, usize)| {
             let (run, dir, target, feed, line) = st;
             loop {
                 let next = next_sample.min(next_env);
@@ -460,13 +532,14 @@ pub fn simulate(
                     next_env += env_period;
                     continue;
                 }
-                let s = from + v * (tt - t);
+                let (s, speed) = motion(tt - t);
                 let p = position(plan.axis, s, plan.lines_mm[line]);
                 let q = TruthQuery {
                     t_s: tt,
                     pos_mm: p,
                     direction: dir,
                     feed_mm_s: feed,
+                    speed_mm_s: speed,
                     run,
                     target,
                 };
@@ -528,14 +601,18 @@ pub fn simulate(
         match step {
             Step::Dwell(secs) => {
                 let st = (if in_run { run } else { 0 }, dir, target, 0.0, line);
-                advance(&mut b, t, t + secs, pos, 0.0, st);
+                // The controller ends a dwell on its own clock, not on the board's timer
+                // tick: a random extra wait of up to one sample period, so that moves start
+                // at any phase of the timer (a real board is not phase-locked to motion).
+                let secs = secs + motion_rng.random_range(0.0..dt);
+                let here = pos;
+                advance(&mut b, t, t + secs, &move |_| (here, 0.0), st);
                 t += secs;
             }
             Step::Move(to, d) => {
                 let dist = (to - pos).abs();
                 if dist > 0.0 {
                     let feed = plan.feed_mm_s;
-                    let v = feed * f64::from(d);
                     let st = (
                         if in_run { run } else { 0 },
                         if in_run { dir } else { 0 },
@@ -543,8 +620,20 @@ pub fn simulate(
                         feed,
                         line,
                     );
-                    let dur = dist / feed;
-                    advance(&mut b, t, t + dur, pos, v, st);
+                    let here = pos;
+                    let profile = Trapezoid::new(dist, feed, plan.accel_mm_s2);
+                    let sign = f64::from(d);
+                    let dur = profile.duration();
+                    advance(
+                        &mut b,
+                        t,
+                        t + dur,
+                        &move |tau| {
+                            let (s, v) = profile.at(tau);
+                            (here + sign * s, v)
+                        },
+                        st,
+                    );
                     t += dur;
                     pos = to;
                 }
