@@ -10,6 +10,7 @@
 //! | [`interp`] | the interpolators: Lagrange m×n×q, trilinear, tricubic spline, fuzzy |
 //! | [`concealed`] | the concealed-effect recorded/simulated cases of `datasets/concealed/` |
 //! | [`cv`] | leave-one-plane-out cross-validation on the fitting table |
+//! | [`bench`] | throughput of the interpolators and the decoder (`errmap bench`, `cargo bench`) |
 //! | [`compare`] | order/method comparison like the paper's Table 2, and its report |
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
 //! | [`gp`] | Gaussian-process (kriging) error model with prediction uncertainty |
@@ -18,10 +19,12 @@
 //! | [`plot`] | PNG/SVG figures with a bundled font |
 
 pub mod acquire;
+pub mod bench;
 pub mod compare;
 pub mod concealed;
 pub mod cv;
 pub mod experiment;
+pub mod export;
 pub mod gp;
 pub mod interp;
 pub mod iso230;

@@ -50,6 +50,20 @@ enum Command {
     Simulate(SimulateArgs),
     /// Regenerate the concealed-effect cases (recorded/simulated pairs).
     GenConcealed(GenConcealedArgs),
+    /// Throughput of the interpolators, fit times and the decoder's speed.
+    Bench(BenchArgs),
+}
+
+#[derive(Debug, Args)]
+struct BenchArgs {
+    /// Query points.
+    #[arg(long, default_value_t = 1_000_000)]
+    points: usize,
+    /// Threads for the parallel runs (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -208,6 +222,9 @@ struct FitArgs {
     /// Print one JSON document on stdout.
     #[arg(long)]
     json: bool,
+    /// Worker threads for the predictions (0: all cores).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
     #[command(flatten)]
     model: ModelArgs,
 }
@@ -274,6 +291,19 @@ fn run(cli: Cli) -> Result<()> {
         Command::Table(a) => table_cmd(a),
         Command::Ports => ports(),
         Command::Simulate(a) => simulate_cmd(a),
+        Command::Bench(a) => {
+            let r = errmap::bench::run(&errmap::bench::BenchConfig {
+                points: a.points.max(1),
+                threads: a.threads,
+                ..Default::default()
+            });
+            if a.json {
+                println!("{}", serde_json::to_string(&r)?);
+            } else {
+                eprint!("{}", errmap::bench::markdown(&r));
+            }
+            Ok(())
+        }
         Command::GenConcealed(a) => {
             let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
             eprintln!("gen-concealed: {} cases under {}", dirs.len(), a.out.display());
@@ -322,14 +352,13 @@ fn fit(a: FitArgs) -> Result<()> {
         .fit(&grid)
         .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
     let points = ErrorTable::read_points(&a.predict)?;
-    let preds: Vec<(ErrorPoint, bool)> = points
-        .points
+    let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
+    let mut values = vec![0.0; positions.len()];
+    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, a.threads)?;
+    let preds: Vec<(ErrorPoint, bool)> = positions
         .iter()
-        .map(|p| {
-            let mut q = ErrorPoint::new(p.x_mm, p.y_mm, p.z_mm, model.predict(p.position()));
-            q.n = None;
-            (q, model.outside(p.position()))
-        })
+        .zip(&values)
+        .map(|(&p, &e)| (ErrorPoint::new(p[0], p[1], p[2], e), model.outside(p)))
         .collect();
     if let Some(out) = &a.out {
         errmap::table::write_predictions(out, &preds)?;

@@ -664,3 +664,57 @@ pub fn simulate_session(
     let (stream, _) = simulate_plan(model, model_path, plan, &Faults::default(), noise)?;
     Ok(decode_all(&stream.bytes()).0)
 }
+
+/// The model's noiseless error at every row of a recording, relative to its value at the
+/// recording's first clean row (the counters' origin), as `simulate` would have given
+/// for the same plan: the "simulated" side of `diagnose --model`. Rows outside runs after
+/// the first MARK are left out (their line position is unknown).
+pub fn simulate_rows(
+    model: &MachineModel,
+    model_path: &Path,
+    recorded: &[SessionRow],
+) -> Result<Vec<SessionRow>, AcquireError> {
+    let axis = recorded.first().map_or(WireAxis::X, |r| r.axis);
+    let duration = recorded.iter().map(|r| r.t_s).fold(0.0, f64::max);
+    let truth = model.truth(model_path, axis, duration)?;
+    let a = axis_index(axis);
+    // Rows before the first MARK have no line coordinates: they are at the first line.
+    let first = |f: fn(&SessionRow) -> Option<f64>| recorded.iter().find_map(f).unwrap_or(0.0);
+    let line0 = [first(|r| r.x_mm), first(|r| r.y_mm), first(|r| r.z_mm)];
+    let query = |r: &SessionRow| {
+        let mut pos = [
+            r.x_mm.unwrap_or(line0[0]),
+            r.y_mm.unwrap_or(line0[1]),
+            r.z_mm.unwrap_or(line0[2]),
+        ];
+        pos[a] = r.scale_mm;
+        TruthQuery {
+            t_s: r.t_s,
+            pos_mm: pos,
+            direction: r.direction,
+            feed_mm_s: r.feed_mm_s.unwrap_or(0.0),
+            speed_mm_s: if r.target >= 0 { 0.0 } else { r.feed_mm_s.unwrap_or(0.0) },
+            run: r.run,
+            target: r.target,
+        }
+    };
+    let origin = recorded
+        .iter()
+        .find(|r| r.flags == 0)
+        .map_or(0.0, |r| truth.expected_um(&query(r)));
+    // Between runs the carriage may move to another line while the rows still carry the
+    // latest MARK's line coordinates: the model cannot know where it was, so those rows
+    // (run 0 after the first MARK) are not simulated and show up as unmatched.
+    Ok(recorded
+        .iter()
+        .filter(|r| r.run > 0 || r.feed_mm_s.is_none())
+        .map(|r| {
+            let e = truth.expected_um(&query(r)) - origin;
+            SessionRow {
+                error_um: e,
+                laser_mm: r.scale_mm - e * 1e-3,
+                ..*r
+            }
+        })
+        .collect())
+}

@@ -247,3 +247,27 @@ pub(crate) fn eval_cells(grid: &Grid, p: [f64; 3], rule: impl Fn(f64) -> [f64; 2
     }
     cell_sum(grid, w)
 }
+
+/// Evaluates `model` at every point into `out`, over `threads` worker threads (1: the
+/// calling thread only; 0: all cores). Points are split into chunks of 4096 so each
+/// worker's evaluation allocates nothing per point.
+pub fn predict_parallel(
+    model: &dyn Interpolator,
+    points: &[[f64; 3]],
+    out: &mut [f64],
+    threads: usize,
+) -> Result<(), rayon::ThreadPoolBuildError> {
+    use rayon::prelude::*;
+    if threads == 1 {
+        model.predict_into(points, out);
+        return Ok(());
+    }
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    pool.install(|| {
+        points
+            .par_chunks(4096)
+            .zip(out.par_chunks_mut(4096))
+            .for_each(|(p, o)| model.predict_into(p, o));
+    });
+    Ok(())
+}

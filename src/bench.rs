@@ -1,0 +1,245 @@
+//! `errmap bench` and `cargo bench`: throughput of the interpolators, fit times, and the
+//! wire decoder's speed, measured here on synthetic data (seeded).
+//!
+//! Interpolation: a 41×41×41 grid of random errors and 10⁶ random query points inside it,
+//! each method at one thread and at all threads. Fit: a 21×21×21 table. Decoder: a
+//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Timings are wall-clock medians
+//! of a few repetitions; run a release build (`cargo run --release -- bench`).
+
+use std::time::Instant;
+
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+use crate::interp::{Method, Order, fuzzy, predict_parallel};
+use crate::table::Grid;
+
+/// One interpolation result.
+#[derive(Debug, Clone, Serialize)]
+pub struct PointsResult {
+    pub method: String,
+    pub order: Option<[usize; 3]>,
+    pub threads: usize,
+    pub points_per_s: f64,
+}
+
+/// One fit-time result.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitResult {
+    pub method: String,
+    pub order: Option<[usize; 3]>,
+    pub grid: [usize; 3],
+    pub seconds: f64,
+}
+
+/// Everything `bench --json` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    pub grid: [usize; 3],
+    pub points: usize,
+    pub results: Vec<PointsResult>,
+    pub fit: Vec<FitResult>,
+    /// Wire decoder alone (frames and statistics), MB/s, one core.
+    pub decode_mb_s: f64,
+    /// Decoder plus session rows, MB/s, one core.
+    pub decode_rows_mb_s: f64,
+    pub decode_bytes: usize,
+    /// Extra measurements (name → seconds), e.g. the GP fit and the diagnosis.
+    pub extra: Vec<(String, f64)>,
+}
+
+/// Bench settings.
+#[derive(Debug, Clone)]
+pub struct BenchConfig {
+    pub grid: usize,
+    pub points: usize,
+    pub fit_grid: usize,
+    /// Threads for the parallel runs (0: all cores).
+    pub threads: usize,
+    pub repeats: usize,
+}
+
+impl Default for BenchConfig {
+    fn default() -> Self {
+        BenchConfig {
+            grid: 41,
+            points: 1_000_000,
+            fit_grid: 21,
+            threads: 0,
+            repeats: 3,
+        }
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn time<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
+    median(
+        (0..repeats.max(1))
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(f());
+                t.elapsed().as_secs_f64()
+            })
+            .collect(),
+    )
+}
+
+fn random_grid(n: usize, seed: u64) -> Grid {
+    let nodes: Vec<f64> = (0..n).map(|i| i as f64 * 20.0).collect();
+    let mut rng = StdRng::seed_from_u64(seed);
+    Grid::from_fn(nodes.clone(), nodes.clone(), nodes, |_| rng.random_range(-5.0..5.0))
+}
+
+/// The methods benchmarked, at least those the contract names.
+pub fn methods() -> Vec<Method> {
+    vec![
+        Method::Trilinear,
+        Method::Spline,
+        Method::Lagrange(Order([2, 2, 2])),
+        Method::Lagrange(Order([4, 4, 4])),
+        Method::Fuzzy {
+            sigma: fuzzy::DEFAULT_SIGMA,
+        },
+    ]
+}
+
+/// Runs the interpolation and fit benchmarks, and the decoder benchmark.
+pub fn run(config: &BenchConfig) -> BenchReport {
+    let grid = random_grid(config.grid, 1);
+    let hi = (config.grid - 1) as f64 * 20.0;
+    let mut rng = StdRng::seed_from_u64(2);
+    let points: Vec<[f64; 3]> = (0..config.points)
+        .map(|_| [0, 1, 2].map(|_| rng.random_range(0.0..hi)))
+        .collect();
+    let mut out = vec![0.0; points.len()];
+    let all = if config.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        config.threads
+    };
+    let mut results = Vec::new();
+    for method in methods() {
+        let Ok(model) = method.fit(&grid) else {
+            continue;
+        };
+        let mut thread_counts = vec![1];
+        if all > 1 {
+            thread_counts.push(all);
+        }
+        for threads in thread_counts {
+            let secs = time(config.repeats, || {
+                predict_parallel(model.as_ref(), &points, &mut out, threads).is_ok()
+            });
+            results.push(PointsResult {
+                method: method.name().to_string(),
+                order: method.order().map(|o| o.0),
+                threads,
+                points_per_s: points.len() as f64 / secs,
+            });
+        }
+    }
+    let fit_grid = random_grid(config.fit_grid, 3);
+    let fit = methods()
+        .into_iter()
+        .map(|method| FitResult {
+            method: method.name().to_string(),
+            order: method.order().map(|o| o.0),
+            grid: fit_grid.shape(),
+            seconds: time(config.repeats, || method.fit(&fit_grid).is_ok()),
+        })
+        .collect();
+    let capture = synthetic_capture(400_000);
+    let decode = time(config.repeats, || {
+        let mut d = errmap_drivers::Decoder::new();
+        d.push_with(&capture, &mut |_| {});
+        d.finish().len()
+    });
+    let decode_rows = time(config.repeats, || errmap_drivers::decode_all(&capture).0.len());
+    BenchReport {
+        grid: grid.shape(),
+        points: points.len(),
+        results,
+        fit,
+        decode_mb_s: capture.len() as f64 / decode / 1e6,
+        decode_rows_mb_s: capture.len() as f64 / decode_rows / 1e6,
+        decode_bytes: capture.len(),
+        extra: Vec::new(),
+    }
+}
+
+/// A synthetic capture of about `samples` SAMPLE frames with MARK/ENV/MATERIAL frames
+/// interleaved, from the simulated board (a fast plan, no byte-budget drops).
+pub fn synthetic_capture(samples: usize) -> Vec<u8> {
+    use errmap_drivers::sim::{Device, Faults, Plan, Truth, TruthQuery, simulate};
+    struct Flat;
+    impl Truth for Flat {
+        fn error_um(&mut self, q: &TruthQuery) -> f64 {
+            0.001 * q.pos_mm[0]
+        }
+    }
+    let plan = Plan {
+        runs: 4,
+        sample_hz: 1000.0,
+        ..Plan::default()
+    };
+    let device = Device {
+        baud: 4_000_000,
+        fifo_bytes: 1 << 20,
+        ..Device::default()
+    };
+    let mut out = Vec::new();
+    let mut seed = 0;
+    while out.len() < samples * 30 {
+        let p = Plan {
+            seed,
+            ..plan.clone()
+        };
+        match simulate(&p, &device, &Faults::default(), &mut Flat) {
+            Ok(s) => out.extend(s.bytes()),
+            Err(_) => break,
+        }
+        seed += 1;
+    }
+    out
+}
+
+/// The report as a markdown table (for the README and `bench` without --json).
+pub fn markdown(r: &BenchReport) -> String {
+    let mut s = format!(
+        "Grid {}×{}×{}, {} random points inside it.\n\n| method | threads | points/s |\n|---|---|---|\n",
+        r.grid[0], r.grid[1], r.grid[2], r.points
+    );
+    for x in &r.results {
+        let label = match x.order {
+            Some(o) => format!("{} {}×{}×{}", x.method, o[0], o[1], o[2]),
+            None => x.method.clone(),
+        };
+        s.push_str(&format!("| {label} | {} | {:.2} M |\n", x.threads, x.points_per_s / 1e6));
+    }
+    s.push_str("\n| fit | grid | seconds |\n|---|---|---|\n");
+    for f in &r.fit {
+        let label = match f.order {
+            Some(o) => format!("{} {}×{}×{}", f.method, o[0], o[1], o[2]),
+            None => f.method.clone(),
+        };
+        s.push_str(&format!(
+            "| {label} | {}×{}×{} | {:.4} |\n",
+            f.grid[0], f.grid[1], f.grid[2], f.seconds
+        ));
+    }
+    s.push_str(&format!(
+        "\nWire decoder on a {:.1} MB synthetic capture, one core: {:.0} MB/s (frames), {:.0} MB/s (frames → session rows).\n",
+        r.decode_bytes as f64 / 1e6,
+        r.decode_mb_s,
+        r.decode_rows_mb_s
+    ));
+    for (name, secs) in &r.extra {
+        s.push_str(&format!("\n{name}: {secs:.3} s\n"));
+    }
+    s
+}
