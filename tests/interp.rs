@@ -352,3 +352,27 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn uniform_locator_agrees_with_binary_search() {
+    use errmap::interp::Locator;
+    use errmap::table::interval;
+    let mut rng = StdRng::seed_from_u64(11);
+    for n in [2usize, 3, 7, 41] {
+        let nodes: Vec<f64> = (0..n).map(|i| 1.2424 + i as f64 * 20.0).collect();
+        let loc = Locator::new(&nodes);
+        for _ in 0..2000 {
+            let x = rng.random_range(-100.0..(n as f64) * 20.0 + 100.0);
+            let near_node = nodes.iter().any(|v| (v - x).abs() < 1e-9);
+            if !near_node {
+                assert_eq!(loc.interval(x), interval(&nodes, x), "n {n}, x {x}");
+            }
+        }
+        // Exactly at a node both conventions give the same interpolated value; the cell
+        // position is then 0 or 1.
+        for &x in &nodes {
+            let (i, u) = loc.cell(x).expect("n ≥ 2");
+            assert!((nodes[i] + u * (nodes[i + 1] - nodes[i]) - x).abs() < 1e-9);
+        }
+    }
+}

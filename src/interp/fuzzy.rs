@@ -23,7 +23,7 @@
 //! 1/(1 + e²) ≈ 0.12 per axis, so it does not pass through the node values. Cost: as
 //! trilinear, plus one exponential per axis.
 
-use super::{InterpError, Interpolator, eval_cells};
+use super::{InterpError, Interpolator, Locator, eval_cells, locators};
 use crate::table::Grid;
 
 /// Default membership width as a fraction of the cell size.
@@ -33,6 +33,7 @@ pub const DEFAULT_SIGMA: f64 = 0.5;
 #[derive(Debug, Clone)]
 pub struct Fuzzy {
     grid: Grid,
+    loc: [Locator; 3],
     /// 1/(2σ²), the logistic slope factor.
     k: f64,
 }
@@ -58,6 +59,7 @@ impl Fuzzy {
         }
         Ok(Self {
             grid: grid.clone(),
+            loc: locators(grid),
             k: 1.0 / (2.0 * sigma * sigma),
         })
     }
@@ -66,7 +68,7 @@ impl Fuzzy {
 impl Interpolator for Fuzzy {
     fn predict(&self, p: [f64; 3]) -> f64 {
         let k = self.k;
-        eval_cells(&self.grid, p, |u| {
+        eval_cells(&self.grid, &self.loc, p, |u| {
             let hi = high_weight(u, k);
             [1.0 - hi, hi]
         })

@@ -20,8 +20,8 @@
 //! (w_j = ℓ(x)·b_j/(x − x_j), ℓ(x) = Π(x − x_k)), and (m+1)(n+1)(q+1) multiply–adds.
 //! Reproduces every polynomial of degree ≤ d along each axis exactly.
 
-use super::{InterpError, Interpolator, Order};
-use crate::table::{Axis, Grid, interval};
+use super::{InterpError, Interpolator, Locator, Order};
+use crate::table::{Axis, Grid};
 
 /// Highest degree supported along one axis (weights live on the stack).
 pub const MAX_DEGREE: usize = 31;
@@ -30,6 +30,7 @@ pub const MAX_DEGREE: usize = 31;
 struct AxisBasis {
     degree: usize,
     nodes: Vec<f64>,
+    loc: Locator,
     /// Barycentric weights, (d + 1) per window start.
     bary: Vec<f64>,
 }
@@ -54,6 +55,7 @@ impl AxisBasis {
         Self {
             degree,
             nodes: nodes.to_vec(),
+            loc: Locator::new(nodes),
             bary,
         }
     }
@@ -64,7 +66,7 @@ impl AxisBasis {
         if d + 1 >= n {
             return 0;
         }
-        let i = interval(&self.nodes, x);
+        let i = self.loc.interval(x);
         let s = if d % 2 == 1 {
             i as isize - ((d - 1) / 2) as isize
         } else {

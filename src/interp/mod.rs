@@ -191,16 +191,70 @@ pub(crate) struct CellWeights {
     pub w: [f64; 2],
 }
 
-/// The cell containing `x` (clamped to the end cells) and `x`'s position in it,
-/// u = (x − x_i)/(x_{i+1} − x_i), not clamped (u < 0 or u > 1 outside the grid).
-/// `None` for a single-node axis.
-#[inline]
-pub(crate) fn cell(nodes: &[f64], x: f64) -> Option<(usize, f64)> {
-    if nodes.len() < 2 {
-        return None;
+/// Finds a query's interval along one axis: O(1) on evenly spaced nodes (the usual
+/// calibration grid), a binary search otherwise. Built once at fit time.
+#[derive(Debug, Clone)]
+pub struct Locator {
+    nodes: Vec<f64>,
+    /// (first node, 1/spacing) when the nodes are evenly spaced.
+    uniform: Option<(f64, f64)>,
+}
+
+impl Locator {
+    pub fn new(nodes: &[f64]) -> Self {
+        let n = nodes.len();
+        let uniform = (n >= 2)
+            .then(|| {
+                let h = (nodes[n - 1] - nodes[0]) / (n - 1) as f64;
+                let even = nodes
+                    .iter()
+                    .enumerate()
+                    .all(|(i, &x)| (x - (nodes[0] + i as f64 * h)).abs() <= 1e-9 * h.abs());
+                (even && h > 0.0).then_some((nodes[0], 1.0 / h))
+            })
+            .flatten();
+        Locator {
+            nodes: nodes.to_vec(),
+            uniform,
+        }
     }
-    let i = interval(nodes, x);
-    Some((i, (x - nodes[i]) / (nodes[i + 1] - nodes[i])))
+
+    pub fn nodes(&self) -> &[f64] {
+        &self.nodes
+    }
+
+    /// The interval index `i` (clamped to `0..=n−2`) with `x_i ≤ x < x_{i+1}` inside the
+    /// range. Needs `n ≥ 2`.
+    #[inline]
+    pub fn interval(&self, x: f64) -> usize {
+        let n = self.nodes.len();
+        match self.uniform {
+            Some((x0, inv_h)) => {
+                let f = (x - x0) * inv_h;
+                // NaN and negatives go to 0; the cast saturates.
+                let i = if f > 0.0 { f as usize } else { 0 };
+                i.min(n - 2)
+            }
+            None => interval(&self.nodes, x),
+        }
+    }
+
+    /// The cell containing `x` (clamped to the end cells) and `x`'s position in it,
+    /// u = (x − x_i)/(x_{i+1} − x_i), not clamped (u < 0 or u > 1 outside the grid).
+    /// `None` for a single-node axis.
+    #[inline]
+    pub fn cell(&self, x: f64) -> Option<(usize, f64)> {
+        if self.nodes.len() < 2 {
+            return None;
+        }
+        let i = self.interval(x);
+        Some((i, (x - self.nodes[i]) / (self.nodes[i + 1] - self.nodes[i])))
+    }
+}
+
+/// The three axes' locators of a grid.
+pub(crate) fn locators(grid: &Grid) -> [Locator; 3] {
+    [0, 1, 2].map(|a| Locator::new(grid.axis(a)))
 }
 
 /// Σ over the 8 cell corners of w_x · w_y · w_z · value.
@@ -238,10 +292,15 @@ pub(crate) const SINGLE: CellWeights = CellWeights {
 /// Evaluates a scheme given by a per-axis weight rule over the grid's cells. Single-node
 /// axes get [`SINGLE`]; on such an axis `lo + 1` is never read because its weight is 0.
 #[inline]
-pub(crate) fn eval_cells(grid: &Grid, p: [f64; 3], rule: impl Fn(f64) -> [f64; 2]) -> f64 {
+pub(crate) fn eval_cells(
+    grid: &Grid,
+    loc: &[Locator; 3],
+    p: [f64; 3],
+    rule: impl Fn(f64) -> [f64; 2],
+) -> f64 {
     let mut w = [SINGLE; 3];
     for (a, slot) in w.iter_mut().enumerate() {
-        if let Some((lo, u)) = cell(grid.axis(a), p[a]) {
+        if let Some((lo, u)) = loc[a].cell(p[a]) {
             *slot = CellWeights { lo, w: rule(u) };
         }
     }

@@ -27,7 +27,7 @@
 //!
 //! **Cost.** Fit O(N) (N nodes; 7 sweeps), memory 8 values per node; evaluation 64 terms.
 
-use super::{Interpolator, cell};
+use super::{Interpolator, Locator, locators};
 use crate::table::Grid;
 
 /// Natural-spline second derivatives of `y` at `nodes` (all zero for n ≤ 2).
@@ -98,8 +98,9 @@ fn second_derivative_along(grid: &Grid, a: usize, values: &[f64]) -> Vec<f64> {
 /// Per-axis basis at a point: the cell's low node, how many corners (1 on a single-node
 /// axis), and the weights [value_lo, value_hi, M_lo, M_hi].
 #[inline]
-fn axis_basis(nodes: &[f64], x: f64) -> (usize, usize, [f64; 4]) {
-    let Some((i, u)) = cell(nodes, x) else {
+fn axis_basis(loc: &Locator, x: f64) -> (usize, usize, [f64; 4]) {
+    let nodes = loc.nodes();
+    let Some((i, u)) = loc.cell(x) else {
         return (0, 1, [1.0, 0.0, 0.0, 0.0]);
     };
     let h = nodes[i + 1] - nodes[i];
@@ -123,6 +124,7 @@ fn axis_basis(nodes: &[f64], x: f64) -> (usize, usize, [f64; 4]) {
 #[derive(Debug, Clone)]
 pub struct Spline {
     grid: Grid,
+    loc: [Locator; 3],
     /// 8 coefficients per node: bit 0 of the index = M along x, bit 1 = along y, bit 2 = z.
     coef: Vec<[f64; 8]>,
 }
@@ -142,6 +144,7 @@ impl Spline {
             .collect();
         Self {
             grid: grid.clone(),
+            loc: locators(grid),
             coef,
         }
     }
@@ -149,9 +152,9 @@ impl Spline {
 
 impl Interpolator for Spline {
     fn predict(&self, p: [f64; 3]) -> f64 {
-        let (ix, cx, bx) = axis_basis(&self.grid.xs, p[0]);
-        let (iy, cy, by) = axis_basis(&self.grid.ys, p[1]);
-        let (iz, cz, bz) = axis_basis(&self.grid.zs, p[2]);
+        let (ix, cx, bx) = axis_basis(&self.loc[0], p[0]);
+        let (iy, cy, by) = axis_basis(&self.loc[1], p[1]);
+        let (iz, cz, bz) = axis_basis(&self.loc[2], p[2]);
         let [nx, ny, _] = self.grid.shape();
         let mut sum = 0.0;
         for dz in 0..cz {
