@@ -92,7 +92,9 @@ fn time<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
 fn random_grid(n: usize, seed: u64) -> Grid {
     let nodes: Vec<f64> = (0..n).map(|i| i as f64 * 20.0).collect();
     let mut rng = StdRng::seed_from_u64(seed);
-    Grid::from_fn(nodes.clone(), nodes.clone(), nodes, |_| rng.random_range(-5.0..5.0))
+    Grid::from_fn(nodes.clone(), nodes.clone(), nodes, |_| {
+        rng.random_range(-5.0..5.0)
+    })
 }
 
 /// The methods benchmarked, at least those the contract names.
@@ -159,7 +161,9 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         d.push_with(&capture, &mut |_| {});
         d.finish().len()
     });
-    let decode_rows = time(config.repeats, || errmap_drivers::decode_all(&capture).0.len());
+    let decode_rows = time(config.repeats, || {
+        errmap_drivers::decode_all(&capture).0.len()
+    });
     BenchReport {
         grid: grid.shape(),
         points: points.len(),
@@ -219,7 +223,11 @@ pub fn markdown(r: &BenchReport) -> String {
             Some(o) => format!("{} {}×{}×{}", x.method, o[0], o[1], o[2]),
             None => x.method.clone(),
         };
-        s.push_str(&format!("| {label} | {} | {:.2} M |\n", x.threads, x.points_per_s / 1e6));
+        s.push_str(&format!(
+            "| {label} | {} | {:.2} M |\n",
+            x.threads,
+            x.points_per_s / 1e6
+        ));
     }
     s.push_str("\n| fit | grid | seconds |\n|---|---|---|\n");
     for f in &r.fit {

@@ -23,6 +23,7 @@ pub fn default_methods(grid: &Grid, max_degree: usize) -> Vec<Method> {
         Method::Fuzzy {
             sigma: fuzzy::DEFAULT_SIGMA,
         },
+        Method::Gp(crate::gp::Kernel::default()),
     ];
     m.extend(
         admissible_orders(grid.shape(), max_degree)
@@ -43,6 +44,64 @@ pub struct ModelRow {
     pub inside_rms_um: Option<f64>,
     pub cv: CvResult,
     pub predictions: Vec<f64>,
+    /// One-sigma uncertainty of each prediction for a measured value, where the method
+    /// has one (the Gaussian process).
+    pub sigmas: Vec<Option<f64>>,
+    /// Fraction of test points whose measured error lies within ±1σ and ±2σ.
+    pub within_1s: Option<f64>,
+    pub within_2s: Option<f64>,
+}
+
+/// Where to measure next, from a Gaussian process fitted to the table.
+#[derive(Debug, Clone)]
+pub struct SamplingAdvice {
+    pub length_scales_mm: [f64; 3],
+    /// Median node spacing per axis, mm.
+    pub spacing_mm: [f64; 3],
+    pub kernel: String,
+    pub signal_sd_um: f64,
+    pub noise_sd_um: f64,
+    /// The largest predictive σ over a lattice of the table's volume now, µm.
+    pub max_sigma_um: f64,
+    /// The next nodes, in order of how much each reduces the maximum predictive variance.
+    pub next_nodes: Vec<[f64; 3]>,
+}
+
+/// Number of next nodes the advice proposes.
+pub const ADVICE_NODES: usize = 5;
+
+fn sampling_advice(table: &ErrorTable, grid: &Grid) -> Option<SamplingAdvice> {
+    let gp = crate::gp::Gp::fit(&table.points, &crate::gp::GpConfig::default()).ok()?;
+    let h = gp.hyper();
+    let spacing_mm = [0, 1, 2].map(|a| {
+        let mut d: Vec<f64> = grid.axis(a).windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+    });
+    // Candidates: a 9-point lattice per axis over the table's volume.
+    let lattice = |a: usize| -> Vec<f64> {
+        let v = grid.axis(a);
+        let (lo, hi) = (v[0], v[v.len() - 1]);
+        (0..9).map(|k| lo + (hi - lo) * k as f64 / 8.0).collect()
+    };
+    let (lx, ly, lz) = (lattice(0), lattice(1), lattice(2));
+    let mut candidates = Vec::with_capacity(729);
+    for &z in &lz {
+        for &y in &ly {
+            for &x in &lx {
+                candidates.push([x, y, z]);
+            }
+        }
+    }
+    Some(SamplingAdvice {
+        length_scales_mm: h.length_scales_mm,
+        spacing_mm,
+        kernel: gp.kernel().name().to_string(),
+        signal_sd_um: h.signal_sd_um,
+        noise_sd_um: h.noise_sd_um,
+        max_sigma_um: gp.max_sigma(&candidates),
+        next_nodes: gp.next_nodes(&candidates, ADVICE_NODES),
+    })
 }
 
 /// A paper column found in the test table (`paper_MxNxQ`) and what became of it.
@@ -67,6 +126,8 @@ pub struct Comparison {
     /// Index into `rows` of the model with the lowest cross-validated RMS.
     pub recommended: usize,
     pub paper: Vec<PaperColumn>,
+    /// Sampling advice (when the Gaussian process is among the methods).
+    pub advice: Option<SamplingAdvice>,
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
@@ -96,6 +157,18 @@ pub fn compare(
                 .map(|(p, t)| p - t.e_um)
         };
         let cv = leave_one_plane_out(grid, method)?;
+        let sigmas: Vec<Option<f64>> = pts.iter().map(|&p| model.sigma(p)).collect();
+        let within = |k: f64| -> Option<f64> {
+            let hits: Vec<bool> = sigmas
+                .iter()
+                .zip(&predictions)
+                .zip(&test.points)
+                .filter_map(|((s, p), t)| s.map(|s| (p - t.e_um).abs() <= k * s))
+                .collect();
+            (!hits.is_empty())
+                .then(|| hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64)
+        };
+        let (within_1s, within_2s) = (within(1.0), within(2.0));
         rows.push(ModelRow {
             method: *method,
             rms_um: rms(resid()).unwrap_or(f64::NAN),
@@ -106,6 +179,9 @@ pub fn compare(
                 .map(|(r, _)| r)),
             cv,
             predictions,
+            sigmas,
+            within_1s,
+            within_2s,
         });
     }
     let recommended = rows
@@ -116,6 +192,11 @@ pub fn compare(
         .map(|(i, _)| i)
         .unwrap_or(0);
     let paper = paper_columns(test, grid);
+    let advice = methods
+        .iter()
+        .any(|m| matches!(m, Method::Gp(_)))
+        .then(|| sampling_advice(table, grid))
+        .flatten();
     Ok(Comparison {
         fit_source: table.source.clone(),
         test: test.clone(),
@@ -124,6 +205,7 @@ pub fn compare(
         extrapolated,
         recommended,
         paper,
+        advice,
     })
 }
 
@@ -272,6 +354,29 @@ impl Comparison {
                 n_test,
                 outside
             ));
+        }
+        for r in &self.rows {
+            if let (Some(w1), Some(w2)) = (r.within_1s, r.within_2s) {
+                out.push(format!(
+                    "{} gives each prediction an uncertainty: {:.0} % of the measured test errors lie within \
+                     ±1σ and {:.0} % within ±2σ (a calibrated model: about 68 % and 95 %).",
+                    r.method.label(),
+                    100.0 * w1,
+                    100.0 * w2
+                ));
+            }
+        }
+        if let Some(a) = &self.advice {
+            for (k, name) in ["x", "y", "z"].iter().enumerate() {
+                let (l, d) = (a.length_scales_mm[k], a.spacing_mm[k]);
+                if d.is_finite() && d > l {
+                    out.push(format!(
+                        "The error's fitted correlation length along {name} ({l:.0} mm) is shorter than the node \
+                         spacing ({d:.0} mm): the grid does not resolve the error along {name}, so no {name} order \
+                         can be trusted between nodes. Halve the {name} spacing."
+                    ));
+                }
+            }
         }
         for p in &self.paper {
             if let Some(why) = &p.refused {

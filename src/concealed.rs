@@ -6,8 +6,9 @@
 //! and the decoder, exactly like a capture: `errmap gen-concealed --out datasets/concealed`
 //! regenerates them all. Each case directory holds `nominal.toml` (the model the diagnosis
 //! is given), `hidden.toml` (nominal + the hidden effect: what made the recording),
-//! `recorded.parquet`, `simulated.parquet` (the nominal model's noiseless simulation of the
-//! same plan), `truth.json` (the hidden parameters, for the tests — the diagnosis never
+//! `recorded.parquet`, `simulated.parquet` (the nominal model's exact expectation at the
+//! recorded rows, as `diagnose --model nominal.toml` computes it; rows outside runs between
+//! lines are absent because their position is unknown), `truth.json` (the hidden parameters, for the tests — the diagnosis never
 //! reads it) and a README saying what is hidden and how big it is.
 
 use std::collections::BTreeMap;
@@ -20,8 +21,8 @@ use serde::Serialize;
 
 use crate::acquire::AcquireError;
 use crate::physics::{
-    Abbe, ErrorMapSpec, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale,
-    ScaleFactor, ThermalDrift, simulate_session,
+    Abbe, ErrorMapSpec, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal,
+    Scale, ScaleFactor, ThermalDrift, simulate_rows, simulate_session,
 };
 use crate::session::write_session;
 
@@ -95,7 +96,10 @@ fn params(pairs: &[(&str, f64)]) -> BTreeMap<String, f64> {
 }
 
 fn truth(entries: &[(&str, &[(&str, f64)])]) -> BTreeMap<String, BTreeMap<String, f64>> {
-    entries.iter().map(|(id, p)| (id.to_string(), params(p))).collect()
+    entries
+        .iter()
+        .map(|(id, p)| (id.to_string(), params(p)))
+        .collect()
 }
 
 /// All cases.
@@ -105,7 +109,10 @@ pub fn cases() -> Vec<Case> {
             name: "scale_thermal_expansion",
             what: "a steel scale (α = 11.5 ppm/K) warming from 20.1 to 20.6 °C that the nominal model treats as perfect",
             effects: vec!["scale_thermal_expansion"],
-            truth: truth(&[("scale_thermal_expansion", &[("alpha_ppm_per_k", 11.5), ("x0_mm", 0.0)])]),
+            truth: truth(&[(
+                "scale_thermal_expansion",
+                &[("alpha_ppm_per_k", 11.5), ("x0_mm", 0.0)],
+            )]),
             apply: |m| {
                 m.scale = Some(Scale {
                     enabled: true,
@@ -131,7 +138,10 @@ pub fn cases() -> Vec<Case> {
             name: "abbe",
             what: "a pitch error of the carriage, θ(x) = 3 µrad + 0.004 µrad/mm · x, acting over the z offset of the lines",
             effects: vec!["abbe"],
-            truth: truth(&[("abbe", &[("theta0_urad", 3.0), ("theta1_urad_per_mm", 0.004)])]),
+            truth: truth(&[(
+                "abbe",
+                &[("theta0_urad", 3.0), ("theta1_urad_per_mm", 0.004)],
+            )]),
             apply: |m| {
                 m.abbe = Some(Abbe {
                     enabled: true,
@@ -169,7 +179,14 @@ pub fn cases() -> Vec<Case> {
             name: "periodic_scale",
             what: "a 0.2 µm interpolation error of the readhead, once per 20 µm grating period",
             effects: vec!["periodic_scale"],
-            truth: truth(&[("periodic_scale", &[("amplitude_um", 0.2), ("period_um", 20.0), ("phase_rad", 0.7)])]),
+            truth: truth(&[(
+                "periodic_scale",
+                &[
+                    ("amplitude_um", 0.2),
+                    ("period_um", 20.0),
+                    ("phase_rad", 0.7),
+                ],
+            )]),
             apply: |m| {
                 m.periodic_scale = Some(PeriodicScale {
                     enabled: true,
@@ -219,7 +236,14 @@ pub fn cases() -> Vec<Case> {
             effects: vec!["reversal", "periodic_scale"],
             truth: truth(&[
                 ("reversal", &[("b_um", 0.8)]),
-                ("periodic_scale", &[("amplitude_um", 0.15), ("period_um", 10.0), ("phase_rad", -1.1)]),
+                (
+                    "periodic_scale",
+                    &[
+                        ("amplitude_um", 0.15),
+                        ("period_um", 10.0),
+                        ("phase_rad", -1.1),
+                    ],
+                ),
             ]),
             apply: |m| {
                 m.reversal = Some(Reversal {
@@ -271,7 +295,9 @@ struct TruthJson<'a> {
 }
 
 fn pp(v: impl Iterator<Item = f64>) -> f64 {
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+        (l.min(x), h.max(x))
+    });
     if hi >= lo { hi - lo } else { 0.0 }
 }
 
@@ -293,8 +319,10 @@ pub fn generate(case: &Case, table1: &Path, seed: u64) -> Result<Generated, Acqu
     let model_path = table1.parent().unwrap_or(Path::new(".")).join("model.toml");
     let plan = plan();
     let recorded = simulate_session(&hidden, &model_path, &plan, true)?;
-    let simulated = simulate_session(&nominal, &model_path, &plan, false)?;
-    let hidden_clean = simulate_session(&hidden, &model_path, &plan, false)?;
+    // The simulation is the nominal model's exact expectation at the recorded rows (what
+    // `diagnose --model nominal.toml` computes): no counter quantisation, no noise.
+    let simulated = simulate_rows(&nominal, &model_path, &recorded)?;
+    let hidden_clean = simulate_rows(&hidden, &model_path, &recorded)?;
     let effect: Vec<f64> = hidden_clean
         .iter()
         .zip(&simulated)
@@ -304,7 +332,8 @@ pub fn generate(case: &Case, table1: &Path, seed: u64) -> Result<Generated, Acqu
     let sizes = CaseSizes {
         geometric_pp_um: pp(simulated.iter().map(|r| r.error_um)),
         effect_pp_um: pp(effect.iter().copied()),
-        effect_rms_um: (effect.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>() / effect.len().max(1) as f64)
+        effect_rms_um: (effect.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>()
+            / effect.len().max(1) as f64)
             .sqrt(),
         noise_um: hidden.noise_um,
         rows: recorded.len(),
@@ -379,7 +408,10 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, AcquireError
             ratio = 100.0 * s.effect_pp_um / s.geometric_pp_um.max(1e-9),
             noise = s.noise_um,
             uneven = if g.hidden.noise_moving_um.is_some() {
-                format!(" while dwelling, {} µm while moving", g.hidden.noise_moving_um.unwrap_or_default())
+                format!(
+                    " while dwelling, {} µm while moving",
+                    g.hidden.noise_moving_um.unwrap_or_default()
+                )
             } else {
                 String::new()
             },

@@ -13,6 +13,7 @@
 //! | [`bench`] | throughput of the interpolators and the decoder (`errmap bench`, `cargo bench`) |
 //! | [`compare`] | order/method comparison like the paper's Table 2, and its report |
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
+//! | [`export`] | compensation tables for LinuxCNC and Siemens 840D, CSV lines and volumetric grids |
 //! | [`gp`] | Gaussian-process (kriging) error model with prediction uncertainty |
 //! | [`iso230`] | ISO 230-2 / VDI/DGQ 3441 positioning statistics for one axis |
 //! | [`physics`] | the machine model (TOML) and the physics simulator behind `simulate`, `serve-sim` and the demo |
@@ -23,6 +24,7 @@ pub mod bench;
 pub mod compare;
 pub mod concealed;
 pub mod cv;
+pub mod diagnose;
 pub mod experiment;
 pub mod export;
 pub mod gp;

@@ -17,7 +17,6 @@ use errmap::table::{ErrorPoint, ErrorTable};
 mod acquisition;
 use acquisition::{capture_cmd, ports, replay_cmd, serve_sim, table_cmd};
 
-
 /// Measure and model the volumetric error of coordinate measuring machines.
 #[derive(Debug, Parser)]
 #[command(name = "errmap", version, about)]
@@ -52,6 +51,76 @@ enum Command {
     GenConcealed(GenConcealedArgs),
     /// Throughput of the interpolators, fit times and the decoder's speed.
     Bench(BenchArgs),
+    /// Find and model what the simulation left out of a recording.
+    Diagnose(DiagnoseArgs),
+    /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
+    Export(ExportArgs),
+}
+
+#[derive(Debug, Args)]
+struct ExportArgs {
+    /// Error table to fit.
+    table: PathBuf,
+    /// lagrange | trilinear | spline | fuzzy
+    #[arg(long)]
+    method: String,
+    /// Lagrange degrees MxNxQ (or auto).
+    #[arg(long)]
+    order: Option<String>,
+    /// The compensated axis (line formats): x, y or z.
+    #[arg(long, default_value = "x")]
+    axis: String,
+    /// The fixed coordinates of the line, e.g. `y=1,z=200` (mm).
+    #[arg(long, default_value = "")]
+    at: String,
+    /// Sampling step along the line, or the grid spacing, mm.
+    #[arg(long)]
+    step: f64,
+    /// Line start and end, mm (default: the table's range on the axis).
+    #[arg(long)]
+    start: Option<f64>,
+    #[arg(long)]
+    end: Option<f64>,
+    /// linuxcnc | siemens | csv | grid
+    #[arg(long)]
+    format: String,
+    /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached) or trim (1, the offsets).
+    #[arg(long, default_value = "actual")]
+    comp_type: String,
+    /// Siemens machine-axis name, e.g. X1.
+    #[arg(long, default_value = "X1")]
+    siemens_axis: String,
+    /// Siemens MD38000 MM_ENC_COMP_MAX_POINTS of the control.
+    #[arg(long, default_value_t = errmap::export::SIEMENS_808D_MAX_POINTS)]
+    max_points: usize,
+    /// Refuse positions outside the mapped range instead of flagging them.
+    #[arg(long)]
+    forbid_extrapolation: bool,
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+struct DiagnoseArgs {
+    /// The recorded session (table, or a capture directory).
+    #[arg(long)]
+    recorded: PathBuf,
+    /// The simulated session of the same plan.
+    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
+    simulated: Option<PathBuf>,
+    /// A machine model to simulate the recording with (instead of --simulated).
+    #[arg(long)]
+    model: Option<PathBuf>,
+    /// Report directory.
+    #[arg(long)]
+    report: PathBuf,
+    /// The scale's grating period, µm (default: the model's, or the capture's HELLO).
+    #[arg(long)]
+    grating_period_um: Option<f64>,
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -201,6 +270,9 @@ struct ModelArgs {
     /// Highest Lagrange degree per axis tried by `auto`/`all`.
     #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
     max_degree: usize,
+    /// Gaussian-process kernel: matern52 or se (squared exponential).
+    #[arg(long, default_value = "matern52")]
+    gp_kernel: String,
 }
 
 #[derive(Debug, Args)]
@@ -291,6 +363,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::Table(a) => table_cmd(a),
         Command::Ports => ports(),
         Command::Simulate(a) => simulate_cmd(a),
+        Command::Diagnose(a) => acquisition::diagnose_cmd(a),
+        Command::Export(a) => export_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),
@@ -306,7 +380,11 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::GenConcealed(a) => {
             let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
-            eprintln!("gen-concealed: {} cases under {}", dirs.len(), a.out.display());
+            eprintln!(
+                "gen-concealed: {} cases under {}",
+                dirs.len(),
+                a.out.display()
+            );
             Ok(())
         }
     }
@@ -323,17 +401,20 @@ fn parse_method(
     name: &str,
     order: Option<&str>,
     model: &ModelArgs,
-    grid: &errmap::table::Grid,
+    grid: Option<&errmap::table::Grid>,
 ) -> Result<Method> {
     Ok(match name {
         "lagrange" => match order {
             None => bail!(
                 "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
             ),
-            Some("auto") => Method::Lagrange(compare::auto_order(grid, model.max_degree)?.0),
+            Some("auto") => {
+                let grid = grid.context("--order auto needs a grid table")?;
+                Method::Lagrange(compare::auto_order(grid, model.max_degree)?.0)
+            }
             Some(o) => Method::Lagrange(o.parse::<Order>().map_err(anyhow::Error::msg)?),
         },
-        "trilinear" | "spline" | "fuzzy" if order.is_some() => {
+        "trilinear" | "spline" | "fuzzy" | "gp" if order.is_some() => {
             bail!("--order applies to lagrange only, not to {name}")
         }
         "trilinear" => Method::Trilinear,
@@ -341,16 +422,31 @@ fn parse_method(
         "fuzzy" => Method::Fuzzy {
             sigma: model.fuzzy_sigma,
         },
-        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy)"),
+        "gp" => Method::Gp(match model.gp_kernel.as_str() {
+            "matern52" | "matern" => errmap::gp::Kernel::Matern52,
+            "se" | "squared-exponential" => errmap::gp::Kernel::SquaredExponential,
+            other => bail!("--gp-kernel is matern52 or se, not {other}"),
+        }),
+        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp)"),
     })
 }
 
 fn fit(a: FitArgs) -> Result<()> {
-    let (_, grid) = read_grid_table(&a.table)?;
-    let method = parse_method(&a.method, a.order.as_deref(), &a.model, &grid)?;
-    let model = method
-        .fit(&grid)
-        .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
+    let table = ErrorTable::read(&a.table)?;
+    // The Gaussian process takes scattered nodes; the interpolators need the grid.
+    let grid = if a.method == "gp" {
+        None
+    } else {
+        Some(table.grid()?)
+    };
+    let method = parse_method(&a.method, a.order.as_deref(), &a.model, grid.as_ref())?;
+    let model = match &grid {
+        Some(g) => method.fit(g).map_err(anyhow::Error::from),
+        None => method
+            .fit_points(&table.points)
+            .map_err(anyhow::Error::from),
+    }
+    .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
     let points = ErrorTable::read_points(&a.predict)?;
     let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
     let mut values = vec![0.0; positions.len()];
@@ -401,7 +497,7 @@ fn fit(a: FitArgs) -> Result<()> {
 /// The model list of `compare` from `--methods` and `--orders`.
 fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
     let names: Vec<String> = a.methods.clone().unwrap_or_else(|| {
-        ["trilinear", "spline", "fuzzy", "lagrange"]
+        ["trilinear", "spline", "fuzzy", "gp", "lagrange"]
             .map(String::from)
             .to_vec()
     });
@@ -427,7 +523,7 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
                     }
                 }
             },
-            other => out.push(parse_method(other, None, &a.model, grid)?),
+            other => out.push(parse_method(other, None, &a.model, Some(grid))?),
         }
     }
     if out.is_empty() {
@@ -499,6 +595,7 @@ fn demo_compare(table: PathBuf, test: PathBuf, report: PathBuf) -> Result<()> {
         model: ModelArgs {
             fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
             max_degree: DEFAULT_MAX_DEGREE,
+            gp_kernel: "matern52".into(),
         },
     })
 }
@@ -508,23 +605,41 @@ fn demo_compare(table: PathBuf, test: PathBuf, report: PathBuf) -> Result<()> {
 /// paper's Table 1 → Table 2 comparison.
 fn demo(a: DemoArgs) -> Result<()> {
     let inputs = a.out.join("inputs");
-    std::fs::create_dir_all(&inputs).with_context(|| format!("cannot create {}", inputs.display()))?;
-    let t1 = write_input(&inputs, "table1.csv", include_str!("../datasets/table1.csv"))?;
-    let t2 = write_input(&inputs, "table2.csv", include_str!("../datasets/table2.csv"))?;
+    std::fs::create_dir_all(&inputs)
+        .with_context(|| format!("cannot create {}", inputs.display()))?;
+    let t1 = write_input(
+        &inputs,
+        "table1.csv",
+        include_str!("../datasets/table1.csv"),
+    )?;
+    let t2 = write_input(
+        &inputs,
+        "table2.csv",
+        include_str!("../datasets/table2.csv"),
+    )?;
     let model = write_input(
         &inputs,
         "model.toml",
         &include_str!("../datasets/sim/model.toml").replace("\"../table1.csv\"", "\"table1.csv\""),
     )?;
-    let plan = write_input(&inputs, "plan.toml", include_str!("../datasets/sim/plan.toml"))?;
+    let plan = write_input(
+        &inputs,
+        "plan.toml",
+        include_str!("../datasets/sim/plan.toml"),
+    )?;
 
     eprintln!("errmap demo [1/4]: simulated board on a pseudo-terminal → capture");
     let session_dir = a.out.join("session");
     if session_dir.exists() {
-        std::fs::remove_dir_all(&session_dir)
-            .with_context(|| format!("cannot clear the previous demo session {}", session_dir.display()))?;
+        std::fs::remove_dir_all(&session_dir).with_context(|| {
+            format!(
+                "cannot clear the previous demo session {}",
+                session_dir.display()
+            )
+        })?;
     }
-    let (stream, truth) = errmap::acquire::simulate_stream(&model, Some(&plan), &Default::default())?;
+    let (stream, truth) =
+        errmap::acquire::simulate_stream(&model, Some(&plan), &Default::default())?;
     let baud = errmap::physics::MachineModel::read(&model)?.device.baud;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let server = std::thread::spawn(move || {
@@ -572,6 +687,105 @@ fn demo(a: DemoArgs) -> Result<()> {
     eprintln!("errmap demo [4/4]: the paper's Table 1 → Table 2 (seed 001)");
     demo_compare(t1, t2, a.out.join("table2"))?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
+    Ok(())
+}
+
+fn export_cmd(a: ExportArgs) -> Result<()> {
+    use errmap::export::{
+        ExportFormat, Extrapolation, LineSpec, LinuxCncCompType, VolumeSpec, sample_line,
+        volumetric_grid,
+    };
+    use errmap::table::Axis;
+    let (_, grid) = read_grid_table(&a.table)?;
+    let method = parse_method(&a.method, a.order.as_deref(), &a.model, Some(&grid))?;
+    let model = method
+        .fit(&grid)
+        .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
+    let extrapolation = if a.forbid_extrapolation {
+        Extrapolation::Forbid
+    } else {
+        Extrapolation::Allow
+    };
+    let format = match a.format.as_str() {
+        "linuxcnc" => ExportFormat::LinuxCnc {
+            comp_type: match a.comp_type.as_str() {
+                "actual" | "0" => LinuxCncCompType::ActualPosition,
+                "trim" | "1" => LinuxCncCompType::Trim,
+                other => bail!("--comp-type is actual (0) or trim (1), not {other}"),
+            },
+        },
+        "siemens" => ExportFormat::Siemens {
+            axis_name: a.siemens_axis.clone(),
+            max_points: a.max_points,
+        },
+        "csv" => ExportFormat::Csv,
+        "grid" => ExportFormat::Grid,
+        other => bail!("--format is linuxcnc, siemens, csv or grid, not {other}"),
+    };
+    let lo = [grid.xs[0], grid.ys[0], grid.zs[0]];
+    let hi = [
+        grid.xs[grid.xs.len() - 1],
+        grid.ys[grid.ys.len() - 1],
+        grid.zs[grid.zs.len() - 1],
+    ];
+    if !format.is_line() {
+        let n = volumetric_grid(
+            model.as_ref(),
+            &VolumeSpec {
+                lo_mm: lo,
+                hi_mm: hi,
+                spacing_mm: a.step,
+            },
+            extrapolation,
+            &a.out,
+        )?;
+        eprintln!("export: {n} grid points → {}", a.out.display());
+        return Ok(());
+    }
+    let axis = match a.axis.as_str() {
+        "x" | "X" => Axis::X,
+        "y" | "Y" => Axis::Y,
+        "z" | "Z" => Axis::Z,
+        other => bail!("--axis is x, y or z, not {other}"),
+    };
+    // The line's fixed coordinates: given ones, else the first node on that axis.
+    let mut at = lo;
+    for part in a.at.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (k, v) = part
+            .split_once('=')
+            .with_context(|| format!("--at takes axis=value pairs like y=1,z=200, not `{part}`"))?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .with_context(|| format!("--at: `{v}` is not a number"))?;
+        match k.trim() {
+            "x" | "X" => at[0] = v,
+            "y" | "Y" => at[1] = v,
+            "z" | "Z" => at[2] = v,
+            other => bail!("--at: unknown axis `{other}`"),
+        }
+    }
+    let line = LineSpec {
+        axis,
+        at_mm: at,
+        start_mm: a.start.unwrap_or(lo[axis.index()]),
+        end_mm: a.end.unwrap_or(hi[axis.index()]),
+        step_mm: a.step,
+    };
+    let sampled = sample_line(model.as_ref(), &line, extrapolation)?;
+    let text = format.render_line(&sampled, None)?;
+    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "export: {} {} entries along {} at ({}, {}, {}) mm ({} extrapolated) → {}; compensation = −error",
+        format.name(),
+        sampled.positions_mm.len(),
+        a.axis,
+        at[0],
+        at[1],
+        at[2],
+        sampled.extrapolated_count(),
+        a.out.display()
+    );
     Ok(())
 }
 

@@ -33,7 +33,9 @@ use std::path::{Path, PathBuf};
 
 use errmap_drivers::edlen;
 use errmap_drivers::frame::Axis as WireAxis;
-use errmap_drivers::sim::{Device, Environment, Faults, Plan, SimStream, Truth, TruthQuery, simulate};
+use errmap_drivers::sim::{
+    Device, Environment, Faults, Plan, SimStream, Truth, TruthQuery, simulate,
+};
 use errmap_drivers::{SessionRow, decode_all};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -49,9 +51,15 @@ const HENE_UM: f64 = 0.632_991_354;
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum History {
-    Constant { value: f64 },
+    Constant {
+        value: f64,
+    },
     /// Linear from `start` to `end` over `duration_s`, then constant.
-    Ramp { start: f64, end: f64, duration_s: f64 },
+    Ramp {
+        start: f64,
+        end: f64,
+        duration_s: f64,
+    },
     /// mean + amplitude·sin(2π t/period_s + phase_rad).
     Cycle {
         mean: f64,
@@ -61,9 +69,16 @@ pub enum History {
         phase_rad: f64,
     },
     /// Exponential approach from `start` to `end` with time constant `tau_s`.
-    Exponential { start: f64, end: f64, tau_s: f64 },
+    Exponential {
+        start: f64,
+        end: f64,
+        tau_s: f64,
+    },
     /// Piecewise linear through (t_s, value), constant outside.
-    Table { t_s: Vec<f64>, value: Vec<f64> },
+    Table {
+        t_s: Vec<f64>,
+        value: Vec<f64>,
+    },
 }
 
 impl History {
@@ -112,7 +127,9 @@ impl History {
         match self {
             History::Table { t_s, value } => {
                 if t_s.len() != value.len() || t_s.is_empty() {
-                    return Err(format!("{what}: t_s and value must have the same non-zero length"));
+                    return Err(format!(
+                        "{what}: t_s and value must have the same non-zero length"
+                    ));
                 }
                 if t_s.windows(2).any(|w| w[1] < w[0]) {
                     return Err(format!("{what}: t_s must be increasing"));
@@ -389,7 +406,8 @@ impl MachineModel {
             path: path.to_path_buf(),
             source,
         })?;
-        let mut m: MachineModel = toml::from_str(&text).map_err(|e| config_err(path, e.to_string()))?;
+        let mut m: MachineModel =
+            toml::from_str(&text).map_err(|e| config_err(path, e.to_string()))?;
         if let Some(map) = &mut m.error_map
             && map.table.is_relative()
         {
@@ -425,7 +443,10 @@ impl MachineModel {
         if let Some(a) = &self.abbe
             && !matches!(a.offset_axis.as_str(), "x" | "y" | "z")
         {
-            return Err(format!("abbe.offset_axis `{}` must be x, y or z", a.offset_axis));
+            return Err(format!(
+                "abbe.offset_axis `{}` must be x, y or z",
+                a.offset_axis
+            ));
         }
         if let Some(p) = &self.periodic_scale
             && p.enabled
@@ -443,7 +464,10 @@ impl MachineModel {
     }
 
     /// The fitted geometric map, if any.
-    pub fn geometric_map(&self, path: &Path) -> Result<Option<Box<dyn Interpolator>>, AcquireError> {
+    pub fn geometric_map(
+        &self,
+        path: &Path,
+    ) -> Result<Option<Box<dyn Interpolator>>, AcquireError> {
         let Some(spec) = self.error_map.as_ref().filter(|m| m.enabled) else {
             return Ok(None);
         };
@@ -464,18 +488,37 @@ impl MachineModel {
             "fuzzy" => Method::Fuzzy {
                 sigma: spec.fuzzy_sigma,
             },
-            other => return Err(config_err(path, format!("unknown error_map.method `{other}`"))),
+            other => {
+                return Err(config_err(
+                    path,
+                    format!("unknown error_map.method `{other}`"),
+                ));
+            }
         };
-        Ok(Some(method.fit(&grid).map_err(|e| config_err(path, e.to_string()))?))
+        Ok(Some(
+            method
+                .fit(&grid)
+                .map_err(|e| config_err(path, e.to_string()))?,
+        ))
     }
 
     /// The truth of this model over a plan of `duration_s` (for the session means of the
     /// air histories used by the refraction term).
-    pub fn truth(&self, path: &Path, axis: WireAxis, duration_s: f64) -> Result<PhysicsTruth, AcquireError> {
+    pub fn truth(
+        &self,
+        path: &Path,
+        axis: WireAxis,
+        duration_s: f64,
+    ) -> Result<PhysicsTruth, AcquireError> {
         let map = self.geometric_map(path)?;
         let h = &self.environment;
         let n = 2000;
-        let mean = |f: &History| (0..=n).map(|k| f.at(duration_s * k as f64 / n as f64)).sum::<f64>() / (n + 1) as f64;
+        let mean = |f: &History| {
+            (0..=n)
+                .map(|k| f.at(duration_s * k as f64 / n as f64))
+                .sum::<f64>()
+                / (n + 1) as f64
+        };
         let lambda_um = f64::from(self.device.laser_wavelength_fm) * 1e-9;
         let lambda_um = if lambda_um > 0.0 { lambda_um } else { HENE_UM };
         let n0 = edlen::refractive_index(
@@ -535,7 +578,11 @@ impl PhysicsTruth {
         if let Some(s) = m.scale.as_ref().filter(|s| s.enabled) {
             e += -s.cte_ppm_per_k * (h.scale_temp_c.at(t) - 20.0) * (x - s.x0_mm) * 1e-3;
         }
-        let mut k_ppm = m.scale_factor.as_ref().filter(|s| s.enabled).map_or(0.0, |s| s.ppm);
+        let mut k_ppm = m
+            .scale_factor
+            .as_ref()
+            .filter(|s| s.enabled)
+            .map_or(0.0, |s| s.ppm);
         // Cosine error: the beam measures L·cos θ, the scale L: e = L(1 − cos θ) ≈ Lθ²/2
         // read as indicated − reference > 0; as a scale factor +θ²/2.
         let theta = m.laser.alignment_urad * 1e-6;
@@ -556,7 +603,8 @@ impl PhysicsTruth {
             e += d * v * l.tau_us * 1e-3;
         }
         if let Some(p) = m.periodic_scale.as_ref().filter(|p| p.enabled) {
-            e += p.amplitude_um * (std::f64::consts::TAU * x * 1000.0 / p.period_um + p.phase_rad).sin();
+            e += p.amplitude_um
+                * (std::f64::consts::TAU * x * 1000.0 / p.period_um + p.phase_rad).sin();
         }
         if let Some(dr) = m.thermal_drift.as_ref().filter(|d| d.enabled) {
             e += match dr.tau_s {
@@ -649,7 +697,8 @@ pub fn simulate_plan(
     let duration = plan_duration(plan, &device)?;
     let mut truth = model.truth(model_path, plan.axis, duration)?;
     truth.noise = noise;
-    let stream = simulate(plan, &device, faults, &mut truth).map_err(|e| config_err(model_path, e.to_string()))?;
+    let stream = simulate(plan, &device, faults, &mut truth)
+        .map_err(|e| config_err(model_path, e.to_string()))?;
     Ok((stream, truth))
 }
 
@@ -693,7 +742,11 @@ pub fn simulate_rows(
             pos_mm: pos,
             direction: r.direction,
             feed_mm_s: r.feed_mm_s.unwrap_or(0.0),
-            speed_mm_s: if r.target >= 0 { 0.0 } else { r.feed_mm_s.unwrap_or(0.0) },
+            speed_mm_s: if r.target >= 0 {
+                0.0
+            } else {
+                r.feed_mm_s.unwrap_or(0.0)
+            },
             run: r.run,
             target: r.target,
         }
@@ -717,4 +770,104 @@ pub fn simulate_rows(
             }
         })
         .collect())
+}
+
+/// Adds the effects a diagnosis found to a model, so that `simulate` reproduces the
+/// recording. Returns a note per effect (what was set, or why it could not be).
+pub fn apply_found_effects(
+    model: &mut MachineModel,
+    effects: &[crate::diagnose::FoundEffect],
+) -> Vec<String> {
+    let mut notes = Vec::new();
+    for e in effects {
+        let num = |k: &str| e.params.get(k).and_then(serde_json::Value::as_f64);
+        let need = |k: &str| num(k).unwrap_or(0.0);
+        match e.id.as_str() {
+            "scale_thermal_expansion" => {
+                model.scale = Some(Scale {
+                    enabled: true,
+                    material: "from diagnosis".into(),
+                    cte_ppm_per_k: need("alpha_ppm_per_k"),
+                    x0_mm: need("x0_mm"),
+                });
+            }
+            "scale_factor" => {
+                let old = model
+                    .scale_factor
+                    .as_ref()
+                    .filter(|s| s.enabled)
+                    .map_or(0.0, |s| s.ppm);
+                model.scale_factor = Some(ScaleFactor {
+                    enabled: true,
+                    ppm: old + need("ppm"),
+                });
+            }
+            "abbe" => {
+                let axis = e
+                    .params
+                    .get("offset_axis")
+                    .and_then(serde_json::Value::as_str)
+                    .unwrap_or("z")
+                    .to_string();
+                model.abbe = Some(Abbe {
+                    enabled: true,
+                    offset_axis: axis,
+                    theta0_urad: need("theta0_urad"),
+                    theta1_urad_per_mm: need("theta1_urad_per_mm"),
+                });
+            }
+            "reversal" => {
+                let old = model
+                    .reversal
+                    .as_ref()
+                    .filter(|r| r.enabled)
+                    .map_or(0.0, |r| r.b_um);
+                model.reversal = Some(Reversal {
+                    enabled: true,
+                    b_um: old + need("b_um"),
+                });
+            }
+            "latch_delay" => {
+                let old = model
+                    .latch_delay
+                    .as_ref()
+                    .filter(|l| l.enabled)
+                    .map_or(0.0, |l| l.tau_us);
+                model.latch_delay = Some(LatchDelay {
+                    enabled: true,
+                    tau_us: old + need("tau_us"),
+                });
+            }
+            "periodic_scale" => {
+                model.periodic_scale = Some(PeriodicScale {
+                    enabled: true,
+                    amplitude_um: need("amplitude_um"),
+                    period_um: need("period_um"),
+                    phase_rad: need("phase_rad"),
+                });
+            }
+            "thermal_drift" => {
+                model.thermal_drift = Some(ThermalDrift {
+                    enabled: true,
+                    amplitude_um: need("amplitude_um"),
+                    tau_s: num("tau_s"),
+                    rate_um_per_s: need("rate_um_per_s"),
+                });
+            }
+            "dead_path" => model.laser.dead_path_mm += need("dead_path_mm"),
+            "refraction" => {
+                model.refraction = Some(Refraction {
+                    enabled: true,
+                    ppm_per_k: need("ppm_per_k"),
+                    ppm_per_hpa: need("ppm_per_hpa"),
+                });
+            }
+            other => {
+                notes.push(format!("{other}: no model term for it; not added"));
+                continue;
+            }
+        }
+        notes.push(format!("{}: added", e.id));
+    }
+    notes
 }

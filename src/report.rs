@@ -50,6 +50,10 @@ pub struct CompareJsonRow {
     pub cv_interior_rms_um: Option<f64>,
     pub cv_capped_folds: usize,
     pub cv_folds: usize,
+    /// One-sigma per prediction where the method has one (GP), else null.
+    pub sigmas: Vec<Option<f64>>,
+    pub within_1s: Option<f64>,
+    pub within_2s: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -89,6 +93,9 @@ impl Comparison {
                     cv_interior_rms_um: r.cv.interior_rms_um,
                     cv_capped_folds: r.cv.capped_folds,
                     cv_folds: r.cv.folds,
+                    sigmas: r.sigmas.clone(),
+                    within_1s: r.within_1s,
+                    within_2s: r.within_2s,
                 })
                 .collect(),
             recommended: (&self.recommended_row().method).into(),
@@ -239,7 +246,13 @@ pub fn write_report(
             Some(o) => format!("lagrange_{o}"),
             None => r.method.name().to_string(),
         };
-        cols.push(Column::new(name.into(), r.predictions.clone()));
+        cols.push(Column::new(name.clone().into(), r.predictions.clone()));
+        if r.sigmas.iter().any(Option::is_some) {
+            cols.push(Column::new(
+                format!("{name}_sigma").into(),
+                r.sigmas.clone(),
+            ));
+        }
     }
     let path = dir.join("predictions.csv");
     let mut df = DataFrame::new(n_pts, cols).map_err(|e| TableError::Format {
@@ -262,10 +275,18 @@ pub fn write_report(
         if i == c.recommended {
             name.push_str(" (CV pick)");
         }
+        let y_err = r
+            .sigmas
+            .iter()
+            .all(Option::is_some)
+            .then(|| r.sigmas.iter().map(|s| s.unwrap_or(0.0)).collect());
+        if y_err.is_some() {
+            name.push_str(" ±1σ");
+        }
         series.push(plot::Series {
             name,
             y: r.predictions.clone(),
-            y_err: None,
+            y_err,
         });
     }
     written.extend(plot::category_lines(
@@ -408,7 +429,11 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
             cells.push(opt(pc.values[k], 4));
         }
         for &i in feat {
-            cells.push(format!("{:.4}", c.rows[i].predictions[k]));
+            let r = &c.rows[i];
+            cells.push(match r.sigmas[k] {
+                Some(sd) => format!("{:.4} ± {:.3}", r.predictions[k], sd),
+                None => format!("{:.4}", r.predictions[k]),
+            });
         }
         let _ = writeln!(s, "| {} |", cells.join(" | "));
     }
@@ -470,18 +495,53 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
         }
     }
 
+    if let Some(a) = &c.advice {
+        let _ = writeln!(s, "\n## Sampling advice (Gaussian process)\n");
+        let _ = writeln!(
+            s,
+            "A {} Gaussian process fitted to the table (signal σ {:.3} µm, noise σ {:.3} µm) gives the \
+             error's correlation length per axis; where it is shorter than the node spacing, the grid \
+             does not resolve the error between nodes.\n",
+            a.kernel, a.signal_sd_um, a.noise_sd_um
+        );
+        let _ = writeln!(
+            s,
+            "| axis | correlation length mm | node spacing mm | resolved |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|");
+        for (k, name) in ["x", "y", "z"].iter().enumerate() {
+            let (l, d) = (a.length_scales_mm[k], a.spacing_mm[k]);
+            let _ = writeln!(
+                s,
+                "| {name} | {l:.1} | {d:.1} | {} |",
+                if d <= l { "yes" } else { "**no**" }
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nThe largest predictive σ over a 9×9×9 lattice of the table's volume is {:.3} µm. The next \
+             {} nodes that most reduce it (greedy, each chosen where the variance is largest given the \
+             nodes before it):\n",
+            a.max_sigma_um,
+            a.next_nodes.len()
+        );
+        for (k, p) in a.next_nodes.iter().enumerate() {
+            let _ = writeln!(s, "{}. ({:.1}, {:.1}, {:.1}) mm", k + 1, p[0], p[1], p[2]);
+        }
+    }
+
     let _ = writeln!(s, "\n## All models, by cross-validated RMS\n");
     let _ = writeln!(
         s,
-        "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm |"
+        "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm | within ±1σ / ±2σ |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
     for &i in by_cv {
         let r = &c.rows[i];
         let axes: Vec<String> = r.cv.axis_rms_um.iter().map(|v| opt(*v, 3)).collect();
         let _ = writeln!(
             s,
-            "| {}{} | {} | {} | {} | {}/{} | {:.4} | {:.4} | {} |",
+            "| {}{} | {} | {} | {} | {}/{} | {:.4} | {:.4} | {} | {} |",
             r.method.label(),
             if i == c.recommended { " ★" } else { "" },
             opt(Some(r.cv.rms_um), 4),
@@ -491,7 +551,11 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
             r.cv.folds,
             r.rms_um,
             r.max_abs_um,
-            opt(r.inside_rms_um, 4)
+            opt(r.inside_rms_um, 4),
+            match (r.within_1s, r.within_2s) {
+                (Some(a), Some(b)) => format!("{:.0} % / {:.0} %", 100.0 * a, 100.0 * b),
+                _ => "—".into(),
+            }
         );
     }
 

@@ -27,7 +27,12 @@ fn serve(plan: &Path, speed: f64, linger: f64) -> (Child, String) {
         .arg(root().join("datasets/sim/model.toml"))
         .arg("--plan")
         .arg(plan)
-        .args(["--speed", &speed.to_string(), "--linger", &linger.to_string()])
+        .args([
+            "--speed",
+            &speed.to_string(),
+            "--linger",
+            &linger.to_string(),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -41,13 +46,18 @@ fn serve(plan: &Path, speed: f64, linger: f64) -> (Child, String) {
 
 fn capture(port: &str, out: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(bin());
-    c.args(["capture", "--port", port, "--out"]).arg(out).args(extra);
+    c.args(["capture", "--port", port, "--out"])
+        .arg(out)
+        .args(extra);
     c
 }
 
 fn truth() -> PhysicsTruth {
     let path = root().join("datasets/sim/model.toml");
-    MachineModel::read(&path).expect("model").truth(&path, errmap::drivers::frame::Axis::X, 30.0).expect("truth")
+    MachineModel::read(&path)
+        .expect("model")
+        .truth(&path, errmap::drivers::frame::Axis::X, 30.0)
+        .expect("truth")
 }
 
 #[test]
@@ -55,7 +65,9 @@ fn simulated_device_to_error_table_matches_the_truth() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("session");
     let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 20.0, 2.0);
-    let o = capture(&port, &out, &["--idle-timeout", "0.7"]).output().expect("capture runs");
+    let o = capture(&port, &out, &["--idle-timeout", "0.7"])
+        .output()
+        .expect("capture runs");
     let _ = sim.wait();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_session(&out.join("session.csv")).expect("session table");
@@ -65,7 +77,11 @@ fn simulated_device_to_error_table_matches_the_truth() {
         &Default::default(),
     )
     .expect("same simulation in-process");
-    assert_eq!(rows.len(), expected.truth.len(), "every simulated sample arrives");
+    assert_eq!(
+        rows.len(),
+        expected.truth.len(),
+        "every simulated sample arrives"
+    );
     let (table, summary) = error_table("session", &rows).expect("reduces");
     assert_eq!((summary.lines, summary.targets), (4, 5));
     let grid = table.grid().expect("a 5×2×2 grid");
@@ -75,14 +91,21 @@ fn simulated_device_to_error_table_matches_the_truth() {
     // sample's noise and quantisation, a constant offset common to all nodes.
     let t = truth();
     let home = t.map_um([0.0, 1.0, 200.0]);
-    let resid: Vec<f64> = table.points.iter().map(|p| p.e_um - (t.map_um(p.position()) - home)).collect();
+    let resid: Vec<f64> = table
+        .points
+        .iter()
+        .map(|p| p.e_um - (t.map_um(p.position()) - home))
+        .collect();
     let offset = resid.iter().sum::<f64>() / resid.len() as f64;
     // One sample: 0.05 µm noise and ≤ 0.09 µm of quantisation.
     assert!(offset.abs() < 0.3, "origin offset {offset}");
     for (p, r) in table.points.iter().zip(&resid) {
         // 80 samples of 0.05 µm noise (σ_mean ≈ 0.006 µm) plus counter quantisation
         // (scale 0.1 µm, laser λ/8 ≈ 0.079 µm, dithered by the noise).
-        assert!((r - offset).abs() < 0.04, "{p:?}: residual {r}, offset {offset}");
+        assert!(
+            (r - offset).abs() < 0.04,
+            "{p:?}: residual {r}, offset {offset}"
+        );
         assert!(p.n.is_some_and(|n| n >= 75));
     }
     // Replay gives exactly the rows capture wrote.
@@ -106,7 +129,13 @@ fn simulated_device_to_error_table_matches_the_truth() {
     assert_eq!(stats["crc_failures"], 0);
     // The error table command writes the same table.
     let et = dir.path().join("errors.csv");
-    let o = Command::new(bin()).arg("table").arg(&out).arg("--out").arg(&et).output().expect("table runs");
+    let o = Command::new(bin())
+        .arg("table")
+        .arg(&out)
+        .arg("--out")
+        .arg(&et)
+        .output()
+        .expect("table runs");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(ErrorTable::read(&et).expect("reads").points.len(), 20);
 }
@@ -118,14 +147,20 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
     // Real time: the 21 s plan is still running when the capture is killed.
     let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 1.0, 0.0);
     let start = Instant::now();
-    let mut cap = capture(&port, &out, &[]).stderr(Stdio::null()).spawn().expect("capture starts");
+    let mut cap = capture(&port, &out, &[])
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("capture starts");
     std::thread::sleep(Duration::from_millis(3500));
     cap.kill().expect("SIGKILL");
     let killed_after = start.elapsed().as_secs_f64();
     let _ = cap.wait();
     let _ = sim.kill();
     let _ = sim.wait();
-    assert!(!out.join("session.csv").exists(), "killed before writing the table");
+    assert!(
+        !out.join("session.csv").exists(),
+        "killed before writing the table"
+    );
     let replayed = dir.path().join("replay.csv");
     let o = Command::new(bin())
         .arg("replay")
@@ -139,7 +174,11 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
     // At 200 samples/s (plus the start-up lag of both processes, under 1 s here) the
     // raw file flushed at least every 0.5 s holds every sample up to ~1 s before the kill.
     let must_have = ((killed_after - 1.5) * 200.0) as usize;
-    assert!(rows.len() >= must_have, "{} rows, expected ≥ {must_have}", rows.len());
+    assert!(
+        rows.len() >= must_have,
+        "{} rows, expected ≥ {must_have}",
+        rows.len()
+    );
     // And they are the device's first samples, with no hole.
     for (k, r) in rows.iter().enumerate() {
         assert_eq!(r.sample, k as i64);
@@ -158,15 +197,25 @@ fn a_vanishing_port_ends_the_capture_with_a_clear_error_and_a_valid_session() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("vanished") && err.contains(&port), "{err}");
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("session.json")).expect("json")).expect("valid JSON");
+        serde_json::from_str(&std::fs::read_to_string(out.join("session.json")).expect("json"))
+            .expect("valid JSON");
     assert_eq!(json["end"]["reason"], "vanished");
     let rows = read_session(&out.join("session.csv")).expect("valid session table");
     assert!(!rows.is_empty());
     // Replayable, and identical.
     let replayed = dir.path().join("replay.csv");
-    let o = Command::new(bin()).arg("replay").arg(out.join("raw.bin")).arg("--out").arg(&replayed).output().expect("replay");
+    let o = Command::new(bin())
+        .arg("replay")
+        .arg(out.join("raw.bin"))
+        .arg("--out")
+        .arg(&replayed)
+        .output()
+        .expect("replay");
     assert!(o.status.success());
-    assert_eq!(std::fs::read(&replayed).expect("r"), std::fs::read(out.join("session.csv")).expect("c"));
+    assert_eq!(
+        std::fs::read(&replayed).expect("r"),
+        std::fs::read(out.join("session.csv")).expect("c")
+    );
 }
 
 #[test]
@@ -174,10 +223,19 @@ fn replay_of_garbage_exits_1_and_of_a_damaged_capture_exits_0() {
     let dir = tempfile::tempdir().expect("tempdir");
     let junk = dir.path().join("junk.bin");
     std::fs::write(&junk, b"not a capture at all").expect("write");
-    let o = Command::new(bin()).arg("replay").arg(&junk).args(["--out"]).arg(dir.path().join("x.csv")).output().expect("runs");
+    let o = Command::new(bin())
+        .arg("replay")
+        .arg(&junk)
+        .args(["--out"])
+        .arg(dir.path().join("x.csv"))
+        .output()
+        .expect("runs");
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no valid frame"));
-    let missing = Command::new(bin()).args(["replay", "/nonexistent/raw.bin", "--out", "x.csv"]).output().expect("runs");
+    let missing = Command::new(bin())
+        .args(["replay", "/nonexistent/raw.bin", "--out", "x.csv"])
+        .output()
+        .expect("runs");
     assert_eq!(missing.status.code(), Some(1));
     // A damaged capture: a simulated stream with bit flips and garbage.
     let mut truth = truth();
@@ -186,11 +244,24 @@ fn replay_of_garbage_exits_1_and_of_a_damaged_capture_exits_0() {
         runs: 1,
         ..Default::default()
     };
-    let faults = errmap::drivers::sim::Faults { bit_flip_prob: 0.05, garbage_prob: 0.05, seed: 3, ..Default::default() };
-    let s = errmap::drivers::sim::simulate(&plan, &Default::default(), &faults, &mut truth).expect("sim");
+    let faults = errmap::drivers::sim::Faults {
+        bit_flip_prob: 0.05,
+        garbage_prob: 0.05,
+        seed: 3,
+        ..Default::default()
+    };
+    let s = errmap::drivers::sim::simulate(&plan, &Default::default(), &faults, &mut truth)
+        .expect("sim");
     let raw = dir.path().join("damaged.bin");
     std::fs::write(&raw, s.bytes()).expect("write");
-    let o = Command::new(bin()).arg("replay").arg(&raw).arg("--out").arg(dir.path().join("d.csv")).arg("--json").output().expect("runs");
+    let o = Command::new(bin())
+        .arg("replay")
+        .arg(&raw)
+        .arg("--out")
+        .arg(dir.path().join("d.csv"))
+        .arg("--json")
+        .output()
+        .expect("runs");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     assert!(v["crc_failures"].as_u64().expect("n") > 0);

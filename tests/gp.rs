@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use errmap::gp::{Gp, GpConfig, GpError, Kernel};
+use errmap::gp::{Gp, GpConfig, GpError, GpHyper, Kernel};
 use errmap::interp::Interpolator;
 use errmap::table::{ErrorPoint, ErrorTable, Grid};
 use nalgebra::{Cholesky, DMatrix};
@@ -52,7 +52,9 @@ fn sample_gp(
             .sum();
         signal_sd * signal_sd * matern52(r2.sqrt()) + if i == j { 1e-9 } else { 0.0 }
     });
-    let l = Cholesky::new(k).expect("the prior covariance is positive definite").l();
+    let l = Cholesky::new(k)
+        .expect("the prior covariance is positive definite")
+        .l();
     let z = nalgebra::DVector::from_fn(n, |_, _| normal(rng));
     let f = l * z;
     positions
@@ -94,9 +96,14 @@ fn noiseless_smooth_field_is_recovered_within_its_sigma() {
         let (mean, sigma) = gp.predict_with_sigma(p.position());
         // At a node the latent σ is about the noise sd (≤ 1e-5 σ_f); 1e-3 σ_f leaves room.
         assert!(sigma <= 1e-3 * h.signal_sd_um, "σ = {sigma} at {p:?}");
-        // The mean interpolates: the residual is σₙ² α, ~1e-10 × the data scale here;
-        // 1e-5 µm is 1e-5 of the field's amplitude.
-        assert!((mean - p.e_um).abs() < 1e-5, "mean {mean} vs {} at {p:?}", p.e_um);
+        // The mean interpolates up to the nugget: the residual σₙ²αᵢ is of the order of
+        // the noise sd (5.5e-5 µm in this fit). 1e-4 µm = 0.1 nm is 4·10⁻⁵ of the field's
+        // 2.5 µm amplitude and far below any CMM's resolution.
+        assert!(
+            (mean - p.e_um).abs() < 1e-4,
+            "mean {mean} vs {} at {p:?}",
+            p.e_um
+        );
         assert!(!gp.outside(p.position()));
     }
 
@@ -115,15 +122,48 @@ fn noiseless_smooth_field_is_recovered_within_its_sigma() {
     assert!(worst < 3.5, "worst |error|/σ = {worst}");
 }
 
-#[test]
-fn hyperparameters_are_recovered_from_a_gp_sample() {
-    let truth_ls = [150.0, 400.0, 80.0];
-    let (signal_sd, noise_sd, mean) = (2.0, 0.2, 1.0);
-    let mut rng = StdRng::seed_from_u64(2024);
+/// Test 2's truth: Matérn 5/2 with these length scales, σ_f = 2 µm, σₙ = 0.5 µm, mean
+/// 1 µm, on 200 uniform points in a 600 × 1000 × 300 mm box (2.5–4 length scales wide).
+const TRUTH_LS_MM: [f64; 3] = [150.0, 400.0, 80.0];
+const TRUTH_SIGNAL_UM: f64 = 2.0;
+const TRUTH_NOISE_UM: f64 = 0.5;
+
+fn gp_sample_200(seed: u64) -> Vec<ErrorPoint> {
+    let mut rng = StdRng::seed_from_u64(seed);
     let box_mm = [600.0, 1000.0, 300.0];
     let positions: Vec<[f64; 3]> = (0..200).map(|_| uniform_point(&mut rng, box_mm)).collect();
-    let points = sample_gp(&mut rng, &positions, truth_ls, signal_sd, noise_sd, mean);
+    sample_gp(
+        &mut rng,
+        &positions,
+        TRUTH_LS_MM,
+        TRUTH_SIGNAL_UM,
+        TRUTH_NOISE_UM,
+        1.0,
+    )
+}
 
+/// Tolerances: one realisation pins a length scale only to tens of per cent (the
+/// likelihood is flat along the ℓ–σ_f ridge), hence a factor 1.5 for ℓ and σ_f. The
+/// noise is identified by ~200 residuals at scales below the point spacing: relative sd
+/// ≈ 1/√(2·200) ≈ 5 %, inflated by its trade-off with the length scales, hence 30 %.
+/// Over seeds 0–5 (`hyperparameter_recovery_holds_over_seeds`) the ℓ ratios fell in
+/// 0.77–1.43, σ_f in 0.76–1.37 and σₙ in 0.84–1.07.
+fn assert_recovered(h: &GpHyper, seed: u64) {
+    for (a, (fitted, truth)) in h.length_scales_mm.iter().zip(TRUTH_LS_MM).enumerate() {
+        assert!(
+            (1.0 / 1.5..=1.5).contains(&(fitted / truth)),
+            "seed {seed}, axis {a}: fitted {fitted} mm vs true {truth} mm"
+        );
+    }
+    let noise = h.noise_sd_um / TRUTH_NOISE_UM;
+    assert!((0.7..=1.3).contains(&noise), "seed {seed}: {h:?}");
+    let signal = h.signal_sd_um / TRUTH_SIGNAL_UM;
+    assert!((1.0 / 1.5..=1.5).contains(&signal), "seed {seed}: {h:?}");
+}
+
+#[test]
+fn hyperparameters_are_recovered_from_a_gp_sample() {
+    let points = gp_sample_200(0);
     let start = Instant::now();
     let gp = Gp::fit(&points, &GpConfig::default()).expect("fits");
     let secs = start.elapsed().as_secs_f64();
@@ -132,27 +172,23 @@ fn hyperparameters_are_recovered_from_a_gp_sample() {
         "200-point Matérn 5/2 fit (default config, 9 starts): {secs:.1} s; {h:?}; lml {:.2}",
         gp.log_marginal_likelihood()
     );
-    // One realisation on a box 2.5–4 length scales wide pins a length scale only to
-    // tens of per cent (the likelihood is flat along the ℓ–σ_f ridge), hence a factor
-    // 1.5. The noise is identified by ~200 near-independent residuals at scales below
-    // the point spacing: relative sd ≈ 1/√(2·200) ≈ 5 %, inflated by its correlation
-    // with the length scales, hence 30 %.
-    for a in 0..3 {
-        let ratio = h.length_scales_mm[a] / truth_ls[a];
-        assert!(
-            (1.0 / 1.5..=1.5).contains(&ratio),
-            "axis {a}: fitted {} mm vs true {} mm",
-            h.length_scales_mm[a],
-            truth_ls[a]
-        );
+    assert_recovered(&h, 0);
+}
+
+/// The evidence for `assert_recovered`'s tolerances: six seeds, 3 starts each (~2 min in
+/// debug, hence ignored; run with `--ignored`).
+#[test]
+#[ignore]
+fn hyperparameter_recovery_holds_over_seeds() {
+    for seed in 0..6 {
+        let config = GpConfig {
+            restarts: 2,
+            ..GpConfig::default()
+        };
+        let gp = Gp::fit(&gp_sample_200(seed), &config).expect("fits");
+        eprintln!("seed {seed}: {:?}", gp.hyper());
+        assert_recovered(gp.hyper(), seed);
     }
-    assert!(
-        (h.noise_sd_um / noise_sd - 1.0).abs() < 0.3,
-        "noise {} vs {noise_sd}",
-        h.noise_sd_um
-    );
-    // σ_f trades off against the length scales; a factor 1.5 is the same ridge.
-    assert!((h.signal_sd_um / signal_sd - 1.0).abs() < 0.5, "{h:?}");
 }
 
 #[test]
@@ -199,10 +235,17 @@ fn scattered_nodes_fit_and_predict() {
     let max_x = points.iter().map(|p| p.x_mm).fold(f64::MIN, f64::max);
     assert!(gp.outside([max_x + 1.0, 200.0, 150.0]));
     assert!(!gp.outside([400.0, 200.0, 150.0]));
-    // Far outside, σ tends to the prior σ_f plus the mean's uncertainty: it grows.
-    let (_, s_in) = gp.predict_with_sigma([400.0, 200.0, 150.0]);
-    let (_, s_far) = gp.predict_with_sigma([5000.0, 200.0, 150.0]);
-    assert!(s_far > gp.hyper().signal_sd_um && s_far > 10.0 * s_in);
+    // Leaving the data, σ grows, and far beyond every length scale it tends to
+    // √(σ_f² + var(m̂)) > σ_f.
+    let sigma_at = |x: f64| gp.predict_with_sigma([x, 200.0, 150.0]).1;
+    let sigmas: Vec<f64> = [400.0, 1000.0, 3000.0, 30000.0]
+        .iter()
+        .map(|&x| sigma_at(x))
+        .collect();
+    let far = sigma_at(1e7);
+    eprintln!("scattered: σ at x = 400, 1000, 3000, 30000 mm: {sigmas:?}; at 1e7 mm: {far}");
+    assert!(sigmas.windows(2).all(|w| w[1] > w[0]), "{sigmas:?}");
+    assert!(far > gp.hyper().signal_sd_um && far >= sigmas[3]);
 }
 
 #[test]
@@ -278,8 +321,14 @@ fn next_nodes_fills_the_gap_first() {
     let picks = gp.next_nodes(&candidates, 3);
     eprintln!("next nodes: {picks:?}; hyper {:?}", gp.hyper());
     assert_eq!(picks.len(), 3);
-    assert_eq!(picks[0], gap, "the centre of the hole is the most uncertain");
-    assert_eq!(picks[2], near_node, "a point 5 mm from a node is the least useful");
+    assert_eq!(
+        picks[0], gap,
+        "the centre of the hole is the most uncertain"
+    );
+    assert_eq!(
+        picks[2], near_node,
+        "a point 5 mm from a node is the least useful"
+    );
     let (_, s_gap) = gp.predict_with_sigma(gap);
     assert_eq!(gp.max_sigma(&candidates), s_gap);
     assert_eq!(gp.max_sigma(&[]), 0.0);
@@ -287,9 +336,9 @@ fn next_nodes_fills_the_gap_first() {
     assert_eq!(gp.next_nodes(&candidates, 10).len(), 3);
     assert!(gp.next_nodes(&candidates, 0).is_empty());
 
-    // The pseudo-observation matters: with two copies of the gap centre and one point
-    // 100 mm from it, the second pick is not the copy (its variance collapsed with the
-    // first pick) but the other point — unless the copy is still the most uncertain.
+    // The pseudo-observation matters: of two copies of the gap centre and a point 100 mm
+    // from it, the second pick is that point, because the copy's variance collapsed to
+    // about the noise when the first copy was added.
     let near_gap = [400.0, 300.0, 0.0];
     let picks = gp.next_nodes(&[gap, gap, near_gap], 2);
     assert_eq!(picks, vec![gap, near_gap]);
@@ -339,7 +388,14 @@ fn bad_input_is_rejected_with_typed_errors() {
     )
     .expect_err("NaN coordinate");
     assert!(
-        matches!(err, GpError::NonFinite { index: 2, field: "y_mm", .. }),
+        matches!(
+            err,
+            GpError::NonFinite {
+                index: 2,
+                field: "y_mm",
+                ..
+            }
+        ),
         "{err:?}"
     );
     assert_eq!(err.to_string(), "points[2]: y_mm = NaN is not finite");
@@ -353,7 +409,14 @@ fn bad_input_is_rejected_with_typed_errors() {
         &config,
     )
     .expect_err("infinite error value");
-    assert!(matches!(err, GpError::NonFinite { index: 0, field: "e_um", .. }));
+    assert!(matches!(
+        err,
+        GpError::NonFinite {
+            index: 0,
+            field: "e_um",
+            ..
+        }
+    ));
 
     let err = Gp::fit(
         &[

@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 
 use errmap::physics::{
-    Abbe, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale, ScaleFactor,
-    ThermalDrift, simulate_rows, simulate_session,
+    Abbe, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale,
+    ScaleFactor, ThermalDrift, simulate_rows, simulate_session,
 };
 use errmap_drivers::SessionRow;
 use errmap_drivers::edlen::refractive_index;
@@ -36,7 +36,11 @@ fn residual(change: impl Fn(&mut MachineModel)) -> (Vec<SessionRow>, Vec<f64>) {
     change(&mut hidden);
     let a = simulate_rows(&hidden, &path, &rows).expect("hidden");
     let b = simulate_rows(&nominal, &path, &rows).expect("nominal");
-    let r = a.iter().zip(&b).map(|(a, b)| a.error_um - b.error_um).collect();
+    let r = a
+        .iter()
+        .zip(&b)
+        .map(|(a, b)| a.error_um - b.error_um)
+        .collect();
     (a, r)
 }
 
@@ -45,66 +49,143 @@ fn assert_signature(rows: &[SessionRow], r: &[f64], sig: impl Fn(&SessionRow) ->
     let s: Vec<f64> = rows.iter().map(&sig).collect();
     let offset = r[0] - s[0];
     for (k, (row, (ri, si))) in rows.iter().zip(r.iter().zip(&s)).enumerate() {
-        assert!((ri - si - offset).abs() < tol, "row {k} {row:?}: r {ri} vs signature {si}");
+        assert!(
+            (ri - si - offset).abs() < tol,
+            "row {k} {row:?}: r {ri} vs signature {si}"
+        );
     }
 }
 
 fn v(r: &SessionRow) -> f64 {
-    if r.target >= 0 { 0.0 } else { r.feed_mm_s.unwrap_or(0.0) }
+    if r.target >= 0 {
+        0.0
+    } else {
+        r.feed_mm_s.unwrap_or(0.0)
+    }
 }
 
 #[test]
 fn each_effect_has_the_vocabulary_signature() {
     let (rows, r) = residual(|m| {
-        m.scale = Some(Scale { enabled: true, material: "steel".into(), cte_ppm_per_k: 11.5, x0_mm: 50.0 })
+        m.scale = Some(Scale {
+            enabled: true,
+            material: "steel".into(),
+            cte_ppm_per_k: 11.5,
+            x0_mm: 50.0,
+        })
     });
     // The wire carries the scale temperature in m°C: compare within that rounding.
     // A row's temperature is the latest MATERIAL frame's (1 s period, m°C): the scale warms
     // ≤ 1.3 m°C/s here, so 11.5 ppm/K × 1.3 m°C × 850 mm ≈ 0.013 µm at most.
-    assert_signature(&rows, &r, |w| -11.5 * (w.scale_temp_c.expect("T") - 20.0) * (w.scale_mm - 50.0) * 1e-3, 0.015);
+    assert_signature(
+        &rows,
+        &r,
+        |w| -11.5 * (w.scale_temp_c.expect("T") - 20.0) * (w.scale_mm - 50.0) * 1e-3,
+        0.015,
+    );
 
-    let (rows, r) = residual(|m| m.scale_factor = Some(ScaleFactor { enabled: true, ppm: 4.0 }));
+    let (rows, r) = residual(|m| {
+        m.scale_factor = Some(ScaleFactor {
+            enabled: true,
+            ppm: 4.0,
+        })
+    });
     assert_signature(&rows, &r, |w| 4.0 * w.scale_mm * 1e-3, 1e-9);
 
     let (rows, r) = residual(|m| {
-        m.abbe = Some(Abbe { enabled: true, offset_axis: "z".into(), theta0_urad: 3.0, theta1_urad_per_mm: 0.01 })
+        m.abbe = Some(Abbe {
+            enabled: true,
+            offset_axis: "z".into(),
+            theta0_urad: 3.0,
+            theta1_urad_per_mm: 0.01,
+        })
     });
-    assert_signature(&rows, &r, |w| w.z_mm.unwrap_or(200.0) * (3.0 + 0.01 * w.scale_mm) * 1e-3, 1e-9);
+    assert_signature(
+        &rows,
+        &r,
+        |w| w.z_mm.unwrap_or(200.0) * (3.0 + 0.01 * w.scale_mm) * 1e-3,
+        1e-9,
+    );
 
-    let (rows, r) = residual(|m| m.reversal = Some(Reversal { enabled: true, b_um: 1.4 }));
+    let (rows, r) = residual(|m| {
+        m.reversal = Some(Reversal {
+            enabled: true,
+            b_um: 1.4,
+        })
+    });
     assert_signature(&rows, &r, |w| f64::from(w.direction) * 0.7, 1e-12);
 
-    let (rows, r) = residual(|m| m.latch_delay = Some(LatchDelay { enabled: true, tau_us: 7.0 }));
+    let (rows, r) = residual(|m| {
+        m.latch_delay = Some(LatchDelay {
+            enabled: true,
+            tau_us: 7.0,
+        })
+    });
     assert_signature(&rows, &r, |w| f64::from(w.direction) * v(w) * 7.0e-3, 1e-9);
 
     let (rows, r) = residual(|m| {
-        m.periodic_scale = Some(PeriodicScale { enabled: true, amplitude_um: 0.2, period_um: 20.0, phase_rad: 0.3 })
+        m.periodic_scale = Some(PeriodicScale {
+            enabled: true,
+            amplitude_um: 0.2,
+            period_um: 20.0,
+            phase_rad: 0.3,
+        })
     });
-    assert_signature(&rows, &r, |w| 0.2 * (std::f64::consts::TAU * w.scale_mm * 1000.0 / 20.0 + 0.3).sin(), 1e-6);
+    assert_signature(
+        &rows,
+        &r,
+        |w| 0.2 * (std::f64::consts::TAU * w.scale_mm * 1000.0 / 20.0 + 0.3).sin(),
+        1e-6,
+    );
 
     let (rows, r) = residual(|m| {
-        m.thermal_drift = Some(ThermalDrift { enabled: true, amplitude_um: 1.5, tau_s: Some(400.0), rate_um_per_s: 0.0 })
+        m.thermal_drift = Some(ThermalDrift {
+            enabled: true,
+            amplitude_um: 1.5,
+            tau_s: Some(400.0),
+            rate_um_per_s: 0.0,
+        })
     });
     assert_signature(&rows, &r, |w| 1.5 * (1.0 - (-w.t_s / 400.0).exp()), 1e-9);
 
     let (rows, r) = residual(|m| m.laser.dead_path_mm = 500.0);
     let n = |w: &SessionRow| {
-        refractive_index(0.632991354, w.air_temp_c.expect("T"), w.air_pressure_hpa.expect("p") * 100.0, w.air_rh_pct.expect("RH"))
+        refractive_index(
+            0.632991354,
+            w.air_temp_c.expect("T"),
+            w.air_pressure_hpa.expect("p") * 100.0,
+            w.air_rh_pct.expect("RH"),
+        )
     };
     let n0 = n(&rows[0]);
     // The air columns are the latest ENV frame's (1 s period, m°C and Pa): the air changes
     // ≤ 3 m°C/s here, 500 mm × 3e-9 ≈ 1.5e-3 µm.
     assert_signature(&rows, &r, |w| -500.0 * (n(w) - n0) * 1e3, 5e-3);
 
-    let (rows, r) = residual(|m| m.refraction = Some(Refraction { enabled: true, ppm_per_k: 0.93, ppm_per_hpa: -0.27 }));
+    let (rows, r) = residual(|m| {
+        m.refraction = Some(Refraction {
+            enabled: true,
+            ppm_per_k: 0.93,
+            ppm_per_hpa: -0.27,
+        })
+    });
     let tm = rows.iter().map(|w| w.air_temp_c.expect("T")).sum::<f64>() / rows.len() as f64;
-    let pm = rows.iter().map(|w| w.air_pressure_hpa.expect("p")).sum::<f64>() / rows.len() as f64;
+    let pm = rows
+        .iter()
+        .map(|w| w.air_pressure_hpa.expect("p"))
+        .sum::<f64>()
+        / rows.len() as f64;
     // T̄, p̄ are the session means of the histories; the rows' means differ slightly, a
     // scale-factor-like difference far below the noise (checked loosely here).
     assert_signature(
         &rows,
         &r,
-        |w| -w.scale_mm * 1e-3 * (0.93 * (w.air_temp_c.expect("T") - tm) - 0.27 * (w.air_pressure_hpa.expect("p") - pm)),
+        |w| {
+            -w.scale_mm
+                * 1e-3
+                * (0.93 * (w.air_temp_c.expect("T") - tm)
+                    - 0.27 * (w.air_pressure_hpa.expect("p") - pm))
+        },
         0.02,
     );
 }
@@ -112,40 +193,81 @@ fn each_effect_has_the_vocabulary_signature() {
 #[test]
 fn direct_evaluation_agrees_with_the_wire_path() {
     let (mut m, path) = base();
-    m.reversal = Some(Reversal { enabled: true, b_um: 1.0 });
-    m.scale = Some(Scale { enabled: true, material: "steel".into(), cte_ppm_per_k: 11.5, x0_mm: 0.0 });
+    m.reversal = Some(Reversal {
+        enabled: true,
+        b_um: 1.0,
+    });
+    m.scale = Some(Scale {
+        enabled: true,
+        material: "steel".into(),
+        cte_ppm_per_k: 11.5,
+        x0_mm: 0.0,
+    });
     let rows = recorded(&m, &path);
     let direct = simulate_rows(&m, &path, &rows).expect("direct");
-    let simulated: Vec<&SessionRow> = rows.iter().filter(|r| r.run > 0 || r.feed_mm_s.is_none()).collect();
+    let simulated: Vec<&SessionRow> = rows
+        .iter()
+        .filter(|r| r.run > 0 || r.feed_mm_s.is_none())
+        .collect();
     assert_eq!(simulated.len(), direct.len());
     assert!(direct.len() > rows.len() * 9 / 10);
     for (w, d) in simulated.into_iter().zip(&direct) {
         // Counter quantisation: scale 0.1 µm and laser λ/8 ≈ 0.079 µm.
-        assert!((w.error_um - d.error_um).abs() < 0.1, "{w:?} vs {}", d.error_um);
+        assert!(
+            (w.error_um - d.error_um).abs() < 0.1,
+            "{w:?} vs {}",
+            d.error_um
+        );
     }
 }
 
 #[test]
 fn histories_follow_their_definitions() {
-    let ramp = History::Ramp { start: 20.0, end: 21.0, duration_s: 100.0 };
-    assert_eq!((ramp.at(-5.0), ramp.at(50.0), ramp.at(500.0)), (20.0, 20.5, 21.0));
-    let cyc = History::Cycle { mean: 20.0, amplitude: 0.5, period_s: 40.0, phase_rad: 0.0 };
+    let ramp = History::Ramp {
+        start: 20.0,
+        end: 21.0,
+        duration_s: 100.0,
+    };
+    assert_eq!(
+        (ramp.at(-5.0), ramp.at(50.0), ramp.at(500.0)),
+        (20.0, 20.5, 21.0)
+    );
+    let cyc = History::Cycle {
+        mean: 20.0,
+        amplitude: 0.5,
+        period_s: 40.0,
+        phase_rad: 0.0,
+    };
     assert!((cyc.at(10.0) - 20.5).abs() < 1e-12);
-    let exp = History::Exponential { start: 20.0, end: 21.0, tau_s: 100.0 };
+    let exp = History::Exponential {
+        start: 20.0,
+        end: 21.0,
+        tau_s: 100.0,
+    };
     assert!((exp.at(100.0) - (21.0 - (-1f64).exp())).abs() < 1e-12);
-    let table = History::Table { t_s: vec![0.0, 10.0, 30.0], value: vec![1.0, 3.0, 2.0] };
-    assert_eq!((table.at(5.0), table.at(20.0), table.at(99.0)), (2.0, 2.5, 2.0));
+    let table = History::Table {
+        t_s: vec![0.0, 10.0, 30.0],
+        value: vec![1.0, 3.0, 2.0],
+    };
+    assert_eq!(
+        (table.at(5.0), table.at(20.0), table.at(99.0)),
+        (2.0, 2.5, 2.0)
+    );
 }
 
 #[test]
 fn the_example_model_parses_and_bad_models_are_refused() {
-    let m = MachineModel::read(&root().join("datasets/physics/example-model.toml")).expect("example parses");
+    let m = MachineModel::read(&root().join("datasets/physics/example-model.toml"))
+        .expect("example parses");
     assert!(m.scale.is_some() && m.error_map.is_some());
     let dir = tempfile::tempdir().expect("tempdir");
     let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, "noise_um = -1\n").expect("write");
     let e = MachineModel::read(&bad).expect_err("negative noise");
-    assert!(e.to_string().contains("bad.toml") && e.to_string().contains("noise_um"), "{e}");
+    assert!(
+        e.to_string().contains("bad.toml") && e.to_string().contains("noise_um"),
+        "{e}"
+    );
     std::fs::write(&bad, "[reversal]\nb_um = 1\nbogus = 2\n").expect("write");
     let e = MachineModel::read(&bad).expect_err("unknown key");
     assert!(e.to_string().contains("bogus"), "{e}");

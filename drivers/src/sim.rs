@@ -492,110 +492,109 @@ pub fn simulate(
     let mut truth_log = Vec::new();
 
     // Emits the periodic frames and samples in [t, until), the carriage at pos(t').
-    let mut advance =
-        |b: &mut Board,
-         t: f64,
-         until: f64,
-         motion: &dyn Fn(f64) -> (f64, f64),
-         st: (u32, i8, i32, f64, usize)| {
-            let (run, dir, target, feed, line) = st;
-            loop {
-                let next = next_sample.min(next_env);
-                if next >= until {
-                    break;
-                }
-                let tt = next;
-                let t_us = tt * 1e6;
-                if next_env <= next_sample {
-                    let env = truth.environment(tt);
-                    b.send(
-                        &Frame::Env(Env {
-                            t_us: t_us.round() as u64,
-                            air_temp_mc: (env.air_temp_c * 1000.0).round() as i32,
-                            pressure_pa: (env.air_pressure_hpa * 100.0).round().max(0.0) as u32,
-                            rh_permille: (env.air_rh_pct * 10.0).round().clamp(0.0, 1000.0) as u16,
-                        }),
-                        t_us,
-                        false,
-                    );
-                    b.send(
-                        &Frame::Material(Material {
-                            t_us: t_us.round() as u64,
-                            temps_mc: vec![
-                                (env.scale_temp_c * 1000.0).round() as i32,
-                                (env.part_temp_c * 1000.0).round() as i32,
-                            ],
-                        }),
-                        t_us,
-                        false,
-                    );
-                    next_env += env_period;
-                    continue;
-                }
-                let (s, speed) = motion(tt - t);
-                let p = position(plan.axis, s, plan.lines_mm[line]);
-                let q = TruthQuery {
-                    t_s: tt,
-                    pos_mm: p,
-                    direction: dir,
-                    feed_mm_s: feed,
-                    speed_mm_s: speed,
-                    run,
-                    target,
-                };
-                let e_um = truth.error_um(&q);
-                let air = truth.true_air(tt);
-                let n_air = edlen::refractive_index(
-                    lambda_um,
-                    air.air_temp_c,
-                    air.air_pressure_hpa * 100.0,
-                    air.air_rh_pct,
-                );
-                // Actual displacement from home = indicated − error.
-                let actual_mm = s - e_um * 1e-3;
-                let scale = (s / res_mm).round() as i64 + offset;
-                let mut laser = (actual_mm * n_air / laser_count_mm).round() as i64 + offset;
-                let mut flags = 0u8;
-                if let Some((a, z)) = faults.beam_loss_s
-                    && tt >= a
-                    && tt < z
-                {
-                    flags |= SampleFlags::BEAM_LOW;
-                    laser = last_laser.unwrap_or(laser);
-                }
-                if pending_overrun {
-                    flags |= SampleFlags::OVERRUN;
-                }
-                let sample = Sample {
-                    t_us: t_us.round() as u64,
-                    index,
-                    scale_count: scale as i32,
-                    laser_count: laser as i32,
-                    flags: SampleFlags(flags),
-                    trigger_code: 0,
-                };
-                let sent = b.send(&Frame::Sample(sample), t_us, true);
-                if sent {
-                    pending_overrun = false;
-                } else {
-                    overruns += 1;
-                    pending_overrun = true;
-                }
-                last_laser = Some(laser);
-                truth_log.push(TruthSample {
-                    index,
-                    t_s: tt,
-                    pos_mm: p,
-                    error_um: e_um,
-                    run,
-                    direction: dir,
-                    target,
-                    sent,
-                });
-                index = index.wrapping_add(1);
-                next_sample += dt;
+    let mut advance = |b: &mut Board,
+                       t: f64,
+                       until: f64,
+                       motion: &dyn Fn(f64) -> (f64, f64),
+                       st: (u32, i8, i32, f64, usize)| {
+        let (run, dir, target, feed, line) = st;
+        loop {
+            let next = next_sample.min(next_env);
+            if next >= until {
+                break;
             }
-        };
+            let tt = next;
+            let t_us = tt * 1e6;
+            if next_env <= next_sample {
+                let env = truth.environment(tt);
+                b.send(
+                    &Frame::Env(Env {
+                        t_us: t_us.round() as u64,
+                        air_temp_mc: (env.air_temp_c * 1000.0).round() as i32,
+                        pressure_pa: (env.air_pressure_hpa * 100.0).round().max(0.0) as u32,
+                        rh_permille: (env.air_rh_pct * 10.0).round().clamp(0.0, 1000.0) as u16,
+                    }),
+                    t_us,
+                    false,
+                );
+                b.send(
+                    &Frame::Material(Material {
+                        t_us: t_us.round() as u64,
+                        temps_mc: vec![
+                            (env.scale_temp_c * 1000.0).round() as i32,
+                            (env.part_temp_c * 1000.0).round() as i32,
+                        ],
+                    }),
+                    t_us,
+                    false,
+                );
+                next_env += env_period;
+                continue;
+            }
+            let (s, speed) = motion(tt - t);
+            let p = position(plan.axis, s, plan.lines_mm[line]);
+            let q = TruthQuery {
+                t_s: tt,
+                pos_mm: p,
+                direction: dir,
+                feed_mm_s: feed,
+                speed_mm_s: speed,
+                run,
+                target,
+            };
+            let e_um = truth.error_um(&q);
+            let air = truth.true_air(tt);
+            let n_air = edlen::refractive_index(
+                lambda_um,
+                air.air_temp_c,
+                air.air_pressure_hpa * 100.0,
+                air.air_rh_pct,
+            );
+            // Actual displacement from home = indicated − error.
+            let actual_mm = s - e_um * 1e-3;
+            let scale = (s / res_mm).round() as i64 + offset;
+            let mut laser = (actual_mm * n_air / laser_count_mm).round() as i64 + offset;
+            let mut flags = 0u8;
+            if let Some((a, z)) = faults.beam_loss_s
+                && tt >= a
+                && tt < z
+            {
+                flags |= SampleFlags::BEAM_LOW;
+                laser = last_laser.unwrap_or(laser);
+            }
+            if pending_overrun {
+                flags |= SampleFlags::OVERRUN;
+            }
+            let sample = Sample {
+                t_us: t_us.round() as u64,
+                index,
+                scale_count: scale as i32,
+                laser_count: laser as i32,
+                flags: SampleFlags(flags),
+                trigger_code: 0,
+            };
+            let sent = b.send(&Frame::Sample(sample), t_us, true);
+            if sent {
+                pending_overrun = false;
+            } else {
+                overruns += 1;
+                pending_overrun = true;
+            }
+            last_laser = Some(laser);
+            truth_log.push(TruthSample {
+                index,
+                t_s: tt,
+                pos_mm: p,
+                error_um: e_um,
+                run,
+                direction: dir,
+                target,
+                sent,
+            });
+            index = index.wrapping_add(1);
+            next_sample += dt;
+        }
+    };
 
     for step in steps(plan) {
         match step {

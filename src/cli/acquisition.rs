@@ -14,7 +14,7 @@ use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
 use errmap::{iso230, session};
 
-use crate::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
+use crate::{CaptureArgs, DiagnoseArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
@@ -321,4 +321,118 @@ pub fn ports() -> Result<()> {
         println!("{}\t{:?}", p.name, p.kind);
     }
     Ok(())
+}
+
+/// The grating period from a capture directory's session.json, if any, µm.
+fn grating_from_capture(session: &Path) -> Option<f64> {
+    let dir = if session.is_dir() {
+        session
+    } else {
+        session.parent()?
+    };
+    let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["hello"]["grating_period_nm"]
+        .as_f64()
+        .map(|nm| nm / 1000.0)
+}
+
+pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
+    use errmap::diagnose::{DiagnoseConfig, diagnose, write_report};
+    use errmap::physics::{MachineModel, apply_found_effects, simulate_rows};
+    let rec_path = session_file(&a.recorded)?;
+    let recorded = session::read_session(&rec_path)?;
+    let (simulated, model) = match (&a.simulated, &a.model) {
+        (Some(s), _) => (session::read_session(&session_file(s)?)?, None),
+        (None, Some(m)) => {
+            let model = MachineModel::read(m)?;
+            (
+                simulate_rows(&model, m, &recorded)?,
+                Some((model, m.clone())),
+            )
+        }
+        (None, None) => bail!("give --simulated SESSION or --model MODEL.toml"),
+    };
+    let grating = a
+        .grating_period_um
+        .or_else(|| {
+            model
+                .as_ref()
+                .map(|(m, _)| f64::from(m.device.grating_period_nm) / 1000.0)
+        })
+        .or_else(|| grating_from_capture(&a.recorded));
+    let config = DiagnoseConfig {
+        grating_period_um: grating,
+        ..DiagnoseConfig::default()
+    };
+    let d = diagnose(&recorded, &simulated, &config)
+        .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
+    std::fs::create_dir_all(&a.report)
+        .with_context(|| format!("cannot create {}", a.report.display()))?;
+    write_report(&d, &a.report)?;
+    if let Some((mut m, path)) = model {
+        let notes = apply_found_effects(&mut m, &d.effects);
+        let _ = &path;
+        if let Some(map) = &mut m.error_map {
+            map.table = relative_to(&map.table, &a.report);
+        }
+        let out = a.report.join("updated-model.toml");
+        m.write(&out)?;
+        eprintln!(
+            "diagnose: updated model ({}) → {}",
+            notes.join("; "),
+            out.display()
+        );
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&d)?);
+    } else {
+        eprintln!(
+            "diagnose: {} — RMS {:.4} µm before, {:.4} µm after ({:.4} µm cross-validated by run); report in {}",
+            d.verdict,
+            d.rms_before_um,
+            d.rms_after_um,
+            d.cv_rms_after_um,
+            a.report.display()
+        );
+        for e in &d.effects {
+            eprintln!(
+                "  {}: {} — {}",
+                e.id,
+                serde_json::to_string(&e.params)?,
+                e.where_
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `path` (relative to the working directory, or absolute) as seen from directory `base`.
+fn relative_to(path: &Path, base: &Path) -> PathBuf {
+    let (Ok(p), Ok(b)) = (std::path::absolute(path), std::path::absolute(base)) else {
+        return path.to_path_buf();
+    };
+    fn norm(x: &Path) -> Vec<std::path::Component<'_>> {
+        let mut out = Vec::new();
+        for c in x.components() {
+            match c {
+                std::path::Component::ParentDir => {
+                    out.pop();
+                }
+                std::path::Component::CurDir => {}
+                other => out.push(other),
+            }
+        }
+        out
+    }
+    let (pc, bc) = (norm(&p), norm(&b));
+    let common = pc.iter().zip(&bc).take_while(|(x, y)| x == y).count();
+    let mut rel = PathBuf::new();
+    for _ in common..bc.len() {
+        rel.push("..");
+    }
+    for c in &pc[common..] {
+        rel.push(c.as_os_str());
+    }
+    rel
 }

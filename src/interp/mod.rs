@@ -7,6 +7,7 @@
 //! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 1–4 |
 //! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | seed 000, Eqs. 5–7 |
 //! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 8–13 |
+//! | Gaussian process (kriging) | [`crate::gp`] | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
 //!
 //! N is the number of grid nodes. Every method evaluates outside the grid too (the rule
 //! is in each module's docs) and the caller is told by [`Interpolator::outside`], so
@@ -29,6 +30,12 @@ pub trait Interpolator: Send + Sync + fmt::Debug {
 
     /// Whether `p` lies outside the fitted nodes (the prediction is an extrapolation).
     fn outside(&self, p: [f64; 3]) -> bool;
+
+    /// One-sigma uncertainty of the prediction for a measured value at `p`, µm, for
+    /// methods that have one (the Gaussian process); `None` for the interpolators.
+    fn sigma(&self, _p: [f64; 3]) -> Option<f64> {
+        None
+    }
 
     /// Batch evaluation into a caller's buffer (no allocation per point).
     fn predict_into(&self, points: &[[f64; 3]], out: &mut [f64]) {
@@ -81,6 +88,8 @@ pub enum Method {
     Fuzzy {
         sigma: f64,
     },
+    /// Gaussian-process (kriging) model with hyperparameters by maximum likelihood.
+    Gp(crate::gp::Kernel),
 }
 
 impl Method {
@@ -91,6 +100,7 @@ impl Method {
             Method::Trilinear => "trilinear",
             Method::Spline => "spline",
             Method::Fuzzy { .. } => "fuzzy",
+            Method::Gp(_) => "gp",
         }
     }
 
@@ -108,6 +118,7 @@ impl Method {
             Method::Fuzzy { sigma } if (*sigma - fuzzy::DEFAULT_SIGMA).abs() > 1e-12 => {
                 format!("fuzzy σ={sigma}")
             }
+            Method::Gp(k) if *k != crate::gp::Kernel::default() => format!("gp {}", k.name()),
             m => m.name().to_string(),
         }
     }
@@ -121,8 +132,45 @@ impl Method {
             Method::Trilinear => Box::new(trilinear::Trilinear::new(grid)),
             Method::Spline => Box::new(spline::Spline::new(grid)),
             Method::Fuzzy { sigma } => Box::new(fuzzy::Fuzzy::new(grid, sigma)?),
+            Method::Gp(_) => self.fit_points(&grid.points()).map_err(|e| match e {
+                FitError::Interp(e) => e,
+                FitError::Gp(e) => InterpError::Gp(e.to_string()),
+            })?,
         })
     }
+
+    /// Whether the method works on scattered nodes (not only on a rectilinear grid).
+    pub fn accepts_scattered(&self) -> bool {
+        matches!(self, Method::Gp(_))
+    }
+
+    /// Fits a method that accepts scattered nodes to a table's points.
+    pub fn fit_points(
+        &self,
+        points: &[crate::table::ErrorPoint],
+    ) -> Result<Box<dyn Interpolator>, FitError> {
+        match *self {
+            Method::Gp(kernel) => Ok(Box::new(crate::gp::Gp::fit(
+                points,
+                &crate::gp::GpConfig {
+                    kernel,
+                    ..crate::gp::GpConfig::default()
+                },
+            )?)),
+            _ => Err(FitError::Interp(InterpError::NeedsGrid {
+                method: self.name(),
+            })),
+        }
+    }
+}
+
+/// Why a model cannot be fitted to scattered points.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error(transparent)]
+    Interp(#[from] InterpError),
+    #[error(transparent)]
+    Gp(#[from] crate::gp::GpError),
 }
 
 /// Why a model cannot be fitted.
@@ -155,6 +203,10 @@ pub enum InterpError {
     NonFinite { index: usize },
     #[error("fuzzy membership width σ = {sigma} must be a positive finite fraction of the cell")]
     BadSigma { sigma: f64 },
+    #[error("{method} needs the nodes on a rectilinear grid")]
+    NeedsGrid { method: &'static str },
+    #[error("Gaussian process: {0}")]
+    Gp(String),
 }
 
 fn check_grid(grid: &Grid) -> Result<(), InterpError> {
@@ -163,7 +215,10 @@ fn check_grid(grid: &Grid) -> Result<(), InterpError> {
         if v.is_empty() {
             return Err(InterpError::EmptyAxis { axis });
         }
-        if let Some(index) = v.windows(2).position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) {
+        if let Some(index) = v
+            .windows(2)
+            .position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        {
             return Err(InterpError::NotIncreasing {
                 axis,
                 index: index + 1,
@@ -321,7 +376,9 @@ pub fn predict_parallel(
         model.predict_into(points, out);
         return Ok(());
     }
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
     pool.install(|| {
         points
             .par_chunks(4096)

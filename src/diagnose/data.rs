@@ -1,0 +1,607 @@
+//! From two session tables to one residual series with its covariates, the noise groups
+//! and the cross-validation folds.
+//!
+//! Rows are matched on (`run`, `sample`) through a hash map, whatever their order: O(n).
+//! Every covariate comes from the recorded row. Optional columns that are empty on some
+//! rows are filled by linear interpolation in time from the rows that have them; a column
+//! empty on every row makes the effects that need it untestable (said in the report).
+
+use std::collections::{BTreeMap, HashMap};
+
+use errmap_drivers::{Axis, SessionRow};
+use serde::Serialize;
+
+use super::DiagnoseError;
+
+/// Fewest usable matched rows the diagnosis works on.
+pub(crate) const MIN_ROWS: usize = 20;
+
+/// How the two tables matched (all counts are rows).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Matching {
+    /// Rows in the recorded table.
+    pub recorded_rows: usize,
+    /// Rows in the simulated table.
+    pub simulated_rows: usize,
+    /// Rows matched on (run, sample).
+    pub matched_rows: usize,
+    /// Matched rows used in the fits.
+    pub used_rows: usize,
+    /// Recorded rows with no simulated partner.
+    pub only_in_recorded: usize,
+    /// Simulated rows with no recorded partner.
+    pub only_in_simulated: usize,
+    /// Matched rows left out because `flags` ≠ 0 in either table.
+    pub flagged_rows: usize,
+    /// Rows whose (run, sample) occurs more than once in its table (left out, never guessed).
+    pub duplicate_keys: usize,
+    /// Matched rows left out for a non-finite error or position.
+    pub non_finite_rows: usize,
+    /// Matched rows measuring another axis than the session's main one (left out).
+    pub other_axis_rows: usize,
+}
+
+/// The residual and its covariates, one entry per used row (in recorded-table order).
+#[derive(Debug, Clone)]
+pub(crate) struct Obs {
+    pub axis: Axis,
+    /// r = recorded − simulated error, µm.
+    pub r: Vec<f64>,
+    /// Position along the measured axis, mm.
+    pub x: Vec<f64>,
+    /// Direction ±1 (0 outside a run).
+    pub d: Vec<f64>,
+    /// Moving row (target = −1).
+    pub moving: Vec<bool>,
+    /// Feed on moving rows, 0 on dwell rows, mm/s.
+    pub v_feed: Vec<f64>,
+    /// Carriage speed measured from successive samples on moving rows, 0 on dwell rows.
+    pub v_meas: Vec<f64>,
+    /// Commanded feed of the row (also on dwell rows), for grouping.
+    pub feed: Vec<Option<f64>>,
+    /// `t_s`.
+    pub t: Vec<f64>,
+    /// First row of the recorded session, s.
+    pub t0: f64,
+    pub run: Vec<u32>,
+    /// Target index (−1 while moving).
+    pub target: Vec<i32>,
+    /// The two other coordinates (for X: y, z), when every used row has them.
+    pub c: [Option<Vec<f64>>; 2],
+    /// Names of the two other axes.
+    pub c_names: [&'static str; 2],
+    /// Line index of every row, and the lines' two other coordinates.
+    pub line: Vec<usize>,
+    pub lines: Vec<[f64; 2]>,
+    pub scale_t: Option<Vec<f64>>,
+    pub air_t: Option<Vec<f64>>,
+    pub air_p: Option<Vec<f64>>,
+    pub air_rh: Option<Vec<f64>>,
+}
+
+impl Obs {
+    pub fn len(&self) -> usize {
+        self.r.len()
+    }
+}
+
+fn axis_name(a: Axis) -> &'static str {
+    match a {
+        Axis::X => "X",
+        Axis::Y => "Y",
+        Axis::Z => "Z",
+    }
+}
+
+pub(crate) fn axis_label(a: Axis) -> &'static str {
+    axis_name(a)
+}
+
+/// The two other axes of `a`, lower case, and the coordinate picker for a row.
+fn others(a: Axis) -> [&'static str; 2] {
+    match a {
+        Axis::X => ["y", "z"],
+        Axis::Y => ["x", "z"],
+        Axis::Z => ["x", "y"],
+    }
+}
+
+fn coord(row: &SessionRow, name: &str) -> Option<f64> {
+    match name {
+        "x" => row.x_mm,
+        "y" => row.y_mm,
+        _ => row.z_mm,
+    }
+}
+
+fn along(row: &SessionRow, a: Axis) -> f64 {
+    let v = match a {
+        Axis::X => row.x_mm,
+        Axis::Y => row.y_mm,
+        Axis::Z => row.z_mm,
+    };
+    v.filter(|v| v.is_finite()).unwrap_or(row.scale_mm)
+}
+
+/// Matches the tables and builds the observations.
+pub(crate) fn build(
+    recorded: &[SessionRow],
+    simulated: &[SessionRow],
+) -> Result<(Obs, Matching), DiagnoseError> {
+    if recorded.is_empty() {
+        return Err(DiagnoseError::Empty { which: "recorded" });
+    }
+    if simulated.is_empty() {
+        return Err(DiagnoseError::Empty { which: "simulated" });
+    }
+    let mut m = Matching {
+        recorded_rows: recorded.len(),
+        simulated_rows: simulated.len(),
+        ..Matching::default()
+    };
+
+    // Key → index, with duplicates marked (usize::MAX).
+    let index = |rows: &[SessionRow]| {
+        let mut map: HashMap<(u32, i64), usize> = HashMap::with_capacity(rows.len());
+        let mut dups = 0usize;
+        for (i, r) in rows.iter().enumerate() {
+            map.entry((r.run, r.sample))
+                .and_modify(|v| {
+                    if *v != usize::MAX {
+                        dups += 1;
+                    }
+                    dups += 1;
+                    *v = usize::MAX;
+                })
+                .or_insert(i);
+        }
+        (map, dups)
+    };
+    let (sim_map, sim_dups) = index(simulated);
+    let (rec_map, rec_dups) = index(recorded);
+    m.duplicate_keys = sim_dups + rec_dups;
+
+    let mut pairs: Vec<(usize, usize)> = Vec::with_capacity(recorded.len());
+    for (i, row) in recorded.iter().enumerate() {
+        let key = (row.run, row.sample);
+        if rec_map.get(&key) == Some(&usize::MAX) {
+            continue;
+        }
+        match sim_map.get(&key) {
+            None => m.only_in_recorded += 1,
+            Some(&usize::MAX) => {}
+            Some(&j) => pairs.push((i, j)),
+        }
+    }
+    m.only_in_simulated = simulated
+        .iter()
+        .filter(|s| {
+            let key = (s.run, s.sample);
+            sim_map.get(&key) != Some(&usize::MAX) && !rec_map.contains_key(&key)
+        })
+        .count();
+    m.matched_rows = pairs.len();
+    if pairs.is_empty() {
+        return Err(DiagnoseError::NoMatch {
+            recorded: recorded.len(),
+            simulated: simulated.len(),
+        });
+    }
+
+    // The session's axis: the most common one among matched rows.
+    let mut counts = [0usize; 3];
+    for &(i, _) in &pairs {
+        counts[recorded[i].axis.code() as usize] += 1;
+    }
+    let code = (0..3).max_by_key(|&k| counts[k]).unwrap_or(0);
+    let axis = Axis::from_code(code as u8).unwrap_or(Axis::X);
+
+    let mut used: Vec<(usize, f64)> = Vec::with_capacity(pairs.len());
+    for &(i, j) in &pairs {
+        let (rec, sim) = (&recorded[i], &simulated[j]);
+        if rec.flags != 0 || sim.flags != 0 {
+            m.flagged_rows += 1;
+            continue;
+        }
+        if rec.axis != axis {
+            m.other_axis_rows += 1;
+            continue;
+        }
+        let r = rec.error_um - sim.error_um;
+        if !r.is_finite() || !along(rec, axis).is_finite() || !rec.t_s.is_finite() {
+            m.non_finite_rows += 1;
+            continue;
+        }
+        used.push((i, r));
+    }
+    m.used_rows = used.len();
+    if used.len() < MIN_ROWS {
+        return Err(DiagnoseError::TooFewRows {
+            usable: used.len(),
+            needed: MIN_ROWS,
+            detail: format!(
+                "{} matched, {} flagged, {} non-finite, {} on another axis",
+                m.matched_rows, m.flagged_rows, m.non_finite_rows, m.other_axis_rows
+            ),
+        });
+    }
+
+    let t0 = recorded
+        .iter()
+        .map(|r| r.t_s)
+        .filter(|t| t.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let rows: Vec<&SessionRow> = used.iter().map(|&(i, _)| &recorded[i]).collect();
+    let n = rows.len();
+    let r: Vec<f64> = used.iter().map(|&(_, r)| r).collect();
+    let x: Vec<f64> = rows.iter().map(|row| along(row, axis)).collect();
+    let d: Vec<f64> = rows
+        .iter()
+        .map(|row| f64::from(row.direction.signum()))
+        .collect();
+    let moving: Vec<bool> = rows.iter().map(|row| row.target < 0).collect();
+    let feed: Vec<Option<f64>> = rows
+        .iter()
+        .map(|row| row.feed_mm_s.filter(|f| f.is_finite()).map(f64::abs))
+        .collect();
+    let v_feed: Vec<f64> = (0..n)
+        .map(|k| {
+            if moving[k] {
+                feed[k].unwrap_or(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let t: Vec<f64> = rows.iter().map(|row| row.t_s).collect();
+    let run: Vec<u32> = rows.iter().map(|row| row.run).collect();
+    let sample: Vec<i64> = rows.iter().map(|row| row.sample).collect();
+    let v_meas = measured_speed(&x, &t, &run, &sample, &moving, &d, &v_feed);
+
+    let c_names = others(axis);
+    // The line coordinates: rows without them (before the first MARK) take the value of
+    // the nearest earlier row in time, or of the first row that has one.
+    let c_filled: [Option<Vec<f64>>; 2] = c_names.map(|name| {
+        step_fill(
+            &t,
+            rows.iter()
+                .map(|row| coord(row, name).filter(|v| v.is_finite())),
+        )
+    });
+    let c = c_filled.clone();
+    // Lines: distinct pairs of the two other coordinates (to 1 µm).
+    let mut line_ids: BTreeMap<(i64, i64), usize> = BTreeMap::new();
+    let key = |v: Option<f64>| v.map_or(i64::MIN, |v| (v * 1000.0).round() as i64);
+    let line_key = |k: usize| {
+        let get = |i: usize| c_filled[i].as_ref().map(|v| v[k]);
+        (key(get(0)), key(get(1)))
+    };
+    for k in 0..n {
+        let next = line_ids.len();
+        line_ids.entry(line_key(k)).or_insert(next);
+    }
+    let mut lines = vec![[f64::NAN; 2]; line_ids.len()];
+    for (k, &id) in &line_ids {
+        let f = |v: i64| {
+            if v == i64::MIN {
+                f64::NAN
+            } else {
+                v as f64 / 1000.0
+            }
+        };
+        lines[id] = [f(k.0), f(k.1)];
+    }
+    let line: Vec<usize> = (0..n)
+        .map(|k| line_ids.get(&line_key(k)).copied().unwrap_or(0))
+        .collect();
+
+    let column = |f: &dyn Fn(&SessionRow) -> Option<f64>| {
+        fill_by_time(&t, rows.iter().map(|row| f(row).filter(|v| v.is_finite())))
+    };
+    let scale_t = column(&|row| row.scale_temp_c);
+    let air_t = column(&|row| row.air_temp_c);
+    let air_p = column(&|row| row.air_pressure_hpa);
+    let air_rh = column(&|row| row.air_rh_pct);
+    let obs = Obs {
+        axis,
+        r,
+        x,
+        d,
+        moving,
+        v_feed,
+        v_meas,
+        feed,
+        t,
+        t0: if t0.is_finite() { t0 } else { 0.0 },
+        run,
+        target: rows.iter().map(|row| row.target).collect(),
+        c,
+        c_names,
+        line,
+        lines,
+        scale_t,
+        air_t,
+        air_p,
+        air_rh,
+    };
+    Ok((obs, m))
+}
+
+/// A column with gaps filled by linear interpolation in time (constant beyond the ends);
+/// `None` when no row has a value.
+fn fill_by_time(t: &[f64], vals: impl Iterator<Item = Option<f64>>) -> Option<Vec<f64>> {
+    let vals: Vec<Option<f64>> = vals.collect();
+    let mut known: Vec<(f64, f64)> = t
+        .iter()
+        .zip(&vals)
+        .filter_map(|(&t, v)| v.map(|v| (t, v)))
+        .collect();
+    if known.is_empty() {
+        return None;
+    }
+    if known.len() == vals.len() {
+        return Some(vals.into_iter().map(|v| v.unwrap_or(0.0)).collect());
+    }
+    known.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Some(
+        t.iter()
+            .zip(&vals)
+            .map(|(&tt, v)| {
+                v.unwrap_or_else(|| {
+                    let k = known.partition_point(|p| p.0 <= tt);
+                    if k == 0 {
+                        known[0].1
+                    } else if k >= known.len() {
+                        known[known.len() - 1].1
+                    } else {
+                        let (a, b) = (known[k - 1], known[k]);
+                        if b.0 > a.0 {
+                            a.1 + (b.1 - a.1) * (tt - a.0) / (b.0 - a.0)
+                        } else {
+                            a.1
+                        }
+                    }
+                })
+            })
+            .collect(),
+    )
+}
+
+/// A coordinate column with gaps filled by the nearest earlier row in time (the first
+/// known value before it); `None` when fewer than 95 % of the rows have a value.
+fn step_fill(t: &[f64], vals: impl Iterator<Item = Option<f64>>) -> Option<Vec<f64>> {
+    let vals: Vec<Option<f64>> = vals.collect();
+    let known = vals.iter().filter(|v| v.is_some()).count();
+    if known == 0 || (known as f64) < 0.95 * vals.len() as f64 {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..t.len()).collect();
+    order.sort_by(|&a, &b| t[a].total_cmp(&t[b]));
+    let first = order.iter().find_map(|&k| vals[k])?;
+    let mut out = vec![0.0; t.len()];
+    let mut last = first;
+    for &k in &order {
+        if let Some(v) = vals[k] {
+            last = v;
+        }
+        out[k] = last;
+    }
+    Some(out)
+}
+
+/// Carriage speed on moving rows from the neighbouring moving samples of the same run and
+/// direction (central difference, one-sided at the ends of a move); the feed when a move
+/// has a single sample; 0 on dwell rows. O(n log n).
+fn measured_speed(
+    x: &[f64],
+    t: &[f64],
+    run: &[u32],
+    sample: &[i64],
+    moving: &[bool],
+    d: &[f64],
+    v_feed: &[f64],
+) -> Vec<f64> {
+    let n = x.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&k| (run[k], sample[k]));
+    let mut v = vec![0.0; n];
+    // Segments: maximal runs of consecutive moving rows (in sample order) with one direction.
+    let mut start = 0;
+    while start < n {
+        let k0 = order[start];
+        if !moving[k0] {
+            start += 1;
+            continue;
+        }
+        let mut end = start + 1;
+        while end < n {
+            let k = order[end];
+            if !moving[k] || run[k] != run[k0] || d[k] != d[k0] {
+                break;
+            }
+            end += 1;
+        }
+        let seg = &order[start..end];
+        for (p, &k) in seg.iter().enumerate() {
+            let (a, b) = match (p.checked_sub(1), seg.get(p + 1)) {
+                (Some(pa), Some(&kb)) => (seg[pa], kb),
+                (None, Some(&kb)) => (k, kb),
+                (Some(pa), None) => (seg[pa], k),
+                (None, None) => (k, k),
+            };
+            let dt = t[b] - t[a];
+            v[k] = if a != b && dt > 0.0 {
+                ((x[b] - x[a]) / dt).abs()
+            } else {
+                v_feed[k]
+            };
+        }
+        start = end;
+    }
+    v
+}
+
+/// Noise groups: run × moving/dwell.
+#[derive(Debug, Clone)]
+pub(crate) struct Groups {
+    pub id: Vec<usize>,
+    pub labels: Vec<String>,
+    pub count: Vec<usize>,
+}
+
+pub(crate) fn groups(obs: &Obs) -> Groups {
+    let mut map: BTreeMap<(u32, bool), usize> = BTreeMap::new();
+    for k in 0..obs.len() {
+        let next = map.len();
+        map.entry((obs.run[k], obs.moving[k])).or_insert(next);
+    }
+    let id: Vec<usize> = (0..obs.len())
+        .map(|k| map[&(obs.run[k], obs.moving[k])])
+        .collect();
+    let mut labels = vec![String::new(); map.len()];
+    for (&(run, moving), &g) in &map {
+        labels[g] = format!("run {run}, {}", if moving { "moving" } else { "dwell" });
+    }
+    let mut count = vec![0; map.len()];
+    for &g in &id {
+        count[g] += 1;
+    }
+    Groups { id, labels, count }
+}
+
+/// Median of a slice (sorted copy), NaN when empty.
+pub(crate) fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let m = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[m]
+    } else {
+        0.5 * (s[m - 1] + s[m])
+    }
+}
+
+/// Robust σ from a sample: 1.4826 · MAD.
+pub(crate) fn mad_sigma(v: &[f64]) -> f64 {
+    let m = median(v);
+    let dev: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
+    1.4826 * median(&dev)
+}
+
+/// Per-group noise σ from first differences of successive samples of the same dwell or
+/// the same move (σ = 1.4826·MAD/√2): smooth effects cancel, so this sees the noise
+/// before any model is fitted. Groups with fewer than 10 differences take the pooled
+/// moving or dwell value.
+pub(crate) fn noise_from_differences(obs: &Obs, g: &Groups) -> Vec<f64> {
+    let target_of = &obs.target;
+    let n = obs.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| {
+        (obs.run[a], obs.t[a])
+            .partial_cmp(&(obs.run[b], obs.t[b]))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let ng = g.labels.len();
+    let mut diffs: Vec<Vec<f64>> = vec![Vec::new(); ng];
+    let mut pooled: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for w in order.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if obs.run[a] != obs.run[b]
+            || obs.moving[a] != obs.moving[b]
+            || obs.d[a] != obs.d[b]
+            || target_of[a] != target_of[b]
+            || obs.line[a] != obs.line[b]
+        {
+            continue;
+        }
+        let dr = (obs.r[b] - obs.r[a]) / std::f64::consts::SQRT_2;
+        diffs[g.id[a]].push(dr);
+        pooled[usize::from(obs.moving[a])].push(dr);
+    }
+    let all: Vec<f64> = pooled.iter().flatten().copied().collect();
+    let global = if all.len() >= 5 {
+        mad_sigma(&all)
+    } else {
+        mad_sigma(&obs.r)
+    };
+    let pooled_sigma = pooled
+        .each_ref()
+        .map(|p| if p.len() >= 10 { mad_sigma(p) } else { global });
+    (0..ng)
+        .map(|k| {
+            if diffs[k].len() >= 10 {
+                mad_sigma(&diffs[k])
+            } else {
+                let moving = g.labels[k].ends_with("moving");
+                pooled_sigma[usize::from(moving)]
+            }
+        })
+        .collect()
+}
+
+/// Per-group robust σ of model residuals (groups with fewer than 10 rows: NaN).
+pub(crate) fn noise_from_residuals(resid: &[f64], g: &Groups) -> Vec<f64> {
+    let ng = g.labels.len();
+    let mut v: Vec<Vec<f64>> = vec![Vec::new(); ng];
+    for (k, &e) in resid.iter().enumerate() {
+        v[g.id[k]].push(e);
+    }
+    v.iter()
+        .map(|e| {
+            if e.len() >= 10 {
+                mad_sigma(e)
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+/// Floors σ per group (≥ 1e-6 µm and ≥ 0.1 × the median group σ) so that no group gets
+/// an unbounded weight.
+pub(crate) fn floor_sigmas(s: &mut [f64]) {
+    let finite: Vec<f64> = s
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let med = median(&finite);
+    let floor = if med.is_finite() {
+        (0.1 * med).max(1e-6)
+    } else {
+        1e-6
+    };
+    for v in s.iter_mut() {
+        if !v.is_finite() || *v < floor {
+            *v = if v.is_finite() { floor } else { med.max(floor) };
+        }
+    }
+}
+
+/// Cross-validation folds: one per run when there are at least 3 runs, else 5 blocks of
+/// consecutive time. Returns (fold of each row, number of folds, what a fold is).
+pub(crate) fn folds(obs: &Obs) -> (Vec<usize>, usize, &'static str) {
+    let mut runs: Vec<u32> = obs.run.clone();
+    runs.sort_unstable();
+    runs.dedup();
+    if runs.len() >= 3 {
+        let id: Vec<usize> = obs
+            .run
+            .iter()
+            .map(|r| runs.binary_search(r).unwrap_or(0))
+            .collect();
+        return (id, runs.len(), "run");
+    }
+    let n = obs.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| obs.t[a].total_cmp(&obs.t[b]));
+    let k = 5.min(n);
+    let mut id = vec![0; n];
+    for (p, &i) in order.iter().enumerate() {
+        id[i] = p * k / n;
+    }
+    (id, k, "time block")
+}

@@ -1,0 +1,533 @@
+//! The effect vocabulary of `shared/spec/cli-contract.md` as regressors.
+//!
+//! Every effect is linear in its parameters once its one nonlinear parameter (the period of
+//! `periodic_scale`, the time constant of an exponential `thermal_drift`) is fixed; the
+//! model of r is always a free constant plus the selected effects' columns. Columns are
+//! scaled so that their coefficients are the contract's parameters:
+//!
+//! | effect | variant | columns | coefficients |
+//! |---|---|---|---|
+//! | `scale_thermal_expansion` | x0 = 0 / x0 free | −ΔT_s·x·1e−3, ΔT_s·1e−3 | α, α·x0 |
+//! | `scale_factor` | — | x·1e−3 | k |
+//! | `abbe` | θ0, θ1 / θ0 only / θ1 only | c·1e−3, c·x·1e−3 | θ0, θ1 |
+//! | `reversal` | — | d/2 | b |
+//! | `latch_delay` | v = feed / v measured | d·v·1e−3 | τ |
+//! | `periodic_scale` | period P | sin(2πx/P), cos(2πx/P) | a·cos φ, a·sin φ |
+//! | `thermal_drift` | exponential τ / linear | 1 − e^(−(t−t0)/τ), t − t0 | A, ρ |
+//! | `dead_path` | — | −(n(t) − n(t0))·1e3 | D |
+//! | `refraction` | a, b / a only / b only | −x·(T − T̄)·1e−3, −x·(p − p̄)·1e−3 | a, b |
+
+use std::f64::consts::{PI, TAU};
+
+use super::data::Obs;
+use super::engine::Engine;
+
+/// An effect of the vocabulary (`Abbe(k)`: offset along the k-th other axis).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub(crate) enum Kind {
+    ScaleFactor,
+    Reversal,
+    Abbe(u8),
+    ScaleThermal,
+    Refraction,
+    DeadPath,
+    LatchDelay,
+    Periodic,
+    ThermalDrift,
+}
+
+impl Kind {
+    /// The contract's id.
+    pub fn id(self) -> &'static str {
+        match self {
+            Kind::ScaleFactor => "scale_factor",
+            Kind::Reversal => "reversal",
+            Kind::Abbe(_) => "abbe",
+            Kind::ScaleThermal => "scale_thermal_expansion",
+            Kind::Refraction => "refraction",
+            Kind::DeadPath => "dead_path",
+            Kind::LatchDelay => "latch_delay",
+            Kind::Periodic => "periodic_scale",
+            Kind::ThermalDrift => "thermal_drift",
+        }
+    }
+
+    /// The id with the Abbe offset axis, for messages.
+    pub fn label(self, obs: &Obs) -> String {
+        match self {
+            Kind::Abbe(k) => format!("abbe (offset along {})", obs.c_names[k as usize]),
+            _ => self.id().to_string(),
+        }
+    }
+
+    /// Rank among effects that fit the data equally well: the explanation that needs
+    /// fewer assumptions or covariates comes first (a pitch error before a temperature
+    /// effect, a direction-only offset before one that needs the feed, a measured
+    /// covariate before a free function of time).
+    pub fn preference(self) -> u8 {
+        match self {
+            Kind::ScaleFactor => 0,
+            Kind::Reversal => 1,
+            Kind::Abbe(k) => 2 + k,
+            Kind::ScaleThermal => 4,
+            Kind::Refraction => 5,
+            Kind::DeadPath => 6,
+            Kind::LatchDelay => 7,
+            Kind::Periodic => 8,
+            Kind::ThermalDrift => 9,
+        }
+    }
+
+    /// What the effect's signature follows, in words.
+    pub fn follows(self, obs: &Obs) -> String {
+        match self {
+            Kind::ScaleFactor => "x (proportional to position)".into(),
+            Kind::Reversal => "the direction of travel".into(),
+            Kind::Abbe(k) => format!("the line offset {c} and {c}·x", c = obs.c_names[k as usize]),
+            Kind::ScaleThermal => "the scale temperature times position, ΔT_scale·x".into(),
+            Kind::Refraction => "position times the air temperature and pressure changes".into(),
+            Kind::DeadPath => {
+                "the air refractive index (air temperature, pressure, humidity)".into()
+            }
+            Kind::LatchDelay => "direction × speed on moving samples".into(),
+            Kind::Periodic => "the phase of x within a short period".into(),
+            Kind::ThermalDrift => "time".into(),
+        }
+    }
+}
+
+/// How an effect is parametrised in one fit.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Variant {
+    Single,
+    X0Fixed,
+    X0Free,
+    AbbeFull,
+    AbbeTheta0,
+    AbbeTheta1,
+    LatchFeed,
+    LatchMeasured,
+    RefrBoth,
+    RefrT,
+    RefrP,
+    DriftExp { tau_s: f64 },
+    DriftLinear,
+    Periodic { period_um: f64 },
+}
+
+impl Variant {
+    /// Number of nonlinear parameters.
+    pub fn nonlinear(&self) -> usize {
+        usize::from(matches!(
+            self,
+            Variant::DriftExp { .. } | Variant::Periodic { .. }
+        ))
+    }
+}
+
+/// Registered static columns (None: not testable on these data).
+#[derive(Debug, Clone)]
+pub(crate) struct Columns {
+    pub x: usize,
+    pub ste_x: Option<usize>,
+    pub ste_1: Option<usize>,
+    pub c: [Option<usize>; 2],
+    pub cx: [Option<usize>; 2],
+    pub d: Option<usize>,
+    pub dv_feed: Option<usize>,
+    pub dv_meas: Option<usize>,
+    pub t_lin: Option<usize>,
+    pub dn: Option<usize>,
+    pub x_dt: Option<usize>,
+    pub x_dp: Option<usize>,
+    /// Why effects cannot be tested, in words.
+    pub untestable: Vec<String>,
+}
+
+fn spread(v: &[f64]) -> f64 {
+    let (lo, hi) = v
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    if hi >= lo { hi - lo } else { 0.0 }
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Δn·1e6 relative to the first row in time, from the Edlén equation at every row's air.
+pub(crate) fn index_change_ppm(obs: &Obs, lambda_um: f64) -> Option<Vec<f64>> {
+    let (at, ap) = (obs.air_t.as_ref()?, obs.air_p.as_ref()?);
+    let rh = |k: usize| obs.air_rh.as_ref().map_or(50.0, |v| v[k]);
+    let n: Vec<f64> = (0..obs.len())
+        .map(|k| errmap_drivers::edlen::refractive_index(lambda_um, at[k], ap[k] * 100.0, rh(k)))
+        .collect();
+    let first = (0..obs.len()).min_by(|&a, &b| obs.t[a].total_cmp(&obs.t[b]))?;
+    let n0 = n[first];
+    Some(n.iter().map(|v| (v - n0) * 1e6).collect())
+}
+
+/// Registers the static columns an effect can use.
+pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Columns {
+    let n = obs.len();
+    let mut untestable = Vec::new();
+    let x = engine.add(obs.x.iter().map(|x| x * 1e-3).collect());
+    let varies = |v: &[f64], tol: f64| spread(v) > tol;
+
+    let (ste_x, ste_1) = match &obs.scale_t {
+        Some(ts) => {
+            let dt: Vec<f64> = ts.iter().map(|t| t - 20.0).collect();
+            let a = engine.add((0..n).map(|k| -dt[k] * obs.x[k] * 1e-3).collect());
+            let b = varies(&dt, 1e-9).then(|| engine.add(dt.iter().map(|v| v * 1e-3).collect()));
+            (Some(a), b)
+        }
+        None => {
+            untestable.push(
+                "scale_thermal_expansion: no scale temperature (scale_temp_c) in the recording"
+                    .into(),
+            );
+            (None, None)
+        }
+    };
+
+    let mut c = [None, None];
+    let mut cx = [None, None];
+    for k in 0..2 {
+        match &obs.c[k] {
+            Some(cv) if varies(cv, 1e-9) || cv.iter().any(|v| *v != 0.0) => {
+                c[k] = Some(engine.add(cv.iter().map(|v| v * 1e-3).collect()));
+                cx[k] = Some(engine.add((0..n).map(|i| cv[i] * obs.x[i] * 1e-3).collect()));
+            }
+            Some(_) => untestable.push(format!(
+                "abbe along {}: every line is at {} = 0, so no offset acts",
+                obs.c_names[k], obs.c_names[k]
+            )),
+            None => untestable.push(format!(
+                "abbe along {}: the {} coordinate is missing on more than 5 % of the rows",
+                obs.c_names[k], obs.c_names[k]
+            )),
+        }
+    }
+
+    let d = obs
+        .d
+        .iter()
+        .any(|v| *v != 0.0)
+        .then(|| engine.add(obs.d.iter().map(|d| d / 2.0).collect()));
+    if d.is_none() {
+        untestable.push("reversal, latch_delay: no row has a direction of travel".into());
+    }
+    let any_moving = obs
+        .v_feed
+        .iter()
+        .zip(&obs.d)
+        .any(|(v, d)| *v > 0.0 && *d != 0.0);
+    let (dv_feed, dv_meas) = if any_moving {
+        let f = engine.add((0..n).map(|k| obs.d[k] * obs.v_feed[k] * 1e-3).collect());
+        let m = engine.add((0..n).map(|k| obs.d[k] * obs.v_meas[k] * 1e-3).collect());
+        (Some(f), Some(m))
+    } else {
+        untestable.push("latch_delay: no moving samples with a feed".into());
+        (None, None)
+    };
+    let t_lin =
+        varies(&obs.t, 1e-9).then(|| engine.add(obs.t.iter().map(|t| t - obs.t0).collect()));
+
+    let dn = match index_change_ppm(obs, lambda_um) {
+        Some(dn) if varies(&dn, 1e-6) => Some(engine.add(dn.iter().map(|v| -v * 1e-3).collect())),
+        Some(_) => {
+            untestable.push("dead_path: the air refractive index did not change".into());
+            None
+        }
+        None => {
+            untestable
+                .push("dead_path, refraction: no air temperature/pressure in the recording".into());
+            None
+        }
+    };
+    let x_dt = obs.air_t.as_ref().and_then(|at| {
+        let m = mean(at);
+        varies(at, 1e-6)
+            .then(|| engine.add((0..n).map(|k| -obs.x[k] * (at[k] - m) * 1e-3).collect()))
+    });
+    let x_dp = obs.air_p.as_ref().and_then(|ap| {
+        let m = mean(ap);
+        varies(ap, 1e-6)
+            .then(|| engine.add((0..n).map(|k| -obs.x[k] * (ap[k] - m) * 1e-3).collect()))
+    });
+    if obs.air_t.is_some() && x_dt.is_none() && x_dp.is_none() {
+        untestable.push("refraction: air temperature and pressure did not change".into());
+    }
+    Columns {
+        x,
+        ste_x,
+        ste_1,
+        c,
+        cx,
+        d,
+        dv_feed,
+        dv_meas,
+        t_lin,
+        dn,
+        x_dt,
+        x_dp,
+        untestable,
+    }
+}
+
+/// The kinds testable on these columns (periodic and drift need only x and t).
+pub(crate) fn kinds(cols: &Columns) -> Vec<Kind> {
+    let mut k = vec![Kind::ScaleFactor];
+    if cols.d.is_some() {
+        k.push(Kind::Reversal);
+    }
+    for a in 0..2u8 {
+        if cols.c[a as usize].is_some() {
+            k.push(Kind::Abbe(a));
+        }
+    }
+    if cols.ste_x.is_some() {
+        k.push(Kind::ScaleThermal);
+    }
+    if cols.x_dt.is_some() || cols.x_dp.is_some() {
+        k.push(Kind::Refraction);
+    }
+    if cols.dn.is_some() {
+        k.push(Kind::DeadPath);
+    }
+    if cols.dv_feed.is_some() {
+        k.push(Kind::LatchDelay);
+    }
+    k.push(Kind::Periodic);
+    if cols.t_lin.is_some() {
+        k.push(Kind::ThermalDrift);
+    }
+    k
+}
+
+/// The variants of a kind made of registered columns (the dynamic ones — periodic, the
+/// exponential drift — are built by the selection).
+pub(crate) fn static_variants(kind: Kind, cols: &Columns) -> Vec<(Variant, Vec<usize>)> {
+    let mut v = Vec::new();
+    match kind {
+        Kind::ScaleFactor => v.push((Variant::Single, vec![cols.x])),
+        Kind::Reversal => {
+            if let Some(d) = cols.d {
+                v.push((Variant::Single, vec![d]));
+            }
+        }
+        Kind::Abbe(a) => {
+            let a = a as usize;
+            if let (Some(c), Some(cx)) = (cols.c[a], cols.cx[a]) {
+                v.push((Variant::AbbeFull, vec![c, cx]));
+                v.push((Variant::AbbeTheta0, vec![c]));
+                v.push((Variant::AbbeTheta1, vec![cx]));
+            }
+        }
+        Kind::ScaleThermal => {
+            if let Some(sx) = cols.ste_x {
+                v.push((Variant::X0Fixed, vec![sx]));
+                if let Some(s1) = cols.ste_1 {
+                    v.push((Variant::X0Free, vec![sx, s1]));
+                }
+            }
+        }
+        Kind::Refraction => match (cols.x_dt, cols.x_dp) {
+            (Some(a), Some(b)) => {
+                v.push((Variant::RefrBoth, vec![a, b]));
+                v.push((Variant::RefrT, vec![a]));
+                v.push((Variant::RefrP, vec![b]));
+            }
+            (Some(a), None) => v.push((Variant::RefrT, vec![a])),
+            (None, Some(b)) => v.push((Variant::RefrP, vec![b])),
+            (None, None) => {}
+        },
+        Kind::DeadPath => {
+            if let Some(d) = cols.dn {
+                v.push((Variant::Single, vec![d]));
+            }
+        }
+        Kind::LatchDelay => {
+            if let Some(f) = cols.dv_feed {
+                v.push((Variant::LatchFeed, vec![f]));
+            }
+            if let Some(m) = cols.dv_meas {
+                v.push((Variant::LatchMeasured, vec![m]));
+            }
+        }
+        Kind::ThermalDrift => {
+            if let Some(t) = cols.t_lin {
+                v.push((Variant::DriftLinear, vec![t]));
+            }
+        }
+        Kind::Periodic => {}
+    }
+    v
+}
+
+/// sin and cos columns of a period (µm) over x (mm).
+pub(crate) fn periodic_cols(x_mm: &[f64], period_um: f64) -> [Vec<f64>; 2] {
+    let w = TAU * 1000.0 / period_um;
+    let mut s = Vec::with_capacity(x_mm.len());
+    let mut c = Vec::with_capacity(x_mm.len());
+    for &x in x_mm {
+        let (a, b) = (w * x).sin_cos();
+        s.push(a);
+        c.push(b);
+    }
+    [s, c]
+}
+
+/// 1 − exp(−(t − t0)/τ).
+pub(crate) fn drift_col(t: &[f64], t0: f64, tau_s: f64) -> Vec<f64> {
+    t.iter().map(|t| 1.0 - (-(t - t0) / tau_s).exp()).collect()
+}
+
+/// Derivative of the term's contribution with respect to its nonlinear parameter.
+pub(crate) fn nonlinear_derivative(variant: &Variant, coef: &[f64], obs: &Obs) -> Option<Vec<f64>> {
+    match *variant {
+        Variant::Periodic { period_um } => {
+            let w = TAU * 1000.0 / period_um;
+            let (s, c) = (coef[0], coef[1]);
+            Some(
+                obs.x
+                    .iter()
+                    .map(|&x| {
+                        let (sn, cs) = (w * x).sin_cos();
+                        (s * cs - c * sn) * x * (-w / period_um)
+                    })
+                    .collect(),
+            )
+        }
+        Variant::DriftExp { tau_s } => {
+            let a = coef[0];
+            Some(
+                obs.t
+                    .iter()
+                    .map(|&t| {
+                        let s = t - obs.t0;
+                        -a * (-s / tau_s).exp() * s / (tau_s * tau_s)
+                    })
+                    .collect(),
+            )
+        }
+        _ => None,
+    }
+}
+
+/// One reported parameter.
+#[derive(Debug, Clone)]
+pub(crate) struct Param {
+    pub name: &'static str,
+    pub value: f64,
+    pub sigma: f64,
+    /// Fitted (false: fixed by the chosen variant, e.g. x0 = 0).
+    pub fitted: bool,
+    /// Subject to the determinedness rule.
+    pub key: bool,
+}
+
+fn p(name: &'static str, value: f64, sigma: f64, key: bool) -> Param {
+    Param {
+        name,
+        value,
+        sigma,
+        fitted: true,
+        key,
+    }
+}
+
+fn fixed(name: &'static str) -> Param {
+    Param {
+        name,
+        value: 0.0,
+        sigma: 0.0,
+        fitted: false,
+        key: false,
+    }
+}
+
+/// Wraps a phase to (−π, π].
+pub(crate) fn wrap(phi: f64) -> f64 {
+    let mut p = phi.rem_euclid(TAU);
+    if p > PI {
+        p -= TAU;
+    }
+    p
+}
+
+/// The contract's parameters from the term's parameter vector θ = (linear coefficients in
+/// column order, then the nonlinear parameter) and its covariance (delta method for the
+/// derived ones).
+pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]) -> Vec<Param> {
+    let sd = |i: usize| cov[i][i].max(0.0).sqrt();
+    match (kind, variant) {
+        (Kind::ScaleFactor, _) => vec![p("ppm", th[0], sd(0), true)],
+        (Kind::Reversal, _) => vec![p("b_um", th[0], sd(0), true)],
+        (Kind::Abbe(_), Variant::AbbeFull) => vec![
+            p("theta0_urad", th[0], sd(0), true),
+            p("theta1_urad_per_mm", th[1], sd(1), true),
+        ],
+        (Kind::Abbe(_), Variant::AbbeTheta0) => {
+            vec![
+                p("theta0_urad", th[0], sd(0), true),
+                fixed("theta1_urad_per_mm"),
+            ]
+        }
+        (Kind::Abbe(_), _) => {
+            vec![
+                fixed("theta0_urad"),
+                p("theta1_urad_per_mm", th[0], sd(0), true),
+            ]
+        }
+        (Kind::ScaleThermal, Variant::X0Free) => {
+            let (a, b) = (th[0], th[1]);
+            let x0 = b / a;
+            // x0 = b/a: gradient (−b/a², 1/a).
+            let (ga, gb) = (-b / (a * a), 1.0 / a);
+            let var = ga * ga * cov[0][0] + 2.0 * ga * gb * cov[0][1] + gb * gb * cov[1][1];
+            vec![
+                p("alpha_ppm_per_k", a, sd(0), true),
+                p("x0_mm", x0, var.max(0.0).sqrt(), true),
+            ]
+        }
+        (Kind::ScaleThermal, _) => vec![p("alpha_ppm_per_k", th[0], sd(0), true), fixed("x0_mm")],
+        (Kind::LatchDelay, _) => vec![p("tau_us", th[0], sd(0), true)],
+        (Kind::Periodic, Variant::Periodic { period_um }) => {
+            let (s, c) = (th[0], th[1]);
+            let a = s.hypot(c).max(1e-300);
+            let (gas, gac) = (s / a, c / a);
+            let va = gas * gas * cov[0][0] + 2.0 * gas * gac * cov[0][1] + gac * gac * cov[1][1];
+            let (gps, gpc) = (-c / (a * a), s / (a * a));
+            let vp = gps * gps * cov[0][0] + 2.0 * gps * gpc * cov[0][1] + gpc * gpc * cov[1][1];
+            vec![
+                p("amplitude_um", a, va.max(0.0).sqrt(), true),
+                p("period_um", *period_um, sd(2), false),
+                p("phase_rad", wrap(c.atan2(s)), vp.max(0.0).sqrt(), false),
+            ]
+        }
+        (Kind::ThermalDrift, Variant::DriftExp { tau_s }) => vec![
+            p("amplitude_um", th[0], sd(0), true),
+            p("tau_s", *tau_s, sd(1), true),
+        ],
+        (Kind::ThermalDrift, _) => vec![p("rate_um_per_s", th[0], sd(0), true)],
+        (Kind::DeadPath, _) => vec![p("dead_path_mm", th[0], sd(0), true)],
+        (Kind::Refraction, Variant::RefrBoth) => vec![
+            p("ppm_per_k", th[0], sd(0), true),
+            p("ppm_per_hpa", th[1], sd(1), true),
+        ],
+        (Kind::Refraction, Variant::RefrT) => vec![p("ppm_per_k", th[0], sd(0), true)],
+        (Kind::Refraction, _) => vec![p("ppm_per_hpa", th[0], sd(0), true)],
+        (Kind::Periodic, _) => Vec::new(),
+    }
+}
+
+/// Whether every key parameter is determined: one-sigma ≤ `rel` × |value|. Returns the
+/// first undetermined one.
+pub(crate) fn undetermined(params: &[Param], rel: f64) -> Option<&Param> {
+    params
+        .iter()
+        .find(|p| p.key && p.fitted && !(p.sigma.is_finite() && p.sigma <= rel * p.value.abs()))
+}

@@ -1,0 +1,1131 @@
+//! Model selection: forward selection by BIC, backward check, leave-one-run-out
+//! confirmation, determinedness, ambiguity.
+//!
+//! 1. **Forward.** Starting from the constant alone, every testable effect is fitted
+//!    jointly with the effects already chosen (each in all its variants; a periodic term at
+//!    each periodogram candidate, its period refined by golden section; an exponential
+//!    drift over a τ grid refined by golden section). Only full-rank variants whose key
+//!    parameters are determined compete. The one with the lowest
+//!    BIC = n·ln(χ²/n) + k·ln n (k = independent columns + nonlinear parameters) enters
+//!    when it lowers BIC by at least `min_delta_bic`; candidates within [`TIE_BIC`] of the
+//!    best are a tie, settled by [`Kind::preference`].
+//! 2. **Backward.** An effect whose removal costs less than `min_delta_bic` leaves.
+//! 3. **Cross-validation.** With the nonlinear parameters fixed, an effect whose removal
+//!    does not raise the leave-one-run-out held-out error leaves.
+//! 4. **Determinedness.** The covariance at the optimum, (JᵀWJ)⁻¹·χ²/(n − p) with J
+//!    including the derivatives by the nonlinear parameters, gives one-sigma uncertainties
+//!    (delta method for amplitude, phase, x0). An effect with a key parameter whose
+//!    one-sigma exceeds `max_relative_uncertainty` × |value| is not reported (an
+//!    undetermined τ turns an exponential drift into a linear one).
+//! 5. **Ambiguity.** Every found effect is replaced in turn by every other testable effect;
+//!    a replacement within `ambiguity_delta_bic` of the chosen model is an ambiguity,
+//!    stated with the measurement that would separate the two.
+
+use super::DiagnoseConfig;
+use super::data::Obs;
+use super::effects::{self, Columns, Kind, Param, Variant};
+use super::engine::{CONST, Engine, Fit, bic, pinv_sym, solve};
+use super::spectral;
+
+/// Candidates whose BIC is within this of the best are a tie (numerically or
+/// statistically identical fits), settled by preference.
+pub(crate) const TIE_BIC: f64 = 1.0;
+
+/// Most periodic terms in one model.
+const MAX_PERIODIC: usize = 3;
+
+/// Golden-section iterations for a period or a time constant on the search subset.
+const GOLDEN_ITERS: usize = 14;
+
+/// One selected effect.
+#[derive(Debug, Clone)]
+pub(crate) struct Term {
+    pub kind: Kind,
+    pub variant: Variant,
+    pub cols: Vec<usize>,
+}
+
+/// A periodogram candidate.
+#[derive(Debug, Clone)]
+pub(crate) struct PeriodCand {
+    pub period_um: f64,
+    /// Δχ² of the peak on the search subset.
+    pub power: f64,
+    /// Where it came from, in words ("P/2 of the 20 µm grating", "broad scan").
+    pub label: String,
+    /// Grid step at this period, µm.
+    pub step_um: f64,
+    /// Refined period (on the search subset), once computed.
+    pub refined_um: Option<f64>,
+}
+
+/// A spectral scan kept for the report.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Broad {
+    pub period_mm: Vec<f64>,
+    pub power: Vec<f64>,
+}
+
+#[derive(Clone)]
+enum Cand {
+    Reg(Vec<usize>),
+    Trial(Vec<Vec<f64>>),
+}
+
+#[derive(Clone)]
+struct Eval {
+    kind: Kind,
+    variant: Variant,
+    cand: Cand,
+    bic: f64,
+    /// Number of the candidate's columns that are independent of the model's.
+    rank_new: usize,
+    full: bool,
+    undetermined: Option<String>,
+}
+
+/// A found-vs-alternative ambiguity.
+#[derive(Debug, Clone)]
+pub(crate) struct Ambiguity {
+    pub found: Kind,
+    pub alt: Kind,
+    /// BIC(model with alt instead of found) − BIC(model).
+    pub delta_bic: f64,
+}
+
+/// Final fit of a term.
+#[derive(Debug, Clone)]
+pub(crate) struct FittedTerm {
+    pub term: Term,
+    pub params: Vec<Param>,
+    pub contribution: Vec<f64>,
+}
+
+/// What a selection pass returns.
+#[derive(Debug, Clone)]
+pub(crate) struct Outcome {
+    pub terms: Vec<FittedTerm>,
+    /// Fitted constant, µm (relative to the centred residual).
+    pub constant: f64,
+    /// Model prediction (constant + effects) per row, for the centred residual.
+    pub model: Vec<f64>,
+    pub cv_mse: f64,
+    /// Held-out prediction per row (leave-one-fold-out).
+    pub cv_pred: Vec<f64>,
+    pub ambiguities: Vec<Ambiguity>,
+    /// Effects that would improve the fit but whose parameters are not determined.
+    pub refused: Vec<String>,
+    pub design: Vec<String>,
+    pub log: Vec<String>,
+    pub periods: Vec<PeriodCand>,
+    pub broad: Broad,
+    pub bic_final: f64,
+    /// ΔBIC of every testable kind against the final model (adding it, or for a found
+    /// one, removing it).
+    pub scores: Vec<(Kind, f64)>,
+}
+
+/// The selection over one weighting of the data.
+pub(crate) struct Selector<'a> {
+    obs: &'a Obs,
+    cfg: &'a DiagnoseConfig,
+    engine: Engine,
+    cols: Columns,
+    kinds: Vec<Kind>,
+    periods: Vec<PeriodCand>,
+    broad: Broad,
+    /// Whether `periods` came from an earlier pass.
+    searched: bool,
+    /// Row subset for the nonlinear searches.
+    sub: Vec<usize>,
+    log: Vec<String>,
+    refused: Vec<String>,
+}
+
+fn ids_of(terms: &[Term]) -> Vec<usize> {
+    let mut ids = vec![CONST];
+    for t in terms {
+        ids.extend_from_slice(&t.cols);
+    }
+    ids
+}
+
+fn nonlinear(terms: &[Term]) -> usize {
+    terms.iter().map(|t| t.variant.nonlinear()).sum()
+}
+
+/// Golden-section minimisation of `f` on [lo, hi].
+fn golden(mut lo: f64, mut hi: f64, iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut a = hi - g * (hi - lo);
+    let mut b = lo + g * (hi - lo);
+    let (mut fa, mut fb) = (f(a), f(b));
+    for _ in 0..iters {
+        if fa <= fb {
+            hi = b;
+            b = a;
+            fb = fa;
+            a = hi - g * (hi - lo);
+            fa = f(a);
+        } else {
+            lo = a;
+            a = b;
+            fa = fb;
+            b = lo + g * (hi - lo);
+            fb = f(b);
+        }
+    }
+    if fa <= fb { (a, fa) } else { (b, fb) }
+}
+
+/// χ² of a weighted fit of `y` by a constant and `cols` (all of length n).
+fn small_chi2(y: &[f64], w: &[f64], cols: &[&[f64]]) -> f64 {
+    let k = cols.len() + 1;
+    let mut g = vec![vec![0.0; k]; k];
+    let mut gy = vec![0.0; k];
+    let mut yy = 0.0;
+    let mut row = vec![0.0; k];
+    for r in 0..y.len() {
+        row[0] = 1.0;
+        for (c, col) in cols.iter().enumerate() {
+            row[c + 1] = col[r];
+        }
+        let wr = w[r];
+        for a in 0..k {
+            let wa = wr * row[a];
+            gy[a] += wa * y[r];
+            for b in a..k {
+                g[a][b] += wa * row[b];
+            }
+        }
+        yy += wr * y[r] * y[r];
+    }
+    for a in 0..k {
+        for b in 0..a {
+            g[a][b] = g[b][a];
+        }
+    }
+    solve(&g, &gy, yy).chi2
+}
+
+impl<'a> Selector<'a> {
+    pub fn new(
+        obs: &'a Obs,
+        cfg: &'a DiagnoseConfig,
+        y: Vec<f64>,
+        w: Vec<f64>,
+        fold: Vec<usize>,
+        nfolds: usize,
+        spectrum: Option<(Vec<PeriodCand>, Broad)>,
+    ) -> Self {
+        let mut engine = Engine::new(y, w, fold, nfolds);
+        let cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
+        let kinds = effects::kinds(&cols);
+        let sub = spectral::subset(obs.len(), cfg.spectral_max_rows.max(50));
+        let searched = spectrum.is_some();
+        let (periods, broad) = spectrum.unwrap_or_default();
+        Selector {
+            obs,
+            cfg,
+            engine,
+            cols,
+            kinds,
+            periods,
+            broad,
+            searched,
+            sub,
+            log: Vec::new(),
+            refused: Vec::new(),
+        }
+    }
+
+    pub fn untestable(&self) -> &[String] {
+        &self.cols.untestable
+    }
+
+    fn n(&self) -> usize {
+        self.engine.n()
+    }
+
+    fn model_bic(&self, fit: &Fit, nonlin: usize) -> f64 {
+        bic(fit.chi2, self.n(), fit.rank + nonlin)
+    }
+
+    fn residual(&self, ids: &[usize], fit: &Fit) -> Vec<f64> {
+        let pred = self.engine.predict(ids, &fit.coef);
+        self.engine
+            .y()
+            .iter()
+            .zip(&pred)
+            .map(|(y, p)| y - p)
+            .collect()
+    }
+
+    fn sub_of(&self, v: &[f64]) -> Vec<f64> {
+        self.sub.iter().map(|&k| v[k]).collect()
+    }
+
+    // ---------------------------------------------------------------- spectral search
+
+    /// Periodogram candidates on the current residual: narrow windows around the
+    /// grating-tied periods and a broad scan of long periods (detrended by a cubic in x).
+    fn spectral_search(&mut self, resid: &[f64]) {
+        let cfg = self.cfg;
+        let (lo, hi) = self
+            .obs
+            .x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let span = (hi - lo).max(1e-3);
+        let mut cands: Vec<PeriodCand> = Vec::new();
+        let n = self.obs.len();
+        // Rows for a scan of `nf` frequencies: within the row·frequency budget.
+        let rows_for = |nf: usize| -> Vec<usize> {
+            let by_budget = (cfg.spectral_budget / nf.max(1) as f64) as usize;
+            spectral::subset(n, by_budget.clamp(200, cfg.spectral_max_rows.max(200)))
+        };
+        let pick = |idx: &[usize], v: &[f64]| -> Vec<f64> { idx.iter().map(|&k| v[k]).collect() };
+
+        // Windows around grating-tied periods.
+        let mut centres: Vec<(f64, String)> = Vec::new();
+        let gratings: Vec<f64> = match cfg.grating_period_um {
+            Some(p) => vec![p],
+            None => super::COMMON_GRATINGS_UM.to_vec(),
+        };
+        for &p in &gratings {
+            for (div, name) in [(1.0, "P"), (2.0, "P/2"), (4.0, "P/4")] {
+                let c = p / div;
+                if centres.iter().all(|(q, _)| (q - c).abs() > 1e-9 * c) {
+                    centres.push((c, format!("{name} of the {p} µm grating")));
+                }
+            }
+        }
+        let plan: Vec<(f64, String, f64, f64, usize)> = centres
+            .into_iter()
+            .map(|(c, label)| {
+                let fc = 1000.0 / c;
+                let half = cfg.period_window_rel * fc;
+                let mut df = 1.0 / (2.0 * span);
+                let mut nf = (2.0 * half / df).ceil() as usize + 1;
+                if nf > 4000 {
+                    df = 2.0 * half / 3999.0;
+                    nf = 4000;
+                }
+                (fc - half, label, df, fc, nf)
+            })
+            .collect();
+        let total: usize = plan.iter().map(|p| p.4).sum();
+        let idx = rows_for(total);
+        let (x, w, r) = (
+            pick(&idx, &self.obs.x),
+            pick(&idx, self.engine.w()),
+            pick(&idx, resid),
+        );
+        let mut window_peaks: Vec<PeriodCand> = Vec::new();
+        for (f0, label, df, _fc, nf) in plan {
+            let pw = spectral::scan(&x, &r, &w, f0, df, nf);
+            if let Some(&k) = spectral::peaks(&pw, 1, 1).first() {
+                let f = f0 + k as f64 * df;
+                window_peaks.push(PeriodCand {
+                    period_um: 1000.0 / f,
+                    power: pw[k],
+                    label,
+                    step_um: 1000.0 * df / (f * f),
+                    refined_um: None,
+                });
+            }
+        }
+        window_peaks.sort_by(|a, b| b.power.total_cmp(&a.power));
+        cands.extend(window_peaks.into_iter().take(3));
+
+        // Broad scan of long periods on the residual minus a cubic in x.
+        let fmin = 4.0 / span;
+        let fmax = 1.0 / cfg.broad_min_period_mm.max(1e-3);
+        if fmax > fmin {
+            let mut df = 1.0 / (2.0 * span);
+            let mut nf = ((fmax - fmin) / df).ceil() as usize + 1;
+            if nf > 8000 {
+                df = (fmax - fmin) / 7999.0;
+                nf = 8000;
+            }
+            let idx = rows_for(nf);
+            let (x, w, r) = (
+                pick(&idx, &self.obs.x),
+                pick(&idx, self.engine.w()),
+                pick(&idx, resid),
+            );
+            let xc: Vec<f64> = x.iter().map(|v| (v - lo) / span * 2.0 - 1.0).collect();
+            let detrended = detrend_cubic(&xc, &r, &w);
+            let pw = spectral::scan(&x, &detrended, &w, fmin, df, nf);
+            for k in spectral::peaks(&pw, 5, 2) {
+                let f = fmin + k as f64 * df;
+                cands.push(PeriodCand {
+                    period_um: 1000.0 / f,
+                    power: pw[k],
+                    label: "broad periodogram".into(),
+                    step_um: 1000.0 * df / (f * f),
+                    refined_um: None,
+                });
+            }
+            self.broad = Broad {
+                period_mm: (0..nf).map(|k| 1.0 / (fmin + k as f64 * df)).collect(),
+                power: pw,
+            };
+        }
+        self.periods = cands;
+    }
+
+    /// Refines a period on the search subset of `resid`.
+    fn refine_period(&self, resid: &[f64], p: f64, step: f64, iters: usize, full: bool) -> f64 {
+        let (x, w, r) = if full {
+            (self.obs.x.clone(), self.engine.w().to_vec(), resid.to_vec())
+        } else {
+            (
+                self.sub_of(&self.obs.x),
+                self.sub_of(self.engine.w()),
+                self.sub_of(resid),
+            )
+        };
+        let (best, _) = golden(p - step, p + step, iters, |q| {
+            let [s, c] = effects::periodic_cols(&x, q);
+            small_chi2(&r, &w, &[&s, &c])
+        });
+        best
+    }
+
+    /// Best τ of an exponential drift for `resid` (grid then golden section in ln τ).
+    fn search_tau(&self, resid: &[f64], around: Option<f64>, full: bool) -> f64 {
+        let (t, w, r) = if full {
+            (self.obs.t.clone(), self.engine.w().to_vec(), resid.to_vec())
+        } else {
+            (
+                self.sub_of(&self.obs.t),
+                self.sub_of(self.engine.w()),
+                self.sub_of(resid),
+            )
+        };
+        let t0 = self.obs.t0;
+        let span = self
+            .obs
+            .t
+            .iter()
+            .fold(0.0f64, |m, &v| m.max(v - t0))
+            .max(1e-6);
+        let chi = |lt: f64| {
+            let col = effects::drift_col(&t, t0, lt.exp());
+            small_chi2(&r, &w, &[&col])
+        };
+        let (lo, hi) = match around {
+            Some(tau) => (tau.ln() - 0.3, tau.ln() + 0.3),
+            None => {
+                let (a, b) = ((span / 50.0).ln(), (span * 3.0).ln());
+                let m = 24;
+                let grid: Vec<f64> = (0..m)
+                    .map(|k| a + (b - a) * k as f64 / (m - 1) as f64)
+                    .collect();
+                let vals: Vec<f64> = grid.iter().map(|&g| chi(g)).collect();
+                let k = (0..m)
+                    .min_by(|&i, &j| vals[i].total_cmp(&vals[j]))
+                    .unwrap_or(0);
+                let h = (b - a) / (m - 1) as f64;
+                (grid[k] - h, grid[k] + h)
+            }
+        };
+        golden(lo, hi, GOLDEN_ITERS, chi).0.exp()
+    }
+
+    // ---------------------------------------------------------------- evaluation
+
+    /// Evaluates `kind` added to `terms`: every variant; returns the best determined
+    /// full-rank one and the best of any kind (for notes and ambiguities).
+    fn evaluate(
+        &mut self,
+        terms: &[Term],
+        kind: Kind,
+        resid: &[f64],
+        strict: bool,
+    ) -> (Option<Eval>, Option<Eval>) {
+        let ids = ids_of(terms);
+        let base = self.engine.fit(&ids);
+        let nl = nonlinear(terms);
+        let mut evals: Vec<Eval> = Vec::new();
+        for (variant, cols) in effects::static_variants(kind, &self.cols) {
+            let mut all = ids.clone();
+            all.extend_from_slice(&cols);
+            let fit = self.engine.fit(&all);
+            evals.push(self.make_eval(
+                kind,
+                variant,
+                Cand::Reg(cols),
+                &fit,
+                base.rank,
+                nl,
+                ids.len(),
+            ));
+        }
+        match kind {
+            Kind::Periodic => {
+                let selected: Vec<f64> = terms
+                    .iter()
+                    .filter_map(|t| match t.variant {
+                        Variant::Periodic { period_um } => Some(period_um),
+                        _ => None,
+                    })
+                    .collect();
+                for k in 0..self.periods.len() {
+                    let pc = self.periods[k].clone();
+                    if selected
+                        .iter()
+                        .any(|&p| (p - pc.period_um).abs() < 3.0 * pc.step_um)
+                    {
+                        continue;
+                    }
+                    let p = match pc.refined_um {
+                        Some(p) => p,
+                        None => {
+                            let p = self.refine_period(
+                                resid,
+                                pc.period_um,
+                                pc.step_um,
+                                GOLDEN_ITERS,
+                                false,
+                            );
+                            self.periods[k].refined_um = Some(p);
+                            p
+                        }
+                    };
+                    let [s, c] = effects::periodic_cols(&self.obs.x, p);
+                    let fit = self.engine.fit_with(&ids, &[&s, &c]);
+                    evals.push(self.make_eval(
+                        kind,
+                        Variant::Periodic { period_um: p },
+                        Cand::Trial(vec![s, c]),
+                        &fit,
+                        base.rank,
+                        nl,
+                        ids.len(),
+                    ));
+                }
+            }
+            Kind::ThermalDrift if self.cols.t_lin.is_some() => {
+                let tau = self.search_tau(resid, None, false);
+                let col = effects::drift_col(&self.obs.t, self.obs.t0, tau);
+                let fit = self.engine.fit_with(&ids, &[&col]);
+                evals.push(self.make_eval(
+                    kind,
+                    Variant::DriftExp { tau_s: tau },
+                    Cand::Trial(vec![col]),
+                    &fit,
+                    base.rank,
+                    nl,
+                    ids.len(),
+                ));
+            }
+            _ => {}
+        }
+        let mut best: Option<Eval> = None;
+        let mut any: Option<Eval> = None;
+        for e in evals {
+            if e.rank_new == 0 {
+                continue;
+            }
+            let ok = e.full && (!strict || e.undetermined.is_none());
+            if ok && best.as_ref().is_none_or(|b| e.bic < b.bic) {
+                best = Some(e.clone());
+            }
+            if any.as_ref().is_none_or(|b| e.bic < b.bic) {
+                any = Some(e);
+            }
+        }
+        (best, any)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn make_eval(
+        &self,
+        kind: Kind,
+        variant: Variant,
+        cand: Cand,
+        fit: &Fit,
+        base_rank: usize,
+        nl: usize,
+        k0: usize,
+    ) -> Eval {
+        let k = fit.coef.len() - k0;
+        let rank_new = fit.rank.saturating_sub(base_rank);
+        let full = (k0..fit.coef.len()).all(|i| fit.independent[i]);
+        let bic = bic(fit.chi2, self.n(), fit.rank + nl + variant.nonlinear());
+        let dof = (self.n() as f64 - fit.rank as f64 - 1.0).max(1.0);
+        let s2 = fit.chi2 / dof;
+        let mut th: Vec<f64> = (k0..k0 + k).map(|i| fit.coef[i]).collect();
+        let mut cov: Vec<Vec<f64>> = (k0..k0 + k)
+            .map(|i| (k0..k0 + k).map(|j| fit.cov[i][j] * s2).collect())
+            .collect();
+        if variant.nonlinear() > 0 {
+            th.push(match variant {
+                Variant::Periodic { period_um } => period_um,
+                Variant::DriftExp { tau_s } => tau_s,
+                _ => 0.0,
+            });
+            for row in &mut cov {
+                row.push(0.0);
+            }
+            cov.push(vec![0.0; k + 1]);
+        }
+        let undetermined = if full {
+            let ps = effects::params(kind, &variant, &th, &cov);
+            effects::undetermined(&ps, self.cfg.max_relative_uncertainty)
+                .map(|p| format!("{} = {:.4} ± {:.4}", p.name, p.value, p.sigma))
+        } else {
+            Some("its signature is not independent of the other terms on these data".into())
+        };
+        Eval {
+            kind,
+            variant,
+            cand,
+            bic,
+            rank_new,
+            full,
+            undetermined,
+        }
+    }
+
+    fn adopt(&mut self, e: Eval) -> Term {
+        let cols = match e.cand {
+            Cand::Reg(c) => c,
+            Cand::Trial(v) => v.into_iter().map(|c| self.engine.add(c)).collect(),
+        };
+        Term {
+            kind: e.kind,
+            variant: e.variant,
+            cols,
+        }
+    }
+
+    /// Re-optimises every nonlinear parameter on its partial residual (the data minus the
+    /// other terms), then the caller refits jointly.
+    fn refine_nonlinear(&mut self, terms: &mut [Term], full: bool) {
+        for i in 0..terms.len() {
+            if terms[i].variant.nonlinear() == 0 {
+                continue;
+            }
+            let ids = ids_of(terms);
+            let fit = self.engine.fit(&ids);
+            let own: Vec<usize> = terms[i].cols.clone();
+            let mut others_ids = Vec::new();
+            let mut others_coef = Vec::new();
+            for (p, &id) in ids.iter().enumerate() {
+                if id != CONST && !own.contains(&id) {
+                    others_ids.push(id);
+                    others_coef.push(fit.coef[p]);
+                }
+            }
+            let pred = self.engine.predict(&others_ids, &others_coef);
+            let partial: Vec<f64> = self
+                .engine
+                .y()
+                .iter()
+                .zip(&pred)
+                .map(|(y, p)| y - p)
+                .collect();
+            let iters = if full { 10 } else { GOLDEN_ITERS };
+            match terms[i].variant {
+                Variant::Periodic { period_um } => {
+                    let step = self
+                        .periods
+                        .iter()
+                        .map(|p| p.step_um * (period_um / p.period_um).powi(2))
+                        .fold(f64::INFINITY, f64::min);
+                    let step = if step.is_finite() {
+                        step
+                    } else {
+                        period_um * 1e-5
+                    };
+                    let p = self.refine_period(&partial, period_um, 0.5 * step, iters, full);
+                    let [s, c] = effects::periodic_cols(&self.obs.x, p);
+                    terms[i].cols = vec![self.engine.add(s), self.engine.add(c)];
+                    terms[i].variant = Variant::Periodic { period_um: p };
+                }
+                Variant::DriftExp { tau_s } => {
+                    let tau = self.search_tau(&partial, Some(tau_s), full);
+                    let col = effects::drift_col(&self.obs.t, self.obs.t0, tau);
+                    terms[i].cols = vec![self.engine.add(col)];
+                    terms[i].variant = Variant::DriftExp { tau_s: tau };
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn bic_of(&mut self, terms: &[Term]) -> f64 {
+        let ids = ids_of(terms);
+        let fit = self.engine.fit(&ids);
+        self.model_bic(&fit, nonlinear(terms))
+    }
+
+    fn allowed(&self, kind: Kind, terms: &[Term]) -> bool {
+        let same = terms.iter().filter(|t| t.kind == kind).count();
+        match kind {
+            Kind::Periodic => same < MAX_PERIODIC,
+            _ => same == 0,
+        }
+    }
+
+    // ---------------------------------------------------------------- the passes
+
+    /// Runs the whole selection.
+    pub fn run(mut self) -> Outcome {
+        let n = self.n();
+        let cfg = self.cfg;
+        let tm = std::time::Instant::now();
+        let dbg = std::env::var_os("DIAG_TIMING").is_some();
+        let ids0 = vec![CONST];
+        let fit0 = self.engine.fit(&ids0);
+        let resid0 = self.residual(&ids0, &fit0);
+        if !self.searched {
+            self.spectral_search(&resid0);
+        }
+        if dbg {
+            eprintln!("spectral {:?}", tm.elapsed());
+        }
+
+        // 1. Forward selection.
+        let mut terms: Vec<Term> = Vec::new();
+        let mut cur_bic = self.model_bic(&fit0, 0);
+        self.log
+            .push(format!("start: constant only, BIC {cur_bic:.1} (n = {n})"));
+        while terms.len() < cfg.max_effects {
+            let ids = ids_of(&terms);
+            let fit = self.engine.fit(&ids);
+            let resid = self.residual(&ids, &fit);
+            let mut best: Vec<Eval> = Vec::new();
+            let kinds = self.kinds.clone();
+            for kind in kinds {
+                if !self.allowed(kind, &terms) {
+                    continue;
+                }
+                let (b, _) = self.evaluate(&terms, kind, &resid, true);
+                if let Some(b) = b {
+                    best.push(b);
+                }
+            }
+            let Some(min) = best.iter().map(|e| e.bic).min_by(f64::total_cmp) else {
+                break;
+            };
+            let chosen = best
+                .into_iter()
+                .filter(|e| e.bic <= min + TIE_BIC)
+                .min_by_key(|e| e.kind.preference());
+            let Some(chosen) = chosen else { break };
+            let gain = cur_bic - chosen.bic;
+            if gain < cfg.min_delta_bic {
+                self.log.push(format!(
+                    "stop: the best remaining candidate, {}, would change BIC by {:+.1} (an effect needs ≤ −{})",
+                    chosen.kind.label(self.obs),
+                    -gain,
+                    cfg.min_delta_bic
+                ));
+                break;
+            }
+            self.log.push(format!(
+                "add {} ({:?}): BIC −{gain:.1}",
+                chosen.kind.label(self.obs),
+                chosen.variant
+            ));
+            let term = self.adopt(chosen);
+            terms.push(term);
+            self.refine_nonlinear(&mut terms, false);
+            cur_bic = self.bic_of(&terms);
+        }
+
+        if dbg {
+            eprintln!("forward {:?}", tm.elapsed());
+        }
+        // 2. Backward check.
+        loop {
+            if terms.is_empty() {
+                break;
+            }
+            let full = self.bic_of(&terms);
+            let mut worst: Option<(usize, f64)> = None;
+            for i in 0..terms.len() {
+                let mut t = terms.clone();
+                t.remove(i);
+                let d = self.bic_of(&t) - full;
+                if worst.is_none_or(|(_, w)| d < w) {
+                    worst = Some((i, d));
+                }
+            }
+            match worst {
+                Some((i, d)) if d < cfg.min_delta_bic => {
+                    self.log.push(format!(
+                        "backward: remove {} (removal costs only {d:.1} BIC)",
+                        terms[i].kind.label(self.obs)
+                    ));
+                    terms.remove(i);
+                }
+                _ => break,
+            }
+        }
+
+        // 3. Final nonlinear refinement on all rows, then cross-validation.
+        self.refine_nonlinear(&mut terms, true);
+        if cfg.cv_confirm {
+            loop {
+                if terms.is_empty() {
+                    break;
+                }
+                let full = self.engine.cv(&ids_of(&terms)).mse;
+                let mut best: Option<(usize, f64)> = None;
+                for i in 0..terms.len() {
+                    let mut t = terms.clone();
+                    t.remove(i);
+                    let m = self.engine.cv(&ids_of(&t)).mse;
+                    if best.is_none_or(|(_, b)| m < b) {
+                        best = Some((i, m));
+                    }
+                }
+                match best {
+                    Some((i, m)) if m <= full => {
+                        self.log.push(format!(
+                            "cross-validation: remove {} (held-out error {:.5} without it ≤ {:.5} with it)",
+                            terms[i].kind.label(self.obs),
+                            m,
+                            full
+                        ));
+                        terms.remove(i);
+                    }
+                    _ => break,
+                }
+            }
+        }
+
+        if dbg {
+            eprintln!("cv {:?}", tm.elapsed());
+        }
+        // 4. Determinedness with the full covariance; an undetermined τ becomes linear.
+        let mut fitted;
+        loop {
+            fitted = self.final_fit(&terms);
+            let mut changed = false;
+            for (i, f) in fitted.iter().enumerate() {
+                if let Some(p) = effects::undetermined(&f.params, cfg.max_relative_uncertainty) {
+                    let msg = format!(
+                        "{} is not reported: {} = {:.4} ± {:.4} is not determined (one-sigma above {:.0} % of the value)",
+                        f.term.kind.label(self.obs),
+                        p.name,
+                        p.value,
+                        p.sigma,
+                        100.0 * cfg.max_relative_uncertainty
+                    );
+                    if let (Variant::DriftExp { .. }, Some(t)) = (&f.term.variant, self.cols.t_lin)
+                    {
+                        self.log
+                            .push(format!("{msg}; trying a linear drift instead"));
+                        terms[i] = Term {
+                            kind: Kind::ThermalDrift,
+                            variant: Variant::DriftLinear,
+                            cols: vec![t],
+                        };
+                        let mut without = terms.clone();
+                        without.remove(i);
+                        if self.bic_of(&without) - self.bic_of(&terms) < cfg.min_delta_bic {
+                            terms.remove(i);
+                        }
+                    } else {
+                        self.refused.push(msg);
+                        terms.remove(i);
+                    }
+                    changed = true;
+                    break;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+
+        // 5. Too small to matter.
+        let ids = ids_of(&terms);
+        let fit = self.engine.fit(&ids);
+        let dof = (n as f64 - fit.rank as f64).max(1.0);
+        let sigma_w = (fit.chi2 / dof).sqrt();
+        let mean_w = self.engine.w().iter().sum::<f64>() / n as f64;
+        let noise_rms = sigma_w / mean_w.sqrt();
+        let mut keep = Vec::new();
+        let mut small = Vec::new();
+        for f in fitted {
+            let rms = centred_rms(&f.contribution);
+            if rms < cfg.min_effect_fraction_of_noise * noise_rms {
+                small.push(format!(
+                    "{} is significant but explains only {rms:.4} µm RMS (< {} × noise {noise_rms:.4} µm): not reported",
+                    f.term.kind.label(self.obs),
+                    cfg.min_effect_fraction_of_noise
+                ));
+            } else {
+                keep.push(f);
+            }
+        }
+        if !small.is_empty() {
+            self.refused.extend(small);
+            terms = keep.iter().map(|f| f.term.clone()).collect();
+            keep = self.final_fit(&terms);
+        }
+        let fitted = keep;
+
+        if dbg {
+            eprintln!("final {:?}", tm.elapsed());
+        }
+        // 6. Ambiguities, design notes, scores.
+        let ambiguities = self.ambiguities(&terms);
+        let design = self.design_notes();
+        let scores = self.scores(&terms);
+
+        let ids = ids_of(&terms);
+        let fit = self.engine.fit(&ids);
+        let model = self.engine.predict(&ids, &fit.coef);
+        let cv = self.engine.cv(&ids);
+        let mut cv_pred = vec![0.0; n];
+        let fold = self.engine.fold().to_vec();
+        for (k, p) in cv_pred.iter_mut().enumerate() {
+            let c = &cv.coefs[fold[k]];
+            *p = ids
+                .iter()
+                .zip(c)
+                .map(|(&id, &b)| b * self.engine.col(id)[k])
+                .sum();
+        }
+        let bic_final = self.model_bic(&fit, nonlinear(&terms));
+        if dbg {
+            eprintln!("end {:?}", tm.elapsed());
+        }
+        Outcome {
+            terms: fitted,
+            constant: fit.coef[0],
+            model,
+            cv_mse: cv.mse,
+            cv_pred,
+            ambiguities,
+            refused: self.refused.clone(),
+            design,
+            log: self.log.clone(),
+            periods: self.periods.clone(),
+            broad: self.broad.clone(),
+            bic_final,
+            scores,
+        }
+    }
+
+    /// Joint fit with the covariance of every term's parameters at the optimum.
+    fn final_fit(&mut self, terms: &[Term]) -> Vec<FittedTerm> {
+        let ids = ids_of(terms);
+        let fit = self.engine.fit(&ids);
+        let n = self.n();
+        // Jacobian columns: the linear ones, then one derivative per nonlinear term.
+        let mut jac: Vec<Vec<f64>> = ids.iter().map(|&id| self.engine.col(id).to_vec()).collect();
+        let mut nl_index: Vec<Option<usize>> = Vec::new();
+        let mut offset = 1;
+        for t in terms {
+            let coef = &fit.coef[offset..offset + t.cols.len()];
+            offset += t.cols.len();
+            match effects::nonlinear_derivative(&t.variant, coef, self.obs) {
+                Some(dcol) => {
+                    nl_index.push(Some(jac.len()));
+                    jac.push(dcol);
+                }
+                None => nl_index.push(None),
+            }
+        }
+        let p = jac.len();
+        let w = self.engine.w();
+        let mut jtj = vec![vec![0.0; p]; p];
+        for a in 0..p {
+            for b in a..p {
+                let (ja, jb) = (&jac[a], &jac[b]);
+                let mut s = 0.0;
+                for k in 0..n {
+                    s += w[k] * ja[k] * jb[k];
+                }
+                jtj[a][b] = s;
+                jtj[b][a] = s;
+            }
+        }
+        let inv = pinv_sym(&jtj);
+        let dof = (n as f64 - p as f64).max(1.0);
+        let s2 = fit.chi2 / dof;
+        let mut out = Vec::new();
+        let mut offset = 1;
+        for (ti, t) in terms.iter().enumerate() {
+            let lin: Vec<usize> = (offset..offset + t.cols.len()).collect();
+            offset += t.cols.len();
+            let mut idx = lin.clone();
+            let mut th: Vec<f64> = lin.iter().map(|&i| fit.coef[i]).collect();
+            if let Some(j) = nl_index[ti] {
+                idx.push(j);
+                th.push(match t.variant {
+                    Variant::Periodic { period_um } => period_um,
+                    Variant::DriftExp { tau_s } => tau_s,
+                    _ => 0.0,
+                });
+            }
+            let cov: Vec<Vec<f64>> = idx
+                .iter()
+                .map(|&a| idx.iter().map(|&b| inv[a][b] * s2).collect())
+                .collect();
+            let params = effects::params(t.kind, &t.variant, &th, &cov);
+            let coef: Vec<f64> = lin.iter().map(|&i| fit.coef[i]).collect();
+            let contribution = self.engine.predict(&t.cols, &coef);
+            out.push(FittedTerm {
+                term: t.clone(),
+                params,
+                contribution,
+            });
+        }
+        out
+    }
+
+    /// Every found effect replaced in turn by every other testable kind.
+    fn ambiguities(&mut self, terms: &[Term]) -> Vec<Ambiguity> {
+        let mut out = Vec::new();
+        if terms.is_empty() {
+            return out;
+        }
+        let full = self.bic_of(terms);
+        let kinds = self.kinds.clone();
+        for i in 0..terms.len() {
+            let mut rest = terms.to_vec();
+            let found = rest.remove(i);
+            let ids = ids_of(&rest);
+            let fit = self.engine.fit(&ids);
+            let resid = self.residual(&ids, &fit);
+            for &kind in &kinds {
+                if kind == found.kind || terms.iter().any(|t| t.kind == kind) {
+                    continue;
+                }
+                if kind == Kind::Periodic || found.kind == Kind::Periodic {
+                    continue;
+                }
+                let (best, _) = self.evaluate(&rest, kind, &resid, true);
+                if let Some(e) = best {
+                    let d = e.bic - full;
+                    if d < self.cfg.ambiguity_delta_bic {
+                        out.push(Ambiguity {
+                            found: found.kind,
+                            alt: kind,
+                            delta_bic: d,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Pairs of testable effects whose signatures coincide on this data set (independent
+    /// of the residual): A's columns are explained (1 − R² < 1e−4) by B's and a constant.
+    fn design_notes(&mut self) -> Vec<String> {
+        let mut out = Vec::new();
+        let primary: Vec<(Kind, Vec<usize>)> = self
+            .kinds
+            .iter()
+            .filter_map(|&k| {
+                effects::static_variants(k, &self.cols)
+                    .into_iter()
+                    .next()
+                    .map(|(_, c)| (k, c))
+            })
+            .collect();
+        for (ka, ca) in &primary {
+            for (kb, cb) in &primary {
+                if ka == kb {
+                    continue;
+                }
+                let mut base = vec![CONST];
+                base.extend_from_slice(cb);
+                let contained = ca.iter().all(|&c| {
+                    let tot = self.engine.unexplained(&[CONST], c);
+                    let res = self.engine.unexplained(&base, c);
+                    tot <= 0.0 || res <= 1e-4 * tot
+                });
+                if contained {
+                    out.push(format!(
+                        "{} is indistinguishable from {} (+ offset) on these data: {}",
+                        ka.label(self.obs),
+                        kb.label(self.obs),
+                        super::separation_advice(*ka, *kb, self.obs)
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// ΔBIC of every testable kind against the final model.
+    fn scores(&mut self, terms: &[Term]) -> Vec<(Kind, f64)> {
+        let full = self.bic_of(terms);
+        let ids = ids_of(terms);
+        let fit = self.engine.fit(&ids);
+        let resid = self.residual(&ids, &fit);
+        let mut out = Vec::new();
+        let kinds = self.kinds.clone();
+        for kind in kinds {
+            if let Some(i) = terms.iter().position(|t| t.kind == kind) {
+                let mut t = terms.to_vec();
+                t.remove(i);
+                out.push((kind, self.bic_of(&t) - full));
+            } else if self.allowed(kind, terms) {
+                let (b, a) = self.evaluate(terms, kind, &resid, true);
+                if let Some(a) = &a
+                    && full - a.bic >= self.cfg.min_delta_bic
+                    && b.as_ref()
+                        .is_none_or(|b| full - b.bic < self.cfg.min_delta_bic)
+                {
+                    self.refused.push(format!(
+                        "{} would lower BIC by {:.1} but is not determined on these data ({}): not reported",
+                        kind.label(self.obs),
+                        full - a.bic,
+                        a.undetermined.as_deref().unwrap_or("not independent of the found effects")
+                    ));
+                }
+                if let Some(e) = b.or(a) {
+                    out.push((kind, e.bic - full));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// RMS about the mean.
+pub(crate) fn centred_rms(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Residual minus its weighted cubic fit in `xc` (∈ [−1, 1]).
+fn detrend_cubic(xc: &[f64], r: &[f64], w: &[f64]) -> Vec<f64> {
+    let k = 4;
+    let mut g = vec![vec![0.0; k]; k];
+    let mut gy = vec![0.0; k];
+    for i in 0..r.len() {
+        let row = [1.0, xc[i], xc[i] * xc[i], xc[i] * xc[i] * xc[i]];
+        for a in 0..k {
+            gy[a] += w[i] * row[a] * r[i];
+            for b in 0..k {
+                g[a][b] += w[i] * row[a] * row[b];
+            }
+        }
+    }
+    let f = solve(&g, &gy, 0.0);
+    (0..r.len())
+        .map(|i| {
+            let row = [1.0, xc[i], xc[i] * xc[i], xc[i] * xc[i] * xc[i]];
+            r[i] - (0..k).map(|a| f.coef[a] * row[a]).sum::<f64>()
+        })
+        .collect()
+}

@@ -1,0 +1,496 @@
+//! Synthetic recorded/simulated session pairs for tests and demonstrations of the
+//! diagnosis, generated directly from the contract's effect signatures (no wire, no
+//! decoder: fast, exact, seeded).
+//!
+//! A plan moves along X over `lines` (y, z), out (+) and back (−) through the targets in
+//! every run (ISO 230-2), dwelling at each target and sampling while moving at a fixed
+//! spacing from a random phase, so moving positions are irregular. The environment has
+//! realistic histories: the scale warming (exponential approach), the air temperature
+//! cycling and drifting, the pressure changing slowly. `simulated` is a smooth geometric
+//! error (a few µm polynomial in x, y, z, noiseless); `recorded` adds the hidden effects,
+//! Gaussian noise and a constant (the counters' origin).
+
+use std::f64::consts::TAU;
+
+use errmap_drivers::{Axis, SessionRow, edlen};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+use super::HENE_WAVELENGTH_UM;
+
+/// The measurement plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthPlan {
+    /// Lines: (y, z) of each, mm.
+    pub lines_mm: Vec<[f64; 2]>,
+    /// Targets along X, mm, increasing.
+    pub targets_mm: Vec<f64>,
+    /// Runs per line.
+    pub runs: u32,
+    /// Feeds, mm/s: run k uses `feeds_mm_s[(k − 1) % len]`.
+    pub feeds_mm_s: Vec<f64>,
+    /// Samples per dwell (0: no dwell rows at all).
+    pub dwell_samples: usize,
+    /// Interval between dwell samples, s.
+    pub dwell_interval_s: f64,
+    /// Wait after reaching a target before the first dwell sample, s.
+    pub settle_s: f64,
+    /// Sample spacing while moving, mm (the timer interval is spacing / feed).
+    pub move_spacing_mm: f64,
+    /// Pause at every reversal, s.
+    pub pause_s: f64,
+    /// Positioning repeatability at a target (σ of the dwell position), µm.
+    pub positioning_um: f64,
+}
+
+impl Default for SynthPlan {
+    fn default() -> Self {
+        SynthPlan {
+            lines_mm: vec![[100.0, 150.0], [400.0, 150.0], [100.0, 450.0]],
+            targets_mm: (0..=10).map(|k| f64::from(k) * 80.0).collect(),
+            runs: 5,
+            feeds_mm_s: vec![50.0, 150.0],
+            dwell_samples: 10,
+            dwell_interval_s: 0.4,
+            settle_s: 1.0,
+            move_spacing_mm: 7.0,
+            pause_s: 2.0,
+            positioning_um: 0.5,
+        }
+    }
+}
+
+/// The environment's histories.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthEnv {
+    /// Scale temperature at the start and the end, °C (exponential approach, τ = half
+    /// the session).
+    pub scale_temp_c: (f64, f64),
+    /// Air temperature mean, °C.
+    pub air_temp_c: f64,
+    /// Air temperature cycle amplitude, K, and period, s.
+    pub air_temp_cycle: (f64, f64),
+    /// Air temperature drift over the session, K.
+    pub air_temp_drift_k: f64,
+    /// Pressure mean, hPa.
+    pub pressure_hpa: f64,
+    /// Pressure change amplitude, hPa, and period, s.
+    pub pressure_cycle: (f64, f64),
+    /// Relative humidity, %.
+    pub rh_pct: f64,
+}
+
+impl Default for SynthEnv {
+    fn default() -> Self {
+        SynthEnv {
+            scale_temp_c: (20.3, 21.0),
+            air_temp_c: 20.1,
+            air_temp_cycle: (0.3, 900.0),
+            air_temp_drift_k: 0.2,
+            pressure_hpa: 1013.0,
+            pressure_cycle: (2.0, 5000.0),
+            rh_pct: 45.0,
+        }
+    }
+}
+
+/// A hidden effect, by the contract's signatures (t0 = the first row).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Hidden {
+    /// −α·(T_scale − 20)·(x − x0)·1e−3.
+    ScaleThermal { alpha_ppm_per_k: f64, x0_mm: f64 },
+    /// k·x·1e−3.
+    ScaleFactor { ppm: f64 },
+    /// c·(θ0 + θ1·x)·1e−3 with c = y (`along_z` false) or z.
+    Abbe {
+        along_z: bool,
+        theta0_urad: f64,
+        theta1_urad_per_mm: f64,
+    },
+    /// d·b/2.
+    Reversal { b_um: f64 },
+    /// d·v·τ·1e−3 (v = the feed on moving rows, 0 dwelling).
+    LatchDelay { tau_us: f64 },
+    /// a·sin(2πx/P + φ).
+    Periodic {
+        amplitude_um: f64,
+        period_um: f64,
+        phase_rad: f64,
+    },
+    /// A·(1 − exp(−(t − t0)/τ)).
+    DriftExp { amplitude_um: f64, tau_s: f64 },
+    /// ρ·(t − t0).
+    DriftLinear { rate_um_per_s: f64 },
+    /// −D·(n(t) − n(t0))·1e3.
+    DeadPath { dead_path_mm: f64 },
+    /// −x·Δn·1e3, Δn·1e6 = a·(T − T̄) + b·(p − p̄).
+    Refraction { ppm_per_k: f64, ppm_per_hpa: f64 },
+}
+
+impl Hidden {
+    /// The contract's id.
+    pub fn id(&self) -> &'static str {
+        match self {
+            Hidden::ScaleThermal { .. } => "scale_thermal_expansion",
+            Hidden::ScaleFactor { .. } => "scale_factor",
+            Hidden::Abbe { .. } => "abbe",
+            Hidden::Reversal { .. } => "reversal",
+            Hidden::LatchDelay { .. } => "latch_delay",
+            Hidden::Periodic { .. } => "periodic_scale",
+            Hidden::DriftExp { .. } | Hidden::DriftLinear { .. } => "thermal_drift",
+            Hidden::DeadPath { .. } => "dead_path",
+            Hidden::Refraction { .. } => "refraction",
+        }
+    }
+
+    /// The true parameters by the contract's names.
+    pub fn truth(&self) -> Vec<(&'static str, f64)> {
+        match *self {
+            Hidden::ScaleThermal {
+                alpha_ppm_per_k,
+                x0_mm,
+            } => {
+                vec![("alpha_ppm_per_k", alpha_ppm_per_k), ("x0_mm", x0_mm)]
+            }
+            Hidden::ScaleFactor { ppm } => vec![("ppm", ppm)],
+            Hidden::Abbe {
+                theta0_urad,
+                theta1_urad_per_mm,
+                ..
+            } => vec![
+                ("theta0_urad", theta0_urad),
+                ("theta1_urad_per_mm", theta1_urad_per_mm),
+            ],
+            Hidden::Reversal { b_um } => vec![("b_um", b_um)],
+            Hidden::LatchDelay { tau_us } => vec![("tau_us", tau_us)],
+            Hidden::Periodic {
+                amplitude_um,
+                period_um,
+                phase_rad,
+            } => vec![
+                ("amplitude_um", amplitude_um),
+                ("period_um", period_um),
+                ("phase_rad", phase_rad),
+            ],
+            Hidden::DriftExp {
+                amplitude_um,
+                tau_s,
+            } => {
+                vec![("amplitude_um", amplitude_um), ("tau_s", tau_s)]
+            }
+            Hidden::DriftLinear { rate_um_per_s } => vec![("rate_um_per_s", rate_um_per_s)],
+            Hidden::DeadPath { dead_path_mm } => vec![("dead_path_mm", dead_path_mm)],
+            Hidden::Refraction {
+                ppm_per_k,
+                ppm_per_hpa,
+            } => {
+                vec![("ppm_per_k", ppm_per_k), ("ppm_per_hpa", ppm_per_hpa)]
+            }
+        }
+    }
+}
+
+/// The noise of the recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthNoise {
+    /// σ, µm.
+    pub sigma_um: f64,
+    /// Factor on σ for moving rows.
+    pub moving_factor: f64,
+    /// Runs with `noisy_factor` × σ.
+    pub noisy_runs: Vec<u32>,
+    /// Factor on σ for `noisy_runs`.
+    pub noisy_factor: f64,
+}
+
+impl Default for SynthNoise {
+    fn default() -> Self {
+        SynthNoise {
+            sigma_um: 0.05,
+            moving_factor: 1.0,
+            noisy_runs: Vec::new(),
+            noisy_factor: 1.0,
+        }
+    }
+}
+
+/// Everything that defines a synthetic pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Synth {
+    pub plan: SynthPlan,
+    pub env: SynthEnv,
+    pub hidden: Vec<Hidden>,
+    pub noise: SynthNoise,
+    /// Scale of the geometric error, µm (its peak to peak is about twice this).
+    pub geometric_um: f64,
+    /// Constant added to the recording (counter origin), µm.
+    pub offset_um: f64,
+    pub seed: u64,
+}
+
+impl Default for Synth {
+    fn default() -> Self {
+        Synth {
+            plan: SynthPlan::default(),
+            env: SynthEnv::default(),
+            hidden: Vec::new(),
+            noise: SynthNoise::default(),
+            geometric_um: 5.0,
+            offset_um: 1.7,
+            seed: 1,
+        }
+    }
+}
+
+/// A generated pair and what is in it.
+#[derive(Debug, Clone)]
+pub struct SynthOutput {
+    pub recorded: Vec<SessionRow>,
+    pub simulated: Vec<SessionRow>,
+    /// Each hidden effect's contribution per row (same order as `hidden`).
+    pub hidden_um: Vec<Vec<f64>>,
+    /// Peak to peak of the geometric error, µm.
+    pub geometric_pp_um: f64,
+}
+
+struct Slot {
+    run: u32,
+    t: f64,
+    x: f64,
+    line: usize,
+    d: i8,
+    target: i32,
+    feed: Option<f64>,
+}
+
+fn schedule(p: &SynthPlan, rng: &mut StdRng) -> Vec<Slot> {
+    let mut s = Vec::new();
+    let mut t = 0.0;
+    let first = p.targets_mm.first().copied().unwrap_or(0.0);
+    // A few samples at home before the first run (run 0).
+    for _ in 0..5 {
+        s.push(Slot {
+            run: 0,
+            t,
+            x: first,
+            line: 0,
+            d: 0,
+            target: -1,
+            feed: None,
+        });
+        t += 0.2;
+    }
+    let gauss = |rng: &mut StdRng| -> f64 {
+        let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+        let u2: f64 = rng.random_range(0.0..1.0);
+        (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
+    };
+    for line in 0..p.lines_mm.len() {
+        if line > 0 {
+            t += 10.0;
+        }
+        for run in 1..=p.runs {
+            let feed = p.feeds_mm_s[(run as usize - 1) % p.feeds_mm_s.len().max(1)];
+            for (d, order) in [
+                (1i8, (0..p.targets_mm.len()).collect::<Vec<_>>()),
+                (-1i8, (0..p.targets_mm.len()).rev().collect::<Vec<_>>()),
+            ] {
+                let mut pos: Option<f64> = None;
+                for j in order {
+                    let target = p.targets_mm[j];
+                    if let Some(x0) = pos {
+                        // Move at the feed, sampled every spacing/feed from a random phase.
+                        let dt = p.move_spacing_mm / feed;
+                        let dur = (target - x0).abs() / feed;
+                        let mut tau = rng.random_range(0.0..dt);
+                        while tau < dur {
+                            let x = x0 + f64::from(d) * feed * tau;
+                            s.push(Slot {
+                                run,
+                                t: t + tau,
+                                x,
+                                line,
+                                d,
+                                target: -1,
+                                feed: Some(feed),
+                            });
+                            tau += dt;
+                        }
+                        t += dur;
+                    }
+                    pos = Some(target);
+                    if p.dwell_samples > 0 {
+                        t += p.settle_s;
+                        let x = target + p.positioning_um * 1e-3 * gauss(rng);
+                        for _ in 0..p.dwell_samples {
+                            s.push(Slot {
+                                run,
+                                t,
+                                x,
+                                line,
+                                d,
+                                target: j as i32,
+                                feed: Some(feed),
+                            });
+                            t += p.dwell_interval_s;
+                        }
+                    }
+                }
+                t += p.pause_s;
+            }
+        }
+    }
+    s
+}
+
+/// Generates the pair.
+pub fn generate(cfg: &Synth) -> SynthOutput {
+    let mut rng = StdRng::seed_from_u64(cfg.seed);
+    let slots = schedule(&cfg.plan, &mut rng);
+    let n = slots.len();
+    let total = slots.last().map_or(1.0, |s| s.t).max(1.0);
+    let e = &cfg.env;
+    let scale_t = |t: f64| {
+        let tau = total / 2.0;
+        let f = (1.0 - (-t / tau).exp()) / (1.0 - (-total / tau).exp());
+        e.scale_temp_c.0 + (e.scale_temp_c.1 - e.scale_temp_c.0) * f
+    };
+    let air_t = |t: f64| {
+        e.air_temp_c
+            + e.air_temp_cycle.0 * (TAU * t / e.air_temp_cycle.1).sin()
+            + e.air_temp_drift_k * (t / total - 0.5)
+    };
+    let air_p =
+        |t: f64| e.pressure_hpa + e.pressure_cycle.0 * (TAU * t / e.pressure_cycle.1 + 1.0).sin();
+    let at: Vec<f64> = slots.iter().map(|s| air_t(s.t)).collect();
+    let ap: Vec<f64> = slots.iter().map(|s| air_p(s.t)).collect();
+    let t_mean = at.iter().sum::<f64>() / n as f64;
+    let p_mean = ap.iter().sum::<f64>() / n as f64;
+    let index =
+        |k: usize| edlen::refractive_index(HENE_WAVELENGTH_UM, at[k], ap[k] * 100.0, e.rh_pct);
+    let n0 = index(0);
+
+    // Geometric error: a smooth polynomial in x, y, z with seeded coefficients.
+    let g: Vec<f64> = (0..7).map(|_| rng.random_range(-1.0..1.0)).collect();
+    let (xlo, xhi) = cfg
+        .plan
+        .targets_mm
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+            (l.min(x), h.max(x))
+        });
+    let xspan = (xhi - xlo).max(1.0);
+    let geo = |x: f64, y: f64, z: f64| {
+        let u = (x - xlo) / xspan;
+        cfg.geometric_um
+            * (1.5 * u - 2.5 * u * u
+                + 1.2 * u * u * u
+                + 0.4 * g[0] * (3.0 * u).sin()
+                + 0.3 * g[1] * u * u
+                + 0.4 * g[2] * y / 500.0
+                + 0.4 * g[3] * z / 500.0
+                + 0.3 * g[4] * u * y / 500.0
+                + 0.3 * g[5] * u * z / 500.0
+                + 0.2 * g[6])
+    };
+
+    let mut hidden_um = vec![vec![0.0; n]; cfg.hidden.len()];
+    let mut recorded = Vec::with_capacity(n);
+    let mut simulated = Vec::with_capacity(n);
+    let gauss = |rng: &mut StdRng| -> f64 {
+        let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+        let u2: f64 = rng.random_range(0.0..1.0);
+        (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
+    };
+    let (mut glo, mut ghi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (k, s) in slots.iter().enumerate() {
+        let [y, z] = cfg.plan.lines_mm[s.line];
+        let d = f64::from(s.d);
+        let v = if s.target < 0 {
+            s.feed.unwrap_or(0.0)
+        } else {
+            0.0
+        };
+        let ts = scale_t(s.t);
+        let mut h_total = 0.0;
+        for (i, h) in cfg.hidden.iter().enumerate() {
+            let val = match *h {
+                Hidden::ScaleThermal {
+                    alpha_ppm_per_k,
+                    x0_mm,
+                } => -alpha_ppm_per_k * (ts - 20.0) * (s.x - x0_mm) * 1e-3,
+                Hidden::ScaleFactor { ppm } => ppm * s.x * 1e-3,
+                Hidden::Abbe {
+                    along_z,
+                    theta0_urad,
+                    theta1_urad_per_mm,
+                } => {
+                    let c = if along_z { z } else { y };
+                    c * (theta0_urad + theta1_urad_per_mm * s.x) * 1e-3
+                }
+                Hidden::Reversal { b_um } => d * b_um / 2.0,
+                Hidden::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
+                Hidden::Periodic {
+                    amplitude_um,
+                    period_um,
+                    phase_rad,
+                } => amplitude_um * (TAU * s.x * 1000.0 / period_um + phase_rad).sin(),
+                Hidden::DriftExp {
+                    amplitude_um,
+                    tau_s,
+                } => amplitude_um * (1.0 - (-s.t / tau_s).exp()),
+                Hidden::DriftLinear { rate_um_per_s } => rate_um_per_s * s.t,
+                Hidden::DeadPath { dead_path_mm } => -dead_path_mm * (index(k) - n0) * 1e3,
+                Hidden::Refraction {
+                    ppm_per_k,
+                    ppm_per_hpa,
+                } => {
+                    let dn = 1e-6 * (ppm_per_k * (at[k] - t_mean) + ppm_per_hpa * (ap[k] - p_mean));
+                    -s.x * dn * 1e3
+                }
+            };
+            hidden_um[i][k] = val;
+            h_total += val;
+        }
+        let mut sigma = cfg.noise.sigma_um;
+        if s.target < 0 {
+            sigma *= cfg.noise.moving_factor;
+        }
+        if cfg.noise.noisy_runs.contains(&s.run) {
+            sigma *= cfg.noise.noisy_factor;
+        }
+        let e_geo = geo(s.x, y, z);
+        glo = glo.min(e_geo);
+        ghi = ghi.max(e_geo);
+        let e_rec = e_geo + h_total + cfg.offset_um + sigma * gauss(&mut rng);
+        let row = |err: f64| SessionRow {
+            run: s.run,
+            sample: k as i64,
+            t_s: s.t,
+            axis: Axis::X,
+            direction: s.d,
+            feed_mm_s: s.feed,
+            target: s.target,
+            x_mm: Some(s.x),
+            y_mm: Some(y),
+            z_mm: Some(z),
+            scale_mm: s.x,
+            laser_mm: s.x - err * 1e-3,
+            error_um: err,
+            air_temp_c: Some(at[k]),
+            air_pressure_hpa: Some(ap[k]),
+            air_rh_pct: Some(e.rh_pct),
+            scale_temp_c: Some(ts),
+            part_temp_c: Some(ts + 0.1),
+            flags: 0,
+        };
+        recorded.push(row(e_rec));
+        simulated.push(row(e_geo));
+    }
+    SynthOutput {
+        recorded,
+        simulated,
+        hidden_um,
+        geometric_pp_um: ghi - glo,
+    }
+}

@@ -1,0 +1,138 @@
+//! The concealed-effect cases of `datasets/concealed/` (made by the physics simulator
+//! through the simulated board, the wire and the decoder): the diagnosis finds what
+//! `truth.json` says is hidden, and nothing in the clean cases. Skipped with a message
+//! when the datasets are absent.
+
+use std::path::{Path, PathBuf};
+
+use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
+use errmap::session::read_session;
+
+fn dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed")
+}
+
+fn case(name: &str) -> Option<(Diagnosis, serde_json::Value)> {
+    let d = dir().join(name);
+    if !d.join("recorded.parquet").exists() {
+        eprintln!("skipping {name}: {} not found", d.display());
+        return None;
+    }
+    let rec = read_session(&d.join("recorded.parquet")).ok()?;
+    let sim = read_session(&d.join("simulated.parquet")).ok()?;
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("truth.json")).ok()?).ok()?;
+    let cfg = DiagnoseConfig {
+        grating_period_um: Some(20.0),
+        ..DiagnoseConfig::default()
+    };
+    let diag = match diagnose(&rec, &sim, &cfg) {
+        Ok(x) => x,
+        Err(e) => panic!("{name}: {e}"),
+    };
+    Some((diag, truth))
+}
+
+fn text(d: &Diagnosis) -> String {
+    let mut s = format!(
+        "verdict {} rms {:.4} → {:.4} (cv {:.4}) noise {:.4}\n",
+        d.verdict, d.rms_before_um, d.rms_after_um, d.cv_rms_after_um, d.noise_sigma_um
+    );
+    for e in &d.effects {
+        s.push_str(&format!(
+            "  {} {:?} ± {:?} explains {:.4}\n    {}\n",
+            e.id, e.params, e.uncertainty, e.explains_um, e.where_
+        ));
+    }
+    for a in d
+        .ambiguities
+        .iter()
+        .chain(&d.design_notes)
+        .chain(&d.selection_log)
+    {
+        s.push_str(&format!("  - {a}\n"));
+    }
+    s
+}
+
+fn check(name: &str) {
+    let Some((d, truth)) = case(name) else { return };
+    let t = text(&d);
+    println!("{name}: {t}");
+    let hidden = truth["params"].as_object().cloned().unwrap_or_default();
+    if hidden.is_empty() {
+        assert_eq!(d.verdict, "consistent", "{name}\n{t}");
+        return;
+    }
+    assert_eq!(d.verdict, "missing_physics", "{name}\n{t}");
+    for (id, params) in &hidden {
+        let Some(e) = d.effects.iter().find(|e| &e.id == id) else {
+            panic!("{name}: {id} not found\n{t}");
+        };
+        for (p, v) in params.as_object().cloned().unwrap_or_default() {
+            let truth = v.as_f64().unwrap_or(f64::NAN);
+            if p == "phase_rad" || truth == 0.0 {
+                continue;
+            }
+            let got = e
+                .params
+                .get(&p)
+                .and_then(|v| v.as_f64())
+                .unwrap_or(f64::NAN);
+            assert!(
+                (got - truth).abs() <= 0.25 * truth.abs(),
+                "{name}: {id}.{p} = {got} vs {truth}\n{t}"
+            );
+        }
+    }
+    assert_eq!(d.effects.len(), hidden.len(), "{name}: extra effects\n{t}");
+}
+
+#[test]
+fn scale_thermal_expansion() {
+    check("scale_thermal_expansion");
+}
+#[test]
+fn scale_factor() {
+    check("scale_factor");
+}
+#[test]
+fn abbe() {
+    check("abbe");
+}
+#[test]
+fn reversal() {
+    check("reversal");
+}
+#[test]
+fn latch_delay() {
+    check("latch_delay");
+}
+#[test]
+fn periodic_scale() {
+    check("periodic_scale");
+}
+#[test]
+fn thermal_drift() {
+    check("thermal_drift");
+}
+#[test]
+fn dead_path() {
+    check("dead_path");
+}
+#[test]
+fn refraction() {
+    check("refraction");
+}
+#[test]
+fn two_effects() {
+    check("two_effects");
+}
+#[test]
+fn clean() {
+    check("clean");
+}
+#[test]
+fn clean_uneven_noise() {
+    check("clean_uneven_noise");
+}

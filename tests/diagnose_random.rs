@@ -1,0 +1,302 @@
+//! Seeded random draws of every vocabulary effect from realistic ranges, in sessions whose
+//! layout, noise and environment vary too: the diagnosis must keep finding the effect
+//! (right id, parameters within 25 %, one-sigma ≤ half the value, residual at noise level)
+//! and must stay quiet on clean sessions. Each test prints its pass rate; a rate below
+//! the bound (or any wrong effect id on a clean session) fails.
+
+use errmap::diagnose::synth::{Hidden, Synth, SynthNoise, generate};
+use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+const DRAWS: u64 = 20;
+
+fn sign(rng: &mut StdRng) -> f64 {
+    if rng.random_bool(0.5) { 1.0 } else { -1.0 }
+}
+
+/// A session with a random layout, noise and environment.
+fn session(rng: &mut StdRng, seed: u64) -> Synth {
+    let mut s = Synth {
+        seed,
+        ..Synth::default()
+    };
+    let lines = rng.random_range(2..=4);
+    s.plan.lines_mm = (0..lines)
+        .map(|k| {
+            let y = if k % 2 == 0 { 100.0 } else { 400.0 };
+            let z = if k / 2 == 0 { 150.0 } else { 450.0 };
+            [
+                y + rng.random_range(-20.0..20.0),
+                z + rng.random_range(-20.0..20.0),
+            ]
+        })
+        .collect();
+    let f1 = rng.random_range(50.0..200.0_f64).round();
+    let f2 = rng.random_range(50.0..200.0_f64).round();
+    s.plan.feeds_mm_s = if rng.random_bool(0.5) {
+        vec![f1]
+    } else {
+        vec![f1, f2]
+    };
+    s.plan.move_spacing_mm = rng.random_range(5.0..10.0);
+    s.noise = SynthNoise {
+        sigma_um: rng.random_range(0.05..0.1),
+        ..SynthNoise::default()
+    };
+    let t0 = 20.0 + rng.random_range(0.3..0.8);
+    s.env.scale_temp_c = (t0, t0 + rng.random_range(0.3..0.7));
+    s.env.air_temp_c = 20.0 + rng.random_range(-0.3..0.3);
+    s.env.air_temp_cycle = (rng.random_range(0.1..0.3), rng.random_range(600.0..1800.0));
+    s.env.air_temp_drift_k = rng.random_range(-0.5..0.5);
+    s.env.pressure_hpa = 1013.0 + rng.random_range(-5.0..5.0);
+    s.env.pressure_cycle = (rng.random_range(1.0..2.0), rng.random_range(3000.0..8000.0));
+    s.geometric_um = rng.random_range(3.0..8.0);
+    s.offset_um = rng.random_range(-5.0..5.0);
+    s
+}
+
+fn draw(
+    kind: &str,
+    rng: &mut StdRng,
+    s: &mut Synth,
+) -> (Hidden, Vec<&'static str>, DiagnoseConfig) {
+    let mut cfg = DiagnoseConfig {
+        grating_period_um: Some(20.0),
+        ..DiagnoseConfig::default()
+    };
+    let h = match kind {
+        "scale_thermal_expansion" => {
+            let x0 = if rng.random_bool(0.5) {
+                0.0
+            } else {
+                rng.random_range(100.0..400.0)
+            };
+            Hidden::ScaleThermal {
+                alpha_ppm_per_k: rng.random_range(8.0..12.0),
+                x0_mm: x0,
+            }
+        }
+        "scale_factor" => Hidden::ScaleFactor {
+            ppm: sign(rng) * rng.random_range(2.0..20.0),
+        },
+        "abbe" => {
+            // Offsets 100–500 mm along the axis that carries the effect.
+            for l in &mut s.plan.lines_mm {
+                l[0] = rng.random_range(100.0..500.0);
+                l[1] = rng.random_range(100.0..500.0);
+            }
+            Hidden::Abbe {
+                along_z: rng.random_bool(0.5),
+                theta0_urad: sign(rng) * rng.random_range(2.0..20.0),
+                theta1_urad_per_mm: sign(rng) * rng.random_range(0.005..0.05),
+            }
+        }
+        "reversal" => Hidden::Reversal {
+            b_um: rng.random_range(0.3..3.0),
+        },
+        "latch_delay" => Hidden::LatchDelay {
+            tau_us: rng.random_range(20.0..500.0),
+        },
+        "periodic_scale" => {
+            let (grating, period) = match rng.random_range(0..6) {
+                0 => (Some(20.0), 20.0),
+                1 => (Some(20.0), 10.0),
+                2 => (Some(20.0), 5.0),
+                3 => (Some(4.0), 4.0),
+                4 => (None, 10.0),
+                _ => (Some(20.0), rng.random_range(500.0..2000.0)),
+            };
+            cfg.grating_period_um = grating;
+            Hidden::Periodic {
+                amplitude_um: rng.random_range(0.05..0.5),
+                period_um: period,
+                phase_rad: rng.random_range(-3.0..3.0),
+            }
+        }
+        "thermal_drift" => {
+            // A session of about an hour: four lines.
+            s.plan.lines_mm = vec![
+                [100.0, 150.0],
+                [400.0, 150.0],
+                [100.0, 450.0],
+                [400.0, 450.0],
+            ];
+            Hidden::DriftExp {
+                amplitude_um: sign(rng) * rng.random_range(0.5..3.0),
+                tau_s: rng.random_range(300.0..3000.0),
+            }
+        }
+        "dead_path" => {
+            s.env.air_temp_drift_k = 0.5 * sign(rng);
+            Hidden::DeadPath {
+                dead_path_mm: rng.random_range(50.0..500.0),
+            }
+        }
+        _ => Hidden::Refraction {
+            ppm_per_k: rng.random_range(0.9..1.0),
+            ppm_per_hpa: -rng.random_range(0.25..0.29),
+        },
+    };
+    let keys: Vec<&'static str> = match h {
+        Hidden::ScaleThermal { x0_mm, .. } if x0_mm != 0.0 => vec!["alpha_ppm_per_k", "x0_mm"],
+        Hidden::ScaleThermal { .. } => vec!["alpha_ppm_per_k"],
+        Hidden::Periodic { .. } => vec!["amplitude_um", "period_um"],
+        _ => h.truth().iter().map(|(k, _)| *k).collect(),
+    };
+    (h, keys, cfg)
+}
+
+fn describe(d: &Diagnosis) -> String {
+    let mut s = format!(
+        "{} rms {:.4}→{:.4}",
+        d.verdict, d.rms_before_um, d.rms_after_um
+    );
+    for e in &d.effects {
+        s.push_str(&format!(" | {} {:?} ±{:?}", e.id, e.params, e.uncertainty));
+    }
+    s
+}
+
+/// Why a draw failed, or None.
+fn judge(d: &Diagnosis, h: &Hidden, keys: &[&str], noise: f64) -> Option<String> {
+    if d.effects.len() != 1 || d.effects[0].id != h.id() {
+        return Some(format!("wrong effects: {}", describe(d)));
+    }
+    let e = &d.effects[0];
+    for (name, truth) in h.truth() {
+        if !keys.contains(&name) {
+            continue;
+        }
+        let Some(v) = e.params.get(name).and_then(|v| v.as_f64()) else {
+            return Some(format!("{name} missing: {}", describe(d)));
+        };
+        if (v - truth).abs() > 0.25 * truth.abs() {
+            return Some(format!("{name} = {v} vs {truth}: {}", describe(d)));
+        }
+        let sd = e.uncertainty.get(name).copied().unwrap_or(f64::NAN);
+        if !(sd <= 0.5 * v.abs()) {
+            return Some(format!("{name} σ {sd} > half of {v}: {}", describe(d)));
+        }
+    }
+    if d.rms_after_um > 1.3 * noise {
+        return Some(format!(
+            "rms after {} > 1.3 × {noise}: {}",
+            d.rms_after_um,
+            describe(d)
+        ));
+    }
+    None
+}
+
+fn campaign(kind: &str, seed: u64, min_rate: f64) {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut fails = Vec::new();
+    for k in 0..DRAWS {
+        let mut s = session(&mut rng, seed * 1000 + k);
+        let (h, keys, cfg) = draw(kind, &mut rng, &mut s);
+        s.hidden = vec![h];
+        let out = generate(&s);
+        let d = match diagnose(&out.recorded, &out.simulated, &cfg) {
+            Ok(d) => d,
+            Err(e) => panic!("{kind} draw {k}: {e}"),
+        };
+        if let Some(why) = judge(&d, &h, &keys, s.noise.sigma_um) {
+            fails.push(format!("draw {k} ({h:?}): {why}"));
+        }
+    }
+    let rate = 1.0 - fails.len() as f64 / DRAWS as f64;
+    println!(
+        "{kind}: {}/{DRAWS} found ({:.0} %)",
+        DRAWS as usize - fails.len(),
+        100.0 * rate
+    );
+    for f in &fails {
+        println!("  {f}");
+    }
+    assert!(
+        rate >= min_rate,
+        "{kind}: pass rate {rate} < {min_rate}\n{}",
+        fails.join("\n")
+    );
+}
+
+#[test]
+fn random_scale_thermal_expansion() {
+    campaign("scale_thermal_expansion", 11, 0.95);
+}
+
+#[test]
+fn random_scale_factor() {
+    campaign("scale_factor", 12, 0.95);
+}
+
+#[test]
+fn random_abbe() {
+    campaign("abbe", 13, 0.95);
+}
+
+#[test]
+fn random_reversal() {
+    campaign("reversal", 14, 0.95);
+}
+
+#[test]
+fn random_latch_delay() {
+    campaign("latch_delay", 15, 0.95);
+}
+
+#[test]
+fn random_periodic_scale() {
+    campaign("periodic_scale", 16, 0.95);
+}
+
+#[test]
+fn random_thermal_drift() {
+    campaign("thermal_drift", 17, 0.95);
+}
+
+#[test]
+fn random_dead_path() {
+    campaign("dead_path", 18, 0.95);
+}
+
+#[test]
+fn random_refraction() {
+    campaign("refraction", 19, 0.95);
+}
+
+/// Clean sessions, some with uneven noise: never an effect.
+#[test]
+fn random_clean_sessions_stay_consistent() {
+    let mut rng = StdRng::seed_from_u64(20);
+    let mut alarms = Vec::new();
+    for k in 0..DRAWS {
+        let mut s = session(&mut rng, 20_000 + k);
+        match k % 3 {
+            1 => s.noise.moving_factor = 3.0,
+            2 => {
+                s.noise.noisy_runs = vec![2, 4];
+                s.noise.noisy_factor = 3.0;
+            }
+            _ => {}
+        }
+        let out = generate(&s);
+        let cfg = DiagnoseConfig::default();
+        let d = match diagnose(&out.recorded, &out.simulated, &cfg) {
+            Ok(d) => d,
+            Err(e) => panic!("clean draw {k}: {e}"),
+        };
+        if d.verdict != "consistent" {
+            alarms.push(format!("draw {k}: {}", describe(&d)));
+        }
+    }
+    println!(
+        "clean: {}/{DRAWS} consistent",
+        DRAWS as usize - alarms.len()
+    );
+    for a in &alarms {
+        println!("  {a}");
+    }
+    assert!(alarms.is_empty(), "false alarms:\n{}", alarms.join("\n"));
+}
