@@ -49,6 +49,8 @@ enum Command {
     Simulate(SimulateArgs),
     /// Regenerate the concealed-effect cases (recorded/simulated pairs).
     GenConcealed(GenConcealedArgs),
+    /// Diagnose every concealed case and write its report (reports/diagnosis/).
+    ReportConcealed(ReportConcealedArgs),
     /// Throughput of the interpolators, fit times and the decoder's speed.
     Bench(BenchArgs),
     /// Find and model what the simulation left out of a recording.
@@ -133,6 +135,14 @@ struct BenchArgs {
     threads: usize,
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Debug, Args)]
+struct ReportConcealedArgs {
+    #[arg(long, default_value = "datasets/concealed")]
+    cases: PathBuf,
+    #[arg(long, default_value = "reports/diagnosis")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -378,6 +388,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::ReportConcealed(a) => acquisition::report_concealed(&a.cases, &a.out),
         Command::GenConcealed(a) => {
             let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
             eprintln!(
@@ -627,8 +638,14 @@ fn demo(a: DemoArgs) -> Result<()> {
         "plan.toml",
         include_str!("../datasets/sim/plan.toml"),
     )?;
+    let machine = write_input(
+        &inputs,
+        "machine.toml",
+        &include_str!("../datasets/sim/machine.toml")
+            .replace("\"../table1.csv\"", "\"table1.csv\""),
+    )?;
 
-    eprintln!("errmap demo [1/4]: simulated board on a pseudo-terminal → capture");
+    eprintln!("errmap demo [1/5]: simulated board (machine.toml) on a pseudo-terminal → capture");
     let session_dir = a.out.join("session");
     if session_dir.exists() {
         std::fs::remove_dir_all(&session_dir).with_context(|| {
@@ -639,7 +656,7 @@ fn demo(a: DemoArgs) -> Result<()> {
         })?;
     }
     let (stream, truth) =
-        errmap::acquire::simulate_stream(&model, Some(&plan), &Default::default())?;
+        errmap::acquire::simulate_stream(&machine, Some(&plan), &Default::default())?;
     let baud = errmap::physics::MachineModel::read(&model)?.device.baud;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let server = std::thread::spawn(move || {
@@ -669,7 +686,7 @@ fn demo(a: DemoArgs) -> Result<()> {
         session_dir.display()
     );
 
-    eprintln!("errmap demo [2/4]: session → error table (+ ISO 230-2 report)");
+    eprintln!("errmap demo [2/5]: session → error table (+ ISO 230-2 report)");
     let errors = session_dir.join("errors.csv");
     acquisition::table_cmd(TableArgs {
         session: session_dir.clone(),
@@ -678,13 +695,23 @@ fn demo(a: DemoArgs) -> Result<()> {
         json: false,
     })?;
 
-    eprintln!("errmap demo [3/4]: fit every method to the captured table, compare with the truth");
+    eprintln!("errmap demo [3/5]: fit every method to the captured table, compare with the truth");
     let test = errmap::acquire::truth_test_points(&truth, &errors, 40, 11)?;
     let test_path = session_dir.join("truth_points.csv");
     test.write(&test_path)?;
     demo_compare(errors, test_path, a.out.join("capture_comparison"))?;
 
-    eprintln!("errmap demo [4/4]: the paper's Table 1 → Table 2 (seed 001)");
+    eprintln!("errmap demo [4/5]: diagnose the capture against the nominal model (model.toml)");
+    acquisition::diagnose_cmd(DiagnoseArgs {
+        recorded: session_dir.clone(),
+        simulated: None,
+        model: Some(model),
+        report: a.out.join("diagnosis"),
+        grating_period_um: None,
+        json: false,
+    })?;
+
+    eprintln!("errmap demo [5/5]: the paper's Table 1 → Table 2 (seed 001)");
     demo_compare(t1, t2, a.out.join("table2"))?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())

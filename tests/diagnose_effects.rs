@@ -202,8 +202,210 @@ fn clean_recording_is_consistent() {
 }
 
 #[test]
-fn smoke_print() {
-    let d = run(&with(&[Hidden::Reversal { b_um: 0.8 }]));
-    println!("{}", summary(&d));
-    println!("{}", serde_json::to_string_pretty(&d).unwrap_or_default());
+fn finds_linear_thermal_drift() {
+    let h = Hidden::DriftLinear {
+        rate_um_per_s: 6e-4,
+    };
+    check_single(&with(&[h]), h, &["rate_um_per_s"]);
+}
+
+/// Finds every hidden effect of `hidden` (ids), nothing else, residual at noise level.
+fn check_multi(s: &Synth) -> Diagnosis {
+    let d = run(s);
+    let text = summary(&d);
+    let mut want: Vec<&str> = s.hidden.iter().map(|h| h.id()).collect();
+    let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+    want.sort_unstable();
+    got.sort_unstable();
+    assert_eq!(got, want, "{text}");
+    for h in &s.hidden {
+        let e = d
+            .effects
+            .iter()
+            .find(|e| e.id == h.id())
+            .unwrap_or_else(|| panic!("{} missing\n{text}", h.id()));
+        let (name, truth) = h.truth()[0];
+        let v = param(e, name);
+        assert!(
+            (v - truth).abs() <= 0.25 * truth.abs(),
+            "{name}: {v} vs {truth}\n{text}"
+        );
+    }
+    assert!(d.rms_after_um <= 1.3 * s.noise.sigma_um, "{text}");
+    d
+}
+
+#[test]
+fn finds_reversal_and_periodic_together() {
+    check_multi(&with(&[
+        Hidden::Reversal { b_um: 0.8 },
+        Hidden::Periodic {
+            amplitude_um: 0.15,
+            period_um: 10.0,
+            phase_rad: -1.1,
+        },
+    ]));
+}
+
+#[test]
+fn finds_scale_thermal_expansion_and_latch_delay_together() {
+    check_multi(&with(&[
+        Hidden::ScaleThermal {
+            alpha_ppm_per_k: 9.0,
+            x0_mm: 0.0,
+        },
+        Hidden::LatchDelay { tau_us: 30.0 },
+    ]));
+}
+
+#[test]
+fn finds_abbe_and_thermal_drift_together() {
+    let mut s = with(&[
+        Hidden::Abbe {
+            along_z: false,
+            theta0_urad: 6.0,
+            theta1_urad_per_mm: -0.02,
+        },
+        Hidden::DriftExp {
+            amplitude_um: -2.0,
+            tau_s: 500.0,
+        },
+    ]);
+    s.noise.sigma_um = 0.08;
+    check_multi(&s);
+}
+
+#[test]
+fn finds_dead_path_and_scale_factor_together() {
+    let mut s = with(&[
+        Hidden::DeadPath {
+            dead_path_mm: 400.0,
+        },
+        Hidden::ScaleFactor { ppm: -6.0 },
+    ]);
+    s.env.air_temp_drift_k = -0.5;
+    check_multi(&s);
+}
+
+#[test]
+fn uneven_noise_on_moving_rows_is_consistent() {
+    let mut s = with(&[]);
+    s.noise.moving_factor = 3.0;
+    let d = run(&s);
+    assert_eq!(d.verdict, "consistent", "{}", summary(&d));
+    assert!(d.effects.is_empty());
+    // The noise groups see the difference.
+    let moving: Vec<f64> = d
+        .noise_groups
+        .iter()
+        .filter(|g| g.group.ends_with("moving") && g.rows > 50)
+        .map(|g| g.sigma_um)
+        .collect();
+    let dwell: Vec<f64> = d
+        .noise_groups
+        .iter()
+        .filter(|g| g.group.ends_with("dwell"))
+        .map(|g| g.sigma_um)
+        .collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!(
+        mean(&moving) > 2.0 * mean(&dwell),
+        "{moving:?} vs {dwell:?}"
+    );
+}
+
+#[test]
+fn uneven_noise_in_two_runs_is_consistent() {
+    let mut s = with(&[]);
+    s.noise.noisy_runs = vec![2, 5];
+    s.noise.noisy_factor = 3.0;
+    s.noise.sigma_um = 0.1;
+    let d = run(&s);
+    assert_eq!(d.verdict, "consistent", "{}", summary(&d));
+}
+
+#[test]
+fn uneven_noise_does_not_hide_an_effect() {
+    let h = Hidden::Reversal { b_um: 0.5 };
+    let mut s = with(&[h]);
+    s.noise.moving_factor = 3.0;
+    let d = run(&s);
+    assert_eq!(d.effects.len(), 1, "{}", summary(&d));
+    assert_eq!(d.effects[0].id, "reversal");
+}
+
+fn all_text(d: &Diagnosis) -> String {
+    let mut t: Vec<String> = d.effects.iter().map(|e| e.where_.clone()).collect();
+    t.extend(d.ambiguities.iter().cloned());
+    t.join("\n")
+}
+
+/// A constant scale temperature: α·ΔT·x is a scale factor. One of the two is reported,
+/// the ambiguity is stated with the measurement that separates them.
+#[test]
+fn constant_scale_temperature_makes_thermal_expansion_ambiguous() {
+    let mut s = with(&[Hidden::ScaleThermal {
+        alpha_ppm_per_k: 10.0,
+        x0_mm: 0.0,
+    }]);
+    s.env.scale_temp_c = (20.5, 20.5);
+    let d = run(&s);
+    let text = summary(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let id = d.effects[0].id.as_str();
+    assert!(
+        id == "scale_factor" || id == "scale_thermal_expansion",
+        "{text}"
+    );
+    let other = if id == "scale_factor" {
+        "scale_thermal_expansion"
+    } else {
+        "scale_factor"
+    };
+    let w = &d.effects[0].where_;
+    assert!(w.contains("ambiguous") && w.contains(other), "{text}");
+    assert!(
+        all_text(&d).contains("scale at another temperature"),
+        "{text}"
+    );
+}
+
+/// One feed and no dwell rows: d·v·τ is a reversal.
+#[test]
+fn one_feed_without_dwell_makes_latch_delay_ambiguous() {
+    let mut s = with(&[Hidden::LatchDelay { tau_us: 20.0 }]);
+    s.plan.feeds_mm_s = vec![100.0];
+    s.plan.dwell_samples = 0;
+    let d = run(&s);
+    let text = summary(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let id = d.effects[0].id.as_str();
+    assert!(id == "reversal" || id == "latch_delay", "{text}");
+    let other = if id == "reversal" {
+        "latch_delay"
+    } else {
+        "reversal"
+    };
+    assert!(d.effects[0].where_.contains(other), "{text}");
+    assert!(all_text(&d).contains("second feed"), "{text}");
+}
+
+/// A single line: c·θ(x) is a constant plus a scale factor.
+#[test]
+fn single_line_makes_abbe_ambiguous() {
+    let mut s = with(&[Hidden::Abbe {
+        along_z: true,
+        theta0_urad: 5.0,
+        theta1_urad_per_mm: 0.01,
+    }]);
+    s.plan.lines_mm = vec![[200.0, 300.0]];
+    let d = run(&s);
+    let text = summary(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    assert_eq!(d.effects[0].id, "scale_factor", "{text}");
+    assert!(d.effects[0].where_.contains("abbe"), "{text}");
+    assert!(all_text(&d).contains("second line"), "{text}");
+    // 0.01 µrad/mm over z = 300 mm is 3 ppm.
+    let k = param(&d.effects[0], "ppm");
+    assert!((k - 3.0).abs() < 0.3, "{text}");
 }

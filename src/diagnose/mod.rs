@@ -88,11 +88,11 @@ pub struct DiagnoseConfig {
     /// Shortest period of the broad periodogram, mm. Default 0.5. Range > 0.
     pub broad_min_period_mm: f64,
     /// Rows used by the periodograms and the nonlinear searches (an evenly spaced subset
-    /// when there are more; the final fit uses all rows). Default 4000. Range ≥ 50.
+    /// when there are more; the final fit uses all rows). Default 2500. Range ≥ 50.
     pub spectral_max_rows: usize,
     /// Bound on rows × frequencies of each periodogram (the grating windows together, and
     /// the broad scan): a scan over more frequencies uses fewer rows (at least 200).
-    /// Default 2.5e6 (a few ms in release). Range ≥ 1e4.
+    /// Default 2e6 (a few ms in release). Range ≥ 1e4.
     pub spectral_budget: f64,
     /// Laser vacuum wavelength for the refractive index of `dead_path`, µm. Default HeNe.
     pub laser_wavelength_um: f64,
@@ -110,8 +110,8 @@ impl Default for DiagnoseConfig {
             cv_confirm: true,
             period_window_rel: 0.0005,
             broad_min_period_mm: 0.5,
-            spectral_max_rows: 4000,
-            spectral_budget: 2.5e6,
+            spectral_max_rows: 2500,
+            spectral_budget: 2e6,
             laser_wavelength_um: HENE_WAVELENGTH_UM,
         }
     }
@@ -400,7 +400,7 @@ pub fn diagnose(
     if changed {
         sigma = sigma2;
         w = weights(&sigma);
-        let spectrum = Some((out.periods.clone(), out.broad.clone()));
+        let spectrum = Some((out.periods.clone(), out.broad.clone(), out.searched_rms));
         let sel = Selector::new(&obs, config, y.clone(), w.clone(), fold, nfolds, spectrum);
         untestable = sel.untestable().to_vec();
         out = sel.run();
@@ -438,10 +438,8 @@ fn assemble(
     };
     let after: Vec<f64> = y.iter().zip(&out.model).map(|(y, m)| y - m).collect();
     let rms_before = rms(&mut obs.r.iter().copied());
-    let rms_before_c = rms(&mut obs
-        .r
-        .iter()
-        .map(|r| r - obs.r.iter().sum::<f64>() / n as f64));
+    let r_mean = obs.r.iter().sum::<f64>() / n as f64;
+    let rms_before_c = rms(&mut obs.r.iter().map(|r| r - r_mean));
     let rms_after = rms(&mut after.iter().copied());
     let cv_rms = rms(&mut y.iter().zip(&out.cv_pred).map(|(y, p)| y - p));
     let noise_sigma =

@@ -31,11 +31,27 @@ use super::spectral;
 /// statistically identical fits), settled by preference.
 pub(crate) const TIE_BIC: f64 = 1.0;
 
+/// The periodogram is searched again when the residual's weighted RMS has fallen below
+/// this fraction of the RMS it was last searched on.
+const RESEARCH_FRACTION: f64 = 0.8;
+
+/// Longest period of the broad periodogram, as a fraction of the x range: a "period"
+/// with fewer than 10 cycles over the axis is a smooth shape, not a periodic error.
+const MAX_BROAD_FRACTION: f64 = 0.1;
+
+/// Δχ² a periodic term must reach on the moving rows alone (independent phases), about
+/// 5σ for two parameters.
+const MOVING_SUPPORT_CHI2: f64 = 25.0;
+
 /// Most periodic terms in one model.
 const MAX_PERIODIC: usize = 3;
 
-/// Golden-section iterations for a period or a time constant on the search subset.
-const GOLDEN_ITERS: usize = 14;
+/// Golden-section iterations for a period or a time constant (0.618¹² ≈ 0.3 % of the
+/// bracket, one grid step).
+const GOLDEN_ITERS: usize = 12;
+
+/// Points of the τ grid of the drift search.
+const TAU_GRID: usize = 16;
 
 /// One selected effect.
 #[derive(Debug, Clone)]
@@ -119,6 +135,8 @@ pub(crate) struct Outcome {
     pub log: Vec<String>,
     pub periods: Vec<PeriodCand>,
     pub broad: Broad,
+    /// Weighted RMS of the residual the periodogram was last searched on.
+    pub searched_rms: f64,
     pub bic_final: f64,
     /// ΔBIC of every testable kind against the final model (adding it, or for a found
     /// one, removing it).
@@ -134,10 +152,14 @@ pub(crate) struct Selector<'a> {
     kinds: Vec<Kind>,
     periods: Vec<PeriodCand>,
     broad: Broad,
-    /// Whether `periods` came from an earlier pass.
-    searched: bool,
+    /// Weighted RMS of the residual the periodogram candidates were found on (None: not
+    /// searched yet). The search is repeated when the residual has dropped below
+    /// [`RESEARCH_FRACTION`] of it: a strong effect removed, weaker periods can show.
+    searched_rms: Option<f64>,
     /// Row subset for the nonlinear searches.
     sub: Vec<usize>,
+    /// The τ grid of the drift search (ln τ) and its columns on the subset.
+    tau_grid: Vec<(f64, Vec<f64>)>,
     log: Vec<String>,
     refused: Vec<String>,
 }
@@ -178,6 +200,39 @@ fn golden(mut lo: f64, mut hi: f64, iters: usize, mut f: impl FnMut(f64) -> f64)
     if fa <= fb { (a, fa) } else { (b, fb) }
 }
 
+/// Weighted fit of `y` by a constant and `cols` on the rows `rows` (all rows: None).
+fn small_fit(y: &[f64], w: &[f64], cols: &[&[f64]], rows: Option<&[usize]>) -> Fit {
+    let k = cols.len() + 1;
+    let mut g = vec![vec![0.0; k]; k];
+    let mut gy = vec![0.0; k];
+    let mut yy = 0.0;
+    let mut row = vec![0.0; k];
+    let mut add = |r: usize| {
+        row[0] = 1.0;
+        for (c, col) in cols.iter().enumerate() {
+            row[c + 1] = col[r];
+        }
+        for a in 0..k {
+            let wa = w[r] * row[a];
+            gy[a] += wa * y[r];
+            for b in a..k {
+                g[a][b] += wa * row[b];
+            }
+        }
+        yy += w[r] * y[r] * y[r];
+    };
+    match rows {
+        Some(idx) => idx.iter().for_each(|&r| add(r)),
+        None => (0..y.len()).for_each(add),
+    }
+    for a in 0..k {
+        for b in 0..a {
+            g[a][b] = g[b][a];
+        }
+    }
+    solve(&g, &gy, yy)
+}
+
 /// χ² of a weighted fit of `y` by a constant and `cols` (all of length n).
 fn small_chi2(y: &[f64], w: &[f64], cols: &[&[f64]]) -> f64 {
     let k = cols.len() + 1;
@@ -216,14 +271,14 @@ impl<'a> Selector<'a> {
         w: Vec<f64>,
         fold: Vec<usize>,
         nfolds: usize,
-        spectrum: Option<(Vec<PeriodCand>, Broad)>,
+        spectrum: Option<(Vec<PeriodCand>, Broad, f64)>,
     ) -> Self {
         let mut engine = Engine::new(y, w, fold, nfolds);
         let cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
         let kinds = effects::kinds(&cols);
         let sub = spectral::subset(obs.len(), cfg.spectral_max_rows.max(50));
-        let searched = spectrum.is_some();
-        let (periods, broad) = spectrum.unwrap_or_default();
+        let searched_rms = spectrum.as_ref().map(|s| s.2);
+        let (periods, broad) = spectrum.map(|s| (s.0, s.1)).unwrap_or_default();
         Selector {
             obs,
             cfg,
@@ -232,8 +287,9 @@ impl<'a> Selector<'a> {
             kinds,
             periods,
             broad,
-            searched,
+            searched_rms,
             sub,
+            tau_grid: Vec::new(),
             log: Vec::new(),
             refused: Vec::new(),
         }
@@ -259,6 +315,12 @@ impl<'a> Selector<'a> {
             .zip(&pred)
             .map(|(y, p)| y - p)
             .collect()
+    }
+
+    fn weighted_rms(&self, v: &[f64]) -> f64 {
+        let w = self.engine.w();
+        let sw: f64 = w.iter().sum();
+        (v.iter().zip(w).map(|(r, w)| w * r * r).sum::<f64>() / sw.max(1e-300)).sqrt()
     }
 
     fn sub_of(&self, v: &[f64]) -> Vec<f64> {
@@ -341,7 +403,7 @@ impl<'a> Selector<'a> {
         cands.extend(window_peaks.into_iter().take(3));
 
         // Broad scan of long periods on the residual minus a cubic in x.
-        let fmin = 4.0 / span;
+        let fmin = 1.0 / (MAX_BROAD_FRACTION * span);
         let fmax = 1.0 / cfg.broad_min_period_mm.max(1e-3);
         if fmax > fmin {
             let mut df = 1.0 / (2.0 * span);
@@ -392,48 +454,136 @@ impl<'a> Selector<'a> {
             let [s, c] = effects::periodic_cols(&x, q);
             small_chi2(&r, &w, &[&s, &c])
         });
-        best
+        if best > 0.0 && best <= self.max_period_um() {
+            best
+        } else {
+            p
+        }
     }
 
-    /// Best τ of an exponential drift for `resid` (grid then golden section in ln τ).
-    fn search_tau(&self, resid: &[f64], around: Option<f64>, full: bool) -> f64 {
-        let (t, w, r) = if full {
-            (self.obs.t.clone(), self.engine.w().to_vec(), resid.to_vec())
-        } else {
-            (
-                self.sub_of(&self.obs.t),
-                self.sub_of(self.engine.w()),
-                self.sub_of(resid),
-            )
-        };
-        let t0 = self.obs.t0;
-        let span = self
+    /// Longest period a periodic term may have, µm.
+    fn max_period_um(&self) -> f64 {
+        let (lo, hi) = self
             .obs
-            .t
+            .x
             .iter()
-            .fold(0.0f64, |m, &v| m.max(v - t0))
-            .max(1e-6);
-        let chi = |lt: f64| {
-            let col = effects::drift_col(&t, t0, lt.exp());
-            small_chi2(&r, &w, &[&col])
-        };
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        1000.0 * MAX_BROAD_FRACTION * (hi - lo).max(1e-3) * 1.05
+    }
+
+    /// Whether a periodic term (columns `s`, `c`) is supported by the data the way a
+    /// periodic scale error is, on `resid` (the residual without it):
+    /// - on the moving rows alone, whose positions are independent draws of the phase
+    ///   (rows of one dwell share their phase, so unmodelled structure at a few dwell
+    ///   positions can mimic a short period): Δχ² ≥ [`MOVING_SUPPORT_CHI2`];
+    /// - along the axis: its amplitude in each third of the x range agrees with the
+    ///   whole (within 3σ or a factor of 2), as a scale's interpolation error does and a
+    ///   local bump does not.
+    fn periodic_support(&self, resid: &[f64], s: &[f64], c: &[f64]) -> Result<(), String> {
+        let w = self.engine.w();
+        let n = resid.len();
+        let whole = small_fit(resid, w, &[s, c], None);
+        let amp = whole.coef[1].hypot(whole.coef[2]);
+        let moving: Vec<usize> = (0..n).filter(|&k| self.obs.moving[k]).collect();
+        if moving.len() >= 50 {
+            let base = small_fit(resid, w, &[], Some(&moving)).chi2;
+            let with = small_fit(resid, w, &[s, c], Some(&moving));
+            let dof = (moving.len() as f64 - 3.0).max(1.0);
+            let s2 = (with.chi2 / dof).max(1e-300);
+            let gain = (base - with.chi2) / s2;
+            if gain < MOVING_SUPPORT_CHI2 {
+                return Err(format!(
+                    "not supported by the moving samples alone (Δχ² = {gain:.1} < {MOVING_SUPPORT_CHI2})"
+                ));
+            }
+        }
+        let (lo, hi) = self
+            .obs
+            .x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let third = (hi - lo) / 3.0;
+        for part in 0..3 {
+            let a = lo + part as f64 * third;
+            let b = if part == 2 { hi + 1.0 } else { a + third };
+            let rows: Vec<usize> = (0..n)
+                .filter(|&k| self.obs.x[k] >= a && self.obs.x[k] < b)
+                .collect();
+            if rows.len() < 30 {
+                continue;
+            }
+            let f = small_fit(resid, w, &[s, c], Some(&rows));
+            let dof = (rows.len() as f64 - 3.0).max(1.0);
+            let s2 = f.chi2 / dof;
+            let (sc, cc) = (f.coef[1], f.coef[2]);
+            let ap = sc.hypot(cc).max(1e-300);
+            let var = ((sc / ap).powi(2) * f.cov[1][1]
+                + 2.0 * (sc / ap) * (cc / ap) * f.cov[1][2]
+                + (cc / ap).powi(2) * f.cov[2][2])
+                * s2;
+            let sd = var.max(0.0).sqrt();
+            let tol = 3.0 * sd;
+            if ap + tol < 0.5 * amp || ap - tol > 2.0 * amp {
+                return Err(format!(
+                    "its amplitude is not uniform along the axis ({ap:.4} ± {sd:.4} µm at {}–{} mm against {amp:.4} µm overall)",
+                    super::fixed(a, 0),
+                    super::fixed(b.min(hi), 0)
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Best τ of an exponential drift profiled jointly with the columns `base` (variable
+    /// projection: every trial τ refits all linear parameters on all rows), on a grid of
+    /// ln τ from span/50 to 3·span (columns cached), or around `around`, then golden
+    /// section. O(n·k) per trial.
+    fn profile_tau(&mut self, base: &[usize], around: Option<f64>) -> f64 {
+        let t0 = self.obs.t0;
         let (lo, hi) = match around {
-            Some(tau) => (tau.ln() - 0.3, tau.ln() + 0.3),
+            Some(tau) => (tau.ln() - 0.4, tau.ln() + 0.4),
             None => {
-                let (a, b) = ((span / 50.0).ln(), (span * 3.0).ln());
-                let m = 24;
-                let grid: Vec<f64> = (0..m)
-                    .map(|k| a + (b - a) * k as f64 / (m - 1) as f64)
+                if self.tau_grid.is_empty() {
+                    let span = self
+                        .obs
+                        .t
+                        .iter()
+                        .fold(0.0f64, |m, &v| m.max(v - t0))
+                        .max(1e-6);
+                    let (a, b) = ((span / 50.0).ln(), (span * 3.0).ln());
+                    let m = TAU_GRID;
+                    self.tau_grid = (0..m)
+                        .map(|k| {
+                            let g = a + (b - a) * k as f64 / (m - 1) as f64;
+                            (g, effects::drift_col(&self.obs.t, t0, g.exp()))
+                        })
+                        .collect();
+                }
+                let grid = std::mem::take(&mut self.tau_grid);
+                let vals: Vec<f64> = grid
+                    .iter()
+                    .map(|(_, col)| self.engine.fit_with(base, &[col]).chi2)
                     .collect();
-                let vals: Vec<f64> = grid.iter().map(|&g| chi(g)).collect();
-                let k = (0..m)
+                let k = (0..vals.len())
                     .min_by(|&i, &j| vals[i].total_cmp(&vals[j]))
                     .unwrap_or(0);
-                let h = (b - a) / (m - 1) as f64;
-                (grid[k] - h, grid[k] + h)
+                let h = grid[1].0 - grid[0].0;
+                let bracket = (grid[k].0 - h, grid[k].0 + h);
+                self.tau_grid = grid;
+                bracket
             }
         };
-        golden(lo, hi, GOLDEN_ITERS, chi).0.exp()
+        let t = self.obs.t.clone();
+        golden(lo, hi, GOLDEN_ITERS, |lt| {
+            let col = effects::drift_col(&t, t0, lt.exp());
+            self.engine.fit_with(base, &[&col]).chi2
+        })
+        .0
+        .exp()
     }
 
     // ---------------------------------------------------------------- evaluation
@@ -467,6 +617,14 @@ impl<'a> Selector<'a> {
         }
         match kind {
             Kind::Periodic => {
+                let rms = self.weighted_rms(resid);
+                if self
+                    .searched_rms
+                    .is_none_or(|r| rms < RESEARCH_FRACTION * r)
+                {
+                    self.spectral_search(resid);
+                    self.searched_rms = Some(rms);
+                }
                 let selected: Vec<f64> = terms
                     .iter()
                     .filter_map(|t| match t.variant {
@@ -498,7 +656,8 @@ impl<'a> Selector<'a> {
                     };
                     let [s, c] = effects::periodic_cols(&self.obs.x, p);
                     let fit = self.engine.fit_with(&ids, &[&s, &c]);
-                    evals.push(self.make_eval(
+                    let support = self.periodic_support(resid, &s, &c);
+                    let mut e = self.make_eval(
                         kind,
                         Variant::Periodic { period_um: p },
                         Cand::Trial(vec![s, c]),
@@ -506,11 +665,15 @@ impl<'a> Selector<'a> {
                         base.rank,
                         nl,
                         ids.len(),
-                    ));
+                    );
+                    if let Err(why) = support {
+                        e.undetermined.get_or_insert(why);
+                    }
+                    evals.push(e);
                 }
             }
             Kind::ThermalDrift if self.cols.t_lin.is_some() => {
-                let tau = self.search_tau(resid, None, false);
+                let tau = self.profile_tau(&ids, None);
                 let col = effects::drift_col(&self.obs.t, self.obs.t0, tau);
                 let fit = self.engine.fit_with(&ids, &[&col]);
                 evals.push(self.make_eval(
@@ -576,10 +739,14 @@ impl<'a> Selector<'a> {
         }
         let undetermined = if full {
             let ps = effects::params(kind, &variant, &th, &cov);
-            effects::undetermined(&ps, self.cfg.max_relative_uncertainty)
-                .map(|p| format!("{} = {:.4} ± {:.4}", p.name, p.value, p.sigma))
+            effects::undetermined(&ps, self.cfg.max_relative_uncertainty).map(|p| {
+                format!(
+                    "{} = {:.4} ± {:.4} is not determined",
+                    p.name, p.value, p.sigma
+                )
+            })
         } else {
-            Some("its signature is not independent of the other terms on these data".into())
+            Some("its signature is not independent of the other effects on these data".into())
         };
         Eval {
             kind,
@@ -649,12 +816,46 @@ impl<'a> Selector<'a> {
                     terms[i].variant = Variant::Periodic { period_um: p };
                 }
                 Variant::DriftExp { tau_s } => {
-                    let tau = self.search_tau(&partial, Some(tau_s), full);
+                    let mut base = vec![CONST];
+                    base.extend(others_ids.iter().copied());
+                    let tau = self.profile_tau(&base, Some(tau_s));
                     let col = effects::drift_col(&self.obs.t, self.obs.t0, tau);
                     terms[i].cols = vec![self.engine.add(col)];
                     terms[i].variant = Variant::DriftExp { tau_s: tau };
                 }
                 _ => {}
+            }
+        }
+    }
+
+    /// Re-chooses the variant of every term given the others (a linear drift chosen
+    /// first may be exponential once the others are in; x0, θ0/θ1, the speed used by the
+    /// latch delay, the air columns of refraction likewise). Periodic terms keep theirs.
+    fn revise_variants(&mut self, terms: &mut [Term]) {
+        for i in 0..terms.len() {
+            let kind = terms[i].kind;
+            if kind == Kind::Periodic {
+                continue;
+            }
+            let current = self.bic_of(terms);
+            let mut rest = terms.to_vec();
+            rest.remove(i);
+            let ids = ids_of(&rest);
+            let fit = self.engine.fit(&ids);
+            let resid = self.residual(&ids, &fit);
+            let (best, _) = self.evaluate(&rest, kind, &resid, true);
+            if let Some(b) = best
+                && b.variant != terms[i].variant
+                && b.bic < current - 1e-6
+            {
+                self.log.push(format!(
+                    "revise {}: {:?} → {:?} (BIC −{:.1})",
+                    kind.label(self.obs),
+                    terms[i].variant,
+                    b.variant,
+                    current - b.bic
+                ));
+                terms[i] = self.adopt(b);
             }
         }
     }
@@ -684,9 +885,6 @@ impl<'a> Selector<'a> {
         let ids0 = vec![CONST];
         let fit0 = self.engine.fit(&ids0);
         let resid0 = self.residual(&ids0, &fit0);
-        if !self.searched {
-            self.spectral_search(&resid0);
-        }
         if dbg {
             eprintln!("spectral {:?}", tm.elapsed());
         }
@@ -737,13 +935,16 @@ impl<'a> Selector<'a> {
             let term = self.adopt(chosen);
             terms.push(term);
             self.refine_nonlinear(&mut terms, false);
+            self.revise_variants(&mut terms);
             cur_bic = self.bic_of(&terms);
         }
 
         if dbg {
             eprintln!("forward {:?}", tm.elapsed());
         }
-        // 2. Backward check.
+        // 2. Nonlinear parameters on all rows, then the backward check (an effect that
+        //    entered while another was still poorly fitted may have become redundant).
+        self.refine_nonlinear(&mut terms, true);
         loop {
             if terms.is_empty() {
                 break;
@@ -770,7 +971,7 @@ impl<'a> Selector<'a> {
             }
         }
 
-        // 3. Final nonlinear refinement on all rows, then cross-validation.
+        // 3. Cross-validation (nonlinear parameters fixed).
         self.refine_nonlinear(&mut terms, true);
         if cfg.cv_confirm {
             loop {
@@ -810,6 +1011,36 @@ impl<'a> Selector<'a> {
         loop {
             fitted = self.final_fit(&terms);
             let mut changed = false;
+            // Periodic terms must keep their support with everything else in the model.
+            let ids = ids_of(&terms);
+            let fit = self.engine.fit(&ids);
+            let resid = self.residual(&ids, &fit);
+            let unsupported = fitted.iter().enumerate().find_map(|(i, f)| {
+                if f.term.kind != Kind::Periodic {
+                    return None;
+                }
+                let without: Vec<f64> = resid
+                    .iter()
+                    .zip(&f.contribution)
+                    .map(|(r, c)| r + c)
+                    .collect();
+                let (s, c) = (
+                    self.engine.col(f.term.cols[0]),
+                    self.engine.col(f.term.cols[1]),
+                );
+                self.periodic_support(&without, s, c)
+                    .err()
+                    .map(|why| (i, why))
+            });
+            if let Some((i, why)) = unsupported {
+                self.refused.push(format!(
+                    "{} ({:?}) is not reported: {why}",
+                    terms[i].kind.label(self.obs),
+                    terms[i].variant
+                ));
+                terms.remove(i);
+                continue;
+            }
             for (i, f) in fitted.iter().enumerate() {
                 if let Some(p) = effects::undetermined(&f.params, cfg.max_relative_uncertainty) {
                     let msg = format!(
@@ -913,6 +1144,7 @@ impl<'a> Selector<'a> {
             log: self.log.clone(),
             periods: self.periods.clone(),
             broad: self.broad.clone(),
+            searched_rms: self.searched_rms.unwrap_or(f64::INFINITY),
             bic_final,
             scores,
         }
@@ -1083,10 +1315,12 @@ impl<'a> Selector<'a> {
                         .is_none_or(|b| full - b.bic < self.cfg.min_delta_bic)
                 {
                     self.refused.push(format!(
-                        "{} would lower BIC by {:.1} but is not determined on these data ({}): not reported",
+                        "{} would lower BIC by {:.1} but is not reported: {}",
                         kind.label(self.obs),
                         full - a.bic,
-                        a.undetermined.as_deref().unwrap_or("not independent of the found effects")
+                        a.undetermined
+                            .as_deref()
+                            .unwrap_or("its signature is not independent of the found effects")
                     ));
                 }
                 if let Some(e) = b.or(a) {

@@ -17,7 +17,8 @@
 //!
 //! **Cost.** Fit: barycentric weights b_j = 1/Π_{k≠j}(x_j − x_k) for every window,
 //! O(n·d²) per axis. Evaluation: an interval search, d + 1 weights per axis
-//! (w_j = ℓ(x)·b_j/(x − x_j), ℓ(x) = Π(x − x_k)), and (m+1)(n+1)(q+1) multiply–adds.
+//! (w_j = b_j·Π_{k≠j}(x − x_k) by prefix and suffix products, 3d multiplications and no
+//! division), and (m+1)(n+1)(q+1) multiply–adds.
 //! Reproduces every polynomial of degree ≤ d along each axis exactly.
 
 use super::{InterpError, Interpolator, Locator, Order};
@@ -81,20 +82,23 @@ impl AxisBasis {
     }
 
     /// Writes the d + 1 basis weights at `x` into `w` and returns the window start.
+    /// w_j = b_j · Π_{k<j}(x − x_k) · Π_{k>j}(x − x_k), by prefix and suffix products: no
+    /// division, and exactly one non-zero weight when `x` is a node.
     #[inline]
     fn weights(&self, x: f64, w: &mut [f64; MAX_DEGREE + 1]) -> usize {
         let s = self.start(x);
         let d = self.degree;
         let window = &self.nodes[s..=s + d];
-        if let Some(hit) = window.iter().position(|&xk| xk == x) {
-            w[..=d].fill(0.0);
-            w[hit] = 1.0;
-            return s;
-        }
-        let ell: f64 = window.iter().map(|&xk| x - xk).product();
         let b = &self.bary[s * (d + 1)..(s + 1) * (d + 1)];
+        let mut left = 1.0;
         for j in 0..=d {
-            w[j] = ell * b[j] / (x - window[j]);
+            w[j] = b[j] * left;
+            left *= x - window[j];
+        }
+        let mut right = 1.0;
+        for j in (0..=d).rev() {
+            w[j] *= right;
+            right *= x - window[j];
         }
         s
     }
@@ -154,14 +158,73 @@ impl Interpolator for Lagrange {
         let [dx, dy, dz] = self.order.0;
         let [nx, ny, _] = self.grid.shape();
         let v = &self.grid.values;
+        // The innermost dot product has d_x + 1 terms: unrolled for the common degrees,
+        // the dispatch made once per point.
+        let t = Tensor {
+            wy: &wy[..=dy],
+            wz: &wz[..=dz],
+            v,
+            nx,
+            ny,
+            base: [sx, sy, sz],
+        };
+        match dx {
+            1 => t.sum::<2>(&wx),
+            2 => t.sum::<3>(&wx),
+            3 => t.sum::<4>(&wx),
+            4 => t.sum::<5>(&wx),
+            5 => t.sum::<6>(&wx),
+            _ => t.sum_dyn(&wx[..=dx]),
+        }
+    }
+
+    fn outside(&self, p: [f64; 3]) -> bool {
+        self.grid.outside(p)
+    }
+}
+
+/// The y–z part of a tensor sum: weights, values and the window's first node.
+struct Tensor<'a> {
+    wy: &'a [f64],
+    wz: &'a [f64],
+    v: &'a [f64],
+    nx: usize,
+    ny: usize,
+    base: [usize; 3],
+}
+
+impl Tensor<'_> {
+    /// Σ_k wz_k Σ_j wy_j Σ_i wx_i v_ijk with N = d_x + 1 known at compile time.
+    #[inline(always)]
+    fn sum<const N: usize>(&self, wx: &[f64; MAX_DEGREE + 1]) -> f64 {
+        let [sx, sy, sz] = self.base;
         let mut sum = 0.0;
-        for (k, &wzk) in wz[..=dz].iter().enumerate() {
+        for (k, &wzk) in self.wz.iter().enumerate() {
             let mut plane = 0.0;
-            for (j, &wyj) in wy[..=dy].iter().enumerate() {
-                let base = sx + nx * (sy + j + ny * (sz + k));
-                let line: f64 = wx[..=dx]
+            for (j, &wyj) in self.wy.iter().enumerate() {
+                let b = sx + self.nx * (sy + j + self.ny * (sz + k));
+                let line = &self.v[b..b + N];
+                let mut acc = 0.0;
+                for i in 0..N {
+                    acc += wx[i] * line[i];
+                }
+                plane += wyj * acc;
+            }
+            sum += wzk * plane;
+        }
+        sum
+    }
+
+    fn sum_dyn(&self, wx: &[f64]) -> f64 {
+        let [sx, sy, sz] = self.base;
+        let mut sum = 0.0;
+        for (k, &wzk) in self.wz.iter().enumerate() {
+            let mut plane = 0.0;
+            for (j, &wyj) in self.wy.iter().enumerate() {
+                let b = sx + self.nx * (sy + j + self.ny * (sz + k));
+                let line: f64 = wx
                     .iter()
-                    .zip(&v[base..=base + dx])
+                    .zip(&self.v[b..b + wx.len()])
                     .map(|(w, e)| w * e)
                     .sum();
                 plane += wyj * line;
@@ -169,10 +232,6 @@ impl Interpolator for Lagrange {
             sum += wzk * plane;
         }
         sum
-    }
-
-    fn outside(&self, p: [f64; 3]) -> bool {
-        self.grid.outside(p)
     }
 }
 

@@ -1,0 +1,333 @@
+//! Matching, bad input, the JSON contract shape, the report files, random pairs of effects.
+
+use errmap::diagnose::synth::{Hidden, Synth, generate};
+use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose, write_report};
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn cfg() -> DiagnoseConfig {
+    DiagnoseConfig {
+        grating_period_um: Some(20.0),
+        ..DiagnoseConfig::default()
+    }
+}
+
+fn reversal() -> Synth {
+    Synth {
+        hidden: vec![Hidden::Reversal { b_um: 0.6 }],
+        seed: 3,
+        ..Synth::default()
+    }
+}
+
+/// Shuffled rows, rows missing from either table, flagged rows with garbage errors, a
+/// non-finite error: the same effect, and every left-out row counted.
+#[test]
+fn matching_survives_order_gaps_and_flags() -> TestResult {
+    let out = generate(&reversal());
+    let mut rec = out.recorded.clone();
+    let mut sim = out.simulated.clone();
+    let mut rng = StdRng::seed_from_u64(9);
+    // 30 recorded rows and 20 simulated rows lost.
+    for _ in 0..30 {
+        let k = rng.random_range(0..rec.len());
+        rec.remove(k);
+    }
+    for _ in 0..20 {
+        let k = rng.random_range(0..sim.len());
+        sim.remove(k);
+    }
+    // 15 flagged recorded rows with absurd errors, one non-finite error.
+    for k in 0..15 {
+        rec[100 + 37 * k].flags = 2;
+        rec[100 + 37 * k].error_um = 1e6;
+    }
+    rec[50].error_um = f64::NAN;
+    rec.shuffle(&mut rng);
+    sim.shuffle(&mut rng);
+    let d = diagnose(&rec, &sim, &cfg())?;
+    assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
+    assert_eq!(d.effects[0].id, "reversal");
+    let b = d.effects[0].params["b_um"].as_f64().unwrap_or(0.0);
+    assert!((b - 0.6).abs() < 0.05, "{b}");
+    let m = &d.matching;
+    assert_eq!(m.recorded_rows, rec.len());
+    assert_eq!(m.simulated_rows, sim.len());
+    assert_eq!(m.only_in_recorded + m.matched_rows, rec.len());
+    assert_eq!(m.only_in_simulated + m.matched_rows, sim.len());
+    assert!(
+        m.only_in_recorded >= 15 && m.only_in_simulated >= 25,
+        "{m:?}"
+    );
+    assert!(m.flagged_rows >= 13, "{m:?}");
+    assert!(m.non_finite_rows <= 1);
+    assert_eq!(
+        m.used_rows,
+        m.matched_rows - m.flagged_rows - m.non_finite_rows - m.other_axis_rows
+    );
+    assert_eq!(d.only_in_recorded, m.only_in_recorded);
+    Ok(())
+}
+
+/// Duplicate (run, sample) keys are left out, never matched by guess.
+#[test]
+fn duplicate_keys_are_left_out() -> TestResult {
+    let out = generate(&reversal());
+    let mut rec = out.recorded.clone();
+    let dup = rec[200].clone();
+    rec.push(dup);
+    let d = diagnose(&rec, &out.simulated, &cfg())?;
+    assert_eq!(d.matching.duplicate_keys, 2);
+    assert_eq!(d.matching.matched_rows, out.simulated.len() - 1);
+    Ok(())
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let out = generate(&reversal());
+    assert!(matches!(
+        diagnose(&[], &out.simulated, &cfg()),
+        Err(DiagnoseError::Empty { which: "recorded" })
+    ));
+    assert!(matches!(
+        diagnose(&out.recorded, &[], &cfg()),
+        Err(DiagnoseError::Empty { which: "simulated" })
+    ));
+    let mut other = out.simulated.clone();
+    for r in &mut other {
+        r.run += 100;
+    }
+    assert!(matches!(
+        diagnose(&out.recorded, &other, &cfg()),
+        Err(DiagnoseError::NoMatch { .. })
+    ));
+    assert!(matches!(
+        diagnose(&out.recorded[..10], &out.simulated[..10], &cfg()),
+        Err(DiagnoseError::TooFewRows { .. })
+    ));
+    let bad = DiagnoseConfig {
+        grating_period_um: Some(-1.0),
+        ..cfg()
+    };
+    assert!(matches!(
+        diagnose(&out.recorded, &out.simulated, &bad),
+        Err(DiagnoseError::Config(_))
+    ));
+    let bad = DiagnoseConfig {
+        max_relative_uncertainty: 0.0,
+        ..cfg()
+    };
+    assert!(bad.validate().is_err());
+}
+
+/// Tiny, degenerate and identical sessions do not panic; identical ones are consistent.
+#[test]
+fn degenerate_sessions_do_not_panic() -> TestResult {
+    let out = generate(&reversal());
+    // Identical tables: the residual is exactly zero.
+    let d = diagnose(&out.simulated, &out.simulated, &cfg())?;
+    assert_eq!(d.verdict, "consistent");
+    assert!(d.rms_after_um.abs() < 1e-9);
+    // A few dozen rows of one dwell.
+    let few: Vec<_> = out.recorded.iter().take(40).cloned().collect();
+    let d = diagnose(&few, &out.simulated, &cfg())?;
+    assert!(d.rms_after_um.is_finite());
+    // No environment columns, no line coordinates, every row outside a run.
+    let mut rec = out.recorded.clone();
+    for r in &mut rec {
+        r.air_temp_c = None;
+        r.air_pressure_hpa = None;
+        r.air_rh_pct = None;
+        r.scale_temp_c = None;
+        r.y_mm = None;
+        r.z_mm = None;
+        r.direction = 0;
+        r.run = 0;
+        r.feed_mm_s = None;
+    }
+    let mut sim = out.simulated.clone();
+    for r in &mut sim {
+        r.run = 0;
+    }
+    let d = diagnose(&rec, &sim, &cfg())?;
+    assert!(!d.design_notes.is_empty());
+    assert!(d.cv_rms_after_um.is_finite());
+    Ok(())
+}
+
+/// `--json` shape of the contract: exactly these keys with these types (extras allowed).
+#[test]
+fn json_has_the_contract_shape() -> TestResult {
+    let out = generate(&Synth {
+        hidden: vec![Hidden::Abbe {
+            along_z: true,
+            theta0_urad: 4.0,
+            theta1_urad_per_mm: 0.01,
+        }],
+        seed: 5,
+        ..Synth::default()
+    });
+    let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
+    let v = serde_json::to_value(&d)?;
+    assert!(matches!(
+        v["verdict"].as_str(),
+        Some("consistent" | "missing_physics")
+    ));
+    for k in ["rms_before_um", "rms_after_um", "cv_rms_after_um"] {
+        assert!(v[k].as_f64().is_some_and(f64::is_finite), "{k}");
+    }
+    let effects = v["effects"].as_array().ok_or("effects")?;
+    assert_eq!(effects.len(), 1);
+    for e in effects {
+        assert!(e["id"].is_string());
+        assert!(e["where"].is_string());
+        assert!(e["explains_um"].as_f64().is_some());
+        let params = e["params"].as_object().ok_or("params")?;
+        let unc = e["uncertainty"].as_object().ok_or("uncertainty")?;
+        assert_eq!(params["offset_axis"], "z");
+        for (name, p) in params {
+            if name != "offset_axis" {
+                assert!(p.as_f64().is_some(), "{name}");
+                assert!(unc[name].as_f64().is_some(), "{name}");
+            }
+        }
+        assert!(params.contains_key("theta0_urad") && params.contains_key("theta1_urad_per_mm"));
+    }
+    Ok(())
+}
+
+#[test]
+fn report_has_markdown_and_charts() -> TestResult {
+    let out = generate(&Synth {
+        hidden: vec![
+            Hidden::Reversal { b_um: 0.7 },
+            Hidden::Periodic {
+                amplitude_um: 0.2,
+                period_um: 20.0,
+                phase_rad: 0.3,
+            },
+        ],
+        seed: 8,
+        ..Synth::default()
+    });
+    let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
+    let dir = tempfile::tempdir()?;
+    let files = write_report(&d, dir.path())?;
+    assert!(files[0].ends_with("report.md"));
+    for f in &files {
+        assert!(f.exists(), "{}", f.display());
+    }
+    for name in [
+        "residual_vs_x.png",
+        "residual_vs_x.svg",
+        "residual_vs_time.png",
+        "effect_1_reversal.png",
+        "effect_2_periodic_scale.svg",
+    ] {
+        assert!(dir.path().join(name).exists(), "{name} missing");
+    }
+    let md = std::fs::read_to_string(dir.path().join("report.md"))?;
+    for text in [
+        "missing physics",
+        "reversal",
+        "periodic_scale",
+        "Along the axis",
+        "Periodogram peaks",
+        "residual_vs_x.png",
+    ] {
+        assert!(md.contains(text), "report lacks {text:?}");
+    }
+    Ok(())
+}
+
+/// Random pairs of distinct effects with random parameters: both found.
+#[test]
+fn random_pairs_of_effects() -> TestResult {
+    let mut rng = StdRng::seed_from_u64(31);
+    let draws = 16;
+    let mut fails = Vec::new();
+    for k in 0..draws {
+        let mut pool: Vec<Hidden> = vec![
+            Hidden::ScaleThermal {
+                alpha_ppm_per_k: rng.random_range(8.0..12.0),
+                x0_mm: 0.0,
+            },
+            Hidden::ScaleFactor {
+                ppm: rng.random_range(2.0..20.0),
+            },
+            Hidden::Abbe {
+                along_z: rng.random_bool(0.5),
+                theta0_urad: rng.random_range(2.0..20.0),
+                theta1_urad_per_mm: rng.random_range(0.005..0.05),
+            },
+            Hidden::Reversal {
+                b_um: rng.random_range(0.3..3.0),
+            },
+            Hidden::LatchDelay {
+                tau_us: rng.random_range(20.0..200.0),
+            },
+            Hidden::Periodic {
+                amplitude_um: rng.random_range(0.05..0.5),
+                period_um: 20.0,
+                phase_rad: rng.random_range(-3.0..3.0),
+            },
+            Hidden::DriftExp {
+                amplitude_um: rng.random_range(0.5..3.0),
+                tau_s: rng.random_range(300.0..1000.0),
+            },
+            Hidden::DeadPath {
+                dead_path_mm: rng.random_range(200.0..500.0),
+            },
+            Hidden::Refraction {
+                ppm_per_k: rng.random_range(0.9..1.0),
+                ppm_per_hpa: -0.27,
+            },
+        ];
+        pool.shuffle(&mut rng);
+        let hidden = vec![pool[0], pool[1]];
+        let s = Synth {
+            hidden: hidden.clone(),
+            seed: 500 + k,
+            ..Synth::default()
+        };
+        let out = generate(&s);
+        let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
+        let mut want: Vec<&str> = hidden.iter().map(|h| h.id()).collect();
+        let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+        want.sort_unstable();
+        got.sort_unstable();
+        let ok_ids = want == got;
+        let ok_params = hidden.iter().all(|h| {
+            d.effects.iter().any(|e| {
+                e.id == h.id() && {
+                    let (name, truth) = h.truth()[0];
+                    let v = e
+                        .params
+                        .get(name)
+                        .and_then(|v| v.as_f64())
+                        .unwrap_or(f64::NAN);
+                    (v - truth).abs() <= 0.25 * truth.abs()
+                }
+            })
+        });
+        if !(ok_ids && ok_params && d.rms_after_um <= 1.3 * s.noise.sigma_um) {
+            fails.push(format!(
+                "draw {k}: hidden {hidden:?}; found {:?}; rms after {:.4}",
+                d.effects
+                    .iter()
+                    .map(|e| (&e.id, &e.params))
+                    .collect::<Vec<_>>(),
+                d.rms_after_um
+            ));
+        }
+    }
+    println!("pairs: {}/{draws} found", draws as usize - fails.len());
+    for f in &fails {
+        println!("  {f}");
+    }
+    assert!(fails.len() <= 1, "{}", fails.join("\n"));
+    Ok(())
+}
