@@ -175,7 +175,7 @@ fn judge(d: &Diagnosis, h: &Hidden, keys: &[&str], noise: f64) -> Option<String>
             return Some(format!("{name} = {v} vs {truth}: {}", describe(d)));
         }
         let sd = e.uncertainty.get(name).copied().unwrap_or(f64::NAN);
-        if !(sd <= 0.5 * v.abs()) {
+        if sd.is_nan() || sd > 0.5 * v.abs() {
             return Some(format!("{name} σ {sd} > half of {v}: {}", describe(d)));
         }
     }

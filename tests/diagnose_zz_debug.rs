@@ -1,38 +1,20 @@
-use errmap::diagnose::synth::{Synth, generate};
-use errmap::diagnose::{DiagnoseConfig, diagnose};
+use errmap::diagnose::{DiagnoseConfig, diagnose, write_report};
+use errmap::session::read_session;
+use std::path::Path;
 #[test]
 fn dbg() {
-    let s = Synth {
-        seed: 77,
-        ..Synth::default()
-    };
-    let mut out = generate(&s);
-    for r in &mut out.recorded {
-        let x = r.x_mm.unwrap_or(0.0);
-        r.error_um += 0.4 * (-((x - 400.0) / 40.0).powi(2)).exp();
-    }
-    let cfg = DiagnoseConfig {
-        grating_period_um: Some(20.0),
-        ..DiagnoseConfig::default()
-    };
-    let d = diagnose(&out.recorded, &out.simulated, &cfg).unwrap();
-    println!(
-        "{} {:.4} -> {:.4}",
-        d.verdict, d.rms_before_centred_um, d.rms_after_um
-    );
-    for e in &d.effects {
-        println!(
-            "{} {:?} ± {:?}\n   {}",
-            e.id, e.params, e.uncertainty, e.where_
-        );
-    }
-    for l in d
-        .selection_log
-        .iter()
-        .chain(&d.ambiguities)
-        .chain(&d.locate.findings)
-    {
-        println!("  {l}");
-    }
-    println!("unexplained: {:?}", d.locate.unexplained);
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed/two_effects");
+    let rec = read_session(&d.join("recorded.parquet")).unwrap();
+    let sim = read_session(&d.join("simulated.parquet")).unwrap();
+    let diag = diagnose(
+        &rec,
+        &sim,
+        &DiagnoseConfig {
+            grating_period_um: Some(20.0),
+            ..DiagnoseConfig::default()
+        },
+    )
+    .unwrap();
+    let files = write_report(&diag, Path::new("/tmp/dbg/report")).unwrap();
+    println!("{files:?}");
 }

@@ -275,6 +275,8 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             path.display(),
             iso.len()
         );
+        md.push_str(&session::environment_summary(&rows));
+        md.push('\n');
         for (k, (line, stats)) in iso.iter().enumerate() {
             md.push_str(&format!(
                 "## Line {} at ({}, {}) mm\n\n",

@@ -57,8 +57,6 @@ pub(crate) struct Obs {
     pub v_feed: Vec<f64>,
     /// Carriage speed measured from successive samples on moving rows, 0 on dwell rows.
     pub v_meas: Vec<f64>,
-    /// Commanded feed of the row (also on dwell rows), for grouping.
-    pub feed: Vec<Option<f64>>,
     /// `t_s`.
     pub t: Vec<f64>,
     /// First row of the recorded session, s.
@@ -310,7 +308,6 @@ pub(crate) fn build(
         moving,
         v_feed,
         v_meas,
-        feed,
         t,
         t0: if t0.is_finite() { t0 } else { 0.0 },
         run,

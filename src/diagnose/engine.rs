@@ -281,10 +281,6 @@ impl Engine {
         solve(&g, &gy, cc).chi2
     }
 
-    pub fn nfolds(&self) -> usize {
-        self.nfolds
-    }
-
     pub fn fold(&self) -> &[usize] {
         &self.fold
     }

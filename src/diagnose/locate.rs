@@ -302,7 +302,7 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
     loc
 }
 
-fn strongest<'a>(v: &'a [GroupStat], after: bool) -> Option<&'a GroupStat> {
+fn strongest(v: &[GroupStat], after: bool) -> Option<&GroupStat> {
     let key = |s: &GroupStat| if after { s.z_after.abs() } else { s.z.abs() };
     v.iter().max_by(|a, b| key(a).total_cmp(&key(b)))
 }

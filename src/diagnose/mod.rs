@@ -28,6 +28,10 @@
 //! evenly spaced subset of at most [`DiagnoseConfig::spectral_max_rows`] rows and the final
 //! refinement all rows.
 
+// Index loops mirror the formulas of the small dense linear algebra (normal equations,
+// triangular solves) and read better than iterator chains there.
+#![allow(clippy::needless_range_loop)]
+
 mod data;
 mod effects;
 mod engine;

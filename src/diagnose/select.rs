@@ -43,6 +43,9 @@ const MAX_BROAD_FRACTION: f64 = 0.1;
 /// 5σ for two parameters.
 const MOVING_SUPPORT_CHI2: f64 = 25.0;
 
+/// Most periodogram candidates kept across searches.
+const MAX_PERIOD_CANDIDATES: usize = 10;
+
 /// Most periodic terms in one model.
 const MAX_PERIODIC: usize = 3;
 
@@ -121,11 +124,8 @@ pub(crate) struct FittedTerm {
 #[derive(Debug, Clone)]
 pub(crate) struct Outcome {
     pub terms: Vec<FittedTerm>,
-    /// Fitted constant, µm (relative to the centred residual).
-    pub constant: f64,
     /// Model prediction (constant + effects) per row, for the centred residual.
     pub model: Vec<f64>,
-    pub cv_mse: f64,
     /// Held-out prediction per row (leave-one-fold-out).
     pub cv_pred: Vec<f64>,
     pub ambiguities: Vec<Ambiguity>,
@@ -137,7 +137,6 @@ pub(crate) struct Outcome {
     pub broad: Broad,
     /// Weighted RMS of the residual the periodogram was last searched on.
     pub searched_rms: f64,
-    pub bic_final: f64,
     /// ΔBIC of every testable kind against the final model (adding it, or for a found
     /// one, removing it).
     pub scores: Vec<(Kind, f64)>,
@@ -436,7 +435,19 @@ impl<'a> Selector<'a> {
                 power: pw,
             };
         }
-        self.periods = cands;
+        // Keep the candidates of earlier searches (a period found before a strong effect
+        // was removed stays a candidate), newest first, without near-duplicates.
+        let mut merged = cands;
+        for old in std::mem::take(&mut self.periods) {
+            if merged
+                .iter()
+                .all(|c| (c.period_um - old.period_um).abs() > 3.0 * c.step_um.max(old.step_um))
+            {
+                merged.push(old);
+            }
+        }
+        merged.truncate(MAX_PERIOD_CANDIDATES);
+        self.periods = merged;
     }
 
     /// Refines a period on the search subset of `resid`.
@@ -880,14 +891,8 @@ impl<'a> Selector<'a> {
     pub fn run(mut self) -> Outcome {
         let n = self.n();
         let cfg = self.cfg;
-        let tm = std::time::Instant::now();
-        let dbg = std::env::var_os("DIAG_TIMING").is_some();
         let ids0 = vec![CONST];
         let fit0 = self.engine.fit(&ids0);
-        let resid0 = self.residual(&ids0, &fit0);
-        if dbg {
-            eprintln!("spectral {:?}", tm.elapsed());
-        }
 
         // 1. Forward selection.
         let mut terms: Vec<Term> = Vec::new();
@@ -939,9 +944,6 @@ impl<'a> Selector<'a> {
             cur_bic = self.bic_of(&terms);
         }
 
-        if dbg {
-            eprintln!("forward {:?}", tm.elapsed());
-        }
         // 2. Nonlinear parameters on all rows, then the backward check (an effect that
         //    entered while another was still poorly fitted may have become redundant).
         self.refine_nonlinear(&mut terms, true);
@@ -1003,9 +1005,6 @@ impl<'a> Selector<'a> {
             }
         }
 
-        if dbg {
-            eprintln!("cv {:?}", tm.elapsed());
-        }
         // 4. Determinedness with the full covariance; an undetermined τ becomes linear.
         let mut fitted;
         loop {
@@ -1106,9 +1105,6 @@ impl<'a> Selector<'a> {
         }
         let fitted = keep;
 
-        if dbg {
-            eprintln!("final {:?}", tm.elapsed());
-        }
         // 6. Ambiguities, design notes, scores.
         let ambiguities = self.ambiguities(&terms);
         let design = self.design_notes();
@@ -1128,15 +1124,9 @@ impl<'a> Selector<'a> {
                 .map(|(&id, &b)| b * self.engine.col(id)[k])
                 .sum();
         }
-        let bic_final = self.model_bic(&fit, nonlinear(&terms));
-        if dbg {
-            eprintln!("end {:?}", tm.elapsed());
-        }
         Outcome {
             terms: fitted,
-            constant: fit.coef[0],
             model,
-            cv_mse: cv.mse,
             cv_pred,
             ambiguities,
             refused: self.refused.clone(),
@@ -1145,7 +1135,6 @@ impl<'a> Selector<'a> {
             periods: self.periods.clone(),
             broad: self.broad.clone(),
             searched_rms: self.searched_rms.unwrap_or(f64::INFINITY),
-            bic_final,
             scores,
         }
     }
