@@ -164,6 +164,19 @@ pub fn run(config: &BenchConfig) -> BenchReport {
     let decode_rows = time(config.repeats, || {
         errmap_drivers::decode_all(&capture).0.len()
     });
+    let mut extra = Vec::new();
+    if let Some(secs) = gp_fit_seconds(200) {
+        extra.push((
+            "Gaussian-process fit, 200 scattered nodes (Matérn 5/2, 9 starts)".to_string(),
+            secs,
+        ));
+    }
+    if let Some((rows, secs)) = diagnosis_seconds(100_000) {
+        extra.push((
+            format!("diagnosis of a {rows}-row session (one hidden reversal)"),
+            secs,
+        ));
+    }
     BenchReport {
         grid: grid.shape(),
         points: points.len(),
@@ -172,8 +185,56 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         decode_mb_s: capture.len() as f64 / decode / 1e6,
         decode_rows_mb_s: capture.len() as f64 / decode_rows / 1e6,
         decode_bytes: capture.len(),
-        extra: Vec::new(),
+        extra,
     }
+}
+
+/// Time to fit the Gaussian process to `n` scattered nodes of a smooth field.
+pub fn gp_fit_seconds(n: usize) -> Option<f64> {
+    let mut rng = StdRng::seed_from_u64(4);
+    let points: Vec<crate::table::ErrorPoint> = (0..n)
+        .map(|_| {
+            let p: [f64; 3] = [0, 1, 2].map(|_| rng.random_range(0.0..800.0));
+            let e = 2.0 * (p[0] / 150.0).sin() * (p[1] / 300.0).cos() + 0.01 * p[2];
+            crate::table::ErrorPoint::new(p[0], p[1], p[2], e + rng.random_range(-0.05..0.05))
+        })
+        .collect();
+    let t = Instant::now();
+    crate::gp::Gp::fit(&points, &crate::gp::GpConfig::default()).ok()?;
+    Some(t.elapsed().as_secs_f64())
+}
+
+/// Time to diagnose a simulated session of about `rows` rows (the concealed cases' plan at
+/// a higher sample rate, one hidden reversal). Returns the row count and the seconds.
+pub fn diagnosis_seconds(rows: usize) -> Option<(usize, f64)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let table1 = root.join("datasets/table1.csv");
+    if !table1.is_file() {
+        return None;
+    }
+    let base = crate::concealed::plan();
+    // The plan gives ~13 000 rows at 20 Hz; scale the rate for the requested size.
+    let plan = errmap_drivers::sim::Plan {
+        sample_hz: 20.0 * rows as f64 / 13_000.0,
+        ..base
+    };
+    let nominal = crate::concealed::nominal(&table1, 1);
+    let mut hidden = nominal.clone();
+    hidden.reversal = Some(crate::physics::Reversal {
+        enabled: true,
+        b_um: 1.0,
+    });
+    let model_path = root.join("datasets/model.toml");
+    let recorded = crate::physics::simulate_session(&hidden, &model_path, &plan, true).ok()?;
+    let simulated = crate::physics::simulate_rows(&nominal, &model_path, &recorded).ok()?;
+    let t = Instant::now();
+    crate::diagnose::diagnose(
+        &recorded,
+        &simulated,
+        &crate::diagnose::DiagnoseConfig::default(),
+    )
+    .ok()?;
+    Some((recorded.len(), t.elapsed().as_secs_f64()))
 }
 
 /// A synthetic capture of about `samples` SAMPLE frames with MARK/ENV/MATERIAL frames

@@ -18,7 +18,7 @@
 //! | scale factor (pitch, cosine) | k·x·1e−3 (k in ppm; a beam misaligned by θ adds −θ²/2) | `[scale_factor]`, `[laser].alignment_urad` |
 //! | Abbe | c·(θ0 + θ1·x)·1e−3 | `[abbe]` |
 //! | reversal | d·b/2 | `[reversal]` |
-//! | latch delay | d·v·τ·1e−3, v the carriage's actual speed (trapezoidal moves) | `[latch_delay]` |
+//! | latch delay | d·v·τ·1e−3, v the commanded feed on moving samples (acceleration phases not modelled) | `[latch_delay]` |
 //! | periodic scale error | a·sin(2πx/P + φ), P in µm | `[periodic_scale]` |
 //! | thermal drift | A·(1 − exp(−(t − t0)/τ)) or ρ·(t − t0) | `[thermal_drift]` |
 //! | dead path | −D·(n(t) − n(t0))·1e3 | `[laser].dead_path_mm` |
@@ -450,13 +450,13 @@ impl MachineModel {
         }
         if let Some(p) = &self.periodic_scale
             && p.enabled
-            && !(p.period_um > 0.0)
+            && (p.period_um.is_nan() || p.period_um <= 0.0)
         {
             return Err("periodic_scale.period_um must be positive".into());
         }
         if let Some(d) = &self.thermal_drift
             && let Some(tau) = d.tau_s
-            && !(tau > 0.0)
+            && (tau.is_nan() || tau <= 0.0)
         {
             return Err("thermal_drift.tau_s must be positive".into());
         }
@@ -572,8 +572,9 @@ impl PhysicsTruth {
         let t = q.t_s;
         let x = q.pos_mm[axis_index(self.axis)];
         let d = f64::from(q.direction);
-        // The latch delay acts on the actual speed (the feed once accelerated; 0 at rest).
-        let v = if q.target >= 0 { 0.0 } else { q.speed_mm_s };
+        // v as the contract's vocabulary defines it: the commanded feed on moving samples,
+        // 0 while dwelling (the short acceleration phases of a move are not modelled).
+        let v = if q.target >= 0 { 0.0 } else { q.feed_mm_s };
         let mut e = self.map_um(q.pos_mm);
         if let Some(s) = m.scale.as_ref().filter(|s| s.enabled) {
             e += -s.cte_ppm_per_k * (h.scale_temp_c.at(t) - 20.0) * (x - s.x0_mm) * 1e-3;

@@ -437,7 +437,8 @@ pub fn environment_summary(rows: &[SessionRow]) -> String {
     };
     let mut s =
         String::from("## Environment\n\n| quantity | min | mean | max |\n|---|---|---|---|\n");
-    let items: [(&str, &dyn Fn(&SessionRow) -> Option<f64>); 5] = [
+    type Column<'a> = (&'a str, &'a dyn Fn(&SessionRow) -> Option<f64>);
+    let items: [Column; 5] = [
         ("air temperature °C", &|r| r.air_temp_c),
         ("air pressure hPa", &|r| r.air_pressure_hpa),
         ("relative humidity %", &|r| r.air_rh_pct),

@@ -2,7 +2,7 @@
 //! recordings (also with uneven noise), and states the ambiguities of poor designs.
 //! Synthetic sessions from `errmap::diagnose::synth` (seeded).
 
-use errmap::diagnose::synth::{Hidden, Synth, SynthNoise, generate};
+use errmap::diagnose::synth::{Hidden, Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 
 fn config() -> DiagnoseConfig {
@@ -14,6 +14,20 @@ fn config() -> DiagnoseConfig {
 
 fn run(s: &Synth) -> Diagnosis {
     let out = generate(s);
+    // The hidden effects are concealed: each smaller than the geometric error's range.
+    for (h, v) in s.hidden.iter().zip(&out.hidden_um) {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        assert!(
+            hi - lo < out.geometric_pp_um,
+            "{h:?} is not concealed: {:.2} µm p-p against a geometric {:.2} µm",
+            hi - lo,
+            out.geometric_pp_um
+        );
+    }
     match diagnose(&out.recorded, &out.simulated, &config()) {
         Ok(d) => d,
         Err(e) => panic!("diagnose failed: {e}"),
@@ -80,8 +94,44 @@ fn with(hidden: &[Hidden]) -> Synth {
     Synth {
         hidden: hidden.to_vec(),
         seed: 7,
+        geometric_um: 8.0,
         ..Synth::default()
     }
+}
+
+#[test]
+fn finds_two_periodic_terms_at_p_and_p_over_2() {
+    check_multi_periodic();
+}
+
+fn check_multi_periodic() {
+    let s = with(&[
+        Hidden::Periodic {
+            amplitude_um: 0.2,
+            period_um: 20.0,
+            phase_rad: 0.4,
+        },
+        Hidden::Periodic {
+            amplitude_um: 0.08,
+            period_um: 10.0,
+            phase_rad: -2.0,
+        },
+    ]);
+    let d = run(&s);
+    let text = summary(&d);
+    let mut periods: Vec<f64> = d
+        .effects
+        .iter()
+        .filter(|e| e.id == "periodic_scale")
+        .map(|e| param(e, "period_um"))
+        .collect();
+    periods.sort_by(f64::total_cmp);
+    assert_eq!(periods.len(), 2, "{text}");
+    assert!(
+        (periods[0] - 10.0).abs() < 1e-3 && (periods[1] - 20.0).abs() < 1e-3,
+        "{text}"
+    );
+    assert!(d.rms_after_um <= 1.3 * s.noise.sigma_um, "{text}");
 }
 
 #[test]
@@ -142,7 +192,7 @@ fn finds_reversal() {
 
 #[test]
 fn finds_latch_delay() {
-    let h = Hidden::LatchDelay { tau_us: 40.0 };
+    let h = Hidden::LatchDelay { tau_us: 25.0 };
     check_single(&with(&[h]), h, &["tau_us"]);
 }
 

@@ -331,3 +331,140 @@ fn random_pairs_of_effects() -> TestResult {
     assert!(fails.len() <= 1, "{}", fails.join("\n"));
     Ok(())
 }
+
+/// Random, partly absurd rows (NaNs, mixed axes, empty columns, huge values) never make
+/// the diagnosis panic: it returns a diagnosis or a typed error.
+#[test]
+fn random_rows_never_panic() {
+    use errmap::drivers::{Axis, SessionRow};
+    let mut rng = StdRng::seed_from_u64(77);
+    let pick = |rng: &mut StdRng, v: f64| -> Option<f64> {
+        match rng.random_range(0..10) {
+            0 => None,
+            1 => Some(f64::NAN),
+            2 => Some(1e12),
+            _ => Some(v),
+        }
+    };
+    for case in 0..30 {
+        let n = rng.random_range(0..400);
+        let mut rec = Vec::new();
+        let mut sim = Vec::new();
+        for k in 0..n {
+            let axis = match rng.random_range(0..6) {
+                0 => Axis::Y,
+                1 => Axis::Z,
+                _ => Axis::X,
+            };
+            let x = rng.random_range(-10.0..900.0);
+            let air = 20.0 + rng.random_range(-1.0..1.0);
+            let row = SessionRow {
+                run: rng.random_range(0..4),
+                sample: k as i64 / rng.random_range(1..3),
+                t_s: if rng.random_bool(0.02) {
+                    f64::NAN
+                } else {
+                    k as f64 * 0.1
+                },
+                axis,
+                direction: rng.random_range(-1..=1),
+                feed_mm_s: pick(&mut rng, 100.0),
+                target: rng.random_range(-1..5),
+                x_mm: pick(&mut rng, x),
+                y_mm: pick(&mut rng, 100.0),
+                z_mm: pick(&mut rng, 200.0),
+                scale_mm: x,
+                laser_mm: x,
+                error_um: if rng.random_bool(0.03) {
+                    f64::INFINITY
+                } else {
+                    rng.random_range(-5.0..5.0)
+                },
+                air_temp_c: pick(&mut rng, air),
+                air_pressure_hpa: pick(&mut rng, 1013.0),
+                air_rh_pct: pick(&mut rng, 45.0),
+                scale_temp_c: pick(&mut rng, 20.5),
+                part_temp_c: None,
+                flags: u8::from(rng.random_bool(0.05)),
+            };
+            let mut s = row.clone();
+            s.error_um = rng.random_range(-5.0..5.0);
+            rec.push(row);
+            if rng.random_bool(0.9) {
+                sim.push(s);
+            }
+        }
+        match diagnose(&rec, &sim, &DiagnoseConfig::default()) {
+            Ok(d) => {
+                assert!(
+                    d.rms_after_um.is_finite() || d.used_rows == 0,
+                    "case {case}"
+                );
+                let json = serde_json::to_string(&d);
+                assert!(json.is_ok(), "case {case}");
+            }
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+    }
+}
+
+/// The same physics measured along Y: the position is y_mm, the line offsets x and z.
+#[test]
+fn works_on_the_y_axis() -> TestResult {
+    let out = generate(&Synth {
+        hidden: vec![Hidden::Abbe {
+            along_z: true,
+            theta0_urad: 6.0,
+            theta1_urad_per_mm: 0.01,
+        }],
+        seed: 12,
+        ..Synth::default()
+    });
+    let to_y = |rows: &[errmap::drivers::SessionRow]| -> Vec<errmap::drivers::SessionRow> {
+        rows.iter()
+            .map(|r| {
+                let mut r = r.clone();
+                r.axis = errmap::drivers::Axis::Y;
+                std::mem::swap(&mut r.x_mm, &mut r.y_mm);
+                r
+            })
+            .collect()
+    };
+    let d = diagnose(&to_y(&out.recorded), &to_y(&out.simulated), &cfg())?;
+    assert_eq!(d.axis, "Y");
+    assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
+    assert_eq!(d.effects[0].id, "abbe");
+    assert_eq!(d.effects[0].params["offset_axis"], "z");
+    assert!(
+        d.effects[0].where_.starts_with("Y axis, y "),
+        "{}",
+        d.effects[0].where_
+    );
+    Ok(())
+}
+
+/// Structure outside the vocabulary (a local bump along x) is neither hidden nor forced
+/// into a vocabulary effect: the verdict is missing_physics with an `unexplained` entry
+/// that says where it is.
+#[test]
+fn structure_outside_the_vocabulary_is_reported_as_unexplained() -> TestResult {
+    let mut out = generate(&Synth {
+        seed: 77,
+        ..Synth::default()
+    });
+    for r in &mut out.recorded {
+        let x = r.x_mm.unwrap_or(0.0);
+        r.error_um += 0.4 * (-((x - 400.0) / 40.0).powi(2)).exp();
+    }
+    let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
+    assert_eq!(d.verdict, "missing_physics");
+    assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
+    assert_eq!(d.effects[0].id, "unexplained");
+    assert!(
+        d.effects[0].where_.contains("x 3") || d.effects[0].where_.contains("x 4"),
+        "{}",
+        d.effects[0].where_
+    );
+    assert!(d.locate.unexplained.is_some());
+    Ok(())
+}

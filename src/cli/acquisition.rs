@@ -372,6 +372,14 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     std::fs::create_dir_all(&a.report)
         .with_context(|| format!("cannot create {}", a.report.display()))?;
     write_report(&d, &a.report)?;
+    // Every report carries the session's environment.
+    let md_path = a.report.join("report.md");
+    if let Ok(mut md) = std::fs::read_to_string(&md_path) {
+        md.push('\n');
+        md.push_str(&session::environment_summary(&recorded));
+        std::fs::write(&md_path, md)
+            .with_context(|| format!("cannot write {}", md_path.display()))?;
+    }
     if let Some((mut m, path)) = model {
         let notes = apply_found_effects(&mut m, &d.effects);
         let _ = &path;

@@ -531,3 +531,29 @@ pub(crate) fn undetermined(params: &[Param], rel: f64) -> Option<&Param> {
         .iter()
         .find(|p| p.key && p.fitted && !(p.sigma.is_finite() && p.sigma <= rel * p.value.abs()))
 }
+
+/// A fitted parameter outside what the effect's physics allows, in words: the fixed point
+/// x0 of a scale must lie on the axis or near it (within one axis length beyond either
+/// end); farther out, "α·ΔT·(x − x0)" is really a pure function of the scale temperature
+/// in time, which thermal expansion of the scale cannot produce.
+pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<String> {
+    if kind != Kind::ScaleThermal {
+        return None;
+    }
+    let x0 = params.iter().find(|p| p.name == "x0_mm" && p.fitted)?;
+    let (lo, hi) = obs
+        .x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let len = (hi - lo).max(1.0);
+    (x0.value < lo - len || x0.value > hi + len).then(|| {
+        format!(
+            "x0 = {:.0} mm lies far outside the axis ({}–{} mm): not a fixed point of the scale",
+            x0.value,
+            super::fixed(lo, 0),
+            super::fixed(hi, 0)
+        )
+    })
+}

@@ -162,7 +162,7 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<Vec<PathBuf>, ReportErr
         let idx: Vec<usize> = (0..s.broad_period_mm.len()).collect();
         let p = plot::xy(
             &dir.join("periodogram"),
-            "Broad periodogram of the residual (before the model)",
+            "Broad periodogram of the residual (last search)",
             "period / mm",
             "Δχ² of a sine",
             &[curve(

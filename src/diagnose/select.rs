@@ -1,25 +1,32 @@
-//! Model selection: forward selection by BIC, backward check, leave-one-run-out
-//! confirmation, determinedness, ambiguity.
+//! Model selection: forward selection by BIC, backward check and swap moves,
+//! leave-one-run-out confirmation, final checks with restart, ambiguity.
 //!
 //! 1. **Forward.** Starting from the constant alone, every testable effect is fitted
-//!    jointly with the effects already chosen (each in all its variants; a periodic term at
-//!    each periodogram candidate, its period refined by golden section; an exponential
-//!    drift over a τ grid refined by golden section). Only full-rank variants whose key
-//!    parameters are determined compete. The one with the lowest
-//!    BIC = n·ln(χ²/n) + k·ln n (k = independent columns + nonlinear parameters) enters
-//!    when it lowers BIC by at least `min_delta_bic`; candidates within [`TIE_BIC`] of the
-//!    best are a tie, settled by [`Kind::preference`].
-//! 2. **Backward.** An effect whose removal costs less than `min_delta_bic` leaves.
+//!    jointly with the effects already chosen, in each of its variants (x0 free or 0;
+//!    θ0 and/or θ1; v the feed or the measured speed; the air columns of refraction; an
+//!    exponential drift with τ profiled jointly with all other terms on a grid and by
+//!    golden section, or a linear one; a periodic term at each periodogram candidate, its
+//!    period refined by golden section). Only full-rank variants whose key parameters are
+//!    determined and plausible compete (a periodic one must also pass
+//!    [`Selector::periodic_support`]). The lowest BIC = n·ln(χ²/n) + k·ln n
+//!    (k = independent columns + nonlinear parameters) enters when it lowers BIC by at
+//!    least `min_delta_bic`; candidates within [`TIE_BIC`] of the best are a tie, settled
+//!    by [`Kind::preference`]. After each step the nonlinear parameters are refined and
+//!    every term's variant is chosen again given the others.
+//! 2. **Backward and swap.** An effect whose removal costs less than `min_delta_bic`
+//!    leaves; an effect that another testable one replaces with a BIC gain of at least
+//!    `min_delta_bic` is swapped (the greedy path can settle on a worse explanation).
 //! 3. **Cross-validation.** With the nonlinear parameters fixed, an effect whose removal
 //!    does not raise the leave-one-run-out held-out error leaves.
-//! 4. **Determinedness.** The covariance at the optimum, (JᵀWJ)⁻¹·χ²/(n − p) with J
+//! 4. **Final checks.** The covariance at the optimum, (JᵀWJ)⁻¹·χ²/(n − p) with J
 //!    including the derivatives by the nonlinear parameters, gives one-sigma uncertainties
-//!    (delta method for amplitude, phase, x0). An effect with a key parameter whose
-//!    one-sigma exceeds `max_relative_uncertainty` × |value| is not reported (an
-//!    undetermined τ turns an exponential drift into a linear one).
+//!    (delta method for amplitude, phase, x0). An effect with an undetermined key
+//!    parameter (one-sigma above `max_relative_uncertainty` × |value|), an implausible
+//!    one, or a periodic term without support is refused, its variant (or period)
+//!    excluded, and the selection restarts.
 //! 5. **Ambiguity.** Every found effect is replaced in turn by every other testable effect;
-//!    a replacement within `ambiguity_delta_bic` of the chosen model is an ambiguity,
-//!    stated with the measurement that would separate the two.
+//!    a determined replacement within `ambiguity_delta_bic` of the chosen model is an
+//!    ambiguity, stated with the measurement that would separate the two.
 
 use super::DiagnoseConfig;
 use super::data::Obs;
@@ -42,6 +49,15 @@ const MAX_BROAD_FRACTION: f64 = 0.1;
 /// Δχ² a periodic term must reach on the moving rows alone (independent phases), about
 /// 5σ for two parameters.
 const MOVING_SUPPORT_CHI2: f64 = 25.0;
+
+/// Moving rows needed for the periodograms to use them alone.
+const MIN_MOVING_FOR_SCAN: usize = 200;
+
+/// Rounds of backward check and swap moves.
+const MAX_SWAP_ROUNDS: usize = 3;
+
+/// Restarts of the selection after a refused term.
+const MAX_RESTARTS: usize = 4;
 
 /// Most periodogram candidates kept across searches.
 const MAX_PERIOD_CANDIDATES: usize = 10;
@@ -155,8 +171,12 @@ pub(crate) struct Selector<'a> {
     /// searched yet). The search is repeated when the residual has dropped below
     /// [`RESEARCH_FRACTION`] of it: a strong effect removed, weaker periods can show.
     searched_rms: Option<f64>,
-    /// Row subset for the nonlinear searches.
+    /// Row subset for the period searches.
     sub: Vec<usize>,
+    /// Variants that failed the final checks in this pass (not proposed again).
+    failed: Vec<(Kind, std::mem::Discriminant<Variant>)>,
+    /// Periods of periodic terms that failed the final checks.
+    failed_periods: Vec<f64>,
     /// The τ grid of the drift search (ln τ) and its columns on the subset.
     tau_grid: Vec<(f64, Vec<f64>)>,
     log: Vec<String>,
@@ -275,7 +295,18 @@ impl<'a> Selector<'a> {
         let mut engine = Engine::new(y, w, fold, nfolds);
         let cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
         let kinds = effects::kinds(&cols);
-        let sub = spectral::subset(obs.len(), cfg.spectral_max_rows.max(50));
+        // Rows for the period search: the moving ones when there are enough (see
+        // `spectral_search`), an evenly spaced subset of them.
+        let moving: Vec<usize> = (0..obs.len()).filter(|&k| obs.moving[k]).collect();
+        let period_rows: Vec<usize> = if moving.len() >= MIN_MOVING_FOR_SCAN {
+            moving
+        } else {
+            (0..obs.len()).collect()
+        };
+        let sub: Vec<usize> = spectral::subset(period_rows.len(), cfg.spectral_max_rows.max(50))
+            .into_iter()
+            .map(|k| period_rows[k])
+            .collect();
         let searched_rms = spectrum.as_ref().map(|s| s.2);
         let (periods, broad) = spectrum.map(|s| (s.0, s.1)).unwrap_or_default();
         Selector {
@@ -288,6 +319,8 @@ impl<'a> Selector<'a> {
             broad,
             searched_rms,
             sub,
+            failed: Vec::new(),
+            failed_periods: Vec::new(),
             tau_grid: Vec::new(),
             log: Vec::new(),
             refused: Vec::new(),
@@ -343,9 +376,25 @@ impl<'a> Selector<'a> {
         let mut cands: Vec<PeriodCand> = Vec::new();
         let n = self.obs.len();
         // Rows for a scan of `nf` frequencies: within the row·frequency budget.
+        // The scans use the moving rows when there are enough: their positions are
+        // independent draws of the phase, while all samples of a dwell share one (and
+        // dwell targets on a round pitch put many periods in phase, so a sine would fit
+        // the dwell-vs-moving offset at many frequencies).
+        let moving: Vec<usize> = (0..n).filter(|&k| self.obs.moving[k]).collect();
+        let base: Vec<usize> = if moving.len() >= MIN_MOVING_FOR_SCAN {
+            moving
+        } else {
+            (0..n).collect()
+        };
         let rows_for = |nf: usize| -> Vec<usize> {
             let by_budget = (cfg.spectral_budget / nf.max(1) as f64) as usize;
-            spectral::subset(n, by_budget.clamp(200, cfg.spectral_max_rows.max(200)))
+            spectral::subset(
+                base.len(),
+                by_budget.clamp(200, cfg.spectral_max_rows.max(200)),
+            )
+            .into_iter()
+            .map(|k| base[k])
+            .collect()
         };
         let pick = |idx: &[usize], v: &[f64]| -> Vec<f64> { idx.iter().map(|&k| v[k]).collect() };
 
@@ -436,23 +485,28 @@ impl<'a> Selector<'a> {
             };
         }
         // Keep the candidates of earlier searches (a period found before a strong effect
-        // was removed stays a candidate), newest first, without near-duplicates.
+        // was removed stays a candidate), newest first; of two near-duplicates the
+        // stronger peak stays.
         let mut merged = cands;
         for old in std::mem::take(&mut self.periods) {
-            if merged
-                .iter()
-                .all(|c| (c.period_um - old.period_um).abs() > 3.0 * c.step_um.max(old.step_um))
-            {
-                merged.push(old);
+            let near = merged.iter().position(|c| {
+                (c.period_um - old.period_um).abs() <= 3.0 * c.step_um.max(old.step_um)
+            });
+            match near {
+                None => merged.push(old),
+                Some(k) if old.power > merged[k].power => merged[k] = old,
+                Some(_) => {}
             }
         }
         merged.truncate(MAX_PERIOD_CANDIDATES);
         self.periods = merged;
     }
 
-    /// Refines a period on the search subset of `resid`.
+    /// Refines a period on `resid`: on the search subset, or on all rows (`full`).
     fn refine_period(&self, resid: &[f64], p: f64, step: f64, iters: usize, full: bool) -> f64 {
         let (x, w, r) = if full {
+            // The last refinement, within half a grid step of the optimum: all rows, so
+            // that the period is the optimum of the same χ² its uncertainty comes from.
             (self.obs.x.clone(), self.engine.w().to_vec(), resid.to_vec())
         } else {
             (
@@ -702,7 +756,11 @@ impl<'a> Selector<'a> {
         let mut best: Option<Eval> = None;
         let mut any: Option<Eval> = None;
         for e in evals {
-            if e.rank_new == 0 {
+            if e.rank_new == 0
+                || self
+                    .failed
+                    .contains(&(e.kind, std::mem::discriminant(&e.variant)))
+            {
                 continue;
             }
             let ok = e.full && (!strict || e.undetermined.is_none());
@@ -808,7 +866,7 @@ impl<'a> Selector<'a> {
                 .zip(&pred)
                 .map(|(y, p)| y - p)
                 .collect();
-            let iters = if full { 10 } else { GOLDEN_ITERS };
+            let iters = if full { 2 * GOLDEN_ITERS } else { GOLDEN_ITERS };
             match terms[i].variant {
                 Variant::Periodic { period_um } => {
                     let step = self
@@ -887,12 +945,12 @@ impl<'a> Selector<'a> {
 
     // ---------------------------------------------------------------- the passes
 
-    /// Runs the whole selection.
-    pub fn run(mut self) -> Outcome {
+    /// Forward selection, nonlinear refinement, backward check, swap moves and
+    /// cross-validation, from the constant alone.
+    fn select_terms(&mut self) -> Vec<Term> {
         let n = self.n();
         let cfg = self.cfg;
-        let ids0 = vec![CONST];
-        let fit0 = self.engine.fit(&ids0);
+        let fit0 = self.engine.fit(&[CONST]);
 
         // 1. Forward selection.
         let mut terms: Vec<Term> = Vec::new();
@@ -944,37 +1002,20 @@ impl<'a> Selector<'a> {
             cur_bic = self.bic_of(&terms);
         }
 
-        // 2. Nonlinear parameters on all rows, then the backward check (an effect that
-        //    entered while another was still poorly fitted may have become redundant).
+        // 2. Nonlinear parameters on all rows; backward check and swap moves until
+        //    neither changes the model (an effect that entered while another was poorly
+        //    fitted may have become redundant, or a better one may take its place).
         self.refine_nonlinear(&mut terms, true);
-        loop {
-            if terms.is_empty() {
+        for _ in 0..MAX_SWAP_ROUNDS {
+            self.backward(&mut terms);
+            if !self.swap(&mut terms) {
                 break;
             }
-            let full = self.bic_of(&terms);
-            let mut worst: Option<(usize, f64)> = None;
-            for i in 0..terms.len() {
-                let mut t = terms.clone();
-                t.remove(i);
-                let d = self.bic_of(&t) - full;
-                if worst.is_none_or(|(_, w)| d < w) {
-                    worst = Some((i, d));
-                }
-            }
-            match worst {
-                Some((i, d)) if d < cfg.min_delta_bic => {
-                    self.log.push(format!(
-                        "backward: remove {} (removal costs only {d:.1} BIC)",
-                        terms[i].kind.label(self.obs)
-                    ));
-                    terms.remove(i);
-                }
-                _ => break,
-            }
+            self.refine_nonlinear(&mut terms, true);
+            self.revise_variants(&mut terms);
         }
 
         // 3. Cross-validation (nonlinear parameters fixed).
-        self.refine_nonlinear(&mut terms, true);
         if cfg.cv_confirm {
             loop {
                 if terms.is_empty() {
@@ -1004,20 +1045,88 @@ impl<'a> Selector<'a> {
                 }
             }
         }
+        terms
+    }
 
-        // 4. Determinedness with the full covariance; an undetermined τ becomes linear.
-        let mut fitted;
-        loop {
-            fitted = self.final_fit(&terms);
-            let mut changed = false;
-            // Periodic terms must keep their support with everything else in the model.
-            let ids = ids_of(&terms);
+    /// Removes, one at a time, effects whose removal costs less than `min_delta_bic`.
+    fn backward(&mut self, terms: &mut Vec<Term>) {
+        while !terms.is_empty() {
+            let full = self.bic_of(terms);
+            let mut worst: Option<(usize, f64)> = None;
+            for i in 0..terms.len() {
+                let mut t = terms.clone();
+                t.remove(i);
+                let d = self.bic_of(&t) - full;
+                if worst.is_none_or(|(_, w)| d < w) {
+                    worst = Some((i, d));
+                }
+            }
+            match worst {
+                Some((i, d)) if d < self.cfg.min_delta_bic => {
+                    self.log.push(format!(
+                        "backward: remove {} (removal costs only {d:.1} BIC)",
+                        terms[i].kind.label(self.obs)
+                    ));
+                    terms.remove(i);
+                }
+                _ => break,
+            }
+        }
+    }
+
+    /// Replaces one effect by another testable one when that lowers BIC by at least
+    /// `min_delta_bic` (the greedy forward path can settle on a worse explanation).
+    /// Periodic terms are neither swapped in nor out. Returns whether it swapped.
+    fn swap(&mut self, terms: &mut [Term]) -> bool {
+        let full = self.bic_of(terms);
+        let kinds = self.kinds.clone();
+        let mut best: Option<(usize, Eval)> = None;
+        for i in 0..terms.len() {
+            if terms[i].kind == Kind::Periodic {
+                continue;
+            }
+            let mut rest = terms.to_vec();
+            rest.remove(i);
+            let ids = ids_of(&rest);
             let fit = self.engine.fit(&ids);
             let resid = self.residual(&ids, &fit);
-            let unsupported = fitted.iter().enumerate().find_map(|(i, f)| {
-                if f.term.kind != Kind::Periodic {
-                    return None;
+            for &kind in &kinds {
+                if kind == Kind::Periodic || terms.iter().any(|t| t.kind == kind) {
+                    continue;
                 }
+                if let (Some(e), _) = self.evaluate(&rest, kind, &resid, true)
+                    && e.bic < full - self.cfg.min_delta_bic
+                    && best.as_ref().is_none_or(|(_, b)| e.bic < b.bic)
+                {
+                    best = Some((i, e));
+                }
+            }
+        }
+        match best {
+            Some((i, e)) => {
+                self.log.push(format!(
+                    "swap: {} → {} ({:?}), BIC −{:.1}",
+                    terms[i].kind.label(self.obs),
+                    e.kind.label(self.obs),
+                    e.variant,
+                    full - e.bic
+                ));
+                terms[i] = self.adopt(e);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The first reason not to report a selected term: a periodic term without support,
+    /// an undetermined parameter, an implausible one.
+    fn first_problem(&mut self, terms: &[Term], fitted: &[FittedTerm]) -> Option<(usize, String)> {
+        let cfg = self.cfg;
+        let ids = ids_of(terms);
+        let fit = self.engine.fit(&ids);
+        let resid = self.residual(&ids, &fit);
+        for (i, f) in fitted.iter().enumerate() {
+            if f.term.kind == Kind::Periodic {
                 let without: Vec<f64> = resid
                     .iter()
                     .zip(&f.contribution)
@@ -1027,54 +1136,64 @@ impl<'a> Selector<'a> {
                     self.engine.col(f.term.cols[0]),
                     self.engine.col(f.term.cols[1]),
                 );
-                self.periodic_support(&without, s, c)
-                    .err()
-                    .map(|why| (i, why))
-            });
-            if let Some((i, why)) = unsupported {
-                self.refused.push(format!(
-                    "{} ({:?}) is not reported: {why}",
-                    terms[i].kind.label(self.obs),
-                    terms[i].variant
-                ));
-                terms.remove(i);
-                continue;
+                if let Err(why) = self.periodic_support(&without, s, c) {
+                    return Some((i, why));
+                }
             }
-            for (i, f) in fitted.iter().enumerate() {
-                if let Some(p) = effects::undetermined(&f.params, cfg.max_relative_uncertainty) {
-                    let msg = format!(
-                        "{} is not reported: {} = {:.4} ± {:.4} is not determined (one-sigma above {:.0} % of the value)",
-                        f.term.kind.label(self.obs),
+            let why = effects::undetermined(&f.params, cfg.max_relative_uncertainty)
+                .map(|p| {
+                    format!(
+                        "{} = {:.4} ± {:.4} is not determined (one-sigma above {:.0} % of the value)",
                         p.name,
                         p.value,
                         p.sigma,
                         100.0 * cfg.max_relative_uncertainty
-                    );
-                    if let (Variant::DriftExp { .. }, Some(t)) = (&f.term.variant, self.cols.t_lin)
-                    {
-                        self.log
-                            .push(format!("{msg}; trying a linear drift instead"));
-                        terms[i] = Term {
-                            kind: Kind::ThermalDrift,
-                            variant: Variant::DriftLinear,
-                            cols: vec![t],
-                        };
-                        let mut without = terms.clone();
-                        without.remove(i);
-                        if self.bic_of(&without) - self.bic_of(&terms) < cfg.min_delta_bic {
-                            terms.remove(i);
-                        }
-                    } else {
-                        self.refused.push(msg);
-                        terms.remove(i);
-                    }
-                    changed = true;
-                    break;
-                }
+                    )
+                })
+                .or_else(|| effects::implausible(f.term.kind, &f.params, self.obs));
+            if let Some(w) = why {
+                return Some((i, w));
             }
-            if !changed {
+        }
+        None
+    }
+
+    /// Runs the whole selection: [`Self::select_terms`], then the final checks; a term
+    /// that fails them is refused, its variant (or period) excluded, and the selection
+    /// starts again without it, so a better explanation can take its place.
+    pub fn run(mut self) -> Outcome {
+        let n = self.n();
+        let cfg = self.cfg;
+        let mut terms;
+        let mut fitted;
+        let mut restarts = 0;
+        loop {
+            terms = self.select_terms();
+            fitted = self.final_fit(&terms);
+            let Some((i, why)) = self.first_problem(&terms, &fitted) else {
+                break;
+            };
+            let kind = terms[i].kind;
+            self.refused.push(format!(
+                "{} ({}) is not reported: {why}",
+                kind.label(self.obs),
+                variant_words(&terms[i].variant)
+            ));
+            match terms[i].variant {
+                Variant::Periodic { period_um } => self.failed_periods.push(period_um),
+                ref v => self.failed.push((kind, std::mem::discriminant(v))),
+            }
+            restarts += 1;
+            if restarts > MAX_RESTARTS {
+                // Give up refining: drop every failing term.
+                while let Some((i, _)) = self.first_problem(&terms, &fitted) {
+                    terms.remove(i);
+                    fitted = self.final_fit(&terms);
+                }
                 break;
             }
+            self.log
+                .push("selection restarted without the refused variant".into());
         }
 
         // 5. Too small to matter.
@@ -1318,6 +1437,26 @@ impl<'a> Selector<'a> {
             }
         }
         out
+    }
+}
+
+/// A variant in words, for messages.
+fn variant_words(v: &Variant) -> String {
+    match v {
+        Variant::Single => "as fitted".into(),
+        Variant::X0Fixed => "x0 = 0".into(),
+        Variant::X0Free => "x0 free".into(),
+        Variant::AbbeFull => "θ0 and θ1".into(),
+        Variant::AbbeTheta0 => "θ0 only".into(),
+        Variant::AbbeTheta1 => "θ1 only".into(),
+        Variant::LatchFeed => "v = feed".into(),
+        Variant::LatchMeasured => "v measured".into(),
+        Variant::RefrBoth => "air temperature and pressure".into(),
+        Variant::RefrT => "air temperature only".into(),
+        Variant::RefrP => "air pressure only".into(),
+        Variant::DriftExp { tau_s } => format!("exponential, τ = {tau_s:.0} s"),
+        Variant::DriftLinear => "linear".into(),
+        Variant::Periodic { period_um } => format!("period {period_um:.4} µm"),
     }
 }
 

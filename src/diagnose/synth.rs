@@ -383,8 +383,8 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
     let geo = |x: f64, y: f64, z: f64| {
         let u = (x - xlo) / xspan;
         cfg.geometric_um
-            * (1.5 * u - 2.5 * u * u
-                + 1.2 * u * u * u
+            * (4.0 * u * (1.0 - u)
+                + (2.0 * u - 1.0)
                 + 0.4 * g[0] * (3.0 * u).sin()
                 + 0.3 * g[1] * u * u
                 + 0.4 * g[2] * y / 500.0
