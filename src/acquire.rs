@@ -77,6 +77,9 @@ pub struct PlanSpec {
     pub runs: u32,
     #[serde(default = "default_feed")]
     pub feed_mm_s: f64,
+    /// Further feeds, cycled by run (run 1 at `feed_mm_s`, run 2 at the first of these…).
+    #[serde(default)]
+    pub extra_feeds_mm_s: Vec<f64>,
     #[serde(default = "default_dwell")]
     pub dwell_s: f64,
     #[serde(default = "default_rate")]
@@ -129,6 +132,7 @@ impl PlanSpec {
             targets_mm: self.targets_mm.clone(),
             runs: self.runs,
             feed_mm_s: self.feed_mm_s,
+            extra_feeds_mm_s: self.extra_feeds_mm_s.clone(),
             dwell_s: self.dwell_s,
             sample_hz: self.sample_hz,
             settle_s: self.settle_s,

@@ -35,6 +35,7 @@ pub fn plan() -> Plan {
         targets_mm: (0..=8).map(|i| f64::from(i) * 100.0).collect(),
         runs: 5,
         feed_mm_s: 120.0,
+        extra_feeds_mm_s: Vec::new(),
         dwell_s: 1.0,
         sample_hz: 20.0,
         settle_s: 0.5,

@@ -44,6 +44,10 @@ pub struct Plan {
     /// Runs per line, each out (+) and back (−).
     pub runs: u32,
     pub feed_mm_s: f64,
+    /// Further feeds, mm/s: run r of a line moves at `[feed_mm_s, extra_feeds_mm_s…]`
+    /// cycled by run (empty: every run at `feed_mm_s`). Two feeds separate a latch delay
+    /// (∝ feed) from a reversal (independent of it).
+    pub extra_feeds_mm_s: Vec<f64>,
     pub dwell_s: f64,
     /// Timer trigger rate while moving and dwelling.
     pub sample_hz: f64,
@@ -63,6 +67,7 @@ impl Default for Plan {
             targets_mm: (0..=10).map(|i| f64::from(i) * 50.0).collect(),
             runs: 5,
             feed_mm_s: 100.0,
+            extra_feeds_mm_s: Vec::new(),
             dwell_s: 0.5,
             sample_hz: 100.0,
             settle_s: 0.2,
@@ -245,6 +250,13 @@ fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
     if plan.lines_mm.is_empty() {
         return bad("no lines");
     }
+    if plan
+        .extra_feeds_mm_s
+        .iter()
+        .any(|f| !(f.is_finite() && *f > 0.0))
+    {
+        return bad("every feed must be positive");
+    }
     if !(plan.feed_mm_s > 0.0
         && plan.sample_hz > 0.0
         && plan.dwell_s >= 0.0
@@ -362,6 +374,15 @@ impl Board<'_> {
             (l[0] * 1000.0).round() as i32,
             (l[1] * 1000.0).round() as i32,
         )
+    }
+}
+
+/// The feed of run `run` (1-based; run 0, between runs, moves at the first feed).
+fn feed_of(plan: &Plan, run: u32) -> f64 {
+    let n = 1 + plan.extra_feeds_mm_s.len();
+    match run.saturating_sub(1) as usize % n {
+        0 => plan.feed_mm_s,
+        k => plan.extra_feeds_mm_s[k - 1],
     }
 }
 
@@ -611,7 +632,7 @@ pub fn simulate(
             Step::Move(to, d) => {
                 let dist = (to - pos).abs();
                 if dist > 0.0 {
-                    let feed = plan.feed_mm_s;
+                    let feed = feed_of(plan, run);
                     let st = (
                         if in_run { run } else { 0 },
                         if in_run { dir } else { 0 },
@@ -662,7 +683,7 @@ pub fn simulate(
                         direction: d,
                         run: r as u16,
                         target: tgt.max(0) as u16,
-                        feed_um_s: (plan.feed_mm_s * 1000.0).round() as u32,
+                        feed_um_s: (feed_of(plan, r) * 1000.0).round() as u32,
                         line_first_um: l1,
                         line_second_um: l2,
                     }),

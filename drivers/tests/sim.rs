@@ -133,3 +133,30 @@ fn faults_are_counted_and_the_rest_decodes() {
         );
     }
 }
+
+#[test]
+fn runs_cycle_through_the_feeds() {
+    let plan = Plan {
+        extra_feeds_mm_s: vec![50.0],
+        runs: 4,
+        ..small_plan()
+    };
+    let s =
+        simulate(&plan, &Device::default(), &Faults::default(), &mut Linear).expect("simulates");
+    let (rows, _, _) = decode_all(&s.bytes());
+    for run in 1..=4u32 {
+        let want = if run % 2 == 1 { 200.0 } else { 50.0 };
+        let feeds: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.run == run)
+            .filter_map(|r| r.feed_mm_s)
+            .collect();
+        assert!(!feeds.is_empty());
+        assert!(feeds.iter().all(|f| *f == want), "run {run}: {feeds:?}");
+    }
+    let bad = Plan {
+        extra_feeds_mm_s: vec![0.0],
+        ..small_plan()
+    };
+    assert!(simulate(&bad, &Device::default(), &Faults::default(), &mut Linear).is_err());
+}
