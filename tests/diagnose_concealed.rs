@@ -136,3 +136,66 @@ fn clean() {
 fn clean_uneven_noise() {
     check("clean_uneven_noise");
 }
+
+/// Every concealed case generated again through the physics simulator, the wire and the
+/// decoder with other noise seeds (`ERRMAP_DIAG_DRAWS` seeds per case, default 1): the
+/// same effects are found (parameters within 25 %), nothing in the clean cases.
+#[test]
+fn concealed_cases_with_other_noise() {
+    let table1 = Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/table1.csv");
+    if !table1.exists() {
+        eprintln!("skipping: {} not found", table1.display());
+        return;
+    }
+    let seeds: u64 = std::env::var("ERRMAP_DIAG_DRAWS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    let cfg = DiagnoseConfig {
+        grating_period_um: Some(20.0),
+        ..DiagnoseConfig::default()
+    };
+    let mut fails = Vec::new();
+    let mut total = 0;
+    for case in errmap::concealed::cases() {
+        for seed in 0..seeds {
+            total += 1;
+            let g = match errmap::concealed::generate(&case, &table1, 1000 + seed) {
+                Ok(g) => g,
+                Err(e) => panic!("{}: {e}", case.name),
+            };
+            let d = match diagnose(&g.recorded, &g.simulated, &cfg) {
+                Ok(d) => d,
+                Err(e) => panic!("{}: {e}", case.name),
+            };
+            let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+            let mut want = case.effects.clone();
+            got.sort_unstable();
+            want.sort_unstable();
+            let params_ok = case.truth.iter().all(|(id, params)| {
+                d.effects.iter().any(|e| {
+                    &e.id == id
+                        && params.iter().all(|(p, &truth)| {
+                            p == "phase_rad"
+                                || truth == 0.0
+                                || e.params
+                                    .get(p)
+                                    .and_then(|v| v.as_f64())
+                                    .is_some_and(|v| (v - truth).abs() <= 0.25 * truth.abs())
+                        })
+                })
+            });
+            if got != want || !params_ok {
+                fails.push(format!("{} seed {seed}:\n{}", case.name, text(&d)));
+            }
+        }
+    }
+    println!(
+        "concealed regenerated: {}/{total} right",
+        total - fails.len()
+    );
+    for f in &fails {
+        println!("{f}");
+    }
+    assert!(fails.is_empty(), "{}", fails.join("\n"));
+}

@@ -247,7 +247,11 @@ fn report_has_markdown_and_charts() -> TestResult {
 #[test]
 fn random_pairs_of_effects() -> TestResult {
     let mut rng = StdRng::seed_from_u64(31);
-    let draws = 16;
+    // 16 draws, or `ERRMAP_DIAG_DRAWS` for a longer campaign (best with --release).
+    let draws: u64 = std::env::var("ERRMAP_DIAG_DRAWS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(16);
     let mut fails = Vec::new();
     for k in 0..draws {
         let mut pool: Vec<Hidden> = vec![
@@ -328,7 +332,11 @@ fn random_pairs_of_effects() -> TestResult {
     for f in &fails {
         println!("  {f}");
     }
-    assert!(fails.len() <= 1, "{}", fails.join("\n"));
+    assert!(
+        fails.len() as f64 <= (draws as f64 / 16.0).ceil(),
+        "{}",
+        fails.join("\n")
+    );
     Ok(())
 }
 

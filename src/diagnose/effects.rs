@@ -557,3 +557,25 @@ pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<Str
         )
     })
 }
+
+/// The parameter each linear coefficient of a variant stands for, then the nonlinear one
+/// (for correlation statements; `amplitude_um` for both sine and cosine coefficients).
+pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<&'static str> {
+    match (kind, variant) {
+        (Kind::ScaleFactor, _) => vec!["ppm"],
+        (Kind::Reversal, _) => vec!["b_um"],
+        (Kind::Abbe(_), Variant::AbbeFull) => vec!["theta0_urad", "theta1_urad_per_mm"],
+        (Kind::Abbe(_), Variant::AbbeTheta0) => vec!["theta0_urad"],
+        (Kind::Abbe(_), _) => vec!["theta1_urad_per_mm"],
+        (Kind::ScaleThermal, Variant::X0Free) => vec!["alpha_ppm_per_k", "x0_mm"],
+        (Kind::ScaleThermal, _) => vec!["alpha_ppm_per_k"],
+        (Kind::LatchDelay, _) => vec!["tau_us"],
+        (Kind::Periodic, _) => vec!["amplitude_um", "amplitude_um", "period_um"],
+        (Kind::ThermalDrift, Variant::DriftExp { .. }) => vec!["amplitude_um", "tau_s"],
+        (Kind::ThermalDrift, _) => vec!["rate_um_per_s"],
+        (Kind::DeadPath, _) => vec!["dead_path_mm"],
+        (Kind::Refraction, Variant::RefrBoth) => vec!["ppm_per_k", "ppm_per_hpa"],
+        (Kind::Refraction, Variant::RefrT) => vec!["ppm_per_k"],
+        (Kind::Refraction, _) => vec!["ppm_per_hpa"],
+    }
+}

@@ -85,6 +85,8 @@ pub(crate) struct Input<'a> {
     /// Residual variance scale of the final model (χ²/dof).
     pub s2: f64,
     pub peaks: Vec<SpectralPeak>,
+    /// Pooled noise σ, µm.
+    pub noise_sigma: f64,
 }
 
 fn stat(label: String, idx: &[usize], inp: &Input, signed: bool) -> Option<GroupStat> {
@@ -298,7 +300,7 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
         .sort_by(|a, b| b.before.abs().total_cmp(&a.before.abs()));
 
     loc.findings = findings(&loc);
-    loc.unexplained = unexplained(&loc);
+    loc.unexplained = unexplained(&loc, inp.noise_sigma);
     loc
 }
 
@@ -382,10 +384,12 @@ fn findings(loc: &Locate) -> Vec<String> {
     out
 }
 
-/// Structure left after the model: bins of x × direction and of time whose after-model
-/// means are jointly and individually far beyond noise (χ² excess > 8 standard deviations
-/// and one bin beyond 6σ).
-fn unexplained(loc: &Locate) -> Option<String> {
+/// Structure left after the model: groups (along x, over time, per direction, per line)
+/// whose after-model means are jointly and individually far beyond noise (χ² excess > 8
+/// standard deviations, one group beyond 6σ) and large enough to matter (that group's
+/// mean at least the noise σ of one sample; smaller offsets, such as the counters'
+/// quantisation at fixed targets, are not physics worth a verdict).
+fn unexplained(loc: &Locate, noise_sigma: f64) -> Option<String> {
     let groups: Vec<&GroupStat> = loc
         .along_x
         .iter()
@@ -402,7 +406,7 @@ fn unexplained(loc: &Locate) -> Option<String> {
     let worst = groups
         .iter()
         .max_by(|a, b| a.z_after.abs().total_cmp(&b.z_after.abs()))?;
-    (excess > 8.0 && worst.z_after.abs() > 6.0).then(|| {
+    (excess > 8.0 && worst.z_after.abs() > 6.0 && worst.mean_after_um.abs() >= noise_sigma).then(|| {
         format!(
             "after the model the residual still departs from noise: {} has mean {:+.3} µm (z = {:.1}); χ² of the group means {chi2:.0} for {dof:.0} groups",
             worst.label, worst.mean_after_um, worst.z_after

@@ -86,7 +86,8 @@ pub struct DiagnoseConfig {
     /// the pair ambiguous (stated in `where` and `ambiguities`). Default 10. Range ≥ 0.
     pub ambiguity_delta_bic: f64,
     /// An effect whose fitted contribution has an RMS below this fraction of the noise σ
-    /// is not reported even when significant. Default 0.05. Range 0..1.
+    /// is not reported even when significant. Default 0.1 (a tenth of the noise is below
+    /// any error budget; smaller but significant structure is left to the report). Range 0..1.
     pub min_effect_fraction_of_noise: f64,
     /// A parameter is determined when its one-sigma uncertainty is at most this fraction
     /// of its magnitude. Default 0.5. Range (0, 10].
@@ -104,7 +105,7 @@ pub struct DiagnoseConfig {
     pub spectral_max_rows: usize,
     /// Bound on rows × frequencies of each periodogram (the grating windows together, and
     /// the broad scan): a scan over more frequencies uses fewer rows (at least 200).
-    /// Default 2e6 (a few ms in release). Range ≥ 1e4.
+    /// Default 1.2e6 (a few ms in release). Range ≥ 1e4.
     pub spectral_budget: f64,
     /// Laser vacuum wavelength for the refractive index of `dead_path`, µm. Default HeNe.
     pub laser_wavelength_um: f64,
@@ -117,13 +118,13 @@ impl Default for DiagnoseConfig {
             max_effects: 4,
             min_delta_bic: 10.0,
             ambiguity_delta_bic: 10.0,
-            min_effect_fraction_of_noise: 0.05,
+            min_effect_fraction_of_noise: 0.1,
             max_relative_uncertainty: 0.5,
             cv_confirm: true,
             period_window_rel: 0.0005,
             broad_min_period_mm: 0.5,
             spectral_max_rows: 2500,
-            spectral_budget: 2e6,
+            spectral_budget: 1.2e6,
             laser_wavelength_um: HENE_WAVELENGTH_UM,
         }
     }
@@ -425,7 +426,7 @@ pub fn diagnose(
     untestable.dedup();
 
     Ok(assemble(
-        &obs, &matching, &groups, &sigma, &w, &y, wmean, out, untestable, fold_kind, config,
+        &obs, &matching, &groups, &sigma, &w, &y, out, untestable, fold_kind, config,
     ))
 }
 
@@ -437,7 +438,6 @@ fn assemble(
     sigma: &[f64],
     w: &[f64],
     y: &[f64],
-    wmean: f64,
     out: Outcome,
     untestable: Vec<String>,
     fold_kind: &str,
@@ -480,6 +480,7 @@ fn assemble(
             after: &after,
             w,
             s2,
+            noise_sigma,
             peaks,
         },
         config.laser_wavelength_um,
@@ -494,8 +495,13 @@ fn assemble(
                 "it fits better (the alternative raises BIC by {:.1})",
                 a.delta_bic
             )
-        } else {
+        } else if a.delta_bic >= -select::TIE_BIC {
             "the fits are equally good and it is the simpler explanation (fewer assumptions or covariates)".to_string()
+        } else {
+            format!(
+                "it was selected first and the alternative is better by only {:.1} (less than the {} an exchange needs)",
+                -a.delta_bic, config.min_delta_bic
+            )
         };
         let text = format!(
             "ambiguous: {found} is indistinguishable on these data from {alt} (ΔBIC = {d:+.1}); reported as {found} because {why}; to separate them: {advice}",
@@ -505,6 +511,17 @@ fn assemble(
             advice = separation_advice(a.found, a.alt, obs)
         );
         amb_by_kind.entry(a.found).or_default().push(text.clone());
+        ambiguities.push(text);
+    }
+    for &(ka, pa, kb, pb, rho) in &out.correlated {
+        let text = format!(
+            "hard to separate: {pa} of {} and {pb} of {} are correlated (ρ = {rho:+.3}) on these data, so the split between the two effects rests on little information (their one-sigma values include it); to separate them: {}",
+            ka.label(obs),
+            kb.label(obs),
+            separation_advice(ka, kb, obs)
+        );
+        amb_by_kind.entry(ka).or_default().push(text.clone());
+        amb_by_kind.entry(kb).or_default().push(text.clone());
         ambiguities.push(text);
     }
     ambiguities.extend(out.refused.iter().cloned());
@@ -546,7 +563,7 @@ fn assemble(
     let mut design_notes = untestable;
     design_notes.extend(out.design.iter().cloned());
 
-    let series = report_series(obs, &before, &after, &out, wmean);
+    let series = report_series(obs, &before, &after, &out);
     Diagnosis {
         verdict: if effects.is_empty() {
             "consistent"
@@ -867,14 +884,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
     format!("{head}; {body}")
 }
 
-fn report_series(
-    obs: &data::Obs,
-    before: &[f64],
-    after: &[f64],
-    out: &Outcome,
-    wmean: f64,
-) -> ReportSeries {
-    let _ = wmean;
+fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) -> ReportSeries {
     let n = obs.len();
     let mut effects = Vec::new();
     for f in &out.terms {

@@ -59,6 +59,15 @@ const MAX_SWAP_ROUNDS: usize = 3;
 /// Restarts of the selection after a refused term.
 const MAX_RESTARTS: usize = 4;
 
+/// Periodogram candidates weaker than this Δχ² (on the search subset) are not
+/// evaluated: noise peaks of a scan over a few thousand frequencies reach about 15–20, and a
+/// periodic term must reach [`MOVING_SUPPORT_CHI2`] on the moving rows anyway.
+const MIN_CANDIDATE_POWER: f64 = 10.0;
+
+/// Parameters of two effects correlated beyond this (|ρ|) are reported as hard to
+/// separate.
+const CORRELATED: f64 = 0.95;
+
 /// Most periodogram candidates kept across searches.
 const MAX_PERIOD_CANDIDATES: usize = 10;
 
@@ -145,6 +154,9 @@ pub(crate) struct Outcome {
     /// Held-out prediction per row (leave-one-fold-out).
     pub cv_pred: Vec<f64>,
     pub ambiguities: Vec<Ambiguity>,
+    /// Strongly correlated parameters of two found effects: (effect, parameter, effect,
+    /// parameter, ρ).
+    pub correlated: Vec<(Kind, &'static str, Kind, &'static str, f64)>,
     /// Effects that would improve the fit but whose parameters are not determined.
     pub refused: Vec<String>,
     pub design: Vec<String>,
@@ -177,6 +189,8 @@ pub(crate) struct Selector<'a> {
     failed: Vec<(Kind, std::mem::Discriminant<Variant>)>,
     /// Periods of periodic terms that failed the final checks.
     failed_periods: Vec<f64>,
+    /// Strongly correlated parameters of two found effects (last final fit).
+    correlated: Vec<(Kind, &'static str, Kind, &'static str, f64)>,
     /// The τ grid of the drift search (ln τ) and its columns on the subset.
     tau_grid: Vec<(f64, Vec<f64>)>,
     log: Vec<String>,
@@ -321,6 +335,7 @@ impl<'a> Selector<'a> {
             sub,
             failed: Vec::new(),
             failed_periods: Vec::new(),
+            correlated: Vec::new(),
             tau_grid: Vec::new(),
             log: Vec::new(),
             refused: Vec::new(),
@@ -363,7 +378,7 @@ impl<'a> Selector<'a> {
 
     /// Periodogram candidates on the current residual: narrow windows around the
     /// grating-tied periods and a broad scan of long periods (detrended by a cubic in x).
-    fn spectral_search(&mut self, resid: &[f64]) {
+    fn spectral_search(&mut self, resid: &[f64], keep: &[f64]) {
         let cfg = self.cfg;
         let (lo, hi) = self
             .obs
@@ -454,7 +469,9 @@ impl<'a> Selector<'a> {
         let fmin = 1.0 / (MAX_BROAD_FRACTION * span);
         let fmax = 1.0 / cfg.broad_min_period_mm.max(1e-3);
         if fmax > fmin {
-            let mut df = 1.0 / (2.0 * span);
+            // One point per resolution element; the golden-section refinement of a
+            // candidate recovers the peak between two grid points.
+            let mut df = 1.0 / span;
             let mut nf = ((fmax - fmin) / df).ceil() as usize + 1;
             if nf > 8000 {
                 df = (fmax - fmin) / 7999.0;
@@ -484,18 +501,19 @@ impl<'a> Selector<'a> {
                 power: pw,
             };
         }
-        // Keep the candidates of earlier searches (a period found before a strong effect
-        // was removed stays a candidate), newest first; of two near-duplicates the
-        // stronger peak stays.
+        // The new search replaces the old candidates (it ran on a cleaner residual), except
+        // those of the periodic terms already in the model (`keep`): their peaks are gone
+        // from this residual, and a later pass with other weights needs them.
         let mut merged = cands;
         for old in std::mem::take(&mut self.periods) {
-            let near = merged.iter().position(|c| {
-                (c.period_um - old.period_um).abs() <= 3.0 * c.step_um.max(old.step_um)
-            });
-            match near {
-                None => merged.push(old),
-                Some(k) if old.power > merged[k].power => merged[k] = old,
-                Some(_) => {}
+            let near = |p: f64, q: f64| (p - q).abs() <= 3.0 * old.step_um;
+            if keep.iter().any(|&p| near(p, old.period_um)) {
+                // It replaces a new peak at the same period (whose power was measured
+                // with the term already removed).
+                match merged.iter().position(|c| near(c.period_um, old.period_um)) {
+                    Some(k) => merged[k] = old,
+                    None => merged.insert(0, old),
+                }
             }
         }
         merged.truncate(MAX_PERIOD_CANDIDATES);
@@ -682,14 +700,6 @@ impl<'a> Selector<'a> {
         }
         match kind {
             Kind::Periodic => {
-                let rms = self.weighted_rms(resid);
-                if self
-                    .searched_rms
-                    .is_none_or(|r| rms < RESEARCH_FRACTION * r)
-                {
-                    self.spectral_search(resid);
-                    self.searched_rms = Some(rms);
-                }
                 let selected: Vec<f64> = terms
                     .iter()
                     .filter_map(|t| match t.variant {
@@ -697,11 +707,22 @@ impl<'a> Selector<'a> {
                         _ => None,
                     })
                     .collect();
+                let rms = self.weighted_rms(resid);
+                if self
+                    .searched_rms
+                    .is_none_or(|r| rms < RESEARCH_FRACTION * r)
+                {
+                    self.spectral_search(resid, &selected);
+                    self.searched_rms = Some(rms);
+                }
+                let base_bic = self.model_bic(&base, nl);
                 for k in 0..self.periods.len() {
                     let pc = self.periods[k].clone();
-                    if selected
-                        .iter()
-                        .any(|&p| (p - pc.period_um).abs() < 3.0 * pc.step_um)
+                    if pc.power < MIN_CANDIDATE_POWER
+                        || selected
+                            .iter()
+                            .chain(&self.failed_periods)
+                            .any(|&p| (p - pc.period_um).abs() < 3.0 * pc.step_um)
                     {
                         continue;
                     }
@@ -721,19 +742,23 @@ impl<'a> Selector<'a> {
                     };
                     let [s, c] = effects::periodic_cols(&self.obs.x, p);
                     let fit = self.engine.fit_with(&ids, &[&s, &c]);
-                    let support = self.periodic_support(resid, &s, &c);
                     let mut e = self.make_eval(
                         kind,
                         Variant::Periodic { period_um: p },
-                        Cand::Trial(vec![s, c]),
+                        Cand::Trial(Vec::new()),
                         &fit,
                         base.rank,
                         nl,
                         ids.len(),
                     );
-                    if let Err(why) = support {
-                        e.undetermined.get_or_insert(why);
+                    // The support check only matters for a candidate that would enter.
+                    if e.undetermined.is_none()
+                        && base_bic - e.bic >= self.cfg.min_delta_bic
+                        && let Err(why) = self.periodic_support(resid, &s, &c)
+                    {
+                        e.undetermined = Some(why);
                     }
+                    e.cand = Cand::Trial(vec![s, c]);
                     evals.push(e);
                 }
             }
@@ -1248,6 +1273,7 @@ impl<'a> Selector<'a> {
             model,
             cv_pred,
             ambiguities,
+            correlated: self.correlated.clone(),
             refused: self.refused.clone(),
             design,
             log: self.log.clone(),
@@ -1295,6 +1321,39 @@ impl<'a> Selector<'a> {
         let inv = pinv_sym(&jtj);
         let dof = (n as f64 - p as f64).max(1.0);
         let s2 = fit.chi2 / dof;
+        // Parameters of different effects that the data hardly separate.
+        let mut owner: Vec<Option<(usize, &'static str)>> = vec![None; p];
+        let mut offset = 1;
+        for (ti, t) in terms.iter().enumerate() {
+            let names = effects::coef_names(t.kind, &t.variant);
+            for (q, name) in names.iter().take(t.cols.len()).enumerate() {
+                owner[offset + q] = Some((ti, name));
+            }
+            offset += t.cols.len();
+            if let (Some(j), Some(name)) = (nl_index[ti], names.get(t.cols.len())) {
+                owner[j] = Some((ti, name));
+            }
+        }
+        self.correlated.clear();
+        for a in 0..p {
+            for b in a + 1..p {
+                if let (Some((ta, na)), Some((tb, nb))) = (owner[a], owner[b])
+                    && ta != tb
+                {
+                    let d = (inv[a][a] * inv[b][b]).sqrt();
+                    let rho = if d > 0.0 { inv[a][b] / d } else { 0.0 };
+                    if rho.abs() > CORRELATED
+                        && self
+                            .correlated
+                            .iter()
+                            .all(|c| (c.0, c.2) != (terms[ta].kind, terms[tb].kind))
+                    {
+                        self.correlated
+                            .push((terms[ta].kind, na, terms[tb].kind, nb, rho));
+                    }
+                }
+            }
+        }
         let mut out = Vec::new();
         let mut offset = 1;
         for (ti, t) in terms.iter().enumerate() {
