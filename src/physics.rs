@@ -346,50 +346,8 @@ pub struct MachineModel {
     #[serde(default)]
     pub refraction: Option<Refraction>,
     #[serde(default)]
-    pub device: DeviceSpec,
-}
-
-/// The board: what its HELLO says and its line.
-#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DeviceSpec {
-    pub device_id: String,
-    pub grating_period_nm: u32,
-    pub count_resolution_pm: u32,
-    pub laser_wavelength_fm: u32,
-    pub optical_fold: u8,
-    pub edges_per_fringe: u8,
-    pub baud: u32,
-}
-
-impl Default for DeviceSpec {
-    fn default() -> Self {
-        let d = Device::default();
-        DeviceSpec {
-            device_id: d.device_id,
-            grating_period_nm: d.grating_period_nm,
-            count_resolution_pm: d.count_resolution_pm,
-            laser_wavelength_fm: d.laser_wavelength_fm,
-            optical_fold: d.optical_fold,
-            edges_per_fringe: d.edges_per_fringe,
-            baud: d.baud,
-        }
-    }
-}
-
-impl DeviceSpec {
-    pub fn device(&self) -> Device {
-        Device {
-            device_id: self.device_id.clone(),
-            grating_period_nm: self.grating_period_nm,
-            count_resolution_pm: self.count_resolution_pm,
-            laser_wavelength_fm: self.laser_wavelength_fm,
-            optical_fold: self.optical_fold,
-            edges_per_fringe: self.edges_per_fringe,
-            baud: self.baud,
-            ..Device::default()
-        }
-    }
+    /// The acquisition board: what its HELLO says, its line and its FIFO.
+    pub device: Device,
 }
 
 fn config_err(path: &Path, message: impl Into<String>) -> AcquireError {
@@ -694,7 +652,7 @@ pub fn simulate_plan(
     faults: &Faults,
     noise: bool,
 ) -> Result<(SimStream, PhysicsTruth), AcquireError> {
-    let device = model.device.device();
+    let device = model.device.clone();
     let duration = plan_duration(plan, &device)?;
     let mut truth = model.truth(model_path, plan.axis, duration)?;
     truth.noise = noise;

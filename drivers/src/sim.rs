@@ -77,8 +77,10 @@ impl Default for Plan {
     }
 }
 
-/// The board's fixed description (what its HELLO says) and its line.
-#[derive(Debug, Clone, PartialEq)]
+/// The board's fixed description (what its HELLO says) and its line. In a machine-model
+/// file this is the `[device]` table; every field has the default below.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Device {
     pub device_id: String,
     pub grating_period_nm: u32,
