@@ -12,6 +12,7 @@
 //! | [`cv`] | leave-one-plane-out cross-validation on the fitting table |
 //! | [`bench`] | throughput of the interpolators and the decoder (`errmap bench`, `cargo bench`) |
 //! | [`compare`] | order/method comparison like the paper's Table 2, and its report |
+//! | [`diagnose`] | missing-physics diagnosis: locate, name and fit what a simulation left out of a recording |
 //! | [`experiment`] | the seed-000 simulation (fuzzy vs trilinear vs spline on random errors) |
 //! | [`export`] | compensation tables for LinuxCNC and Siemens 840D, CSV lines and volumetric grids |
 //! | [`gp`] | Gaussian-process (kriging) error model with prediction uncertainty |

@@ -637,8 +637,13 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &data::Obs) -> String {
     }
     if pair(LatchDelay, Reversal) {
         return format!(
-            "the moving samples were taken at {} and there are {dwell} dwell samples, so d·v·τ is a constant times d; measure at a second feed or latch samples while dwelling",
-            list(&feeds, "mm/s")
+            "the moving samples were taken at {} and {}, so d·v·τ is a constant times d; measure at a second feed or latch samples while dwelling",
+            list(&feeds, "mm/s"),
+            if dwell == 0 {
+                "there are no dwell samples".to_string()
+            } else {
+                format!("only {dwell} dwell samples")
+            }
         );
     }
     if let (Abbe(i), ScaleFactor) | (ScaleFactor, Abbe(i)) = (a, b) {
@@ -808,10 +813,26 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 obs.c[*i as usize].as_ref().map_or(f64::NAN, |v| v[kmax])
             )
         }
-        (Kind::Reversal, _) => format!(
-            "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, dwelling and moving, the same at every feed; follows the direction of travel",
-            pv("b_um") / 2.0
-        ),
+        (Kind::Reversal, _) => {
+            let dwell = obs.moving.iter().any(|m| !m);
+            let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
+            feeds.sort_by(f64::total_cmp);
+            feeds.dedup();
+            let rows = if dwell {
+                "dwelling and moving"
+            } else {
+                "on every moving sample"
+            };
+            let feed = match feeds.len() {
+                0 => String::new(),
+                1 => format!(", at the single feed of {} mm/s", feeds[0]),
+                _ => ", the same at every feed".to_string(),
+            };
+            format!(
+                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel",
+                pv("b_um") / 2.0
+            )
+        }
         (Kind::LatchDelay, v) => {
             let mut feeds: Vec<f64> = (0..obs.len())
                 .filter(|&k| obs.moving[k] && obs.v_feed[k] > 0.0)

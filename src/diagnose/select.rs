@@ -1436,26 +1436,34 @@ impl<'a> Selector<'a> {
                     .map(|(_, c)| (k, c))
             })
             .collect();
-        for (ka, ca) in &primary {
-            for (kb, cb) in &primary {
-                if ka == kb {
+        let mut contained = |a: &[usize], b: &[usize]| -> bool {
+            let mut base = vec![CONST];
+            base.extend_from_slice(b);
+            a.iter().all(|&c| {
+                let tot = self.engine.unexplained(&[CONST], c);
+                let res = self.engine.unexplained(&base, c);
+                tot <= 0.0 || res <= 1e-4 * tot
+            })
+        };
+        for (i, (ka, ca)) in primary.iter().enumerate() {
+            for (j, (kb, cb)) in primary.iter().enumerate() {
+                if i == j || !contained(ca, cb) {
                     continue;
                 }
-                let mut base = vec![CONST];
-                base.extend_from_slice(cb);
-                let contained = ca.iter().all(|&c| {
-                    let tot = self.engine.unexplained(&[CONST], c);
-                    let res = self.engine.unexplained(&base, c);
-                    tot <= 0.0 || res <= 1e-4 * tot
-                });
-                if contained {
-                    out.push(format!(
-                        "{} is indistinguishable from {} (+ offset) on these data: {}",
-                        ka.label(self.obs),
-                        kb.label(self.obs),
-                        super::separation_advice(*ka, *kb, self.obs)
-                    ));
+                let mutual = contained(cb, ca);
+                if mutual && j < i {
+                    continue; // said once, for the first of the pair
                 }
+                let (a, b) = (ka.label(self.obs), kb.label(self.obs));
+                let what = if mutual {
+                    format!("{a} and {b} are indistinguishable on these data (+ offset)")
+                } else {
+                    format!("{a} is indistinguishable from {b} (+ offset) on these data")
+                };
+                out.push(format!(
+                    "{what}: {}",
+                    super::separation_advice(*ka, *kb, self.obs)
+                ));
             }
         }
         out
