@@ -114,6 +114,10 @@ fn default_accel() -> f64 {
 }
 
 impl PlanSpec {
+    pub fn read(path: &Path) -> Result<Self, AcquireError> {
+        read_toml(path)
+    }
+
     pub fn plan(&self, path: &Path) -> Result<Plan, AcquireError> {
         let axis = match self.axis.trim() {
             "X" | "x" => WireAxis::X,
@@ -148,12 +152,6 @@ pub(crate) fn read_toml<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, 
         path: path.to_path_buf(),
         message: e.to_string(),
     })
-}
-
-impl PlanSpec {
-    pub fn read(path: &Path) -> Result<Self, AcquireError> {
-        read_toml(path)
-    }
 }
 
 /// One standard normal deviate (Box–Muller).

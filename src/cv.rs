@@ -63,13 +63,11 @@ pub fn leave_one_plane_out(grid: &Grid, method: &Method) -> Result<CvResult, Int
             let model = fold_method.fit(&fold)?;
             folds += 1;
             let is_interior = plane > 0 && plane + 1 < shape[a];
-            for p in grid.points() {
-                let idx = match a {
-                    0 => grid.xs.iter().position(|&v| v == p.x_mm),
-                    1 => grid.ys.iter().position(|&v| v == p.y_mm),
-                    _ => grid.zs.iter().position(|&v| v == p.z_mm),
-                };
-                if idx != Some(plane) {
+            let [nx, ny, _] = shape;
+            for (idx, p) in grid.points().iter().enumerate() {
+                // points() runs x fastest, like the grid's values.
+                let ijk = [idx % nx, (idx / nx) % ny, idx / (nx * ny)];
+                if ijk[a] != plane {
                     continue;
                 }
                 let r = model.predict(p.position()) - p.e_um;
