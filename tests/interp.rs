@@ -33,6 +33,9 @@ fn lagrange_reproduces_polynomials_of_its_degree_exactly() {
         ([7, 3, 4], [3, 2, 0]),
         ([4, 4, 4], [0, 0, 0]),
         ([9, 2, 3], [4, 1, 2]),
+        // Degrees 6 and 7 (the small-buffer path's general weights), 9 (the wide buffers).
+        ([8, 9, 3], [6, 7, 2]),
+        ([10, 3, 3], [9, 2, 1]),
     ] {
         let (xs, ys, zs) = (
             nodes(&mut rng, shape[0]),
@@ -350,6 +353,41 @@ proptest! {
                 prop_assert!((got - p.e_um).abs() < 1e-9, "{} at {:?}: {} vs {}", method.label(), p.position(), got, p.e_um);
             }
         }
+    }
+}
+
+/// On evenly spaced nodes (the O(1) cell lookup) trilinear reproduces affine fields,
+/// inside the grid and beyond it, and fuzzy gives the corners' mean at cell centres.
+#[test]
+fn cell_methods_are_exact_on_even_grids() {
+    let even = |x0: f64, h: f64, n: usize| (0..n).map(|i| x0 + h * i as f64).collect::<Vec<_>>();
+    let f = |p: [f64; 3]| 0.3 + 0.01 * p[0] - 0.02 * p[1] + 0.005 * p[2];
+    let (xs, ys, zs) = (
+        even(1.2424, 200.0, 5),
+        even(1.0, 133.0, 4),
+        even(200.0, 150.0, 3),
+    );
+    let grid = Grid::from_fn(xs.clone(), ys.clone(), zs.clone(), f);
+    let mut rng = StdRng::seed_from_u64(3);
+    let tri = Method::Trilinear.fit(&grid).expect("fits");
+    for _ in 0..500 {
+        let p = [
+            rng.random_range(-100.0..900.0),
+            rng.random_range(-50.0..450.0),
+            rng.random_range(150.0..550.0),
+        ];
+        let (got, want) = (tri.predict(p), f(p));
+        assert!(
+            (got - want).abs() < 1e-9,
+            "trilinear at {p:?}: {got} vs {want}"
+        );
+    }
+    let fuzzy = Method::Fuzzy { sigma: 0.5 }.fit(&grid).expect("fits");
+    let mid = |v: &[f64], i: usize| 0.5 * (v[i] + v[i + 1]);
+    for (i, j, k) in [(0, 0, 0), (3, 2, 1), (1, 1, 0)] {
+        let p = [mid(&xs, i), mid(&ys, j), mid(&zs, k)];
+        // Equal weights on the 8 corners: their mean, which for an affine field is f(p).
+        assert!((fuzzy.predict(p) - f(p)).abs() < 1e-9, "fuzzy at {p:?}");
     }
 }
 

@@ -62,6 +62,7 @@ impl AxisBasis {
     }
 
     /// First node of the window used at `x` (the rule in the module docs).
+    #[inline(always)]
     fn start(&self, x: f64) -> usize {
         let (n, d) = (self.nodes.len(), self.degree);
         if d + 1 >= n {
@@ -85,22 +86,61 @@ impl AxisBasis {
     /// w_j = b_j · Π_{k<j}(x − x_k) · Π_{k>j}(x − x_k), by prefix and suffix products: no
     /// division, and exactly one non-zero weight when `x` is a node.
     #[inline]
-    fn weights(&self, x: f64, w: &mut [f64; MAX_DEGREE + 1]) -> usize {
+    fn weights(&self, x: f64, w: &mut [f64]) -> usize {
         let s = self.start(x);
         let d = self.degree;
         let window = &self.nodes[s..=s + d];
         let b = &self.bary[s * (d + 1)..(s + 1) * (d + 1)];
+        let w = &mut w[..=d];
         let mut left = 1.0;
-        for j in 0..=d {
-            w[j] = b[j] * left;
+        for ((wj, &bj), &xj) in w.iter_mut().zip(b).zip(window) {
+            *wj = bj * left;
+            left *= x - xj;
+        }
+        let mut right = 1.0;
+        for (wj, &xj) in w.iter_mut().zip(window).rev() {
+            *wj *= right;
+            right *= x - xj;
+        }
+        s
+    }
+}
+
+impl AxisBasis {
+    /// [`AxisBasis::weights`] with the number of weights `N = d + 1` known at compile
+    /// time, so the prefix and suffix products unroll into registers.
+    #[inline(always)]
+    fn weights_n<const N: usize>(&self, x: f64, w: &mut [f64]) -> usize {
+        let s = self.start(x);
+        let window: &[f64; N] = self.nodes[s..s + N].try_into().expect("N nodes");
+        let b: &[f64; N] = self.bary[s * N..(s + 1) * N].try_into().expect("N weights");
+        let mut out = [0.0; N];
+        let mut left = 1.0;
+        for j in 0..N {
+            out[j] = b[j] * left;
             left *= x - window[j];
         }
         let mut right = 1.0;
-        for j in (0..=d).rev() {
-            w[j] *= right;
+        for j in (0..N).rev() {
+            out[j] *= right;
             right *= x - window[j];
         }
+        w[..N].copy_from_slice(&out);
         s
+    }
+
+    /// The weights for degrees below [`SMALL`], dispatched once per axis and point.
+    #[inline(always)]
+    fn weights_small(&self, x: f64, w: &mut [f64]) -> usize {
+        match self.degree {
+            0 => self.weights_n::<1>(x, w),
+            1 => self.weights_n::<2>(x, w),
+            2 => self.weights_n::<3>(x, w),
+            3 => self.weights_n::<4>(x, w),
+            4 => self.weights_n::<5>(x, w),
+            5 => self.weights_n::<6>(x, w),
+            _ => self.weights(x, w),
+        }
     }
 }
 
@@ -147,14 +187,30 @@ impl Lagrange {
     }
 }
 
-impl Interpolator for Lagrange {
-    fn predict(&self, p: [f64; 3]) -> f64 {
-        let mut wx = [0.0; MAX_DEGREE + 1];
-        let mut wy = [0.0; MAX_DEGREE + 1];
-        let mut wz = [0.0; MAX_DEGREE + 1];
-        let sx = self.axes[0].weights(p[0], &mut wx);
-        let sy = self.axes[1].weights(p[1], &mut wy);
-        let sz = self.axes[2].weights(p[2], &mut wz);
+/// Weight buffers of this many entries serve degrees up to 7 without zeroing the
+/// 32-entry buffers the highest degrees need.
+const SMALL: usize = 8;
+
+impl Lagrange {
+    /// The tensor sum with weight buffers of `B` entries (B > every degree).
+    #[inline(always)]
+    fn predict_with<const B: usize>(&self, p: [f64; 3]) -> f64 {
+        let mut wx = [0.0; B];
+        let mut wy = [0.0; B];
+        let mut wz = [0.0; B];
+        let [sx, sy, sz] = if B == SMALL {
+            [
+                self.axes[0].weights_small(p[0], &mut wx),
+                self.axes[1].weights_small(p[1], &mut wy),
+                self.axes[2].weights_small(p[2], &mut wz),
+            ]
+        } else {
+            [
+                self.axes[0].weights(p[0], &mut wx),
+                self.axes[1].weights(p[1], &mut wy),
+                self.axes[2].weights(p[2], &mut wz),
+            ]
+        };
         let [dx, dy, dz] = self.order.0;
         let [nx, ny, _] = self.grid.shape();
         let v = &self.grid.values;
@@ -177,6 +233,16 @@ impl Interpolator for Lagrange {
             _ => t.sum_dyn(&wx[..=dx]),
         }
     }
+}
+
+impl Interpolator for Lagrange {
+    fn predict(&self, p: [f64; 3]) -> f64 {
+        if self.order.0.iter().all(|&d| d < SMALL) {
+            self.predict_with::<SMALL>(p)
+        } else {
+            self.predict_with::<{ MAX_DEGREE + 1 }>(p)
+        }
+    }
 
     fn outside(&self, p: [f64; 3]) -> bool {
         self.grid.outside(p)
@@ -196,14 +262,16 @@ struct Tensor<'a> {
 impl Tensor<'_> {
     /// Σ_k wz_k Σ_j wy_j Σ_i wx_i v_ijk with N = d_x + 1 known at compile time.
     #[inline(always)]
-    fn sum<const N: usize>(&self, wx: &[f64; MAX_DEGREE + 1]) -> f64 {
+    fn sum<const N: usize>(&self, wx: &[f64]) -> f64 {
+        let wx: &[f64; N] = wx[..N].try_into().expect("N weights");
         let [sx, sy, sz] = self.base;
         let mut sum = 0.0;
         for (k, &wzk) in self.wz.iter().enumerate() {
+            let first = sx + self.nx * (sy + self.ny * (sz + k));
             let mut plane = 0.0;
             for (j, &wyj) in self.wy.iter().enumerate() {
-                let b = sx + self.nx * (sy + j + self.ny * (sz + k));
-                let line = &self.v[b..b + N];
+                let b = first + self.nx * j;
+                let line: &[f64; N] = self.v[b..b + N].try_into().expect("N values");
                 let mut acc = 0.0;
                 for i in 0..N {
                     acc += wx[i] * line[i];

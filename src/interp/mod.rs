@@ -238,12 +238,14 @@ fn check_grid(grid: &Grid) -> Result<(), InterpError> {
     Ok(())
 }
 
-/// Weights of a two-node (cell) scheme along one axis: the low node's index and the
-/// weights of the low and high node. An axis with a single node gets weight 1 on it.
+/// Weights of a two-node (cell) scheme along one axis: the low node's index, the
+/// weights of the low and high node, and the high node's index step (1, or 0 on an axis
+/// with a single node, which gets weight 1 on that node and reads it twice).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct CellWeights {
     pub lo: usize,
     pub w: [f64; 2],
+    pub next: usize,
 }
 
 /// Finds a query's interval along one axis: O(1) on evenly spaced nodes (the usual
@@ -302,8 +304,19 @@ impl Locator {
         if self.nodes.len() < 2 {
             return None;
         }
-        let i = self.interval(x);
-        Some((i, (x - self.nodes[i]) / (self.nodes[i + 1] - self.nodes[i])))
+        let n = self.nodes.len();
+        match self.uniform {
+            // u from the scaled coordinate the index came from: no division.
+            Some((x0, inv_h)) => {
+                let f = (x - x0) * inv_h;
+                let i = if f > 0.0 { f as usize } else { 0 }.min(n - 2);
+                Some((i, f - i as f64))
+            }
+            None => {
+                let i = interval(&self.nodes, x);
+                Some((i, (x - self.nodes[i]) / (self.nodes[i + 1] - self.nodes[i])))
+            }
+        }
     }
 }
 
@@ -312,40 +325,28 @@ pub(crate) fn locators(grid: &Grid) -> [Locator; 3] {
     [0, 1, 2].map(|a| Locator::new(grid.axis(a)))
 }
 
-/// Σ over the 8 cell corners of w_x · w_y · w_z · value.
+/// Σ over the 8 cell corners of w_x · w_y · w_z · value, without branches: a
+/// single-node axis reads its one node twice with weights 1 and 0.
 #[inline]
 pub(crate) fn cell_sum(grid: &Grid, w: [CellWeights; 3]) -> f64 {
     let [nx, ny, _] = grid.shape();
-    let mut sum = 0.0;
-    for dk in 0..2 {
-        let wz = w[2].w[dk];
-        if wz == 0.0 {
-            continue;
-        }
-        for dj in 0..2 {
-            let wy = w[1].w[dj];
-            if wy == 0.0 {
-                continue;
-            }
-            let base = w[0].lo + nx * (w[1].lo + dj + ny * (w[2].lo + dk));
-            let mut line = w[0].w[0] * grid.values[base];
-            if w[0].w[1] != 0.0 {
-                line += w[0].w[1] * grid.values[base + 1];
-            }
-            sum += wz * wy * line;
-        }
-    }
-    sum
+    let v = &grid.values;
+    let step = [w[0].next, nx * w[1].next, nx * ny * w[2].next];
+    let base = w[0].lo + nx * (w[1].lo + ny * w[2].lo);
+    let line = |b: usize| w[0].w[0] * v[b] + w[0].w[1] * v[b + step[0]];
+    let plane = |b: usize| w[1].w[0] * line(b) + w[1].w[1] * line(b + step[1]);
+    w[2].w[0] * plane(base) + w[2].w[1] * plane(base + step[2])
 }
 
-/// Cell weights for a single-node axis: all weight on node 0, none on the (absent) next.
+/// Cell weights for a single-node axis: all weight on node 0.
 pub(crate) const SINGLE: CellWeights = CellWeights {
     lo: 0,
     w: [1.0, 0.0],
+    next: 0,
 };
 
 /// Evaluates a scheme given by a per-axis weight rule over the grid's cells. Single-node
-/// axes get [`SINGLE`]; on such an axis `lo + 1` is never read because its weight is 0.
+/// axes get [`SINGLE`].
 #[inline]
 pub(crate) fn eval_cells(
     grid: &Grid,
@@ -356,7 +357,11 @@ pub(crate) fn eval_cells(
     let mut w = [SINGLE; 3];
     for (a, slot) in w.iter_mut().enumerate() {
         if let Some((lo, u)) = loc[a].cell(p[a]) {
-            *slot = CellWeights { lo, w: rule(u) };
+            *slot = CellWeights {
+                lo,
+                w: rule(u),
+                next: 1,
+            };
         }
     }
     cell_sum(grid, w)
