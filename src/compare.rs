@@ -7,8 +7,8 @@
 //! table ([`crate::cv`]); the recommendation is the lowest cross-validated RMS and never
 //! looks at the test points.
 
-use crate::cv::{CvResult, leave_one_plane_out};
-use crate::interp::{InterpError, Method, Order, fuzzy, lagrange::admissible_orders};
+use crate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out};
+use crate::interp::{InterpError, Interpolator, Method, Order, fuzzy, lagrange::admissible_orders};
 use crate::table::{ErrorTable, Grid};
 
 /// Highest Lagrange degree per axis tried by default (`--orders all` on a dense grid
@@ -70,18 +70,82 @@ pub struct SamplingAdvice {
 /// Number of next nodes the advice proposes.
 pub const ADVICE_NODES: usize = 5;
 
-fn sampling_advice(table: &ErrorTable, grid: &Grid) -> Option<SamplingAdvice> {
+/// The fitting nodes' extent and typical spacing per axis, as the advice needs them.
+#[derive(Debug, Clone, Copy)]
+pub struct Extent {
+    /// Smallest and largest coordinate per axis, mm.
+    pub bounds: [[f64; 2]; 3],
+    /// Node spacing per axis, mm: the median gap between grid nodes. For scattered nodes,
+    /// the median gap between distinct coordinates when the nodes lie on at most n/2
+    /// planes across the axis (a grid with holes), else the spacing of an even grid with
+    /// as many nodes over the same box: extent / (n^(1/D) − 1), D the number of axes the
+    /// nodes span.
+    pub spacing_mm: [f64; 3],
+}
+
+impl Extent {
+    pub fn of_grid(grid: &Grid) -> Extent {
+        Extent {
+            bounds: [0, 1, 2].map(|a| {
+                let v = grid.axis(a);
+                [v[0], v[v.len() - 1]]
+            }),
+            spacing_mm: [0, 1, 2].map(|a| {
+                let mut d: Vec<f64> = grid.axis(a).windows(2).map(|w| w[1] - w[0]).collect();
+                d.sort_by(f64::total_cmp);
+                d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
+            }),
+        }
+    }
+
+    pub fn of_points(table: &ErrorTable) -> Extent {
+        let bounds = [0, 1, 2].map(|a| {
+            table
+                .points
+                .iter()
+                .map(|p| p.position()[a])
+                .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| {
+                    [lo.min(v), hi.max(v)]
+                })
+        });
+        let n = table.points.len();
+        let spans = bounds.iter().filter(|b| b[1] > b[0]).count().max(1);
+        let per_axis = (n as f64).powf(1.0 / spans as f64);
+        let spacing_mm = std::array::from_fn(|a| {
+            let [lo, hi] = bounds[a];
+            let mut v: Vec<f64> = table.points.iter().map(|p| p.position()[a]).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            if hi <= lo {
+                f64::NAN
+            } else if 2 * v.len() <= n {
+                // Nodes on a few planes (a grid with holes): the gap between planes.
+                let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
+                d.sort_by(f64::total_cmp);
+                d[d.len() / 2]
+            } else {
+                (hi - lo) / (per_axis - 1.0).max(1.0)
+            }
+        });
+        Extent { bounds, spacing_mm }
+    }
+
+    /// Whether `p` lies outside the box (relative tolerance 1e-9).
+    pub fn outside(&self, p: [f64; 3]) -> bool {
+        (0..3).any(|a| {
+            let [lo, hi] = self.bounds[a];
+            let tol = 1e-9 * (hi - lo).abs().max(1.0);
+            p[a] < lo - tol || p[a] > hi + tol
+        })
+    }
+}
+
+fn sampling_advice(table: &ErrorTable, extent: &Extent) -> Option<SamplingAdvice> {
     let gp = crate::gp::Gp::fit(&table.points, &crate::gp::GpConfig::default()).ok()?;
     let h = gp.hyper();
-    let spacing_mm = [0, 1, 2].map(|a| {
-        let mut d: Vec<f64> = grid.axis(a).windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(f64::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
-    });
     // Candidates: a 9-point lattice per axis over the table's volume.
     let lattice = |a: usize| -> Vec<f64> {
-        let v = grid.axis(a);
-        let (lo, hi) = (v[0], v[v.len() - 1]);
+        let [lo, hi] = extent.bounds[a];
         (0..9).map(|k| lo + (hi - lo) * k as f64 / 8.0).collect()
     };
     let (lx, ly, lz) = (lattice(0), lattice(1), lattice(2));
@@ -93,9 +157,10 @@ fn sampling_advice(table: &ErrorTable, grid: &Grid) -> Option<SamplingAdvice> {
             }
         }
     }
+    candidates.dedup();
     Some(SamplingAdvice {
         length_scales_mm: h.length_scales_mm,
-        spacing_mm,
+        spacing_mm: extent.spacing_mm,
         kernel: gp.kernel().name().to_string(),
         signal_sd_um: h.signal_sd_um,
         noise_sd_um: h.noise_sd_um,
@@ -119,8 +184,16 @@ pub struct PaperColumn {
 #[derive(Debug, Clone)]
 pub struct Comparison {
     pub fit_source: String,
+    /// Number of fitting nodes.
+    pub fit_nodes: usize,
     pub test: ErrorTable,
-    pub grid: Grid,
+    /// The fitting grid; `None` for a scattered table (Gaussian process only).
+    pub grid: Option<Grid>,
+    /// Box and spacing of the fitting nodes.
+    pub extent: Extent,
+    /// Methods (by name) that cannot be fitted to this table, with the reason
+    /// (scattered tables).
+    pub refused: Vec<(String, String)>,
     pub rows: Vec<ModelRow>,
     pub extrapolated: Vec<bool>,
     /// Index into `rows` of the model with the lowest cross-validated RMS.
@@ -143,20 +216,73 @@ pub fn compare(
     test: &ErrorTable,
     methods: &[Method],
 ) -> Result<Comparison, InterpError> {
-    let pts: Vec<[f64; 3]> = test.points.iter().map(|p| p.position()).collect();
-    let extrapolated: Vec<bool> = pts.iter().map(|&p| grid.outside(p)).collect();
+    let extent = Extent::of_grid(grid);
     let mut rows = Vec::with_capacity(methods.len());
     for method in methods {
         let model = method.fit(grid)?;
+        let cv = leave_one_plane_out(grid, method)?;
+        rows.push(ModelRow::evaluate(*method, model.as_ref(), cv, test));
+    }
+    Ok(Comparison::assemble(
+        table,
+        Some(grid),
+        extent,
+        test,
+        methods,
+        rows,
+        Vec::new(),
+    ))
+}
+
+/// [`compare`] for a scattered table (nodes not on a full rectilinear grid): only the
+/// methods that accept scattered nodes (the Gaussian process) are fitted, each
+/// cross-validated leave-one-out ([`leave_one_out_gp`]). `refused` lists the methods the
+/// caller left out, each with the reason (which should name a missing grid node).
+pub fn compare_scattered(
+    table: &ErrorTable,
+    test: &ErrorTable,
+    methods: &[Method],
+    refused: Vec<(String, String)>,
+) -> Result<Comparison, InterpError> {
+    let extent = Extent::of_points(table);
+    let values: Vec<f64> = table.points.iter().map(|p| p.e_um).collect();
+    let mut rows = Vec::new();
+    for method in methods {
+        let Method::Gp(kernel) = *method else {
+            return Err(InterpError::NeedsGrid {
+                method: method.name(),
+            });
+        };
+        let config = crate::gp::GpConfig {
+            kernel,
+            ..crate::gp::GpConfig::default()
+        };
+        let gp = crate::gp::Gp::fit(&table.points, &config)
+            .map_err(|e| InterpError::Gp(e.to_string()))?;
+        let cv = leave_one_out_gp(&gp, &values);
+        rows.push(ModelRow::evaluate(*method, &gp, cv, test));
+    }
+    if rows.is_empty() {
+        return Err(InterpError::Gp(
+            "no Gaussian-process model to compare".into(),
+        ));
+    }
+    Ok(Comparison::assemble(
+        table, None, extent, test, methods, rows, refused,
+    ))
+}
+
+impl ModelRow {
+    /// A fitted model's predictions at the test points, their errors and calibration.
+    fn evaluate(
+        method: Method,
+        model: &dyn Interpolator,
+        cv: CvResult,
+        test: &ErrorTable,
+    ) -> ModelRow {
+        let pts: Vec<[f64; 3]> = test.points.iter().map(|p| p.position()).collect();
         let mut predictions = vec![0.0; pts.len()];
         model.predict_into(&pts, &mut predictions);
-        let resid = || {
-            predictions
-                .iter()
-                .zip(&test.points)
-                .map(|(p, t)| p - t.e_um)
-        };
-        let cv = leave_one_plane_out(grid, method)?;
         let sigmas: Vec<Option<f64>> = pts.iter().map(|&p| model.sigma(p)).collect();
         let within = |k: f64| -> Option<f64> {
             let hits: Vec<bool> = sigmas
@@ -169,54 +295,88 @@ pub fn compare(
                 .then(|| hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64)
         };
         let (within_1s, within_2s) = (within(1.0), within(2.0));
-        rows.push(ModelRow {
-            method: *method,
-            rms_um: rms(resid()).unwrap_or(f64::NAN),
-            max_abs_um: resid().fold(0.0, |m, r| m.max(r.abs())),
-            inside_rms_um: rms(resid()
-                .zip(&extrapolated)
-                .filter(|(_, e)| !**e)
-                .map(|(r, _)| r)),
+        let resid: Vec<f64> = predictions
+            .iter()
+            .zip(&test.points)
+            .map(|(p, t)| p - t.e_um)
+            .collect();
+        let inside: Vec<f64> = resid
+            .iter()
+            .zip(&pts)
+            .filter(|(_, p)| !model.outside(**p))
+            .map(|(r, _)| *r)
+            .collect();
+        ModelRow {
+            method,
+            rms_um: rms(resid.iter().copied()).unwrap_or(f64::NAN),
+            max_abs_um: resid.iter().fold(0.0, |m, r| m.max(r.abs())),
+            inside_rms_um: rms(inside.into_iter()),
             cv,
             predictions,
             sigmas,
             within_1s,
             within_2s,
-        });
+        }
     }
-    let recommended = rows
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.cv.rms_um.is_finite())
-        .min_by(|a, b| a.1.cv.rms_um.total_cmp(&b.1.cv.rms_um))
-        .map(|(i, _)| i)
-        .unwrap_or(0);
-    let paper = paper_columns(test, grid);
-    let advice = methods
-        .iter()
-        .any(|m| matches!(m, Method::Gp(_)))
-        .then(|| sampling_advice(table, grid))
-        .flatten();
-    Ok(Comparison {
-        fit_source: table.source.clone(),
-        test: test.clone(),
-        grid: grid.clone(),
-        rows,
-        extrapolated,
-        recommended,
-        paper,
-        advice,
-    })
+}
+
+impl Comparison {
+    /// Ranks the rows by cross-validation and adds the paper columns and the advice.
+    fn assemble(
+        table: &ErrorTable,
+        grid: Option<&Grid>,
+        extent: Extent,
+        test: &ErrorTable,
+        methods: &[Method],
+        rows: Vec<ModelRow>,
+        refused: Vec<(String, String)>,
+    ) -> Comparison {
+        let extrapolated: Vec<bool> = test
+            .points
+            .iter()
+            .map(|p| extent.outside(p.position()))
+            .collect();
+        let recommended = rows
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.cv.rms_um.is_finite())
+            .min_by(|a, b| a.1.cv.rms_um.total_cmp(&b.1.cv.rms_um))
+            .map(|(i, _)| i)
+            .unwrap_or(0);
+        let paper = paper_columns(test, grid);
+        let advice = methods
+            .iter()
+            .any(|m| matches!(m, Method::Gp(_)))
+            .then(|| sampling_advice(table, &extent))
+            .flatten();
+        Comparison {
+            fit_source: table.source.clone(),
+            fit_nodes: table.points.len(),
+            test: test.clone(),
+            grid: grid.cloned(),
+            extent,
+            refused,
+            rows,
+            extrapolated,
+            recommended,
+            paper,
+            advice,
+        }
+    }
 }
 
 /// Finds `paper_MxNxQ` columns in the test table and reproduces them where the grid allows.
-fn paper_columns(test: &ErrorTable, grid: &Grid) -> Vec<PaperColumn> {
+fn paper_columns(test: &ErrorTable, grid: Option<&Grid>) -> Vec<PaperColumn> {
     let pts: Vec<[f64; 3]> = test.points.iter().map(|p| p.position()).collect();
     test.extra
         .iter()
         .filter_map(|c| {
             let order: Order = c.name.strip_prefix("paper_")?.parse().ok()?;
-            let (ours, refused) = match Method::Lagrange(order).fit(grid) {
+            let fitted = match grid {
+                Some(grid) => Method::Lagrange(order).fit(grid),
+                None => Err(InterpError::NeedsGrid { method: "lagrange" }),
+            };
+            let (ours, refused) = match fitted {
                 Ok(model) => (Some(pts.iter().map(|&p| model.predict(p)).collect()), None),
                 Err(e) => (None, Some(e.to_string())),
             };
@@ -258,41 +418,35 @@ impl Comparison {
     /// Plain-words findings for an engineer deciding how many nodes to measure next time.
     pub fn findings(&self) -> Vec<String> {
         let mut out = Vec::new();
-        let shape = self.grid.shape();
         let n_test = self.extrapolated.len();
         let outside = self.extrapolated.iter().filter(|e| **e).count();
-        out.push(format!(
-            "Only {} of the {} test points lie inside the fitted grid; the other {} are extrapolations, \
-             where every method is guessing beyond the measured nodes.",
-            n_test - outside,
-            n_test,
-            outside
-        ));
-        for (a, name) in ["x", "y", "z"].iter().enumerate() {
-            let nodes = self.grid.axis(a);
-            if shape[a] == 2 {
-                out.push(format!(
-                    "{name} has only 2 nodes ({} and {} mm): no {name} degree above 1 is possible, any \
-                     curvature along {name} is invisible to every method, and leaving one {name} plane out \
-                     leaves a model that is constant along {name}. Measure at least 3–5 {name} positions next time.",
-                    nodes[0], nodes[1]
-                ));
-            }
+        let within = if self.grid.is_some() {
+            "the fitted grid"
+        } else {
+            "the box of the fitting nodes"
+        };
+        if outside > 0 {
+            out.push(format!(
+                "Only {} of the {} test points lie inside {within}; the other {} are extrapolations, \
+                 where every method is guessing beyond the measured nodes.",
+                n_test - outside,
+                n_test,
+                outside
+            ));
+        } else {
+            out.push(format!("All {n_test} test points lie inside {within}."));
         }
-        for (a, name) in ["x", "y", "z"].iter().enumerate() {
-            let nodes = self.grid.axis(a);
-            let on_nodes = self
-                .test
-                .points
-                .iter()
-                .all(|p| nodes.contains(&p.position()[a]));
-            if on_nodes && shape[a] > 1 {
-                out.push(format!(
-                    "Every test point's {name} coordinate is one of the {name} nodes, so the {name} degree \
-                     changes no test prediction: models differing only in it tie on the test points, and the \
-                     test points say nothing about how well any model interpolates between {name} nodes."
-                ));
-            }
+        if !self.refused.is_empty() {
+            let names: Vec<&str> = self.refused.iter().map(|(m, _)| m.as_str()).collect();
+            out.push(format!(
+                "The fitting table is scattered, not a full grid, so only the Gaussian process is fitted; \
+                 {} cannot be, as {}. Cross-validation leaves out one node at a time.",
+                names.join(", "),
+                self.refused[0].1
+            ));
+        }
+        if let Some(grid) = &self.grid {
+            out.extend(grid_findings(grid, &self.test));
         }
         let rec = self.recommended_row();
         let best_idx = self.best_on_test();
@@ -378,17 +532,55 @@ impl Comparison {
                 }
             }
         }
-        for p in &self.paper {
-            if let Some(why) = &p.refused {
-                out.push(format!(
-                    "The paper's {} column cannot be reproduced from this table: {}. The paper used nodes it \
-                     did not publish; errmap does not invent them.",
-                    p.order, why
-                ));
-            }
+        let refused: Vec<(String, String)> = self
+            .paper
+            .iter()
+            .filter_map(|p| Some((p.order.to_string(), p.refused.clone()?)))
+            .collect();
+        for (orders, why) in crate::report::group_by_reason(&refused) {
+            out.push(format!(
+                "The paper's {} column{} cannot be reproduced from this table: {}.{}",
+                orders.join(", "),
+                if orders.len() > 1 { "s" } else { "" },
+                why,
+                if self.grid.is_some() {
+                    " The paper used nodes it did not publish; errmap does not invent them."
+                } else {
+                    ""
+                }
+            ));
         }
         out
     }
+}
+
+/// What the grid's shape means for the orders and for the test points.
+fn grid_findings(grid: &Grid, test: &ErrorTable) -> Vec<String> {
+    let mut out = Vec::new();
+    let shape = grid.shape();
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let nodes = grid.axis(a);
+        if shape[a] == 2 {
+            out.push(format!(
+                "{name} has only 2 nodes ({} and {} mm): no {name} degree above 1 is possible, any \
+                 curvature along {name} is invisible to every method, and leaving one {name} plane out \
+                 leaves a model that is constant along {name}. Measure at least 3–5 {name} positions next time.",
+                nodes[0], nodes[1]
+            ));
+        }
+    }
+    for (a, name) in ["x", "y", "z"].iter().enumerate() {
+        let nodes = grid.axis(a);
+        let on_nodes = test.points.iter().all(|p| nodes.contains(&p.position()[a]));
+        if on_nodes && shape[a] > 1 {
+            out.push(format!(
+                "Every test point's {name} coordinate is one of the {name} nodes, so the {name} degree \
+                 changes no test prediction: models differing only in it tie on the test points, and the \
+                 test points say nothing about how well any model interpolates between {name} nodes."
+            ));
+        }
+    }
+    out
 }
 
 /// The Lagrange order with the lowest leave-one-plane-out CV RMS among every admissible

@@ -216,6 +216,8 @@ pub struct Gp {
     hyper: GpHyper,
     lml: f64,
     positions: Vec<[f64; 3]>,
+    /// The fitted errors y, µm.
+    values: Vec<f64>,
     /// Lower Cholesky factor of K + σₙ²I.
     l: DMatrix<f64>,
     /// (K + σₙ²I)⁻¹(y − m̂).
@@ -254,14 +256,11 @@ impl Gp {
         let scale = if sd > 0.0 && sd.is_finite() { sd } else { 1.0 };
 
         // Per-axis extent and smallest spacing of distinct coordinates.
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
+        let (lo, hi) = bounding_box(&positions);
         let mut spacing = [f64::INFINITY; 3];
         for a in 0..3 {
             let mut c: Vec<f64> = positions.iter().map(|p| p[a]).collect();
             c.sort_by(f64::total_cmp);
-            lo[a] = c[0];
-            hi[a] = c[n - 1];
             for w in c.windows(2) {
                 let d = w[1] - w[0];
                 if d > 0.0 {
@@ -272,7 +271,7 @@ impl Gp {
         let extent: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
         let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 0.0).collect();
         let longest = extent.iter().copied().fold(1.0, f64::max);
-        let mut fixed_ls = [1e3 * longest; 3];
+        let fixed_ls = [1e3 * longest; 3];
 
         let mut bounds = Vec::with_capacity(free.len() + 2);
         for &a in &free {
@@ -342,9 +341,42 @@ impl Gp {
         };
 
         let (ls, sf2, sn2) = objective.unpack(&theta);
-        for (slot, &a) in free.iter().enumerate() {
-            fixed_ls[a] = theta[slot].exp();
-        }
+        Self::condition(config.kernel, positions, &objective, ls, sf2, sn2, lo, hi)
+    }
+
+    /// Conditions on `points` with the hyperparameters held at `hyper` (no likelihood
+    /// search): e.g. the model of a subset, or of new nodes, under the same prior. The
+    /// mean is re-estimated by GLS; `hyper.mean_um` is ignored. Same checks on the points
+    /// as [`Gp::fit`].
+    pub fn with_hyper(
+        points: &[ErrorPoint],
+        kernel: Kernel,
+        hyper: &GpHyper,
+    ) -> Result<Gp, GpError> {
+        let positions = validate(points)?;
+        let y: Vec<f64> = points.iter().map(|p| p.e_um).collect();
+        let (lo, hi) = bounding_box(&positions);
+        let ls = hyper.length_scales_mm;
+        let objective = Objective::new(kernel, &positions, &y, Vec::new(), ls);
+        let sf2 = hyper.signal_sd_um.powi(2);
+        // The fitted noise includes the nugget, which factoring adds again.
+        let sn2 = (hyper.noise_sd_um.powi(2) - NUGGET * sf2).max(0.0);
+        Self::condition(kernel, positions, &objective, ls, sf2, sn2, lo, hi)
+    }
+
+    /// Factors K + σₙ²I at the given hyperparameters (raising the nugget if it must) and
+    /// builds the model.
+    #[allow(clippy::too_many_arguments)]
+    fn condition(
+        kernel: Kernel,
+        positions: Vec<[f64; 3]>,
+        objective: &Objective<'_>,
+        ls: [f64; 3],
+        sf2: f64,
+        sn2: f64,
+        lo: [f64; 3],
+        hi: [f64; 3],
+    ) -> Result<Gp, GpError> {
         let mut nugget = NUGGET;
         let factor = loop {
             if let Some(f) = objective.factor(ls, sf2, sn2, nugget) {
@@ -358,7 +390,7 @@ impl Gp {
             }
         };
         let hyper = GpHyper {
-            length_scales_mm: fixed_ls,
+            length_scales_mm: ls,
             signal_sd_um: sf2.sqrt(),
             noise_sd_um: (sn2 + nugget * sf2).sqrt(),
             mean_um: factor.mean,
@@ -366,10 +398,11 @@ impl Gp {
         let b = factor.l_inv_ones;
         let bb = b.norm_squared();
         Ok(Gp {
-            kernel: config.kernel,
+            kernel,
             hyper,
             lml: factor.lml,
             positions,
+            values: objective.y.to_vec(),
             l: factor.chol.unpack(),
             alpha: factor.alpha,
             b,
@@ -377,6 +410,25 @@ impl Gp {
             lo,
             hi,
         })
+    }
+
+    /// Leave-one-out predictions of every fitted node from all the others, with the
+    /// hyperparameters held and the GLS mean re-estimated in each fold, in closed form
+    /// (Dubrule 1983; R&W Eq. 5.12 for a known mean): with
+    /// Q = K⁻¹ − K⁻¹11ᵀK⁻¹ / 1ᵀK⁻¹1 (K including the noise), the held-out residual is
+    /// yᵢ − ŷ₋ᵢ = (Qy)ᵢ / Qᵢᵢ = αᵢ / Qᵢᵢ and its one-sigma, for a measured value, is
+    /// 1/√Qᵢᵢ. Returns (ŷ₋ᵢ, σ₋ᵢ) per node in fit order. O(n³), one inverse.
+    pub fn leave_one_out(&self) -> Vec<(f64, f64)> {
+        let n = self.positions.len();
+        let ki = inverse_lower(self.l.as_slice(), n);
+        let at = |i: usize, j: usize| if i >= j { ki[i + j * n] } else { ki[j + i * n] };
+        (0..n)
+            .map(|i| {
+                let kinv_1: f64 = (0..n).map(|j| at(i, j)).sum();
+                let q = at(i, i) - kinv_1 * kinv_1 / self.bb;
+                (self.values[i] - self.alpha[i] / q, q.recip().sqrt())
+            })
+            .collect()
     }
 
     /// The fitted hyperparameters.
@@ -531,6 +583,19 @@ impl Interpolator for Gp {
             p[a] < self.lo[a] - tol || p[a] > self.hi[a] + tol
         })
     }
+}
+
+/// The smallest and largest coordinate per axis.
+fn bounding_box(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in positions {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
 }
 
 fn validate(points: &[ErrorPoint]) -> Result<Vec<[f64; 3]>, GpError> {

@@ -543,12 +543,64 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
     Ok(out)
 }
 
+/// The models `compare` fits to a scattered table: the Gaussian process only. Asked for
+/// by name, any other method is an error naming the missing grid node; by default both
+/// kernels are compared and the grid methods are listed as not fitted, with the reason.
+fn scattered_methods(
+    a: &CompareArgs,
+    missing: &errmap::table::TableError,
+) -> Result<(Vec<Method>, Vec<(String, String)>)> {
+    use errmap::gp::Kernel;
+    let grid_only = ["trilinear", "spline", "fuzzy", "lagrange"];
+    let why = format!("a full grid is needed ({missing})");
+    match &a.methods {
+        Some(names) => {
+            let mut methods = Vec::new();
+            for name in names {
+                match name.trim() {
+                    "gp" => methods.push(parse_method("gp", None, &a.model, None)?),
+                    other if grid_only.contains(&other) => bail!(
+                        "{other} cannot be fitted to {}: {why}. Only gp accepts scattered nodes.",
+                        a.table.display()
+                    ),
+                    other => {
+                        bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp)")
+                    }
+                }
+            }
+            if methods.is_empty() {
+                bail!("no methods to compare");
+            }
+            Ok((methods, Vec::new()))
+        }
+        None => Ok((
+            vec![
+                Method::Gp(Kernel::Matern52),
+                Method::Gp(Kernel::SquaredExponential),
+            ],
+            grid_only
+                .iter()
+                .map(|m| (m.to_string(), why.clone()))
+                .collect(),
+        )),
+    }
+}
+
 fn compare_cmd(a: CompareArgs) -> Result<()> {
-    let (table, grid) = read_grid_table(&a.table)?;
+    let table = ErrorTable::read(&a.table)?;
     let test = ErrorTable::read(&a.test)?;
-    let methods = compare_methods(&a, &grid)?;
-    let comparison = compare::compare(&table, &grid, &test, &methods)
-        .with_context(|| format!("{}: comparison failed", a.table.display()))?;
+    let comparison = match table.grid() {
+        Ok(grid) => {
+            let methods = compare_methods(&a, &grid)?;
+            compare::compare(&table, &grid, &test, &methods)
+        }
+        Err(e @ errmap::table::TableError::MissingNode { .. }) => {
+            let (methods, refused) = scattered_methods(&a, &e)?;
+            compare::compare_scattered(&table, &test, &methods, refused)
+        }
+        Err(e) => return Err(e.into()),
+    }
+    .with_context(|| format!("{}: comparison failed", a.table.display()))?;
     let command = format!(
         "errmap compare {} --test {} --report {}{}",
         a.table.display(),

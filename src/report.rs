@@ -9,6 +9,7 @@ use polars::prelude::*;
 use serde::Serialize;
 
 use crate::compare::Comparison;
+use crate::cv::CvScheme;
 use crate::interp::Method;
 use crate::plot::{self, PlotError};
 use crate::table::{TableError, write_frame};
@@ -35,6 +36,14 @@ pub struct CompareJson {
     pub recommended: MethodJson,
     pub extrapolated: Vec<bool>,
     pub report: Option<String>,
+    /// Methods not fitted (scattered tables), with the reason.
+    pub refused: Vec<RefusedJson>,
+}
+
+#[derive(Debug, Serialize)]
+pub struct RefusedJson {
+    pub method: String,
+    pub reason: String,
 }
 
 #[derive(Debug, Serialize)]
@@ -50,6 +59,7 @@ pub struct CompareJsonRow {
     pub cv_interior_rms_um: Option<f64>,
     pub cv_capped_folds: usize,
     pub cv_folds: usize,
+    pub cv_scheme: CvScheme,
     /// One-sigma per prediction where the method has one (GP), else null.
     pub sigmas: Vec<Option<f64>>,
     pub within_1s: Option<f64>,
@@ -93,6 +103,7 @@ impl Comparison {
                     cv_interior_rms_um: r.cv.interior_rms_um,
                     cv_capped_folds: r.cv.capped_folds,
                     cv_folds: r.cv.folds,
+                    cv_scheme: r.cv.scheme,
                     sigmas: r.sigmas.clone(),
                     within_1s: r.within_1s,
                     within_2s: r.within_2s,
@@ -101,8 +112,23 @@ impl Comparison {
             recommended: (&self.recommended_row().method).into(),
             extrapolated: self.extrapolated.clone(),
             report: report.map(|p| p.display().to_string()),
+            refused: self
+                .refused
+                .iter()
+                .map(|(m, why)| RefusedJson {
+                    method: m.clone(),
+                    reason: why.clone(),
+                })
+                .collect(),
         }
     }
+}
+
+fn capitalise(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }
 
 fn opt(v: Option<f64>, digits: usize) -> String {
@@ -160,6 +186,10 @@ pub fn write_report(
                 .iter()
                 .map(|r| r.method.order().map(|o| o.to_string()))
                 .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "label".into(),
+            c.rows.iter().map(|r| r.method.label()).collect::<Vec<_>>(),
         ),
         Column::new(
             "rms_um".into(),
@@ -242,10 +272,12 @@ pub fn write_report(
     }
     for &i in &feat {
         let r = &c.rows[i];
-        let name = match r.method.order() {
-            Some(o) => format!("lagrange_{o}"),
-            None => r.method.name().to_string(),
-        };
+        let name = r
+            .method
+            .label()
+            .replace('×', "x")
+            .replace("σ=", "sigma_")
+            .replace(' ', "_");
         cols.push(Column::new(name.clone().into(), r.predictions.clone()));
         if r.sigmas.iter().any(Option::is_some) {
             cols.push(Column::new(
@@ -310,7 +342,10 @@ pub fn write_report(
     }
     written.extend(plot::bars(
         &dir.join("cv_per_order"),
-        "Leave-one-plane-out CV RMS per model (bars) and test RMS (markers)",
+        &format!(
+            "{} CV RMS per model (bars) and test RMS (markers)",
+            capitalise(c.recommended_row().cv.scheme.label())
+        ),
         "RMS (µm)",
         &shown_all
             .iter()
@@ -340,28 +375,51 @@ pub fn write_report(
 
 fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> String {
     let mut s = String::new();
-    let shape = c.grid.shape();
     let _ = writeln!(s, "# Interpolation order and method comparison\n");
     let _ = writeln!(s, "Regenerate with `{command}`.\n");
-    let _ = writeln!(
-        s,
-        "- Fitting table: `{}` — a {}×{}×{} grid ({} nodes).",
-        c.fit_source,
-        shape[0],
-        shape[1],
-        shape[2],
-        c.grid.values.len()
-    );
-    for (a, name) in ["x", "y", "z"].iter().enumerate() {
-        let nodes: Vec<String> = c.grid.axis(a).iter().map(|v| format!("{v}")).collect();
-        let _ = writeln!(s, "  - {name} nodes (mm): {}", nodes.join(", "));
+    match &c.grid {
+        Some(grid) => {
+            let shape = grid.shape();
+            let _ = writeln!(
+                s,
+                "- Fitting table: `{}` — a {}×{}×{} grid ({} nodes).",
+                c.fit_source,
+                shape[0],
+                shape[1],
+                shape[2],
+                grid.values.len()
+            );
+            for (a, name) in ["x", "y", "z"].iter().enumerate() {
+                let nodes: Vec<String> = grid.axis(a).iter().map(|v| format!("{v}")).collect();
+                let _ = writeln!(s, "  - {name} nodes (mm): {}", nodes.join(", "));
+            }
+        }
+        None => {
+            let _ = writeln!(
+                s,
+                "- Fitting table: `{}` — {} scattered nodes (not a full grid).",
+                c.fit_source, c.fit_nodes
+            );
+            for (a, name) in ["x", "y", "z"].iter().enumerate() {
+                let [lo, hi] = c.extent.bounds[a];
+                let _ = writeln!(s, "  - {name} from {lo} to {hi} mm");
+            }
+            for (names, why) in group_by_reason(&c.refused) {
+                let _ = writeln!(s, "- Not fitted: {} — {why}.", names.join(", "));
+            }
+        }
     }
     let _ = writeln!(
         s,
-        "- Test points: `{}` — {} points, {} outside the grid (extrapolated).",
+        "- Test points: `{}` — {} points, {} outside the {} (extrapolated).",
         c.test.source,
         c.test.points.len(),
-        c.extrapolated.iter().filter(|e| **e).count()
+        c.extrapolated.iter().filter(|e| **e).count(),
+        if c.grid.is_some() {
+            "grid"
+        } else {
+            "fitting nodes' box"
+        }
     );
     let _ = writeln!(
         s,
@@ -379,21 +437,29 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
     let _ = writeln!(s, "\n## Recommendation\n");
     let _ = writeln!(
         s,
-        "**{}**, chosen by the lowest leave-one-plane-out cross-validated RMS on the fitting table \
+        "**{}**, chosen by the lowest {} cross-validated RMS on the fitting table \
          ({:.4} µm over {} held-out node predictions in {} folds). The test points played no part in \
          this choice.\n",
         rec.method.label(),
+        rec.cv.scheme.label(),
         rec.cv.rms_um,
         rec.cv.predictions,
         rec.cv.folds
     );
-    let _ = writeln!(
-        s,
-        "Caveats: each node is predicted with its whole plane removed, so the CV error is pessimistic \
-         for a dense grid and dominated by the end planes (extrapolation) on a coarse one; a CV ranking on \
-         a grid this small separates models only roughly. Treat it as a guide to the order family, and \
-         measure more nodes along the axes flagged above.\n"
-    );
+    let caveat = match rec.cv.scheme {
+        CvScheme::LeaveOnePlaneOut => {
+            "Caveats: each node is predicted with its whole plane removed, so the CV error is pessimistic \
+             for a dense grid and dominated by the end planes (extrapolation) on a coarse one; a CV ranking on \
+             a grid this small separates models only roughly. Treat it as a guide to the order family, and \
+             measure more nodes along the axes flagged above."
+        }
+        CvScheme::LeaveOneOut => {
+            "Caveats: each node is predicted from all the others with the hyperparameters held at their fit \
+             to every node, so the CV error is slightly optimistic; nodes on the edge of the cloud are \
+             extrapolations and dominate it."
+        }
+    };
+    let _ = writeln!(s, "{caveat}\n");
 
     let _ = writeln!(s, "## Test points (like the paper's Table 2)\n");
     let mut header = vec![
@@ -575,10 +641,25 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
          Gaussian-membership fuzzy interpolator (σ = {} of the cell) follow seed 000. Cross-validation leaves \
          out one whole grid plane at a time along each axis, end planes included, fits on the rest and \
          predicts the removed nodes; where a fold has too few nodes for a Lagrange degree, the degree is \
-         lowered for that fold and counted under \"capped folds\".",
+         lowered for that fold and counted under \"capped folds\". A scattered table (not a full grid) \
+         has no planes: only the Gaussian process (kriging, Matérn 5/2 or squared-exponential kernel, \
+         hyperparameters by maximum likelihood) is fitted, and it is cross-validated leaving one node \
+         out at a time.",
         crate::interp::fuzzy::DEFAULT_SIGMA
     );
     s
+}
+
+/// Groups (item, reason) pairs by reason, keeping first-seen order.
+pub(crate) fn group_by_reason(items: &[(String, String)]) -> Vec<(Vec<&str>, &str)> {
+    let mut out: Vec<(Vec<&str>, &str)> = Vec::new();
+    for (item, why) in items {
+        match out.iter_mut().find(|(_, w)| *w == why.as_str()) {
+            Some((names, _)) => names.push(item),
+            None => out.push((vec![item.as_str()], why.as_str())),
+        }
+    }
+    out
 }
 
 fn rms_of(v: &[f64]) -> Option<f64> {

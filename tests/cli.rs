@@ -213,3 +213,83 @@ fn committed_table2_report_matches_a_fresh_run() {
     let b = b.replace(fresh.to_str().expect("utf8"), "reports/table2");
     assert!(a == b, "reports/table2/report.md is stale");
 }
+
+/// A scattered table (Table 1 without one node): `compare` fits the Gaussian process with
+/// both kernels, cross-validates leaving one node out, and lists the grid methods as not
+/// fitted, naming the missing node; asked for by name, a grid method is an error.
+#[test]
+fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
+    // Drop the node (1.2424, 400, 350).
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with("1.2424,400,350,"))
+        .collect();
+    assert_eq!(kept.len(), text.lines().count() - 1, "one node dropped");
+    let table = dir.path().join("scattered.csv");
+    std::fs::write(&table, kept.join("\n") + "\n").expect("write");
+    let table = table.to_str().expect("utf8");
+    let report = dir.path().join("report");
+    let o = errmap(&[
+        "compare",
+        table,
+        "--test",
+        &dataset("table2.csv"),
+        "--report",
+        report.to_str().expect("utf8"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let rows = v["rows"].as_array().expect("rows");
+    let labels: Vec<&str> = rows.iter().map(|r| r["label"].as_str().unwrap()).collect();
+    assert_eq!(labels, ["gp", "gp se"]);
+    for r in rows {
+        assert_eq!(r["cv_scheme"], "leave_one_out");
+        assert_eq!(r["cv_folds"], 29);
+        assert!(r["cv_rms_um"].as_f64().expect("finite CV") > 0.0);
+        assert!(
+            r["sigmas"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|s| s.as_f64().unwrap() > 0.0)
+        );
+    }
+    assert_eq!(v["recommended"]["method"], "gp");
+    let refused: Vec<&str> = v["refused"]
+        .as_array()
+        .expect("refused")
+        .iter()
+        .map(|r| r["method"].as_str().unwrap())
+        .collect();
+    assert_eq!(refused, ["trilinear", "spline", "fuzzy", "lagrange"]);
+    assert!(
+        v["refused"][0]["reason"]
+            .as_str()
+            .unwrap()
+            .contains("(1.2424, 400, 350)"),
+        "{}",
+        v["refused"][0]
+    );
+    let md = std::fs::read_to_string(report.join("report.md")).expect("report");
+    assert!(md.contains("29 scattered nodes") && md.contains("leave-one-out"));
+
+    let o = errmap(&[
+        "compare",
+        table,
+        "--test",
+        &dataset("table2.csv"),
+        "--methods",
+        "gp,spline",
+        "--report",
+        report.to_str().expect("utf8"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("spline") && e.contains("scattered.csv") && e.contains("(1.2424, 400, 350)"),
+        "{e}"
+    );
+}
