@@ -67,6 +67,9 @@ pub struct SamplingAdvice {
     pub next_nodes: Vec<[f64; 3]>,
 }
 
+/// Methods (by name) not fitted to a table, each with the reason.
+pub type Refusals = Vec<(String, String)>;
+
 /// Number of next nodes the advice proposes.
 pub const ADVICE_NODES: usize = 5;
 
@@ -193,7 +196,7 @@ pub struct Comparison {
     pub extent: Extent,
     /// Methods (by name) that cannot be fitted to this table, with the reason
     /// (scattered tables).
-    pub refused: Vec<(String, String)>,
+    pub refused: Refusals,
     pub rows: Vec<ModelRow>,
     pub extrapolated: Vec<bool>,
     /// Index into `rows` of the model with the lowest cross-validated RMS.
@@ -242,7 +245,7 @@ pub fn compare_scattered(
     table: &ErrorTable,
     test: &ErrorTable,
     methods: &[Method],
-    refused: Vec<(String, String)>,
+    refused: Refusals,
 ) -> Result<Comparison, InterpError> {
     let extent = Extent::of_points(table);
     let values: Vec<f64> = table.points.iter().map(|p| p.e_um).collect();
@@ -329,7 +332,7 @@ impl Comparison {
         test: &ErrorTable,
         methods: &[Method],
         rows: Vec<ModelRow>,
-        refused: Vec<(String, String)>,
+        refused: Refusals,
     ) -> Comparison {
         let extrapolated: Vec<bool> = test
             .points

@@ -549,7 +549,7 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
 fn scattered_methods(
     a: &CompareArgs,
     missing: &errmap::table::TableError,
-) -> Result<(Vec<Method>, Vec<(String, String)>)> {
+) -> Result<(Vec<Method>, compare::Refusals)> {
     use errmap::gp::Kernel;
     let grid_only = ["trilinear", "spline", "fuzzy", "lagrange"];
     let why = format!("a full grid is needed ({missing})");
