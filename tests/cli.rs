@@ -243,7 +243,10 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
     let rows = v["rows"].as_array().expect("rows");
-    let labels: Vec<&str> = rows.iter().map(|r| r["label"].as_str().unwrap()).collect();
+    let labels: Vec<&str> = rows
+        .iter()
+        .map(|r| r["label"].as_str().expect("string"))
+        .collect();
     assert_eq!(labels, ["gp", "gp se"]);
     for r in rows {
         assert_eq!(r["cv_scheme"], "leave_one_out");
@@ -254,7 +257,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
                 .as_array()
                 .unwrap()
                 .iter()
-                .all(|s| s.as_f64().unwrap() > 0.0)
+                .all(|s| s.as_f64().expect("number") > 0.0)
         );
     }
     assert_eq!(v["recommended"]["method"], "gp");
@@ -262,7 +265,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
         .as_array()
         .expect("refused")
         .iter()
-        .map(|r| r["method"].as_str().unwrap())
+        .map(|r| r["method"].as_str().expect("string"))
         .collect();
     assert_eq!(refused, ["trilinear", "spline", "fuzzy", "lagrange"]);
     assert!(
