@@ -255,7 +255,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
         assert!(
             r["sigmas"]
                 .as_array()
-                .unwrap()
+                .expect("array")
                 .iter()
                 .all(|s| s.as_f64().expect("number") > 0.0)
         );
@@ -271,7 +271,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
     assert!(
         v["refused"][0]["reason"]
             .as_str()
-            .unwrap()
+            .expect("string")
             .contains("(1.2424, 400, 350)"),
         "{}",
         v["refused"][0]
