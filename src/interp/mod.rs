@@ -327,7 +327,7 @@ pub(crate) fn locators(grid: &Grid) -> [Locator; 3] {
 
 /// Σ over the 8 cell corners of w_x · w_y · w_z · value, without branches: a
 /// single-node axis reads its one node twice with weights 1 and 0.
-#[inline]
+#[inline(always)]
 pub(crate) fn cell_sum(grid: &Grid, w: [CellWeights; 3]) -> f64 {
     let [nx, ny, _] = grid.shape();
     let v = &grid.values;
@@ -347,7 +347,7 @@ pub(crate) const SINGLE: CellWeights = CellWeights {
 
 /// Evaluates a scheme given by a per-axis weight rule over the grid's cells. Single-node
 /// axes get [`SINGLE`].
-#[inline]
+#[inline(always)]
 pub(crate) fn eval_cells(
     grid: &Grid,
     loc: &[Locator; 3],

@@ -95,13 +95,14 @@ fn second_derivative_along(grid: &Grid, a: usize, values: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Per-axis basis at a point: the cell's low node, how many corners (1 on a single-node
-/// axis), and the weights [value_lo, value_hi, M_lo, M_hi].
-#[inline]
+/// Per-axis basis at a point: the cell's low node, the index step to the high node (1,
+/// or 0 on a single-node axis, whose high-node weights are 0), and the weights
+/// [value_lo, value_hi, M_lo, M_hi].
+#[inline(always)]
 fn axis_basis(loc: &Locator, x: f64) -> (usize, usize, [f64; 4]) {
     let nodes = loc.nodes();
     let Some((i, u)) = loc.cell(x) else {
-        return (0, 1, [1.0, 0.0, 0.0, 0.0]);
+        return (0, 0, [1.0, 0.0, 0.0, 0.0]);
     };
     let h = nodes[i + 1] - nodes[i];
     let b = if u < 0.0 {
@@ -117,7 +118,25 @@ fn axis_basis(loc: &Locator, x: f64) -> (usize, usize, [f64; 4]) {
         let h26 = h * h / 6.0;
         [a, bb, (a * a * a - a) * h26, (bb * bb * bb - bb) * h26]
     };
-    (i, 2, b)
+    (i, 1, b)
+}
+
+/// A node's 8 coefficients, one cache line each: bit 0 of the index = M along x, bit 1 =
+/// along y, bit 2 = along z (0 = the value itself).
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Coef([f64; 8]);
+
+/// One corner's contribution, contracted x, then y, then z; `w` are the corner's
+/// [value, M] weights per axis.
+#[inline(always)]
+fn corner(c: &Coef, w: [[f64; 2]; 3]) -> f64 {
+    let c = &c.0;
+    let [wx, wy, wz] = w;
+    let t = |b: usize| wx[0] * c[b] + wx[1] * c[b | 1];
+    let u0 = wy[0] * t(0) + wy[1] * t(2);
+    let u1 = wy[0] * t(4) + wy[1] * t(6);
+    wz[0] * u0 + wz[1] * u1
 }
 
 /// A fitted tensor natural cubic spline.
@@ -125,8 +144,7 @@ fn axis_basis(loc: &Locator, x: f64) -> (usize, usize, [f64; 4]) {
 pub struct Spline {
     grid: Grid,
     loc: [Locator; 3],
-    /// 8 coefficients per node: bit 0 of the index = M along x, bit 1 = along y, bit 2 = z.
-    coef: Vec<[f64; 8]>,
+    coef: Vec<Coef>,
 }
 
 impl Spline {
@@ -140,7 +158,7 @@ impl Spline {
         let myz = second_derivative_along(grid, 2, &my);
         let mxyz = second_derivative_along(grid, 2, &mxy);
         let coef = (0..v.len())
-            .map(|i| [v[i], mx[i], my[i], mxy[i], mz[i], mxz[i], myz[i], mxyz[i]])
+            .map(|i| Coef([v[i], mx[i], my[i], mxy[i], mz[i], mxz[i], myz[i], mxyz[i]]))
             .collect();
         Self {
             grid: grid.clone(),
@@ -151,28 +169,29 @@ impl Spline {
 }
 
 impl Interpolator for Spline {
+    /// Σ over the cell's 8 corners, each contracted on its own (short dependency chains)
+    /// and summed pairwise; no branches on single-node axes (they read one node twice,
+    /// the second time with weight 0).
     fn predict(&self, p: [f64; 3]) -> f64 {
-        let (ix, cx, bx) = axis_basis(&self.loc[0], p[0]);
-        let (iy, cy, by) = axis_basis(&self.loc[1], p[1]);
-        let (iz, cz, bz) = axis_basis(&self.loc[2], p[2]);
+        let (ix, sx, bx) = axis_basis(&self.loc[0], p[0]);
+        let (iy, sy, by) = axis_basis(&self.loc[1], p[1]);
+        let (iz, sz, bz) = axis_basis(&self.loc[2], p[2]);
         let [nx, ny, _] = self.grid.shape();
-        let mut sum = 0.0;
-        for dz in 0..cz {
-            for dy in 0..cy {
-                for dx in 0..cx {
-                    let c = &self.coef[ix + dx + nx * (iy + dy + ny * (iz + dz))];
-                    for kz in 0..2 {
-                        let wz = bz[2 * kz + dz];
-                        for ky in 0..2 {
-                            let wyz = wz * by[2 * ky + dy];
-                            let base = (ky << 1) | (kz << 2);
-                            sum += wyz * (bx[dx] * c[base] + bx[2 + dx] * c[base | 1]);
-                        }
-                    }
-                }
-            }
-        }
-        sum
+        let base = ix + nx * (iy + ny * iz);
+        let step = [sx, nx * sy, nx * ny * sz];
+        let v: [f64; 8] = std::array::from_fn(|d| {
+            let (dx, dy, dz) = (d & 1, (d >> 1) & 1, d >> 2);
+            let c = &self.coef[base + dx * step[0] + dy * step[1] + dz * step[2]];
+            corner(
+                c,
+                [
+                    [bx[dx], bx[2 + dx]],
+                    [by[dy], by[2 + dy]],
+                    [bz[dz], bz[2 + dz]],
+                ],
+            )
+        });
+        ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
     }
 
     fn outside(&self, p: [f64; 3]) -> bool {
