@@ -50,6 +50,8 @@ pub struct ModelRow {
     /// Fraction of test points whose measured error lies within ±1σ and ±2σ.
     pub within_1s: Option<f64>,
     pub within_2s: Option<f64>,
+    /// The largest |measured − predicted| / σ over the test points.
+    pub max_abs_z: Option<f64>,
 }
 
 /// Where to measure next, from a Gaussian process fitted to the table.
@@ -298,6 +300,12 @@ impl ModelRow {
                 .then(|| hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64)
         };
         let (within_1s, within_2s) = (within(1.0), within(2.0));
+        let max_abs_z = sigmas
+            .iter()
+            .zip(&predictions)
+            .zip(&test.points)
+            .filter_map(|((s, p), t)| s.map(|s| (p - t.e_um).abs() / s))
+            .reduce(f64::max);
         let resid: Vec<f64> = predictions
             .iter()
             .zip(&test.points)
@@ -319,6 +327,7 @@ impl ModelRow {
             sigmas,
             within_1s,
             within_2s,
+            max_abs_z,
         }
     }
 }
@@ -513,13 +522,15 @@ impl Comparison {
             ));
         }
         for r in &self.rows {
-            if let (Some(w1), Some(w2)) = (r.within_1s, r.within_2s) {
+            if let (Some(w1), Some(w2), Some(z)) = (r.within_1s, r.within_2s, r.max_abs_z) {
                 out.push(format!(
                     "{} gives each prediction an uncertainty: {:.0} % of the measured test errors lie within \
-                     ±1σ and {:.0} % within ±2σ (a calibrated model: about 68 % and 95 %).",
+                     ±1σ and {:.0} % within ±2σ (a calibrated model: about 68 % and 95 %); the worst lies at \
+                     {:.2}σ.",
                     r.method.label(),
                     100.0 * w1,
-                    100.0 * w2
+                    100.0 * w2,
+                    z
                 ));
             }
         }

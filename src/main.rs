@@ -208,6 +208,10 @@ struct ServeSimArgs {
     /// Seconds to keep the port open after the last frame.
     #[arg(long, default_value_t = 1.0)]
     linger: f64,
+    /// Give up (exit 1) when no host has read the port for this many seconds: the port
+    /// was never opened, or the capture ended early. 0 waits for ever.
+    #[arg(long, default_value_t = 60.0)]
+    stall_timeout: f64,
     /// Write the simulated truth per sample (CSV) here.
     #[arg(long)]
     truth_out: Option<PathBuf>,
@@ -318,7 +322,7 @@ struct CompareArgs {
     /// Test points with measured e_um (CSV or Parquet); `paper_MxNxQ` columns are compared too.
     #[arg(long)]
     test: PathBuf,
-    /// Comma list of methods (default: all).
+    /// Comma list of methods (default: all; gp then means both kernels, Matérn 5/2 and SE).
     #[arg(long, value_delimiter = ',')]
     methods: Option<Vec<String>>,
     /// Lagrange orders: `all` (every admissible order up to --max-degree), `auto` (only the
@@ -534,6 +538,12 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
                     }
                 }
             },
+            // By default both kernels: the squared exponential suits analytic error
+            // fields, Matérn 5/2 rougher ones, and cross-validation tells them apart.
+            "gp" if a.methods.is_none() => out.extend([
+                Method::Gp(errmap::gp::Kernel::Matern52),
+                Method::Gp(errmap::gp::Kernel::SquaredExponential),
+            ]),
             other => out.push(parse_method(other, None, &a.model, Some(grid))?),
         }
     }
@@ -712,7 +722,7 @@ fn demo(a: DemoArgs) -> Result<()> {
     let baud = errmap::physics::MachineModel::read(&model)?.device.baud;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let server = std::thread::spawn(move || {
-        acquisition::serve_stream(&stream, 10.0, 1.5, |path| {
+        acquisition::serve_stream(&stream, 10.0, 1.5, 30.0, |path| {
             let _ = tx.send(path.to_string());
         })
     });

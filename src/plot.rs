@@ -74,6 +74,8 @@ const MARGIN_LEFT: u32 = 12;
 const MARGIN_RIGHT: u32 = 30;
 const LEGEND_ROW: f64 = 24.0;
 const MARKER_R: f64 = 5.0;
+/// Scatter markers of one series closer than this (px) to one already drawn are dropped.
+const THIN_PX: f64 = 1.5;
 /// Width of data lines.
 const LINE_W: f64 = 2.0;
 
@@ -689,7 +691,19 @@ pub fn xy(
         match s.style {
             XyStyle::Line => push_lines(&mut prims, &pts, color, true),
             XyStyle::Points => {
+                // A marker adds nothing visible where one of the same series already sits
+                // within a fraction of a pixel: drop it, so a 100 000-point scatter stays
+                // a small SVG and looks the same.
+                let plot_h = plot_height(HEIGHT, x_area);
+                let mut seen = std::collections::HashSet::new();
                 for at in pts.into_iter().flatten() {
+                    let cell = (
+                        ((at.0 - xlo) / (xhi - xlo) * plot_w / THIN_PX).floor() as i64,
+                        ((at.1 - ylo) / (yhi - ylo) * plot_h / THIN_PX).floor() as i64,
+                    );
+                    if !seen.insert(cell) {
+                        continue;
+                    }
                     prims.push(Prim::Marker {
                         at,
                         marker,

@@ -64,6 +64,7 @@ pub struct CompareJsonRow {
     pub sigmas: Vec<Option<f64>>,
     pub within_1s: Option<f64>,
     pub within_2s: Option<f64>,
+    pub max_abs_z: Option<f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -107,6 +108,7 @@ impl Comparison {
                     sigmas: r.sigmas.clone(),
                     within_1s: r.within_1s,
                     within_2s: r.within_2s,
+                    max_abs_z: r.max_abs_z,
                 })
                 .collect(),
             recommended: (&self.recommended_row().method).into(),
@@ -599,15 +601,15 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
     let _ = writeln!(s, "\n## All models, by cross-validated RMS\n");
     let _ = writeln!(
         s,
-        "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm | within ±1σ / ±2σ |"
+        "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm | within ±1σ / ±2σ | worst \\|e\\|/σ |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
     for &i in by_cv {
         let r = &c.rows[i];
         let axes: Vec<String> = r.cv.axis_rms_um.iter().map(|v| opt(*v, 3)).collect();
         let _ = writeln!(
             s,
-            "| {}{} | {} | {} | {} | {}/{} | {:.4} | {:.4} | {} | {} |",
+            "| {}{} | {} | {} | {} | {}/{} | {:.4} | {:.4} | {} | {} | {} |",
             r.method.label(),
             if i == c.recommended { " ★" } else { "" },
             opt(Some(r.cv.rms_um), 4),
@@ -621,7 +623,8 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
             match (r.within_1s, r.within_2s) {
                 (Some(a), Some(b)) => format!("{:.0} % / {:.0} %", 100.0 * a, 100.0 * b),
                 _ => "—".into(),
-            }
+            },
+            opt(r.max_abs_z, 2)
         );
     }
 

@@ -32,6 +32,9 @@ fn serve(plan: &Path, speed: f64, linger: f64) -> (Child, String) {
             &speed.to_string(),
             "--linger",
             &linger.to_string(),
+            // A capture that ends early must not leave the device blocked for ever.
+            "--stall-timeout",
+            "10",
         ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -64,8 +67,10 @@ fn truth() -> PhysicsTruth {
 fn simulated_device_to_error_table_matches_the_truth() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("session");
-    let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 20.0, 2.0);
-    let o = capture(&port, &out, &["--idle-timeout", "0.7"])
+    // The capture ends 3 s after the last byte (a gap that long inside the stream would
+    // need a badly overloaded machine), well before the device closes the port at 8 s.
+    let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 20.0, 8.0);
+    let o = capture(&port, &out, &["--idle-timeout", "3"])
         .output()
         .expect("capture runs");
     let _ = sim.wait();
@@ -266,4 +271,21 @@ fn replay_of_garbage_exits_1_and_of_a_damaged_capture_exits_0() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     assert!(v["crc_failures"].as_u64().expect("n") > 0);
     assert!(v["rows"].as_u64().expect("n") > 0);
+}
+
+/// A device nobody reads gives up after its stall timeout with a clear message instead of
+/// blocking for ever on a full pseudo-terminal.
+#[test]
+fn serve_sim_gives_up_when_no_host_reads() {
+    let o = Command::new(bin())
+        .args(["serve-sim", "--model"])
+        .arg(root().join("datasets/sim/model.toml"))
+        .arg("--plan")
+        .arg(root().join("datasets/sim/plan.toml"))
+        .args(["--speed", "100", "--linger", "0", "--stall-timeout", "1"])
+        .output()
+        .expect("serve-sim runs");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no host read the port for 1 s"), "{err}");
 }

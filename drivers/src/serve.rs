@@ -12,12 +12,15 @@ use std::time::{Duration, Instant};
 use crate::sim::Emitted;
 
 /// Writes `frames` to `out` at their line times divided by `speed`. Returns the bytes
-/// written; stops early (Ok) when `stop` is set.
+/// written; stops early (Ok) when `stop` is set. When no byte can be written for `stall`
+/// (the host stopped reading, or never opened the port), gives up with
+/// [`io::ErrorKind::TimedOut`]; `None` waits for ever.
 pub fn serve_paced<W: Write + ?Sized>(
     frames: &[Emitted],
     out: &mut W,
     speed: f64,
     stop: &AtomicBool,
+    stall: Option<Duration>,
 ) -> io::Result<u64> {
     let start = Instant::now();
     let speed = if speed.is_finite() && speed > 0.0 {
@@ -47,20 +50,23 @@ pub fn serve_paced<W: Write + ?Sized>(
             pending.extend_from_slice(&frames[i].bytes);
             i += 1;
         }
-        write_all_patiently(out, &pending, stop)?;
+        write_all_patiently(out, &pending, stop, stall)?;
         written += pending.len() as u64;
     }
     Ok(written)
 }
 
 /// Writes all of `bytes`, in chunks of at most 4 KiB, waiting while the reader is slow or
-/// not there yet (a pty's buffer is full: the write times out or would block).
+/// not there yet (a pty's buffer is full: the write times out or would block), for at
+/// most `stall` without progress.
 fn write_all_patiently<W: Write + ?Sized>(
     out: &mut W,
     bytes: &[u8],
     stop: &AtomicBool,
+    stall: Option<Duration>,
 ) -> io::Result<()> {
     let mut rest = bytes;
+    let mut progress = Instant::now();
     while !rest.is_empty() {
         if stop.load(Ordering::Relaxed) {
             return Ok(());
@@ -68,7 +74,10 @@ fn write_all_patiently<W: Write + ?Sized>(
         let n = rest.len().min(4096);
         match out.write(&rest[..n]) {
             Ok(0) => return Err(io::Error::from(io::ErrorKind::WriteZero)),
-            Ok(k) => rest = &rest[k..],
+            Ok(k) => {
+                rest = &rest[k..];
+                progress = Instant::now();
+            }
             Err(e)
                 if matches!(
                     e.kind(),
@@ -77,6 +86,18 @@ fn write_all_patiently<W: Write + ?Sized>(
                         | io::ErrorKind::Interrupted
                 ) =>
             {
+                if let Some(limit) = stall
+                    && progress.elapsed() >= limit
+                {
+                    return Err(io::Error::new(
+                        io::ErrorKind::TimedOut,
+                        format!(
+                            "no host read the port for {:.0} s ({} bytes still to send)",
+                            limit.as_secs_f64(),
+                            rest.len()
+                        ),
+                    ));
+                }
                 std::thread::sleep(Duration::from_millis(5));
             }
             Err(e) => return Err(e),

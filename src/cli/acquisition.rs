@@ -54,15 +54,18 @@ fn faults(a: &FaultArgs) -> Result<Faults> {
 }
 
 /// Serves a simulated stream on a fresh pty: prints the path on stdout, streams, lingers.
+/// Gives up when no host reads for `stall_s` seconds (0: waits for ever).
 pub fn serve_stream(
     stream: &SimStream,
     speed: f64,
     linger_s: f64,
+    stall_s: f64,
     announce: impl FnOnce(&str),
 ) -> Result<u64> {
     let (mut master, _slave, path) = pty_pair().context("cannot open a pseudo-terminal pair")?;
     announce(&path);
-    let written = serve_paced(&stream.frames, &mut master, speed, &STOP)
+    let stall = (stall_s > 0.0).then(|| Duration::from_secs_f64(stall_s.min(1e6)));
+    let written = serve_paced(&stream.frames, &mut master, speed, &STOP, stall)
         .with_context(|| format!("writing to {path}"))?;
     std::thread::sleep(Duration::from_secs_f64(linger_s.clamp(0.0, 3600.0)));
     Ok(written)
@@ -83,7 +86,7 @@ pub fn serve_sim(a: ServeSimArgs) -> Result<()> {
         stream.duration_s,
         a.speed
     );
-    let written = serve_stream(&stream, a.speed, a.linger, |path| {
+    let written = serve_stream(&stream, a.speed, a.linger, a.stall_timeout, |path| {
         println!("{path}");
         let _ = std::io::stdout().flush();
     })?;
