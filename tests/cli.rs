@@ -108,8 +108,8 @@ fn compare_json_rows_and_recommendation_follow_the_contract() {
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
     let rows = v["rows"].as_array().expect("rows");
-    // trilinear, spline, fuzzy, gp + 5×2×3 admissible Lagrange orders.
-    assert_eq!(rows.len(), 4 + 30);
+    // trilinear, spline, fuzzy, gp (Matérn 5/2 and SE) + 5×2×3 admissible Lagrange orders.
+    assert_eq!(rows.len(), 5 + 30);
     // The Gaussian process gives uncertainties and its calibration (an independent check
     // found RMS ≈ 0.6 µm on Table 2 with the measured values within its σ).
     let gp = rows.iter().find(|r| r["method"] == "gp").expect("gp row");
@@ -122,6 +122,16 @@ fn compare_json_rows_and_recommendation_follow_the_contract() {
             .all(|s| s.as_f64().is_some_and(|s| s > 0.0))
     );
     assert!(gp["within_2s"].as_f64().expect("calibration") >= 6.0 / 7.0);
+    // With the squared exponential the RMS is the independent check's ≈ 0.6 µm.
+    let se = rows
+        .iter()
+        .find(|r| r["label"] == "gp se")
+        .expect("gp se row");
+    assert!(
+        (se["rms_um"].as_f64().expect("rms") - 0.6).abs() < 0.05,
+        "{se}"
+    );
+    assert!(se["within_2s"].as_f64().expect("calibration") >= 6.0 / 7.0);
     let row = rows
         .iter()
         .find(|r| r["order"] == serde_json::json!([4, 1, 2]))
