@@ -4,7 +4,8 @@
 //! Interpolation: a 41×41×41 grid of random errors and 10⁶ random query points inside it,
 //! each method at one thread and at all threads. Fit: a 21×21×21 table. Decoder: a
 //! synthetic capture of simulated SAMPLE/MARK/ENV frames. Timings are wall-clock medians
-//! of a few repetitions; run a release build (`cargo run --release -- bench`).
+//! of at least 3 repetitions and 0.3 s per measurement; run a release build
+//! (`cargo run --release -- bench`).
 
 use std::time::Instant;
 
@@ -77,17 +78,26 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Median wall-clock seconds of `f`, over at least `repeats` runs and at least
+/// [`MIN_BENCH_S`] in total (a 15 ms run repeated a handful of times is at the mercy of
+/// whatever else the machine does; twenty of them are not).
 fn time<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
-    median(
-        (0..repeats.max(1))
-            .map(|_| {
-                let t = Instant::now();
-                std::hint::black_box(f());
-                t.elapsed().as_secs_f64()
-            })
-            .collect(),
-    )
+    let start = Instant::now();
+    let mut runs = Vec::new();
+    while runs.len() < repeats.max(1)
+        || (start.elapsed().as_secs_f64() < MIN_BENCH_S && runs.len() < MAX_RUNS)
+    {
+        let t = Instant::now();
+        std::hint::black_box(f());
+        runs.push(t.elapsed().as_secs_f64());
+    }
+    median(runs)
 }
+
+/// Least total time spent timing one measurement, s.
+const MIN_BENCH_S: f64 = 0.3;
+/// Most runs of one measurement.
+const MAX_RUNS: usize = 200;
 
 fn random_grid(n: usize, seed: u64) -> Grid {
     let nodes: Vec<f64> = (0..n).map(|i| i as f64 * 20.0).collect();
