@@ -75,7 +75,7 @@ const MARGIN_RIGHT: u32 = 30;
 const LEGEND_ROW: f64 = 24.0;
 const MARKER_R: f64 = 5.0;
 /// Scatter markers of one series closer than this (px) to one already drawn are dropped.
-const THIN_PX: f64 = 1.5;
+const THIN_PX: f64 = 2.5;
 /// Width of data lines.
 const LINE_W: f64 = 2.0;
 
@@ -691,9 +691,9 @@ pub fn xy(
         match s.style {
             XyStyle::Line => push_lines(&mut prims, &pts, color, true),
             XyStyle::Points => {
-                // A marker adds nothing visible where one of the same series already sits
-                // within a fraction of a pixel: drop it, so a 100 000-point scatter stays
-                // a small SVG and looks the same.
+                // A marker whose grid cell of 2.5 px (half its radius) already holds one of
+                // the same series adds almost nothing visible: drop it, so a 100 000-point
+                // scatter stays a small SVG and looks the same.
                 let plot_h = plot_height(HEIGHT, x_area);
                 let mut seen = std::collections::HashSet::new();
                 for at in pts.into_iter().flatten() {
@@ -1747,12 +1747,19 @@ fn draw_marker<DB: DrawingBackend>(
             closed.push(first);
         }
         area.draw(&Polygon::new(pts, fill)).map_err(de)?;
+        // A filled marker's outline would be its own colour: one shape is enough (and
+        // halves the size of a scatter's SVG).
+        if filled {
+            return Ok(());
+        }
         area.draw(&PathElement::new(closed, edge)).map_err(de)
     };
     match marker {
         Marker::Circle => {
             area.draw(&Circle::new((x, y), r, fill)).map_err(de)?;
-            area.draw(&Circle::new((x, y), r, edge)).map_err(de)?;
+            if !filled {
+                area.draw(&Circle::new((x, y), r, edge)).map_err(de)?;
+            }
         }
         Marker::Square => {
             let s = t.px(MARKER_R - 0.8);
