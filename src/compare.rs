@@ -44,14 +44,27 @@ pub struct ModelRow {
     pub inside_rms_um: Option<f64>,
     pub cv: CvResult,
     pub predictions: Vec<f64>,
-    /// One-sigma uncertainty of each prediction for a measured value, where the method
-    /// has one (the Gaussian process).
+    /// One-sigma uncertainty of each prediction for a measured value: the model's own
+    /// (the Gaussian process), or else the cross-validated one ([`CvResult::sigma`]).
     pub sigmas: Vec<Option<f64>>,
+    /// Where `sigmas` come from.
+    pub sigma_kind: Option<SigmaKind>,
     /// Fraction of test points whose measured error lies within ±1σ and ±2σ.
     pub within_1s: Option<f64>,
     pub within_2s: Option<f64>,
     /// The largest |measured − predicted| / σ over the test points.
     pub max_abs_z: Option<f64>,
+}
+
+/// The source of a model's prediction uncertainty.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SigmaKind {
+    /// The model's own predictive σ (Gaussian process: latent σ plus the fitted noise).
+    Model,
+    /// The method's cross-validated RMS on held-out nodes like the point (interior or
+    /// end planes): an empirical, homoscedastic σ for the interpolators.
+    CrossValidation,
 }
 
 /// Where to measure next, from a Gaussian process fitted to the table.
@@ -288,7 +301,18 @@ impl ModelRow {
         let pts: Vec<[f64; 3]> = test.points.iter().map(|p| p.position()).collect();
         let mut predictions = vec![0.0; pts.len()];
         model.predict_into(&pts, &mut predictions);
-        let sigmas: Vec<Option<f64>> = pts.iter().map(|&p| model.sigma(p)).collect();
+        let own: Vec<Option<f64>> = pts.iter().map(|&p| model.sigma(p)).collect();
+        let (sigmas, sigma_kind) = if own.iter().any(Option::is_some) {
+            (own, Some(SigmaKind::Model))
+        } else {
+            let cv_sigmas: Vec<Option<f64>> =
+                pts.iter().map(|&p| cv.sigma(model.outside(p))).collect();
+            let kind = cv_sigmas
+                .iter()
+                .any(Option::is_some)
+                .then_some(SigmaKind::CrossValidation);
+            (cv_sigmas, kind)
+        };
         let within = |k: f64| -> Option<f64> {
             let hits: Vec<bool> = sigmas
                 .iter()
@@ -325,6 +349,7 @@ impl ModelRow {
             cv,
             predictions,
             sigmas,
+            sigma_kind,
             within_1s,
             within_2s,
             max_abs_z,
@@ -522,6 +547,9 @@ impl Comparison {
             ));
         }
         for r in &self.rows {
+            if r.sigma_kind != Some(SigmaKind::Model) {
+                continue;
+            }
             if let (Some(w1), Some(w2), Some(z)) = (r.within_1s, r.within_2s, r.max_abs_z) {
                 out.push(format!(
                     "{} gives each prediction an uncertainty: {:.0} % of the measured test errors lie within \
@@ -533,6 +561,22 @@ impl Comparison {
                     z
                 ));
             }
+        }
+        let rec = self.recommended_row();
+        if rec.sigma_kind == Some(SigmaKind::CrossValidation)
+            && let (Some(w1), Some(w2)) = (rec.within_1s, rec.within_2s)
+        {
+            out.push(format!(
+                "The interpolators have no uncertainty of their own; errmap gives each the RMS of its \
+                 cross-validated predictions as one (end planes for extrapolated points, interior planes \
+                 otherwise). For the recommended {} that is ±{} µm inside and ±{} µm outside the nodes, \
+                 and {:.0} % / {:.0} % of the measured test errors lie within ±1σ / ±2σ.",
+                rec.method.label(),
+                fmt_opt(rec.cv.interior_rms_um.or(Some(rec.cv.rms_um))),
+                fmt_opt(rec.cv.exterior_rms_um.or(Some(rec.cv.rms_um))),
+                100.0 * w1,
+                100.0 * w2
+            ));
         }
         if let Some(a) = &self.advice {
             for (k, name) in ["x", "y", "z"].iter().enumerate() {
@@ -566,6 +610,11 @@ impl Comparison {
         }
         out
     }
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.filter(|v| v.is_finite())
+        .map_or_else(|| "—".into(), |v| format!("{v:.3}"))
 }
 
 /// What the grid's shape means for the orders and for the test points.

@@ -50,6 +50,9 @@ pub struct CvResult {
     pub max_abs_um: f64,
     /// RMS over the folds that left out an interior plane only (None without any).
     pub interior_rms_um: Option<f64>,
+    /// RMS over the folds that left out an end plane only: predictions beyond the
+    /// remaining nodes (None without any).
+    pub exterior_rms_um: Option<f64>,
     /// RMS per axis along which planes were left out (x, y, z).
     pub axis_rms_um: [Option<f64>; 3],
     pub folds: usize,
@@ -63,6 +66,7 @@ pub fn leave_one_plane_out(grid: &Grid, method: &Method) -> Result<CvResult, Int
     let shape = grid.shape();
     let mut all = Vec::new();
     let mut interior = Vec::new();
+    let mut exterior = Vec::new();
     let mut per_axis: [Vec<f64>; 3] = Default::default();
     let (mut folds, mut capped_folds) = (0, 0);
     for axis in Axis::ALL {
@@ -100,6 +104,8 @@ pub fn leave_one_plane_out(grid: &Grid, method: &Method) -> Result<CvResult, Int
                 per_axis[a].push(r);
                 if is_interior {
                     interior.push(r);
+                } else {
+                    exterior.push(r);
                 }
             }
         }
@@ -109,11 +115,26 @@ pub fn leave_one_plane_out(grid: &Grid, method: &Method) -> Result<CvResult, Int
         rms_um: rms(&all).unwrap_or(f64::NAN),
         max_abs_um: all.iter().fold(0.0, |m, r| m.max(r.abs())),
         interior_rms_um: rms(&interior),
+        exterior_rms_um: rms(&exterior),
         axis_rms_um: [rms(&per_axis[0]), rms(&per_axis[1]), rms(&per_axis[2])],
         folds,
         capped_folds,
         predictions: all.len(),
     })
+}
+
+impl CvResult {
+    /// The cross-validated one-sigma of a prediction: the RMS of held-out predictions
+    /// like it — interior planes for a point inside the nodes, end planes for an
+    /// extrapolation — falling back to the overall RMS. `None` when nothing was held out.
+    pub fn sigma(&self, outside: bool) -> Option<f64> {
+        let like = if outside {
+            self.exterior_rms_um
+        } else {
+            self.interior_rms_um
+        };
+        like.or(Some(self.rms_um)).filter(|s| s.is_finite())
+    }
 }
 
 fn rms(v: &[f64]) -> Option<f64> {
@@ -137,6 +158,7 @@ pub fn leave_one_out_gp(gp: &Gp, values: &[f64]) -> CvResult {
         rms_um: rms(&r).unwrap_or(f64::NAN),
         max_abs_um: r.iter().fold(0.0, |m, v| m.max(v.abs())),
         interior_rms_um: None,
+        exterior_rms_um: None,
         axis_rms_um: [None; 3],
         folds: r.len(),
         capped_folds: 0,

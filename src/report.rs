@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 use serde::Serialize;
 
-use crate::compare::Comparison;
+use crate::compare::{Comparison, SigmaKind};
 use crate::cv::CvScheme;
 use crate::interp::Method;
 use crate::plot::{self, PlotError};
@@ -65,6 +65,8 @@ pub struct CompareJsonRow {
     pub within_1s: Option<f64>,
     pub within_2s: Option<f64>,
     pub max_abs_z: Option<f64>,
+    /// Where `sigmas` come from: "model" (GP) or "cross_validation".
+    pub sigma_kind: Option<SigmaKind>,
 }
 
 #[derive(Debug, Serialize)]
@@ -109,6 +111,7 @@ impl Comparison {
                     within_1s: r.within_1s,
                     within_2s: r.within_2s,
                     max_abs_z: r.max_abs_z,
+                    sigma_kind: r.sigma_kind,
                 })
                 .collect(),
             recommended: (&self.recommended_row().method).into(),
@@ -309,11 +312,11 @@ pub fn write_report(
         if i == c.recommended {
             name.push_str(" (CV pick)");
         }
-        let y_err = r
-            .sigmas
-            .iter()
-            .all(Option::is_some)
-            .then(|| r.sigmas.iter().map(|s| s.unwrap_or(0.0)).collect());
+        // Error bars for the models' own σ only: the interpolators' cross-validated σ
+        // would bury the figure (it is in the tables).
+        let y_err = (r.sigma_kind == Some(SigmaKind::Model)
+            && r.sigmas.iter().all(Option::is_some))
+        .then(|| r.sigmas.iter().map(|s| s.unwrap_or(0.0)).collect());
         if y_err.is_some() {
             name.push_str(" ±1σ");
         }
@@ -464,6 +467,11 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
     let _ = writeln!(s, "{caveat}\n");
 
     let _ = writeln!(s, "## Test points (like the paper's Table 2)\n");
+    let _ = writeln!(
+        s,
+        "Predictions ± one sigma: the Gaussian process's own predictive σ; for the interpolators \
+         their cross-validated RMS (end planes for extrapolated points, interior planes otherwise).\n"
+    );
     let mut header = vec![
         "#".to_string(),
         "x mm".into(),
@@ -599,6 +607,11 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
     }
 
     let _ = writeln!(s, "\n## All models, by cross-validated RMS\n");
+    let _ = writeln!(
+        s,
+        "σ as in the test-point table: the model's own for the Gaussian process, the \
+         cross-validated RMS for the interpolators.\n"
+    );
     let _ = writeln!(
         s,
         "| model | CV RMS µm | CV interior µm | CV x / y / z µm | capped folds | test RMS µm | test max µm | inside RMS µm | within ±1σ / ±2σ | worst \\|e\\|/σ |"

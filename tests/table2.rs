@@ -69,3 +69,56 @@ fn paper_orders_needing_unpublished_nodes_are_refused() {
         assert!(msg.contains("nodes"), "{msg}");
     }
 }
+
+/// Every model in `compare` has an uncertainty: the GP its own, the interpolators their
+/// cross-validated RMS — the end-plane folds' for extrapolated test points, the interior
+/// folds' for the others — recomputed here fold by fold.
+#[test]
+fn interpolators_get_their_cross_validated_rms_as_sigma() {
+    use errmap::compare::{SigmaKind, compare};
+    let t1 = table("table1.csv");
+    let t2 = table("table2.csv");
+    let grid = t1.grid().expect("grid");
+    let methods = [Method::Trilinear, Method::Gp(errmap::gp::Kernel::Matern52)];
+    let c = compare(&t1, &grid, &t2, &methods).expect("compares");
+    let tri = &c.rows[0];
+    assert_eq!(tri.sigma_kind, Some(SigmaKind::CrossValidation));
+    // The folds by hand: drop each plane, fit trilinear to the rest, predict the plane.
+    let (mut inner_sq, mut outer_sq) = (Vec::new(), Vec::new());
+    let shape = grid.shape();
+    for (a, &n) in shape.iter().enumerate() {
+        for plane in 0..n {
+            let model = Method::Trilinear
+                .fit(&grid.without_plane(a, plane))
+                .expect("fold fits");
+            let coord = grid.axis(a)[plane];
+            for p in t1.points.iter().filter(|p| p.position()[a] == coord) {
+                let r2 = (model.predict(p.position()) - p.e_um).powi(2);
+                if plane == 0 || plane + 1 == n {
+                    outer_sq.push(r2);
+                } else {
+                    inner_sq.push(r2);
+                }
+            }
+        }
+    }
+    let rms = |v: &[f64]| (v.iter().sum::<f64>() / v.len() as f64).sqrt();
+    let (inner, outer) = (rms(&inner_sq), rms(&outer_sq));
+    assert!(outer > inner, "extrapolating is worse: {outer} vs {inner}");
+    for (k, s) in tri.sigmas.iter().enumerate() {
+        let want = if c.extrapolated[k] { outer } else { inner };
+        let got = s.expect("a σ for every point");
+        assert!(
+            (got - want).abs() < 1e-12,
+            "test point {}: {got} vs {want}",
+            k + 1
+        );
+    }
+    let gp = &c.rows[1];
+    assert_eq!(gp.sigma_kind, Some(SigmaKind::Model));
+    assert!(
+        gp.sigmas
+            .iter()
+            .all(|s| s.is_some_and(|s| s > 0.0 && s != inner))
+    );
+}
