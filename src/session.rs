@@ -9,6 +9,11 @@
 //! error is the mean over runs and both directions of the samples dwelling at the target
 //! (target ≥ 0, run ≥ 1), as in ISO 230-2 and the paper's Table 1; `n` counts them and
 //! `s_um` is their sample standard deviation. Rows with flags ≠ 0 are left out and counted.
+//! So are rows without air values in a session that has them elsewhere: the spec's mark of
+//! a sample latched before the first ENV frame, whose laser length was not compensated for
+//! the air (n = 1, about 270 ppm of the length too long in a normal room). A session with
+//! no air values at all is taken as it is: its laser lengths were compensated, or not, by
+//! whoever wrote it; the reduction summary says so ([`ReductionSummary::no_air_data`]).
 //! The node's coordinate along the measured axis is the mean scale reading at that target
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
@@ -212,6 +217,12 @@ pub struct ReductionSummary {
     pub not_dwelling: usize,
     /// Dwell rows without known line coordinates (no MARK yet).
     pub no_line: usize,
+    /// Dwell samples left out because they carry no air values while others do (latched
+    /// before the first ENV frame: laser length not compensated for the air).
+    pub uncompensated: usize,
+    /// No row has air values: nothing was left out for it, and the laser lengths are used
+    /// as written.
+    pub no_air_data: bool,
     pub axis: Option<String>,
     pub lines: usize,
     pub targets: usize,
@@ -221,13 +232,15 @@ pub struct ReductionSummary {
 #[derive(Debug, thiserror::Error)]
 pub enum ReductionError {
     #[error(
-        "{origin}: no usable dwell samples (rows {rows}, flagged {flagged}, not dwelling {not_dwelling})"
+        "{origin}: no usable dwell samples (rows {rows}, flagged {flagged}, not dwelling {not_dwelling}, \
+         latched before the first ENV frame {uncompensated})"
     )]
     NoDwell {
         origin: String,
         rows: usize,
         flagged: usize,
         not_dwelling: usize,
+        uncompensated: usize,
     },
     #[error(
         "{origin}: the session measures along more than one axis ({axes}); reduce each axis separately"
@@ -241,6 +254,24 @@ fn axis_index(a: WireAxis) -> usize {
         WireAxis::Y => 1,
         WireAxis::Z => 2,
     }
+}
+
+/// Which rows lack air compensation: those without air values, when the session has air
+/// values on some row (see the module docs). Holds whether any row has them.
+struct AirRule(bool);
+
+impl AirRule {
+    fn of(rows: &[SessionRow]) -> Self {
+        AirRule(rows.iter().any(has_air))
+    }
+
+    fn uncompensated(&self, r: &SessionRow) -> bool {
+        self.0 && !has_air(r)
+    }
+}
+
+fn has_air(r: &SessionRow) -> bool {
+    r.air_temp_c.is_some() && r.air_pressure_hpa.is_some() && r.air_rh_pct.is_some()
 }
 
 /// Reduces a session to an error table (see the module docs).
@@ -271,10 +302,13 @@ pub fn error_table(
             rows: 0,
             flagged: 0,
             not_dwelling: 0,
+            uncompensated: 0,
         });
     };
     summary.axis = Some(axis.as_str().to_string());
     let a = axis_index(axis);
+    let air = AirRule::of(rows);
+    summary.no_air_data = !air.0;
     // Samples per (line, target) and scale readings per target.
     let mut groups: BTreeMap<(i64, i64, i32), Vec<f64>> = BTreeMap::new();
     let mut positions: BTreeMap<i32, (f64, usize)> = BTreeMap::new();
@@ -285,6 +319,10 @@ pub fn error_table(
         }
         if r.flags != 0 {
             summary.flagged += 1;
+            continue;
+        }
+        if air.uncompensated(r) {
+            summary.uncompensated += 1;
             continue;
         }
         let coords = [r.x_mm, r.y_mm, r.z_mm];
@@ -311,6 +349,7 @@ pub fn error_table(
             rows: summary.rows,
             flagged: summary.flagged,
             not_dwelling: summary.not_dwelling,
+            uncompensated: summary.uncompensated,
         });
     }
     let mut lines: Vec<(i64, i64)> = groups.keys().map(|k| (k.0, k.1)).collect();
@@ -355,8 +394,9 @@ pub fn error_table(
 /// the mean of that dwell's unflagged samples.
 pub fn iso_observations(rows: &[SessionRow], line: Option<(f64, f64)>) -> Vec<iso230::Observation> {
     let mut acc: BTreeMap<(i32, u32, i8), (f64, f64, usize)> = BTreeMap::new();
+    let air = AirRule::of(rows);
     for r in rows {
-        if r.target < 0 || r.run == 0 || r.flags != 0 || r.direction == 0 {
+        if r.target < 0 || r.run == 0 || r.flags != 0 || r.direction == 0 || air.uncompensated(r) {
             continue;
         }
         if let Some((c1, c2)) = line {

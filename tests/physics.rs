@@ -272,3 +272,58 @@ fn the_example_model_parses_and_bad_models_are_refused() {
     let e = MachineModel::read(&bad).expect_err("unknown key");
     assert!(e.to_string().contains("bogus"), "{e}");
 }
+
+/// Dwell samples latched before the first ENV frame (no air values while other rows have
+/// them) read ~270 ppm long: the reduction leaves them out and counts them, so the error
+/// table is unaffected; a session with no air values at all is reduced as written.
+#[test]
+fn samples_before_the_first_env_are_left_out_of_the_error_table() {
+    use errmap::session::{error_table, iso_observations, read_session};
+    let rows = read_session(&root().join("datasets/physics/example-session.parquet"))
+        .expect("example session");
+    let (clean, s0) = error_table("example", &rows).expect("reduces");
+    assert_eq!(s0.uncompensated, 0);
+    assert!(!s0.no_air_data);
+    // Make 40 dwell samples far along the axis (where the bias is large) look latched
+    // before any ENV: no air values, and the uncompensated error they would carry
+    // (n − 1 ≈ 270 ppm of the laser length, ~0.1 mm here).
+    let mut early = rows.clone();
+    let mut changed = 0;
+    for r in early
+        .iter_mut()
+        .filter(|r| r.target >= 0 && r.run > 0 && r.scale_mm > 300.0)
+    {
+        if changed == 40 {
+            break;
+        }
+        r.air_temp_c = None;
+        r.air_pressure_hpa = None;
+        r.air_rh_pct = None;
+        r.error_um -= 270e-6 * r.laser_mm * 1000.0;
+        changed += 1;
+    }
+    let (table, s1) = error_table("early", &early).expect("reduces");
+    assert_eq!(s1.uncompensated, 40);
+    assert_eq!(s1.used, s0.used - 40);
+    for (a, b) in table.points.iter().zip(&clean.points) {
+        assert_eq!(a.position(), b.position());
+        // Fewer samples in a few nodes' means: noise-level change, not the ~0.1 mm bias.
+        assert!((a.e_um - b.e_um).abs() < 0.05, "{a:?} vs {b:?}");
+    }
+    assert_eq!(
+        iso_observations(&early, None).len(),
+        iso_observations(&rows, None).len(),
+        "each dwell still has later compensated samples"
+    );
+    // No air values anywhere: nothing to tell early rows by; reduced as written.
+    let mut none = rows.clone();
+    for r in &mut none {
+        r.air_temp_c = None;
+        r.air_pressure_hpa = None;
+        r.air_rh_pct = None;
+    }
+    let (t2, s2) = error_table("no air", &none).expect("reduces");
+    assert!(s2.no_air_data);
+    assert_eq!((s2.uncompensated, s2.used), (0, s0.used));
+    assert_eq!(t2.points.len(), clean.points.len());
+}

@@ -262,6 +262,18 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
         summary.not_dwelling,
         a.out.display()
     );
+    if summary.uncompensated > 0 {
+        eprintln!(
+            "table: {} dwell samples latched before the first ENV frame (no air compensation) left out",
+            summary.uncompensated
+        );
+    }
+    if summary.no_air_data {
+        eprintln!(
+            "table: warning: the session has no air values; its laser lengths are used as written \
+             (uncompensated lengths read about 270 ppm long in a normal room)"
+        );
+    }
     let axis = summary.axis.clone().unwrap_or_default();
     let mut iso = Vec::new();
     for line in session::lines(&rows) {
