@@ -20,6 +20,21 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `compare TABLE --test table2.csv --report REPORT --json`, which must succeed, as JSON.
+fn compare_json(table: &str, report: &Path) -> serde_json::Value {
+    let o = errmap(&[
+        "compare",
+        table,
+        "--test",
+        &dataset("table2.csv"),
+        "--report",
+        report.to_str().expect("utf8"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_slice(&o.stdout).expect("one JSON document")
+}
+
 #[test]
 fn fit_json_predicts_and_flags_extrapolation() {
     let o = errmap(&[
@@ -96,17 +111,7 @@ fn usage_error_exits_2() {
 fn compare_json_rows_and_recommendation_follow_the_contract() {
     let dir = tempfile::tempdir().expect("tempdir");
     let report = dir.path().join("r");
-    let o = errmap(&[
-        "compare",
-        &dataset("table1.csv"),
-        "--test",
-        &dataset("table2.csv"),
-        "--report",
-        report.to_str().expect("utf8"),
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let v = compare_json(&dataset("table1.csv"), &report);
     let rows = v["rows"].as_array().expect("rows");
     // trilinear, spline, fuzzy, gp (Matérn 5/2 and SE) + 5×2×3 admissible Lagrange orders.
     assert_eq!(rows.len(), 5 + 30);
@@ -241,17 +246,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
     std::fs::write(&table, kept.join("\n") + "\n").expect("write");
     let table = table.to_str().expect("utf8");
     let report = dir.path().join("report");
-    let o = errmap(&[
-        "compare",
-        table,
-        "--test",
-        &dataset("table2.csv"),
-        "--report",
-        report.to_str().expect("utf8"),
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let v = compare_json(table, &report);
     let rows = v["rows"].as_array().expect("rows");
     let labels: Vec<&str> = rows
         .iter()
