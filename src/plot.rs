@@ -355,20 +355,13 @@ pub fn category_lines(
         }
     }
 
-    let frame = Frame {
-        title: title.to_owned(),
-        x_desc: x_label.to_owned(),
-        y_desc: y_label.to_owned(),
-        height: HEIGHT,
-        x_area,
-        y_area,
-        x: x_axis,
-        y: y_axis,
-        x_grid: true,
-        y_grid: true,
+    let frame = Frame::standard(
+        [title, x_label, y_label],
+        (x_axis, x_area),
+        (y_axis, y_area),
         legend,
         legend_width,
-    };
+    );
     write_both(stem, &frame, &prims)
 }
 
@@ -715,20 +708,13 @@ pub fn xy(
         }
     }
 
-    let frame = Frame {
-        title: title.to_owned(),
-        x_desc: x_label.to_owned(),
-        y_desc: y_label.to_owned(),
-        height: HEIGHT,
-        x_area,
-        y_area,
-        x: x_axis,
-        y: y_axis,
-        x_grid: true,
-        y_grid: true,
+    let frame = Frame::standard(
+        [title, x_label, y_label],
+        (x_axis, x_area),
+        (y_axis, y_area),
         legend,
         legend_width,
-    };
+    );
     write_both(stem, &frame, &prims)
 }
 
@@ -1397,6 +1383,34 @@ struct Frame {
     y_grid: bool,
     legend: Vec<LegendEntry>,
     legend_width: u32,
+}
+
+impl Frame {
+    /// A frame of the standard height with grid lines both ways: `labels` are the title
+    /// and the x and y descriptions; each axis comes with its label area.
+    fn standard(
+        labels: [&str; 3],
+        (x, x_area): (Axis, u32),
+        (y, y_area): (Axis, u32),
+        legend: Vec<LegendEntry>,
+        legend_width: u32,
+    ) -> Frame {
+        let [title, x_desc, y_desc] = labels.map(str::to_owned);
+        Frame {
+            title,
+            x_desc,
+            y_desc,
+            height: HEIGHT,
+            x_area,
+            y_area,
+            x,
+            y,
+            x_grid: true,
+            y_grid: true,
+            legend,
+            legend_width,
+        }
+    }
 }
 
 /// Things drawn in the plot area, in axis coordinates.

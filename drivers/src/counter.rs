@@ -20,71 +20,63 @@ pub struct Unwrapped {
     pub wrapped: bool,
 }
 
-/// Unwraps a wrapping i32 counter.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct UnwrapI32 {
-    last: Option<(i32, i64)>,
+/// A raw 32-bit wrapping counter: the signed counts or the unsigned sample index.
+pub trait RawCounter: Copy {
+    /// The raw value as it reads, widened.
+    fn widen(self) -> i64;
+    /// `self − prev` mod 2^32, read as a signed 32-bit step.
+    fn step_from(self, prev: Self) -> i64;
 }
 
-impl UnwrapI32 {
+impl RawCounter for i32 {
+    fn widen(self) -> i64 {
+        i64::from(self)
+    }
+    fn step_from(self, prev: Self) -> i64 {
+        i64::from(self.wrapping_sub(prev))
+    }
+}
+
+impl RawCounter for u32 {
+    fn widen(self) -> i64 {
+        i64::from(self)
+    }
+    fn step_from(self, prev: Self) -> i64 {
+        i64::from(self.wrapping_sub(prev) as i32)
+    }
+}
+
+/// Unwraps a wrapping 32-bit counter (see the module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Unwrap<T> {
+    last: Option<(T, i64)>,
+}
+
+/// The signed scale and laser counters.
+pub type UnwrapI32 = Unwrap<i32>;
+/// The SAMPLE index.
+pub type UnwrapU32 = Unwrap<u32>;
+
+impl<T: RawCounter> Unwrap<T> {
     /// An unwrapper with no value yet; the first value is taken as is.
     pub const fn new() -> Self {
-        UnwrapI32 { last: None }
+        Unwrap { last: None }
     }
 
     /// Feed the next raw value.
-    pub fn push(&mut self, raw: i32) -> Unwrapped {
+    pub fn push(&mut self, raw: T) -> Unwrapped {
         let out = match self.last {
             None => Unwrapped {
-                value: i64::from(raw),
+                value: raw.widen(),
                 delta: 0,
                 wrapped: false,
             },
             Some((prev_raw, prev)) => {
-                let delta = i64::from(raw.wrapping_sub(prev_raw));
+                let delta = raw.step_from(prev_raw);
                 Unwrapped {
                     value: prev + delta,
                     delta,
-                    wrapped: i64::from(prev_raw) + delta != i64::from(raw),
-                }
-            }
-        };
-        self.last = Some((raw, out.value));
-        out
-    }
-
-    /// The latest unwrapped value.
-    pub fn value(&self) -> Option<i64> {
-        self.last.map(|(_, v)| v)
-    }
-}
-
-/// Unwraps a wrapping u32 counter (the SAMPLE index).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct UnwrapU32 {
-    last: Option<(u32, i64)>,
-}
-
-impl UnwrapU32 {
-    /// An unwrapper with no value yet; the first value is taken as is.
-    pub const fn new() -> Self {
-        UnwrapU32 { last: None }
-    }
-
-    /// Feed the next raw value.
-    pub fn push(&mut self, raw: u32) -> Unwrapped {
-        let out = match self.last {
-            None => Unwrapped {
-                value: i64::from(raw),
-                delta: 0,
-                wrapped: false,
-            },
-            Some((prev_raw, prev)) => {
-                let delta = i64::from(raw.wrapping_sub(prev_raw) as i32);
-                Unwrapped {
-                    value: prev + delta,
-                    delta,
-                    wrapped: i64::from(prev_raw) + delta != i64::from(raw),
+                    wrapped: prev_raw.widen() + delta != raw.widen(),
                 }
             }
         };

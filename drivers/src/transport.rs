@@ -104,25 +104,55 @@ impl SerialSource {
     /// pty buffer would block past the timeout).
     pub fn write_all(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
         for chunk in bytes.chunks(4096) {
-            self.port.write_all(chunk).map_err(|e| self.classify(e))?;
+            self.port
+                .write_all(chunk)
+                .map_err(|e| classify(&self.path, e))?;
         }
-        self.port.flush().map_err(|e| self.classify(e))
+        self.port.flush().map_err(|e| classify(&self.path, e))
     }
 
     /// Ask the device for a HELLO frame.
     pub fn request_hello(&mut self) -> Result<(), TransportError> {
         self.write_all(&[HELLO_REQUEST])
     }
+}
 
-    fn classify(&self, e: io::Error) -> TransportError {
-        if is_vanished(&e) {
-            TransportError::Vanished {
-                path: self.path.clone(),
-                source: e,
-            }
-        } else {
-            TransportError::Io(e)
+/// An I/O error on the port at `path`: [`TransportError::Vanished`] when it means the port
+/// is gone.
+fn classify(path: &str, e: io::Error) -> TransportError {
+    if is_vanished(&e) {
+        TransportError::Vanished {
+            path: path.to_owned(),
+            source: e,
         }
+    } else {
+        TransportError::Io(e)
+    }
+}
+
+/// One read, retried when interrupted: data, a timeout, or what `zero` makes of a
+/// zero-length read into a non-empty buffer and `fail` of any other error.
+fn read_once<R: Read + ?Sized>(
+    r: &mut R,
+    buf: &mut [u8],
+    zero: impl FnOnce() -> Result<ReadOutcome, TransportError>,
+    fail: impl FnOnce(io::Error) -> TransportError,
+) -> Result<ReadOutcome, TransportError> {
+    loop {
+        return match r.read(buf) {
+            Ok(0) if !buf.is_empty() => zero(),
+            Ok(n) => Ok(ReadOutcome::Data(n)),
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
+                ) =>
+            {
+                Ok(ReadOutcome::TimedOut)
+            }
+            Err(e) => Err(fail(e)),
+        };
     }
 }
 
@@ -146,26 +176,19 @@ fn is_vanished(e: &io::Error) -> bool {
 
 impl ByteSource for SerialSource {
     fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError> {
-        loop {
-            return match self.port.read(buf) {
-                // A tty read of 0 bytes is a hang-up: the other end is gone.
-                Ok(0) if !buf.is_empty() => Err(TransportError::Vanished {
-                    path: self.path.clone(),
+        let path = &self.path;
+        read_once(
+            &mut self.port,
+            buf,
+            // A tty read of 0 bytes is a hang-up: the other end is gone.
+            || {
+                Err(TransportError::Vanished {
+                    path: path.clone(),
                     source: io::Error::from(io::ErrorKind::UnexpectedEof),
-                }),
-                Ok(n) => Ok(ReadOutcome::Data(n)),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-                    ) =>
-                {
-                    Ok(ReadOutcome::TimedOut)
-                }
-                Err(e) => Err(self.classify(e)),
-            };
-        }
+                })
+            },
+            |e| classify(path, e),
+        )
     }
 }
 
@@ -189,22 +212,12 @@ impl<R: Read> ReaderSource<R> {
 
 impl<R: Read> ByteSource for ReaderSource<R> {
     fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError> {
-        loop {
-            return match self.inner.read(buf) {
-                Ok(0) => Ok(ReadOutcome::Eof),
-                Ok(n) => Ok(ReadOutcome::Data(n)),
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-                    ) =>
-                {
-                    Ok(ReadOutcome::TimedOut)
-                }
-                Err(e) => Err(TransportError::Io(e)),
-            };
-        }
+        read_once(
+            &mut self.inner,
+            buf,
+            || Ok(ReadOutcome::Eof),
+            TransportError::Io,
+        )
     }
 }
 
