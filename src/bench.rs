@@ -99,12 +99,25 @@ const MIN_BENCH_S: f64 = 0.3;
 /// Most runs of one measurement.
 const MAX_RUNS: usize = 200;
 
-fn random_grid(n: usize, seed: u64) -> Grid {
+/// An n×n×n grid of 20 mm cells with random errors in [−5, 5] µm (seeded).
+pub fn random_grid(n: usize, seed: u64) -> Grid {
     let nodes: Vec<f64> = (0..n).map(|i| i as f64 * 20.0).collect();
     let mut rng = StdRng::seed_from_u64(seed);
     Grid::from_fn(nodes.clone(), nodes.clone(), nodes, |_| {
         rng.random_range(-5.0..5.0)
     })
+}
+
+/// `n` random query points inside a grid's box (seeded).
+pub fn random_points(grid: &Grid, n: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    let range = |a: usize| {
+        let v = grid.axis(a);
+        v[0]..v[v.len() - 1]
+    };
+    (0..n)
+        .map(|_| [0, 1, 2].map(|a| rng.random_range(range(a))))
+        .collect()
 }
 
 /// The methods benchmarked, at least those the contract names.
@@ -123,11 +136,7 @@ pub fn methods() -> Vec<Method> {
 /// Runs the interpolation and fit benchmarks, and the decoder benchmark.
 pub fn run(config: &BenchConfig) -> BenchReport {
     let grid = random_grid(config.grid, 1);
-    let hi = (config.grid - 1) as f64 * 20.0;
-    let mut rng = StdRng::seed_from_u64(2);
-    let points: Vec<[f64; 3]> = (0..config.points)
-        .map(|_| [0, 1, 2].map(|_| rng.random_range(0.0..hi)))
-        .collect();
+    let points = random_points(&grid, config.points, 2);
     let mut out = vec![0.0; points.len()];
     let all = if config.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -199,16 +208,22 @@ pub fn run(config: &BenchConfig) -> BenchReport {
     }
 }
 
-/// Time to fit the Gaussian process to `n` scattered nodes of a smooth field.
-pub fn gp_fit_seconds(n: usize) -> Option<f64> {
+/// `n` scattered nodes of a smooth field with ±0.05 µm noise in an 800 mm cube (seeded):
+/// the Gaussian-process benchmark's data.
+pub fn gp_points(n: usize) -> Vec<crate::table::ErrorPoint> {
     let mut rng = StdRng::seed_from_u64(4);
-    let points: Vec<crate::table::ErrorPoint> = (0..n)
+    (0..n)
         .map(|_| {
             let p: [f64; 3] = [0, 1, 2].map(|_| rng.random_range(0.0..800.0));
             let e = 2.0 * (p[0] / 150.0).sin() * (p[1] / 300.0).cos() + 0.01 * p[2];
             crate::table::ErrorPoint::new(p[0], p[1], p[2], e + rng.random_range(-0.05..0.05))
         })
-        .collect();
+        .collect()
+}
+
+/// Time to fit the Gaussian process to `n` scattered nodes of a smooth field.
+pub fn gp_fit_seconds(n: usize) -> Option<f64> {
+    let points = gp_points(n);
     let t = Instant::now();
     crate::gp::Gp::fit(&points, &crate::gp::GpConfig::default()).ok()?;
     Some(t.elapsed().as_secs_f64())
