@@ -471,16 +471,22 @@ fn fit(a: FitArgs) -> Result<()> {
         .zip(&values)
         .map(|(&p, &e)| (ErrorPoint::new(p[0], p[1], p[2], e), model.outside(p)))
         .collect();
+    // One-sigma of each prediction where the model has one (the Gaussian process).
+    let sigmas: Vec<Option<f64>> = {
+        use rayon::prelude::*;
+        positions.par_iter().map(|&p| model.sigma(p)).collect()
+    };
     if let Some(out) = &a.out {
-        errmap::table::write_predictions(out, &preds)?;
+        errmap::table::write_predictions(out, &preds, &sigmas)?;
     }
     let n_out = preds.iter().filter(|p| p.1).count();
     if a.json {
         let json = serde_json::json!({
             "method": method.name(),
             "order": method.order().map(|o| o.0),
-            "predictions": preds.iter().map(|(p, e)| serde_json::json!({
-                "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "e_um": p.e_um, "extrapolated": e
+            "predictions": preds.iter().zip(&sigmas).map(|((p, e), s)| serde_json::json!({
+                "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "e_um": p.e_um, "extrapolated": e,
+                "sigma_um": s
             })).collect::<Vec<_>>(),
         });
         println!("{json}");
@@ -495,13 +501,14 @@ fn fit(a: FitArgs) -> Result<()> {
                 .map(|p| format!(", written to {}", p.display()))
                 .unwrap_or_default()
         );
-        for (p, e) in &preds {
+        for ((p, e), s) in preds.iter().zip(&sigmas) {
             eprintln!(
-                "  {:>10.4} {:>10.4} {:>10.4}  {:>10.4} µm{}",
+                "  {:>10.4} {:>10.4} {:>10.4}  {:>10.4} µm{}{}",
                 p.x_mm,
                 p.y_mm,
                 p.z_mm,
                 p.e_um,
+                s.map(|s| format!(" ± {s:.4}")).unwrap_or_default(),
                 if *e { "  (extrapolated)" } else { "" }
             );
         }

@@ -685,15 +685,20 @@ pub fn interval(nodes: &[f64], x: f64) -> usize {
     p.saturating_sub(1).min(n - 2)
 }
 
-/// Writes predictions: `x_mm,y_mm,z_mm,e_um,extrapolated`.
-pub fn write_predictions(path: &Path, preds: &[(ErrorPoint, bool)]) -> Result<(), TableError> {
+/// Writes predictions: `x_mm,y_mm,z_mm,e_um,extrapolated`, and `sigma_um` (one-sigma)
+/// when any prediction has one.
+pub fn write_predictions(
+    path: &Path,
+    preds: &[(ErrorPoint, bool)],
+    sigmas: &[Option<f64>],
+) -> Result<(), TableError> {
     let col = |name: &str, f: &dyn Fn(&ErrorPoint) -> f64| {
         Column::new(
             name.into(),
             preds.iter().map(|(p, _)| f(p)).collect::<Vec<f64>>(),
         )
     };
-    let cols = vec![
+    let mut cols = vec![
         col("x_mm", &|p| p.x_mm),
         col("y_mm", &|p| p.y_mm),
         col("z_mm", &|p| p.z_mm),
@@ -703,6 +708,9 @@ pub fn write_predictions(path: &Path, preds: &[(ErrorPoint, bool)]) -> Result<()
             preds.iter().map(|(_, e)| *e).collect::<Vec<bool>>(),
         ),
     ];
+    if sigmas.iter().any(Option::is_some) {
+        cols.push(Column::new("sigma_um".into(), sigmas.to_vec()));
+    }
     let mut df = DataFrame::new(preds.len(), cols).map_err(|e| format_err(path, e))?;
     write_frame(path, &mut df)
 }

@@ -58,6 +58,30 @@ fn fit_json_predicts_and_flags_extrapolation() {
     assert_eq!(preds[1]["extrapolated"], true);
     assert_eq!(preds[6]["extrapolated"], false);
     assert!((preds[6]["e_um"].as_f64().expect("number") - 0.3666).abs() < 1e-4);
+    // An interpolator has no σ of its own.
+    assert!(preds.iter().all(|p| p["sigma_um"].is_null()));
+}
+
+/// `fit --method gp` gives every prediction a one-sigma, larger far outside the nodes.
+#[test]
+fn fit_gp_json_gives_each_prediction_a_sigma() {
+    let o = errmap(&[
+        "fit",
+        &dataset("table1.csv"),
+        "--method",
+        "gp",
+        "--predict",
+        &dataset("table2.csv"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let preds = v["predictions"].as_array().expect("array");
+    let sigma = |k: usize| preds[k]["sigma_um"].as_f64().expect("a σ");
+    assert!((0..7).all(|k| sigma(k) > 0.0));
+    // P2 (200, 560, 600) lies 160 mm beyond y and 100 mm beyond z; P7 (200, 100, 200) is
+    // 100 mm from a node, inside.
+    assert!(sigma(1) > 2.0 * sigma(6), "{} vs {}", sigma(1), sigma(6));
 }
 
 #[test]
