@@ -46,6 +46,8 @@ pub const MAX_RAW_AB_STATES: usize = 229;
 
 const HELLO_LEN: u8 = 32;
 const SAMPLE_LEN: u8 = 22;
+/// Bytes of one whole SAMPLE frame (header, payload, CRC).
+pub const SAMPLE_FRAME_BYTES: usize = HEADER_LEN + SAMPLE_LEN as usize + CRC_LEN;
 const ENV_LEN: u8 = 18;
 const MARK_LEN: u8 = 26;
 const MATERIAL_FIXED_LEN: u8 = 9;

@@ -679,7 +679,9 @@ impl SessionDecoder {
 
     /// Decode `bytes`, returning the rows completed (other events are in the statistics).
     pub fn push(&mut self, bytes: &[u8]) -> Vec<SessionRow> {
-        let mut rows = Vec::new();
+        // At most one row per SAMPLE frame: reserving that many saves the copies of a
+        // growing vector (untouched capacity costs no memory pages).
+        let mut rows = Vec::with_capacity(bytes.len() / crate::frame::SAMPLE_FRAME_BYTES + 1);
         self.push_with(bytes, &mut |e| {
             if let SessionEvent::Row(r) = e {
                 rows.push(r);
