@@ -164,7 +164,11 @@ fn sampling_advice(table: &ErrorTable, extent: &Extent) -> Option<SamplingAdvice
     // Candidates: a 9-point lattice per axis over the table's volume.
     let lattice = |a: usize| -> Vec<f64> {
         let [lo, hi] = extent.bounds[a];
-        (0..9).map(|k| lo + (hi - lo) * k as f64 / 8.0).collect()
+        if hi > lo {
+            (0..9).map(|k| lo + (hi - lo) * k as f64 / 8.0).collect()
+        } else {
+            vec![lo]
+        }
     };
     let (lx, ly, lz) = (lattice(0), lattice(1), lattice(2));
     let mut candidates = Vec::with_capacity(729);
@@ -175,7 +179,6 @@ fn sampling_advice(table: &ErrorTable, extent: &Extent) -> Option<SamplingAdvice
             }
         }
     }
-    candidates.dedup();
     Some(SamplingAdvice {
         length_scales_mm: h.length_scales_mm,
         spacing_mm: extent.spacing_mm,
@@ -621,6 +624,18 @@ fn fmt_opt(v: Option<f64>) -> String {
 fn grid_findings(grid: &Grid, test: &ErrorTable) -> Vec<String> {
     let mut out = Vec::new();
     let shape = grid.shape();
+    let single: Vec<String> = (0..3)
+        .filter(|&a| shape[a] == 1)
+        .map(|a| format!("{} = {} mm", ["x", "y", "z"][a], grid.axis(a)[0]))
+        .collect();
+    if !single.is_empty() {
+        out.push(format!(
+            "The table was measured on a single {} ({}): every model is constant across it, and a \
+             point off it is an extrapolation.",
+            if single.len() == 2 { "line" } else { "plane" },
+            single.join(", ")
+        ));
+    }
     for (a, name) in ["x", "y", "z"].iter().enumerate() {
         let nodes = grid.axis(a);
         if shape[a] == 2 {

@@ -595,7 +595,7 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
         }
         let _ = writeln!(
             s,
-            "\nThe largest predictive σ over a 9×9×9 lattice of the table's volume is {:.3} µm. The next \
+            "\nThe largest predictive σ over a lattice of the table's volume (9 points along each axis the nodes span) is {:.3} µm. The next \
              {} nodes that most reduce it (greedy, each chosen where the variance is largest given the \
              nodes before it):\n",
             a.max_sigma_um,

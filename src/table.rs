@@ -179,13 +179,9 @@ pub enum TableError {
         expected: usize,
     },
     #[error(
-        "{path}: column `{column}` has {count} distinct value(s); a grid needs at least 2 nodes on every axis"
+        "{path}: {count} node(s) at one position; interpolation needs at least 2 nodes along some axis"
     )]
-    TooFewNodes {
-        path: PathBuf,
-        column: String,
-        count: usize,
-    },
+    TooFewNodes { path: PathBuf, count: usize },
 }
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
@@ -494,21 +490,22 @@ impl ErrorTable {
         Ok(())
     }
 
-    /// Arranges the nodes as a rectilinear grid, or says which node is missing.
+    /// Arranges the nodes as a rectilinear grid, or says which node is missing. An axis
+    /// may have a single node (a table measured on one line or in one plane: the models
+    /// are constant along it), but at least one axis needs two.
     pub fn grid(&self) -> Result<Grid, TableError> {
         let mut axes: [Vec<f64>; 3] = Default::default();
         for (a, axis) in axes.iter_mut().enumerate() {
             let mut v: Vec<f64> = self.points.iter().map(|p| p.position()[a]).collect();
             v.sort_by(f64::total_cmp);
             v.dedup();
-            if v.len() < 2 {
-                return Err(TableError::TooFewNodes {
-                    path: self.path(),
-                    column: Axis::ALL[a].column().to_string(),
-                    count: v.len(),
-                });
-            }
             *axis = v;
+        }
+        if axes.iter().all(|v| v.len() < 2) {
+            return Err(TableError::TooFewNodes {
+                path: self.path(),
+                count: self.points.len(),
+            });
         }
         let [xs, ys, zs] = axes;
         let expected = xs.len() * ys.len() * zs.len();

@@ -112,11 +112,47 @@ fn scattered_nodes_name_the_missing_grid_node() {
     );
 }
 
+/// A table measured on one line (y and z fixed) is a grid with single-node axes: every
+/// method is constant along them and interpolates along x; a single node is refused.
 #[test]
-fn an_axis_with_one_node_is_refused() {
-    let (e, msg) = read_err("x_mm,y_mm,z_mm,e_um\n0,0,0,1\n10,0,0,2\n");
+fn a_single_line_is_a_grid_and_a_single_node_is_refused() {
+    use errmap::interp::{Method, Order};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = write(
+        &dir,
+        "line.csv",
+        "x_mm,y_mm,z_mm,e_um\n0,5,7,1\n100,5,7,3\n200,5,7,2\n300,5,7,6\n",
+    );
+    let table = ErrorTable::read(&path).expect("reads");
+    let grid = table.grid().expect("a line is a grid");
+    assert_eq!(grid.shape(), [4, 1, 1]);
+    for method in [
+        Method::Trilinear,
+        Method::Spline,
+        Method::Lagrange(Order([3, 0, 0])),
+    ] {
+        let m = method.fit(&grid).expect("fits");
+        // Through the nodes, and linear between the first two for trilinear.
+        assert!(
+            (m.predict([100.0, 5.0, 7.0]) - 3.0).abs() < 1e-12,
+            "{}",
+            method.label()
+        );
+        assert!(
+            m.outside([100.0, 6.0, 7.0]),
+            "off the line is an extrapolation"
+        );
+        assert!(!m.outside([150.0, 5.0, 7.0]));
+    }
+    let tri = Method::Trilinear.fit(&grid).expect("fits");
+    assert!((tri.predict([50.0, 5.0, 7.0]) - 2.0).abs() < 1e-12);
+    // Higher degree than the line's 4 nodes allow, or any degree across the line: refused.
+    assert!(Method::Lagrange(Order([4, 0, 0])).fit(&grid).is_err());
+    assert!(Method::Lagrange(Order([1, 1, 0])).fit(&grid).is_err());
+
+    let (e, msg) = read_err("x_mm,y_mm,z_mm,e_um\n0,0,0,1\n");
     assert!(
-        matches!(e, TableError::TooFewNodes { ref column, count: 1, .. } if column == "y_mm"),
+        matches!(e, TableError::TooFewNodes { count: 1, .. }),
         "{msg}"
     );
 }
