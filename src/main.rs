@@ -63,7 +63,7 @@ enum Command {
 struct ExportArgs {
     /// Error table to fit.
     table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy
+    /// lagrange | trilinear | spline | fuzzy | gp (gp also takes a scattered table)
     #[arg(long)]
     method: String,
     /// Lagrange degrees MxNxQ (or auto).
@@ -293,7 +293,7 @@ struct ModelArgs {
 struct FitArgs {
     /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
     table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy
+    /// lagrange | trilinear | spline | fuzzy | gp (gp also takes a scattered table)
     #[arg(long)]
     method: String,
     /// Lagrange degrees MxNxQ along x, y, z, or `auto` (chosen by cross-validation).
@@ -405,12 +405,6 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
-fn read_grid_table(path: &Path) -> Result<(ErrorTable, errmap::table::Grid)> {
-    let table = ErrorTable::read(path)?;
-    let grid = table.grid()?;
-    Ok((table, grid))
-}
-
 /// Turns `--method`/`--order` into a method; `auto` runs the cross-validation.
 fn parse_method(
     name: &str,
@@ -446,22 +440,44 @@ fn parse_method(
     })
 }
 
-fn fit(a: FitArgs) -> Result<()> {
-    let table = ErrorTable::read(&a.table)?;
-    // The Gaussian process takes scattered nodes; the interpolators need the grid.
-    let grid = if a.method == "gp" {
+/// A table and one method fitted to it, with the nodes' box.
+struct Fitted {
+    method: Method,
+    model: Box<dyn errmap::interp::Interpolator>,
+    extent: compare::Extent,
+}
+
+/// Reads `path` and fits the method named `name`: the Gaussian process to the nodes as
+/// they are (scattered or not), the interpolators to the grid (the error names a missing
+/// node).
+fn fit_table(path: &Path, name: &str, order: Option<&str>, model: &ModelArgs) -> Result<Fitted> {
+    let table = ErrorTable::read(path)?;
+    let grid = if name == "gp" {
         None
     } else {
         Some(table.grid()?)
     };
-    let method = parse_method(&a.method, a.order.as_deref(), &a.model, grid.as_ref())?;
-    let model = match &grid {
+    let method = parse_method(name, order, model, grid.as_ref())?;
+    let fitted = match &grid {
         Some(g) => method.fit(g).map_err(anyhow::Error::from),
         None => method
             .fit_points(&table.points)
             .map_err(anyhow::Error::from),
     }
-    .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
+    .with_context(|| format!("{}: cannot fit {}", path.display(), method.label()))?;
+    Ok(Fitted {
+        method,
+        model: fitted,
+        extent: match &grid {
+            Some(g) => compare::Extent::of_grid(g),
+            None => compare::Extent::of_points(&table),
+        },
+    })
+}
+
+fn fit(a: FitArgs) -> Result<()> {
+    let Fitted { method, model, .. } =
+        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
     let points = ErrorTable::read_points(&a.predict)?;
     let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
     let mut values = vec![0.0; positions.len()];
@@ -792,11 +808,8 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         volumetric_grid,
     };
     use errmap::table::Axis;
-    let (_, grid) = read_grid_table(&a.table)?;
-    let method = parse_method(&a.method, a.order.as_deref(), &a.model, Some(&grid))?;
-    let model = method
-        .fit(&grid)
-        .with_context(|| format!("{}: cannot fit {}", a.table.display(), method.label()))?;
+    let Fitted { model, extent, .. } =
+        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
     } else {
@@ -818,12 +831,8 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         "grid" => ExportFormat::Grid,
         other => bail!("--format is linuxcnc, siemens, csv or grid, not {other}"),
     };
-    let lo = [grid.xs[0], grid.ys[0], grid.zs[0]];
-    let hi = [
-        grid.xs[grid.xs.len() - 1],
-        grid.ys[grid.ys.len() - 1],
-        grid.zs[grid.zs.len() - 1],
-    ];
+    let lo = extent.bounds.map(|b| b[0]);
+    let hi = extent.bounds.map(|b| b[1]);
     if !format.is_line() {
         let n = volumetric_grid(
             model.as_ref(),

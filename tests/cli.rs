@@ -325,3 +325,44 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
         "{e}"
     );
 }
+
+/// `export --method gp` takes a scattered table (the interpolators would name the missing
+/// node) and writes a LinuxCNC table along the requested line.
+#[test]
+fn export_from_a_scattered_table_with_the_gp() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with("1.2424,400,350,"))
+        .collect();
+    let table = dir.path().join("scattered.csv");
+    std::fs::write(&table, kept.join("\n") + "\n").expect("write");
+    let out = dir.path().join("x.comp");
+    let args = |method: &str| {
+        errmap(&[
+            "export",
+            table.to_str().expect("utf8"),
+            "--method",
+            method,
+            "--step",
+            "199.6894",
+            "--at",
+            "y=1,z=200",
+            "--format",
+            "linuxcnc",
+            "--out",
+            out.to_str().expect("utf8"),
+        ])
+    };
+    let o = args("spline");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("(1.2424, 400, 350)"), "{}", stderr(&o));
+    let o = args("gp");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let comp = std::fs::read_to_string(&out).expect("comp file");
+    // x from 1.2424 to 800 mm in 4 steps: 5 lines of "nominal actual actual".
+    let lines: Vec<&str> = comp.lines().collect();
+    assert_eq!(lines.len(), 5, "{comp}");
+    assert!(lines.iter().all(|l| l.split_whitespace().count() == 3));
+}
