@@ -20,6 +20,20 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// Table 1 without the node (1.2424, 400, 350), written to `dir/scattered.csv`: no longer
+/// a grid.
+fn scattered_table1(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with("1.2424,400,350,"))
+        .collect();
+    assert_eq!(kept.len(), text.lines().count() - 1, "one node dropped");
+    let table = dir.join("scattered.csv");
+    std::fs::write(&table, kept.join("\n") + "\n").expect("write");
+    table
+}
+
 /// `compare TABLE --test table2.csv --report REPORT --json`, which must succeed, as JSON.
 fn compare_json(table: &str, report: &Path) -> serde_json::Value {
     let o = errmap(&[
@@ -259,15 +273,7 @@ fn committed_table2_report_matches_a_fresh_run() {
 #[test]
 fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
-    // Drop the node (1.2424, 400, 350).
-    let kept: Vec<&str> = text
-        .lines()
-        .filter(|l| !l.starts_with("1.2424,400,350,"))
-        .collect();
-    assert_eq!(kept.len(), text.lines().count() - 1, "one node dropped");
-    let table = dir.path().join("scattered.csv");
-    std::fs::write(&table, kept.join("\n") + "\n").expect("write");
+    let table = scattered_table1(dir.path());
     let table = table.to_str().expect("utf8");
     let report = dir.path().join("report");
     let v = compare_json(table, &report);
@@ -331,13 +337,7 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
 #[test]
 fn export_from_a_scattered_table_with_the_gp() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
-    let kept: Vec<&str> = text
-        .lines()
-        .filter(|l| !l.starts_with("1.2424,400,350,"))
-        .collect();
-    let table = dir.path().join("scattered.csv");
-    std::fs::write(&table, kept.join("\n") + "\n").expect("write");
+    let table = scattered_table1(dir.path());
     let out = dir.path().join("x.comp");
     let args = |method: &str| {
         errmap(&[
