@@ -167,14 +167,18 @@ pub enum TableError {
         z: f64,
     },
     #[error(
-        "{path}: the nodes do not form a rectilinear grid: node ({x}, {y}, {z}) mm is missing \
-         ({present} of {expected} grid nodes present)"
+        "{path}: the nodes do not form a rectilinear grid: {} ({present} of {expected} grid nodes \
+         present)",
+        describe_missing([*x, *y, *z], more, expected - present)
     )]
     MissingNode {
         path: PathBuf,
+        /// The first missing node.
         x: f64,
         y: f64,
         z: f64,
+        /// The next few missing nodes (at most [`MISSING_LISTED`] − 1).
+        more: Vec<[f64; 3]>,
         present: usize,
         expected: usize,
     },
@@ -185,6 +189,25 @@ pub enum TableError {
 }
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
+
+/// "node (x, y, z) mm is missing", or "nodes (…), (…), … mm are missing" for several.
+fn describe_missing(first: [f64; 3], more: &[[f64; 3]], missing: usize) -> String {
+    let mut names: Vec<String> = std::iter::once(first)
+        .chain(more.iter().copied())
+        .map(|[x, y, z]| format!("({x}, {y}, {z})"))
+        .collect();
+    if missing > names.len() {
+        names.push("…".into());
+    }
+    if names.len() == 1 {
+        format!("node {} mm is missing", names[0])
+    } else {
+        format!("nodes {} mm are missing", names.join(", "))
+    }
+}
+
+/// How many missing grid nodes [`TableError::MissingNode`] names.
+pub const MISSING_LISTED: usize = 5;
 
 fn format_err(path: &Path, e: impl fmt::Display) -> TableError {
     TableError::Format {
@@ -522,15 +545,20 @@ impl ErrorTable {
                 filled[idx] = true;
             }
         }
-        if let Some(idx) = filled.iter().position(|f| !f) {
+        let node = |idx: usize| {
             let i = idx % xs.len();
             let j = (idx / xs.len()) % ys.len();
             let k = idx / (xs.len() * ys.len());
+            [xs[i], ys[j], zs[k]]
+        };
+        let mut missing = (0..expected).filter(|&idx| !filled[idx]).map(node);
+        if let Some([x, y, z]) = missing.next() {
             return Err(TableError::MissingNode {
                 path: self.path(),
-                x: xs[i],
-                y: ys[j],
-                z: zs[k],
+                x,
+                y,
+                z,
+                more: missing.take(MISSING_LISTED - 1).collect(),
                 present: self.points.len(),
                 expected,
             });

@@ -110,6 +110,32 @@ fn scattered_nodes_name_the_missing_grid_node() {
         msg.contains("(10, 5, 7)") && msg.contains("7 of 8"),
         "{msg}"
     );
+    // Several missing: the first five are named, then an ellipsis.
+    let header = "x_mm,y_mm,z_mm,e_um\n";
+    let mut rows = String::from(header);
+    for (i, x) in [0.0, 10.0, 20.0, 30.0].iter().enumerate() {
+        for z in [0.0, 7.0] {
+            rows.push_str(&format!("{x},{},{z},1\n", 5 * i));
+        }
+    }
+    // 8 nodes on a 4 × 4 × 2 grid of 32: 24 missing.
+    let (e, msg) = read_err(&rows);
+    let TableError::MissingNode {
+        more,
+        present,
+        expected,
+        ..
+    } = &e
+    else {
+        panic!("{msg}");
+    };
+    assert_eq!((more.len(), *present, *expected), (4, 8, 32), "{msg}");
+    assert!(
+        msg.contains(
+            "nodes (10, 0, 0), (20, 0, 0), (30, 0, 0), (0, 5, 0), (20, 5, 0), … mm are missing"
+        ) && msg.contains("8 of 32"),
+        "{msg}"
+    );
 }
 
 /// A table measured on one line (y and z fixed) is a grid with single-node axes: every
