@@ -237,21 +237,61 @@ pub fn compare(
     test: &ErrorTable,
     methods: &[Method],
 ) -> Result<Comparison, InterpError> {
+    compare_grid(table, grid, test, methods, false)
+}
+
+/// [`compare`] for a default list of methods: a method that cannot be fitted to this grid
+/// (or to a cross-validation fold of it; e.g. the Gaussian process on fewer than 3 nodes)
+/// is listed in [`Comparison::refused`] with the reason instead of failing the whole
+/// comparison. Fails only when no method can be fitted.
+pub fn compare_where_possible(
+    table: &ErrorTable,
+    grid: &Grid,
+    test: &ErrorTable,
+    methods: &[Method],
+) -> Result<Comparison, InterpError> {
+    compare_grid(table, grid, test, methods, true)
+}
+
+fn compare_grid(
+    table: &ErrorTable,
+    grid: &Grid,
+    test: &ErrorTable,
+    methods: &[Method],
+    lenient: bool,
+) -> Result<Comparison, InterpError> {
     let extent = Extent::of_grid(grid);
     let mut rows = Vec::with_capacity(methods.len());
+    let mut refused = Refusals::new();
     for method in methods {
-        let model = method.fit(grid)?;
-        let cv = leave_one_plane_out(grid, method)?;
-        rows.push(ModelRow::evaluate(*method, model.as_ref(), cv, test));
+        let fitted = method.fit(grid).and_then(|model| {
+            let cv = leave_one_plane_out(grid, method).map_err(|e| match e {
+                InterpError::Gp(why) if lenient => {
+                    InterpError::Gp(format!("{why} (in a cross-validation fold)"))
+                }
+                e => e,
+            })?;
+            Ok((model, cv))
+        });
+        match fitted {
+            Ok((model, cv)) => rows.push(ModelRow::evaluate(*method, model.as_ref(), cv, test)),
+            Err(e) if lenient => refused.push((method.label(), e.to_string())),
+            Err(e) => return Err(e),
+        }
     }
+    if rows.is_empty() {
+        let why = refused.first().map(|r| r.1.clone()).unwrap_or_default();
+        return Err(InterpError::NothingFits { why });
+    }
+    let fitted: Vec<Method> = rows.iter().map(|r| r.method).collect();
     Ok(Comparison::assemble(
         table,
         Some(grid),
         extent,
         test,
-        methods,
+        &fitted,
         rows,
-        Vec::new(),
+        refused,
     ))
 }
 
@@ -476,7 +516,7 @@ impl Comparison {
         } else {
             out.push(format!("All {n_test} test points lie inside {within}."));
         }
-        if !self.refused.is_empty() {
+        if self.grid.is_none() && !self.refused.is_empty() {
             let names: Vec<&str> = self.refused.iter().map(|(m, _)| m.as_str()).collect();
             out.push(format!(
                 "The fitting table is scattered, not a full grid, so only the Gaussian process is fitted; \
@@ -484,6 +524,10 @@ impl Comparison {
                 names.join(", "),
                 self.refused[0].1
             ));
+        } else {
+            for (names, why) in crate::report::group_by_reason(&self.refused) {
+                out.push(format!("Not fitted: {} — {why}.", names.join(", ")));
+            }
         }
         if let Some(grid) = &self.grid {
             out.extend(grid_findings(grid, &self.test));

@@ -625,7 +625,11 @@ fn compare_cmd(a: CompareArgs) -> Result<()> {
     let comparison = match table.grid() {
         Ok(grid) => {
             let methods = compare_methods(&a, &grid)?;
-            compare::compare(&table, &grid, &test, &methods)
+            if a.methods.is_some() {
+                compare::compare(&table, &grid, &test, &methods)
+            } else {
+                compare::compare_where_possible(&table, &grid, &test, &methods)
+            }
         }
         Err(e @ errmap::table::TableError::MissingNode { .. }) => {
             let (methods, refused) = scattered_methods(&a, &e)?;

@@ -409,10 +409,10 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
                 let [lo, hi] = c.extent.bounds[a];
                 let _ = writeln!(s, "  - {name} from {lo} to {hi} mm");
             }
-            for (names, why) in group_by_reason(&c.refused) {
-                let _ = writeln!(s, "- Not fitted: {} — {why}.", names.join(", "));
-            }
         }
+    }
+    for (names, why) in group_by_reason(&c.refused) {
+        let _ = writeln!(s, "- Not fitted: {} — {why}.", names.join(", "));
     }
     let _ = writeln!(
         s,

@@ -366,3 +366,62 @@ fn export_from_a_scattered_table_with_the_gp() {
     assert_eq!(lines.len(), 5, "{comp}");
     assert!(lines.iter().all(|l| l.split_whitespace().count() == 3));
 }
+
+/// On a table too small for some default method (two nodes: the Gaussian process needs
+/// three), `compare` fits the others and lists the rest as not fitted, with the reason;
+/// asked for by name, the method that cannot be fitted is an error.
+#[test]
+fn compare_by_default_skips_methods_the_table_cannot_carry() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let table = dir.path().join("two.csv");
+    std::fs::write(&table, "x_mm,y_mm,z_mm,e_um\n0,0,0,1\n10,0,0,2\n").expect("write");
+    let table = table.to_str().expect("utf8");
+    let report = dir.path().join("r");
+    let o = errmap(&[
+        "compare",
+        table,
+        "--test",
+        table,
+        "--report",
+        report.to_str().expect("utf8"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let labels: Vec<&str> = v["rows"]
+        .as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| r["label"].as_str().expect("label"))
+        .collect();
+    assert_eq!(
+        labels,
+        [
+            "trilinear",
+            "spline",
+            "fuzzy",
+            "lagrange 0×0×0",
+            "lagrange 1×0×0"
+        ]
+    );
+    let refused = v["refused"].as_array().expect("refused");
+    assert_eq!(refused.len(), 2);
+    assert!(
+        refused[0]["reason"]
+            .as_str()
+            .expect("reason")
+            .contains("at least 3 points, got 2")
+    );
+    let o = errmap(&[
+        "compare",
+        table,
+        "--test",
+        table,
+        "--methods",
+        "gp",
+        "--report",
+        report.to_str().expect("utf8"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("at least 3 points"), "{}", stderr(&o));
+}

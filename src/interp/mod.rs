@@ -207,6 +207,8 @@ pub enum InterpError {
     NeedsGrid { method: &'static str },
     #[error("Gaussian process: {0}")]
     Gp(String),
+    #[error("no method can be fitted to this table ({why})")]
+    NothingFits { why: String },
 }
 
 fn check_grid(grid: &Grid) -> Result<(), InterpError> {
