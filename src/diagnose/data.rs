@@ -75,6 +75,9 @@ pub(crate) struct Obs {
     pub air_t: Option<Vec<f64>>,
     pub air_p: Option<Vec<f64>>,
     pub air_rh: Option<Vec<f64>>,
+    /// The scale counter's step along the axis, µm, found in the recorded readings
+    /// ([`counter_quantum_um`]); 0 when they show none.
+    pub quantum_um: f64,
 }
 
 impl Obs {
@@ -320,8 +323,36 @@ pub(crate) fn build(
         air_t,
         air_p,
         air_rh,
+        quantum_um: counter_quantum_um(rows.iter().map(|row| row.scale_mm)),
     };
     Ok((obs, m))
+}
+
+/// The step of a quantised reading, µm: the greatest common divisor of the gaps between
+/// its distinct values, in whole picometres (the unit of the HELLO's count resolution).
+/// 0 — no step known — when there are fewer than 50 distinct values (a few dwell
+/// positions on round targets say nothing about the counter) or the divisor comes out
+/// above 1 µm (no laser calibration counts that coarsely).
+pub(crate) fn counter_quantum_um(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.filter(|v| v.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    if v.len() < 50 {
+        return 0.0;
+    }
+    let gcd = |mut a: u64, mut b: u64| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let q_pm = v
+        .windows(2)
+        .map(|w| ((w[1] - w[0]) * 1e9).round() as u64)
+        .filter(|&g| g > 0)
+        .fold(0, gcd);
+    let q_um = q_pm as f64 * 1e-6;
+    if q_um > 1.0 { 0.0 } else { q_um }
 }
 
 /// A column with gaps filled by linear interpolation in time (constant beyond the ends);
@@ -601,4 +632,23 @@ pub(crate) fn folds(obs: &Obs) -> (Vec<usize>, usize, &'static str) {
         id[i] = p * k / n;
     }
     (id, k, "time block")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::counter_quantum_um;
+
+    #[test]
+    fn quantum_is_the_counter_step() {
+        // 0.1 µm counts at scattered positions; 78.6 nm steps; no quantisation at all.
+        let counts = [3u64, 10, 17, 1_000, 4_001, 8_000_003];
+        let on =
+            |q_mm: f64| (0..200u64).map(move |k| (counts[(k % 6) as usize] + 7 * k) as f64 * q_mm);
+        assert!((counter_quantum_um(on(1e-4)) - 0.1).abs() < 1e-9);
+        assert!((counter_quantum_um(on(78.6e-6)) - 0.0786).abs() < 1e-9);
+        let smooth = (0..200).map(|k| (k as f64 * 0.1234567).sin() * 400.0);
+        assert!(counter_quantum_um(smooth) < 1e-5);
+        // Too few distinct values (dwell positions only): unknown.
+        assert_eq!(counter_quantum_um([0.0, 100.0, 200.0].into_iter()), 0.0);
+    }
 }

@@ -22,7 +22,11 @@
 //! (one-sigma ≤ [`DiagnoseConfig::max_relative_uncertainty`] × |value|) and physically
 //! possible (a scale's fixed point x0 near the axis), (4) a periodic term is carried by
 //! the moving samples alone and has one amplitude along the whole axis, and (5) it
-//! explains at least [`DiagnoseConfig::min_effect_fraction_of_noise`] of the noise σ. A
+//! explains at least [`DiagnoseConfig::min_effect_fraction_of_noise`] of the noise σ and
+//! at least one count's quantisation, q/√12 for the scale step q found in the recorded
+//! readings (with sampling locked to the counter's grid, quantisation is not white: on a
+//! 0.1 µm counter it leaves ~0.01 µm of structure that a clean session would otherwise
+//! pin on refraction or dead path). A
 //! refused effect is named in `ambiguities` with the reason, and the selection starts
 //! again without it so that a better explanation can take its place. Effects that these
 //! data cannot tell apart are named together in `where` and `ambiguities`, with the

@@ -1230,6 +1230,8 @@ impl<'a> Selector<'a> {
         let noise_rms = sigma_w / mean_w.sqrt();
         let mut keep = Vec::new();
         let mut small = Vec::new();
+        // One count's quantisation, uniform over a step q: standard uncertainty q/√12.
+        let quantisation = self.obs.quantum_um / 12f64.sqrt();
         for f in fitted {
             let rms = centred_rms(&f.contribution);
             if rms < cfg.min_effect_fraction_of_noise * noise_rms {
@@ -1237,6 +1239,13 @@ impl<'a> Selector<'a> {
                     "{} is significant but explains only {rms:.4} µm RMS (< {} × noise {noise_rms:.4} µm): not reported",
                     f.term.kind.label(self.obs),
                     cfg.min_effect_fraction_of_noise
+                ));
+            } else if rms < quantisation {
+                small.push(format!(
+                    "{} is significant but explains only {rms:.4} µm RMS, less than one count's \
+                     quantisation ({:.4} µm step, {quantisation:.4} µm standard uncertainty): not reported",
+                    f.term.kind.label(self.obs),
+                    self.obs.quantum_um
                 ));
             } else {
                 keep.push(f);
