@@ -23,10 +23,11 @@
 //! possible (a scale's fixed point x0 near the axis), (4) a periodic term is carried by
 //! the moving samples alone and has one amplitude along the whole axis, and (5) it
 //! explains at least [`DiagnoseConfig::min_effect_fraction_of_noise`] of the noise σ and
-//! at least one count's quantisation, q/√12 for the scale step q found in the recorded
-//! readings (with sampling locked to the counter's grid, quantisation is not white: on a
-//! 0.1 µm counter it leaves ~0.01 µm of structure that a clean session would otherwise
-//! pin on refraction or dead path). A
+//! at least half of one count's quantisation uncertainty, q/(2√12) for the scale step q
+//! found in the recorded readings (with sampling locked to the counter's grid,
+//! quantisation is not white: on a 0.1 µm counter it leaves ~0.01 µm RMS of structure
+//! that a clean session would otherwise pin on refraction or dead path; the factor ½ is
+//! set from those measurements, not derived). A
 //! refused effect is named in `ambiguities` with the reason, and the selection starts
 //! again without it so that a better explanation can take its place. Effects that these
 //! data cannot tell apart are named together in `where` and `ambiguities`, with the
@@ -501,10 +502,17 @@ fn assemble(
             )
         } else if a.delta_bic >= -select::TIE_BIC {
             "the fits are equally good and it is the simpler explanation (fewer assumptions or covariates)".to_string()
-        } else {
+        } else if -a.delta_bic < config.min_delta_bic {
             format!(
                 "it was selected first and the alternative is better by only {:.1} (less than the {} an exchange needs)",
                 -a.delta_bic, config.min_delta_bic
+            )
+        } else {
+            format!(
+                "the selection kept it, although the alternative fits these rows better (BIC lower by {:.1}): \
+                 on its path the alternative failed leave-one-run-out cross-validation or the checks on its \
+                 parameters; treat the attribution between the two as open",
+                -a.delta_bic
             )
         };
         let text = format!(
