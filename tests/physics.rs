@@ -331,6 +331,16 @@ fn coarse_counter_diagnosis(
     axis: &str,
     hide: impl Fn(&mut MachineModel),
 ) -> errmap::diagnose::Diagnosis {
+    coarse_counter_diagnosis_with(axis, None, "", hide)
+}
+
+/// [`coarse_counter_diagnosis`] with other targets (a TOML list) and extra plan lines.
+fn coarse_counter_diagnosis_with(
+    axis: &str,
+    targets: Option<&str>,
+    extra: &str,
+    hide: impl Fn(&mut MachineModel),
+) -> errmap::diagnose::Diagnosis {
     use errmap::diagnose::{DiagnoseConfig, diagnose};
     let model_path = root().join("datasets/physics/example-model.toml");
     let model = MachineModel::read(&model_path).expect("example model");
@@ -338,9 +348,9 @@ fn coarse_counter_diagnosis(
         model.device.count_resolution_pm, 100_000,
         "the premise: a 0.1 µm counter"
     );
-    let (lines, targets) = match axis {
+    let (lines, default_targets) = match axis {
         "X" => (
-            "[[200.0, 200.0], [300.0, 350.0]]",
+            "[[1.0, 200.0], [400.0, 500.0]]",
             "[1.2424, 200.0, 400.0, 600.0, 800.0]",
         ),
         _ => (
@@ -348,13 +358,14 @@ fn coarse_counter_diagnosis(
             "[1.0, 100.0, 200.0, 300.0, 400.0]",
         ),
     };
+    let targets = targets.unwrap_or(default_targets);
     let dir = tempfile::tempdir().expect("tempdir");
     let plan_path = dir.path().join("plan.toml");
     std::fs::write(
         &plan_path,
         format!(
             "axis = \"{axis}\"\nlines_mm = {lines}\ntargets_mm = {targets}\nruns = 3\n\
-             feed_mm_s = 120.0\ndwell_s = 0.5\nsample_hz = 50.0\nsettle_s = 0.2\n"
+             feed_mm_s = 120.0\ndwell_s = 0.5\nsample_hz = 50.0\nsettle_s = 0.2\n{extra}"
         ),
     )
     .expect("plan");
@@ -393,4 +404,21 @@ fn coarse_counter_quantisation_is_not_an_effect() {
         }
     });
     assert_eq!(ids(&d), ["thermal_drift"]);
+    // A 10 µm periodic error along X, without the 0.6 mm "period" that the 2.4 mm pitch of
+    // the moving samples (120 mm/s at 50 Hz) puts into the quantisation error.
+    // With a second feed of 60 mm/s (1.2 mm pitch) on 4 targets.
+    let d = coarse_counter_diagnosis_with(
+        "X",
+        Some("[1.2424, 267.4949, 533.7475, 800.0]"),
+        "extra_feeds_mm_s = [60.0]\n",
+        |m| {
+            m.periodic_scale = Some(PeriodicScale {
+                enabled: true,
+                amplitude_um: 0.2,
+                period_um: 10.0,
+                phase_rad: 0.012,
+            })
+        },
+    );
+    assert_eq!(ids(&d), ["periodic_scale"]);
 }

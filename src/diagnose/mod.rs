@@ -23,11 +23,14 @@
 //! possible (a scale's fixed point x0 near the axis), (4) a periodic term is carried by
 //! the moving samples alone and has one amplitude along the whole axis, and (5) it
 //! explains at least [`DiagnoseConfig::min_effect_fraction_of_noise`] of the noise σ and
-//! at least half of one count's quantisation uncertainty, q/(2√12) for the scale step q
-//! found in the recorded readings (with sampling locked to the counter's grid,
-//! quantisation is not white: on a 0.1 µm counter it leaves ~0.01 µm RMS of structure
-//! that a clean session would otherwise pin on refraction or dead path; the factor ½ is
-//! set from those measurements, not derived). A
+//! more than counter quantisation fits by chance. With sampling locked to the counter's
+//! grid the quantisation error (uniform over the scale step q found in the recorded
+//! readings, σ = q/√12) is constant along a move and differs between moves, so N moves
+//! give N independent offsets and an effect with k parameters picks up about
+//! (q/√12)·√(k/N) of them by chance; the floor is three times that, at most q/√12, and
+//! the whole q/√12 for a period that divides the moving samples' pitch (on a 0.1 µm
+//! counter, clean sessions otherwise blamed 0.008–0.018 µm of this on refraction, dead
+//! path, Abbe or a 0.6 mm "period"). A
 //! refused effect is named in `ambiguities` with the reason, and the selection starts
 //! again without it so that a better explanation can take its place. Effects that these
 //! data cannot tell apart are named together in `where` and `ambiguities`, with the

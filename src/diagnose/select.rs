@@ -28,6 +28,8 @@
 //!    a determined replacement within `ambiguity_delta_bic` of the chosen model is an
 //!    ambiguity, stated with the measurement that would separate the two.
 
+use std::collections::BTreeMap;
+
 use super::DiagnoseConfig;
 use super::data::Obs;
 use super::effects::{self, Columns, Kind, Param, Variant};
@@ -45,6 +47,15 @@ const RESEARCH_FRACTION: f64 = 0.8;
 /// Longest period of the broad periodogram, as a fraction of the x range: a "period"
 /// with fewer than 10 cycles over the axis is a smooth shape, not a periodic error.
 const MAX_BROAD_FRACTION: f64 = 0.1;
+
+/// The sampling pitch (mm) of which `period_mm` is a sub-multiple s/k (k = 1‥64, within
+/// 1 %), if any.
+fn lattice_alias(period_mm: f64, lattices: &[f64]) -> Option<f64> {
+    lattices.iter().copied().find(|&s| {
+        let k = (s / period_mm).round();
+        (1.0..=64.0).contains(&k) && (s / k - period_mm).abs() <= 0.01 * period_mm
+    })
+}
 
 /// Δχ² a periodic term must reach on the moving rows alone (independent phases), about
 /// 5σ for two parameters.
@@ -542,6 +553,56 @@ impl<'a> Selector<'a> {
         } else {
             p
         }
+    }
+
+    /// The spacing of successive moving samples, mm, one per feed: feed × sample interval.
+    /// Along a move at constant speed the samples sit on a lattice of this pitch, so the
+    /// scale's counter quantisation — and anything else tied to the counter's grid — is
+    /// in phase at every one of them; a periodogram shows that as peaks at the pitch and
+    /// its sub-multiples.
+    fn sampling_lattices_mm(&self) -> Vec<f64> {
+        let o = self.obs;
+        let mut by_feed: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
+        for k in 1..o.len() {
+            let same_move = o.moving[k]
+                && o.moving[k - 1]
+                && o.run[k] == o.run[k - 1]
+                && o.d[k] == o.d[k - 1]
+                && o.v_feed[k] > 0.0;
+            if same_move {
+                let dx = (o.x[k] - o.x[k - 1]).abs();
+                if dx > 0.0 {
+                    by_feed
+                        .entry((o.v_feed[k] * 1000.0).round() as i64)
+                        .or_default()
+                        .push(dx);
+                }
+            }
+        }
+        by_feed
+            .into_values()
+            .filter(|v| v.len() >= 10)
+            .map(|mut v| {
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            })
+            .collect()
+    }
+
+    /// The number of moves: runs of consecutive moving rows on one line, in one run and
+    /// one direction.
+    fn moves(&self) -> usize {
+        let o = self.obs;
+        (0..o.len())
+            .filter(|&k| {
+                o.moving[k]
+                    && (k == 0
+                        || !o.moving[k - 1]
+                        || o.run[k] != o.run[k - 1]
+                        || o.d[k] != o.d[k - 1]
+                        || o.line[k] != o.line[k - 1])
+            })
+            .count()
     }
 
     /// Longest period a periodic term may have, µm.
@@ -1230,14 +1291,32 @@ impl<'a> Selector<'a> {
         let noise_rms = sigma_w / mean_w.sqrt();
         let mut keep = Vec::new();
         let mut small = Vec::new();
-        // Half of one count's quantisation uncertainty (uniform over a step q: q/√12). With
-        // sampling locked to the counter's grid the quantisation error is constant along a
-        // move and differs between moves, so a smooth effect can fit some of it: on a
-        // 0.1 µm counter clean sessions show 0.008–0.010 µm RMS of such structure, and a
-        // real drift of 0.12 µm over the session 0.027 µm.
-        let quantisation = 0.5 * self.obs.quantum_um / 12f64.sqrt();
+        // Counter quantisation is uniform over a step q (standard uncertainty q/√12), and
+        // with sampling locked to the counter's grid it is constant along a move and differs
+        // between moves: N independent offsets, not one per row. An effect with k
+        // parameters fitted to them picks up about (q/√12)·√(k/N) RMS by chance; the floor
+        // is three times that, at most q/√12. (On a 0.1 µm counter clean sessions show
+        // 0.008–0.018 µm of such structure with N = 36–48 moves; a real 0.12 µm drift over
+        // the session is 0.027 µm.)
+        let q_sigma = self.obs.quantum_um / 12f64.sqrt();
+        let moves = self.moves().max(1) as f64;
+        let lattices = self.sampling_lattices_mm();
         for f in fitted {
             let rms = centred_rms(&f.contribution);
+            // A period that divides the moving samples' pitch sees them all in one phase
+            // within a move, like the quantisation error: it must exceed the whole of one
+            // count's quantisation uncertainty (on a 0.1 µm counter such peaks at 0.6 mm
+            // for a 2.4 mm pitch explain 0.014–0.023 µm RMS in sessions without them).
+            let alias = match f.term.variant {
+                Variant::Periodic { period_um } => lattice_alias(period_um / 1000.0, &lattices),
+                _ => None,
+            };
+            let k = f.params.len().max(1) as f64;
+            let quantisation = if alias.is_some() {
+                q_sigma
+            } else {
+                (3.0 * q_sigma * (k / moves).sqrt()).min(q_sigma)
+            };
             if rms < cfg.min_effect_fraction_of_noise * noise_rms {
                 small.push(format!(
                     "{} is significant but explains only {rms:.4} µm RMS (< {} × noise {noise_rms:.4} µm): not reported",
@@ -1246,9 +1325,14 @@ impl<'a> Selector<'a> {
                 ));
             } else if rms < quantisation {
                 small.push(format!(
-                    "{} is significant but explains only {rms:.4} µm RMS, less than half of one \
-                     count's quantisation uncertainty ({:.4} µm step: {quantisation:.4} µm): not reported",
+                    "{} is significant but explains only {rms:.4} µm RMS, less than {} \
+                     ({:.4} µm counter step: {quantisation:.4} µm): not reported",
                     f.term.kind.label(self.obs),
+                    if alias.is_some() {
+                        "one count's quantisation uncertainty (its period divides the moving samples' pitch)"
+                    } else {
+                        "what counter quantisation fits by chance"
+                    },
                     self.obs.quantum_um
                 ));
             } else {
@@ -1570,4 +1654,21 @@ fn detrend_cubic(xc: &[f64], r: &[f64], w: &[f64]) -> Vec<f64> {
             r[i] - (0..k).map(|a| f.coef[a] * row[a]).sum::<f64>()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod lattice_tests {
+    use super::lattice_alias;
+
+    #[test]
+    fn sub_multiples_of_the_sampling_pitch_are_aliases() {
+        // 120 mm/s at 50 Hz: a 2.4 mm pitch; 60 mm/s: 1.2 mm.
+        let pitches = [2.4, 1.2];
+        assert_eq!(lattice_alias(0.6, &pitches), Some(2.4));
+        assert_eq!(lattice_alias(0.599_97, &pitches), Some(2.4));
+        assert_eq!(lattice_alias(1.2, &pitches), Some(2.4));
+        assert_eq!(lattice_alias(0.7, &pitches), None);
+        assert_eq!(lattice_alias(5.0, &pitches), None);
+        assert_eq!(lattice_alias(0.6, &[]), None);
+    }
 }
