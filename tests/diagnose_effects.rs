@@ -459,3 +459,52 @@ fn single_line_makes_abbe_ambiguous() {
     let k = param(&d.effects[0], "ppm");
     assert!((k - 3.0).abs() < 0.3, "{text}");
 }
+
+/// Against a model whose own dead path is known, a dead-path correction that would make
+/// the beam's dead path negative is refused; without that knowledge the same data give
+/// the correction (a model may over-compensate).
+#[test]
+fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
+    let h = Hidden::DeadPath {
+        dead_path_mm: -300.0,
+    };
+    let mut s = with(&[h]);
+    s.env.air_temp_drift_k = 0.5;
+    let out = generate(&s);
+    let free = diagnose(&out.recorded, &out.simulated, &config()).expect("diagnoses");
+    assert_eq!(
+        free.effects.first().map(|e| e.id.as_str()),
+        Some("dead_path"),
+        "{}",
+        summary(&free)
+    );
+    let known = DiagnoseConfig {
+        model_dead_path_mm: Some(100.0),
+        ..config()
+    };
+    let d = diagnose(&out.recorded, &out.simulated, &known).expect("diagnoses");
+    assert!(
+        d.effects.iter().all(|e| e.id != "dead_path"),
+        "{}",
+        summary(&d)
+    );
+    assert!(
+        d.ambiguities
+            .iter()
+            .any(|a| a.contains("a length cannot be negative")),
+        "{:?}",
+        d.ambiguities
+    );
+    // With a model dead path long enough to absorb it, the correction stands.
+    let long = DiagnoseConfig {
+        model_dead_path_mm: Some(1000.0),
+        ..config()
+    };
+    let d = diagnose(&out.recorded, &out.simulated, &long).expect("diagnoses");
+    assert_eq!(
+        d.effects.first().map(|e| e.id.as_str()),
+        Some("dead_path"),
+        "{}",
+        summary(&d)
+    );
+}

@@ -380,6 +380,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         .or_else(|| grating_from_capture(&a.recorded));
     let config = DiagnoseConfig {
         grating_period_um: grating,
+        model_dead_path_mm: model.as_ref().map(|(m, _)| m.laser.dead_path_mm.max(0.0)),
         ..DiagnoseConfig::default()
     };
     let d = diagnose(&recorded, &simulated, &config)

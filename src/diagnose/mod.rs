@@ -117,6 +117,11 @@ pub struct DiagnoseConfig {
     pub spectral_budget: f64,
     /// Laser vacuum wavelength for the refractive index of `dead_path`, µm. Default HeNe.
     pub laser_wavelength_um: f64,
+    /// The dead path the simulation already has, mm, when it is known (diagnosing
+    /// against a model): a found `dead_path` D is then a correction, and D below −D_model
+    /// by more than two of its sigmas would make the beam's dead path negative, which is
+    /// not a length, so it is refused. `None` (default): no such bound. Range ≥ 0.
+    pub model_dead_path_mm: Option<f64>,
 }
 
 impl Default for DiagnoseConfig {
@@ -134,6 +139,7 @@ impl Default for DiagnoseConfig {
             spectral_max_rows: 2500,
             spectral_budget: 1.2e6,
             laser_wavelength_um: HENE_WAVELENGTH_UM,
+            model_dead_path_mm: None,
         }
     }
 }
@@ -142,6 +148,11 @@ impl DiagnoseConfig {
     /// Checks every setting against its documented range.
     pub fn validate(&self) -> Result<(), DiagnoseError> {
         let bad = |m: String| Err(DiagnoseError::Config(m));
+        if let Some(d) = self.model_dead_path_mm
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return bad(format!("model_dead_path_mm = {d} must be a length ≥ 0"));
+        }
         if let Some(p) = self.grating_period_um
             && !(p.is_finite() && p > 0.0)
         {

@@ -589,6 +589,25 @@ impl<'a> Selector<'a> {
             .collect()
     }
 
+    /// Why a found `dead_path` is not physical: with the model's own dead path D₀ known,
+    /// D₀ + D more than two sigmas below zero.
+    fn negative_dead_path(&self, f: &FittedTerm) -> Option<String> {
+        let d0 = self.cfg.model_dead_path_mm?;
+        if f.term.kind != Kind::DeadPath {
+            return None;
+        }
+        let p = f.params.iter().find(|p| p.name == "dead_path_mm")?;
+        (d0 + p.value < -2.0 * p.sigma).then(|| {
+            format!(
+                "dead_path_mm = {:.1} ± {:.1} on the model's {d0:.1} mm makes the dead path {:.1} mm: \
+                 a length cannot be negative",
+                p.value,
+                p.sigma,
+                d0 + p.value
+            )
+        })
+    }
+
     /// The number of moves: runs of consecutive moving rows on one line, in one run and
     /// one direction.
     fn moves(&self) -> usize {
@@ -1236,7 +1255,8 @@ impl<'a> Selector<'a> {
                         100.0 * cfg.max_relative_uncertainty
                     )
                 })
-                .or_else(|| effects::implausible(f.term.kind, &f.params, self.obs));
+                .or_else(|| effects::implausible(f.term.kind, &f.params, self.obs))
+                .or_else(|| self.negative_dead_path(f));
             if let Some(w) = why {
                 return Some((i, w));
             }
