@@ -1302,15 +1302,8 @@ impl<'a> Selector<'a> {
                 .push("selection restarted without the refused variant".into());
         }
 
-        // 5. Too small to matter.
-        let ids = ids_of(&terms);
-        let fit = self.engine.fit(&ids);
-        let dof = (n as f64 - fit.rank as f64).max(1.0);
-        let sigma_w = (fit.chi2 / dof).sqrt();
-        let mean_w = self.engine.w().iter().sum::<f64>() / n as f64;
-        let noise_rms = sigma_w / mean_w.sqrt();
-        let mut keep = Vec::new();
-        let mut small = Vec::new();
+        // 5. Too small to matter, repeated until nothing more is dropped (the effects
+        // left after a drop are refitted, and one may shrink below its floor).
         // Counter quantisation is uniform over a step q (standard uncertainty q/√12), and
         // with sampling locked to the counter's grid it is constant along a move and differs
         // between moves: N independent offsets, not one per row. An effect with k
@@ -1321,50 +1314,62 @@ impl<'a> Selector<'a> {
         let q_sigma = self.obs.quantum_um / 12f64.sqrt();
         let moves = self.moves().max(1) as f64;
         let lattices = self.sampling_lattices_mm();
-        for f in fitted {
-            let rms = centred_rms(&f.contribution);
-            // A period that divides the moving samples' pitch sees them all in one phase
-            // within a move, like the quantisation error: it must exceed the whole of one
-            // count's quantisation uncertainty (on a 0.1 µm counter such peaks at 0.6 mm
-            // for a 2.4 mm pitch explain 0.014–0.023 µm RMS in sessions without them).
-            let alias = match f.term.variant {
-                Variant::Periodic { period_um } => lattice_alias(period_um / 1000.0, &lattices),
-                _ => None,
-            };
-            let k = f.params.len().max(1) as f64;
-            let quantisation = if alias.is_some() {
-                q_sigma
-            } else {
-                (3.0 * q_sigma * (k / moves).sqrt()).min(q_sigma)
-            };
-            if rms < cfg.min_effect_fraction_of_noise * noise_rms {
-                small.push(format!(
-                    "{} is significant but explains only {rms:.4} µm RMS (< {} × noise {noise_rms:.4} µm): not reported",
-                    f.term.kind.label(self.obs),
-                    cfg.min_effect_fraction_of_noise
-                ));
-            } else if rms < quantisation {
-                small.push(format!(
-                    "{} is significant but explains only {rms:.4} µm RMS, less than {} \
-                     ({:.4} µm counter step: {quantisation:.4} µm): not reported",
-                    f.term.kind.label(self.obs),
-                    if alias.is_some() {
-                        "one count's quantisation uncertainty (its period divides the moving samples' pitch)"
-                    } else {
-                        "what counter quantisation fits by chance"
-                    },
-                    self.obs.quantum_um
-                ));
-            } else {
-                keep.push(f);
+        loop {
+            let ids = ids_of(&terms);
+            let fit = self.engine.fit(&ids);
+            let dof = (n as f64 - fit.rank as f64).max(1.0);
+            let sigma_w = (fit.chi2 / dof).sqrt();
+            let mean_w = self.engine.w().iter().sum::<f64>() / n as f64;
+            let noise_rms = sigma_w / mean_w.sqrt();
+            let mut keep = Vec::new();
+            let mut small = Vec::new();
+            for f in fitted {
+                let rms = centred_rms(&f.contribution);
+                // A period that divides the moving samples' pitch sees them all in one
+                // phase within a move, like the quantisation error: it must exceed the
+                // whole of one count's quantisation uncertainty (on a 0.1 µm counter such
+                // peaks at 0.6 mm for a 2.4 mm pitch explain 0.014–0.023 µm RMS in
+                // sessions without them).
+                let alias = match f.term.variant {
+                    Variant::Periodic { period_um } => lattice_alias(period_um / 1000.0, &lattices),
+                    _ => None,
+                };
+                let k = f.params.len().max(1) as f64;
+                let quantisation = if alias.is_some() {
+                    q_sigma
+                } else {
+                    (3.0 * q_sigma * (k / moves).sqrt()).min(q_sigma)
+                };
+                if rms < cfg.min_effect_fraction_of_noise * noise_rms {
+                    small.push(format!(
+                        "{} is significant but explains only {rms:.4} µm RMS (< {} × noise {noise_rms:.4} µm): not reported",
+                        f.term.kind.label(self.obs),
+                        cfg.min_effect_fraction_of_noise
+                    ));
+                } else if rms < quantisation {
+                    small.push(format!(
+                        "{} is significant but explains only {rms:.4} µm RMS, less than {} \
+                         ({:.4} µm counter step: {quantisation:.4} µm): not reported",
+                        f.term.kind.label(self.obs),
+                        if alias.is_some() {
+                            "one count's quantisation uncertainty (its period divides the moving samples' pitch)"
+                        } else {
+                            "what counter quantisation fits by chance"
+                        },
+                        self.obs.quantum_um
+                    ));
+                } else {
+                    keep.push(f);
+                }
             }
-        }
-        if !small.is_empty() {
+            if small.is_empty() {
+                fitted = keep;
+                break;
+            }
             self.refused.extend(small);
             terms = keep.iter().map(|f| f.term.clone()).collect();
-            keep = self.final_fit(&terms);
+            fitted = self.final_fit(&terms);
         }
-        let fitted = keep;
 
         // 6. Ambiguities, design notes, scores.
         let ambiguities = self.ambiguities(&terms);
