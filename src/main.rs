@@ -63,7 +63,8 @@ enum Command {
 struct ExportArgs {
     /// Error table to fit.
     table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy | gp (gp also takes a scattered table)
+    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
+    /// table; gp uses --gp-kernel, gp-se the squared exponential)
     #[arg(long)]
     method: String,
     /// Lagrange degrees MxNxQ (or auto).
@@ -293,7 +294,8 @@ struct ModelArgs {
 struct FitArgs {
     /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
     table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy | gp (gp also takes a scattered table)
+    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
+    /// table; gp uses --gp-kernel, gp-se the squared exponential)
     #[arg(long)]
     method: String,
     /// Lagrange degrees MxNxQ along x, y, z, or `auto` (chosen by cross-validation).
@@ -423,7 +425,7 @@ fn parse_method(
             }
             Some(o) => Method::Lagrange(o.parse::<Order>().map_err(anyhow::Error::msg)?),
         },
-        "trilinear" | "spline" | "fuzzy" | "gp" if order.is_some() => {
+        "trilinear" | "spline" | "fuzzy" | "gp" | "gp-se" if order.is_some() => {
             bail!("--order applies to lagrange only, not to {name}")
         }
         "trilinear" => Method::Trilinear,
@@ -436,7 +438,9 @@ fn parse_method(
             "se" | "squared-exponential" => errmap::gp::Kernel::SquaredExponential,
             other => bail!("--gp-kernel is matern52 or se, not {other}"),
         }),
-        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp)"),
+        // The squared-exponential GP by name (what `compare` calls its row).
+        "gp-se" => Method::Gp(errmap::gp::Kernel::SquaredExponential),
+        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"),
     })
 }
 
@@ -452,7 +456,7 @@ struct Fitted {
 /// node).
 fn fit_table(path: &Path, name: &str, order: Option<&str>, model: &ModelArgs) -> Result<Fitted> {
     let table = ErrorTable::read(path)?;
-    let grid = if name == "gp" {
+    let grid = if name == "gp" || name == "gp-se" {
         None
     } else {
         Some(table.grid()?)
@@ -591,13 +595,15 @@ fn scattered_methods(
             let mut methods = Vec::new();
             for name in names {
                 match name.trim() {
-                    "gp" => methods.push(parse_method("gp", None, &a.model, None)?),
+                    gp @ ("gp" | "gp-se") => methods.push(parse_method(gp, None, &a.model, None)?),
                     other if grid_only.contains(&other) => bail!(
-                        "{other} cannot be fitted to {}: {why}. Only gp accepts scattered nodes.",
+                        "{other} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
                         a.table.display()
                     ),
                     other => {
-                        bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp)")
+                        bail!(
+                            "unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"
+                        )
                     }
                 }
             }

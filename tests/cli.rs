@@ -168,8 +168,8 @@ fn compare_json_rows_and_recommendation_follow_the_contract() {
     // With the squared exponential the RMS is the independent check's ≈ 0.6 µm.
     let se = rows
         .iter()
-        .find(|r| r["label"] == "gp se")
-        .expect("gp se row");
+        .find(|r| r["method"] == "gp-se")
+        .expect("gp-se row");
     assert!(
         (se["rms_um"].as_f64().expect("rms") - 0.6).abs() < 0.05,
         "{se}"
@@ -283,6 +283,12 @@ fn compare_on_a_scattered_table_fits_the_gp_and_names_the_missing_node() {
         .map(|r| r["label"].as_str().expect("string"))
         .collect();
     assert_eq!(labels, ["gp", "gp se"]);
+    // Each row has its own method name, as `--methods` spells it.
+    let names: Vec<&str> = rows
+        .iter()
+        .map(|r| r["method"].as_str().expect("string"))
+        .collect();
+    assert_eq!(names, ["gp", "gp-se"]);
     for r in rows {
         assert_eq!(r["cv_scheme"], "leave_one_out");
         assert_eq!(r["cv_folds"], 29);

@@ -100,6 +100,8 @@ impl Method {
             Method::Trilinear => "trilinear",
             Method::Spline => "spline",
             Method::Fuzzy { .. } => "fuzzy",
+            // Each kernel its own name, so rows of a comparison are told apart by it.
+            Method::Gp(crate::gp::Kernel::SquaredExponential) => "gp-se",
             Method::Gp(_) => "gp",
         }
     }
