@@ -5,7 +5,7 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use errmap::physics::{MachineModel, PhysicsTruth};
@@ -53,6 +53,18 @@ fn capture(port: &str, out: &Path, extra: &[&str]) -> Command {
         .arg(out)
         .args(extra);
     c
+}
+
+/// `errmap replay RAW --out OUT [extra…]`.
+fn replay(raw: &Path, out: &Path, extra: &[&str]) -> Output {
+    Command::new(bin())
+        .arg("replay")
+        .arg(raw)
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .expect("replay runs")
 }
 
 fn truth() -> PhysicsTruth {
@@ -115,14 +127,7 @@ fn simulated_device_to_error_table_matches_the_truth() {
     }
     // Replay gives exactly the rows capture wrote.
     let replayed = dir.path().join("replay.csv");
-    let o = Command::new(bin())
-        .args(["replay"])
-        .arg(out.join("raw.bin"))
-        .arg("--out")
-        .arg(&replayed)
-        .arg("--json")
-        .output()
-        .expect("replay runs");
+    let o = replay(&out.join("raw.bin"), &replayed, &["--json"]);
     assert!(o.status.success());
     assert_eq!(
         std::fs::read(&replayed).expect("replayed"),
@@ -167,13 +172,7 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
         "killed before writing the table"
     );
     let replayed = dir.path().join("replay.csv");
-    let o = Command::new(bin())
-        .arg("replay")
-        .arg(out.join("raw.bin"))
-        .arg("--out")
-        .arg(&replayed)
-        .output()
-        .expect("replay runs");
+    let o = replay(&out.join("raw.bin"), &replayed, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_session(&replayed).expect("replayed table");
     // At 200 samples/s (plus the start-up lag of both processes, under 1 s here) the
@@ -209,13 +208,7 @@ fn a_vanishing_port_ends_the_capture_with_a_clear_error_and_a_valid_session() {
     assert!(!rows.is_empty());
     // Replayable, and identical.
     let replayed = dir.path().join("replay.csv");
-    let o = Command::new(bin())
-        .arg("replay")
-        .arg(out.join("raw.bin"))
-        .arg("--out")
-        .arg(&replayed)
-        .output()
-        .expect("replay");
+    let o = replay(&out.join("raw.bin"), &replayed, &[]);
     assert!(o.status.success());
     assert_eq!(
         std::fs::read(&replayed).expect("r"),
@@ -228,19 +221,10 @@ fn replay_of_garbage_exits_1_and_of_a_damaged_capture_exits_0() {
     let dir = tempfile::tempdir().expect("tempdir");
     let junk = dir.path().join("junk.bin");
     std::fs::write(&junk, b"not a capture at all").expect("write");
-    let o = Command::new(bin())
-        .arg("replay")
-        .arg(&junk)
-        .args(["--out"])
-        .arg(dir.path().join("x.csv"))
-        .output()
-        .expect("runs");
+    let o = replay(&junk, &dir.path().join("x.csv"), &[]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no valid frame"));
-    let missing = Command::new(bin())
-        .args(["replay", "/nonexistent/raw.bin", "--out", "x.csv"])
-        .output()
-        .expect("runs");
+    let missing = replay(Path::new("/nonexistent/raw.bin"), Path::new("x.csv"), &[]);
     assert_eq!(missing.status.code(), Some(1));
     // A damaged capture: a simulated stream with bit flips and garbage.
     let mut truth = truth();
@@ -259,14 +243,7 @@ fn replay_of_garbage_exits_1_and_of_a_damaged_capture_exits_0() {
         .expect("sim");
     let raw = dir.path().join("damaged.bin");
     std::fs::write(&raw, s.bytes()).expect("write");
-    let o = Command::new(bin())
-        .arg("replay")
-        .arg(&raw)
-        .arg("--out")
-        .arg(dir.path().join("d.csv"))
-        .arg("--json")
-        .output()
-        .expect("runs");
+    let o = replay(&raw, &dir.path().join("d.csv"), &["--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
     assert!(v["crc_failures"].as_u64().expect("n") > 0);
