@@ -5,6 +5,9 @@
 
 use std::path::{Path, PathBuf};
 
+mod common;
+
+use common::diagnosis_text;
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
 use errmap::session::read_session;
 
@@ -33,31 +36,9 @@ fn case(name: &str) -> Option<(Diagnosis, serde_json::Value)> {
     Some((diag, truth))
 }
 
-fn text(d: &Diagnosis) -> String {
-    let mut s = format!(
-        "verdict {} rms {:.4} → {:.4} (cv {:.4}) noise {:.4}\n",
-        d.verdict, d.rms_before_um, d.rms_after_um, d.cv_rms_after_um, d.noise_sigma_um
-    );
-    for e in &d.effects {
-        s.push_str(&format!(
-            "  {} {:?} ± {:?} explains {:.4}\n    {}\n",
-            e.id, e.params, e.uncertainty, e.explains_um, e.where_
-        ));
-    }
-    for a in d
-        .ambiguities
-        .iter()
-        .chain(&d.design_notes)
-        .chain(&d.selection_log)
-    {
-        s.push_str(&format!("  - {a}\n"));
-    }
-    s
-}
-
 fn check(name: &str) {
     let Some((d, truth)) = case(name) else { return };
-    let t = text(&d);
+    let t = diagnosis_text(&d);
     println!("{name}: {t}");
     let hidden = truth["params"].as_object().cloned().unwrap_or_default();
     if hidden.is_empty() {
@@ -186,7 +167,11 @@ fn concealed_cases_with_other_noise() {
                 })
             });
             if got != want || !params_ok {
-                fails.push(format!("{} seed {seed}:\n{}", case.name, text(&d)));
+                fails.push(format!(
+                    "{} seed {seed}:\n{}",
+                    case.name,
+                    diagnosis_text(&d)
+                ));
             }
         }
     }

@@ -2,6 +2,9 @@
 //! recordings (also with uneven noise), and states the ambiguities of poor designs.
 //! Synthetic sessions from `errmap::diagnose::synth` (seeded).
 
+mod common;
+
+use common::diagnosis_text;
 use errmap::diagnose::synth::{Hidden, Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 
@@ -34,26 +37,6 @@ fn run(s: &Synth) -> Diagnosis {
     }
 }
 
-fn summary(d: &Diagnosis) -> String {
-    let mut s = format!(
-        "verdict {} rms {:.4} → {:.4} (cv {:.4}), noise {:.4}\n",
-        d.verdict, d.rms_before_um, d.rms_after_um, d.cv_rms_after_um, d.noise_sigma_um
-    );
-    for e in &d.effects {
-        s.push_str(&format!(
-            "  {} {:?} ± {:?} explains {:.4}\n    where: {}\n",
-            e.id, e.params, e.uncertainty, e.explains_um, e.where_
-        ));
-    }
-    for a in &d.ambiguities {
-        s.push_str(&format!("  ambiguity: {a}\n"));
-    }
-    for a in &d.selection_log {
-        s.push_str(&format!("  log: {a}\n"));
-    }
-    s
-}
-
 fn param(e: &FoundEffect, name: &str) -> f64 {
     e.params
         .get(name)
@@ -65,7 +48,7 @@ fn param(e: &FoundEffect, name: &str) -> f64 {
 /// value), and the residual after is at noise level.
 fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
     let d = run(s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     assert_eq!(d.verdict, "missing_physics", "{text}");
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
@@ -118,7 +101,7 @@ fn check_multi_periodic() {
         },
     ]);
     let d = run(&s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     let mut periods: Vec<f64> = d
         .effects
         .iter()
@@ -247,7 +230,7 @@ fn finds_refraction() {
 #[test]
 fn clean_recording_is_consistent() {
     let d = run(&with(&[]));
-    assert_eq!(d.verdict, "consistent", "{}", summary(&d));
+    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
     assert!(d.effects.is_empty());
 }
 
@@ -262,7 +245,7 @@ fn finds_linear_thermal_drift() {
 /// Finds every hidden effect of `hidden` (ids), nothing else, residual at noise level.
 fn check_multi(s: &Synth) -> Diagnosis {
     let d = run(s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     let mut want: Vec<&str> = s.hidden.iter().map(|h| h.id()).collect();
     let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
     want.sort_unstable();
@@ -342,7 +325,7 @@ fn uneven_noise_on_moving_rows_is_consistent() {
     let mut s = with(&[]);
     s.noise.moving_factor = 3.0;
     let d = run(&s);
-    assert_eq!(d.verdict, "consistent", "{}", summary(&d));
+    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
     assert!(d.effects.is_empty());
     // The noise groups see the difference.
     let moving: Vec<f64> = d
@@ -371,7 +354,7 @@ fn uneven_noise_in_two_runs_is_consistent() {
     s.noise.noisy_factor = 3.0;
     s.noise.sigma_um = 0.1;
     let d = run(&s);
-    assert_eq!(d.verdict, "consistent", "{}", summary(&d));
+    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
 }
 
 #[test]
@@ -380,7 +363,7 @@ fn uneven_noise_does_not_hide_an_effect() {
     let mut s = with(&[h]);
     s.noise.moving_factor = 3.0;
     let d = run(&s);
-    assert_eq!(d.effects.len(), 1, "{}", summary(&d));
+    assert_eq!(d.effects.len(), 1, "{}", diagnosis_text(&d));
     assert_eq!(d.effects[0].id, "reversal");
 }
 
@@ -400,7 +383,7 @@ fn constant_scale_temperature_makes_thermal_expansion_ambiguous() {
     }]);
     s.env.scale_temp_c = (20.5, 20.5);
     let d = run(&s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let id = d.effects[0].id.as_str();
     assert!(
@@ -427,7 +410,7 @@ fn one_feed_without_dwell_makes_latch_delay_ambiguous() {
     s.plan.feeds_mm_s = vec![100.0];
     s.plan.dwell_samples = 0;
     let d = run(&s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let id = d.effects[0].id.as_str();
     assert!(id == "reversal" || id == "latch_delay", "{text}");
@@ -450,7 +433,7 @@ fn single_line_makes_abbe_ambiguous() {
     }]);
     s.plan.lines_mm = vec![[200.0, 300.0]];
     let d = run(&s);
-    let text = summary(&d);
+    let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     assert_eq!(d.effects[0].id, "scale_factor", "{text}");
     assert!(d.effects[0].where_.contains("abbe"), "{text}");
@@ -476,7 +459,7 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
         free.effects.first().map(|e| e.id.as_str()),
         Some("dead_path"),
         "{}",
-        summary(&free)
+        diagnosis_text(&free)
     );
     let known = DiagnoseConfig {
         model_dead_path_mm: Some(100.0),
@@ -486,7 +469,7 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
     assert!(
         d.effects.iter().all(|e| e.id != "dead_path"),
         "{}",
-        summary(&d)
+        diagnosis_text(&d)
     );
     assert!(
         d.ambiguities
@@ -505,6 +488,6 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
         d.effects.first().map(|e| e.id.as_str()),
         Some("dead_path"),
         "{}",
-        summary(&d)
+        diagnosis_text(&d)
     );
 }
