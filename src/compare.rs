@@ -158,8 +158,17 @@ impl Extent {
     }
 }
 
-fn sampling_advice(table: &ErrorTable, extent: &Extent) -> Option<SamplingAdvice> {
-    let gp = crate::gp::Gp::fit(&table.points, &crate::gp::GpConfig::default()).ok()?;
+/// Sampling advice from a Gaussian process fitted with the default configuration: `gp`
+/// when the caller has one, else fitted here to the table.
+fn sampling_advice(
+    table: &ErrorTable,
+    extent: &Extent,
+    gp: Option<crate::gp::Gp>,
+) -> Option<SamplingAdvice> {
+    let gp = match gp {
+        Some(gp) => gp,
+        None => crate::gp::Gp::fit(&table.points, &crate::gp::GpConfig::default()).ok()?,
+    };
     let h = gp.hyper();
     // Candidates: a 9-point lattice per axis over the table's volume.
     let lattice = |a: usize| -> Vec<f64> {
@@ -283,15 +292,19 @@ fn compare_grid(
         let why = refused.first().map(|r| r.1.clone()).unwrap_or_default();
         return Err(InterpError::NothingFits { why });
     }
-    let fitted: Vec<Method> = rows.iter().map(|r| r.method).collect();
+    let advice = rows
+        .iter()
+        .any(|r| matches!(r.method, Method::Gp(_)))
+        .then(|| sampling_advice(table, &extent, None))
+        .flatten();
     Ok(Comparison::assemble(
         table,
         Some(grid),
         extent,
         test,
-        &fitted,
         rows,
         refused,
+        advice,
     ))
 }
 
@@ -308,6 +321,8 @@ pub fn compare_scattered(
     let extent = Extent::of_points(table);
     let values: Vec<f64> = table.points.iter().map(|p| p.e_um).collect();
     let mut rows = Vec::new();
+    // The default-kernel model, kept for the sampling advice (which would fit it again).
+    let mut default_gp = None;
     for method in methods {
         let Method::Gp(kernel) = *method else {
             return Err(InterpError::NeedsGrid {
@@ -322,14 +337,18 @@ pub fn compare_scattered(
             .map_err(|e| InterpError::Gp(e.to_string()))?;
         let cv = leave_one_out_gp(&gp, &values);
         rows.push(ModelRow::evaluate(*method, &gp, cv, test));
+        if config == crate::gp::GpConfig::default() {
+            default_gp = Some(gp);
+        }
     }
     if rows.is_empty() {
         return Err(InterpError::Gp(
             "no Gaussian-process model to compare".into(),
         ));
     }
+    let advice = sampling_advice(table, &extent, default_gp);
     Ok(Comparison::assemble(
-        table, None, extent, test, methods, rows, refused,
+        table, None, extent, test, rows, refused, advice,
     ))
 }
 
@@ -401,15 +420,15 @@ impl ModelRow {
 }
 
 impl Comparison {
-    /// Ranks the rows by cross-validation and adds the paper columns and the advice.
+    /// Ranks the rows by cross-validation and adds the paper columns.
     fn assemble(
         table: &ErrorTable,
         grid: Option<&Grid>,
         extent: Extent,
         test: &ErrorTable,
-        methods: &[Method],
         rows: Vec<ModelRow>,
         refused: Refusals,
+        advice: Option<SamplingAdvice>,
     ) -> Comparison {
         let extrapolated: Vec<bool> = test
             .points
@@ -424,11 +443,6 @@ impl Comparison {
             .map(|(i, _)| i)
             .unwrap_or(0);
         let paper = paper_columns(test, grid);
-        let advice = methods
-            .iter()
-            .any(|m| matches!(m, Method::Gp(_)))
-            .then(|| sampling_advice(table, &extent))
-            .flatten();
         Comparison {
             fit_source: table.source.clone(),
             fit_nodes: table.points.len(),
