@@ -288,16 +288,20 @@ impl Locator {
     /// range. Needs `n ≥ 2`.
     #[inline]
     pub fn interval(&self, x: f64) -> usize {
-        let n = self.nodes.len();
         match self.uniform {
-            Some((x0, inv_h)) => {
-                let f = (x - x0) * inv_h;
-                // NaN and negatives go to 0; the cast saturates.
-                let i = if f > 0.0 { f as usize } else { 0 };
-                i.min(n - 2)
-            }
+            Some((x0, inv_h)) => self.scaled(x0, inv_h, x).0,
             None => interval(&self.nodes, x),
         }
+    }
+
+    /// On evenly spaced nodes: the interval index (clamped to `0..=n−2`) and the scaled
+    /// coordinate's offset from it, u = (x − x0)/h − i, with no division.
+    #[inline(always)]
+    fn scaled(&self, x0: f64, inv_h: f64, x: f64) -> (usize, f64) {
+        let f = (x - x0) * inv_h;
+        // NaN and negatives go to 0; the cast saturates.
+        let i = if f > 0.0 { f as usize } else { 0 }.min(self.nodes.len() - 2);
+        (i, f - i as f64)
     }
 
     /// The cell containing `x` (clamped to the end cells) and `x`'s position in it,
@@ -308,14 +312,8 @@ impl Locator {
         if self.nodes.len() < 2 {
             return None;
         }
-        let n = self.nodes.len();
         match self.uniform {
-            // u from the scaled coordinate the index came from: no division.
-            Some((x0, inv_h)) => {
-                let f = (x - x0) * inv_h;
-                let i = if f > 0.0 { f as usize } else { 0 }.min(n - 2);
-                Some((i, f - i as f64))
-            }
+            Some((x0, inv_h)) => Some(self.scaled(x0, inv_h, x)),
             None => {
                 let i = interval(&self.nodes, x);
                 Some((i, (x - self.nodes[i]) / (self.nodes[i + 1] - self.nodes[i])))
