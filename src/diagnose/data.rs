@@ -57,6 +57,9 @@ pub(crate) struct Obs {
     pub v_feed: Vec<f64>,
     /// Carriage speed measured from successive samples on moving rows, 0 on dwell rows.
     pub v_meas: Vec<f64>,
+    /// The moves: runs of consecutive moving rows of one run and direction, as row
+    /// indices in sample order.
+    pub moves: Vec<Vec<usize>>,
     /// `t_s`.
     pub t: Vec<f64>,
     /// First row of the recorded session, s.
@@ -257,7 +260,8 @@ pub(crate) fn build(
     let t: Vec<f64> = rows.iter().map(|row| row.t_s).collect();
     let run: Vec<u32> = rows.iter().map(|row| row.run).collect();
     let sample: Vec<i64> = rows.iter().map(|row| row.sample).collect();
-    let v_meas = measured_speed(&x, &t, &run, &sample, &moving, &d, &v_feed);
+    let moves = move_segments(&run, &sample, &moving, &d);
+    let v_meas = measured_speed(&x, &t, &moves, &v_feed);
 
     let c_names = others(axis);
     // The line coordinates: rows without them (before the first MARK) take the value of
@@ -311,6 +315,7 @@ pub(crate) fn build(
         moving,
         v_feed,
         v_meas,
+        moves,
         t,
         t0: if t0.is_finite() { t0 } else { 0.0 },
         run,
@@ -417,23 +422,13 @@ fn step_fill(t: &[f64], vals: impl Iterator<Item = Option<f64>>) -> Option<Vec<f
     Some(out)
 }
 
-/// Carriage speed on moving rows from the neighbouring moving samples of the same run and
-/// direction (central difference, one-sided at the ends of a move); the feed when a move
-/// has a single sample; 0 on dwell rows. O(n log n).
-fn measured_speed(
-    x: &[f64],
-    t: &[f64],
-    run: &[u32],
-    sample: &[i64],
-    moving: &[bool],
-    d: &[f64],
-    v_feed: &[f64],
-) -> Vec<f64> {
-    let n = x.len();
+/// The moves: maximal runs of consecutive moving rows (in (run, sample) order) with one
+/// run and one direction, each as row indices in sample order. O(n log n).
+fn move_segments(run: &[u32], sample: &[i64], moving: &[bool], d: &[f64]) -> Vec<Vec<usize>> {
+    let n = run.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&k| (run[k], sample[k]));
-    let mut v = vec![0.0; n];
-    // Segments: maximal runs of consecutive moving rows (in sample order) with one direction.
+    let mut out = Vec::new();
     let mut start = 0;
     while start < n {
         let k0 = order[start];
@@ -449,7 +444,18 @@ fn measured_speed(
             }
             end += 1;
         }
-        let seg = &order[start..end];
+        out.push(order[start..end].to_vec());
+        start = end;
+    }
+    out
+}
+
+/// Carriage speed on moving rows from the neighbouring moving samples of the same move
+/// (central difference, one-sided at the ends of a move); the feed when a move has a
+/// single sample; 0 on dwell rows. O(n).
+fn measured_speed(x: &[f64], t: &[f64], moves: &[Vec<usize>], v_feed: &[f64]) -> Vec<f64> {
+    let mut v = vec![0.0; x.len()];
+    for seg in moves {
         for (p, &k) in seg.iter().enumerate() {
             let (a, b) = match (p.checked_sub(1), seg.get(p + 1)) {
                 (Some(pa), Some(&kb)) => (seg[pa], kb),
@@ -464,7 +470,6 @@ fn measured_speed(
                 v_feed[k]
             };
         }
-        start = end;
     }
     v
 }

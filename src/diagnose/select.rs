@@ -563,17 +563,13 @@ impl<'a> Selector<'a> {
     fn sampling_lattices_mm(&self) -> Vec<f64> {
         let o = self.obs;
         let mut by_feed: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-        for k in 1..o.len() {
-            let same_move = o.moving[k]
-                && o.moving[k - 1]
-                && o.run[k] == o.run[k - 1]
-                && o.d[k] == o.d[k - 1]
-                && o.v_feed[k] > 0.0;
-            if same_move {
-                let dx = (o.x[k] - o.x[k - 1]).abs();
-                if dx > 0.0 {
+        for seg in &o.moves {
+            for w in seg.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                let dx = (o.x[b] - o.x[a]).abs();
+                if o.v_feed[b] > 0.0 && dx > 0.0 {
                     by_feed
-                        .entry((o.v_feed[k] * 1000.0).round() as i64)
+                        .entry((o.v_feed[b] * 1000.0).round() as i64)
                         .or_default()
                         .push(dx);
                 }
@@ -606,22 +602,6 @@ impl<'a> Selector<'a> {
                 d0 + p.value
             )
         })
-    }
-
-    /// The number of moves: runs of consecutive moving rows on one line, in one run and
-    /// one direction.
-    fn moves(&self) -> usize {
-        let o = self.obs;
-        (0..o.len())
-            .filter(|&k| {
-                o.moving[k]
-                    && (k == 0
-                        || !o.moving[k - 1]
-                        || o.run[k] != o.run[k - 1]
-                        || o.d[k] != o.d[k - 1]
-                        || o.line[k] != o.line[k - 1])
-            })
-            .count()
     }
 
     /// Longest period a periodic term may have, µm.
@@ -1312,7 +1292,7 @@ impl<'a> Selector<'a> {
         // 0.008–0.018 µm of such structure with N = 36–48 moves; a real 0.12 µm drift over
         // the session is 0.027 µm.)
         let q_sigma = self.obs.quantum_um / 12f64.sqrt();
-        let moves = self.moves().max(1) as f64;
+        let moves = self.obs.moves.len().max(1) as f64;
         let lattices = self.sampling_lattices_mm();
         loop {
             let ids = ids_of(&terms);
