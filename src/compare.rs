@@ -7,7 +7,7 @@
 //! table ([`crate::cv`]); the recommendation is the lowest cross-validated RMS and never
 //! looks at the test points.
 
-use crate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out};
+use crate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out, rms};
 use crate::interp::{InterpError, Interpolator, Method, Order, fuzzy, lagrange::admissible_orders};
 use crate::table::{ErrorTable, Grid};
 
@@ -233,11 +233,6 @@ pub struct Comparison {
     pub advice: Option<SamplingAdvice>,
 }
 
-fn rms(v: impl Iterator<Item = f64>) -> Option<f64> {
-    let (s, n) = v.fold((0.0, 0usize), |(s, n), r| (s + r * r, n + 1));
-    (n > 0).then(|| (s / n as f64).sqrt())
-}
-
 /// Fits every method and evaluates it. Fails on the first model that cannot be fitted
 /// (e.g. an explicitly requested order that the grid does not allow).
 pub fn compare(
@@ -405,9 +400,9 @@ impl ModelRow {
             .collect();
         ModelRow {
             method,
-            rms_um: rms(resid.iter().copied()).unwrap_or(f64::NAN),
+            rms_um: rms(&resid).unwrap_or(f64::NAN),
             max_abs_um: resid.iter().fold(0.0, |m, r| m.max(r.abs())),
-            inside_rms_um: rms(inside.into_iter()),
+            inside_rms_um: rms(&inside),
             cv,
             predictions,
             sigmas,

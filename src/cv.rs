@@ -137,7 +137,8 @@ impl CvResult {
     }
 }
 
-fn rms(v: &[f64]) -> Option<f64> {
+/// Root mean square; `None` for no values.
+pub(crate) fn rms(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt())
 }
 

@@ -528,7 +528,7 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
             .zip(&c.test.points)
             .filter_map(|(v, p)| v.map(|v| v - p.e_um))
             .collect();
-        cells.push(opt(rms_of(&r), 4));
+        cells.push(opt(crate::cv::rms(&r), 4));
     }
     for &i in feat {
         cells.push(format!("{:.4}", c.rows[i].rms_um));
@@ -676,8 +676,4 @@ pub(crate) fn group_by_reason(items: &[(String, String)]) -> Vec<(Vec<&str>, &st
         }
     }
     out
-}
-
-fn rms_of(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt())
 }
