@@ -14,7 +14,7 @@
 //! | fit (`engine`) | weighted least squares on memoised cross products; an ordered Cholesky gives the rank and the dependent columns | O(n·k) per new column, then O(k³) per fit |
 //! | select (`select`) | forward BIC with variants, τ profiled jointly, backward BIC, swap moves, leave-one-run-out CV, determinedness and plausibility with restart, ambiguity | O(effects² · k³) fits + O(n·k) per nonlinear trial |
 //! | locate ([`locate`]) | weighted group means along x, per line, run, direction, feed, over time; correlations; periodogram peaks; structure left after the model | O(n) |
-//! | report ([`write_report`]) | Markdown + PNG/SVG charts | O(n) |
+//! | report (in the `report` stage: `report/diagnosis.rs`) | Markdown + PNG/SVG charts | O(n) |
 //!
 //! **Honesty rules.** An effect is reported only when (1) it lowers BIC by at least
 //! [`DiagnoseConfig::min_delta_bic`] on top of the others, (2) removing it does not lower
@@ -52,7 +52,6 @@ mod data;
 mod effects;
 mod engine;
 pub mod locate;
-mod report;
 mod select;
 mod spectral;
 pub mod synth;
@@ -64,7 +63,6 @@ use serde::Serialize;
 
 pub use data::Matching;
 pub use locate::{Correlation, GroupStat, Locate, SpectralPeak};
-pub use report::{ReportError, write_report};
 
 use effects::{Kind, Variant};
 use select::{FittedTerm, Outcome, Selector, centred_rms};

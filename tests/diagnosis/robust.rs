@@ -1,7 +1,8 @@
 //! Matching, bad input, the JSON contract shape, the report files, random pairs of effects.
 
 use errmap::diagnose::synth::{Hidden, Synth, generate};
-use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose, write_report};
+use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose};
+use errmap::report::diagnosis::write_report;
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};

@@ -62,43 +62,7 @@ pub struct ErrorTable {
     pub extra: Vec<ExtraColumn>,
 }
 
-/// The three axes, for messages and per-axis settings.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-impl Axis {
-    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
-
-    pub fn index(self) -> usize {
-        match self {
-            Axis::X => 0,
-            Axis::Y => 1,
-            Axis::Z => 2,
-        }
-    }
-
-    pub fn column(self) -> &'static str {
-        match self {
-            Axis::X => "x_mm",
-            Axis::Y => "y_mm",
-            Axis::Z => "z_mm",
-        }
-    }
-}
-
-impl fmt::Display for Axis {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Axis::X => "x",
-            Axis::Y => "y",
-            Axis::Z => "z",
-        })
-    }
-}
+pub use crate::base::Axis;
 
 /// What can be wrong with a table file. Rows are 1-based data rows (the header is not
 /// counted; in a CSV file data row r is on line r + 1).

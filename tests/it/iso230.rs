@@ -4,8 +4,8 @@
 
 use errmap::iso230::{
     AxisStats, Direction, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats,
-    markdown, plot,
 };
+use errmap::report::iso230::{markdown, plot};
 
 /// Known answers are exact to rounding: a few ulps of values of order 10 µm.
 const TOL_UM: f64 = 1e-12;

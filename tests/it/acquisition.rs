@@ -88,7 +88,7 @@ fn simulated_device_to_error_table_matches_the_truth() {
     let _ = sim.wait();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_session(&out.join("session.csv")).expect("session table");
-    let (expected, _) = errmap::acquire::simulate_stream(
+    let (expected, _) = errmap::sim::simulate_stream(
         &root().join("datasets/sim/model.toml"),
         Some(&root().join("datasets/sim/plan.toml")),
         &Default::default(),

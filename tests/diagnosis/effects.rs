@@ -2,9 +2,7 @@
 //! recordings (also with uneven noise), and states the ambiguities of poor designs.
 //! Synthetic sessions from `errmap::diagnose::synth` (seeded).
 
-mod common;
-
-use common::diagnosis_text;
+use crate::common::diagnosis_text;
 use errmap::diagnose::synth::{Hidden, Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 

@@ -19,8 +19,8 @@ use errmap_drivers::frame::Axis as WireAxis;
 use errmap_drivers::sim::Plan;
 use serde::Serialize;
 
-use crate::acquire::AcquireError;
-use crate::physics::{
+use super::error::SimError;
+use super::physics::{
     Abbe, ErrorMapSpec, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal,
     Scale, ScaleFactor, ThermalDrift, simulate_rows, simulate_session,
 };
@@ -313,7 +313,7 @@ pub struct Generated {
 }
 
 /// Generates one case (`seed` varies the noise).
-pub fn generate(case: &Case, table1: &Path, seed: u64) -> Result<Generated, AcquireError> {
+pub fn generate(case: &Case, table1: &Path, seed: u64) -> Result<Generated, SimError> {
     let nominal = nominal(table1, seed);
     let mut hidden = nominal.clone();
     (case.apply)(&mut hidden);
@@ -357,10 +357,10 @@ fn relative_table(m: &MachineModel) -> MachineModel {
 }
 
 /// Writes every case under `out` (`table1` is `datasets/table1.csv`).
-pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, AcquireError> {
+pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
     let io = |path: &Path| {
         let path = path.to_path_buf();
-        move |source| AcquireError::Io { path, source }
+        move |source| SimError::Io { path, source }
     };
     let mut dirs = Vec::new();
     let mut index = String::from(
@@ -385,7 +385,7 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, AcquireError
             sizes: &g.sizes,
             note: "for the tests only: errmap diagnose is given recorded.parquet and simulated.parquet",
         };
-        let text = serde_json::to_string_pretty(&tj).map_err(|e| AcquireError::Config {
+        let text = serde_json::to_string_pretty(&tj).map_err(|e| SimError::Config {
             path: dir.join("truth.json"),
             message: e.to_string(),
         })?;

@@ -21,6 +21,8 @@ use crate::gp::Gp;
 use crate::interp::{InterpError, Method, Order};
 use crate::table::{Axis, Grid};
 
+pub use crate::base::stats::rms;
+
 /// How the fitting table was split.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -135,11 +137,6 @@ impl CvResult {
         };
         like.or(Some(self.rms_um)).filter(|s| s.is_finite())
     }
-}
-
-/// Root mean square; `None` for no values.
-pub(crate) fn rms(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| (v.iter().map(|r| r * r).sum::<f64>() / v.len() as f64).sqrt())
 }
 
 /// Leave-one-out cross-validation of a Gaussian process on its own nodes, for scattered

@@ -369,7 +369,7 @@ fn coarse_counter_diagnosis_with(
         ),
     )
     .expect("plan");
-    let plan = errmap::acquire::read_plan(Some(&plan_path)).expect("plan reads");
+    let plan = errmap::sim::read_plan(Some(&plan_path)).expect("plan reads");
     let mut hidden = model.clone();
     hide(&mut hidden);
     let rec = simulate_session(&hidden, &model_path, &plan, true).expect("simulates");

@@ -6,128 +6,15 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
-use serde::Serialize;
 
-use crate::compare::{Comparison, SigmaKind};
-use crate::cv::CvScheme;
+use super::ReportError;
+use super::findings::group_by_reason;
+use super::json::finite;
+use crate::evaluate::compare::{Comparison, SigmaKind};
+use crate::evaluate::cv::CvScheme;
 use crate::interp::Method;
-use crate::plot::{self, PlotError};
+use crate::plot;
 use crate::table::{TableError, write_frame};
-
-/// Why a report could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    #[error("{path}: cannot write: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error(transparent)]
-    Table(#[from] TableError),
-    #[error(transparent)]
-    Plot(#[from] PlotError),
-}
-
-/// The JSON document of `compare --json` (spec `cli-contract.md`, with extra keys).
-#[derive(Debug, Serialize)]
-pub struct CompareJson {
-    pub rows: Vec<CompareJsonRow>,
-    pub recommended: MethodJson,
-    pub extrapolated: Vec<bool>,
-    pub report: Option<String>,
-    /// Methods not fitted (scattered tables), with the reason.
-    pub refused: Vec<RefusedJson>,
-}
-
-#[derive(Debug, Serialize)]
-pub struct RefusedJson {
-    pub method: String,
-    pub reason: String,
-}
-
-#[derive(Debug, Serialize)]
-pub struct CompareJsonRow {
-    pub method: String,
-    pub order: Option<[usize; 3]>,
-    pub rms_um: f64,
-    pub max_abs_um: f64,
-    pub cv_rms_um: Option<f64>,
-    pub predictions: Vec<f64>,
-    pub label: String,
-    pub inside_rms_um: Option<f64>,
-    pub cv_interior_rms_um: Option<f64>,
-    pub cv_capped_folds: usize,
-    pub cv_folds: usize,
-    pub cv_scheme: CvScheme,
-    /// One-sigma per prediction where the method has one (GP), else null.
-    pub sigmas: Vec<Option<f64>>,
-    pub within_1s: Option<f64>,
-    pub within_2s: Option<f64>,
-    pub max_abs_z: Option<f64>,
-    /// Where `sigmas` come from: "model" (GP) or "cross_validation".
-    pub sigma_kind: Option<SigmaKind>,
-}
-
-#[derive(Debug, Serialize)]
-pub struct MethodJson {
-    pub method: String,
-    pub order: Option<[usize; 3]>,
-}
-
-impl From<&Method> for MethodJson {
-    fn from(m: &Method) -> Self {
-        MethodJson {
-            method: m.name().to_string(),
-            order: m.order().map(|o| o.0),
-        }
-    }
-}
-
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
-}
-
-impl Comparison {
-    pub fn to_json(&self, report: Option<&Path>) -> CompareJson {
-        CompareJson {
-            rows: self
-                .rows
-                .iter()
-                .map(|r| CompareJsonRow {
-                    method: r.method.name().to_string(),
-                    order: r.method.order().map(|o| o.0),
-                    rms_um: r.rms_um,
-                    max_abs_um: r.max_abs_um,
-                    cv_rms_um: finite(r.cv.rms_um),
-                    predictions: r.predictions.clone(),
-                    label: r.method.label(),
-                    inside_rms_um: r.inside_rms_um,
-                    cv_interior_rms_um: r.cv.interior_rms_um,
-                    cv_capped_folds: r.cv.capped_folds,
-                    cv_folds: r.cv.folds,
-                    cv_scheme: r.cv.scheme,
-                    sigmas: r.sigmas.clone(),
-                    within_1s: r.within_1s,
-                    within_2s: r.within_2s,
-                    max_abs_z: r.max_abs_z,
-                    sigma_kind: r.sigma_kind,
-                })
-                .collect(),
-            recommended: (&self.recommended_row().method).into(),
-            extrapolated: self.extrapolated.clone(),
-            report: report.map(|p| p.display().to_string()),
-            refused: self
-                .refused
-                .iter()
-                .map(|(m, why)| RefusedJson {
-                    method: m.clone(),
-                    reason: why.clone(),
-                })
-                .collect(),
-        }
-    }
-}
 
 fn capitalise(s: &str) -> String {
     let mut c = s.chars();
@@ -528,7 +415,7 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
             .zip(&c.test.points)
             .filter_map(|(v, p)| v.map(|v| v - p.e_um))
             .collect();
-        cells.push(opt(crate::cv::rms(&r), 4));
+        cells.push(opt(crate::base::stats::rms(&r), 4));
     }
     for &i in feat {
         cells.push(format!("{:.4}", c.rows[i].rms_um));
@@ -664,16 +551,4 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
         crate::interp::fuzzy::DEFAULT_SIGMA
     );
     s
-}
-
-/// Groups (item, reason) pairs by reason, keeping first-seen order.
-pub(crate) fn group_by_reason(items: &[(String, String)]) -> Vec<(Vec<&str>, &str)> {
-    let mut out: Vec<(Vec<&str>, &str)> = Vec::new();
-    for (item, why) in items {
-        match out.iter_mut().find(|(_, w)| *w == why.as_str()) {
-            Some((names, _)) => names.push(item),
-            None => out.push((vec![item.as_str()], why.as_str())),
-        }
-    }
-    out
 }

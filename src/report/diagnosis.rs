@@ -6,29 +6,13 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::plot::{self, PlotError, XySeries, XyStyle};
+use crate::plot::{self, XySeries, XyStyle};
 
-use super::{Diagnosis, GroupStat};
+use super::ReportError;
+use crate::diagnose::{Diagnosis, GroupStat};
 
 /// Most points drawn per series.
 pub const MAX_POINTS: usize = 4000;
-
-/// Why the report could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    /// Creating the directory or writing `report.md` failed.
-    #[error("cannot write {path}: {source}")]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A chart could not be drawn.
-    #[error("chart: {0}")]
-    Plot(#[from] PlotError),
-}
 
 fn thin(idx: &[usize]) -> Vec<usize> {
     if idx.len() <= MAX_POINTS {

@@ -18,6 +18,8 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
+pub mod iso230;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -26,7 +28,6 @@ use errmap_drivers::frame::Axis as WireAxis;
 use polars::prelude::*;
 use serde::Serialize;
 
-use crate::iso230;
 use crate::table::{
     Cells, ErrorPoint, ErrorTable, TableError, column_cells, parse_cell, read_frame, required_cell,
     write_frame,

@@ -41,11 +41,11 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::{Deserialize, Serialize};
 
-use crate::acquire::{AcquireError, gaussian};
+use super::error::SimError;
+use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
+use crate::base::stats::gaussian;
 use crate::interp::{Interpolator, Method, Order, fuzzy};
 use crate::table::ErrorTable;
-
-const HENE_UM: f64 = 0.632_991_354;
 
 /// A quantity over time (°C, hPa or %).
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -350,8 +350,8 @@ pub struct MachineModel {
     pub device: Device,
 }
 
-fn config_err(path: &Path, message: impl Into<String>) -> AcquireError {
-    AcquireError::Config {
+fn config_err(path: &Path, message: impl Into<String>) -> SimError {
+    SimError::Config {
         path: path.to_path_buf(),
         message: message.into(),
     }
@@ -359,8 +359,8 @@ fn config_err(path: &Path, message: impl Into<String>) -> AcquireError {
 
 impl MachineModel {
     /// Reads a model file; table paths are made relative to the file's directory.
-    pub fn read(path: &Path) -> Result<Self, AcquireError> {
-        let text = std::fs::read_to_string(path).map_err(|source| AcquireError::Io {
+    pub fn read(path: &Path) -> Result<Self, SimError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
             path: path.to_path_buf(),
             source,
         })?;
@@ -376,9 +376,9 @@ impl MachineModel {
     }
 
     /// Writes the model as TOML.
-    pub fn write(&self, path: &Path) -> Result<(), AcquireError> {
+    pub fn write(&self, path: &Path) -> Result<(), SimError> {
         let text = toml::to_string_pretty(self).map_err(|e| config_err(path, e.to_string()))?;
-        std::fs::write(path, text).map_err(|source| AcquireError::Io {
+        std::fs::write(path, text).map_err(|source| SimError::Io {
             path: path.to_path_buf(),
             source,
         })
@@ -422,10 +422,7 @@ impl MachineModel {
     }
 
     /// The fitted geometric map, if any.
-    pub fn geometric_map(
-        &self,
-        path: &Path,
-    ) -> Result<Option<Box<dyn Interpolator>>, AcquireError> {
+    pub fn geometric_map(&self, path: &Path) -> Result<Option<Box<dyn Interpolator>>, SimError> {
         let Some(spec) = self.error_map.as_ref().filter(|m| m.enabled) else {
             return Ok(None);
         };
@@ -467,7 +464,7 @@ impl MachineModel {
         path: &Path,
         axis: WireAxis,
         duration_s: f64,
-    ) -> Result<PhysicsTruth, AcquireError> {
+    ) -> Result<PhysicsTruth, SimError> {
         let map = self.geometric_map(path)?;
         let h = &self.environment;
         let n = 2000;
@@ -629,7 +626,7 @@ impl Truth for PhysicsTruth {
 }
 
 /// Duration of a plan's stream in board seconds (a dry run with a perfect machine).
-fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, AcquireError> {
+fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, SimError> {
     struct Zero;
     impl Truth for Zero {
         fn error_um(&mut self, _q: &TruthQuery) -> f64 {
@@ -638,7 +635,7 @@ fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, AcquireError> {
     }
     simulate(plan, device, &Faults::default(), &mut Zero)
         .map(|s| s.duration_s)
-        .map_err(|e| AcquireError::Config {
+        .map_err(|e| SimError::Config {
             path: PathBuf::from("plan"),
             message: e.to_string(),
         })
@@ -651,7 +648,7 @@ pub fn simulate_plan(
     plan: &Plan,
     faults: &Faults,
     noise: bool,
-) -> Result<(SimStream, PhysicsTruth), AcquireError> {
+) -> Result<(SimStream, PhysicsTruth), SimError> {
     let device = model.device.clone();
     let duration = plan_duration(plan, &device)?;
     let mut truth = model.truth(model_path, plan.axis, duration)?;
@@ -668,7 +665,7 @@ pub fn simulate_session(
     model_path: &Path,
     plan: &Plan,
     noise: bool,
-) -> Result<Vec<SessionRow>, AcquireError> {
+) -> Result<Vec<SessionRow>, SimError> {
     let (stream, _) = simulate_plan(model, model_path, plan, &Faults::default(), noise)?;
     Ok(decode_all(&stream.bytes()).0)
 }
@@ -681,7 +678,7 @@ pub fn simulate_rows(
     model: &MachineModel,
     model_path: &Path,
     recorded: &[SessionRow],
-) -> Result<Vec<SessionRow>, AcquireError> {
+) -> Result<Vec<SessionRow>, SimError> {
     let axis = recorded.first().map_or(WireAxis::X, |r| r.axis);
     let duration = recorded.iter().map(|r| r.t_s).fold(0.0, f64::max);
     let truth = model.truth(model_path, axis, duration)?;
@@ -729,104 +726,4 @@ pub fn simulate_rows(
             }
         })
         .collect())
-}
-
-/// Adds the effects a diagnosis found to a model, so that `simulate` reproduces the
-/// recording. Returns a note per effect (what was set, or why it could not be).
-pub fn apply_found_effects(
-    model: &mut MachineModel,
-    effects: &[crate::diagnose::FoundEffect],
-) -> Vec<String> {
-    let mut notes = Vec::new();
-    for e in effects {
-        let num = |k: &str| e.params.get(k).and_then(serde_json::Value::as_f64);
-        let need = |k: &str| num(k).unwrap_or(0.0);
-        match e.id.as_str() {
-            "scale_thermal_expansion" => {
-                model.scale = Some(Scale {
-                    enabled: true,
-                    material: "from diagnosis".into(),
-                    cte_ppm_per_k: need("alpha_ppm_per_k"),
-                    x0_mm: need("x0_mm"),
-                });
-            }
-            "scale_factor" => {
-                let old = model
-                    .scale_factor
-                    .as_ref()
-                    .filter(|s| s.enabled)
-                    .map_or(0.0, |s| s.ppm);
-                model.scale_factor = Some(ScaleFactor {
-                    enabled: true,
-                    ppm: old + need("ppm"),
-                });
-            }
-            "abbe" => {
-                let axis = e
-                    .params
-                    .get("offset_axis")
-                    .and_then(serde_json::Value::as_str)
-                    .unwrap_or("z")
-                    .to_string();
-                model.abbe = Some(Abbe {
-                    enabled: true,
-                    offset_axis: axis,
-                    theta0_urad: need("theta0_urad"),
-                    theta1_urad_per_mm: need("theta1_urad_per_mm"),
-                });
-            }
-            "reversal" => {
-                let old = model
-                    .reversal
-                    .as_ref()
-                    .filter(|r| r.enabled)
-                    .map_or(0.0, |r| r.b_um);
-                model.reversal = Some(Reversal {
-                    enabled: true,
-                    b_um: old + need("b_um"),
-                });
-            }
-            "latch_delay" => {
-                let old = model
-                    .latch_delay
-                    .as_ref()
-                    .filter(|l| l.enabled)
-                    .map_or(0.0, |l| l.tau_us);
-                model.latch_delay = Some(LatchDelay {
-                    enabled: true,
-                    tau_us: old + need("tau_us"),
-                });
-            }
-            "periodic_scale" => {
-                model.periodic_scale = Some(PeriodicScale {
-                    enabled: true,
-                    amplitude_um: need("amplitude_um"),
-                    period_um: need("period_um"),
-                    phase_rad: need("phase_rad"),
-                });
-            }
-            "thermal_drift" => {
-                model.thermal_drift = Some(ThermalDrift {
-                    enabled: true,
-                    amplitude_um: need("amplitude_um"),
-                    tau_s: num("tau_s"),
-                    rate_um_per_s: need("rate_um_per_s"),
-                });
-            }
-            "dead_path" => model.laser.dead_path_mm += need("dead_path_mm"),
-            "refraction" => {
-                model.refraction = Some(Refraction {
-                    enabled: true,
-                    ppm_per_k: need("ppm_per_k"),
-                    ppm_per_hpa: need("ppm_per_hpa"),
-                });
-            }
-            other => {
-                notes.push(format!("{other}: no model term for it; not added"));
-                continue;
-            }
-        }
-        notes.push(format!("{}: added", e.id));
-    }
-    notes
 }

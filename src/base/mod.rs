@@ -1,0 +1,15 @@
+//! Shared leaves used by every stage: the axis, the diagnosis vocabulary, small
+//! statistics, the optimisers and physical constants. Nothing here does I/O and nothing
+//! here imports another module of the crate, so any stage may import it.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`axis`] | the one [`Axis`] of the library (error-table columns, messages, indices) |
+//! | [`stats`] | rms, median, centred rms, peak-to-peak, the Gaussian generator |
+//! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
+
+pub mod axis;
+pub mod consts;
+pub mod stats;
+
+pub use axis::Axis;

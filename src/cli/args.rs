@@ -1,0 +1,304 @@
+//! Every clap struct of the binary.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use errmap::evaluate::compare::DEFAULT_MAX_DEGREE;
+use errmap::interp::fuzzy;
+
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// Error table to fit.
+    pub table: PathBuf,
+    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
+    /// table; gp uses --gp-kernel, gp-se the squared exponential)
+    #[arg(long)]
+    pub method: String,
+    /// Lagrange degrees MxNxQ (or auto).
+    #[arg(long)]
+    pub order: Option<String>,
+    /// The compensated axis (line formats): x, y or z.
+    #[arg(long, default_value = "x")]
+    pub axis: String,
+    /// The fixed coordinates of the line, e.g. `y=1,z=200` (mm).
+    #[arg(long, default_value = "")]
+    pub at: String,
+    /// Sampling step along the line, or the grid spacing, mm.
+    #[arg(long)]
+    pub step: f64,
+    /// Line start and end, mm (default: the table's range on the axis).
+    #[arg(long)]
+    pub start: Option<f64>,
+    #[arg(long)]
+    pub end: Option<f64>,
+    /// linuxcnc | siemens | csv | grid
+    #[arg(long)]
+    pub format: String,
+    /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached) or trim (1, the offsets).
+    #[arg(long, default_value = "actual")]
+    pub comp_type: String,
+    /// Siemens machine-axis name, e.g. X1.
+    #[arg(long, default_value = "X1")]
+    pub siemens_axis: String,
+    /// Siemens MD38000 MM_ENC_COMP_MAX_POINTS of the control.
+    #[arg(long, default_value_t = errmap::export::SIEMENS_808D_MAX_POINTS)]
+    pub max_points: usize,
+    /// Refuse positions outside the mapped range instead of flagging them.
+    #[arg(long)]
+    pub forbid_extrapolation: bool,
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// The recorded session (table, or a capture directory).
+    #[arg(long)]
+    pub recorded: PathBuf,
+    /// The simulated session of the same plan.
+    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
+    pub simulated: Option<PathBuf>,
+    /// A machine model to simulate the recording with (instead of --simulated).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Report directory.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// The scale's grating period, µm (default: the model's, or the capture's HELLO).
+    #[arg(long)]
+    pub grating_period_um: Option<f64>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Query points.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub points: usize,
+    /// Threads for the parallel runs (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ReportConcealedArgs {
+    #[arg(long, default_value = "datasets/concealed")]
+    pub cases: PathBuf,
+    #[arg(long, default_value = "reports/diagnosis")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct GenConcealedArgs {
+    #[arg(long, default_value = "datasets/concealed")]
+    pub out: PathBuf,
+    /// Table 1, the nominal machine's error map.
+    #[arg(long, default_value = "datasets/table1.csv")]
+    pub table1: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Machine model (TOML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement plan (TOML).
+    #[arg(long)]
+    pub plan: PathBuf,
+    /// Session table to write (CSV or Parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The model's expectation without its white noise.
+    #[arg(long)]
+    pub no_noise: bool,
+    /// Also write the board's raw byte stream here (replayable).
+    #[arg(long)]
+    pub raw: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct FaultArgs {
+    /// Probability per frame of a burst of garbage bytes before it.
+    #[arg(long, default_value_t = 0.0)]
+    pub garbage: f64,
+    /// Probability per frame of one flipped bit.
+    #[arg(long, default_value_t = 0.0)]
+    pub bit_flips: f64,
+    /// Probability per frame that it is lost on the line.
+    #[arg(long, default_value_t = 0.0)]
+    pub drop_frames: f64,
+    /// Beam-loss window in session seconds, START:END.
+    #[arg(long)]
+    pub beam_loss: Option<String>,
+    /// Start both counters this many counts below the 32-bit wrap.
+    #[arg(long)]
+    pub near_wrap: Option<i32>,
+    #[arg(long, default_value_t = 1)]
+    pub fault_seed: u64,
+}
+
+#[derive(Debug, Args)]
+pub struct ServeSimArgs {
+    /// Machine model (TOML).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement plan (TOML); a built-in 11-target X plan without it.
+    #[arg(long)]
+    pub plan: Option<PathBuf>,
+    /// Playback speed (1 = real time; the byte budget holds in the board's own time).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Seconds to keep the port open after the last frame.
+    #[arg(long, default_value_t = 1.0)]
+    pub linger: f64,
+    /// Give up (exit 1) when no host has read the port for this many seconds: the port
+    /// was never opened, or the capture ended early. 0 waits for ever.
+    #[arg(long, default_value_t = 60.0)]
+    pub stall_timeout: f64,
+    /// Write the simulated truth per sample (CSV) here.
+    #[arg(long)]
+    pub truth_out: Option<PathBuf>,
+    #[command(flatten)]
+    pub faults: FaultArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct CaptureArgs {
+    /// Serial device path (e.g. /dev/ttyUSB0, or the path serve-sim prints).
+    #[arg(long)]
+    pub port: String,
+    /// Session directory (created; an existing capture there is never overwritten).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, default_value_t = 115_200)]
+    pub baud: u32,
+    /// Session table format: csv or parquet.
+    #[arg(long, default_value = "csv")]
+    pub format: String,
+    /// Stop after this many seconds without a byte.
+    #[arg(long)]
+    pub idle_timeout: Option<f64>,
+    /// Stop after this many seconds.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Print the session description as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// Raw capture file.
+    pub raw: PathBuf,
+    /// Session table to write (CSV or Parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Print the decoder statistics as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct TableArgs {
+    /// Session table, or a session directory written by capture.
+    pub session: PathBuf,
+    /// Error table to write (CSV or Parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write the ISO 230-2 report (markdown and figures) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Directory for the demo's reports.
+    #[arg(long, default_value = "reports/demo")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct ModelArgs {
+    /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    pub fuzzy_sigma: f64,
+    /// Highest Lagrange degree per axis tried by `auto`/`all`.
+    #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
+    pub max_degree: usize,
+    /// Gaussian-process kernel: matern52 or se (squared exponential).
+    #[arg(long, default_value = "matern52")]
+    pub gp_kernel: String,
+}
+
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
+    pub table: PathBuf,
+    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
+    /// table; gp uses --gp-kernel, gp-se the squared exponential)
+    #[arg(long)]
+    pub method: String,
+    /// Lagrange degrees MxNxQ along x, y, z, or `auto` (chosen by cross-validation).
+    #[arg(long)]
+    pub order: Option<String>,
+    /// Points to predict at (CSV or Parquet with x_mm,y_mm,z_mm; e_um optional).
+    #[arg(long)]
+    pub predict: PathBuf,
+    /// Write the predictions as a table (CSV or Parquet).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print one JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Worker threads for the predictions (0: all cores).
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Error table to fit (CSV or Parquet).
+    pub table: PathBuf,
+    /// Test points with measured e_um (CSV or Parquet); `paper_MxNxQ` columns are compared too.
+    #[arg(long)]
+    pub test: PathBuf,
+    /// Comma list of methods (default: all; gp then means both kernels, Matérn 5/2 and SE).
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Option<Vec<String>>,
+    /// Lagrange orders: `all` (every admissible order up to --max-degree), `auto` (only the
+    /// one cross-validation picks), or a comma list like 4x1x2,2x1x2.
+    #[arg(long, default_value = "all")]
+    pub orders: String,
+    /// Report directory.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// Print one JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct FuzzySimArgs {
+    #[arg(long, default_value_t = 2013)]
+    pub seed: u64,
+    #[arg(long, default_value_t = 200)]
+    pub trials: usize,
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    pub fuzzy_sigma: f64,
+    /// Write a markdown report here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    #[arg(long)]
+    pub json: bool,
+}

@@ -1,0 +1,116 @@
+//! The `errmap` binary: argument parsing and glue. Each subcommand is one short function
+//! that validates its flags into library configuration and calls the library.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`args`] | every clap struct and the flags' value types |
+//! | [`model`] | fit, compare, export, simulate, fuzzy-sim |
+//! | [`acquisition`] | serve-sim, capture, replay, table, ports |
+//! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
+//! | [`demo`] | the demo: the whole pipeline on built-in data |
+
+use std::process::ExitCode;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+pub mod acquisition;
+pub mod args;
+pub mod demo;
+pub mod diagnose;
+pub mod model;
+
+use args::*;
+
+/// Measure and model the volumetric error of coordinate measuring machines.
+#[derive(Debug, Parser)]
+#[command(name = "errmap", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the whole pipeline on built-in data and write the reports.
+    Demo(DemoArgs),
+    /// Fit one model to an error table and predict at points.
+    Fit(FitArgs),
+    /// Compare methods and Lagrange orders on test points, with cross-validation.
+    Compare(CompareArgs),
+    /// Seed 000's simulation: fuzzy vs trilinear vs spline on random node errors.
+    FuzzySim(FuzzySimArgs),
+    /// Run the simulated acquisition device on a pseudo-terminal and stream its frames.
+    ServeSim(ServeSimArgs),
+    /// Acquire from a serial device into a session directory.
+    Capture(CaptureArgs),
+    /// Decode a raw capture into a session table.
+    Replay(ReplayArgs),
+    /// Reduce a session table to an error table (with ISO 230-2 statistics).
+    Table(TableArgs),
+    /// List the serial ports of this system.
+    Ports,
+    /// Simulate a session from a machine model and a measurement plan.
+    Simulate(SimulateArgs),
+    /// Regenerate the concealed-effect cases (recorded/simulated pairs).
+    GenConcealed(GenConcealedArgs),
+    /// Diagnose every concealed case and write its report (reports/diagnosis/).
+    ReportConcealed(ReportConcealedArgs),
+    /// Throughput of the interpolators, fit times and the decoder's speed.
+    Bench(BenchArgs),
+    /// Find and model what the simulation left out of a recording.
+    Diagnose(DiagnoseArgs),
+    /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
+    Export(ExportArgs),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("errmap: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Demo(a) => demo::demo(a),
+        Command::Fit(a) => model::fit(a),
+        Command::Compare(a) => model::compare_cmd(a),
+        Command::FuzzySim(a) => model::fuzzy_sim(a),
+        Command::ServeSim(a) => acquisition::serve_sim(a),
+        Command::Capture(a) => acquisition::capture_cmd(a),
+        Command::Replay(a) => acquisition::replay_cmd(a),
+        Command::Table(a) => acquisition::table_cmd(a),
+        Command::Ports => acquisition::ports(),
+        Command::Simulate(a) => model::simulate_cmd(a),
+        Command::Diagnose(a) => diagnose::diagnose_cmd(a),
+        Command::Export(a) => model::export_cmd(a),
+        Command::Bench(a) => {
+            let r = errmap::bench::run(&errmap::bench::BenchConfig {
+                points: a.points.max(1),
+                threads: a.threads,
+                ..Default::default()
+            });
+            if a.json {
+                println!("{}", serde_json::to_string(&r)?);
+            } else {
+                eprint!("{}", errmap::bench::markdown(&r));
+            }
+            Ok(())
+        }
+        Command::ReportConcealed(a) => diagnose::report_concealed(&a.cases, &a.out),
+        Command::GenConcealed(a) => {
+            let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
+            eprintln!(
+                "gen-concealed: {} cases under {}",
+                dirs.len(),
+                a.out.display()
+            );
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,424 @@
+//! The model subcommands: fit, compare, export, simulate, fuzzy-sim. Glue only: the work
+//! is in `errmap::interp`, `errmap::evaluate`, `errmap::export` and `errmap::report`.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use errmap::compare;
+use errmap::experiment::{self, FuzzySimConfig};
+use errmap::interp::{Method, Order};
+use errmap::report;
+use errmap::table::{ErrorPoint, ErrorTable};
+
+use super::args::*;
+
+/// Turns `--method`/`--order` into a method; `auto` runs the cross-validation.
+fn parse_method(
+    name: &str,
+    order: Option<&str>,
+    model: &ModelArgs,
+    grid: Option<&errmap::table::Grid>,
+) -> Result<Method> {
+    Ok(match name {
+        "lagrange" => match order {
+            None => bail!(
+                "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
+            ),
+            Some("auto") => {
+                let grid = grid.context("--order auto needs a grid table")?;
+                Method::Lagrange(compare::auto_order(grid, model.max_degree)?.0)
+            }
+            Some(o) => Method::Lagrange(o.parse::<Order>().map_err(anyhow::Error::msg)?),
+        },
+        "trilinear" | "spline" | "fuzzy" | "gp" | "gp-se" if order.is_some() => {
+            bail!("--order applies to lagrange only, not to {name}")
+        }
+        "trilinear" => Method::Trilinear,
+        "spline" => Method::Spline,
+        "fuzzy" => Method::Fuzzy {
+            sigma: model.fuzzy_sigma,
+        },
+        "gp" => Method::Gp(match model.gp_kernel.as_str() {
+            "matern52" | "matern" => errmap::gp::Kernel::Matern52,
+            "se" | "squared-exponential" => errmap::gp::Kernel::SquaredExponential,
+            other => bail!("--gp-kernel is matern52 or se, not {other}"),
+        }),
+        // The squared-exponential GP by name (what `compare` calls its row).
+        "gp-se" => Method::Gp(errmap::gp::Kernel::SquaredExponential),
+        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"),
+    })
+}
+
+/// A table and one method fitted to it, with the nodes' box.
+struct Fitted {
+    method: Method,
+    model: Box<dyn errmap::interp::Interpolator>,
+    extent: compare::Extent,
+}
+
+/// Reads `path` and fits the method named `name`: the Gaussian process to the nodes as
+/// they are (scattered or not), the interpolators to the grid (the error names a missing
+/// node).
+fn fit_table(path: &Path, name: &str, order: Option<&str>, model: &ModelArgs) -> Result<Fitted> {
+    let table = ErrorTable::read(path)?;
+    let grid = if name == "gp" || name == "gp-se" {
+        None
+    } else {
+        Some(table.grid()?)
+    };
+    let method = parse_method(name, order, model, grid.as_ref())?;
+    let fitted = match &grid {
+        Some(g) => method.fit(g).map_err(anyhow::Error::from),
+        None => method
+            .fit_points(&table.points)
+            .map_err(anyhow::Error::from),
+    }
+    .with_context(|| format!("{}: cannot fit {}", path.display(), method.label()))?;
+    Ok(Fitted {
+        method,
+        model: fitted,
+        extent: match &grid {
+            Some(g) => compare::Extent::of_grid(g),
+            None => compare::Extent::of_points(&table),
+        },
+    })
+}
+
+pub fn fit(a: FitArgs) -> Result<()> {
+    let Fitted { method, model, .. } =
+        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
+    let points = ErrorTable::read_points(&a.predict)?;
+    let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
+    let mut values = vec![0.0; positions.len()];
+    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, a.threads)?;
+    let preds: Vec<(ErrorPoint, bool)> = positions
+        .iter()
+        .zip(&values)
+        .map(|(&p, &e)| (ErrorPoint::new(p[0], p[1], p[2], e), model.outside(p)))
+        .collect();
+    // One-sigma of each prediction where the model has one (the Gaussian process).
+    let sigmas: Vec<Option<f64>> = {
+        use rayon::prelude::*;
+        positions.par_iter().map(|&p| model.sigma(p)).collect()
+    };
+    if let Some(out) = &a.out {
+        errmap::table::write_predictions(out, &preds, &sigmas)?;
+    }
+    let n_out = preds.iter().filter(|p| p.1).count();
+    if a.json {
+        let json = serde_json::json!({
+            "method": method.name(),
+            "order": method.order().map(|o| o.0),
+            "predictions": preds.iter().zip(&sigmas).map(|((p, e), s)| serde_json::json!({
+                "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "e_um": p.e_um, "extrapolated": e,
+                "sigma_um": s
+            })).collect::<Vec<_>>(),
+        });
+        println!("{json}");
+    } else {
+        eprintln!(
+            "{}: {} predictions ({} extrapolated){}",
+            method.label(),
+            preds.len(),
+            n_out,
+            a.out
+                .as_ref()
+                .map(|p| format!(", written to {}", p.display()))
+                .unwrap_or_default()
+        );
+        for ((p, e), s) in preds.iter().zip(&sigmas) {
+            eprintln!(
+                "  {:>10.4} {:>10.4} {:>10.4}  {:>10.4} µm{}{}",
+                p.x_mm,
+                p.y_mm,
+                p.z_mm,
+                p.e_um,
+                s.map(|s| format!(" ± {s:.4}")).unwrap_or_default(),
+                if *e { "  (extrapolated)" } else { "" }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The model list of `compare` from `--methods` and `--orders`.
+fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
+    let names: Vec<String> = a.methods.clone().unwrap_or_else(|| {
+        ["trilinear", "spline", "fuzzy", "gp", "lagrange"]
+            .map(String::from)
+            .to_vec()
+    });
+    let mut out = Vec::new();
+    for name in &names {
+        match name.trim() {
+            "lagrange" => match a.orders.trim() {
+                "all" => out.extend(
+                    errmap::interp::lagrange::admissible_orders(grid.shape(), a.model.max_degree)
+                        .into_iter()
+                        .map(Method::Lagrange),
+                ),
+                "auto" => out.push(Method::Lagrange(
+                    compare::auto_order(grid, a.model.max_degree)?.0,
+                )),
+                list => {
+                    for o in list.split(',') {
+                        let order: Order = o.parse().map_err(anyhow::Error::msg)?;
+                        Method::Lagrange(order).fit(grid).with_context(|| {
+                            format!("{}: order {order} cannot be fitted", a.table.display())
+                        })?;
+                        out.push(Method::Lagrange(order));
+                    }
+                }
+            },
+            // By default both kernels: the squared exponential suits analytic error
+            // fields, Matérn 5/2 rougher ones, and cross-validation tells them apart.
+            "gp" if a.methods.is_none() => out.extend([
+                Method::Gp(errmap::gp::Kernel::Matern52),
+                Method::Gp(errmap::gp::Kernel::SquaredExponential),
+            ]),
+            other => out.push(parse_method(other, None, &a.model, Some(grid))?),
+        }
+    }
+    if out.is_empty() {
+        bail!("no methods to compare");
+    }
+    Ok(out)
+}
+
+/// The models `compare` fits to a scattered table: the Gaussian process only. Asked for
+/// by name, any other method is an error naming the missing grid node; by default both
+/// kernels are compared and the grid methods are listed as not fitted, with the reason.
+fn scattered_methods(
+    a: &CompareArgs,
+    missing: &errmap::table::TableError,
+) -> Result<(Vec<Method>, compare::Refusals)> {
+    use errmap::gp::Kernel;
+    let grid_only = ["trilinear", "spline", "fuzzy", "lagrange"];
+    let why = format!("a full grid is needed ({missing})");
+    match &a.methods {
+        Some(names) => {
+            let mut methods = Vec::new();
+            for name in names {
+                match name.trim() {
+                    gp @ ("gp" | "gp-se") => methods.push(parse_method(gp, None, &a.model, None)?),
+                    other if grid_only.contains(&other) => bail!(
+                        "{other} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
+                        a.table.display()
+                    ),
+                    other => {
+                        bail!(
+                            "unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"
+                        )
+                    }
+                }
+            }
+            if methods.is_empty() {
+                bail!("no methods to compare");
+            }
+            Ok((methods, Vec::new()))
+        }
+        None => Ok((
+            vec![
+                Method::Gp(Kernel::Matern52),
+                Method::Gp(Kernel::SquaredExponential),
+            ],
+            grid_only
+                .iter()
+                .map(|m| (m.to_string(), why.clone()))
+                .collect(),
+        )),
+    }
+}
+
+pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+    let table = ErrorTable::read(&a.table)?;
+    let test = ErrorTable::read(&a.test)?;
+    let comparison = match table.grid() {
+        Ok(grid) => {
+            let methods = compare_methods(&a, &grid)?;
+            if a.methods.is_some() {
+                compare::compare(&table, &grid, &test, &methods)
+            } else {
+                compare::compare_where_possible(&table, &grid, &test, &methods)
+            }
+        }
+        Err(e @ errmap::table::TableError::MissingNode { .. }) => {
+            let (methods, refused) = scattered_methods(&a, &e)?;
+            compare::compare_scattered(&table, &test, &methods, refused)
+        }
+        Err(e) => return Err(e.into()),
+    }
+    .with_context(|| format!("{}: comparison failed", a.table.display()))?;
+    let command = format!(
+        "errmap compare {} --test {} --report {}{}",
+        a.table.display(),
+        a.test.display(),
+        a.report.display(),
+        if a.orders == "all" {
+            String::new()
+        } else {
+            format!(" --orders {}", a.orders)
+        }
+    );
+    report::write_report(&comparison, &a.report, &command)?;
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&comparison.to_json(Some(&a.report)))?
+        );
+    } else {
+        print_summary(&comparison, &a.report);
+    }
+    Ok(())
+}
+
+fn print_summary(c: &compare::Comparison, dir: &Path) {
+    let rec = c.recommended_row();
+    eprintln!(
+        "{} models compared on {} test points ({} extrapolated).",
+        c.rows.len(),
+        c.test.points.len(),
+        c.extrapolated.iter().filter(|e| **e).count()
+    );
+    eprintln!(
+        "recommended by cross-validation: {} (CV RMS {:.4} µm; test RMS {:.4} µm)",
+        rec.method.label(),
+        rec.cv.rms_um,
+        rec.rms_um
+    );
+    eprintln!("report: {}", dir.join("report.md").display());
+}
+
+pub fn export_cmd(a: ExportArgs) -> Result<()> {
+    use errmap::export::{
+        ExportFormat, Extrapolation, LineSpec, LinuxCncCompType, VolumeSpec, sample_line,
+        volumetric_grid,
+    };
+    use errmap::table::Axis;
+    let Fitted { model, extent, .. } =
+        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
+    let extrapolation = if a.forbid_extrapolation {
+        Extrapolation::Forbid
+    } else {
+        Extrapolation::Allow
+    };
+    let format = match a.format.as_str() {
+        "linuxcnc" => ExportFormat::LinuxCnc {
+            comp_type: match a.comp_type.as_str() {
+                "actual" | "0" => LinuxCncCompType::ActualPosition,
+                "trim" | "1" => LinuxCncCompType::Trim,
+                other => bail!("--comp-type is actual (0) or trim (1), not {other}"),
+            },
+        },
+        "siemens" => ExportFormat::Siemens {
+            axis_name: a.siemens_axis.clone(),
+            max_points: a.max_points,
+        },
+        "csv" => ExportFormat::Csv,
+        "grid" => ExportFormat::Grid,
+        other => bail!("--format is linuxcnc, siemens, csv or grid, not {other}"),
+    };
+    let lo = extent.bounds.map(|b| b[0]);
+    let hi = extent.bounds.map(|b| b[1]);
+    if !format.is_line() {
+        let n = volumetric_grid(
+            model.as_ref(),
+            &VolumeSpec {
+                lo_mm: lo,
+                hi_mm: hi,
+                spacing_mm: a.step,
+            },
+            extrapolation,
+            &a.out,
+        )?;
+        eprintln!("export: {n} grid points → {}", a.out.display());
+        return Ok(());
+    }
+    let axis = match a.axis.as_str() {
+        "x" | "X" => Axis::X,
+        "y" | "Y" => Axis::Y,
+        "z" | "Z" => Axis::Z,
+        other => bail!("--axis is x, y or z, not {other}"),
+    };
+    // The line's fixed coordinates: given ones, else the first node on that axis.
+    let mut at = lo;
+    for part in a.at.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (k, v) = part
+            .split_once('=')
+            .with_context(|| format!("--at takes axis=value pairs like y=1,z=200, not `{part}`"))?;
+        let v: f64 = v
+            .trim()
+            .parse()
+            .with_context(|| format!("--at: `{v}` is not a number"))?;
+        match k.trim() {
+            "x" | "X" => at[0] = v,
+            "y" | "Y" => at[1] = v,
+            "z" | "Z" => at[2] = v,
+            other => bail!("--at: unknown axis `{other}`"),
+        }
+    }
+    let line = LineSpec {
+        axis,
+        at_mm: at,
+        start_mm: a.start.unwrap_or(lo[axis.index()]),
+        end_mm: a.end.unwrap_or(hi[axis.index()]),
+        step_mm: a.step,
+    };
+    let sampled = sample_line(model.as_ref(), &line, extrapolation)?;
+    let text = format.render_line(&sampled, None)?;
+    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "export: {} {} entries along {} at ({}, {}, {}) mm ({} extrapolated) → {}; compensation = −error",
+        format.name(),
+        sampled.positions_mm.len(),
+        a.axis,
+        at[0],
+        at[1],
+        at[2],
+        sampled.extrapolated_count(),
+        a.out.display()
+    );
+    Ok(())
+}
+
+pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    let model = errmap::physics::MachineModel::read(&a.model)?;
+    let plan = errmap::sim::read_plan(Some(&a.plan))?;
+    let (stream, _) =
+        errmap::physics::simulate_plan(&model, &a.model, &plan, &Default::default(), !a.no_noise)?;
+    let bytes = stream.bytes();
+    if let Some(raw) = &a.raw {
+        std::fs::write(raw, &bytes).with_context(|| format!("cannot write {}", raw.display()))?;
+    }
+    let (rows, _, _) = errmap::drivers::decode_all(&bytes);
+    errmap::session::write_session(&a.out, &rows)?;
+    eprintln!(
+        "simulate: {} rows, {:.1} s of session time → {}",
+        rows.len(),
+        stream.duration_s,
+        a.out.display()
+    );
+    Ok(())
+}
+
+pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
+    let config = FuzzySimConfig {
+        seed: a.seed,
+        trials: a.trials.max(1),
+        fuzzy_sigma: a.fuzzy_sigma,
+        ..FuzzySimConfig::default()
+    };
+    let result = experiment::run(&config)?;
+    let md = errmap::report::experiment::markdown(&result);
+    if let Some(dir) = &a.report {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let path = dir.join("report.md");
+        std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if a.json {
+        println!("{}", serde_json::to_string(&result)?);
+    } else {
+        eprint!("{md}");
+    }
+    Ok(())
+}

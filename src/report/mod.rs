@@ -1,0 +1,47 @@
+//! Presentation for every stage: words, tables and figures on disk. Nothing else in the
+//! library imports this module; it imports any stage it reports on, and [`crate::plot`].
+//!
+//! | module | writes |
+//! |---|---|
+//! | [`compare`] | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
+//! | [`findings`] | a comparison's findings in plain words |
+//! | [`json`] | the `compare --json` document |
+//! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
+//! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
+
+use std::path::PathBuf;
+
+use crate::plot::PlotError;
+use crate::table::TableError;
+
+pub mod compare;
+pub mod diagnosis;
+pub mod experiment;
+pub mod findings;
+pub mod iso230;
+pub mod json;
+
+pub use compare::write_report;
+pub use findings::group_by_reason;
+pub use json::{CompareJson, CompareJsonRow, MethodJson, RefusedJson};
+
+/// Why a report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Creating the directory or writing a file failed.
+    #[error("{path}: cannot write: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A table (CSV/Parquet) could not be written.
+    #[error(transparent)]
+    Table(#[from] TableError),
+    /// A chart could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}

@@ -1,0 +1,22 @@
+//! The machine simulator: the other side of the diagnosis. A machine model (TOML) and a
+//! measurement plan drive the simulated board of `errmap-drivers` through the same wire
+//! frames and decoder as a capture.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`physics`] | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
+//! | [`plan`] | measurement-plan files, simulating a stream, test points with the truth |
+//! | [`update`] | writing a diagnosis' found effects back into a model |
+//! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
+//! | [`error`] | [`SimError`] |
+
+pub mod concealed;
+pub mod error;
+pub mod physics;
+pub mod plan;
+pub mod update;
+
+pub use error::SimError;
+pub use physics::{MachineModel, PhysicsTruth, simulate_plan, simulate_rows, simulate_session};
+pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
+pub use update::apply_found_effects;

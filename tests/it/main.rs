@@ -1,0 +1,15 @@
+//! errmap's integration tests, one binary (every test binary links polars; one link
+//! instead of ten saves CI minutes). Each module is one area; the diagnosis has its own
+//! binary in `tests/diagnosis/`.
+
+mod acquisition;
+mod cli;
+mod experiment;
+mod export;
+mod gp;
+mod interp;
+mod iso230;
+mod layers;
+mod physics;
+mod table2;
+mod tables;
