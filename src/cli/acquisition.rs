@@ -290,7 +290,7 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             path.display(),
             iso.len()
         );
-        md.push_str(&session::environment_summary(&rows));
+        md.push_str(&errmap::report::environment::environment_summary(&rows));
         md.push('\n');
         for (k, (line, stats)) in iso.iter().enumerate() {
             md.push_str(&format!(

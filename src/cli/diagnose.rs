@@ -55,17 +55,9 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     };
     let d = diagnose(&recorded, &simulated, &config)
         .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
-    std::fs::create_dir_all(&a.report)
-        .with_context(|| format!("cannot create {}", a.report.display()))?;
-    write_report(&d, &a.report)?;
     // Every report carries the session's environment.
-    let md_path = a.report.join("report.md");
-    if let Ok(mut md) = std::fs::read_to_string(&md_path) {
-        md.push('\n');
-        md.push_str(&session::environment_summary(&recorded));
-        std::fs::write(&md_path, md)
-            .with_context(|| format!("cannot write {}", md_path.display()))?;
-    }
+    let environment = errmap::report::environment::environment_summary(&recorded);
+    write_report(&d, &a.report, Some(&environment))?;
     if let Some((mut m, path)) = model {
         let notes = apply_found_effects(&mut m, &d.effects);
         let _ = &path;
@@ -133,101 +125,14 @@ fn relative_to(path: &Path, base: &Path) -> PathBuf {
     rel
 }
 
-/// Diagnoses every case under `cases` (each with recorded.parquet, simulated.parquet and
-/// truth.json) into `out/<case>/`, with an index comparing found and hidden effects.
+/// Diagnoses every case under `cases` into `out/<case>/`, with an index comparing found
+/// and hidden effects (`errmap report-concealed`).
 pub fn report_concealed(cases: &Path, out: &Path) -> Result<()> {
-    use errmap::diagnose::{DiagnoseConfig, diagnose};
-    use errmap::report::diagnosis::write_report;
-    let mut names: Vec<String> = std::fs::read_dir(cases)
-        .with_context(|| format!("cannot read {}", cases.display()))?
-        .filter_map(|e| e.ok())
-        .filter(|e| e.path().join("recorded.parquet").is_file())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    let mut index = String::from(
-        "# Diagnosis of the concealed-effect cases\n\nRegenerate with `errmap report-concealed` \
-         (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
-         `simulated.parquet`; the hidden truth comes from `truth.json`.\n\n\
-         | case | hidden | found | parameters found (± 1σ) | hidden parameters | RMS before → after µm | noise σ µm |\n\
-         |---|---|---|---|---|---|---|\n",
-    );
-    for name in &names {
-        let dir = cases.join(name);
-        let recorded = session::read_session(&dir.join("recorded.parquet"))?;
-        let simulated = session::read_session(&dir.join("simulated.parquet"))?;
-        let truth: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.join("truth.json"))
-                .with_context(|| format!("{}", dir.display()))?,
-        )?;
-        let d = diagnose(
-            &recorded,
-            &simulated,
-            &DiagnoseConfig {
-                grating_period_um: Some(20.0),
-                ..DiagnoseConfig::default()
-            },
-        )?;
-        let report = out.join(name);
-        std::fs::create_dir_all(&report)?;
-        write_report(&d, &report)?;
-        std::fs::write(
-            report.join("diagnosis.json"),
-            serde_json::to_string_pretty(&d)? + "\n",
-        )?;
-        let found: Vec<String> = d.effects.iter().map(|e| format!("`{}`", e.id)).collect();
-        let params: Vec<String> = d
-            .effects
-            .iter()
-            .map(|e| {
-                e.params
-                    .iter()
-                    .map(|(k, v)| match (v.as_f64(), e.uncertainty.get(k)) {
-                        (Some(x), Some(u)) => format!("{k} {x:.4} ± {u:.4}"),
-                        _ => format!("{k} {v}"),
-                    })
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            })
-            .collect();
-        let hidden: Vec<String> = truth["params"]
-            .as_object()
-            .map(|o| {
-                o.iter()
-                    .map(|(id, p)| {
-                        let ps: Vec<String> = p
-                            .as_object()
-                            .map(|m| m.iter().map(|(k, v)| format!("{k} {v}")).collect())
-                            .unwrap_or_default();
-                        format!("`{id}`: {}", ps.join(", "))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        index.push_str(&format!(
-            "| [{name}]({name}/report.md) | {} | {} | {} | {} | {:.4} → {:.4} | {} |\n",
-            if hidden.is_empty() {
-                "nothing".to_string()
-            } else {
-                truth["effects"].to_string()
-            },
-            if found.is_empty() {
-                format!("none ({})", d.verdict)
-            } else {
-                found.join(", ")
-            },
-            params.join("; "),
-            hidden.join("; "),
-            d.rms_before_um,
-            d.rms_after_um,
-            truth["sizes"]["noise_um"]
-        ));
+    for c in errmap::report::concealed::write_concealed(cases, out)? {
         eprintln!(
-            "report-concealed: {name}: {} {:?}",
-            d.verdict,
-            d.effects.iter().map(|e| &e.id).collect::<Vec<_>>()
+            "report-concealed: {}: {} {:?}",
+            c.name, c.verdict, c.effects
         );
     }
-    std::fs::write(out.join("README.md"), index)?;
     Ok(())
 }

@@ -11,6 +11,8 @@ use crate::evaluate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out, rms};
 use crate::interp::{InterpError, Interpolator, Method, Order, fuzzy, lagrange::admissible_orders};
 use crate::table::{ErrorTable, Grid};
 
+pub use crate::table::Extent;
+
 /// Highest Lagrange degree per axis tried by default (`--orders all` on a dense grid
 /// would otherwise mean thousands of orders).
 pub const DEFAULT_MAX_DEGREE: usize = 5;
@@ -87,76 +89,6 @@ pub type Refusals = Vec<(String, String)>;
 
 /// Number of next nodes the advice proposes.
 pub const ADVICE_NODES: usize = 5;
-
-/// The fitting nodes' extent and typical spacing per axis, as the advice needs them.
-#[derive(Debug, Clone, Copy)]
-pub struct Extent {
-    /// Smallest and largest coordinate per axis, mm.
-    pub bounds: [[f64; 2]; 3],
-    /// Node spacing per axis, mm: the median gap between grid nodes. For scattered nodes,
-    /// the median gap between distinct coordinates when the nodes lie on at most n/2
-    /// planes across the axis (a grid with holes), else the spacing of an even grid with
-    /// as many nodes over the same box: extent / (n^(1/D) − 1), D the number of axes the
-    /// nodes span.
-    pub spacing_mm: [f64; 3],
-}
-
-impl Extent {
-    pub fn of_grid(grid: &Grid) -> Extent {
-        Extent {
-            bounds: [0, 1, 2].map(|a| {
-                let v = grid.axis(a);
-                [v[0], v[v.len() - 1]]
-            }),
-            spacing_mm: [0, 1, 2].map(|a| {
-                let mut d: Vec<f64> = grid.axis(a).windows(2).map(|w| w[1] - w[0]).collect();
-                d.sort_by(f64::total_cmp);
-                d.get(d.len() / 2).copied().unwrap_or(f64::NAN)
-            }),
-        }
-    }
-
-    pub fn of_points(table: &ErrorTable) -> Extent {
-        let bounds = [0, 1, 2].map(|a| {
-            table
-                .points
-                .iter()
-                .map(|p| p.position()[a])
-                .fold([f64::INFINITY, f64::NEG_INFINITY], |[lo, hi], v| {
-                    [lo.min(v), hi.max(v)]
-                })
-        });
-        let n = table.points.len();
-        let spans = bounds.iter().filter(|b| b[1] > b[0]).count().max(1);
-        let per_axis = (n as f64).powf(1.0 / spans as f64);
-        let spacing_mm = std::array::from_fn(|a| {
-            let [lo, hi] = bounds[a];
-            let mut v: Vec<f64> = table.points.iter().map(|p| p.position()[a]).collect();
-            v.sort_by(f64::total_cmp);
-            v.dedup();
-            if hi <= lo {
-                f64::NAN
-            } else if 2 * v.len() <= n {
-                // Nodes on a few planes (a grid with holes): the gap between planes.
-                let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
-                d.sort_by(f64::total_cmp);
-                d[d.len() / 2]
-            } else {
-                (hi - lo) / (per_axis - 1.0).max(1.0)
-            }
-        });
-        Extent { bounds, spacing_mm }
-    }
-
-    /// Whether `p` lies outside the box (relative tolerance 1e-9).
-    pub fn outside(&self, p: [f64; 3]) -> bool {
-        (0..3).any(|a| {
-            let [lo, hi] = self.bounds[a];
-            let tol = 1e-9 * (hi - lo).abs().max(1.0);
-            p[a] < lo - tol || p[a] > hi + tol
-        })
-    }
-}
 
 /// Sampling advice from a Gaussian process fitted with the default configuration: `gp`
 /// when the caller has one, else fitted here to the table.

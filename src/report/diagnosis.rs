@@ -57,8 +57,13 @@ fn slug(s: &str) -> String {
 }
 
 /// Writes `report.md` and the charts into `dir` (created when missing); returns every
-/// file written, `report.md` first.
-pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+/// file written, `report.md` first. `environment` (the session's air and material
+/// temperatures, [`super::environment::environment_summary`]) ends the report when given.
+pub fn write_report(
+    d: &Diagnosis,
+    dir: &Path,
+    environment: Option<&str>,
+) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
         path: dir.to_path_buf(),
         source,
@@ -160,7 +165,11 @@ pub fn write_report(d: &Diagnosis, dir: &Path) -> Result<Vec<PathBuf>, ReportErr
         files.extend(p);
     }
 
-    let md = markdown(d, &figs);
+    let mut md = markdown(d, &figs);
+    if let Some(env) = environment {
+        md.push('\n');
+        md.push_str(env);
+    }
     let path = dir.join("report.md");
     std::fs::write(&path, md).map_err(|source| ReportError::Io {
         path: path.clone(),

@@ -4,9 +4,11 @@
 //! | module | writes |
 //! |---|---|
 //! | [`compare`] | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
+//! | [`concealed`] | the concealed-case report and index (`reports/diagnosis/`) |
 //! | [`findings`] | a comparison's findings in plain words |
 //! | [`json`] | the `compare --json` document |
 //! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
 
@@ -16,7 +18,9 @@ use crate::plot::PlotError;
 use crate::table::TableError;
 
 pub mod compare;
+pub mod concealed;
 pub mod diagnosis;
+pub mod environment;
 pub mod experiment;
 pub mod findings;
 pub mod iso230;
@@ -41,6 +45,19 @@ pub enum ReportError {
     /// A table (CSV/Parquet) could not be written.
     #[error(transparent)]
     Table(#[from] TableError),
+    /// A case could not be diagnosed.
+    #[error("{path}: diagnosis failed: {source}")]
+    Diagnose {
+        path: PathBuf,
+        #[source]
+        source: crate::diagnose::DiagnoseError,
+    },
+    /// A case's truth or model file could not be read.
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
+    /// A JSON document could not be made.
+    #[error("{path}: {message}")]
+    Json { path: PathBuf, message: String },
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),

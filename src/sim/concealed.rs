@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use errmap_drivers::sim::Plan;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
 use super::physics::{
@@ -277,7 +277,8 @@ pub fn cases() -> Vec<Case> {
 }
 
 /// Sizes that a README reports, µm.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CaseSizes {
     pub geometric_pp_um: f64,
     pub effect_pp_um: f64,
@@ -286,13 +287,32 @@ pub struct CaseSizes {
     pub rows: usize,
 }
 
-#[derive(Debug, Serialize)]
-struct TruthJson<'a> {
-    case: &'a str,
-    effects: &'a [&'static str],
-    params: &'a BTreeMap<String, BTreeMap<String, f64>>,
-    sizes: &'a CaseSizes,
-    note: &'static str,
+/// A case's `truth.json`: what was hidden in the recording, for the tests and the
+/// concealed-case report (the diagnosis never reads it).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Truth {
+    pub case: String,
+    /// Effect ids hidden in the recording (empty for a clean case).
+    pub effects: Vec<String>,
+    /// Hidden parameters per effect id.
+    pub params: BTreeMap<String, BTreeMap<String, f64>>,
+    pub sizes: CaseSizes,
+    pub note: String,
+}
+
+impl Truth {
+    /// Reads `truth.json` of a case directory.
+    pub fn read(path: &Path) -> Result<Self, SimError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| SimError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    }
 }
 
 fn pp(v: impl Iterator<Item = f64>) -> f64 {
@@ -378,12 +398,13 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
         write_session(&dir.join("simulated.parquet"), &g.simulated)?;
         relative_table(&g.nominal).write(&dir.join("nominal.toml"))?;
         relative_table(&g.hidden).write(&dir.join("hidden.toml"))?;
-        let tj = TruthJson {
-            case: case.name,
-            effects: &case.effects,
-            params: &case.truth,
-            sizes: &g.sizes,
-            note: "for the tests only: errmap diagnose is given recorded.parquet and simulated.parquet",
+        let tj = Truth {
+            case: case.name.to_string(),
+            effects: case.effects.iter().map(|e| e.to_string()).collect(),
+            params: case.truth.clone(),
+            sizes: g.sizes.clone(),
+            note: "for the tests only: errmap diagnose is given recorded.parquet and simulated.parquet"
+                .to_string(),
         };
         let text = serde_json::to_string_pretty(&tj).map_err(|e| SimError::Config {
             path: dir.join("truth.json"),

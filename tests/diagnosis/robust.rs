@@ -216,7 +216,7 @@ fn report_has_markdown_and_charts() -> TestResult {
     });
     let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
     let dir = tempfile::tempdir()?;
-    let files = write_report(&d, dir.path())?;
+    let files = write_report(&d, dir.path(), None)?;
     assert!(files[0].ends_with("report.md"));
     for f in &files {
         assert!(f.exists(), "{}", f.display());

@@ -1,0 +1,129 @@
+//! The concealed-case report (`errmap report-concealed`, `reports/diagnosis/`): every case
+//! diagnosed from its recorded and simulated sessions alone, and an index comparing what
+//! was found with the hidden truth.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::ReportError;
+use super::diagnosis::write_report;
+use crate::diagnose::{DiagnoseConfig, diagnose};
+use crate::session::read_session;
+use crate::sim::concealed::Truth;
+
+/// What one case came to, for the caller's progress lines.
+#[derive(Debug, Clone)]
+pub struct CaseOutcome {
+    pub name: String,
+    pub verdict: String,
+    pub effects: Vec<String>,
+}
+
+/// A number as the JSON of `truth.json` writes it (`3.0`, `0.004`), so that the index
+/// reads like the truth files it quotes.
+fn json_number(v: f64) -> String {
+    serde_json::Value::from(v).to_string()
+}
+
+/// Diagnoses every case under `cases` (each with `recorded.parquet`, `simulated.parquet`
+/// and `truth.json`) into `out/<case>/`, and writes `out/README.md`, the index.
+pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, ReportError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| ReportError::Io { path, source }
+    };
+    let mut names: Vec<String> = std::fs::read_dir(cases)
+        .map_err(io(cases))?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().join("recorded.parquet").is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let mut index = String::from(
+        "# Diagnosis of the concealed-effect cases\n\nRegenerate with `errmap report-concealed` \
+         (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
+         `simulated.parquet`; the hidden truth comes from `truth.json`.\n\n\
+         | case | hidden | found | parameters found (± 1σ) | hidden parameters | RMS before → after µm | noise σ µm |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    let mut outcomes = Vec::new();
+    for name in &names {
+        let dir = cases.join(name);
+        let recorded = read_session(&dir.join("recorded.parquet"))?;
+        let simulated = read_session(&dir.join("simulated.parquet"))?;
+        let truth = Truth::read(&dir.join("truth.json"))?;
+        let d = diagnose(
+            &recorded,
+            &simulated,
+            &DiagnoseConfig {
+                grating_period_um: Some(20.0),
+                ..DiagnoseConfig::default()
+            },
+        )
+        .map_err(|source| ReportError::Diagnose {
+            path: dir.clone(),
+            source,
+        })?;
+        let report = out.join(name);
+        write_report(&d, &report, None)?;
+        let json_path = report.join("diagnosis.json");
+        let json = serde_json::to_string_pretty(&d).map_err(|e| ReportError::Json {
+            path: json_path.clone(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
+        let found: Vec<String> = d.effects.iter().map(|e| format!("`{}`", e.id)).collect();
+        let params: Vec<String> = d
+            .effects
+            .iter()
+            .map(|e| {
+                e.params
+                    .iter()
+                    .map(|(k, v)| match (v.as_f64(), e.uncertainty.get(k)) {
+                        (Some(x), Some(u)) => format!("{k} {x:.4} ± {u:.4}"),
+                        _ => format!("{k} {v}"),
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            })
+            .collect();
+        let hidden: Vec<String> = truth
+            .params
+            .iter()
+            .map(|(id, p)| {
+                let ps: Vec<String> = p
+                    .iter()
+                    .map(|(k, v)| format!("{k} {}", json_number(*v)))
+                    .collect();
+                format!("`{id}`: {}", ps.join(", "))
+            })
+            .collect();
+        let _ = writeln!(
+            index,
+            "| [{name}]({name}/report.md) | {} | {} | {} | {} | {:.4} → {:.4} | {} |",
+            if hidden.is_empty() {
+                "nothing".to_string()
+            } else {
+                serde_json::Value::from(truth.effects.clone()).to_string()
+            },
+            if found.is_empty() {
+                format!("none ({})", d.verdict)
+            } else {
+                found.join(", ")
+            },
+            params.join("; "),
+            hidden.join("; "),
+            d.rms_before_um,
+            d.rms_after_um,
+            json_number(truth.sizes.noise_um)
+        );
+        outcomes.push(CaseOutcome {
+            name: name.clone(),
+            verdict: d.verdict.to_string(),
+            effects: d.effects.iter().map(|e| e.id.clone()).collect(),
+        });
+    }
+    let index_path = out.join("README.md");
+    std::fs::write(&index_path, index).map_err(io(&index_path))?;
+    Ok(outcomes)
+}

@@ -1,0 +1,86 @@
+//! A session's environment in words and a table, for every report about a session.
+
+use errmap_drivers::SessionRow;
+
+use crate::base::consts::HENE_WAVELENGTH_UM;
+
+/// The environment of a session in words and a table (markdown): air and material
+/// temperatures over the session, the refraction compensation the laser lengths used, and
+/// what normalisation to the 20 °C reference temperature (ISO 1) would mean.
+pub fn environment_summary(rows: &[SessionRow]) -> String {
+    use std::fmt::Write as _;
+    let stat = |f: &dyn Fn(&SessionRow) -> Option<f64>| -> Option<(f64, f64, f64)> {
+        let v: Vec<f64> = rows.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| {
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            (lo, v.iter().sum::<f64>() / v.len() as f64, hi)
+        })
+    };
+    let mut s =
+        String::from("## Environment\n\n| quantity | min | mean | max |\n|---|---|---|---|\n");
+    type Column<'a> = (&'a str, &'a dyn Fn(&SessionRow) -> Option<f64>);
+    let items: [Column; 5] = [
+        ("air temperature °C", &|r| r.air_temp_c),
+        ("air pressure hPa", &|r| r.air_pressure_hpa),
+        ("relative humidity %", &|r| r.air_rh_pct),
+        ("scale temperature °C", &|r| r.scale_temp_c),
+        ("part/table temperature °C", &|r| r.part_temp_c),
+    ];
+    for (name, f) in items {
+        match stat(f) {
+            Some((lo, m, hi)) => {
+                let _ = writeln!(s, "| {name} | {lo:.3} | {m:.3} | {hi:.3} |");
+            }
+            None => {
+                let _ = writeln!(s, "| {name} | — | — | — |");
+            }
+        }
+    }
+    let n = |r: &SessionRow| -> Option<f64> {
+        Some(errmap_drivers::edlen::refractive_index(
+            HENE_WAVELENGTH_UM,
+            r.air_temp_c?,
+            r.air_pressure_hpa? * 100.0,
+            r.air_rh_pct?,
+        ))
+    };
+    let uncompensated = rows.iter().filter(|r| r.air_temp_c.is_none()).count();
+    match stat(&n) {
+        Some((lo, m, hi)) => {
+            let _ = writeln!(
+                s,
+                "\nRefraction: every laser length was compensated with the modified Edlén equation \
+                 (Birch & Downs 1994) at the row's own air temperature, pressure and humidity (HeNe \
+                 633 nm): n − 1 from {:.3} to {:.3} ppm (mean {:.3} ppm), a {:.3} ppm span.",
+                (lo - 1.0) * 1e6,
+                (hi - 1.0) * 1e6,
+                (m - 1.0) * 1e6,
+                (hi - lo) * 1e6
+            );
+        }
+        None => s.push_str(
+            "\nRefraction: no air data; laser lengths are in vacuum wavelengths (n = 1).\n",
+        ),
+    }
+    if uncompensated > 0 {
+        let _ = writeln!(
+            s,
+            "\n{uncompensated} rows came before the first ENV frame and carry no air compensation (n = 1)."
+        );
+    }
+    if let Some((_, m, _)) = stat(&|r| r.scale_temp_c) {
+        let len = rows.iter().map(|r| r.scale_mm).fold(0.0, f64::max);
+        let _ = writeln!(
+            s,
+            "\nNormalisation to 20 °C (ISO 1): the errors above are as measured, not normalised. \
+             The scale was on average {:+.3} K from 20 °C; for a steel scale (11.5 ppm/K) that is \
+             {:+.3} µm over the {:.0} mm travel — the size of the correction a normalisation would \
+             apply, and why a thermal model of the scale belongs in the machine model.",
+            m - 20.0,
+            -11.5 * (m - 20.0) * len * 1e-3,
+            len
+        );
+    }
+    s
+}

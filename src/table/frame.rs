@@ -1,0 +1,199 @@
+//! Tables on disk: CSV and Parquet frames through polars, chosen by the file extension,
+//! and the cell-by-cell validation every table of the crate uses.
+
+use std::fmt;
+use std::fs::File;
+use std::path::Path;
+
+use polars::prelude::*;
+
+use super::{ErrorPoint, TableError};
+
+pub(crate) fn format_err(path: &Path, e: impl fmt::Display) -> TableError {
+    TableError::Format {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+pub(crate) fn is_parquet(path: &Path) -> Result<bool, TableError> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("csv") | Some("txt") => Ok(false),
+        Some("parquet") | Some("pq") => Ok(true),
+        _ => Err(TableError::Extension {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+/// Reads any table (CSV with every column as text, or Parquet) into a DataFrame.
+///
+/// CSV is read with all columns as strings so that a bad cell is reported by its row
+/// and column here rather than silently turning a whole column into text.
+pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
+    if is_parquet(path)? {
+        let file = File::open(path).map_err(|source| TableError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        ParquetReader::new(file)
+            .finish()
+            .map_err(|e| format_err(path, e))
+    } else {
+        // Open first so that a missing file is an I/O error with the OS's words.
+        File::open(path).map_err(|source| TableError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        CsvReadOptions::default()
+            .with_has_header(true)
+            .with_infer_schema_length(Some(0))
+            .try_into_reader_with_file_path(Some(path.to_path_buf()))
+            .and_then(|r| r.finish())
+            .map_err(|e| format_err(path, e))
+    }
+}
+
+/// Writes a DataFrame as CSV or Parquet by extension, creating the parent directory.
+pub fn write_frame(path: &Path, df: &mut DataFrame) -> Result<(), TableError> {
+    let parquet = is_parquet(path)?;
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|source| TableError::Io {
+            path: parent.to_path_buf(),
+            source,
+        })?;
+    }
+    let mut file = File::create(path).map_err(|source| TableError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if parquet {
+        ParquetWriter::new(&mut file)
+            .finish(df)
+            .map(|_| ())
+            .map_err(|e| format_err(path, e))
+    } else {
+        CsvWriter::new(&mut file)
+            .include_header(true)
+            .finish(df)
+            .map_err(|e| format_err(path, e))
+    }
+}
+
+/// A column's cells as optional text (CSV) or optional f64 (Parquet), row by row.
+pub(crate) enum Cells {
+    Text(Vec<Option<String>>),
+    Number(Vec<Option<f64>>),
+}
+
+pub(crate) fn column_cells(path: &Path, df: &DataFrame, name: &str) -> Result<Cells, TableError> {
+    let col = df
+        .column(name)
+        .map_err(|_| TableError::MissingColumn {
+            path: path.to_path_buf(),
+            column: name.to_string(),
+            found: df
+                .get_column_names()
+                .iter()
+                .map(|s| s.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?
+        .as_materialized_series();
+    if let Ok(ca) = col.str() {
+        return Ok(Cells::Text(
+            ca.iter().map(|v| v.map(str::to_string)).collect(),
+        ));
+    }
+    let cast = col
+        .cast(&DataType::Float64)
+        .map_err(|e| format_err(path, format!("column `{name}`: {e}")))?;
+    let ca = cast
+        .f64()
+        .map_err(|e| format_err(path, format!("column `{name}`: {e}")))?;
+    Ok(Cells::Number(ca.iter().collect()))
+}
+
+/// Parses one cell; `Ok(None)` for an empty cell.
+pub(crate) fn parse_cell(
+    path: &Path,
+    cells: &Cells,
+    row0: usize,
+    column: &str,
+) -> Result<Option<f64>, TableError> {
+    let row = row0 + 1;
+    let v = match cells {
+        Cells::Number(v) => v[row0],
+        Cells::Text(v) => match v[row0].as_deref().map(str::trim) {
+            None | Some("") => None,
+            Some(s) => Some(s.parse::<f64>().map_err(|_| TableError::NotNumeric {
+                path: path.to_path_buf(),
+                row,
+                line: row + 1,
+                column: column.to_string(),
+                value: s.to_string(),
+            })?),
+        },
+    };
+    if let Some(value) = v
+        && !value.is_finite()
+    {
+        return Err(TableError::NonFinite {
+            path: path.to_path_buf(),
+            row,
+            line: row + 1,
+            column: column.to_string(),
+            value,
+        });
+    }
+    Ok(v)
+}
+
+pub(crate) fn required_cell(
+    path: &Path,
+    cells: &Cells,
+    row0: usize,
+    column: &str,
+) -> Result<f64, TableError> {
+    parse_cell(path, cells, row0, column)?.ok_or_else(|| TableError::EmptyCell {
+        path: path.to_path_buf(),
+        row: row0 + 1,
+        line: row0 + 2,
+        column: column.to_string(),
+    })
+}
+
+/// Writes predictions: `x_mm,y_mm,z_mm,e_um,extrapolated`, and `sigma_um` (one-sigma)
+/// when any prediction has one.
+pub fn write_predictions(
+    path: &Path,
+    preds: &[(ErrorPoint, bool)],
+    sigmas: &[Option<f64>],
+) -> Result<(), TableError> {
+    let col = |name: &str, f: &dyn Fn(&ErrorPoint) -> f64| {
+        Column::new(
+            name.into(),
+            preds.iter().map(|(p, _)| f(p)).collect::<Vec<f64>>(),
+        )
+    };
+    let mut cols = vec![
+        col("x_mm", &|p| p.x_mm),
+        col("y_mm", &|p| p.y_mm),
+        col("z_mm", &|p| p.z_mm),
+        col("e_um", &|p| p.e_um),
+        Column::new(
+            "extrapolated".into(),
+            preds.iter().map(|(_, e)| *e).collect::<Vec<bool>>(),
+        ),
+    ];
+    if sigmas.iter().any(Option::is_some) {
+        cols.push(Column::new("sigma_um".into(), sigmas.to_vec()));
+    }
+    let mut df = DataFrame::new(preds.len(), cols).map_err(|e| format_err(path, e))?;
+    write_frame(path, &mut df)
+}
