@@ -28,7 +28,7 @@ pub mod cv;
 pub mod diagnose;
 pub mod experiment;
 pub mod export;
-pub mod gp;
+pub use interp::gp;
 pub mod interp;
 pub mod iso230;
 pub mod physics;
