@@ -51,7 +51,6 @@ pub mod plot;
 
 pub mod table;
 
-pub mod gp;
 pub mod interp;
 
 pub mod evaluate;
@@ -74,5 +73,6 @@ pub use errmap_drivers as drivers;
 
 // Transitional paths from the flat layout, kept so that older callers compile.
 pub use evaluate::{compare, cv, experiment};
+pub use interp::gp;
 pub use session::iso230;
 pub use sim::{concealed, physics};
