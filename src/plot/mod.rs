@@ -669,45 +669,21 @@ fn err_at(s: &Series, i: usize) -> Option<f64> {
 mod tests {
     use super::render::with_suffix;
     use super::*;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::time::{SystemTime, UNIX_EPOCH};
 
     type TestResult = Result<(), Box<dyn std::error::Error>>;
 
-    /// A fresh directory under the system temp dir, removed again on drop (kept when
+    /// A fresh directory from `tempfile`, removed again on drop (kept when
     /// `ERRMAP_KEEP_PLOTS` is set, to look at the charts).
-    #[derive(Debug)]
-    struct TempDir(PathBuf);
-
-    impl TempDir {
-        fn new(name: &str) -> std::io::Result<Self> {
-            static COUNTER: AtomicUsize = AtomicUsize::new(0);
-            let nanos = SystemTime::now()
-                .duration_since(UNIX_EPOCH)
-                .map(|d| d.as_nanos())
-                .unwrap_or(0);
-            let dir = std::env::temp_dir().join(format!(
-                "errmap-plot-{name}-{}-{}-{nanos}",
-                std::process::id(),
-                COUNTER.fetch_add(1, Ordering::Relaxed)
-            ));
-            std::fs::create_dir_all(&dir)?;
-            Ok(Self(dir))
+    fn temp_dir(name: &str) -> std::io::Result<tempfile::TempDir> {
+        let keep = std::env::var_os("ERRMAP_KEEP_PLOTS").is_some();
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("errmap-plot-{name}-"))
+            .disable_cleanup(keep)
+            .tempdir()?;
+        if keep {
+            eprintln!("kept {}", dir.path().display());
         }
-
-        fn stem(&self, name: &str) -> PathBuf {
-            self.0.join(name)
-        }
-    }
-
-    impl Drop for TempDir {
-        fn drop(&mut self) {
-            if std::env::var_os("ERRMAP_KEEP_PLOTS").is_none() {
-                let _ = std::fs::remove_dir_all(&self.0);
-            } else {
-                eprintln!("kept {}", self.0.display());
-            }
-        }
+        Ok(dir)
     }
 
     /// Both files exist, the PNG is a PNG of the chart size, the SVG holds `title`.
@@ -769,8 +745,8 @@ mod tests {
 
     #[test]
     fn category_lines_renders() -> TestResult {
-        let dir = TempDir::new("category")?;
-        let stem = dir.stem("measured_vs_predicted");
+        let dir = temp_dir("category")?;
+        let stem = dir.path().join("measured_vs_predicted");
         let title = "Measured vs predicted, lagrange 4×1×2";
         let s = [
             series(
@@ -811,16 +787,16 @@ mod tests {
 
     #[test]
     fn category_lines_handles_many_series_and_degenerate_values() -> TestResult {
-        let dir = TempDir::new("category-many")?;
+        let dir = temp_dir("category-many")?;
         // Twelve series, all values equal: palette wraps, the range must not collapse.
         let s: Vec<Series> = (0..12)
             .map(|k| series(&format!("series {k}"), vec![5.0; 3], None))
             .collect();
-        let stem = dir.stem("flat");
+        let stem = dir.path().join("flat");
         let paths = category_lines(&stem, "Flat", "", "", &points(3), &s, &[], "")?;
         check_outputs(&paths, &stem, "Flat")?;
         // One category, one point, all zero.
-        let stem = dir.stem("single");
+        let stem = dir.path().join("single");
         let one = [series("zero", vec![0.0], Some(vec![0.0]))];
         let paths = category_lines(&stem, "Single", "x", "y", &points(1), &one, &[true], "hl")?;
         check_outputs(&paths, &stem, "Single")?;
@@ -829,7 +805,7 @@ mod tests {
 
     #[test]
     fn bars_render_linear_log_vertical_and_horizontal() -> TestResult {
-        let dir = TempDir::new("bars")?;
+        let dir = temp_dir("bars")?;
         let long = names(&[
             "lagrange 1×1×1",
             "lagrange 2×1×1",
@@ -854,13 +830,13 @@ mod tests {
         let short = names(&["1", "2", "3", "4", "5", "6", "7"]);
         for (name, labels, markers, log) in cases {
             let labels = if labels.is_empty() { &short } else { labels };
-            let stem = dir.stem(name);
+            let stem = dir.path().join(name);
             let title = format!("Cross-validated RMS ({name})");
             let paths = bars(&stem, &title, "RMS / µm", labels, &values, markers, log)?;
             check_outputs(&paths, &stem, &title)?;
         }
         // log_y with a negative value falls back to a linear axis; a single bar works too.
-        let stem = dir.stem("signed");
+        let stem = dir.path().join("signed");
         let paths = bars(
             &stem,
             "Signed",
@@ -871,7 +847,7 @@ mod tests {
             true,
         )?;
         check_outputs(&paths, &stem, "Signed")?;
-        let stem = dir.stem("one");
+        let stem = dir.path().join("one");
         let paths = bars(&stem, "One", "", &names(&["only"]), &[3.0], None, true)?;
         check_outputs(&paths, &stem, "One")?;
         Ok(())
@@ -879,7 +855,7 @@ mod tests {
 
     #[test]
     fn many_horizontal_bars_make_a_taller_image() -> TestResult {
-        let dir = TempDir::new("bars-tall")?;
+        let dir = temp_dir("bars-tall")?;
         let n = 40;
         let labels: Vec<String> = (0..n)
             .map(|k| {
@@ -892,7 +868,7 @@ mod tests {
             })
             .collect();
         let values: Vec<f64> = (0..n).map(|k| 0.3 + f64::from(k) * 0.05).collect();
-        let stem = dir.stem("tall");
+        let stem = dir.path().join("tall");
         let paths = bars(&stem, "Tall", "RMS (µm)", &labels, &values, None, true)?;
         let x_area = x_label_area(true);
         let extra = f64::from(n) * MIN_ROW_PX - plot_height(HEIGHT, x_area);
@@ -908,7 +884,7 @@ mod tests {
 
     #[test]
     fn xy_renders_points_lines_and_single_point() -> TestResult {
-        let dir = TempDir::new("xy")?;
+        let dir = temp_dir("xy")?;
         let x: Vec<f64> = (0..50).map(|i| f64::from(i) * 0.2).collect();
         let s: Vec<XySeries> = (0..9)
             .map(|k| {
@@ -930,11 +906,11 @@ mod tests {
                 xy_series(&format!("axis {k}, lagrange {k}×1×2"), x.clone(), y, style)
             })
             .collect();
-        let stem = dir.stem("residuals");
+        let stem = dir.path().join("residuals");
         let paths = xy(&stem, "Residuals", "x / mm", "residual / m", &s)?;
         check_outputs(&paths, &stem, "Residuals")?;
 
-        let stem = dir.stem("single");
+        let stem = dir.path().join("single");
         let one = [
             xy_series("point", vec![3.0], vec![3.0], XyStyle::Points),
             xy_series("empty", vec![], vec![], XyStyle::Line),
@@ -946,8 +922,8 @@ mod tests {
 
     #[test]
     fn stem_with_dots_and_missing_directories() -> TestResult {
-        let dir = TempDir::new("stem")?;
-        let stem = dir.0.join("a").join("b").join("fig.v2");
+        let dir = temp_dir("stem")?;
+        let stem = dir.path().join("a").join("b").join("fig.v2");
         let s = [xy_series(
             "s",
             vec![1.0, 2.0],
@@ -966,8 +942,8 @@ mod tests {
 
     #[test]
     fn invalid_input_is_an_error_and_writes_nothing() -> TestResult {
-        let dir = TempDir::new("errors")?;
-        let stem = dir.stem("never");
+        let dir = temp_dir("errors")?;
+        let stem = dir.path().join("never");
         let ok = [series("s", vec![1.0, 2.0], None)];
         let cats = points(2);
 
