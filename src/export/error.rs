@@ -1,0 +1,273 @@
+//! Why an export fails: [`ExportError`], the [`Controller`] whose table limit was
+//! exceeded (the message names a step that fits), and the [`MappedBox`] named when
+//! extrapolation is refused.
+
+use std::fmt;
+
+use super::{fmt_fixed, fmt_mm, fmt_point};
+use crate::interp::Interpolator;
+use crate::table::{Axis, TableError};
+
+/// The controller whose table limit was exceeded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Controller {
+    LinuxCnc,
+    Siemens,
+}
+
+impl fmt::Display for Controller {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Controller::LinuxCnc => "LinuxCNC (COMP_FILE triplets per joint, EMCMOT_COMP_SIZE)",
+            Controller::Siemens => "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)",
+        })
+    }
+}
+
+/// The mapped volume as far as `Interpolator::outside` reveals it: for each axis the
+/// extent of the inside segment through one inside point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MappedBox {
+    pub lo_mm: [f64; 3],
+    pub hi_mm: [f64; 3],
+}
+
+impl MappedBox {
+    /// Finds the box around `inside` by doubling outwards, then bisecting, along each
+    /// axis (≈ 100 `outside` calls per face). `None` if `inside` is outside. A face the
+    /// search does not reach within 1e9 mm is reported as ±∞.
+    pub fn around(model: &dyn Interpolator, inside: [f64; 3]) -> Option<Self> {
+        if model.outside(inside) {
+            return None;
+        }
+        let mut lo_mm = [0.0; 3];
+        let mut hi_mm = [0.0; 3];
+        for a in 0..3 {
+            lo_mm[a] = edge(model, inside, a, -1.0);
+            hi_mm[a] = edge(model, inside, a, 1.0);
+        }
+        Some(Self { lo_mm, hi_mm })
+    }
+}
+
+impl fmt::Display for MappedBox {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (a, axis) in Axis::ALL.iter().enumerate() {
+            if a > 0 {
+                f.write_str(", ")?;
+            }
+            write!(
+                f,
+                "{axis} {}–{} mm",
+                fmt_fixed(self.lo_mm[a], 4),
+                fmt_fixed(self.hi_mm[a], 4)
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The last inside coordinate along axis `a` from `p` in direction `dir`.
+fn edge(model: &dyn Interpolator, p: [f64; 3], a: usize, dir: f64) -> f64 {
+    let x0 = p[a];
+    let is_out = |x: f64| {
+        let mut q = p;
+        q[a] = x;
+        model.outside(q)
+    };
+    let mut inside = x0;
+    let mut d = 1.0;
+    let mut outside = loop {
+        let x = x0 + dir * d;
+        if is_out(x) {
+            break x;
+        }
+        inside = x;
+        d *= 2.0;
+        if d > 1e9 {
+            return dir * f64::INFINITY;
+        }
+    };
+    for _ in 0..200 {
+        let mid = 0.5 * (inside + outside);
+        if mid == inside || mid == outside {
+            break;
+        }
+        if is_out(mid) {
+            outside = mid;
+        } else {
+            inside = mid;
+        }
+    }
+    inside
+}
+
+/// Why a table cannot be exported.
+#[derive(Debug, thiserror::Error)]
+pub enum ExportError {
+    #[error("step {step_mm} mm must be a positive, finite length")]
+    BadStep { step_mm: f64 },
+    #[error("coordinate {value} mm along {axis} is not a finite number")]
+    NonFiniteCoordinate { axis: Axis, value: f64 },
+    #[error(
+        "the range along {axis} from {start_mm} mm to {end_mm} mm is empty: the end must be greater than the start"
+    )]
+    EmptyRange {
+        axis: Axis,
+        start_mm: f64,
+        end_mm: f64,
+    },
+    #[error(
+        "step {step_mm} mm does not divide the {length} mm range along {axis} into whole intervals; \
+         the nearest finer step that does is {fitting} mm",
+        length = fmt_mm(*length_mm),
+        fitting = fmt_mm(*fitting_step_mm)
+    )]
+    StepDoesNotDivide {
+        axis: Axis,
+        length_mm: f64,
+        step_mm: f64,
+        fitting_step_mm: f64,
+    },
+    #[error("{points} sample points exceed errmap's cap of {limit}; use a coarser step")]
+    TooManyPoints { points: u128, limit: usize },
+    #[error("{}", too_many_message(*controller, *samples, *padding, *limit, *length_mm))]
+    TooManyEntries {
+        controller: Controller,
+        /// Sampled positions.
+        samples: usize,
+        /// Entries the format adds (Siemens: 2 zero end points).
+        padding: usize,
+        limit: usize,
+        length_mm: f64,
+    },
+    #[error("{}", outside_message(*outside, *total, *first_mm, mapped.as_ref()))]
+    OutsideMappedRange {
+        outside: usize,
+        total: usize,
+        first_mm: [f64; 3],
+        mapped: Option<MappedBox>,
+    },
+    #[error("the model predicts {value} µm at {point}, which is not a finite number", point = fmt_point(*position_mm))]
+    NonFinitePrediction { position_mm: [f64; 3], value: f64 },
+    #[error(
+        "sampled line has {positions} positions, {errors} errors and {flags} extrapolation flags"
+    )]
+    LengthMismatch {
+        positions: usize,
+        errors: usize,
+        flags: usize,
+    },
+    #[error("a compensation table needs at least 2 samples, got {count}")]
+    TooFewSamples { count: usize },
+    #[error("sample {index}: position {position_mm} mm or error {error_um} µm is not finite")]
+    NonFiniteSample {
+        index: usize,
+        position_mm: f64,
+        error_um: f64,
+    },
+    #[error(
+        "sample {index}: position {position_mm} mm does not increase on {previous_mm} mm \
+         (at the file's 1e-6 mm resolution)"
+    )]
+    NotIncreasing {
+        index: usize,
+        previous_mm: f64,
+        position_mm: f64,
+    },
+    #[error(
+        "sample {index}: gap {gap_mm} mm differs from the table step {step_mm} mm; Siemens tables are equidistant"
+    )]
+    NotEquidistant {
+        index: usize,
+        step_mm: f64,
+        gap_mm: f64,
+    },
+    #[error(
+        "Siemens table step {step_mm} mm is not a whole number of 1e-6 mm, so MIN, MAX and STEP \
+         would not describe the points exactly; choose a step with at most 6 decimals"
+    )]
+    StepNotRepresentable { step_mm: f64 },
+    #[error("reverse line does not match the forward line: {problem}")]
+    ReverseMismatch { problem: String },
+    #[error(
+        "the {format} format has no direction-dependent table; export the forward errors \
+         and configure backlash separately, or use the linuxcnc format"
+    )]
+    ReverseUnsupported { format: &'static str },
+    #[error(
+        "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
+    )]
+    BadAxisName { name: String },
+    #[error("the grid format samples a volume: call volumetric_grid, not render_line")]
+    GridNeedsVolume,
+    #[error(transparent)]
+    Table(#[from] TableError),
+}
+
+fn too_many_message(
+    controller: Controller,
+    samples: usize,
+    padding: usize,
+    limit: usize,
+    length_mm: f64,
+) -> String {
+    let entries = samples + padding;
+    let mut m = format!("{controller} allows at most {limit} entries; this table needs {entries}");
+    if padding > 0 {
+        m.push_str(&format!(" ({samples} samples + {padding} zero end points)"));
+    }
+    match fitting_step(length_mm, limit, padding) {
+        Some((min, suggested)) => {
+            let k = (length_mm / suggested).round() as usize;
+            m.push_str(&format!(
+                ": use a step of at least {} mm that divides the {} mm range, e.g. {} mm ({} entries)",
+                fmt_mm(min),
+                fmt_mm(length_mm),
+                fmt_mm(suggested),
+                k + 1 + padding
+            ));
+        }
+        None => m.push_str(": the limit is too small for any table of this format"),
+    }
+    m
+}
+
+/// The smallest step that fits `limit` entries over `length_mm` (with `padding` extra
+/// entries), and the smallest step at least as large that is a whole number of µm and
+/// divides the length (falling back to the minimum).
+fn fitting_step(length_mm: f64, limit: usize, padding: usize) -> Option<(f64, f64)> {
+    // k intervals → k + 1 samples + padding entries ≤ limit.
+    let k_max = limit.checked_sub(1 + padding).filter(|&k| k >= 1)?;
+    let min = length_mm / k_max as f64;
+    let is_round = |s: f64| {
+        let um = s * 1e3;
+        (um - um.round()).abs() <= 1e-6 * um.abs().max(1.0)
+    };
+    let suggested = (1..=k_max)
+        .rev()
+        .map(|k| length_mm / k as f64)
+        .find(|&s| is_round(s))
+        .unwrap_or(min);
+    Some((min, suggested))
+}
+
+fn outside_message(
+    outside: usize,
+    total: usize,
+    first: [f64; 3],
+    mapped: Option<&MappedBox>,
+) -> String {
+    match mapped {
+        Some(b) => format!(
+            "{outside} of {total} positions lie outside the mapped range {b} (the first at {}); \
+             shorten the range or allow extrapolation",
+            fmt_point(first)
+        ),
+        None => format!(
+            "none of the {total} positions lies inside the mapped volume (the first is {}); \
+             check the fixed coordinates and the range",
+            fmt_point(first)
+        ),
+    }
+}
