@@ -8,7 +8,7 @@
 //! looks at the test points.
 
 use crate::evaluate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out, rms};
-use crate::interp::{InterpError, Interpolator, Method, Order, fuzzy, lagrange::admissible_orders};
+use crate::interp::{InterpError, Interpolator, Method, Order, lagrange::admissible_orders};
 use crate::table::{ErrorTable, Grid};
 
 pub use crate::table::Extent;
@@ -17,23 +17,6 @@ pub use crate::table::Extent;
 /// would otherwise mean thousands of orders).
 pub const DEFAULT_MAX_DEGREE: usize = 5;
 
-/// The default model list: trilinear, spline, fuzzy and every admissible Lagrange order.
-pub fn default_methods(grid: &Grid, max_degree: usize) -> Vec<Method> {
-    let mut m = vec![
-        Method::Trilinear,
-        Method::Spline,
-        Method::Fuzzy {
-            sigma: fuzzy::DEFAULT_SIGMA,
-        },
-        Method::Gp(crate::gp::Kernel::default()),
-    ];
-    m.extend(
-        admissible_orders(grid.shape(), max_degree)
-            .into_iter()
-            .map(Method::Lagrange),
-    );
-    m
-}
 
 /// One model's results.
 #[derive(Debug, Clone)]

@@ -1,8 +1,117 @@
-//! [`Method`]: the methods errmap fits — the command line's name, the
-//! label for tables and figures, and the fit on a grid or on scattered points.
+//! [`Method`]: the one registry of the methods errmap fits — the name the command line,
+//! the JSON, the reports and the machine-model file spell ([`MethodName`], parsed once
+//! with `FromStr`), the default list a comparison fits ([`Method::defaults`]), the label
+//! for tables and figures, and the fit on a grid or on scattered points.
 
+use std::fmt;
+use std::str::FromStr;
+
+use super::gp::Kernel;
+use super::lagrange::admissible_orders;
 use super::{InterpError, Interpolator, Order, fuzzy, lagrange, spline, trilinear};
 use crate::table::{Axis, Grid};
+
+/// A method by its name, as the command line, the JSON outputs, the reports and the
+/// machine-model file spell it. Each Gaussian-process kernel has its own name, so rows
+/// of a comparison are told apart by it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MethodName {
+    Lagrange,
+    Trilinear,
+    Spline,
+    Fuzzy,
+    /// The Gaussian process with the configured kernel (Matérn 5/2 unless told otherwise).
+    Gp,
+    /// The Gaussian process with the squared-exponential kernel.
+    GpSe,
+}
+
+impl MethodName {
+    /// Every name, in the order help texts list them.
+    pub const ALL: [MethodName; 6] = [
+        MethodName::Lagrange,
+        MethodName::Trilinear,
+        MethodName::Spline,
+        MethodName::Fuzzy,
+        MethodName::Gp,
+        MethodName::GpSe,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MethodName::Lagrange => "lagrange",
+            MethodName::Trilinear => "trilinear",
+            MethodName::Spline => "spline",
+            MethodName::Fuzzy => "fuzzy",
+            MethodName::Gp => "gp",
+            MethodName::GpSe => "gp-se",
+        }
+    }
+
+    /// Whether the method fits scattered nodes, not only a full rectilinear grid.
+    pub fn accepts_scattered(self) -> bool {
+        matches!(self, MethodName::Gp | MethodName::GpSe)
+    }
+
+    /// Whether the method takes Lagrange degrees (`--order`).
+    pub fn takes_order(self) -> bool {
+        self == MethodName::Lagrange
+    }
+
+    /// "lagrange, trilinear, spline, fuzzy, gp, gp-se".
+    pub fn list() -> String {
+        Self::ALL.map(Self::as_str).join(", ")
+    }
+}
+
+impl fmt::Display for MethodName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A method name errmap does not know.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown method `{0}` ({list})", list = MethodName::list())]
+pub struct UnknownMethod(pub String);
+
+impl FromStr for MethodName {
+    type Err = UnknownMethod;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.as_str() == s.trim())
+            .ok_or_else(|| UnknownMethod(s.to_string()))
+    }
+}
+
+/// The settings a method name needs to become a [`Method`] (besides Lagrange's degrees).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MethodSettings {
+    /// Fuzzy membership width as a fraction of the cell size.
+    pub fuzzy_sigma: f64,
+    /// The kernel of the method named `gp` (`gp-se` is always the squared exponential).
+    pub gp_kernel: Kernel,
+}
+
+impl Default for MethodSettings {
+    fn default() -> Self {
+        MethodSettings {
+            fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
+            gp_kernel: Kernel::default(),
+        }
+    }
+}
+
+/// Why a name and an order do not make a method.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MethodError {
+    #[error("lagrange needs degrees MxNxQ along x, y, z (e.g. 4x1x2) or `auto`")]
+    NeedsOrder,
+    #[error("an order applies to lagrange only, not to {0}")]
+    OrderNotApplicable(MethodName),
+}
 
 /// The methods errmap fits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,17 +131,80 @@ pub enum Method {
 }
 
 impl Method {
+    /// The method's registry name.
+    pub fn method_name(&self) -> MethodName {
+        match self {
+            Method::Lagrange(_) => MethodName::Lagrange,
+            Method::Trilinear => MethodName::Trilinear,
+            Method::Spline => MethodName::Spline,
+            Method::Fuzzy { .. } => MethodName::Fuzzy,
+            // Each kernel its own name, so rows of a comparison are told apart by it.
+            Method::Gp(Kernel::SquaredExponential) => MethodName::GpSe,
+            Method::Gp(_) => MethodName::Gp,
+        }
+    }
+
     /// The method's name as the command line spells it.
     pub fn name(&self) -> &'static str {
-        match self {
-            Method::Lagrange(_) => "lagrange",
-            Method::Trilinear => "trilinear",
-            Method::Spline => "spline",
-            Method::Fuzzy { .. } => "fuzzy",
-            // Each kernel its own name, so rows of a comparison are told apart by it.
-            Method::Gp(super::gp::Kernel::SquaredExponential) => "gp-se",
-            Method::Gp(_) => "gp",
+        self.method_name().as_str()
+    }
+
+    /// The method a name stands for: Lagrange needs its degrees, the others take none.
+    pub fn from_name(
+        name: MethodName,
+        order: Option<Order>,
+        settings: &MethodSettings,
+    ) -> Result<Method, MethodError> {
+        if order.is_some() && !name.takes_order() {
+            return Err(MethodError::OrderNotApplicable(name));
         }
+        Ok(match name {
+            MethodName::Lagrange => Method::Lagrange(order.ok_or(MethodError::NeedsOrder)?),
+            MethodName::Trilinear => Method::Trilinear,
+            MethodName::Spline => Method::Spline,
+            MethodName::Fuzzy => Method::Fuzzy {
+                sigma: settings.fuzzy_sigma,
+            },
+            MethodName::Gp => Method::Gp(settings.gp_kernel),
+            MethodName::GpSe => Method::Gp(Kernel::SquaredExponential),
+        })
+    }
+
+    /// The models a comparison fits by default on a grid: trilinear, spline, fuzzy, the
+    /// Gaussian process with both kernels (Matérn 5/2 suits rough error fields, the
+    /// squared exponential analytic ones; cross-validation tells them apart) and every
+    /// admissible Lagrange order up to `max_degree` per axis.
+    pub fn defaults(grid: &Grid, max_degree: usize, settings: &MethodSettings) -> Vec<Method> {
+        let mut m = vec![
+            Method::Trilinear,
+            Method::Spline,
+            Method::Fuzzy {
+                sigma: settings.fuzzy_sigma,
+            },
+            Method::Gp(Kernel::Matern52),
+            Method::Gp(Kernel::SquaredExponential),
+        ];
+        m.extend(
+            admissible_orders(grid.shape(), max_degree)
+                .into_iter()
+                .map(Method::Lagrange),
+        );
+        m
+    }
+
+    /// The models a comparison fits by default on scattered nodes: the Gaussian process
+    /// with both kernels; the other names are listed as not fitted.
+    pub fn scattered_defaults() -> (Vec<Method>, Vec<MethodName>) {
+        (
+            vec![
+                Method::Gp(Kernel::Matern52),
+                Method::Gp(Kernel::SquaredExponential),
+            ],
+            MethodName::ALL
+                .into_iter()
+                .filter(|m| !m.accepts_scattered())
+                .collect(),
+        )
     }
 
     pub fn order(&self) -> Option<Order> {
@@ -72,7 +244,7 @@ impl Method {
 
     /// Whether the method works on scattered nodes (not only on a rectilinear grid).
     pub fn accepts_scattered(&self) -> bool {
-        matches!(self, Method::Gp(_))
+        self.method_name().accepts_scattered()
     }
 
     /// Fits a method that accepts scattered nodes to a table's points.

@@ -28,7 +28,7 @@ use crate::table::Axis;
 
 pub use cells::Locator;
 pub(crate) use cells::{eval_cells, locators};
-pub use method::{FitError, Method};
+pub use method::{FitError, Method, MethodError, MethodName, MethodSettings, UnknownMethod};
 
 /// What a fitted model can do: predict the error (µm) at a position (mm).
 pub trait Interpolator: Send + Sync + fmt::Debug {

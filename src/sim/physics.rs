@@ -44,7 +44,7 @@ use serde::{Deserialize, Serialize};
 use super::error::SimError;
 use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
 use crate::base::stats::gaussian;
-use crate::interp::{Interpolator, Method, Order, fuzzy};
+use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy};
 use crate::table::ErrorTable;
 
 /// A quantity over time (°C, hPa or %).
@@ -428,28 +428,25 @@ impl MachineModel {
         };
         let table = ErrorTable::read(&spec.table)?;
         let grid = table.grid()?;
-        let method = match spec.method.as_str() {
-            "lagrange" => {
-                let order: Order = spec
-                    .order
-                    .as_deref()
-                    .unwrap_or("1x1x1")
-                    .parse()
-                    .map_err(|m: String| config_err(path, m))?;
-                Method::Lagrange(order)
-            }
-            "trilinear" => Method::Trilinear,
-            "spline" => Method::Spline,
-            "fuzzy" => Method::Fuzzy {
-                sigma: spec.fuzzy_sigma,
-            },
-            other => {
-                return Err(config_err(
-                    path,
-                    format!("unknown error_map.method `{other}`"),
-                ));
-            }
+        let name: MethodName = spec
+            .method
+            .parse()
+            .map_err(|e: UnknownMethod| config_err(path, format!("error_map.method: {e}")))?;
+        let order = match (name, spec.order.as_deref()) {
+            // Lagrange without degrees is trilinear-equivalent, as it always was here.
+            (MethodName::Lagrange, None) => Some(Order([1, 1, 1])),
+            (_, None) => None,
+            (_, Some(o)) => Some(
+                o.parse::<Order>()
+                    .map_err(|m| config_err(path, format!("error_map.order: {m}")))?,
+            ),
         };
+        let settings = MethodSettings {
+            fuzzy_sigma: spec.fuzzy_sigma,
+            ..MethodSettings::default()
+        };
+        let method = Method::from_name(name, order, &settings)
+            .map_err(|e| config_err(path, format!("error_map: {e}")))?;
         Ok(Some(
             method
                 .fit(&grid)

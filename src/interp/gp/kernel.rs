@@ -15,6 +15,23 @@ pub enum Kernel {
     Matern52,
 }
 
+/// A kernel name that is not `matern52` (`matern`) or `se` (`squared-exponential`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("unknown kernel `{0}` (matern52 or se)")]
+pub struct UnknownKernel(pub String);
+
+impl std::str::FromStr for Kernel {
+    type Err = UnknownKernel;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "matern52" | "matern" => Ok(Kernel::Matern52),
+            "se" | "squared-exponential" => Ok(Kernel::SquaredExponential),
+            other => Err(UnknownKernel(other.to_string())),
+        }
+    }
+}
+
 impl Kernel {
     /// The kernel's name as a command line would spell it.
     pub fn name(self) -> &'static str {
