@@ -9,7 +9,7 @@ use super::data::{self, Matching};
 use super::effects::{self, Kind, Variant, separation_advice};
 use super::locate::{self, SpectralPeak};
 use super::outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
 };
 use super::select::{self, FittedTerm, Outcome, centred_rms};
 use super::words::{fixed, fmt_sig, list, range};
@@ -158,11 +158,10 @@ pub(super) fn assemble(
     let series = report_series(obs, &before, &after, &out);
     Diagnosis {
         verdict: if effects.is_empty() {
-            "consistent"
+            Verdict::Consistent
         } else {
-            "missing_physics"
-        }
-        .into(),
+            Verdict::MissingPhysics
+        },
         rms_before_um: rms_before,
         rms_after_um: rms_after,
         cv_rms_after_um: cv_rms,

@@ -50,7 +50,7 @@
 //! |---|---|
 //! | `config` | [`DiagnoseConfig`]: defaults, ranges, [`COMMON_GRATINGS_UM`] |
 //! | `error` | [`DiagnoseError`] |
-//! | `outcome` | [`Diagnosis`], [`FoundEffect`], [`NoiseGroup`], [`CandidateScore`], [`ReportSeries`], [`EffectSeries`] |
+//! | `outcome` | [`Diagnosis`], [`Verdict`], [`FoundEffect`], [`NoiseGroup`], [`CandidateScore`], [`ReportSeries`], [`EffectSeries`] |
 //! | `data` | matching on (run, sample), covariates, noise groups, cross-validation folds |
 //! | `engine` | weighted least squares on memoised cross products, ordered Cholesky |
 //! | `effects` | the vocabulary as regressors, parameters, the measurement that separates two effects |
@@ -86,7 +86,9 @@ pub use config::{COMMON_GRATINGS_UM, DiagnoseConfig};
 pub use data::Matching;
 pub use error::DiagnoseError;
 pub use locate::{Correlation, GroupStat, Locate, SpectralPeak};
-pub use outcome::{CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries};
+pub use outcome::{
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+};
 pub use report::{ReportError, write_report};
 
 use select::Selector;

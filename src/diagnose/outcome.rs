@@ -1,12 +1,49 @@
 //! What a diagnosis returns: [`Diagnosis`] (the contract's keys first, then the extras),
-//! the [`FoundEffect`]s, and the per-row series behind the report's charts.
+//! its [`Verdict`], the [`FoundEffect`]s, and the per-row series behind the report's charts.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::data::Matching;
 use super::locate::Locate;
+
+/// The contract's `verdict` (`shared/spec/cli-contract.md`, `diagnose --json`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Verdict {
+    /// The residual is explained by noise alone: no effect is reported.
+    #[serde(rename = "consistent")]
+    Consistent,
+    /// The simulation left something out: at least one effect is reported (a vocabulary
+    /// effect, or `unexplained`).
+    #[serde(rename = "missing_physics")]
+    MissingPhysics,
+}
+
+impl Verdict {
+    /// The contract's spelling: `consistent` or `missing_physics` (also the JSON value and
+    /// the [`Display`](fmt::Display) text).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::MissingPhysics => "missing_physics",
+        }
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// Compares with the contract's spelling, as when `verdict` was a string.
+impl PartialEq<&str> for Verdict {
+    fn eq(&self, other: &&str) -> bool {
+        self.as_str() == *other
+    }
+}
 
 /// One found effect (contract shape).
 #[derive(Debug, Clone, Serialize)]
@@ -51,8 +88,8 @@ pub struct CandidateScore {
 /// The diagnosis (contract keys first; the rest are extras).
 #[derive(Debug, Clone, Serialize)]
 pub struct Diagnosis {
-    /// "consistent" or "missing_physics".
-    pub verdict: String,
+    /// [`Verdict::Consistent`] or [`Verdict::MissingPhysics`].
+    pub verdict: Verdict,
     /// RMS of recorded − simulated, µm.
     pub rms_before_um: f64,
     /// RMS after the constant and the found effects, µm.
@@ -134,4 +171,30 @@ pub struct EffectSeries {
     pub fitted_um: Vec<f64>,
     /// Row groups drawn as separate series (label, rows); empty: one series.
     pub groups: Vec<(String, Vec<usize>)>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Verdict;
+
+    #[test]
+    fn verdict_is_spelled_as_in_the_contract() {
+        for (v, s) in [
+            (Verdict::Consistent, "consistent"),
+            (Verdict::MissingPhysics, "missing_physics"),
+        ] {
+            assert_eq!(
+                serde_json::to_string(&v).expect("a unit variant serialises"),
+                format!("\"{s}\"")
+            );
+            assert_eq!(
+                serde_json::from_str::<Verdict>(&format!("\"{s}\""))
+                    .expect("the contract's spelling parses"),
+                v
+            );
+            assert_eq!(v.to_string(), s);
+            assert_eq!(v, s);
+        }
+        assert_ne!(Verdict::Consistent, "missing_physics");
+    }
 }
