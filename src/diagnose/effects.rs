@@ -16,11 +16,15 @@
 //! | `thermal_drift` | exponential τ / linear | 1 − e^(−(t−t0)/τ), t − t0 | A, ρ |
 //! | `dead_path` | — | −(n(t) − n(t0))·1e3 | D |
 //! | `refraction` | a, b / a only / b only | −x·(T − T̄)·1e−3, −x·(p − p̄)·1e−3 | a, b |
+//!
+//! [`separation_advice`] names the measurement that would tell two effects apart when these
+//! data cannot.
 
 use std::f64::consts::{PI, TAU};
 
 use super::data::Obs;
 use super::engine::Engine;
+use super::words::{list, range};
 
 /// An effect of the vocabulary (`Abbe(k)`: offset along the k-th other axis).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -578,4 +582,71 @@ pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<&'static str> {
         (Kind::Refraction, Variant::RefrT) => vec!["ppm_per_k"],
         (Kind::Refraction, _) => vec!["ppm_per_hpa"],
     }
+}
+
+/// The measurement that would separate two effects, with this data set's reason.
+pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
+    use Kind::*;
+    let pair = |p: Kind, q: Kind| (a == p && b == q) || (a == q && b == p);
+    let feeds: Vec<f64> = (0..obs.len())
+        .filter(|&k| obs.moving[k] && obs.v_feed[k] > 0.0)
+        .map(|k| obs.v_feed[k])
+        .collect();
+    let dwell = obs.moving.iter().filter(|m| !**m).count();
+    if pair(ScaleThermal, ScaleFactor) {
+        let (lo, hi) = obs.scale_t.as_deref().map_or((f64::NAN, f64::NAN), range);
+        return format!(
+            "the scale temperature stayed within {lo:.2}–{hi:.2} °C, so α·ΔT acts like a constant pitch error; repeat the measurement with the scale at another temperature (ΔT_scale must change)"
+        );
+    }
+    if pair(LatchDelay, Reversal) {
+        return format!(
+            "the moving samples were taken at {} and {}, so d·v·τ is a constant times d; measure at a second feed or latch samples while dwelling",
+            list(&feeds, "mm/s"),
+            if dwell == 0 {
+                "there are no dwell samples".to_string()
+            } else {
+                format!("only {dwell} dwell samples")
+            }
+        );
+    }
+    if let (Abbe(i), ScaleFactor) | (ScaleFactor, Abbe(i)) = (a, b) {
+        let c = obs.c_names[i as usize];
+        let vals: Vec<f64> = obs.lines.iter().map(|l| l[i as usize]).collect();
+        return format!(
+            "the lines lie at {c} = {}, so c·θ(x) is a constant plus a term in x alone; measure a second line at another {c}",
+            list(&vals, "mm")
+        );
+    }
+    if let (Abbe(_), Abbe(_)) = (a, b) {
+        return format!(
+            "the lines' {} and {} offsets change together; measure lines that differ in {} only and in {} only",
+            obs.c_names[0], obs.c_names[1], obs.c_names[0], obs.c_names[1]
+        );
+    }
+    if let (Abbe(i), _) | (_, Abbe(i)) = (a, b) {
+        let c = obs.c_names[i as usize];
+        return format!(
+            "measure more lines at other {c} offsets, so the line-to-line pattern is unique"
+        );
+    }
+    if pair(Refraction, ScaleThermal) {
+        return "the air and scale temperatures changed together; record a session where they change independently (e.g. the scale warmed while the room is steady)".into();
+    }
+    if pair(DeadPath, ThermalDrift)
+        || pair(Refraction, ThermalDrift)
+        || pair(ScaleThermal, ThermalDrift)
+    {
+        return "the temperature and the time trend move together; repeat with the machine warmed up (drift gone) or with the air/scale temperature changing at another pace".into();
+    }
+    if pair(DeadPath, Refraction) || pair(Refraction, ScaleFactor) || pair(DeadPath, Reversal) {
+        return "let the air change more (pressure and temperature independently) or measure with a known dead path".into();
+    }
+    format!(
+        "{} follows {} and {} follows {}; a measurement in which these vary independently would separate them",
+        a.id(),
+        a.follows(obs),
+        b.id(),
+        b.follows(obs)
+    )
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::ReportError;
 use super::diagnosis::write_report;
-use crate::diagnose::{DiagnoseConfig, diagnose};
+use crate::diagnose::{DiagnoseConfig, Verdict, diagnose};
 use crate::session::read_session;
 use crate::sim::concealed::Truth;
 
@@ -15,7 +15,7 @@ use crate::sim::concealed::Truth;
 #[derive(Debug, Clone)]
 pub struct CaseOutcome {
     pub name: String,
-    pub verdict: String,
+    pub verdict: Verdict,
     pub effects: Vec<String>,
 }
 
@@ -119,7 +119,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         );
         outcomes.push(CaseOutcome {
             name: name.clone(),
-            verdict: d.verdict.to_string(),
+            verdict: d.verdict.clone(),
             effects: d.effects.iter().map(|e| e.id.clone()).collect(),
         });
     }

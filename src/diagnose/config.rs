@@ -1,0 +1,152 @@
+//! The diagnosis's settings: [`DiagnoseConfig`] with its defaults and the ranges
+//! [`DiagnoseConfig::validate`] checks, and the grating periods searched when the device's
+//! is unknown.
+
+use super::HENE_WAVELENGTH_UM;
+use super::error::DiagnoseError;
+
+/// Grating periods searched when the device's is unknown, µm (each with P/2 and P/4).
+pub const COMMON_GRATINGS_UM: [f64; 4] = [20.0, 40.0, 8.0, 4.0];
+
+/// Settings of the diagnosis. [`DiagnoseConfig::validate`] checks the ranges.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiagnoseConfig {
+    /// Grating period of the scale, µm, from the device HELLO (`grating_period_nm`/1000).
+    /// The periodic search looks at P, P/2 and P/4 (±[`Self::period_window_rel`]) and at
+    /// the broad periodogram. `None`: every period of [`COMMON_GRATINGS_UM`] with its
+    /// halves and quarters. Default `None`. Range > 0.
+    pub grating_period_um: Option<f64>,
+    /// Most effects reported. Default 4. Range 0..=12.
+    pub max_effects: usize,
+    /// Smallest BIC improvement for an effect to enter the model, and to stay in it
+    /// (backward check). BIC = n·ln(χ²/n) + k·ln n with k the independent parameters
+    /// (+1 for a period or a time constant). Default 10 ("very strong" evidence on the
+    /// Kass–Raftery scale, on top of the k·ln n penalty). Range ≥ 0.
+    pub min_delta_bic: f64,
+    /// An alternative effect that fits within this many BIC units of a found one makes
+    /// the pair ambiguous (stated in `where` and `ambiguities`). Default 10. Range ≥ 0.
+    pub ambiguity_delta_bic: f64,
+    /// An effect whose fitted contribution has an RMS below this fraction of the noise σ
+    /// is not reported even when significant. Default 0.1 (a tenth of the noise is below
+    /// any error budget; smaller but significant structure is left to the report). Range 0..1.
+    pub min_effect_fraction_of_noise: f64,
+    /// A parameter is determined when its one-sigma uncertainty is at most this fraction
+    /// of its magnitude. Default 0.5. Range (0, 10].
+    pub max_relative_uncertainty: f64,
+    /// Drop effects whose removal does not raise the leave-one-run-out error. Default true.
+    pub cv_confirm: bool,
+    /// Half-width of the search window around each grating-tied period, relative.
+    /// Default 0.0005 (the interpolation error of a scale is locked to its grating).
+    /// Range (0, 0.1].
+    pub period_window_rel: f64,
+    /// Shortest period of the broad periodogram, mm. Default 0.5. Range > 0.
+    pub broad_min_period_mm: f64,
+    /// Rows used by the periodograms and the nonlinear searches (an evenly spaced subset
+    /// when there are more; the final fit uses all rows). Default 2500. Range ≥ 50.
+    pub spectral_max_rows: usize,
+    /// Bound on rows × frequencies of each periodogram (the grating windows together, and
+    /// the broad scan): a scan over more frequencies uses fewer rows (at least 200).
+    /// Default 1.2e6 (a few ms in release). Range ≥ 1e4.
+    pub spectral_budget: f64,
+    /// Laser vacuum wavelength for the refractive index of `dead_path`, µm. Default HeNe.
+    pub laser_wavelength_um: f64,
+    /// The dead path the simulation already has, mm, when it is known (diagnosing
+    /// against a model): a found `dead_path` D is then a correction, and D below −D_model
+    /// by more than two of its sigmas would make the beam's dead path negative, which is
+    /// not a length, so it is refused. `None` (default): no such bound. Range ≥ 0.
+    pub model_dead_path_mm: Option<f64>,
+}
+
+impl Default for DiagnoseConfig {
+    fn default() -> Self {
+        DiagnoseConfig {
+            grating_period_um: None,
+            max_effects: 4,
+            min_delta_bic: 10.0,
+            ambiguity_delta_bic: 10.0,
+            min_effect_fraction_of_noise: 0.1,
+            max_relative_uncertainty: 0.5,
+            cv_confirm: true,
+            period_window_rel: 0.0005,
+            broad_min_period_mm: 0.5,
+            spectral_max_rows: 2500,
+            spectral_budget: 1.2e6,
+            laser_wavelength_um: HENE_WAVELENGTH_UM,
+            model_dead_path_mm: None,
+        }
+    }
+}
+
+impl DiagnoseConfig {
+    /// Checks every setting against its documented range.
+    pub fn validate(&self) -> Result<(), DiagnoseError> {
+        let bad = |m: String| Err(DiagnoseError::Config(m));
+        if let Some(d) = self.model_dead_path_mm
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return bad(format!("model_dead_path_mm = {d} must be a length ≥ 0"));
+        }
+        if let Some(p) = self.grating_period_um
+            && !(p.is_finite() && p > 0.0)
+        {
+            return bad(format!("grating_period_um = {p} must be positive"));
+        }
+        if self.max_effects > 12 {
+            return bad(format!(
+                "max_effects = {} must be at most 12",
+                self.max_effects
+            ));
+        }
+        for (name, v) in [
+            ("min_delta_bic", self.min_delta_bic),
+            ("ambiguity_delta_bic", self.ambiguity_delta_bic),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} = {v} must be ≥ 0"));
+            }
+        }
+        if !(0.0..1.0).contains(&self.min_effect_fraction_of_noise) {
+            return bad(format!(
+                "min_effect_fraction_of_noise = {} must be in [0, 1)",
+                self.min_effect_fraction_of_noise
+            ));
+        }
+        if !(self.max_relative_uncertainty > 0.0 && self.max_relative_uncertainty <= 10.0) {
+            return bad(format!(
+                "max_relative_uncertainty = {} must be in (0, 10]",
+                self.max_relative_uncertainty
+            ));
+        }
+        if !(self.period_window_rel > 0.0 && self.period_window_rel <= 0.1) {
+            return bad(format!(
+                "period_window_rel = {} must be in (0, 0.1]",
+                self.period_window_rel
+            ));
+        }
+        if !(self.broad_min_period_mm.is_finite() && self.broad_min_period_mm > 0.0) {
+            return bad(format!(
+                "broad_min_period_mm = {} must be positive",
+                self.broad_min_period_mm
+            ));
+        }
+        if self.spectral_max_rows < 50 {
+            return bad(format!(
+                "spectral_max_rows = {} must be at least 50",
+                self.spectral_max_rows
+            ));
+        }
+        if !(self.spectral_budget.is_finite() && self.spectral_budget >= 1e4) {
+            return bad(format!(
+                "spectral_budget = {} must be at least 1e4",
+                self.spectral_budget
+            ));
+        }
+        if !(self.laser_wavelength_um > 0.2 && self.laser_wavelength_um < 2.0) {
+            return bad(format!(
+                "laser_wavelength_um = {} must be a visible or near-infrared wavelength",
+                self.laser_wavelength_um
+            ));
+        }
+        Ok(())
+    }
+}

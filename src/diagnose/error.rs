@@ -1,0 +1,35 @@
+//! Why a diagnosis could not be made: [`DiagnoseError`].
+
+/// Why a diagnosis could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnoseError {
+    /// One of the tables has no rows.
+    #[error("the {which} session has no rows")]
+    Empty {
+        /// "recorded" or "simulated".
+        which: &'static str,
+    },
+    /// No (run, sample) of the recording occurs in the simulation.
+    #[error(
+        "no row of the recorded session ({recorded} rows) matches the simulated one ({simulated} rows) on (run, sample)"
+    )]
+    NoMatch {
+        /// Recorded rows.
+        recorded: usize,
+        /// Simulated rows.
+        simulated: usize,
+    },
+    /// Too few usable rows after matching and filtering.
+    #[error("only {usable} usable matched rows (at least {needed} needed): {detail}")]
+    TooFewRows {
+        /// Usable rows.
+        usable: usize,
+        /// Needed rows.
+        needed: usize,
+        /// What was left out.
+        detail: String,
+    },
+    /// A setting is outside its range.
+    #[error("invalid diagnose setting: {0}")]
+    Config(String),
+}

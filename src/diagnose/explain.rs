@@ -1,0 +1,475 @@
+//! The selection's outcome in the contract's terms: [`assemble`] builds the [`Diagnosis`]
+//! (RMS before and after, noise groups, localisation, ambiguity statements, candidate
+//! scores), each found effect's parameters and `where` text, and the per-row series behind
+//! the report's charts.
+
+use std::collections::BTreeMap;
+
+use super::data::{self, Matching};
+use super::effects::{self, Kind, Variant, separation_advice};
+use super::locate::{self, SpectralPeak};
+use super::outcome::{
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+};
+use super::select::{self, FittedTerm, Outcome, centred_rms};
+use super::words::{fixed, fmt_sig, list, range};
+use super::{DiagnoseConfig, HENE_WAVELENGTH_UM};
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn assemble(
+    obs: &data::Obs,
+    matching: &Matching,
+    groups: &data::Groups,
+    sigma: &[f64],
+    w: &[f64],
+    y: &[f64],
+    out: Outcome,
+    untestable: Vec<String>,
+    fold_kind: &str,
+    config: &DiagnoseConfig,
+) -> Diagnosis {
+    let n = obs.len();
+    let rms = |v: &mut dyn Iterator<Item = f64>| {
+        let (s, c) = v.fold((0.0, 0usize), |(s, c), x| (s + x * x, c + 1));
+        (s / c.max(1) as f64).sqrt()
+    };
+    let after: Vec<f64> = y.iter().zip(&out.model).map(|(y, m)| y - m).collect();
+    let rms_before = rms(&mut obs.r.iter().copied());
+    let r_mean = obs.r.iter().sum::<f64>() / n as f64;
+    let rms_before_c = rms(&mut obs.r.iter().map(|r| r - r_mean));
+    let rms_after = rms(&mut after.iter().copied());
+    let cv_rms = rms(&mut y.iter().zip(&out.cv_pred).map(|(y, p)| y - p));
+    let noise_sigma =
+        (groups.id.iter().map(|&g| sigma[g] * sigma[g]).sum::<f64>() / n as f64).sqrt();
+
+    // Localisation.
+    let s2 = {
+        let chi2: f64 = after.iter().zip(w).map(|(e, w)| w * e * e).sum();
+        let k = 1 + out.terms.iter().map(|t| t.term.cols.len()).sum::<usize>();
+        chi2 / (n as f64 - k as f64).max(1.0)
+    };
+    let before: Vec<f64> = y.to_vec();
+    let peaks: Vec<SpectralPeak> = out
+        .periods
+        .iter()
+        .map(|p| SpectralPeak {
+            period_um: p.refined_um.unwrap_or(p.period_um),
+            source: p.label.clone(),
+            delta_chi2: p.power,
+        })
+        .collect();
+    let loc = locate::locate(
+        &locate::Input {
+            obs,
+            before: &before,
+            after: &after,
+            w,
+            s2,
+            noise_sigma,
+            peaks,
+        },
+        config.laser_wavelength_um,
+    );
+
+    // Ambiguity statements.
+    let mut ambiguities: Vec<String> = Vec::new();
+    let mut amb_by_kind: BTreeMap<Kind, Vec<String>> = BTreeMap::new();
+    for a in &out.ambiguities {
+        let why = if a.delta_bic > select::TIE_BIC {
+            format!(
+                "it fits better (the alternative raises BIC by {:.1})",
+                a.delta_bic
+            )
+        } else if a.delta_bic >= -select::TIE_BIC {
+            "the fits are equally good and it is the simpler explanation (fewer assumptions or covariates)".to_string()
+        } else if -a.delta_bic < config.min_delta_bic {
+            format!(
+                "it was selected first and the alternative is better by only {:.1} (less than the {} an exchange needs)",
+                -a.delta_bic, config.min_delta_bic
+            )
+        } else {
+            format!(
+                "the selection kept it, although the alternative fits these rows better (BIC lower by {:.1}): \
+                 on its path the alternative failed leave-one-run-out cross-validation or the checks on its \
+                 parameters; treat the attribution between the two as open",
+                -a.delta_bic
+            )
+        };
+        let text = format!(
+            "ambiguous: {found} is indistinguishable on these data from {alt} (ΔBIC = {d:+.1}); reported as {found} because {why}; to separate them: {advice}",
+            found = a.found.label(obs),
+            alt = a.alt.label(obs),
+            d = a.delta_bic,
+            advice = separation_advice(a.found, a.alt, obs)
+        );
+        amb_by_kind.entry(a.found).or_default().push(text.clone());
+        ambiguities.push(text);
+    }
+    for &(ka, pa, kb, pb, rho) in &out.correlated {
+        let text = format!(
+            "hard to separate: {pa} of {} and {pb} of {} are correlated (ρ = {rho:+.3}) on these data, so the split between the two effects rests on little information (their one-sigma values include it); to separate them: {}",
+            ka.label(obs),
+            kb.label(obs),
+            separation_advice(ka, kb, obs)
+        );
+        amb_by_kind.entry(ka).or_default().push(text.clone());
+        amb_by_kind.entry(kb).or_default().push(text.clone());
+        ambiguities.push(text);
+    }
+    ambiguities.extend(out.refused.iter().cloned());
+
+    // Effects.
+    let mut effects: Vec<FoundEffect> = out
+        .terms
+        .iter()
+        .map(|f| found_effect(f, obs, &out, amb_by_kind.get(&f.term.kind)))
+        .collect();
+    effects.sort_by(|a, b| b.explains_um.total_cmp(&a.explains_um));
+    if effects.is_empty()
+        && let Some(text) = &loc.unexplained
+    {
+        let mut params = BTreeMap::new();
+        params.insert("rms_um".to_string(), serde_json::json!(centred_rms(&after)));
+        effects.push(FoundEffect {
+            id: "unexplained".into(),
+            params,
+            uncertainty: BTreeMap::new(),
+            where_: format!(
+                "{} axis: {text}; no effect of the vocabulary explains it (see the report's localisation)",
+                data::axis_label(obs.axis)
+            ),
+            explains_um: (rms_after * rms_after - noise_sigma * noise_sigma).max(0.0).sqrt(),
+        });
+    }
+
+    let candidates = out
+        .scores
+        .iter()
+        .map(|(k, d)| CandidateScore {
+            effect: k.label(obs),
+            found: out.terms.iter().any(|t| t.term.kind == *k),
+            delta_bic: *d,
+        })
+        .collect();
+
+    let mut design_notes = untestable;
+    design_notes.extend(out.design.iter().cloned());
+
+    let series = report_series(obs, &before, &after, &out);
+    Diagnosis {
+        verdict: if effects.is_empty() {
+            Verdict::Consistent
+        } else {
+            Verdict::MissingPhysics
+        },
+        rms_before_um: rms_before,
+        rms_after_um: rms_after,
+        cv_rms_after_um: cv_rms,
+        effects,
+        rms_before_centred_um: rms_before_c,
+        noise_sigma_um: noise_sigma,
+        noise_groups: groups
+            .labels
+            .iter()
+            .enumerate()
+            .map(|(g, l)| NoiseGroup {
+                group: l.clone(),
+                rows: groups.count[g],
+                sigma_um: sigma[g],
+            })
+            .collect(),
+        matched_rows: matching.matched_rows,
+        used_rows: matching.used_rows,
+        only_in_recorded: matching.only_in_recorded,
+        only_in_simulated: matching.only_in_simulated,
+        flagged_rows: matching.flagged_rows,
+        matching: matching.clone(),
+        axis: data::axis_label(obs.axis).into(),
+        cv_folds: fold_kind.into(),
+        ambiguities,
+        design_notes,
+        locate: loc,
+        candidates,
+        selection_log: out.log.clone(),
+        series,
+    }
+}
+
+fn found_effect(
+    f: &FittedTerm,
+    obs: &data::Obs,
+    out: &Outcome,
+    amb: Option<&Vec<String>>,
+) -> FoundEffect {
+    let mut params = BTreeMap::new();
+    let mut uncertainty = BTreeMap::new();
+    if let Kind::Abbe(i) = f.term.kind {
+        params.insert(
+            "offset_axis".to_string(),
+            serde_json::Value::String(obs.c_names[i as usize].to_string()),
+        );
+    }
+    for p in &f.params {
+        params.insert(p.name.to_string(), serde_json::json!(p.value));
+        uncertainty.insert(p.name.to_string(), if p.fitted { p.sigma } else { 0.0 });
+    }
+    let mut text = where_text(f, obs, out);
+    if let Some(a) = amb {
+        for s in a {
+            text.push_str("; ");
+            text.push_str(s);
+        }
+    }
+    FoundEffect {
+        id: f.term.kind.id().into(),
+        params,
+        uncertainty,
+        where_: text,
+        explains_um: centred_rms(&f.contribution),
+    }
+}
+
+fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
+    let ax = data::axis_label(obs.axis);
+    let axl = ax.to_lowercase();
+    let (xlo, xhi) = range(&obs.x);
+    let (tlo, thi) = range(&obs.t);
+    let mut runs: Vec<u32> = obs.run.iter().copied().filter(|&r| r > 0).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    let runs_s = match (runs.first(), runs.last()) {
+        (Some(a), Some(b)) if a != b => format!("runs {a}–{b}"),
+        (Some(a), _) => format!("run {a}"),
+        _ => "outside any run".to_string(),
+    };
+    let c = &f.contribution;
+    let (clo, chi) = range(c);
+    let pp = chi - clo;
+    // Where the effect is largest (deviation from its mean).
+    let m = c.iter().sum::<f64>() / c.len().max(1) as f64;
+    let kmax = (0..c.len())
+        .max_by(|&a, &b| (c[a] - m).abs().total_cmp(&(c[b] - m).abs()))
+        .unwrap_or(0);
+    let pv = |name: &str| {
+        f.params
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(0.0, |p| p.value)
+    };
+    let lines_s = if obs.lines.len() > 1 {
+        if obs.lines.len() == 2 {
+            "both lines".to_string()
+        } else {
+            format!("all {} lines", obs.lines.len())
+        }
+    } else {
+        "the single line".to_string()
+    };
+    let head = format!(
+        "{ax} axis, {axl} {}–{} mm, {lines_s}, {runs_s}, t {tlo:.0}–{thi:.0} s",
+        fixed(xlo, 1),
+        fixed(xhi, 1)
+    );
+    let body = match (&f.term.kind, &f.term.variant) {
+        (Kind::ScaleFactor, _) => format!(
+            "grows linearly along {axl} ({:+.3} µm from {axl} = {xlo:.0} to {xhi:.0} mm), the same in every run, line and direction; follows {}",
+            pv("ppm") * (xhi - xlo) * 1e-3,
+            f.term.kind.follows(obs)
+        ),
+        (Kind::ScaleThermal, v) => {
+            let (tl, th) = obs.scale_t.as_deref().map_or((f64::NAN, f64::NAN), range);
+            let x0 = if matches!(v, Variant::X0Free) {
+                format!("x0 = {} mm fitted", fmt_sig(pv("x0_mm")))
+            } else {
+                "x0 fixed at 0 mm (a free x0 is not supported by the data)".into()
+            };
+            format!(
+                "follows the scale temperature times position, −α·(T_scale − 20)·({axl} − x0), with the scale at {tl:.2}–{th:.2} °C; {pp:.3} µm peak to peak, largest at {axl} ≈ {:.0} mm, t ≈ {:.0} s; {x0}",
+                obs.x[kmax], obs.t[kmax]
+            )
+        }
+        (Kind::Abbe(i), v) => {
+            let cn = obs.c_names[*i as usize];
+            let vals: Vec<f64> = obs.lines.iter().map(|l| l[*i as usize]).collect();
+            let fixed = match v {
+                Variant::AbbeTheta0 => "; θ1 fixed at 0 (not supported by the data)",
+                Variant::AbbeTheta1 => "; θ0 fixed at 0 (not supported by the data)",
+                _ => "",
+            };
+            format!(
+                "differs between the lines in proportion to their {cn} offset ({}), θ(x) = θ0 + θ1·{axl}; {pp:.3} µm peak to peak, largest at {axl} ≈ {:.0} mm on the line at {cn} = {}{fixed}",
+                list(&vals, "mm"),
+                obs.x[kmax],
+                obs.c[*i as usize].as_ref().map_or(f64::NAN, |v| v[kmax])
+            )
+        }
+        (Kind::Reversal, _) => {
+            let dwell = obs.moving.iter().any(|m| !m);
+            let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
+            feeds.sort_by(f64::total_cmp);
+            feeds.dedup();
+            let rows = if dwell {
+                "dwelling and moving"
+            } else {
+                "on every moving sample"
+            };
+            let feed = match feeds.len() {
+                0 => String::new(),
+                1 => format!(", at the single feed of {} mm/s", feeds[0]),
+                _ => ", the same at every feed".to_string(),
+            };
+            format!(
+                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel",
+                pv("b_um") / 2.0
+            )
+        }
+        (Kind::LatchDelay, v) => {
+            let mut feeds: Vec<f64> = (0..obs.len())
+                .filter(|&k| obs.moving[k] && obs.v_feed[k] > 0.0)
+                .map(|k| obs.v_feed[k])
+                .collect();
+            feeds.sort_by(f64::total_cmp);
+            feeds.dedup();
+            let at: Vec<String> = feeds
+                .iter()
+                .take(4)
+                .map(|v| format!("±{:.3} µm at {v} mm/s", v * pv("tau_us") * 1e-3))
+                .collect();
+            let how = if matches!(v, Variant::LatchMeasured) {
+                "; v is the carriage speed measured from successive samples, which fits better than the commanded feed (accelerations)"
+            } else {
+                ""
+            };
+            format!(
+                "on moving samples only, opposite in the two directions and proportional to the feed ({}), absent while dwelling; follows direction × speed{how}",
+                at.join(", ")
+            )
+        }
+        (Kind::Periodic, Variant::Periodic { period_um }) => {
+            let tied = out
+                .periods
+                .iter()
+                .filter(|p| {
+                    (p.refined_um.unwrap_or(p.period_um) - period_um).abs()
+                        < 3.0 * p.step_um.max(1e-9)
+                })
+                .map(|p| p.label.clone())
+                .next()
+                .unwrap_or_else(|| "found by the broad periodogram".into());
+            let tied = if tied.contains("grating") {
+                tied
+            } else {
+                "not tied to the grating period: found by the broad periodogram".into()
+            };
+            format!(
+                "periodic along {axl} with a period of {} µm ({tied}) and an amplitude of {:.3} µm, all along the axis in every run and direction; follows the phase of {axl} within the period",
+                fmt_sig(*period_um),
+                pv("amplitude_um")
+            )
+        }
+        (Kind::ThermalDrift, Variant::DriftExp { tau_s }) => format!(
+            "follows time, not position: rises by {:.3} µm over t {tlo:.0}–{thi:.0} s, exponential with τ = {tau_s:.0} s (an exponential fits better than a linear drift by BIC)",
+            pv("amplitude_um") * (1.0 - (-(thi - obs.t0) / tau_s).exp())
+        ),
+        (Kind::ThermalDrift, _) => format!(
+            "follows time, not position: a linear drift of {:.3} µm over t {tlo:.0}–{thi:.0} s (a time constant is not determined by these data)",
+            pv("rate_um_per_s") * (thi - tlo)
+        ),
+        (Kind::DeadPath, _) => {
+            let (al, ah) = obs.air_t.as_deref().map_or((f64::NAN, f64::NAN), range);
+            let (pl, ph) = obs.air_p.as_deref().map_or((f64::NAN, f64::NAN), range);
+            format!(
+                "follows the air refractive index, not position (air {al:.2}–{ah:.2} °C, {pl:.1}–{ph:.1} hPa): {pp:.3} µm peak to peak over time, the same all along the axis"
+            )
+        }
+        (Kind::Refraction, _) => {
+            let (al, ah) = obs.air_t.as_deref().map_or((f64::NAN, f64::NAN), range);
+            let (pl, ph) = obs.air_p.as_deref().map_or((f64::NAN, f64::NAN), range);
+            format!(
+                "proportional to position times the air's change from its mean (air {al:.2}–{ah:.2} °C, {pl:.1}–{ph:.1} hPa): {pp:.3} µm peak to peak, largest at {axl} ≈ {:.0} mm, t ≈ {:.0} s",
+                obs.x[kmax], obs.t[kmax]
+            )
+        }
+        (k, _) => format!("follows {}", k.follows(obs)),
+    };
+    format!("{head}; {body}")
+}
+
+fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) -> ReportSeries {
+    let n = obs.len();
+    let mut effects = Vec::new();
+    for f in &out.terms {
+        let partial: Vec<f64> = (0..n).map(|k| after[k] + f.contribution[k]).collect();
+        let ax = data::axis_label(obs.axis).to_lowercase();
+        let mut groups = Vec::new();
+        let (label, cov): (String, Vec<f64>) = match (&f.term.kind, &f.term.variant) {
+            (Kind::ScaleFactor, _) => (format!("{ax} / mm"), obs.x.clone()),
+            (Kind::ScaleThermal, _) => (
+                format!("(T_scale − 20 °C)·{ax} / K·mm"),
+                (0..n)
+                    .map(|k| obs.scale_t.as_ref().map_or(0.0, |t| t[k] - 20.0) * obs.x[k])
+                    .collect(),
+            ),
+            (Kind::Abbe(_), _) => {
+                for (l, line) in obs.lines.iter().enumerate() {
+                    let idx: Vec<usize> = (0..n).filter(|&k| obs.line[k] == l).collect();
+                    groups.push((
+                        format!(
+                            "{} = {}, {} = {}",
+                            obs.c_names[0], line[0], obs.c_names[1], line[1]
+                        ),
+                        idx,
+                    ));
+                }
+                (format!("{ax} / mm"), obs.x.clone())
+            }
+            (Kind::Reversal, _) => {
+                for (d, name) in [(1.0, "direction +"), (-1.0, "direction −")] {
+                    groups.push((
+                        name.to_string(),
+                        (0..n).filter(|&k| obs.d[k] == d).collect(),
+                    ));
+                }
+                (format!("{ax} / mm"), obs.x.clone())
+            }
+            (Kind::LatchDelay, Variant::LatchMeasured) => (
+                "direction × measured speed / mm/s".into(),
+                (0..n).map(|k| obs.d[k] * obs.v_meas[k]).collect(),
+            ),
+            (Kind::LatchDelay, _) => (
+                "direction × feed / mm/s".into(),
+                (0..n).map(|k| obs.d[k] * obs.v_feed[k]).collect(),
+            ),
+            (Kind::Periodic, Variant::Periodic { period_um }) => (
+                format!("{ax} modulo the period ({} µm) / µm", fmt_sig(*period_um)),
+                obs.x
+                    .iter()
+                    .map(|x| (x * 1000.0).rem_euclid(*period_um))
+                    .collect(),
+            ),
+            (Kind::DeadPath, _) => (
+                "air refractive index change (n − n0)·10⁶".into(),
+                effects::index_change_ppm(obs, HENE_WAVELENGTH_UM).unwrap_or_else(|| vec![0.0; n]),
+            ),
+            (Kind::Refraction, _) => ("fitted refraction term / µm".into(), f.contribution.clone()),
+            _ => ("t / s".into(), obs.t.clone()),
+        };
+        effects.push(EffectSeries {
+            id: f.term.kind.id().into(),
+            covariate_label: label,
+            covariate: cov,
+            partial_um: partial,
+            fitted_um: f.contribution.clone(),
+            groups,
+        });
+    }
+    ReportSeries {
+        x_mm: obs.x.clone(),
+        t_s: obs.t.clone(),
+        before_um: before.to_vec(),
+        after_um: after.to_vec(),
+        effects,
+        broad_period_mm: out.broad.period_mm.clone(),
+        broad_power: out.broad.power.clone(),
+    }
+}
