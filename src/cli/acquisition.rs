@@ -149,10 +149,7 @@ pub fn capture_from_port(
 
 pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
     install_ctrlc();
-    if a.format != "csv" && a.format != "parquet" {
-        bail!("--format is csv or parquet, not {}", a.format);
-    }
-    let paths = SessionPaths::new(&a.out, &a.format);
+    let paths = SessionPaths::new(&a.out, a.format.extension());
     let config = CaptureConfig {
         idle_timeout: a.idle_timeout.map(Duration::from_secs_f64),
         max_duration: a.duration.map(Duration::from_secs_f64),
@@ -248,10 +245,35 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 }
 
 pub fn table_cmd(a: TableArgs) -> Result<()> {
-    let path = session_file(&a.session)?;
+    let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
+    if a.json {
+        let lines: Vec<_> = reduced
+            .iso
+            .iter()
+            .map(|(l, s)| serde_json::json!({"line_mm": [l.0, l.1], "iso230": s}))
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
+        );
+    }
+    Ok(())
+}
+
+/// A session reduced to an error table, with ISO 230-2 statistics per line.
+pub struct Reduced {
+    pub table: errmap::table::ErrorTable,
+    pub summary: session::ReductionSummary,
+    pub iso: Vec<((f64, f64), iso230::AxisStats)>,
+}
+
+/// Reduces a session (table or capture directory) to the error table `out`, with the
+/// ISO 230-2 report in `report` when given; says what it did on stderr.
+pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> Result<Reduced> {
+    let path = session_file(session_arg)?;
     let rows = session::read_session(&path)?;
     let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
-    table.write(&a.out)?;
+    table.write(out)?;
     eprintln!(
         "table: {} nodes ({} lines × {} targets) from {} dwell samples; {} flagged samples left out, {} rows not dwelling → {}",
         table.points.len(),
@@ -260,7 +282,7 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
         summary.used,
         summary.flagged,
         summary.not_dwelling,
-        a.out.display()
+        out.display()
     );
     if summary.uncompensated > 0 {
         eprintln!(
@@ -274,59 +296,27 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
              (uncompensated lengths read about 270 ppm long in a normal room)"
         );
     }
-    let axis = summary.axis.clone().unwrap_or_default();
-    let mut iso = Vec::new();
-    for line in session::lines(&rows) {
-        let obs = session::iso_observations(&rows, Some(line));
-        match iso230::axis_stats(&obs) {
-            Ok(stats) => iso.push((line, stats)),
-            Err(e) => eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}"),
-        }
+    let (iso, failed) = session::iso_by_line(&rows);
+    for (line, e) in failed {
+        eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
     }
-    if let Some(dir) = &a.report {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let mut md = format!(
-            "# ISO 230-2 positioning statistics\n\nSession: `{}`; axis {axis}; {} line(s).\n\n",
-            path.display(),
-            iso.len()
-        );
-        md.push_str(&errmap::report::environment::environment_summary(&rows));
-        md.push('\n');
-        for (k, (line, stats)) in iso.iter().enumerate() {
-            md.push_str(&format!(
-                "## Line {} at ({}, {}) mm\n\n",
-                k + 1,
-                line.0,
-                line.1
-            ));
-            md.push_str(
-                &errmap::report::iso230::markdown(stats, &axis)
-                    .replace("\n## ", "\n### ")
-                    .replacen("## ", "### ", 1),
-            );
-            let stem = dir.join(format!("line{}", k + 1));
-            errmap::report::iso230::plot(
-                stats,
-                &stem,
-                &format!("Axis {axis}, line ({}, {}) mm", line.0, line.1),
-            )?;
-            md.push_str(&format!("\n![line {}](line{}.png)\n\n", k + 1, k + 1));
-        }
-        let p = dir.join("report.md");
-        std::fs::write(&p, md).with_context(|| format!("cannot write {}", p.display()))?;
+    if let Some(dir) = report {
+        let axis = summary.axis.clone().unwrap_or_default();
+        let environment = errmap::report::environment::environment_summary(&rows);
+        let p = errmap::report::iso230::write_session_report(
+            &path.display().to_string(),
+            &axis,
+            &environment,
+            &iso,
+            dir,
+        )?;
         eprintln!("table: ISO 230-2 report in {}", p.display());
     }
-    if a.json {
-        let lines: Vec<_> = iso
-            .iter()
-            .map(|(l, s)| serde_json::json!({"line_mm": [l.0, l.1], "iso230": s}))
-            .collect();
-        println!(
-            "{}",
-            serde_json::json!({"summary": summary, "nodes": table.points.len(), "lines": lines})
-        );
-    }
-    Ok(())
+    Ok(Reduced {
+        table,
+        summary,
+        iso,
+    })
 }
 
 pub fn ports() -> Result<()> {

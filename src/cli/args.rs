@@ -3,26 +3,33 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use errmap::base::Axis;
 use errmap::evaluate::compare::DEFAULT_MAX_DEGREE;
-use errmap::interp::fuzzy;
+use errmap::gp::Kernel;
+use errmap::interp::{MethodName, fuzzy};
+
+use super::values::{
+    CompTypeArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, axis, kernel,
+    method_name, positive, seconds,
+};
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
     /// Error table to fit.
     pub table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
-    /// table; gp uses --gp-kernel, gp-se the squared exponential)
-    #[arg(long)]
-    pub method: String,
+    /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
+    /// squared exponential).
+    #[arg(long, value_parser = method_name())]
+    pub method: MethodName,
     /// Lagrange degrees MxNxQ (or auto).
     #[arg(long)]
-    pub order: Option<String>,
-    /// The compensated axis (line formats): x, y or z.
-    #[arg(long, default_value = "x")]
-    pub axis: String,
+    pub order: Option<OrderArg>,
+    /// The compensated axis (line formats).
+    #[arg(long, default_value = "x", value_parser = axis())]
+    pub axis: Axis,
     /// The fixed coordinates of the line, e.g. `y=1,z=200` (mm).
     #[arg(long, default_value = "")]
-    pub at: String,
+    pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
     #[arg(long)]
     pub step: f64,
@@ -31,12 +38,12 @@ pub struct ExportArgs {
     pub start: Option<f64>,
     #[arg(long)]
     pub end: Option<f64>,
-    /// linuxcnc | siemens | csv | grid
-    #[arg(long)]
-    pub format: String,
+    /// The table's format.
+    #[arg(long, value_enum)]
+    pub format: ExportFormatArg,
     /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached) or trim (1, the offsets).
-    #[arg(long, default_value = "actual")]
-    pub comp_type: String,
+    #[arg(long, value_enum, default_value = "actual")]
+    pub comp_type: CompTypeArg,
     /// Siemens machine-axis name, e.g. X1.
     #[arg(long, default_value = "X1")]
     pub siemens_axis: String,
@@ -151,14 +158,14 @@ pub struct ServeSimArgs {
     #[arg(long)]
     pub plan: Option<PathBuf>,
     /// Playback speed (1 = real time; the byte budget holds in the board's own time).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = positive)]
     pub speed: f64,
     /// Seconds to keep the port open after the last frame.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = seconds)]
     pub linger: f64,
     /// Give up (exit 1) when no host has read the port for this many seconds: the port
     /// was never opened, or the capture ended early. 0 waits for ever.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = seconds)]
     pub stall_timeout: f64,
     /// Write the simulated truth per sample (CSV) here.
     #[arg(long)]
@@ -177,14 +184,14 @@ pub struct CaptureArgs {
     pub out: PathBuf,
     #[arg(long, default_value_t = 115_200)]
     pub baud: u32,
-    /// Session table format: csv or parquet.
-    #[arg(long, default_value = "csv")]
-    pub format: String,
+    /// Session table format.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: SessionFormat,
     /// Stop after this many seconds without a byte.
-    #[arg(long)]
+    #[arg(long, value_parser = seconds)]
     pub idle_timeout: Option<f64>,
     /// Stop after this many seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = seconds)]
     pub duration: Option<f64>,
     /// Print the session description as JSON on stdout.
     #[arg(long)]
@@ -232,22 +239,32 @@ pub struct ModelArgs {
     /// Highest Lagrange degree per axis tried by `auto`/`all`.
     #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
     pub max_degree: usize,
-    /// Gaussian-process kernel: matern52 or se (squared exponential).
-    #[arg(long, default_value = "matern52")]
-    pub gp_kernel: String,
+    /// Gaussian-process kernel of the method `gp`: Matérn 5/2 or squared exponential.
+    #[arg(long, default_value = "matern52", value_parser = kernel())]
+    pub gp_kernel: Kernel,
+}
+
+impl ModelArgs {
+    /// The registry's settings these flags give.
+    pub fn settings(&self) -> errmap::interp::MethodSettings {
+        errmap::interp::MethodSettings {
+            fuzzy_sigma: self.fuzzy_sigma,
+            gp_kernel: self.gp_kernel,
+        }
+    }
 }
 
 #[derive(Debug, Args)]
 pub struct FitArgs {
     /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
     pub table: PathBuf,
-    /// lagrange | trilinear | spline | fuzzy | gp | gp-se (the GPs also take a scattered
-    /// table; gp uses --gp-kernel, gp-se the squared exponential)
-    #[arg(long)]
-    pub method: String,
+    /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
+    /// squared exponential).
+    #[arg(long, value_parser = method_name())]
+    pub method: MethodName,
     /// Lagrange degrees MxNxQ along x, y, z, or `auto` (chosen by cross-validation).
     #[arg(long)]
-    pub order: Option<String>,
+    pub order: Option<OrderArg>,
     /// Points to predict at (CSV or Parquet with x_mm,y_mm,z_mm; e_um optional).
     #[arg(long)]
     pub predict: PathBuf,
@@ -272,12 +289,12 @@ pub struct CompareArgs {
     #[arg(long)]
     pub test: PathBuf,
     /// Comma list of methods (default: all; gp then means both kernels, Matérn 5/2 and SE).
-    #[arg(long, value_delimiter = ',')]
-    pub methods: Option<Vec<String>>,
+    #[arg(long, value_delimiter = ',', value_parser = method_name())]
+    pub methods: Option<Vec<MethodName>>,
     /// Lagrange orders: `all` (every admissible order up to --max-degree), `auto` (only the
     /// one cross-validation picks), or a comma list like 4x1x2,2x1x2.
     #[arg(long, default_value = "all")]
-    pub orders: String,
+    pub orders: OrdersArg,
     /// Report directory.
     #[arg(long)]
     pub report: PathBuf,

@@ -4,13 +4,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
+use errmap::evaluate::compare::{self, DEFAULT_MAX_DEGREE};
+use errmap::interp::{Method, MethodSettings};
+use errmap::table::ErrorTable;
+
 use super::acquisition;
-use super::args::{CompareArgs, ModelArgs};
-use super::args::{DemoArgs, DiagnoseArgs, TableArgs};
-use super::diagnose;
-use super::model::compare_cmd;
-use errmap::evaluate::compare::DEFAULT_MAX_DEGREE;
-use errmap::interp::fuzzy;
+use super::args::DemoArgs;
+use super::diagnose::{self, Against};
+use super::model::print_summary;
 
 fn write_input(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
     let p = dir.join(name);
@@ -18,20 +19,24 @@ fn write_input(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
     Ok(p)
 }
 
-fn demo_compare(table: PathBuf, test: PathBuf, report: PathBuf) -> Result<()> {
-    compare_cmd(CompareArgs {
-        table,
-        test,
-        methods: None,
-        orders: "all".into(),
-        report,
-        json: false,
-        model: ModelArgs {
-            fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
-            max_degree: DEFAULT_MAX_DEGREE,
-            gp_kernel: "matern52".into(),
-        },
-    })
+/// The comparison `errmap compare TABLE --test TEST --report DIR` makes, with the
+/// registry's default models.
+fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
+    let fitting = ErrorTable::read(table)?;
+    let test_points = ErrorTable::read(test)?;
+    let grid = fitting.grid()?;
+    let methods = Method::defaults(&grid, DEFAULT_MAX_DEGREE, &MethodSettings::default());
+    let comparison = compare::compare_where_possible(&fitting, &grid, &test_points, &methods)
+        .with_context(|| format!("{}: comparison failed", table.display()))?;
+    let command = format!(
+        "errmap compare {} --test {} --report {}",
+        table.display(),
+        test.display(),
+        report.display()
+    );
+    errmap::report::write_report(&comparison, report, &command)?;
+    print_summary(&comparison, report);
+    Ok(())
 }
 
 /// The whole pipeline on built-in data: the simulated board on a pseudo-terminal →
@@ -111,31 +116,21 @@ pub fn demo(a: DemoArgs) -> Result<()> {
 
     eprintln!("errmap demo [2/5]: session → error table (+ ISO 230-2 report)");
     let errors = session_dir.join("errors.csv");
-    acquisition::table_cmd(TableArgs {
-        session: session_dir.clone(),
-        out: errors.clone(),
-        report: Some(session_dir.join("iso230")),
-        json: false,
-    })?;
+    acquisition::reduce_session(&session_dir, &errors, Some(&session_dir.join("iso230")))?;
 
     eprintln!("errmap demo [3/5]: fit every method to the captured table, compare with the truth");
     let test = errmap::sim::truth_test_points(&truth, &errors, 40, 11)?;
     let test_path = session_dir.join("truth_points.csv");
     test.write(&test_path)?;
-    demo_compare(errors, test_path, a.out.join("capture_comparison"))?;
+    demo_compare(&errors, &test_path, &a.out.join("capture_comparison"))?;
 
     eprintln!("errmap demo [4/5]: diagnose the capture against the nominal model (model.toml)");
-    diagnose::diagnose_cmd(DiagnoseArgs {
-        recorded: session_dir.clone(),
-        simulated: None,
-        model: Some(model),
-        report: a.out.join("diagnosis"),
-        grating_period_um: None,
-        json: false,
-    })?;
+    let report = a.out.join("diagnosis");
+    let d = diagnose::run_diagnosis(&session_dir, &Against::Model(model), &report, None)?;
+    diagnose::print_summary(&d, &report)?;
 
     eprintln!("errmap demo [5/5]: the paper's Table 1 → Table 2 (seed 001)");
-    demo_compare(t1, t2, a.out.join("table2"))?;
+    demo_compare(&t1, &t2, &a.out.join("table2"))?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())
 }

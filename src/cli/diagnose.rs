@@ -4,7 +4,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
+use errmap::report::diagnosis::write_report;
 use errmap::session;
+use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
 
 use super::acquisition::session_file;
 use super::args::DiagnoseArgs;
@@ -24,47 +27,70 @@ fn grating_from_capture(session: &Path) -> Option<f64> {
 }
 
 pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
-    use errmap::diagnose::{DiagnoseConfig, diagnose};
-    use errmap::report::diagnosis::write_report;
-    use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
-    let rec_path = session_file(&a.recorded)?;
-    let recorded = session::read_session(&rec_path)?;
-    let (simulated, model) = match (&a.simulated, &a.model) {
-        (Some(s), _) => (session::read_session(&session_file(s)?)?, None),
-        (None, Some(m)) => {
-            let model = MachineModel::read(m)?;
-            (
-                simulate_rows(&model, m, &recorded)?,
-                Some((model, m.clone())),
-            )
-        }
+    let against = match (&a.simulated, &a.model) {
+        (Some(s), _) => Against::Simulated(s.clone()),
+        (None, Some(m)) => Against::Model(m.clone()),
         (None, None) => bail!("give --simulated SESSION or --model MODEL.toml"),
     };
-    let grating = a
-        .grating_period_um
+    let d = run_diagnosis(&a.recorded, &against, &a.report, a.grating_period_um)?;
+    if a.json {
+        println!("{}", serde_json::to_string(&d)?);
+    } else {
+        print_summary(&d, &a.report)?;
+    }
+    Ok(())
+}
+
+/// What a recording is diagnosed against.
+#[derive(Debug, Clone)]
+pub enum Against {
+    /// A simulated session of the same plan.
+    Simulated(PathBuf),
+    /// A machine model that simulates the recording's own moves.
+    Model(PathBuf),
+}
+
+/// Diagnoses a recorded session (table or capture directory) against a simulation and
+/// writes the report into `report` (with `updated-model.toml` when diagnosed against a
+/// model).
+pub fn run_diagnosis(
+    recorded: &Path,
+    against: &Against,
+    report: &Path,
+    grating_period_um: Option<f64>,
+) -> Result<Diagnosis> {
+    let rec_path = session_file(recorded)?;
+    let recorded_rows = session::read_session(&rec_path)?;
+    let (simulated, model) = match against {
+        Against::Simulated(s) => (session::read_session(&session_file(s)?)?, None),
+        Against::Model(m) => {
+            let model = MachineModel::read(m)?;
+            (simulate_rows(&model, m, &recorded_rows)?, Some(model))
+        }
+    };
+    let grating = grating_period_um
         .or_else(|| {
             model
                 .as_ref()
-                .map(|(m, _)| f64::from(m.device.grating_period_nm) / 1000.0)
+                .map(|m| f64::from(m.device.grating_period_nm) / 1000.0)
         })
-        .or_else(|| grating_from_capture(&a.recorded));
+        .or_else(|| grating_from_capture(recorded));
     let config = DiagnoseConfig {
         grating_period_um: grating,
-        model_dead_path_mm: model.as_ref().map(|(m, _)| m.laser.dead_path_mm.max(0.0)),
+        model_dead_path_mm: model.as_ref().map(|m| m.laser.dead_path_mm.max(0.0)),
         ..DiagnoseConfig::default()
     };
-    let d = diagnose(&recorded, &simulated, &config)
+    let d = diagnose(&recorded_rows, &simulated, &config)
         .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
     // Every report carries the session's environment.
-    let environment = errmap::report::environment::environment_summary(&recorded);
-    write_report(&d, &a.report, Some(&environment))?;
-    if let Some((mut m, path)) = model {
+    let environment = errmap::report::environment::environment_summary(&recorded_rows);
+    write_report(&d, report, Some(&environment))?;
+    if let Some(mut m) = model {
         let notes = apply_found_effects(&mut m, &d.effects);
-        let _ = &path;
         if let Some(map) = &mut m.error_map {
-            map.table = relative_to(&map.table, &a.report);
+            map.table = relative_to(&map.table, report);
         }
-        let out = a.report.join("updated-model.toml");
+        let out = report.join("updated-model.toml");
         m.write(&out)?;
         eprintln!(
             "diagnose: updated model ({}) → {}",
@@ -72,25 +98,26 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
             out.display()
         );
     }
-    if a.json {
-        println!("{}", serde_json::to_string(&d)?);
-    } else {
+    Ok(d)
+}
+
+/// The diagnosis in a few lines on stderr.
+pub fn print_summary(d: &Diagnosis, report: &Path) -> Result<()> {
+    eprintln!(
+        "diagnose: {} — RMS {:.4} µm before, {:.4} µm after ({:.4} µm cross-validated by run); report in {}",
+        d.verdict,
+        d.rms_before_um,
+        d.rms_after_um,
+        d.cv_rms_after_um,
+        report.display()
+    );
+    for e in &d.effects {
         eprintln!(
-            "diagnose: {} — RMS {:.4} µm before, {:.4} µm after ({:.4} µm cross-validated by run); report in {}",
-            d.verdict,
-            d.rms_before_um,
-            d.rms_after_um,
-            d.cv_rms_after_um,
-            a.report.display()
+            "  {}: {} — {}",
+            e.id,
+            serde_json::to_string(&e.params)?,
+            e.where_
         );
-        for e in &d.effects {
-            eprintln!(
-                "  {}: {} — {}",
-                e.id,
-                serde_json::to_string(&e.params)?,
-                e.where_
-            );
-        }
     }
     Ok(())
 }

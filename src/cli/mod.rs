@@ -3,7 +3,8 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`args`] | every clap struct and the flags' value types |
+//! | [`args`] | every clap struct |
+//! | [`values`] | the flags' value types, parsed once into library types (bad value: exit 2) |
 //! | [`model`] | fit, compare, export, simulate, fuzzy-sim |
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
@@ -19,6 +20,7 @@ pub mod args;
 pub mod demo;
 pub mod diagnose;
 pub mod model;
+pub mod values;
 
 use args::*;
 

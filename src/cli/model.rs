@@ -6,46 +6,37 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use errmap::compare;
 use errmap::experiment::{self, FuzzySimConfig};
-use errmap::interp::{Method, Order};
+use errmap::interp::{Method, MethodError, MethodName};
 use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
 
 use super::args::*;
+use super::values::{ExportFormatArg, OrderArg, OrdersArg};
 
-/// Turns `--method`/`--order` into a method; `auto` runs the cross-validation.
-fn parse_method(
-    name: &str,
-    order: Option<&str>,
+/// The method a name, an order and the model flags stand for; `--order auto` runs the
+/// cross-validation on the grid.
+fn method_of(
+    name: MethodName,
+    order: Option<OrderArg>,
     model: &ModelArgs,
     grid: Option<&errmap::table::Grid>,
 ) -> Result<Method> {
-    Ok(match name {
-        "lagrange" => match order {
-            None => bail!(
-                "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
-            ),
-            Some("auto") => {
-                let grid = grid.context("--order auto needs a grid table")?;
-                Method::Lagrange(compare::auto_order(grid, model.max_degree)?.0)
-            }
-            Some(o) => Method::Lagrange(o.parse::<Order>().map_err(anyhow::Error::msg)?),
-        },
-        "trilinear" | "spline" | "fuzzy" | "gp" | "gp-se" if order.is_some() => {
-            bail!("--order applies to lagrange only, not to {name}")
+    let degrees = match order {
+        None => None,
+        Some(OrderArg::Degrees(o)) => Some(o),
+        Some(OrderArg::Auto) if name.takes_order() => {
+            let grid = grid.context("--order auto needs a grid table")?;
+            Some(compare::auto_order(grid, model.max_degree)?.0)
         }
-        "trilinear" => Method::Trilinear,
-        "spline" => Method::Spline,
-        "fuzzy" => Method::Fuzzy {
-            sigma: model.fuzzy_sigma,
-        },
-        "gp" => Method::Gp(match model.gp_kernel.as_str() {
-            "matern52" | "matern" => errmap::gp::Kernel::Matern52,
-            "se" | "squared-exponential" => errmap::gp::Kernel::SquaredExponential,
-            other => bail!("--gp-kernel is matern52 or se, not {other}"),
-        }),
-        // The squared-exponential GP by name (what `compare` calls its row).
-        "gp-se" => Method::Gp(errmap::gp::Kernel::SquaredExponential),
-        other => bail!("unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"),
+        Some(OrderArg::Auto) => bail!("--order applies to lagrange only, not to {name}"),
+    };
+    Method::from_name(name, degrees, &model.settings()).map_err(|e| match e {
+        MethodError::NeedsOrder => anyhow::anyhow!(
+            "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
+        ),
+        MethodError::OrderNotApplicable(n) => {
+            anyhow::anyhow!("--order applies to lagrange only, not to {n}")
+        }
     })
 }
 
@@ -59,14 +50,19 @@ struct Fitted {
 /// Reads `path` and fits the method named `name`: the Gaussian process to the nodes as
 /// they are (scattered or not), the interpolators to the grid (the error names a missing
 /// node).
-fn fit_table(path: &Path, name: &str, order: Option<&str>, model: &ModelArgs) -> Result<Fitted> {
+fn fit_table(
+    path: &Path,
+    name: MethodName,
+    order: Option<OrderArg>,
+    model: &ModelArgs,
+) -> Result<Fitted> {
     let table = ErrorTable::read(path)?;
-    let grid = if name == "gp" || name == "gp-se" {
+    let grid = if name.accepts_scattered() {
         None
     } else {
         Some(table.grid()?)
     };
-    let method = parse_method(name, order, model, grid.as_ref())?;
+    let method = method_of(name, order, model, grid.as_ref())?;
     let fitted = match &grid {
         Some(g) => method.fit(g).map_err(anyhow::Error::from),
         None => method
@@ -85,8 +81,7 @@ fn fit_table(path: &Path, name: &str, order: Option<&str>, model: &ModelArgs) ->
 }
 
 pub fn fit(a: FitArgs) -> Result<()> {
-    let Fitted { method, model, .. } =
-        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
+    let Fitted { method, model, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let points = ErrorTable::read_points(&a.predict)?;
     let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
     let mut values = vec![0.0; positions.len()];
@@ -143,46 +138,53 @@ pub fn fit(a: FitArgs) -> Result<()> {
 
 /// The model list of `compare` from `--methods` and `--orders`.
 fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
-    let names: Vec<String> = a.methods.clone().unwrap_or_else(|| {
-        ["trilinear", "spline", "fuzzy", "gp", "lagrange"]
-            .map(String::from)
-            .to_vec()
-    });
+    let settings = a.model.settings();
+    let Some(names) = &a.methods else {
+        // The registry's default list, with the Lagrange orders --orders asks for.
+        let mut out: Vec<Method> = Method::defaults(grid, 0, &settings)
+            .into_iter()
+            .filter(|m| m.order().is_none())
+            .collect();
+        out.extend(lagrange_orders(a, grid)?);
+        return Ok(out);
+    };
     let mut out = Vec::new();
-    for name in &names {
-        match name.trim() {
-            "lagrange" => match a.orders.trim() {
-                "all" => out.extend(
-                    errmap::interp::lagrange::admissible_orders(grid.shape(), a.model.max_degree)
-                        .into_iter()
-                        .map(Method::Lagrange),
-                ),
-                "auto" => out.push(Method::Lagrange(
-                    compare::auto_order(grid, a.model.max_degree)?.0,
-                )),
-                list => {
-                    for o in list.split(',') {
-                        let order: Order = o.parse().map_err(anyhow::Error::msg)?;
-                        Method::Lagrange(order).fit(grid).with_context(|| {
-                            format!("{}: order {order} cannot be fitted", a.table.display())
-                        })?;
-                        out.push(Method::Lagrange(order));
-                    }
-                }
-            },
-            // By default both kernels: the squared exponential suits analytic error
-            // fields, Matérn 5/2 rougher ones, and cross-validation tells them apart.
-            "gp" if a.methods.is_none() => out.extend([
-                Method::Gp(errmap::gp::Kernel::Matern52),
-                Method::Gp(errmap::gp::Kernel::SquaredExponential),
-            ]),
-            other => out.push(parse_method(other, None, &a.model, Some(grid))?),
+    for &name in names {
+        if name.takes_order() {
+            out.extend(lagrange_orders(a, grid)?);
+        } else {
+            out.push(method_of(name, None, &a.model, Some(grid))?);
         }
     }
     if out.is_empty() {
         bail!("no methods to compare");
     }
     Ok(out)
+}
+
+/// The Lagrange models of `compare --orders`.
+fn lagrange_orders(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
+    Ok(match &a.orders {
+        OrdersArg::All => {
+            errmap::interp::lagrange::admissible_orders(grid.shape(), a.model.max_degree)
+                .into_iter()
+                .map(Method::Lagrange)
+                .collect()
+        }
+        OrdersArg::Auto => vec![Method::Lagrange(
+            compare::auto_order(grid, a.model.max_degree)?.0,
+        )],
+        OrdersArg::List(orders) => {
+            let mut out = Vec::new();
+            for &order in orders {
+                Method::Lagrange(order).fit(grid).with_context(|| {
+                    format!("{}: order {order} cannot be fitted", a.table.display())
+                })?;
+                out.push(Method::Lagrange(order));
+            }
+            out
+        }
+    })
 }
 
 /// The models `compare` fits to a scattered table: the Gaussian process only. Asked for
@@ -192,41 +194,34 @@ fn scattered_methods(
     a: &CompareArgs,
     missing: &errmap::table::TableError,
 ) -> Result<(Vec<Method>, compare::Refusals)> {
-    use errmap::gp::Kernel;
-    let grid_only = ["trilinear", "spline", "fuzzy", "lagrange"];
     let why = format!("a full grid is needed ({missing})");
     match &a.methods {
         Some(names) => {
             let mut methods = Vec::new();
-            for name in names {
-                match name.trim() {
-                    gp @ ("gp" | "gp-se") => methods.push(parse_method(gp, None, &a.model, None)?),
-                    other if grid_only.contains(&other) => bail!(
-                        "{other} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
+            for &name in names {
+                if !name.accepts_scattered() {
+                    bail!(
+                        "{name} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
                         a.table.display()
-                    ),
-                    other => {
-                        bail!(
-                            "unknown method `{other}` (lagrange, trilinear, spline, fuzzy, gp, gp-se)"
-                        )
-                    }
+                    );
                 }
+                methods.push(method_of(name, None, &a.model, None)?);
             }
             if methods.is_empty() {
                 bail!("no methods to compare");
             }
             Ok((methods, Vec::new()))
         }
-        None => Ok((
-            vec![
-                Method::Gp(Kernel::Matern52),
-                Method::Gp(Kernel::SquaredExponential),
-            ],
-            grid_only
-                .iter()
-                .map(|m| (m.to_string(), why.clone()))
-                .collect(),
-        )),
+        None => {
+            let (methods, refused) = Method::scattered_defaults();
+            Ok((
+                methods,
+                refused
+                    .iter()
+                    .map(|m| (m.to_string(), why.clone()))
+                    .collect(),
+            ))
+        }
     }
 }
 
@@ -254,7 +249,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         a.table.display(),
         a.test.display(),
         a.report.display(),
-        if a.orders == "all" {
+        if a.orders == OrdersArg::All {
             String::new()
         } else {
             format!(" --orders {}", a.orders)
@@ -272,7 +267,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(c: &compare::Comparison, dir: &Path) {
+pub fn print_summary(c: &compare::Comparison, dir: &Path) {
     let rec = c.recommended_row();
     eprintln!(
         "{} models compared on {} test points ({} extrapolated).",
@@ -291,32 +286,24 @@ fn print_summary(c: &compare::Comparison, dir: &Path) {
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{
-        ExportFormat, Extrapolation, LineSpec, LinuxCncCompType, VolumeSpec, sample_line,
-        volumetric_grid,
+        ExportFormat, Extrapolation, LineSpec, VolumeSpec, sample_line, volumetric_grid,
     };
-    use errmap::table::Axis;
-    let Fitted { model, extent, .. } =
-        fit_table(&a.table, &a.method, a.order.as_deref(), &a.model)?;
+    let Fitted { model, extent, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
     } else {
         Extrapolation::Allow
     };
-    let format = match a.format.as_str() {
-        "linuxcnc" => ExportFormat::LinuxCnc {
-            comp_type: match a.comp_type.as_str() {
-                "actual" | "0" => LinuxCncCompType::ActualPosition,
-                "trim" | "1" => LinuxCncCompType::Trim,
-                other => bail!("--comp-type is actual (0) or trim (1), not {other}"),
-            },
+    let format = match a.format {
+        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
+            comp_type: a.comp_type.into(),
         },
-        "siemens" => ExportFormat::Siemens {
+        ExportFormatArg::Siemens => ExportFormat::Siemens {
             axis_name: a.siemens_axis.clone(),
             max_points: a.max_points,
         },
-        "csv" => ExportFormat::Csv,
-        "grid" => ExportFormat::Grid,
-        other => bail!("--format is linuxcnc, siemens, csv or grid, not {other}"),
+        ExportFormatArg::Csv => ExportFormat::Csv,
+        ExportFormatArg::Grid => ExportFormat::Grid,
     };
     let lo = extent.bounds.map(|b| b[0]);
     let hi = extent.bounds.map(|b| b[1]);
@@ -334,28 +321,11 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         eprintln!("export: {n} grid points → {}", a.out.display());
         return Ok(());
     }
-    let axis = match a.axis.as_str() {
-        "x" | "X" => Axis::X,
-        "y" | "Y" => Axis::Y,
-        "z" | "Z" => Axis::Z,
-        other => bail!("--axis is x, y or z, not {other}"),
-    };
+    let axis = a.axis;
     // The line's fixed coordinates: given ones, else the first node on that axis.
     let mut at = lo;
-    for part in a.at.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (k, v) = part
-            .split_once('=')
-            .with_context(|| format!("--at takes axis=value pairs like y=1,z=200, not `{part}`"))?;
-        let v: f64 = v
-            .trim()
-            .parse()
-            .with_context(|| format!("--at: `{v}` is not a number"))?;
-        match k.trim() {
-            "x" | "X" => at[0] = v,
-            "y" | "Y" => at[1] = v,
-            "z" | "Z" => at[2] = v,
-            other => bail!("--at: unknown axis `{other}`"),
-        }
+    for &(k, v) in &a.at.0 {
+        at[k.index()] = v;
     }
     let line = LineSpec {
         axis,

@@ -17,7 +17,6 @@ pub use crate::table::Extent;
 /// would otherwise mean thousands of orders).
 pub const DEFAULT_MAX_DEGREE: usize = 5;
 
-
 /// One model's results.
 #[derive(Debug, Clone)]
 pub struct ModelRow {

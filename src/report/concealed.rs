@@ -119,7 +119,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         );
         outcomes.push(CaseOutcome {
             name: name.clone(),
-            verdict: d.verdict.clone(),
+            verdict: d.verdict,
             effects: d.effects.iter().map(|e| e.id.clone()).collect(),
         });
     }

@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use super::ReportError;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
 use crate::session::iso230::{AxisStats, TargetStats};
 
@@ -153,4 +154,48 @@ pub fn plot(stats: &AxisStats, stem: &Path, title: &str) -> Result<Vec<PathBuf>,
         "positional deviation x = −e / µm",
         &series,
     )
+}
+
+/// Writes the ISO 230-2 report of a session into `dir` (created when missing):
+/// `report.md` with the environment and a section per line, and a deviation chart per
+/// line (`lineN.png`/`.svg`). `source` names the session; returns the path of
+/// `report.md`.
+pub fn write_session_report(
+    source: &str,
+    axis: &str,
+    environment: &str,
+    iso: &[((f64, f64), AxisStats)],
+    dir: &Path,
+) -> Result<PathBuf, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut md = format!(
+        "# ISO 230-2 positioning statistics\n\nSession: `{source}`; axis {axis}; {} line(s).\n\n",
+        iso.len()
+    );
+    md.push_str(environment);
+    md.push('\n');
+    for (k, (line, stats)) in iso.iter().enumerate() {
+        let _ = write!(md, "## Line {} at ({}, {}) mm\n\n", k + 1, line.0, line.1);
+        md.push_str(
+            &markdown(stats, axis)
+                .replace("\n## ", "\n### ")
+                .replacen("## ", "### ", 1),
+        );
+        let stem = dir.join(format!("line{}", k + 1));
+        plot(
+            stats,
+            &stem,
+            &format!("Axis {axis}, line ({}, {}) mm", line.0, line.1),
+        )?;
+        let _ = write!(md, "\n![line {}](line{}.png)\n\n", k + 1, k + 1);
+    }
+    let p = dir.join("report.md");
+    std::fs::write(&p, md).map_err(|source| ReportError::Io {
+        path: p.clone(),
+        source,
+    })?;
+    Ok(p)
 }

@@ -21,7 +21,9 @@
 pub mod iso230;
 mod reduce;
 
-pub use reduce::{ReductionError, ReductionSummary, error_table, iso_observations, lines};
+pub use reduce::{
+    ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
+};
 
 use std::path::Path;
 

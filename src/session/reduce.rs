@@ -237,6 +237,26 @@ pub fn iso_observations(rows: &[SessionRow], line: Option<(f64, f64)>) -> Vec<is
         .collect()
 }
 
+/// ISO 230-2 statistics of every line of a session; the lines whose statistics cannot be
+/// computed come second, with the reason.
+#[allow(clippy::type_complexity)]
+pub fn iso_by_line(
+    rows: &[SessionRow],
+) -> (
+    Vec<((f64, f64), iso230::AxisStats)>,
+    Vec<((f64, f64), iso230::IsoError)>,
+) {
+    let mut ok = Vec::new();
+    let mut failed = Vec::new();
+    for line in lines(rows) {
+        match iso230::axis_stats(&iso_observations(rows, Some(line))) {
+            Ok(stats) => ok.push((line, stats)),
+            Err(e) => failed.push((line, e)),
+        }
+    }
+    (ok, failed)
+}
+
 /// The distinct lines (the two fixed coordinates, mm) of a session's dwell rows.
 pub fn lines(rows: &[SessionRow]) -> Vec<(f64, f64)> {
     let mut out: Vec<(i64, i64)> = rows

@@ -1,0 +1,198 @@
+//! The value types of the command line's flags: each parsed once, by clap, into a
+//! library type. A value outside its set is a usage error (exit 2, as `cli-contract.md`
+//! says), listed in `--help` where the set is closed.
+//!
+//! Names that belong to the library (method names, axes, kernels) come from the
+//! library's own registries (`MethodName::ALL`, `Axis::ALL`, `Kernel`'s `FromStr`), so
+//! the command line never spells them a second time.
+
+use std::fmt;
+use std::str::FromStr;
+
+use clap::ValueEnum;
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+use errmap::base::Axis;
+use errmap::export::LinuxCncCompType;
+use errmap::gp::Kernel;
+use errmap::interp::{MethodName, Order};
+
+/// `--method`: a name from the method registry.
+pub fn method_name() -> impl TypedValueParser<Value = MethodName> {
+    PossibleValuesParser::new(MethodName::ALL.map(MethodName::as_str))
+        .try_map(|s| s.parse::<MethodName>())
+}
+
+/// `--axis`: x, y or z (either case).
+pub fn axis() -> impl TypedValueParser<Value = Axis> {
+    PossibleValuesParser::new(Axis::ALL.map(|a| PossibleValue::new(a.lower()).alias(a.upper())))
+        .try_map(|s| s.parse::<Axis>())
+}
+
+/// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).
+pub fn kernel() -> impl TypedValueParser<Value = Kernel> {
+    PossibleValuesParser::new([
+        PossibleValue::new("matern52").alias("matern"),
+        PossibleValue::new("se").alias("squared-exponential"),
+    ])
+    .try_map(|s| s.parse::<Kernel>())
+}
+
+/// Seconds: finite and not negative (a `Duration` is built from it).
+pub fn seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    if !v.is_finite() || v < 0.0 {
+        return Err(format!("`{s}`: seconds must be finite and ≥ 0"));
+    }
+    if v > 1e9 {
+        return Err(format!("`{s}`: more than 10⁹ s (31 years)"));
+    }
+    Ok(v)
+}
+
+/// A speed factor: finite and positive.
+pub fn positive(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !v.is_finite() || v <= 0.0 {
+        return Err(format!("`{s}` must be finite and > 0"));
+    }
+    Ok(v)
+}
+
+/// `--order`: Lagrange degrees `MxNxQ`, or `auto` (chosen by cross-validation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OrderArg {
+    Auto,
+    Degrees(Order),
+}
+
+impl FromStr for OrderArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "auto" => Ok(OrderArg::Auto),
+            other => other.parse::<Order>().map(OrderArg::Degrees),
+        }
+    }
+}
+
+/// `--orders` of compare: `all` admissible orders, `auto` (the cross-validated one), or
+/// a comma list like `4x1x2,2x1x2`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum OrdersArg {
+    All,
+    Auto,
+    List(Vec<Order>),
+}
+
+impl FromStr for OrdersArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "all" => Ok(OrdersArg::All),
+            "auto" => Ok(OrdersArg::Auto),
+            list => list
+                .split(',')
+                .map(str::parse::<Order>)
+                .collect::<Result<Vec<_>, _>>()
+                .map(OrdersArg::List),
+        }
+    }
+}
+
+impl fmt::Display for OrdersArg {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            OrdersArg::All => f.write_str("all"),
+            OrdersArg::Auto => f.write_str("auto"),
+            OrdersArg::List(l) => {
+                let parts: Vec<String> = l.iter().map(Order::to_string).collect();
+                f.write_str(&parts.join(","))
+            }
+        }
+    }
+}
+
+/// `--at`: the fixed coordinates of a line, `y=1,z=200` (mm); empty for none.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LineAt(pub Vec<(Axis, f64)>);
+
+impl FromStr for LineAt {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let mut out = Vec::new();
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| format!("axis=value pairs like y=1,z=200, not `{part}`"))?;
+            let axis: Axis = k.trim().parse().map_err(|e| format!("{e}"))?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .map_err(|_| format!("`{}` is not a number", v.trim()))?;
+            if !v.is_finite() {
+                return Err(format!("`{part}`: the coordinate must be finite"));
+            }
+            out.push((axis, v));
+        }
+        Ok(LineAt(out))
+    }
+}
+
+/// `--format` of export.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExportFormatArg {
+    /// LinuxCNC compensation file (a line).
+    Linuxcnc,
+    /// Siemens 840D encoder/leadscrew compensation (a line).
+    Siemens,
+    /// CSV of a line.
+    Csv,
+    /// A volumetric grid table (CSV or Parquet).
+    Grid,
+}
+
+/// `--comp-type` of the LinuxCNC format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CompTypeArg {
+    /// COMP_FILE_TYPE 0: the positions actually reached.
+    #[value(alias = "0")]
+    Actual,
+    /// COMP_FILE_TYPE 1: the offsets.
+    #[value(alias = "1")]
+    Trim,
+}
+
+impl From<CompTypeArg> for LinuxCncCompType {
+    fn from(c: CompTypeArg) -> Self {
+        match c {
+            CompTypeArg::Actual => LinuxCncCompType::ActualPosition,
+            CompTypeArg::Trim => LinuxCncCompType::Trim,
+        }
+    }
+}
+
+/// `--format` of capture: the session table's format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SessionFormat {
+    Csv,
+    Parquet,
+}
+
+impl SessionFormat {
+    /// The file extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            SessionFormat::Csv => "csv",
+            SessionFormat::Parquet => "parquet",
+        }
+    }
+}
