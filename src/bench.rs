@@ -7,6 +7,7 @@
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
 
+use crate::base::stats::median;
 use std::time::Instant;
 
 use rand::rngs::StdRng;
@@ -73,11 +74,6 @@ impl Default for BenchConfig {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 /// Median wall-clock seconds of `f`, over at least `repeats` runs and at least
 /// [`MIN_BENCH_S`] in total (a 15 ms run repeated a handful of times is at the mercy of
 /// whatever else the machine does; twenty of them are not).
@@ -91,7 +87,7 @@ fn time<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
         std::hint::black_box(f());
         runs.push(t.elapsed().as_secs_f64());
     }
-    median(runs)
+    median(&runs)
 }
 
 /// Least total time spent timing one measurement, s.

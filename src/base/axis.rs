@@ -83,6 +83,21 @@ impl FromStr for Axis {
     }
 }
 
+impl serde::Serialize for Axis {
+    /// As `"x"`, `"y"` or `"z"`.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.lower())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Axis {
+    /// From `x`, `y` or `z` in either case; anything else is an error naming it.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 impl From<WireAxis> for Axis {
     fn from(a: WireAxis) -> Self {
         match a {

@@ -6,10 +6,15 @@
 //! |---|---|
 //! | [`axis`] | the one [`Axis`] of the library (error-table columns, messages, indices) |
 //! | [`stats`] | rms, median, centred rms, peak-to-peak, the Gaussian generator |
+//! | [`vocabulary`] | the diagnosis vocabulary: effect ids and parameter names, spelt once |
+//! | [`optim`] | L-BFGS and golden-section minimisers |
 //! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
 
 pub mod axis;
 pub mod consts;
+pub mod optim;
 pub mod stats;
+pub mod vocabulary;
 
 pub use axis::Axis;
+pub use vocabulary::{EffectId, ParamName};

@@ -6,6 +6,7 @@
 //! rows are filled by linear interpolation in time from the rows that have them; a column
 //! empty on every row makes the effects that need it untestable (said in the report).
 
+pub(crate) use crate::base::stats::median;
 use std::collections::{BTreeMap, HashMap};
 
 use errmap_drivers::{Axis, SessionRow};
@@ -500,21 +501,6 @@ pub(crate) fn groups(obs: &Obs) -> Groups {
         count[g] += 1;
     }
     Groups { id, labels, count }
-}
-
-/// Median of a slice (sorted copy), NaN when empty.
-pub(crate) fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let m = s.len() / 2;
-    if s.len() % 2 == 1 {
-        s[m]
-    } else {
-        0.5 * (s[m - 1] + s[m])
-    }
 }
 
 /// Robust σ from a sample: 1.4826 · MAD.

@@ -20,6 +20,7 @@
 //! [`separation_advice`] names the measurement that would tell two effects apart when these
 //! data cannot.
 
+use crate::base::vocabulary::{EffectId, ParamName, ParamName as P};
 use std::f64::consts::{PI, TAU};
 
 use super::data::Obs;
@@ -42,17 +43,17 @@ pub(crate) enum Kind {
 
 impl Kind {
     /// The contract's id.
-    pub fn id(self) -> &'static str {
+    pub fn id(self) -> EffectId {
         match self {
-            Kind::ScaleFactor => "scale_factor",
-            Kind::Reversal => "reversal",
-            Kind::Abbe(_) => "abbe",
-            Kind::ScaleThermal => "scale_thermal_expansion",
-            Kind::Refraction => "refraction",
-            Kind::DeadPath => "dead_path",
-            Kind::LatchDelay => "latch_delay",
-            Kind::Periodic => "periodic_scale",
-            Kind::ThermalDrift => "thermal_drift",
+            Kind::ScaleFactor => EffectId::ScaleFactor,
+            Kind::Reversal => EffectId::Reversal,
+            Kind::Abbe(_) => EffectId::Abbe,
+            Kind::ScaleThermal => EffectId::ScaleThermalExpansion,
+            Kind::Refraction => EffectId::Refraction,
+            Kind::DeadPath => EffectId::DeadPath,
+            Kind::LatchDelay => EffectId::LatchDelay,
+            Kind::Periodic => EffectId::PeriodicScale,
+            Kind::ThermalDrift => EffectId::ThermalDrift,
         }
     }
 
@@ -60,7 +61,7 @@ impl Kind {
     pub fn label(self, obs: &Obs) -> String {
         match self {
             Kind::Abbe(k) => format!("abbe (offset along {})", obs.c_names[k as usize]),
-            _ => self.id().to_string(),
+            _ => self.id().as_str().to_string(),
         }
     }
 
@@ -424,7 +425,7 @@ pub(crate) fn nonlinear_derivative(variant: &Variant, coef: &[f64], obs: &Obs) -
 /// One reported parameter.
 #[derive(Debug, Clone)]
 pub(crate) struct Param {
-    pub name: &'static str,
+    pub name: ParamName,
     pub value: f64,
     pub sigma: f64,
     /// Fitted (false: fixed by the chosen variant, e.g. x0 = 0).
@@ -433,7 +434,7 @@ pub(crate) struct Param {
     pub key: bool,
 }
 
-fn p(name: &'static str, value: f64, sigma: f64, key: bool) -> Param {
+fn p(name: ParamName, value: f64, sigma: f64, key: bool) -> Param {
     Param {
         name,
         value,
@@ -443,7 +444,7 @@ fn p(name: &'static str, value: f64, sigma: f64, key: bool) -> Param {
     }
 }
 
-fn fixed(name: &'static str) -> Param {
+fn fixed(name: ParamName) -> Param {
     Param {
         name,
         value: 0.0,
@@ -468,22 +469,22 @@ pub(crate) fn wrap(phi: f64) -> f64 {
 pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]) -> Vec<Param> {
     let sd = |i: usize| cov[i][i].max(0.0).sqrt();
     match (kind, variant) {
-        (Kind::ScaleFactor, _) => vec![p("ppm", th[0], sd(0), true)],
-        (Kind::Reversal, _) => vec![p("b_um", th[0], sd(0), true)],
+        (Kind::ScaleFactor, _) => vec![p(P::Ppm, th[0], sd(0), true)],
+        (Kind::Reversal, _) => vec![p(P::BUm, th[0], sd(0), true)],
         (Kind::Abbe(_), Variant::AbbeFull) => vec![
-            p("theta0_urad", th[0], sd(0), true),
-            p("theta1_urad_per_mm", th[1], sd(1), true),
+            p(P::Theta0Urad, th[0], sd(0), true),
+            p(P::Theta1UradPerMm, th[1], sd(1), true),
         ],
         (Kind::Abbe(_), Variant::AbbeTheta0) => {
             vec![
-                p("theta0_urad", th[0], sd(0), true),
-                fixed("theta1_urad_per_mm"),
+                p(P::Theta0Urad, th[0], sd(0), true),
+                fixed(P::Theta1UradPerMm),
             ]
         }
         (Kind::Abbe(_), _) => {
             vec![
-                fixed("theta0_urad"),
-                p("theta1_urad_per_mm", th[0], sd(0), true),
+                fixed(P::Theta0Urad),
+                p(P::Theta1UradPerMm, th[0], sd(0), true),
             ]
         }
         (Kind::ScaleThermal, Variant::X0Free) => {
@@ -493,12 +494,12 @@ pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]
             let (ga, gb) = (-b / (a * a), 1.0 / a);
             let var = ga * ga * cov[0][0] + 2.0 * ga * gb * cov[0][1] + gb * gb * cov[1][1];
             vec![
-                p("alpha_ppm_per_k", a, sd(0), true),
-                p("x0_mm", x0, var.max(0.0).sqrt(), true),
+                p(P::AlphaPpmPerK, a, sd(0), true),
+                p(P::X0Mm, x0, var.max(0.0).sqrt(), true),
             ]
         }
-        (Kind::ScaleThermal, _) => vec![p("alpha_ppm_per_k", th[0], sd(0), true), fixed("x0_mm")],
-        (Kind::LatchDelay, _) => vec![p("tau_us", th[0], sd(0), true)],
+        (Kind::ScaleThermal, _) => vec![p(P::AlphaPpmPerK, th[0], sd(0), true), fixed(P::X0Mm)],
+        (Kind::LatchDelay, _) => vec![p(P::TauUs, th[0], sd(0), true)],
         (Kind::Periodic, Variant::Periodic { period_um }) => {
             let (s, c) = (th[0], th[1]);
             let a = s.hypot(c).max(1e-300);
@@ -507,23 +508,23 @@ pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]
             let (gps, gpc) = (-c / (a * a), s / (a * a));
             let vp = gps * gps * cov[0][0] + 2.0 * gps * gpc * cov[0][1] + gpc * gpc * cov[1][1];
             vec![
-                p("amplitude_um", a, va.max(0.0).sqrt(), true),
-                p("period_um", *period_um, sd(2), false),
-                p("phase_rad", wrap(c.atan2(s)), vp.max(0.0).sqrt(), false),
+                p(P::AmplitudeUm, a, va.max(0.0).sqrt(), true),
+                p(P::PeriodUm, *period_um, sd(2), false),
+                p(P::PhaseRad, wrap(c.atan2(s)), vp.max(0.0).sqrt(), false),
             ]
         }
         (Kind::ThermalDrift, Variant::DriftExp { tau_s }) => vec![
-            p("amplitude_um", th[0], sd(0), true),
-            p("tau_s", *tau_s, sd(1), true),
+            p(P::AmplitudeUm, th[0], sd(0), true),
+            p(P::TauS, *tau_s, sd(1), true),
         ],
-        (Kind::ThermalDrift, _) => vec![p("rate_um_per_s", th[0], sd(0), true)],
-        (Kind::DeadPath, _) => vec![p("dead_path_mm", th[0], sd(0), true)],
+        (Kind::ThermalDrift, _) => vec![p(P::RateUmPerS, th[0], sd(0), true)],
+        (Kind::DeadPath, _) => vec![p(P::DeadPathMm, th[0], sd(0), true)],
         (Kind::Refraction, Variant::RefrBoth) => vec![
-            p("ppm_per_k", th[0], sd(0), true),
-            p("ppm_per_hpa", th[1], sd(1), true),
+            p(P::PpmPerK, th[0], sd(0), true),
+            p(P::PpmPerHpa, th[1], sd(1), true),
         ],
-        (Kind::Refraction, Variant::RefrT) => vec![p("ppm_per_k", th[0], sd(0), true)],
-        (Kind::Refraction, _) => vec![p("ppm_per_hpa", th[0], sd(0), true)],
+        (Kind::Refraction, Variant::RefrT) => vec![p(P::PpmPerK, th[0], sd(0), true)],
+        (Kind::Refraction, _) => vec![p(P::PpmPerHpa, th[0], sd(0), true)],
         (Kind::Periodic, _) => Vec::new(),
     }
 }
@@ -544,7 +545,7 @@ pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<Str
     if kind != Kind::ScaleThermal {
         return None;
     }
-    let x0 = params.iter().find(|p| p.name == "x0_mm" && p.fitted)?;
+    let x0 = params.iter().find(|p| p.name == P::X0Mm && p.fitted)?;
     let (lo, hi) = obs
         .x
         .iter()
@@ -564,23 +565,23 @@ pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<Str
 
 /// The parameter each linear coefficient of a variant stands for, then the nonlinear one
 /// (for correlation statements; `amplitude_um` for both sine and cosine coefficients).
-pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<&'static str> {
+pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<ParamName> {
     match (kind, variant) {
-        (Kind::ScaleFactor, _) => vec!["ppm"],
-        (Kind::Reversal, _) => vec!["b_um"],
-        (Kind::Abbe(_), Variant::AbbeFull) => vec!["theta0_urad", "theta1_urad_per_mm"],
-        (Kind::Abbe(_), Variant::AbbeTheta0) => vec!["theta0_urad"],
-        (Kind::Abbe(_), _) => vec!["theta1_urad_per_mm"],
-        (Kind::ScaleThermal, Variant::X0Free) => vec!["alpha_ppm_per_k", "x0_mm"],
-        (Kind::ScaleThermal, _) => vec!["alpha_ppm_per_k"],
-        (Kind::LatchDelay, _) => vec!["tau_us"],
-        (Kind::Periodic, _) => vec!["amplitude_um", "amplitude_um", "period_um"],
-        (Kind::ThermalDrift, Variant::DriftExp { .. }) => vec!["amplitude_um", "tau_s"],
-        (Kind::ThermalDrift, _) => vec!["rate_um_per_s"],
-        (Kind::DeadPath, _) => vec!["dead_path_mm"],
-        (Kind::Refraction, Variant::RefrBoth) => vec!["ppm_per_k", "ppm_per_hpa"],
-        (Kind::Refraction, Variant::RefrT) => vec!["ppm_per_k"],
-        (Kind::Refraction, _) => vec!["ppm_per_hpa"],
+        (Kind::ScaleFactor, _) => vec![P::Ppm],
+        (Kind::Reversal, _) => vec![P::BUm],
+        (Kind::Abbe(_), Variant::AbbeFull) => vec![P::Theta0Urad, P::Theta1UradPerMm],
+        (Kind::Abbe(_), Variant::AbbeTheta0) => vec![P::Theta0Urad],
+        (Kind::Abbe(_), _) => vec![P::Theta1UradPerMm],
+        (Kind::ScaleThermal, Variant::X0Free) => vec![P::AlphaPpmPerK, P::X0Mm],
+        (Kind::ScaleThermal, _) => vec![P::AlphaPpmPerK],
+        (Kind::LatchDelay, _) => vec![P::TauUs],
+        (Kind::Periodic, _) => vec![P::AmplitudeUm, P::AmplitudeUm, P::PeriodUm],
+        (Kind::ThermalDrift, Variant::DriftExp { .. }) => vec![P::AmplitudeUm, P::TauS],
+        (Kind::ThermalDrift, _) => vec![P::RateUmPerS],
+        (Kind::DeadPath, _) => vec![P::DeadPathMm],
+        (Kind::Refraction, Variant::RefrBoth) => vec![P::PpmPerK, P::PpmPerHpa],
+        (Kind::Refraction, Variant::RefrT) => vec![P::PpmPerK],
+        (Kind::Refraction, _) => vec![P::PpmPerHpa],
     }
 }
 

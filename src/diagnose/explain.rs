@@ -3,6 +3,7 @@
 //! scores), each found effect's parameters and `where` text, and the per-row series behind
 //! the report's charts.
 
+use crate::base::vocabulary::{EffectId, ParamName as P};
 use std::collections::BTreeMap;
 
 use super::data::{self, Matching};
@@ -129,9 +130,12 @@ pub(super) fn assemble(
         && let Some(text) = &loc.unexplained
     {
         let mut params = BTreeMap::new();
-        params.insert("rms_um".to_string(), serde_json::json!(centred_rms(&after)));
+        params.insert(
+            P::RmsUm.as_str().to_string(),
+            serde_json::json!(centred_rms(&after)),
+        );
         effects.push(FoundEffect {
-            id: "unexplained".into(),
+            id: EffectId::Unexplained,
             params,
             uncertainty: BTreeMap::new(),
             where_: format!(
@@ -205,7 +209,7 @@ fn found_effect(
     let mut uncertainty = BTreeMap::new();
     if let Kind::Abbe(i) = f.term.kind {
         params.insert(
-            "offset_axis".to_string(),
+            P::OffsetAxis.as_str().to_string(),
             serde_json::Value::String(obs.c_names[i as usize].to_string()),
         );
     }
@@ -221,7 +225,7 @@ fn found_effect(
         }
     }
     FoundEffect {
-        id: f.term.kind.id().into(),
+        id: f.term.kind.id(),
         params,
         uncertainty,
         where_: text,
@@ -250,7 +254,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
     let kmax = (0..c.len())
         .max_by(|&a, &b| (c[a] - m).abs().total_cmp(&(c[b] - m).abs()))
         .unwrap_or(0);
-    let pv = |name: &str| {
+    let pv = |name: P| {
         f.params
             .iter()
             .find(|p| p.name == name)
@@ -273,13 +277,13 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
     let body = match (&f.term.kind, &f.term.variant) {
         (Kind::ScaleFactor, _) => format!(
             "grows linearly along {axl} ({:+.3} µm from {axl} = {xlo:.0} to {xhi:.0} mm), the same in every run, line and direction; follows {}",
-            pv("ppm") * (xhi - xlo) * 1e-3,
+            pv(P::Ppm) * (xhi - xlo) * 1e-3,
             f.term.kind.follows(obs)
         ),
         (Kind::ScaleThermal, v) => {
             let (tl, th) = obs.scale_t.as_deref().map_or((f64::NAN, f64::NAN), range);
             let x0 = if matches!(v, Variant::X0Free) {
-                format!("x0 = {} mm fitted", fmt_sig(pv("x0_mm")))
+                format!("x0 = {} mm fitted", fmt_sig(pv(P::X0Mm)))
             } else {
                 "x0 fixed at 0 mm (a free x0 is not supported by the data)".into()
             };
@@ -320,7 +324,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
             };
             format!(
                 "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel",
-                pv("b_um") / 2.0
+                pv(P::BUm) / 2.0
             )
         }
         (Kind::LatchDelay, v) => {
@@ -333,7 +337,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
             let at: Vec<String> = feeds
                 .iter()
                 .take(4)
-                .map(|v| format!("±{:.3} µm at {v} mm/s", v * pv("tau_us") * 1e-3))
+                .map(|v| format!("±{:.3} µm at {v} mm/s", v * pv(P::TauUs) * 1e-3))
                 .collect();
             let how = if matches!(v, Variant::LatchMeasured) {
                 "; v is the carriage speed measured from successive samples, which fits better than the commanded feed (accelerations)"
@@ -364,16 +368,16 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
             format!(
                 "periodic along {axl} with a period of {} µm ({tied}) and an amplitude of {:.3} µm, all along the axis in every run and direction; follows the phase of {axl} within the period",
                 fmt_sig(*period_um),
-                pv("amplitude_um")
+                pv(P::AmplitudeUm)
             )
         }
         (Kind::ThermalDrift, Variant::DriftExp { tau_s }) => format!(
             "follows time, not position: rises by {:.3} µm over t {tlo:.0}–{thi:.0} s, exponential with τ = {tau_s:.0} s (an exponential fits better than a linear drift by BIC)",
-            pv("amplitude_um") * (1.0 - (-(thi - obs.t0) / tau_s).exp())
+            pv(P::AmplitudeUm) * (1.0 - (-(thi - obs.t0) / tau_s).exp())
         ),
         (Kind::ThermalDrift, _) => format!(
             "follows time, not position: a linear drift of {:.3} µm over t {tlo:.0}–{thi:.0} s (a time constant is not determined by these data)",
-            pv("rate_um_per_s") * (thi - tlo)
+            pv(P::RateUmPerS) * (thi - tlo)
         ),
         (Kind::DeadPath, _) => {
             let (al, ah) = obs.air_t.as_deref().map_or((f64::NAN, f64::NAN), range);
@@ -455,7 +459,7 @@ fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) 
             _ => ("t / s".into(), obs.t.clone()),
         };
         effects.push(EffectSeries {
-            id: f.term.kind.id().into(),
+            id: f.term.kind.id().as_str().into(),
             covariate_label: label,
             covariate: cov,
             partial_um: partial,

@@ -92,8 +92,8 @@ use select::Selector;
 // Keeps `super::fixed` working in `locate` and `effects`.
 use words::fixed;
 
-/// HeNe vacuum wavelength, µm.
-pub const HENE_WAVELENGTH_UM: f64 = 0.632_991_354;
+/// HeNe vacuum wavelength, µm (the one constant of `base::consts`).
+pub use crate::base::consts::HENE_WAVELENGTH_UM;
 
 /// Diagnoses a recording against its simulation; see the module docs.
 pub fn diagnose(

@@ -1,6 +1,7 @@
 //! What a diagnosis returns: [`Diagnosis`] (the contract's keys first, then the extras),
 //! its [`Verdict`], the [`FoundEffect`]s, and the per-row series behind the report's charts.
 
+use crate::base::vocabulary::EffectId;
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -49,7 +50,7 @@ impl PartialEq<&str> for Verdict {
 #[derive(Debug, Clone, Serialize)]
 pub struct FoundEffect {
     /// Vocabulary id (or `unexplained` for structure no vocabulary effect explains).
-    pub id: String,
+    pub id: EffectId,
     /// Parameters by the contract's names: numbers, and `offset_axis` ("y"/"z") for abbe.
     pub params: BTreeMap<String, serde_json::Value>,
     /// One-sigma uncertainty per numeric parameter (0 for a parameter fixed by the
@@ -159,7 +160,7 @@ pub struct ReportSeries {
 /// The partial residual of one effect against the covariate it follows.
 #[derive(Debug, Clone, Default)]
 pub struct EffectSeries {
-    /// Effect id.
+    /// Effect id (the vocabulary's, as text).
     pub id: String,
     /// Axis label of the covariate.
     pub covariate_label: String,

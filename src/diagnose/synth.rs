@@ -10,13 +10,15 @@
 //! error (a few µm polynomial in x, y, z, noiseless); `recorded` adds the hidden effects,
 //! Gaussian noise and a constant (the counters' origin).
 
+use crate::base::stats::gaussian;
+use crate::base::vocabulary::{EffectId, ParamName as P};
 use std::f64::consts::TAU;
 
 use errmap_drivers::{Axis, SessionRow, edlen};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use super::HENE_WAVELENGTH_UM;
+use crate::base::consts::HENE_WAVELENGTH_UM;
 
 /// The measurement plan.
 #[derive(Debug, Clone, PartialEq)]
@@ -130,16 +132,21 @@ pub enum Hidden {
 impl Hidden {
     /// The contract's id.
     pub fn id(&self) -> &'static str {
+        self.effect().as_str()
+    }
+
+    /// The vocabulary effect this is.
+    pub fn effect(&self) -> EffectId {
         match self {
-            Hidden::ScaleThermal { .. } => "scale_thermal_expansion",
-            Hidden::ScaleFactor { .. } => "scale_factor",
-            Hidden::Abbe { .. } => "abbe",
-            Hidden::Reversal { .. } => "reversal",
-            Hidden::LatchDelay { .. } => "latch_delay",
-            Hidden::Periodic { .. } => "periodic_scale",
-            Hidden::DriftExp { .. } | Hidden::DriftLinear { .. } => "thermal_drift",
-            Hidden::DeadPath { .. } => "dead_path",
-            Hidden::Refraction { .. } => "refraction",
+            Hidden::ScaleThermal { .. } => EffectId::ScaleThermalExpansion,
+            Hidden::ScaleFactor { .. } => EffectId::ScaleFactor,
+            Hidden::Abbe { .. } => EffectId::Abbe,
+            Hidden::Reversal { .. } => EffectId::Reversal,
+            Hidden::LatchDelay { .. } => EffectId::LatchDelay,
+            Hidden::Periodic { .. } => EffectId::PeriodicScale,
+            Hidden::DriftExp { .. } | Hidden::DriftLinear { .. } => EffectId::ThermalDrift,
+            Hidden::DeadPath { .. } => EffectId::DeadPath,
+            Hidden::Refraction { .. } => EffectId::Refraction,
         }
     }
 
@@ -150,41 +157,50 @@ impl Hidden {
                 alpha_ppm_per_k,
                 x0_mm,
             } => {
-                vec![("alpha_ppm_per_k", alpha_ppm_per_k), ("x0_mm", x0_mm)]
+                vec![
+                    (P::AlphaPpmPerK.as_str(), alpha_ppm_per_k),
+                    (P::X0Mm.as_str(), x0_mm),
+                ]
             }
-            Hidden::ScaleFactor { ppm } => vec![("ppm", ppm)],
+            Hidden::ScaleFactor { ppm } => vec![(P::Ppm.as_str(), ppm)],
             Hidden::Abbe {
                 theta0_urad,
                 theta1_urad_per_mm,
                 ..
             } => vec![
-                ("theta0_urad", theta0_urad),
-                ("theta1_urad_per_mm", theta1_urad_per_mm),
+                (P::Theta0Urad.as_str(), theta0_urad),
+                (P::Theta1UradPerMm.as_str(), theta1_urad_per_mm),
             ],
-            Hidden::Reversal { b_um } => vec![("b_um", b_um)],
-            Hidden::LatchDelay { tau_us } => vec![("tau_us", tau_us)],
+            Hidden::Reversal { b_um } => vec![(P::BUm.as_str(), b_um)],
+            Hidden::LatchDelay { tau_us } => vec![(P::TauUs.as_str(), tau_us)],
             Hidden::Periodic {
                 amplitude_um,
                 period_um,
                 phase_rad,
             } => vec![
-                ("amplitude_um", amplitude_um),
-                ("period_um", period_um),
-                ("phase_rad", phase_rad),
+                (P::AmplitudeUm.as_str(), amplitude_um),
+                (P::PeriodUm.as_str(), period_um),
+                (P::PhaseRad.as_str(), phase_rad),
             ],
             Hidden::DriftExp {
                 amplitude_um,
                 tau_s,
             } => {
-                vec![("amplitude_um", amplitude_um), ("tau_s", tau_s)]
+                vec![
+                    (P::AmplitudeUm.as_str(), amplitude_um),
+                    (P::TauS.as_str(), tau_s),
+                ]
             }
-            Hidden::DriftLinear { rate_um_per_s } => vec![("rate_um_per_s", rate_um_per_s)],
-            Hidden::DeadPath { dead_path_mm } => vec![("dead_path_mm", dead_path_mm)],
+            Hidden::DriftLinear { rate_um_per_s } => vec![(P::RateUmPerS.as_str(), rate_um_per_s)],
+            Hidden::DeadPath { dead_path_mm } => vec![(P::DeadPathMm.as_str(), dead_path_mm)],
             Hidden::Refraction {
                 ppm_per_k,
                 ppm_per_hpa,
             } => {
-                vec![("ppm_per_k", ppm_per_k), ("ppm_per_hpa", ppm_per_hpa)]
+                vec![
+                    (P::PpmPerK.as_str(), ppm_per_k),
+                    (P::PpmPerHpa.as_str(), ppm_per_hpa),
+                ]
             }
         }
     }
@@ -280,11 +296,7 @@ fn schedule(p: &SynthPlan, rng: &mut StdRng) -> Vec<Slot> {
         });
         t += 0.2;
     }
-    let gauss = |rng: &mut StdRng| -> f64 {
-        let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-        let u2: f64 = rng.random_range(0.0..1.0);
-        (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
-    };
+    let gauss = |rng: &mut StdRng| -> f64 { gaussian(rng) };
     for line in 0..p.lines_mm.len() {
         if line > 0 {
             t += 10.0;
@@ -397,11 +409,7 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
     let mut hidden_um = vec![vec![0.0; n]; cfg.hidden.len()];
     let mut recorded = Vec::with_capacity(n);
     let mut simulated = Vec::with_capacity(n);
-    let gauss = |rng: &mut StdRng| -> f64 {
-        let u1: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-        let u2: f64 = rng.random_range(0.0..1.0);
-        (-2.0 * u1.ln()).sqrt() * (TAU * u2).cos()
-    };
+    let gauss = |rng: &mut StdRng| -> f64 { gaussian(rng) };
     let (mut glo, mut ghi) = (f64::INFINITY, f64::NEG_INFINITY);
     for (k, s) in slots.iter().enumerate() {
         let [y, z] = cfg.plan.lines_mm[s.line];

@@ -27,12 +27,12 @@ pub enum MethodName {
 }
 
 impl MethodName {
-    /// Every name, in the order help texts list them.
+    /// Every name, in the order help texts and refusals list them.
     pub const ALL: [MethodName; 6] = [
-        MethodName::Lagrange,
         MethodName::Trilinear,
         MethodName::Spline,
         MethodName::Fuzzy,
+        MethodName::Lagrange,
         MethodName::Gp,
         MethodName::GpSe,
     ];
@@ -58,7 +58,7 @@ impl MethodName {
         self == MethodName::Lagrange
     }
 
-    /// "lagrange, trilinear, spline, fuzzy, gp, gp-se".
+    /// "trilinear, spline, fuzzy, lagrange, gp, gp-se".
     pub fn list() -> String {
         Self::ALL.map(Self::as_str).join(", ")
     }

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::ReportError;
 use super::diagnosis::write_report;
+use crate::base::EffectId;
 use crate::diagnose::{DiagnoseConfig, Verdict, diagnose};
 use crate::session::read_session;
 use crate::sim::concealed::Truth;
@@ -16,7 +17,7 @@ use crate::sim::concealed::Truth;
 pub struct CaseOutcome {
     pub name: String,
     pub verdict: Verdict,
-    pub effects: Vec<String>,
+    pub effects: Vec<EffectId>,
 }
 
 /// A number as the JSON of `truth.json` writes it (`3.0`, `0.004`), so that the index
@@ -120,7 +121,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         outcomes.push(CaseOutcome {
             name: name.clone(),
             verdict: d.verdict,
-            effects: d.effects.iter().map(|e| e.id.clone()).collect(),
+            effects: d.effects.iter().map(|e| e.id).collect(),
         });
     }
     let index_path = out.join("README.md");

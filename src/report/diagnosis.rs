@@ -136,7 +136,7 @@ pub fn write_report(
                 ));
             }
         }
-        let name = format!("effect_{}_{}", k + 1, slug(&e.id));
+        let name = format!("effect_{}_{}", k + 1, slug(e.id.as_str()));
         let p = plot::xy(
             &dir.join(&name),
             &format!("{}: residual without the other effects", e.id),

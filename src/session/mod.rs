@@ -31,6 +31,7 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use polars::prelude::*;
 
+use crate::base::Axis;
 use crate::table::{
     Cells, TableError, column_cells, parse_cell, read_frame, required_cell, write_frame,
 };
@@ -118,15 +119,13 @@ fn axis_cell(path: &Path, cells: &Cells, row0: usize) -> Result<WireAxis, TableE
         Cells::Text(v) => v[row0].clone().unwrap_or_default(),
         Cells::Number(v) => v[row0].map(|x| x.to_string()).unwrap_or_default(),
     };
-    match text.trim() {
-        "X" | "x" => Ok(WireAxis::X),
-        "Y" | "y" => Ok(WireAxis::Y),
-        "Z" | "z" => Ok(WireAxis::Z),
-        other => Err(bad(
+    match text.trim().parse::<Axis>() {
+        Ok(a) => Ok(WireAxis::from(a)),
+        Err(_) => Err(bad(
             path,
             row0,
             "axis",
-            format!("`{other}` is not X, Y or Z"),
+            format!("`{}` is not X, Y or Z", text.trim()),
         )),
     }
 }

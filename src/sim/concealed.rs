@@ -11,6 +11,7 @@
 //! lines are absent because their position is unknown), `truth.json` (the hidden parameters, for the tests — the diagnosis never
 //! reads it) and a README saying what is hidden and how big it is.
 
+use crate::base::stats::peak_to_peak;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -146,7 +147,7 @@ pub fn cases() -> Vec<Case> {
             apply: |m| {
                 m.abbe = Some(Abbe {
                     enabled: true,
-                    offset_axis: "z".into(),
+                    offset_axis: crate::base::Axis::Z,
                     theta0_urad: 3.0,
                     theta1_urad_per_mm: 0.004,
                 })
@@ -315,13 +316,6 @@ impl Truth {
     }
 }
 
-fn pp(v: impl Iterator<Item = f64>) -> f64 {
-    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
-        (l.min(x), h.max(x))
-    });
-    if hi >= lo { hi - lo } else { 0.0 }
-}
-
 /// The generated sessions of one case, in memory.
 #[derive(Debug)]
 pub struct Generated {
@@ -351,8 +345,8 @@ pub fn generate(case: &Case, table1: &Path, seed: u64) -> Result<Generated, SimE
         .collect();
     let mean = effect.iter().sum::<f64>() / effect.len().max(1) as f64;
     let sizes = CaseSizes {
-        geometric_pp_um: pp(simulated.iter().map(|r| r.error_um)),
-        effect_pp_um: pp(effect.iter().copied()),
+        geometric_pp_um: peak_to_peak(simulated.iter().map(|r| r.error_um)),
+        effect_pp_um: peak_to_peak(effect.iter().copied()),
         effect_rms_um: (effect.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>()
             / effect.len().max(1) as f64)
             .sqrt(),

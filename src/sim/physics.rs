@@ -42,6 +42,7 @@ use rand::rngs::StdRng;
 use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
+use crate::base::Axis;
 use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
 use crate::base::stats::gaussian;
 use crate::interp::{
@@ -243,7 +244,7 @@ pub struct Abbe {
     #[serde(default = "yes")]
     pub enabled: bool,
     /// "y" or "z" (an axis other than the measured one).
-    pub offset_axis: String,
+    pub offset_axis: Axis,
     pub theta0_urad: f64,
     #[serde(default)]
     pub theta1_urad_per_mm: f64,
@@ -400,14 +401,6 @@ impl MachineModel {
         ] {
             hist.check(name)?;
         }
-        if let Some(a) = &self.abbe
-            && !matches!(a.offset_axis.as_str(), "x" | "y" | "z")
-        {
-            return Err(format!(
-                "abbe.offset_axis `{}` must be x, y or z",
-                a.offset_axis
-            ));
-        }
         if let Some(p) = &self.periodic_scale
             && p.enabled
             && (p.period_um.is_nan() || p.period_um <= 0.0)
@@ -510,21 +503,13 @@ pub struct PhysicsTruth {
     pub noise: bool,
 }
 
-fn axis_index(a: WireAxis) -> usize {
-    match a {
-        WireAxis::X => 0,
-        WireAxis::Y => 1,
-        WireAxis::Z => 2,
-    }
-}
-
 impl PhysicsTruth {
     /// The noiseless error at a latch, µm.
     pub fn expected_um(&self, q: &TruthQuery) -> f64 {
         let m = &self.model;
         let h = &m.environment;
         let t = q.t_s;
-        let x = q.pos_mm[axis_index(self.axis)];
+        let x = q.pos_mm[Axis::from(self.axis).index()];
         let d = f64::from(q.direction);
         // v as the contract's vocabulary defines it: the commanded feed on moving samples,
         // 0 while dwelling (the short acceleration phases of a move are not modelled).
@@ -544,11 +529,7 @@ impl PhysicsTruth {
         k_ppm += theta * theta / 2.0 * 1e6;
         e += k_ppm * x * 1e-3;
         if let Some(a) = m.abbe.as_ref().filter(|a| a.enabled) {
-            let c = match a.offset_axis.as_str() {
-                "x" => q.pos_mm[0],
-                "y" => q.pos_mm[1],
-                _ => q.pos_mm[2],
-            };
+            let c = q.pos_mm[a.offset_axis.index()];
             e += c * (a.theta0_urad + a.theta1_urad_per_mm * x) * 1e-3;
         }
         if let Some(r) = m.reversal.as_ref().filter(|r| r.enabled) {
@@ -681,7 +662,7 @@ pub fn simulate_rows(
     let axis = recorded.first().map_or(WireAxis::X, |r| r.axis);
     let duration = recorded.iter().map(|r| r.t_s).fold(0.0, f64::max);
     let truth = model.truth(model_path, axis, duration)?;
-    let a = axis_index(axis);
+    let a = Axis::from(axis).index();
     // Rows before the first MARK have no line coordinates: they are at the first line.
     let first = |f: fn(&SessionRow) -> Option<f64>| recorded.iter().find_map(f).unwrap_or(0.0);
     let line0 = [first(|r| r.x_mm), first(|r| r.y_mm), first(|r| r.z_mm)];

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::{SimError, read_toml};
 use super::physics::{MachineModel, PhysicsTruth, simulate_plan};
+use crate::base::Axis;
 use crate::table::ErrorTable;
 
 /// A measurement plan file.
@@ -68,17 +69,11 @@ impl PlanSpec {
     }
 
     pub fn plan(&self, path: &Path) -> Result<Plan, SimError> {
-        let axis = match self.axis.trim() {
-            "X" | "x" => WireAxis::X,
-            "Y" | "y" => WireAxis::Y,
-            "Z" | "z" => WireAxis::Z,
-            other => {
-                return Err(SimError::Config {
-                    path: path.to_path_buf(),
-                    message: format!("axis `{other}` is not X, Y or Z"),
-                });
-            }
-        };
+        let axis: Axis = self.axis.trim().parse().map_err(|e| SimError::Config {
+            path: path.to_path_buf(),
+            message: format!("axis: {e}"),
+        })?;
+        let axis = WireAxis::from(axis);
         Ok(Plan {
             axis,
             lines_mm: self.lines_mm.clone(),

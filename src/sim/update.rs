@@ -1,6 +1,9 @@
 //! Writing what a diagnosis found back into a machine model, so that `simulate`
 //! reproduces the recording (`diagnose --model … --out DIR` writes `updated-model.toml`).
 
+use crate::base::Axis;
+use crate::base::vocabulary::{EffectId, ParamName as P};
+
 use super::physics::{
     Abbe, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale, ScaleFactor,
     ThermalDrift,
@@ -14,18 +17,18 @@ pub fn apply_found_effects(
 ) -> Vec<String> {
     let mut notes = Vec::new();
     for e in effects {
-        let num = |k: &str| e.params.get(k).and_then(serde_json::Value::as_f64);
-        let need = |k: &str| num(k).unwrap_or(0.0);
-        match e.id.as_str() {
-            "scale_thermal_expansion" => {
+        let num = |k: P| e.params.get(k.as_str()).and_then(serde_json::Value::as_f64);
+        let need = |k: P| num(k).unwrap_or(0.0);
+        match e.id {
+            EffectId::ScaleThermalExpansion => {
                 model.scale = Some(Scale {
                     enabled: true,
                     material: "from diagnosis".into(),
-                    cte_ppm_per_k: need("alpha_ppm_per_k"),
-                    x0_mm: need("x0_mm"),
+                    cte_ppm_per_k: need(P::AlphaPpmPerK),
+                    x0_mm: need(P::X0Mm),
                 });
             }
-            "scale_factor" => {
+            EffectId::ScaleFactor => {
                 let old = model
                     .scale_factor
                     .as_ref()
@@ -33,24 +36,25 @@ pub fn apply_found_effects(
                     .map_or(0.0, |s| s.ppm);
                 model.scale_factor = Some(ScaleFactor {
                     enabled: true,
-                    ppm: old + need("ppm"),
+                    ppm: old + need(P::Ppm),
                 });
             }
-            "abbe" => {
+            EffectId::Abbe => {
+                // The diagnosis writes the offset axis as text ("y" or "z").
                 let axis = e
                     .params
-                    .get("offset_axis")
+                    .get(P::OffsetAxis.as_str())
                     .and_then(serde_json::Value::as_str)
-                    .unwrap_or("z")
-                    .to_string();
+                    .and_then(|a| a.parse::<Axis>().ok())
+                    .unwrap_or(Axis::Z);
                 model.abbe = Some(Abbe {
                     enabled: true,
                     offset_axis: axis,
-                    theta0_urad: need("theta0_urad"),
-                    theta1_urad_per_mm: need("theta1_urad_per_mm"),
+                    theta0_urad: need(P::Theta0Urad),
+                    theta1_urad_per_mm: need(P::Theta1UradPerMm),
                 });
             }
-            "reversal" => {
+            EffectId::Reversal => {
                 let old = model
                     .reversal
                     .as_ref()
@@ -58,10 +62,10 @@ pub fn apply_found_effects(
                     .map_or(0.0, |r| r.b_um);
                 model.reversal = Some(Reversal {
                     enabled: true,
-                    b_um: old + need("b_um"),
+                    b_um: old + need(P::BUm),
                 });
             }
-            "latch_delay" => {
+            EffectId::LatchDelay => {
                 let old = model
                     .latch_delay
                     .as_ref()
@@ -69,35 +73,35 @@ pub fn apply_found_effects(
                     .map_or(0.0, |l| l.tau_us);
                 model.latch_delay = Some(LatchDelay {
                     enabled: true,
-                    tau_us: old + need("tau_us"),
+                    tau_us: old + need(P::TauUs),
                 });
             }
-            "periodic_scale" => {
+            EffectId::PeriodicScale => {
                 model.periodic_scale = Some(PeriodicScale {
                     enabled: true,
-                    amplitude_um: need("amplitude_um"),
-                    period_um: need("period_um"),
-                    phase_rad: need("phase_rad"),
+                    amplitude_um: need(P::AmplitudeUm),
+                    period_um: need(P::PeriodUm),
+                    phase_rad: need(P::PhaseRad),
                 });
             }
-            "thermal_drift" => {
+            EffectId::ThermalDrift => {
                 model.thermal_drift = Some(ThermalDrift {
                     enabled: true,
-                    amplitude_um: need("amplitude_um"),
-                    tau_s: num("tau_s"),
-                    rate_um_per_s: need("rate_um_per_s"),
+                    amplitude_um: need(P::AmplitudeUm),
+                    tau_s: num(P::TauS),
+                    rate_um_per_s: need(P::RateUmPerS),
                 });
             }
-            "dead_path" => model.laser.dead_path_mm += need("dead_path_mm"),
-            "refraction" => {
+            EffectId::DeadPath => model.laser.dead_path_mm += need(P::DeadPathMm),
+            EffectId::Refraction => {
                 model.refraction = Some(Refraction {
                     enabled: true,
-                    ppm_per_k: need("ppm_per_k"),
-                    ppm_per_hpa: need("ppm_per_hpa"),
+                    ppm_per_k: need(P::PpmPerK),
+                    ppm_per_hpa: need(P::PpmPerHpa),
                 });
             }
-            other => {
-                notes.push(format!("{other}: no model term for it; not added"));
+            EffectId::Unexplained => {
+                notes.push(format!("{}: no model term for it; not added", e.id));
                 continue;
             }
         }

@@ -95,7 +95,7 @@ fn each_effect_has_the_vocabulary_signature() {
     let (rows, r) = residual(|m| {
         m.abbe = Some(Abbe {
             enabled: true,
-            offset_axis: "z".into(),
+            offset_axis: errmap::base::Axis::Z,
             theta0_urad: 3.0,
             theta1_urad_per_mm: 0.01,
         })

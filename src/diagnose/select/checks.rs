@@ -7,6 +7,7 @@
 //! Called from `candidates` (the periodic support) and from [`Selector::run`]; calls no
 //! other file of `select`.
 
+use crate::base::vocabulary::ParamName as P;
 use std::collections::BTreeMap;
 
 use crate::diagnose::effects::{self, Kind, Variant};
@@ -70,7 +71,7 @@ impl Selector<'_> {
         if f.term.kind != Kind::DeadPath {
             return None;
         }
-        let p = f.params.iter().find(|p| p.name == "dead_path_mm")?;
+        let p = f.params.iter().find(|p| p.name == P::DeadPathMm)?;
         (d0 + p.value < -2.0 * p.sigma).then(|| {
             format!(
                 "dead_path_mm = {:.1} ± {:.1} on the model's {d0:.1} mm makes the dead path {:.1} mm: \
@@ -240,11 +241,11 @@ impl Selector<'_> {
         for (ti, t) in terms.iter().enumerate() {
             let names = effects::coef_names(t.kind, &t.variant);
             for (q, name) in names.iter().take(t.cols.len()).enumerate() {
-                owner[offset + q] = Some((ti, name));
+                owner[offset + q] = Some((ti, name.as_str()));
             }
             offset += t.cols.len();
             if let (Some(j), Some(name)) = (nl_index[ti], names.get(t.cols.len())) {
-                owner[j] = Some((ti, name));
+                owner[j] = Some((ti, name.as_str()));
             }
         }
         self.correlated.clear();

@@ -54,6 +54,7 @@ use super::data::Obs;
 use super::effects::{self, Columns, Kind, Param, Variant};
 use super::engine::{CONST, Engine, Fit, bic};
 use super::spectral;
+pub(crate) use crate::base::stats::centred_rms;
 
 use checks::lattice_alias;
 use nonlinear::MIN_MOVING_FOR_SCAN;
@@ -544,13 +545,4 @@ fn variant_words(v: &Variant) -> String {
         Variant::DriftLinear => "linear".into(),
         Variant::Periodic { period_um } => format!("period {period_um:.4} µm"),
     }
-}
-
-/// RMS about the mean.
-pub(crate) fn centred_rms(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let m = v.iter().sum::<f64>() / v.len() as f64;
-    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / v.len() as f64).sqrt()
 }

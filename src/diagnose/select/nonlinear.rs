@@ -5,6 +5,7 @@
 //!
 //! Called from `candidates` and from the passes in `mod.rs`; calls no other file of `select`.
 
+use crate::base::optim::golden;
 use crate::diagnose::effects::{self, Variant};
 use crate::diagnose::engine::{CONST, solve};
 use crate::diagnose::spectral;
@@ -320,30 +321,6 @@ impl Selector<'_> {
             }
         }
     }
-}
-
-/// Golden-section minimisation of `f` on [lo, hi].
-fn golden(mut lo: f64, mut hi: f64, iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let mut a = hi - g * (hi - lo);
-    let mut b = lo + g * (hi - lo);
-    let (mut fa, mut fb) = (f(a), f(b));
-    for _ in 0..iters {
-        if fa <= fb {
-            hi = b;
-            b = a;
-            fb = fa;
-            a = hi - g * (hi - lo);
-            fa = f(a);
-        } else {
-            lo = a;
-            a = b;
-            fa = fb;
-            b = lo + g * (hi - lo);
-            fb = f(b);
-        }
-    }
-    if fa <= fb { (a, fa) } else { (b, fb) }
 }
 
 /// χ² of a weighted fit of `y` by a constant and `cols` (all of length n).

@@ -7,8 +7,8 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use super::lbfgs::lbfgs;
 use super::{GpConfig, Kernel, NUGGET};
+use crate::base::optim::lbfgs;
 
 /// L-BFGS iterations per start.
 const MAX_ITERATIONS: usize = 200;

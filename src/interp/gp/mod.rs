@@ -73,7 +73,6 @@
 //! mean), Eq. 5.9 (likelihood gradient).
 
 mod kernel;
-mod lbfgs;
 mod likelihood;
 
 use std::fmt;

@@ -1,13 +1,13 @@
-//! A small deterministic L-BFGS minimiser with Armijo backtracking, used for the
-//! hyperparameter fit. It imports nothing of the crate, so it can move to a shared
-//! optimisation module as is.
+//! The optimisers: a small deterministic L-BFGS with Armijo backtracking (the Gaussian
+//! process' hyperparameter fit) and golden-section search on an interval (the
+//! diagnosis' nonlinear parameters: a period, a time constant).
 
 use std::collections::VecDeque;
 
 /// Minimises `f` (value and gradient; `None` where undefined) by L-BFGS with Armijo
 /// backtracking, from `x0`. Returns the best value and point, or `None` if `f` is
 /// undefined at `x0`. Deterministic.
-pub(super) fn lbfgs(
+pub fn lbfgs(
     f: &impl Fn(&[f64]) -> Option<(f64, Vec<f64>)>,
     x0: Vec<f64>,
     max_iterations: usize,
@@ -93,4 +93,28 @@ pub(super) fn lbfgs(
         }
     }
     Some((fx, x))
+}
+
+/// Golden-section minimisation of `f` on [lo, hi].
+pub fn golden(mut lo: f64, mut hi: f64, iters: usize, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut a = hi - g * (hi - lo);
+    let mut b = lo + g * (hi - lo);
+    let (mut fa, mut fb) = (f(a), f(b));
+    for _ in 0..iters {
+        if fa <= fb {
+            hi = b;
+            b = a;
+            fb = fa;
+            a = hi - g * (hi - lo);
+            fa = f(a);
+        } else {
+            lo = a;
+            a = b;
+            fa = fb;
+            b = lo + g * (hi - lo);
+            fb = f(b);
+        }
+    }
+    if fa <= fb { (a, fa) } else { (b, fb) }
 }
