@@ -9,7 +9,7 @@ use std::sync::LazyLock;
 use divan::counter::{BytesCount, ItemsCount};
 use divan::{Bencher, black_box};
 use errmap::bench::{gp_points, random_grid, random_points, synthetic_capture};
-use errmap::gp::{Gp, GpConfig};
+use errmap::interp::gp::{Gp, GpConfig};
 use errmap::interp::{Method, Order, fuzzy, predict_parallel};
 use errmap::table::Grid;
 

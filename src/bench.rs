@@ -221,7 +221,7 @@ pub fn gp_points(n: usize) -> Vec<crate::table::ErrorPoint> {
 pub fn gp_fit_seconds(n: usize) -> Option<f64> {
     let points = gp_points(n);
     let t = Instant::now();
-    crate::gp::Gp::fit(&points, &crate::gp::GpConfig::default()).ok()?;
+    crate::interp::gp::Gp::fit(&points, &crate::interp::gp::GpConfig::default()).ok()?;
     Some(t.elapsed().as_secs_f64())
 }
 

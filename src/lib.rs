@@ -1,26 +1,27 @@
 //! errmap — measure and model the volumetric error of coordinate measuring machines.
 //!
-//! The library holds all the work; the `errmap` binary turns arguments into library
-//! types once and calls it. Modules are listed in pipeline order; each imports only the
-//! modules above it in this table (`base`, `plot` and `errmap-drivers` import nothing of
-//! the crate; nothing but `report`, `bench` and the binary imports `report`). The rule is
-//! checked in CI by `tests/it/layers.rs`.
+//! The library holds all the work; the `errmap` binary (`src/cli/`) turns arguments into
+//! library types once and calls it. The modules, in pipeline order:
 //!
 //! | module | stage | does |
 //! |---|---|---|
-//! | [`base`] | leaf | the one `Axis`, small statistics, constants |
-//! | [`plot`] | leaf | PNG/SVG charts with a bundled font |
-//! | [`drivers`] | leaf | the wire protocol, decoder, capture loop and simulated board (`errmap-drivers`) |
-//! | [`table`] | 3 | error tables (CSV/Parquet via polars), validation, the rectilinear grid |
-//! | [`interp`] | 4 | the models: Lagrange m×n×q, trilinear, tricubic spline, fuzzy, Gaussian process |
-//! | [`evaluate`] | 5 | cross-validation, the order/method comparison, the seed-000 experiment |
-//! | [`export`] | 8 | compensation tables for controllers, CSV lines, volumetric grids |
-//! | [`session`] | 2 | session tables (one row per sample), their reduction to error tables, ISO 230-2 |
-//! | [`acquire`] | 1 | capture and replay into a session directory |
-//! | [`diagnose`] | 7 | what a simulation left out of a recording: locate, name, fit |
-//! | [`sim`] | — | the machine model and simulator (the other side of the diagnosis) |
-//! | [`report`] | 6 | words, tables and figures on disk for every stage |
-//! | [`bench`] | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
+//! | [`acquire`] | 1 acquisition | capture and replay into a session directory (raw bytes first) |
+//! | [`session`] | 2 session | session tables, their reduction to error tables, ISO 230-2 / VDI 3441 statistics |
+//! | [`table`] | 3 error table | error tables (CSV/Parquet via polars), cell validation, the grid |
+//! | [`interp`] | 4 models | Lagrange m×n×q, trilinear, tricubic spline, fuzzy, Gaussian process; the method registry |
+//! | [`evaluate`] | 5 evaluation | cross-validation, the order/method comparison, seed 000's experiment |
+//! | [`report`] | 6 report | words, tables and figures on disk for every stage |
+//! | [`diagnose`] | 7 diagnosis | what a simulation left out of a recording: locate, name, fit |
+//! | [`export`] | 8 export | compensation tables for controllers, CSV lines, volumetric grids |
+//! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
+//! | [`base`] | shared leaf | the one `Axis`, the diagnosis vocabulary, statistics, optimisers, constants |
+//! | [`plot`] | shared leaf | PNG/SVG charts with a bundled font |
+//! | [`bench`](mod@bench) | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
+//! | [`drivers`] | leaf crate | `errmap-drivers`: wire protocol, decoder, capture loop, simulated board |
+//!
+//! Imports run one way: `base` and `plot` import nothing of the crate, each stage imports
+//! only the stages it builds on, and nothing in the library imports [`report`]. The rule
+//! is written out in `CONTRIBUTING.md` and checked by the test `tests/it/layers.rs`.
 //!
 //! # Example
 //!
@@ -46,33 +47,17 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod acquire;
 pub mod base;
+pub mod bench;
+pub mod diagnose;
+pub mod evaluate;
+pub mod export;
+pub mod interp;
 pub mod plot;
-
+pub mod report;
+pub mod session;
+pub mod sim;
 pub mod table;
 
-pub mod interp;
-
-pub mod evaluate;
-
-pub mod export;
-
-pub mod session;
-
-pub mod acquire;
-
-pub mod diagnose;
-
-pub mod sim;
-
-pub mod report;
-
-pub mod bench;
-
 pub use errmap_drivers as drivers;
-
-// Transitional paths from the flat layout, kept so that older callers compile.
-pub use evaluate::{compare, cv, experiment};
-pub use interp::gp;
-pub use session::iso230;
-pub use sim::{concealed, physics};

@@ -12,7 +12,7 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::{iso230, session};
+use errmap::session::{self, iso230};
 
 use super::args::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
 

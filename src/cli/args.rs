@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use errmap::base::Axis;
 use errmap::evaluate::compare::DEFAULT_MAX_DEGREE;
-use errmap::gp::Kernel;
+use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, fuzzy};
 
 use super::values::{

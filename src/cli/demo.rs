@@ -85,7 +85,9 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         })?;
     }
     let (stream, truth) = errmap::sim::simulate_stream(&machine, Some(&plan), &Default::default())?;
-    let baud = errmap::physics::MachineModel::read(&model)?.device.baud;
+    let baud = errmap::sim::physics::MachineModel::read(&model)?
+        .device
+        .baud;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let server = std::thread::spawn(move || {
         acquisition::serve_stream(&stream, 10.0, 1.5, 30.0, |path| {

@@ -106,7 +106,7 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::ReportConcealed(a) => diagnose::report_concealed(&a.cases, &a.out),
         Command::GenConcealed(a) => {
-            let dirs = errmap::concealed::write_all(&a.out, &a.table1)?;
+            let dirs = errmap::sim::concealed::write_all(&a.out, &a.table1)?;
             eprintln!(
                 "gen-concealed: {} cases under {}",
                 dirs.len(),

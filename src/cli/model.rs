@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use errmap::compare;
-use errmap::experiment::{self, FuzzySimConfig};
+use errmap::evaluate::compare;
+use errmap::evaluate::experiment::{self, FuzzySimConfig};
 use errmap::interp::{Method, MethodError, MethodName};
 use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
@@ -352,10 +352,15 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
 }
 
 pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    let model = errmap::physics::MachineModel::read(&a.model)?;
+    let model = errmap::sim::physics::MachineModel::read(&a.model)?;
     let plan = errmap::sim::read_plan(Some(&a.plan))?;
-    let (stream, _) =
-        errmap::physics::simulate_plan(&model, &a.model, &plan, &Default::default(), !a.no_noise)?;
+    let (stream, _) = errmap::sim::physics::simulate_plan(
+        &model,
+        &a.model,
+        &plan,
+        &Default::default(),
+        !a.no_noise,
+    )?;
     let bytes = stream.bytes();
     if let Some(raw) = &a.raw {
         std::fs::write(raw, &bytes).with_context(|| format!("cannot write {}", raw.display()))?;

@@ -13,7 +13,7 @@ use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
 use errmap::export::LinuxCncCompType;
-use errmap::gp::Kernel;
+use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, Order};
 
 /// `--method`: a name from the method registry.

@@ -77,11 +77,12 @@ pub const ADVICE_NODES: usize = 5;
 fn sampling_advice(
     table: &ErrorTable,
     extent: &Extent,
-    gp: Option<crate::gp::Gp>,
+    gp: Option<crate::interp::gp::Gp>,
 ) -> Option<SamplingAdvice> {
     let gp = match gp {
         Some(gp) => gp,
-        None => crate::gp::Gp::fit(&table.points, &crate::gp::GpConfig::default()).ok()?,
+        None => crate::interp::gp::Gp::fit(&table.points, &crate::interp::gp::GpConfig::default())
+            .ok()?,
     };
     let h = gp.hyper();
     // Candidates: a 9-point lattice per axis over the table's volume.
@@ -238,15 +239,15 @@ pub fn compare_scattered(
                 method: method.name(),
             });
         };
-        let config = crate::gp::GpConfig {
+        let config = crate::interp::gp::GpConfig {
             kernel,
-            ..crate::gp::GpConfig::default()
+            ..crate::interp::gp::GpConfig::default()
         };
-        let gp = crate::gp::Gp::fit(&table.points, &config)
+        let gp = crate::interp::gp::Gp::fit(&table.points, &config)
             .map_err(|e| InterpError::Gp(e.to_string()))?;
         let cv = leave_one_out_gp(&gp, &values);
         rows.push(ModelRow::evaluate(*method, &gp, cv, test));
-        if config == crate::gp::GpConfig::default() {
+        if config == crate::interp::gp::GpConfig::default() {
             default_gp = Some(gp);
         }
     }

@@ -17,7 +17,7 @@
 
 use serde::Serialize;
 
-use crate::gp::Gp;
+use crate::interp::gp::Gp;
 use crate::interp::{InterpError, Method, Order};
 use crate::table::{Axis, Grid};
 

@@ -325,10 +325,10 @@ mod by_name {
         };
         let mut fails = Vec::new();
         let mut total = 0;
-        for case in errmap::concealed::cases() {
+        for case in errmap::sim::concealed::cases() {
             for seed in 0..seeds {
                 total += 1;
-                let g = match errmap::concealed::generate(&case, &table1, 1000 + seed) {
+                let g = match errmap::sim::concealed::generate(&case, &table1, 1000 + seed) {
                     Ok(g) => g,
                     Err(e) => panic!("{}: {e}", case.name),
                 };

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use errmap::physics::{MachineModel, PhysicsTruth};
 use errmap::session::{error_table, read_session};
+use errmap::sim::physics::{MachineModel, PhysicsTruth};
 use errmap::table::ErrorTable;
 
 fn bin() -> &'static str {

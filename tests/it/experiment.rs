@@ -1,6 +1,6 @@
 //! Seed 000's simulation: checks which of the paper's claims hold (seeded, many trials).
 
-use errmap::experiment::{FuzzySimConfig, run};
+use errmap::evaluate::experiment::{FuzzySimConfig, run};
 
 #[test]
 fn fuzzy_beats_trilinear_and_spline_on_random_node_errors_but_spline_does_not_beat_trilinear() {

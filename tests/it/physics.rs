@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use errmap::physics::{
+use errmap::sim::physics::{
     Abbe, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale,
     ScaleFactor, ThermalDrift, simulate_rows, simulate_session,
 };
@@ -16,14 +16,14 @@ fn root() -> PathBuf {
 }
 
 fn base() -> (MachineModel, PathBuf) {
-    let m = errmap::concealed::nominal(&root().join("datasets/table1.csv"), 1);
+    let m = errmap::sim::concealed::nominal(&root().join("datasets/table1.csv"), 1);
     (m, root().join("datasets/model.toml"))
 }
 
 fn recorded(m: &MachineModel, path: &Path) -> Vec<SessionRow> {
     let plan = errmap_drivers::sim::Plan {
         runs: 2,
-        ..errmap::concealed::plan()
+        ..errmap::sim::concealed::plan()
     };
     simulate_session(m, path, &plan, false).expect("simulates")
 }
