@@ -286,7 +286,7 @@ pub fn print_summary(c: &compare::Comparison, dir: &Path) {
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{
-        ExportFormat, Extrapolation, LineSpec, VolumeSpec, sample_line, volumetric_grid,
+        ExportFormat, Extrapolation, LineSpec, VolumeSpec, sample_line, write_grid,
     };
     let Fitted { model, extent, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
@@ -308,7 +308,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     let lo = extent.bounds.map(|b| b[0]);
     let hi = extent.bounds.map(|b| b[1]);
     if !format.is_line() {
-        let n = volumetric_grid(
+        let n = write_grid(
             model.as_ref(),
             &VolumeSpec {
                 lo_mm: lo,

@@ -199,7 +199,7 @@ pub enum ExportError {
         "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
     )]
     BadAxisName { name: String },
-    #[error("the grid format samples a volume: call volumetric_grid, not render_line")]
+    #[error("the grid format samples a volume: call write_grid, not render_line")]
     GridNeedsVolume,
     #[error(transparent)]
     Table(#[from] TableError),

@@ -451,8 +451,8 @@ pub fn sample_line(
 /// Samples the model over a box ([`grid::render`]) and writes
 /// `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated` (x fastest) as CSV or Parquet, by the
 /// extension of `out`, through [`crate::table::write_frame`]. Returns the number of rows.
-/// Cost: N predictions.
-// TODO(lead): move the write to table/frame.rs
+/// Cost: N predictions. The renderer ([`grid::render`]) is pure; this is the one place
+/// the export touches a file, and it does so through the table stage's writer.
 pub fn write_grid(
     model: &dyn Interpolator,
     spec: &VolumeSpec,
@@ -483,6 +483,3 @@ pub fn write_grid(
     write_frame(out, &mut df)?;
     Ok(n)
 }
-
-/// The old name of [`write_grid`], kept while callers move over.
-pub use self::write_grid as volumetric_grid;

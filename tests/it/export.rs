@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use errmap::export::{
     Controller, ExportError, ExportFormat, Extrapolation, LINUXCNC_MAX_ENTRIES, LineSpec,
-    LinuxCncCompType, Sampled, VolumeSpec, csv, linuxcnc, sample_line, siemens, volumetric_grid,
+    LinuxCncCompType, Sampled, VolumeSpec, csv, linuxcnc, sample_line, siemens, write_grid,
 };
 use errmap::interp::{Interpolator, Method, Order};
 use errmap::table::{Axis, ErrorTable, Grid};
@@ -652,7 +652,7 @@ fn volumetric_grid_writes_csv_and_parquet_that_read_back_as_error_tables() {
     let dir = tempfile::tempdir().expect("tempdir");
     for name in ["vol.csv", "vol.parquet"] {
         let p = dir.path().join(name);
-        let rows = volumetric_grid(&*model, &spec, Extrapolation::Forbid, &p).expect("writes");
+        let rows = write_grid(&*model, &spec, Extrapolation::Forbid, &p).expect("writes");
         assert_eq!(rows, 9 * 5 * 4);
         let table = ErrorTable::read(&p).expect("reads back");
         let grid = table.grid().expect("a rectilinear grid");
@@ -672,7 +672,7 @@ fn volumetric_grid_writes_csv_and_parquet_that_read_back_as_error_tables() {
     };
     let p = dir.path().join("plane.csv");
     assert_eq!(
-        volumetric_grid(&*model, &plane, Extrapolation::Forbid, &p).expect("plane"),
+        write_grid(&*model, &plane, Extrapolation::Forbid, &p).expect("plane"),
         5 * 3
     );
     // Beyond the map: refused when forbidden, flagged otherwise.
@@ -681,14 +681,14 @@ fn volumetric_grid_writes_csv_and_parquet_that_read_back_as_error_tables() {
         ..spec
     };
     let p = dir.path().join("big.csv");
-    let e = volumetric_grid(&*model, &big, Extrapolation::Forbid, &p).expect_err("outside");
+    let e = write_grid(&*model, &big, Extrapolation::Forbid, &p).expect_err("outside");
     assert!(e.to_string().contains("x 0.0–800.0 mm"), "{e}");
     assert!(!p.exists(), "nothing written on refusal");
-    volumetric_grid(&*model, &big, Extrapolation::Allow, &p).expect("flagged");
+    write_grid(&*model, &big, Extrapolation::Allow, &p).expect("flagged");
     let text = std::fs::read_to_string(&p).expect("read");
     let flagged = text.lines().filter(|l| l.ends_with(",true")).count();
     assert_eq!(flagged, 5 * 4, "the x = 900 plane is flagged");
-    let e = volumetric_grid(
+    let e = write_grid(
         &*model,
         &spec,
         Extrapolation::Allow,
