@@ -431,3 +431,115 @@ fn compare_by_default_skips_methods_the_table_cannot_carry() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("at least 3 points"), "{}", stderr(&o));
 }
+
+/// A flag value outside its set is a usage error (exit 2, `cli-contract.md`), caught by
+/// the argument parser before any file is read — the names come from the library's
+/// registries, so the message lists the valid ones.
+#[test]
+fn bad_flag_values_are_usage_errors_exit_2() {
+    let t1 = dataset("table1.csv");
+    let t2 = dataset("table2.csv");
+    let cases: &[(&[&str], &str)] = &[
+        (&["fit", &t1, "--method", "foo", "--predict", &t2], "gp-se"),
+        (
+            &[
+                "fit",
+                &t1,
+                "--method",
+                "lagrange",
+                "--order",
+                "axbxc",
+                "--predict",
+                &t2,
+            ],
+            "--order",
+        ),
+        (
+            &[
+                "fit",
+                &t1,
+                "--method",
+                "lagrange",
+                "--order",
+                "4x1",
+                "--predict",
+                &t2,
+            ],
+            "MxNxQ",
+        ),
+        (
+            &[
+                "compare", &t1, "--test", &t2, "--orders", "4x", "--report", "unused",
+            ],
+            "--orders",
+        ),
+        (
+            &[
+                "fit",
+                &t1,
+                "--method",
+                "gp",
+                "--gp-kernel",
+                "rbf",
+                "--predict",
+                &t2,
+            ],
+            "matern52",
+        ),
+        (
+            &[
+                "export", &t1, "--method", "spline", "--step", "10", "--format", "pdf", "--out",
+                "unused",
+            ],
+            "linuxcnc",
+        ),
+        (
+            &[
+                "export", &t1, "--method", "spline", "--step", "10", "--format", "csv", "--axis",
+                "w", "--out", "unused",
+            ],
+            "possible values: x, y, z",
+        ),
+        (
+            &[
+                "export", &t1, "--method", "spline", "--step", "10", "--format", "csv", "--at",
+                "q=1", "--out", "unused",
+            ],
+            "not an axis",
+        ),
+        (
+            &[
+                "capture",
+                "--port",
+                "/nonexistent",
+                "--out",
+                "unused",
+                "--idle-timeout",
+                "nan",
+            ],
+            "seconds",
+        ),
+        (
+            &[
+                "capture",
+                "--port",
+                "/nonexistent",
+                "--out",
+                "unused",
+                "--format",
+                "xlsx",
+            ],
+            "parquet",
+        ),
+    ];
+    for (args, says) in cases {
+        let o = errmap(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{args:?}: {}", stderr(&o));
+    }
+    assert!(
+        !Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("unused")
+            .exists()
+    );
+}
