@@ -12,8 +12,8 @@
 //! ```
 //!
 //! [`axis_stats`] takes errmap errors `e` in [`Observation::e_um`] and negates them; every
-//! number in [`TargetStats`], [`AxisStats`] and [`VdiStats`], every table from [`markdown`]
-//! and every curve from [`plot()`] is an ISO deviation `x`. A scale that reads 3 µm long
+//! number in [`TargetStats`], [`AxisStats`] and [`VdiStats`], every table of the report (`report/iso230.rs`)
+//! and every curve of its chart is an ISO deviation `x`. A scale that reads 3 µm long
 //! (`e = +3 µm`) shows up as `x = −3 µm`. Quantities that are ranges or maxima of
 //! absolute values (R, E, M, A, B, Ps, U, P) do not depend on the sign; the per-target
 //! means, the reversal values `B_i` and the mean reversal `B̄` do.
@@ -59,7 +59,7 @@
 //! The standard test cycle of ISO 230-2 asks for 5 runs in each direction at each target
 //! and at least 5 targets per metre (5 in all at least). This module does not enforce
 //! that — it needs only 2 runs per direction and target, so that `s` is defined — but
-//! [`markdown`] prints `n↑`/`n↓` so that a reader can see a short test. Runs need not be
+//! The report (`report/iso230.rs`) prints `n↑`/`n↓` so that a reader can see a short test. Runs need not be
 //! balanced (`n↑ ≠ n↓` is allowed); each mean and `s` uses its own `n`.
 //!
 //! # VDI/DGQ 3441 (1977)

@@ -27,7 +27,7 @@
 //! Prediction follows R&W Algorithm 2.1 (a Cholesky factor K + σₙ²I = LLᵀ, then
 //! triangular solves) for the predictive mean and variance, Eqs. 2.25–2.26:
 //! f̄* = m̂ + k*ᵀα with α = (K + σₙ²I)⁻¹(y − m̂), and
-//! V[f*] = k(p*, p*) − vᵀv + (1 − bᵀv)²/bᵀb with v = L⁻¹k*, b = L⁻¹1.
+//! V\[f*\] = k(p*, p*) − vᵀv + (1 − bᵀv)²/bᵀb with v = L⁻¹k*, b = L⁻¹1.
 //! [`Gp::predict_with_sigma`] returns the σ of the latent error f* (what the machine
 //! does); [`Gp::predict_with_sigma_noisy`] adds σₙ² for comparing with a new measurement.
 //!
