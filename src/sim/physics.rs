@@ -44,9 +44,7 @@ use serde::{Deserialize, Serialize};
 use super::error::SimError;
 use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
 use crate::base::stats::gaussian;
-use crate::interp::{
-    Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy,
-};
+use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy};
 use crate::table::ErrorTable;
 
 /// A quantity over time (°C, hPa or %).
