@@ -27,10 +27,18 @@ pub struct ExportArgs {
     #[arg(long)]
     pub step: f64,
     /// Line start and end, mm (default: the table's range on the axis).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub start: Option<f64>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub end: Option<f64>,
+    /// A round grid of --step through --reference covering the range, the points beyond
+    /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC and
+    /// CSV end on the range end (the last interval shorter); Siemens needs a dividing step.
+    #[arg(long, value_parser = ["clamp", "extrapolate"])]
+    pub ends: Option<String>,
+    /// The grid's reference position for --ends, mm (e.g. the machine's reference point).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub reference: f64,
     /// linuxcnc | siemens | csv | grid
     #[arg(long)]
     pub format: String,

@@ -9,6 +9,7 @@
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
+//! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 
 use std::process::ExitCode;
 
@@ -21,6 +22,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod model;
 pub mod plan;
+pub mod step;
 
 use args::*;
 

@@ -291,8 +291,7 @@ fn print_summary(c: &compare::Comparison, dir: &Path) {
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{
-        ExportFormat, Extrapolation, LineSpec, LinuxCncCompType, VolumeSpec, sample_line,
-        volumetric_grid,
+        ExportFormat, Extrapolation, LineSpec, LinuxCncCompType, VolumeSpec, volumetric_grid,
     };
     use errmap::table::Axis;
     let Fitted { model, extent, .. } =
@@ -364,7 +363,8 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         end_mm: a.end.unwrap_or(hi[axis.index()]),
         step_mm: a.step,
     };
-    let sampled = sample_line(model.as_ref(), &line, extrapolation)?;
+    let fit = super::step::step_fit(&format, a.ends.as_deref(), a.reference);
+    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
     let text = format.render_line(&sampled, None)?;
     std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(

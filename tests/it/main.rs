@@ -6,6 +6,7 @@ mod acquisition;
 mod cli;
 mod experiment;
 mod export;
+mod export_step;
 mod gp;
 mod interp;
 mod iso230;
