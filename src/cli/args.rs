@@ -9,8 +9,8 @@ use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, fuzzy};
 
 use super::values::{
-    CompTypeArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, axis, kernel,
-    method_name, positive, seconds,
+    CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, axis,
+    kernel, method_name, positive, seconds,
 };
 
 #[derive(Debug, Args)]
@@ -34,10 +34,18 @@ pub struct ExportArgs {
     #[arg(long)]
     pub step: f64,
     /// Line start and end, mm (default: the table's range on the axis).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub start: Option<f64>,
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub end: Option<f64>,
+    /// A round grid of --step through --reference covering the range, the points beyond
+    /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC and
+    /// CSV end on the range end (the last interval shorter); Siemens needs a dividing step.
+    #[arg(long, value_enum)]
+    pub ends: Option<EndsArg>,
+    /// The grid's reference position for --ends, mm (e.g. the machine's reference point).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub reference: f64,
     /// The table's format.
     #[arg(long, value_enum)]
     pub format: ExportFormatArg,

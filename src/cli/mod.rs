@@ -9,6 +9,8 @@
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
+//! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
+//! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 
 use std::process::ExitCode;
 
@@ -20,6 +22,8 @@ pub mod args;
 pub mod demo;
 pub mod diagnose;
 pub mod model;
+pub mod plan;
+pub mod step;
 pub mod values;
 
 use args::*;
@@ -64,6 +68,8 @@ pub enum Command {
     Diagnose(DiagnoseArgs),
     /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
     Export(ExportArgs),
+    /// Write an ISO 230-2 test plan along one axis and its part program.
+    Plan(plan::PlanArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -91,6 +97,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => model::simulate_cmd(a),
         Command::Diagnose(a) => diagnose::diagnose_cmd(a),
         Command::Export(a) => model::export_cmd(a),
+        Command::Plan(a) => plan::plan_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

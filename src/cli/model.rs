@@ -285,9 +285,7 @@ pub fn print_summary(c: &compare::Comparison, dir: &Path) {
 }
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
-    use errmap::export::{
-        ExportFormat, Extrapolation, LineSpec, VolumeSpec, sample_line, write_grid,
-    };
+    use errmap::export::{ExportFormat, Extrapolation, LineSpec, VolumeSpec, write_grid};
     let Fitted { model, extent, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
@@ -334,7 +332,8 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         end_mm: a.end.unwrap_or(hi[axis.index()]),
         step_mm: a.step,
     };
-    let sampled = sample_line(model.as_ref(), &line, extrapolation)?;
+    let fit = super::step::step_fit(&format, a.ends, a.reference);
+    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
     let text = format.render_line(&sampled, None)?;
     std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(

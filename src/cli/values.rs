@@ -12,9 +12,10 @@ use std::str::FromStr;
 use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
-use errmap::export::LinuxCncCompType;
+use errmap::export::{Ends, LinuxCncCompType};
 use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, Order};
+use errmap::sim::program::Dialect;
 
 /// `--method`: a name from the method registry.
 pub fn method_name() -> impl TypedValueParser<Value = MethodName> {
@@ -26,6 +27,11 @@ pub fn method_name() -> impl TypedValueParser<Value = MethodName> {
 pub fn axis() -> impl TypedValueParser<Value = Axis> {
     PossibleValuesParser::new(Axis::ALL.map(|a| PossibleValue::new(a.lower()).alias(a.upper())))
         .try_map(|s| s.parse::<Axis>())
+}
+
+/// `--dialect` of plan: a part-program dialect from the library's list.
+pub fn dialect() -> impl TypedValueParser<Value = Dialect> {
+    PossibleValuesParser::new(Dialect::ALL.map(Dialect::name)).try_map(|s| s.parse::<Dialect>())
 }
 
 /// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).
@@ -193,6 +199,24 @@ impl SessionFormat {
         match self {
             SessionFormat::Csv => "csv",
             SessionFormat::Parquet => "parquet",
+        }
+    }
+}
+
+/// `--ends` of export: where a round grid's points beyond the range go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EndsArg {
+    /// The value at the range end.
+    Clamp,
+    /// The model's extrapolation.
+    Extrapolate,
+}
+
+impl From<EndsArg> for Ends {
+    fn from(e: EndsArg) -> Self {
+        match e {
+            EndsArg::Clamp => Ends::Clamp,
+            EndsArg::Extrapolate => Ends::Extrapolate,
         }
     }
 }

@@ -119,7 +119,8 @@ pub enum ExportError {
     },
     #[error(
         "step {step_mm} mm does not divide the {length} mm range along {axis} into whole intervals; \
-         the nearest finer step that does is {fitting} mm",
+         the nearest finer step that does is {fitting} mm; or keep the step on a round grid \
+         with the ends clamped or extrapolated (--ends clamp|extrapolate)",
         length = fmt_mm(*length_mm),
         fitting = fmt_mm(*fitting_step_mm)
     )]
@@ -230,7 +231,27 @@ fn too_many_message(
         }
         None => m.push_str(": the limit is too small for any table of this format"),
     }
+    // LinuxCNC lists every nominal, so any step of at least the minimum fits (the last
+    // interval shorter): name a round one.
+    if controller == Controller::LinuxCnc
+        && let Some((min, _)) = fitting_step(length_mm, limit, padding)
+    {
+        m.push_str(&format!(
+            ", or any round step of at least that, e.g. {} mm (the last interval shorter)",
+            fmt_mm(round_step_at_least(min))
+        ));
+    }
     m
+}
+
+/// The smallest step of the 1–2–2.5–5 series (× 10^k mm) that is ≥ `min_mm`.
+fn round_step_at_least(min_mm: f64) -> f64 {
+    let decade = 10f64.powf(min_mm.log10().floor());
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * decade)
+        .find(|&s| s >= min_mm * (1.0 - 1e-12))
+        .unwrap_or(10.0 * decade)
 }
 
 /// The smallest step that fits `limit` entries over `length_mm` (with `padding` extra

@@ -43,6 +43,7 @@ mod error;
 pub mod grid;
 pub mod linuxcnc;
 pub mod siemens;
+pub mod step;
 
 use std::path::Path;
 
@@ -56,6 +57,7 @@ pub use error::{Controller, ExportError, MappedBox};
 pub use grid::GridRows;
 pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType, render as linuxcnc};
 pub use siemens::{SIEMENS_808D_MAX_POINTS, render as siemens};
+pub use step::{Ends, StepFit, sample_line_fit};
 
 /// errmap's own cap on sampled points per line or volume, so that a mistyped step cannot
 /// exhaust memory (a 2 000 000-point volume is about 100 MB in flight).
@@ -97,6 +99,13 @@ impl ExportFormat {
             ExportFormat::Csv => "csv",
             ExportFormat::Grid => "grid",
         }
+    }
+
+    /// Whether the format lists every position, so that the intervals may differ
+    /// (LinuxCNC, CSV: [`StepFit::LastShorter`] fits any step); Siemens' table has one
+    /// STEP.
+    pub fn allows_uneven(&self) -> bool {
+        matches!(self, ExportFormat::LinuxCnc { .. } | ExportFormat::Csv)
     }
 
     /// Whether the format is written from one sampled line (all but [`ExportFormat::Grid`]).
@@ -152,9 +161,10 @@ pub enum Extrapolation {
 /// `step_mm`, the other two coordinates fixed by `at_mm` (its entry for `axis` is
 /// ignored).
 ///
-/// The step must divide the range into whole intervals (to 1e-9 relative): controllers
+/// With [`sample_line`] the step must divide the range into whole intervals (to 1e-9
+/// relative, or be range/k rounded to the file's 1e-6 mm, see [`step`]): controllers
 /// with equidistant tables (Siemens) need it, and silently moving the end would change
-/// the range the user asked for.
+/// the range the user asked for. [`sample_line_fit`] places the points of any step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LineSpec {
     pub axis: Axis,
@@ -364,24 +374,31 @@ fn axis_positions(
         });
     }
     let kr = k.round();
-    if (k - kr).abs() > 1e-9 * kr.max(1.0) {
-        return Err(ExportError::StepDoesNotDivide {
-            axis,
-            length_mm,
-            step_mm,
-            fitting_step_mm: length_mm / k.ceil(),
-        });
-    }
     let n = kr as usize;
-    Ok((0..=n)
-        .map(|i| {
-            if i == n {
-                end_mm
-            } else {
-                snap(start_mm + i as f64 * step_mm)
-            }
-        })
-        .collect())
+    if (k - kr).abs() <= 1e-9 * kr.max(1.0) {
+        return Ok((0..=n)
+            .map(|i| {
+                if i == n {
+                    end_mm
+                } else {
+                    snap(start_mm + i as f64 * step_mm)
+                }
+            })
+            .collect());
+    }
+    // range/k rounded to the file resolution (the suggestion below, given back): k
+    // intervals of exactly this step, the end moved by at most k·0.5e-6 mm (see `step`).
+    if kr >= 1.0 && (kr * step_mm - length_mm).abs() <= kr * 0.5 * FILE_RESOLUTION_MM + 1e-12 {
+        return Ok((0..=n)
+            .map(|i| snap(start_mm + i as f64 * step_mm))
+            .collect());
+    }
+    Err(ExportError::StepDoesNotDivide {
+        axis,
+        length_mm,
+        step_mm,
+        fitting_step_mm: length_mm / k.ceil(),
+    })
 }
 
 /// Predictions, flags and the extrapolation policy for a list of points.

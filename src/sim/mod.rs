@@ -6,6 +6,8 @@
 //! |---|---|
 //! | [`physics`] | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
 //! | [`plan`] | measurement-plan files, simulating a stream, test points with the truth |
+//! | [`testplan`] | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
+//! | [`program`] | part programs for a test plan (LinuxCNC, Fanuc, Siemens 840D, Heidenhain) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
 //! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
 //! | [`error`] | [`SimError`] |
@@ -14,6 +16,8 @@ pub mod concealed;
 pub mod error;
 pub mod physics;
 pub mod plan;
+pub mod program;
+pub mod testplan;
 pub mod update;
 
 pub use error::SimError;

@@ -32,6 +32,10 @@ pub struct PlanSpec {
     pub extra_feeds_mm_s: Vec<f64>,
     #[serde(default = "default_dwell")]
     pub dwell_s: f64,
+    /// Travel past the end targets before each reversal, mm, for the part program
+    /// (`errmap plan`); the simulated board reverses at the end targets. 0 when absent.
+    #[serde(default)]
+    pub overrun_mm: f64,
     #[serde(default = "default_rate")]
     pub sample_hz: f64,
     #[serde(default = "default_settle")]
@@ -74,6 +78,12 @@ impl PlanSpec {
             message: format!("axis: {e}"),
         })?;
         let axis = WireAxis::from(axis);
+        if !(self.overrun_mm.is_finite() && self.overrun_mm >= 0.0) {
+            return Err(SimError::Config {
+                path: path.to_path_buf(),
+                message: format!("overrun_mm = {} must be ≥ 0", self.overrun_mm),
+            });
+        }
         Ok(Plan {
             axis,
             lines_mm: self.lines_mm.clone(),

@@ -1,0 +1,138 @@
+//! `errmap plan`: an ISO 230-2 test plan along one axis and its part program.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use errmap::base::Axis;
+use errmap::sim::program::{self, Dialect, ProgramOptions};
+use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
+
+use super::values;
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// The tested axis: x, y or z.
+    #[arg(long, value_parser = values::axis())]
+    pub axis: Axis,
+    /// First target, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub from: f64,
+    /// Last target, mm.
+    #[arg(long, allow_negative_numbers = true)]
+    pub to: f64,
+    /// Number of targets, ends included (ISO 230-2: at least 5 per metre, 5 in all).
+    #[arg(
+        long,
+        conflicts_with = "interval",
+        required_unless_present = "interval"
+    )]
+    pub targets: Option<usize>,
+    /// Largest interval between targets, mm (the range is split into equal intervals).
+    #[arg(long)]
+    pub interval: Option<f64>,
+    /// Runs, each up and down (ISO 230-2: 5).
+    #[arg(long, default_value_t = 5)]
+    pub runs: u32,
+    /// Travel past the end targets before each reversal, mm.
+    #[arg(long, default_value_t = 5.0)]
+    pub overrun: f64,
+    /// Stop at each target, s.
+    #[arg(long, default_value_t = 2.0)]
+    pub dwell_s: f64,
+    /// Feed of every move, mm/s.
+    #[arg(long, default_value_t = 25.0)]
+    pub feed_mm_s: f64,
+    /// The line's fixed coordinates, e.g. `y=1,z=200` (mm; a missing one is 0).
+    #[arg(long, default_value = "", allow_hyphen_values = true)]
+    pub at: String,
+    /// Random offset of the inner targets, as a fraction of the interval, in [0, 0.5).
+    #[arg(long, default_value_t = 0.1)]
+    pub random_offset: f64,
+    /// Seed of the random offsets.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// The measurement plan (TOML, as `errmap simulate --plan` reads).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The part program to write.
+    #[arg(long)]
+    pub program: Option<PathBuf>,
+    /// linuxcnc | fanuc | siemens | heidenhain
+    #[arg(long, default_value = "linuxcnc", value_parser = values::dialect())]
+    pub dialect: Dialect,
+    /// LinuxCNC: switch this motion digital output on at each dwell (M64/M65 P n).
+    #[arg(long)]
+    pub mark_output: Option<u32>,
+}
+
+/// The line's two fixed coordinates from `--at`.
+fn line_coordinates(axis: Axis, at: &str) -> Result<[f64; 2]> {
+    let mut p = [0.0; 3];
+    for part in at.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (k, v) = part
+            .split_once('=')
+            .with_context(|| format!("--at takes axis=value pairs like y=1,z=200, not `{part}`"))?;
+        let a: Axis = k.trim().parse().context("--at")?;
+        if a == axis {
+            bail!("--at: {a} is the tested axis; give the other two");
+        }
+        p[a.index()] = v
+            .trim()
+            .parse()
+            .with_context(|| format!("--at: `{v}` is not a number"))?;
+    }
+    let others: Vec<f64> = Axis::ALL
+        .iter()
+        .filter(|&&a| a != axis)
+        .map(|a| p[a.index()])
+        .collect();
+    Ok([others[0], others[1]])
+}
+
+pub fn plan_cmd(a: PlanArgs) -> Result<()> {
+    let (axis, dialect) = (a.axis, a.dialect);
+    let spacing = match (a.targets, a.interval) {
+        (Some(m), None) => Spacing::Targets(m),
+        (None, Some(q)) => Spacing::Interval(q),
+        _ => bail!("give one of --targets and --interval"),
+    };
+    let plan = TestPlan::generate(TestPlanConfig {
+        axis,
+        from_mm: a.from,
+        to_mm: a.to,
+        spacing,
+        runs: a.runs,
+        overrun_mm: a.overrun,
+        dwell_s: a.dwell_s,
+        feed_mm_s: a.feed_mm_s,
+        line_mm: line_coordinates(axis, &a.at)?,
+        random_offset: a.random_offset,
+        seed: a.seed,
+    })?;
+    let text = match &a.program {
+        Some(_) => Some(program::render(
+            &plan,
+            dialect,
+            &ProgramOptions {
+                mark_output: a.mark_output,
+            },
+        )?),
+        None if a.mark_output.is_some() => bail!("--mark-output needs --program"),
+        None => None,
+    };
+    std::fs::write(&a.out, plan.toml())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "plan: {} targets along {axis}, interval {:.3} mm, {} runs → {}",
+        plan.targets_mm.len(),
+        plan.interval_mm,
+        a.runs,
+        a.out.display()
+    );
+    if let (Some(path), Some(text)) = (&a.program, text) {
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("plan: {dialect} program → {}", path.display());
+    }
+    Ok(())
+}
