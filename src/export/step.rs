@@ -6,7 +6,8 @@
 //! * **Uneven spacing allowed** (LinuxCNC's `COMP_FILE` lists each nominal; errmap's CSV):
 //!   [`StepFit::LastShorter`] — `start, start + h, start + 2h, …` and the range end as the
 //!   last point, so the last interval is shorter than h (never shorter than 1/1000 of h
-//!   or the file's 1e-6 mm: a grid point that close to the end is replaced by the end).
+//!   or the file's 1e-6 mm: a grid point that close to the end is replaced by the end;
+//!   the start is always kept, so a range shorter than that is its two ends).
 //! * **A fixed interval** (Siemens LEC: MIN, STEP, MAX; Fanuc pitch error compensation: a
 //!   reference point and an interval): [`StepFit::Grid`] — the points are the round grid
 //!   g_k = r + k·h through a reference position r (the machine's reference point, 0 by
@@ -94,24 +95,21 @@ fn grid_points(
 }
 
 /// `start, start + h, …` and `end` last (module docs).
-fn last_shorter(
-    axis: Axis,
-    start_mm: f64,
-    end_mm: f64,
-    step_mm: f64,
-) -> Result<Vec<f64>, ExportError> {
-    match super::axis_positions(axis, start_mm, end_mm, step_mm, false) {
-        Err(ExportError::StepDoesNotDivide { .. }) => {}
-        other => return other,
-    }
+fn last_shorter(start_mm: f64, end_mm: f64, step_mm: f64) -> Vec<f64> {
+    // The range and step were checked by the caller (`axis_positions`); here every
+    // point is start + i·h exactly, and a point within the gap of the end gives way to it
+    // (so a step that divides the range, or nearly, ends on the range end too).
     let k = ((end_mm - start_mm) / step_mm).floor() as usize;
     let gap = (1e-3 * step_mm).max(FILE_RESOLUTION_MM);
-    let mut positions: Vec<f64> = (0..=k)
-        .map(|i| snap(start_mm + i as f64 * step_mm))
-        .filter(|&x| x < end_mm - gap)
-        .collect();
+    // The start is always a point, even when the whole range is shorter than the gap.
+    let mut positions = vec![snap(start_mm)];
+    positions.extend(
+        (1..=k)
+            .map(|i| snap(start_mm + i as f64 * step_mm))
+            .filter(|&x| x < end_mm - gap),
+    );
     positions.push(end_mm);
-    Ok(positions)
+    positions
 }
 
 /// Samples the model along a line with the points placed by `fit`. With
@@ -137,7 +135,7 @@ pub fn sample_line_fit(
             (p.clone(), p)
         }
         (StepFit::LastShorter, _) => {
-            let p = last_shorter(line.axis, line.start_mm, line.end_mm, line.step_mm)?;
+            let p = last_shorter(line.start_mm, line.end_mm, line.step_mm);
             (p.clone(), p)
         }
         (StepFit::Grid { reference_mm, ends }, _) => grid_points(
@@ -177,11 +175,11 @@ mod tests {
 
     #[test]
     fn last_interval_is_shorter_and_never_tiny() {
-        let p = last_shorter(Axis::X, 0.0, 798.7576, 10.0).expect("ok");
+        let p = last_shorter(0.0, 798.7576, 10.0);
         assert_eq!(p.len(), 81);
         assert_eq!((p[79], p[80]), (790.0, 798.7576));
         // 800.005 / 10: the 800 mm grid point is 5 µm (< h/1000) from the end: replaced.
-        let p = last_shorter(Axis::X, 0.0, 800.005, 10.0).expect("ok");
+        let p = last_shorter(0.0, 800.005, 10.0);
         assert_eq!((p.len(), p[79], p[80]), (81, 790.0, 800.005));
     }
 }

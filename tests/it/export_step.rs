@@ -168,7 +168,8 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
     /// LastShorter: strictly increasing from start to end, every interval the step but the
-    /// last, which is in (h/1000, h].
+    /// last, which is at most h·(1 + 1/1000): a grid point closer than h/1000 to the end
+    /// is replaced by the end (no near-zero interval).
     #[test]
     fn last_shorter_places_any_step(start in -500.0f64..500.0, length in 0.01f64..900.0,
                                     step in 0.01f64..200.0) {
@@ -186,7 +187,10 @@ proptest! {
             prop_assert!((w[1] - w[0] - step).abs() < 1e-6, "{:?}", w);
         }
         let last = p[n - 1] - p[n - 2];
-        prop_assert!(last > 0.0 && last <= step + 1e-6, "last interval {}", last);
+        prop_assert!(last > 0.0 && last <= step * 1.001 + 1e-6, "last interval {}", last);
+        if n > 2 {
+            prop_assert!(last > (1e-3 * step).max(1e-6) - 1e-9, "last interval {}", last);
+        }
     }
 
     /// The suggestion for a step that does not divide is accepted when given back as
@@ -341,4 +345,19 @@ fn the_issues_export_with_a_round_step_is_accepted() {
         text.lines().last().expect("rows").starts_with("805.0 "),
         "{text}"
     );
+}
+
+/// Regression (found by `last_shorter_places_any_step`): a range shorter than a
+/// thousandth of the step kept only its end; both ends are points.
+#[test]
+fn a_range_shorter_than_the_gap_keeps_both_ends() {
+    let model = affine();
+    let s = sample_line_fit(
+        &*model,
+        &line(0.0, 0.01, 110.69532037259171),
+        StepFit::LastShorter,
+        Extrapolation::Allow,
+    )
+    .expect("any step");
+    assert_eq!(s.positions_mm, vec![0.0, 0.01]);
 }
