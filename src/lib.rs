@@ -19,6 +19,7 @@
 //! | [`acquire`] | 1 | capture and replay into a session directory |
 //! | [`diagnose`] | 7 | what a simulation left out of a recording: locate, name, fit |
 //! | [`sim`] | — | the machine model and simulator (the other side of the diagnosis) |
+//! | [`volumetric`] | — | the 21 geometric errors from laser lines: model, identification, prediction |
 //! | [`report`] | 6 | words, tables and figures on disk for every stage |
 //! | [`bench`] | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
 //!
@@ -64,6 +65,8 @@ pub mod acquire;
 pub mod diagnose;
 
 pub mod sim;
+
+pub mod volumetric;
 
 pub mod report;
 

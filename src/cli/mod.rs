@@ -8,6 +8,7 @@
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
+//! | [`volumetric`] | volumetric simulate, identify, predict |
 
 use std::process::ExitCode;
 
@@ -19,6 +20,7 @@ pub mod args;
 pub mod demo;
 pub mod diagnose;
 pub mod model;
+pub mod volumetric;
 
 use args::*;
 
@@ -62,6 +64,8 @@ pub enum Command {
     Diagnose(DiagnoseArgs),
     /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
     Export(ExportArgs),
+    /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
+    Volumetric(volumetric::VolumetricArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -89,6 +93,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => model::simulate_cmd(a),
         Command::Diagnose(a) => diagnose::diagnose_cmd(a),
         Command::Export(a) => model::export_cmd(a),
+        Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),
