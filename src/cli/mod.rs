@@ -11,6 +11,7 @@
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
+//! | [`volumetric`] | volumetric simulate, identify, predict |
 
 use std::process::ExitCode;
 
@@ -25,6 +26,7 @@ pub mod model;
 pub mod plan;
 pub mod step;
 pub mod values;
+pub mod volumetric;
 
 use args::*;
 
@@ -70,6 +72,8 @@ pub enum Command {
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),
+    /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
+    Volumetric(volumetric::VolumetricArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -98,6 +102,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Diagnose(a) => diagnose::diagnose_cmd(a),
         Command::Export(a) => model::export_cmd(a),
         Command::Plan(a) => plan::plan_cmd(a),
+        Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

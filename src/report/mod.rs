@@ -11,6 +11,7 @@
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
+//! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
 
 use std::path::PathBuf;
 
@@ -25,6 +26,7 @@ pub mod experiment;
 pub mod findings;
 pub mod iso230;
 pub mod json;
+pub mod volumetric;
 
 pub use compare::write_report;
 pub use findings::group_by_reason;

@@ -15,3 +15,4 @@ mod physics;
 mod table2;
 mod tables;
 mod testplan;
+mod volumetric;

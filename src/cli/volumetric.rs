@@ -1,0 +1,266 @@
+//! `errmap volumetric {simulate, identify, predict}`: flags, validation into library
+//! configuration, and glue. The work is in `errmap::volumetric` and the report in
+//! `errmap::report::volumetric`.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Subcommand};
+use errmap::volumetric::{
+    Component, Degree, IdentifyConfig, LineTable, Machine, PlanFile, Predictor, Topology, identify,
+    predict, simulate,
+};
+
+#[derive(Debug, Subcommand)]
+pub enum VolumetricCommand {
+    /// Simulate a laser campaign: a line table from a machine model and a plan.
+    Simulate(SimulateArgs),
+    /// Identify the 21 geometric errors from a line table.
+    Identify(IdentifyArgs),
+    /// Predict along the lines of a table, or the error vector over a grid.
+    Predict(PredictArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct VolumetricArgs {
+    #[command(subcommand)]
+    pub command: VolumetricCommand,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Volumetric machine model (TOML, e.g. datasets/volumetric/model.toml).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
+    #[arg(long)]
+    pub plan: PathBuf,
+    /// The line table to write (.csv or .parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// The line table (.csv or .parquet).
+    pub lines: PathBuf,
+    /// Kinematic chain from the workpiece to the probe, a permutation of XYZ (YXZ: a
+    /// moving-bridge CMM).
+    #[arg(long)]
+    pub topology: String,
+    /// Polynomial degree of every component, or `auto` (leave-one-line-out CV).
+    #[arg(long, default_value = "auto")]
+    pub degree: String,
+    /// Highest degree `auto` tries.
+    #[arg(long, default_value_t = 4)]
+    pub max_degree: usize,
+    /// Per-component degrees overriding --degree, e.g. `E_XX=5,E_CX=2`.
+    #[arg(long, default_value = "")]
+    pub component_degree: String,
+    /// Positions per component in the output (0 is added).
+    #[arg(long, default_value_t = 21)]
+    pub positions: usize,
+    /// Write the report (report.md, figures, model.json) into this directory.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write the identified model (the JSON document plus the fit) for `predict`.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("what").required(true).args(["lines", "grid"])))]
+pub struct PredictArgs {
+    /// MODEL.json from `identify --out`, or a machine-model TOML (the truth, σ = 0).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// A line table: predict every row relative to its line's first row.
+    #[arg(long)]
+    pub lines: Option<PathBuf>,
+    /// Grid points (x_mm, y_mm, z_mm): write the error vector there (needs --out).
+    #[arg(long)]
+    pub grid: Option<PathBuf>,
+    /// Probe offset for --grid, mm: PX,PY,PZ.
+    #[arg(long, default_value = "0,0,0")]
+    pub probe: String,
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
+    match a.command {
+        VolumetricCommand::Simulate(a) => simulate_cmd(a),
+        VolumetricCommand::Identify(a) => identify_cmd(a),
+        VolumetricCommand::Predict(a) => predict_cmd(a),
+    }
+}
+
+fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    let machine = Machine::read(&a.model)?;
+    let plan = PlanFile::read(&a.plan)?;
+    let table = simulate(&machine, &plan);
+    table.write(&a.out)?;
+    let end_s = table
+        .lines
+        .iter()
+        .flat_map(|l| &l.targets)
+        .filter_map(|t| t.t_s)
+        .fold(0.0, f64::max);
+    eprintln!(
+        "volumetric simulate: {} lines, {} targets, campaign {:.1} h → {}",
+        table.lines.len(),
+        table.targets(),
+        end_s / 3600.0,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// `--component-degree E_XX=5,E_CX=2` → {index: degree}.
+fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>> {
+    let mut out = BTreeMap::new();
+    for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let Some((name, d)) = part.split_once('=') else {
+            bail!("--component-degree: `{part}` is not NAME=DEGREE (e.g. E_XX=3)");
+        };
+        let c: Component = name
+            .parse()
+            .map_err(|e: String| anyhow::anyhow!("--component-degree: {e}"))?;
+        let d: usize = d
+            .trim()
+            .parse()
+            .with_context(|| format!("--component-degree: `{d}` is not a whole number"))?;
+        out.insert(c.index(), d);
+    }
+    Ok(out)
+}
+
+fn identify_cmd(a: IdentifyArgs) -> Result<()> {
+    let topology: Topology = a.topology.parse()?;
+    let degree = match a.degree.trim() {
+        "auto" => Degree::Auto { max: a.max_degree },
+        d => Degree::Fixed(
+            d.parse()
+                .with_context(|| format!("--degree `{d}` is neither `auto` nor a whole number"))?,
+        ),
+    };
+    let config = IdentifyConfig {
+        topology,
+        degree,
+        component_degrees: component_degrees(&a.component_degree)?,
+        positions: a.positions,
+    };
+    let table = LineTable::read(&a.lines, true)?;
+    let id = identify(&table, &config)?;
+    if let Some(out) = &a.out {
+        write_json(out, &id.to_json(config.positions, true))?;
+    }
+    if let Some(dir) = &a.report {
+        errmap::report::volumetric::write_report(&id, config.positions, dir)?;
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&id.to_json(config.positions, false))?
+        );
+    } else {
+        let n_id = id.fit.identified.iter().filter(|f| **f).count();
+        eprintln!(
+            "volumetric identify: {} lines, {} targets, degree {}, RMS residual {:.4} µm, {} of 21 \
+             errors identified, residual {}",
+            id.lines, id.targets, id.degree, id.rms_residual_um, n_id, id.residual.verdict
+        );
+        for u in &id.unidentified {
+            eprintln!("  {}: {}", u.components.join(", "), u.why);
+        }
+    }
+    Ok(())
+}
+
+fn write_json(path: &PathBuf, v: &serde_json::Value) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
+    }
+    std::fs::write(path, serde_json::to_string_pretty(v)?)
+        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+fn parse_probe(s: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--probe `{s}`: three numbers PX,PY,PZ in mm"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => bail!("--probe `{s}`: three finite numbers PX,PY,PZ in mm"),
+    }
+}
+
+fn predict_cmd(a: PredictArgs) -> Result<()> {
+    let model = Predictor::read(&a.model)?;
+    if let Some(lines) = &a.lines {
+        let table = LineTable::read(lines, false)?;
+        let preds = model.predict_lines(&table);
+        if let Some(out) = &a.out {
+            predict::write_predictions(out, &preds)?;
+        }
+        let undetermined = preds.iter().filter(|p| p.e_um.is_none()).count();
+        if undetermined > 0 {
+            eprintln!(
+                "volumetric predict: {undetermined} of {} rows depend on errors the lines did not \
+                 determine: e_um and sigma_um are null there",
+                preds.len()
+            );
+        }
+        if a.json {
+            println!("{}", serde_json::json!({ "predictions": preds }));
+        } else if a.out.is_none() {
+            eprintln!(
+                "volumetric predict: {} rows (use --out FILE or --json)",
+                preds.len()
+            );
+        }
+        return Ok(());
+    }
+    let Some(grid) = &a.grid else {
+        bail!("give --lines TABLE or --grid GRID");
+    };
+    let Some(out) = &a.out else {
+        bail!("--grid writes a table: give --out FILE");
+    };
+    let probe = parse_probe(&a.probe)?;
+    let points: Vec<[f64; 3]> = errmap::table::ErrorTable::read_points(grid)?
+        .points
+        .iter()
+        .map(|p| p.position())
+        .collect();
+    let errors = model
+        .predict_grid(&points, probe)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
+    predict::write_grid(out, &points, &errors)?;
+    if a.json {
+        let rows: Vec<serde_json::Value> = points
+            .iter()
+            .zip(&errors)
+            .map(|(p, (e, s))| {
+                serde_json::json!({"x_mm": p[0], "y_mm": p[1], "z_mm": p[2],
+                    "ex_um": e[0], "ey_um": e[1], "ez_um": e[2],
+                    "sx_um": s[0], "sy_um": s[1], "sz_um": s[2]})
+            })
+            .collect();
+        println!("{}", serde_json::json!({ "grid": rows }));
+    }
+    eprintln!(
+        "volumetric predict: error vector at {} points → {}",
+        points.len(),
+        out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,623 @@
+//! Identification of the 21 errors from a line table: weighted linear least squares with
+//! one free constant per line, the gauge of [`super::basis`], one-sigma bands, the
+//! identifiability analysis, the degree chosen by leave-one-line-out cross-validation,
+//! and a test of the residual against the noise. Method and conventions: [`super`].
+
+use std::collections::BTreeMap;
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::basis::Basis;
+use super::error::VolumetricError;
+use super::identifiability::suggest;
+use super::lines::LineTable;
+use super::model::{Component, SQUARENESS, Topology};
+
+/// Relative tolerance on singular values (after column equilibration) below which a
+/// direction of the design is taken as undetermined.
+pub const RANK_TOL: f64 = 1e-8;
+/// A component is undetermined when any of its parameters has a null-space weight above
+/// this (rows of an orthonormal null-space basis, equilibrated coordinates).
+pub const NULL_TOL: f64 = 1e-6;
+
+/// Degree of the component polynomials.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Degree {
+    /// Chosen by leave-one-line-out cross-validation among 1..=max.
+    Auto {
+        max: usize,
+    },
+    Fixed(usize),
+}
+
+/// What `identify` needs besides the lines.
+#[derive(Debug, Clone)]
+pub struct IdentifyConfig {
+    pub topology: Topology,
+    pub degree: Degree,
+    /// Per-component degrees that override the global one (index 0..18).
+    pub component_degrees: BTreeMap<usize, usize>,
+    /// Positions per component in the report (at least 5; 0 is added).
+    pub positions: usize,
+}
+
+impl IdentifyConfig {
+    pub fn new(topology: Topology) -> IdentifyConfig {
+        IdentifyConfig {
+            topology,
+            degree: Degree::Auto { max: 4 },
+            component_degrees: BTreeMap::new(),
+            positions: 21,
+        }
+    }
+}
+
+/// Everything needed to evaluate the identified errors and their uncertainty (the `fit`
+/// object of MODEL.json).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FitState {
+    pub basis: Basis,
+    /// Parameters in the basis' layout.
+    pub theta: Vec<f64>,
+    /// Their covariance (scaled by the residual), row by row.
+    pub covariance: Vec<Vec<f64>>,
+    /// Orthonormal null space of the equilibrated design, one row per parameter.
+    pub null_space: Vec<Vec<f64>>,
+    /// Column equilibration: parameter j in equilibrated coordinates is θ_j·scale_j.
+    pub column_scale: Vec<f64>,
+    /// Per component (18) and squareness (3): determined by the lines?
+    pub identified: Vec<bool>,
+}
+
+impl FitState {
+    /// Value and one-sigma of `g·θ` for a linear functional `g` of the parameters, or
+    /// `None` when the lines do not determine it.
+    pub fn functional(&self, g: &[f64]) -> Option<(f64, f64)> {
+        let gs: Vec<f64> = g
+            .iter()
+            .zip(&self.column_scale)
+            .map(|(a, s)| a / s)
+            .collect();
+        let norm = gs.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if norm > 0.0 && !self.null_space.is_empty() {
+            let q = self.null_space[0].len();
+            for k in 0..q {
+                let p: f64 = gs.iter().zip(&self.null_space).map(|(a, n)| a * n[k]).sum();
+                if p.abs() > NULL_TOL * norm {
+                    return None;
+                }
+            }
+        }
+        let v: f64 = g.iter().zip(&self.theta).map(|(a, b)| a * b).sum();
+        let mut var = 0.0;
+        for (i, gi) in g.iter().enumerate() {
+            if *gi == 0.0 {
+                continue;
+            }
+            for (j, gj) in g.iter().enumerate() {
+                var += gi * self.covariance[i][j] * gj;
+            }
+        }
+        Some((v, var.max(0.0).sqrt()))
+    }
+
+    /// Component `c` (0..18) at `a_mm`: value and one-sigma, `None` if undetermined.
+    pub fn component(&self, c: usize, a_mm: f64) -> Option<(f64, f64)> {
+        if !self.identified[c] {
+            return None;
+        }
+        let mut g = vec![0.0; self.theta.len()];
+        let o = self.basis.offset(c);
+        for (j, f) in self.basis.functions(c, a_mm).into_iter().enumerate() {
+            g[o + j] = f;
+        }
+        self.functional(&g)
+    }
+
+    /// Squareness `i` (E_C0Y, E_B0Z, E_A0Z), µrad, with one-sigma.
+    pub fn squareness(&self, i: usize) -> Option<(f64, f64)> {
+        if !self.identified[18 + i] {
+            return None;
+        }
+        let mut g = vec![0.0; self.theta.len()];
+        g[self.basis.offset(18 + i)] = 1.0;
+        self.functional(&g)
+    }
+}
+
+/// A cross-validation score of one degree.
+#[derive(Debug, Clone, Serialize)]
+pub struct CvScore {
+    pub degree: usize,
+    /// RMS of the held-out lines' residuals (each line's constant refitted), µm.
+    pub cv_rms_um: f64,
+    /// Components identified at this degree.
+    pub identified: usize,
+}
+
+/// The residual of one line, in the order of its targets along the line.
+#[derive(Debug, Clone, Serialize)]
+pub struct LineResidual {
+    pub line: String,
+    pub s_mm: Vec<f64>,
+    pub t_s: Vec<Option<f64>>,
+    pub r_um: Vec<f64>,
+}
+
+/// The residual's verdict: a test against the noise (this slice; the diagnosis engine's
+/// effects are a later step, so `effects` is empty).
+#[derive(Debug, Clone, Serialize)]
+pub struct ResidualVerdict {
+    pub verdict: String,
+    pub effects: Vec<serde_json::Value>,
+    /// `chi-square` (s_um given) or `lag-1 autocorrelation` (no s_um).
+    pub test: String,
+    /// The test's standard-normal statistic (Wilson–Hilferty z, or ρ·√n).
+    pub z: f64,
+}
+
+/// Components the lines cannot determine and the line that would.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Unidentified {
+    pub components: Vec<String>,
+    pub why: String,
+}
+
+/// The result of `identify`.
+#[derive(Debug, Clone)]
+pub struct Identification {
+    pub topology: Topology,
+    pub degree: usize,
+    pub cv: Vec<CvScore>,
+    pub fit: FitState,
+    pub lines: usize,
+    pub targets: usize,
+    pub rms_residual_um: f64,
+    /// Reduced chi-square's square root (the factor σ bands were scaled by).
+    pub sigma0: f64,
+    pub dof: usize,
+    pub weighted: bool,
+    pub residuals: Vec<LineResidual>,
+    pub residual: ResidualVerdict,
+    pub unidentified: Vec<Unidentified>,
+}
+
+/// The centred, weighted design of a line table under a basis.
+pub(crate) struct Design {
+    /// Equilibrated, centred, weighted rows (rows × params).
+    pub a: DMatrix<f64>,
+    pub e: DVector<f64>,
+    /// Row range of each line.
+    pub line_rows: Vec<std::ops::Range<usize>>,
+    pub sqrt_w: Vec<f64>,
+    pub scale: Vec<f64>,
+}
+
+pub(crate) fn weights(table: &LineTable) -> Option<Vec<f64>> {
+    let all = table
+        .lines
+        .iter()
+        .flat_map(|l| &l.targets)
+        .map(|t| t.s_um)
+        .collect::<Option<Vec<f64>>>()?;
+    Some(all.into_iter().map(|s| 1.0 / s).collect())
+}
+
+pub(crate) fn design(table: &LineTable, basis: &Basis, sqrt_w: &[f64]) -> Design {
+    let n = basis.n_params();
+    let rows = table.targets();
+    let mut a = DMatrix::zeros(rows, n);
+    let mut e = DVector::zeros(rows);
+    let mut line_rows = Vec::new();
+    // Norm of each column before centring: a column that centring cancels to rounding
+    // level (a parameter no line sees) must stay zero, not be equilibrated into noise.
+    let mut raw = vec![0.0f64; n];
+    let mut r = 0;
+    for line in &table.lines {
+        let start = r;
+        let mut g_mean = vec![0.0; n];
+        let mut e_mean = 0.0;
+        let mut w_sum = 0.0;
+        for t in &line.targets {
+            let g = basis.line_row(t.pos_mm, line.u, line.probe_mm);
+            let w = sqrt_w[r] * sqrt_w[r];
+            for j in 0..n {
+                a[(r, j)] = g[j];
+                g_mean[j] += w * g[j];
+                raw[j] += w * g[j] * g[j];
+            }
+            e[r] = t.e_um.unwrap_or(0.0);
+            e_mean += w * e[r];
+            w_sum += w;
+            r += 1;
+        }
+        for i in start..r {
+            for j in 0..n {
+                a[(i, j)] = sqrt_w[i] * (a[(i, j)] - g_mean[j] / w_sum);
+            }
+            e[i] = sqrt_w[i] * (e[i] - e_mean / w_sum);
+        }
+        line_rows.push(start..r);
+    }
+    let scale: Vec<f64> = (0..n)
+        .map(|j| {
+            let s = a.column(j).norm();
+            if s > 1e-10 * raw[j].sqrt() && s > 0.0 {
+                s
+            } else {
+                a.column_mut(j).fill(0.0);
+                1.0
+            }
+        })
+        .collect();
+    for (j, s) in scale.iter().enumerate() {
+        a.column_mut(j).scale_mut(1.0 / s);
+    }
+    Design {
+        a,
+        e,
+        line_rows,
+        sqrt_w: sqrt_w.to_vec(),
+        scale,
+    }
+}
+
+/// SVD pieces of an equilibrated design: range basis, singular values, null basis.
+pub(crate) struct Decomposition {
+    pub v_range: DMatrix<f64>,
+    pub sv_range: Vec<f64>,
+    pub u_range: DMatrix<f64>,
+    pub null: DMatrix<f64>,
+}
+
+pub(crate) fn decompose(a: &DMatrix<f64>) -> Decomposition {
+    decompose_with(a, None)
+}
+
+/// As [`decompose`], with singular values at or below `abs_tol` (instead of
+/// [`RANK_TOL`] × the largest) counted as null.
+pub(crate) fn decompose_with(a: &DMatrix<f64>, abs_tol: Option<f64>) -> Decomposition {
+    let (m, n) = a.shape();
+    let padded = if m < n {
+        let mut p = DMatrix::zeros(n, n);
+        p.view_mut((0, 0), (m, n)).copy_from(a);
+        p
+    } else {
+        a.clone()
+    };
+    let svd = padded.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
+        unreachable!("SVD computed with u and v")
+    };
+    let smax = svd.singular_values.iter().fold(0.0f64, |a, &b| a.max(b));
+    let tol = abs_tol.unwrap_or(RANK_TOL * smax);
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&i| smax > 0.0 && svd.singular_values[i] > tol)
+        .collect();
+    let drop: Vec<usize> = (0..n).filter(|i| !keep.contains(i)).collect();
+    let v_range = DMatrix::from_fn(n, keep.len(), |i, k| v_t[(keep[k], i)]);
+    let u_range = DMatrix::from_fn(m, keep.len(), |i, k| u[(i, keep[k])]);
+    let null = DMatrix::from_fn(n, drop.len(), |i, k| v_t[(drop[k], i)]);
+    Decomposition {
+        sv_range: keep.iter().map(|&i| svd.singular_values[i]).collect(),
+        v_range,
+        u_range,
+        null,
+    }
+}
+
+/// Which of the 21 components a null space leaves undetermined.
+pub(crate) fn identified_flags(basis: &Basis, null: &DMatrix<f64>) -> Vec<bool> {
+    (0..21)
+        .map(|c| basis.params(c).all(|j| null.row(j).norm() <= NULL_TOL))
+        .collect()
+}
+
+fn axis_range(table: &LineTable) -> [[f64; 2]; 3] {
+    let mut r = [[0.0f64; 2]; 3];
+    for t in table.lines.iter().flat_map(|l| &l.targets) {
+        for (rk, p) in r.iter_mut().zip(t.pos_mm) {
+            rk[0] = rk[0].min(p);
+            rk[1] = rk[1].max(p);
+        }
+    }
+    r
+}
+
+fn degrees(config: &IdentifyConfig, d: usize) -> Vec<usize> {
+    (0..18)
+        .map(|c| config.component_degrees.get(&c).copied().unwrap_or(d))
+        .collect()
+}
+
+/// Leave-one-line-out score of a design: per held-out line, the others' fit predicts its
+/// (centred) profile. Returns the sum of squared weighted residuals per line, `None` for
+/// a line the others cannot predict (it alone determines some direction).
+fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
+    let dec = decompose(&d.a);
+    let ah = &d.a * &dec.v_range;
+    let g = ah.transpose() * &ah;
+    let b = ah.transpose() * &d.e;
+    d.line_rows
+        .iter()
+        .map(|rows| {
+            let aj = ah.rows(rows.start, rows.len());
+            let ej = d.e.rows(rows.start, rows.len());
+            let h = &g - aj.transpose() * aj;
+            let bj = &b - aj.transpose() * ej;
+            let maxd = h.diagonal().max();
+            let chol = nalgebra::Cholesky::new(h)?;
+            let mind = chol.l_dirty().diagonal().map(|x| x * x).min();
+            if mind.is_nan() || mind <= 1e-12 * maxd {
+                return None;
+            }
+            let phi = chol.solve(&bj);
+            let res = ej - aj * phi;
+            Some(res.norm_squared())
+        })
+        .collect()
+}
+
+/// Fits the lines. Errors when the table cannot carry a fit at all (no degrees of
+/// freedom left after the line constants and the determined parameters).
+pub fn identify(
+    table: &LineTable,
+    config: &IdentifyConfig,
+) -> Result<Identification, VolumetricError> {
+    let range = axis_range(table);
+    let w = weights(table);
+    let sqrt_w: Vec<f64> = w.clone().unwrap_or_else(|| vec![1.0; table.targets()]);
+    let fit_err = |message: String| VolumetricError::Fit {
+        file: table.source.clone(),
+        message,
+    };
+    if let Some((&c, &d)) = config.component_degrees.iter().find(|(_, d)| **d == 0) {
+        return Err(fit_err(format!(
+            "degree {d} for {}: degrees start at 1",
+            Component::from_index(c).name()
+        )));
+    }
+    let (degree, cv) = match config.degree {
+        Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
+        Degree::Fixed(d) => (d, Vec::new()),
+        Degree::Auto { max } => choose_degree(table, config, range, &sqrt_w, max.max(1)),
+    };
+    let basis = Basis::new(config.topology, range, degrees(config, degree));
+    let d = design(table, &basis, &sqrt_w);
+    let dec = decompose(&d.a);
+    let rank = dec.sv_range.len();
+    let rows = table.targets();
+    let n_lines = table.lines.len();
+    if rows <= rank + n_lines {
+        return Err(fit_err(format!(
+            "{rows} targets on {n_lines} lines leave no degree of freedom for {rank} determined \
+             parameters and {n_lines} line constants; measure more targets or lower the degree"
+        )));
+    }
+    let dof = rows - rank - n_lines;
+    // θ_s = V Σ⁻¹ Uᵀ e
+    let ut_e = dec.u_range.transpose() * &d.e;
+    let coef = DVector::from_fn(rank, |k, _| ut_e[k] / dec.sv_range[k]);
+    let theta_s = &dec.v_range * coef;
+    let res_w = &d.e - &d.a * &theta_s;
+    let chi2 = res_w.norm_squared();
+    let sigma0 = (chi2 / dof as f64).sqrt();
+    let n = basis.n_params();
+    let theta: Vec<f64> = (0..n).map(|j| theta_s[j] / d.scale[j]).collect();
+    let vs = DMatrix::from_fn(n, rank, |i, k| dec.v_range[(i, k)] / dec.sv_range[k]);
+    let cov_s = &vs * vs.transpose() * (sigma0 * sigma0);
+    let covariance: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| cov_s[(i, j)] / (d.scale[i] * d.scale[j]))
+                .collect()
+        })
+        .collect();
+    let identified = identified_flags(&basis, &dec.null);
+    let null_space: Vec<Vec<f64>> = (0..n)
+        .map(|i| dec.null.row(i).iter().copied().collect())
+        .collect();
+    let unidentified = suggest(&basis, &d.scale, &dec.null, &identified);
+    // Residuals, unweighted, in line order sorted along the line.
+    let mut residuals = Vec::new();
+    let mut all_r = Vec::with_capacity(rows);
+    for (line, rr) in table.lines.iter().zip(&d.line_rows) {
+        let mut v: Vec<(f64, Option<f64>, f64)> = line
+            .targets
+            .iter()
+            .zip(rr.clone())
+            .map(|(t, i)| (line.s_mm(t), t.t_s, res_w[i] / d.sqrt_w[i]))
+            .collect();
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        all_r.extend(v.iter().map(|x| x.2));
+        residuals.push(LineResidual {
+            line: line.id.clone(),
+            s_mm: v.iter().map(|x| x.0).collect(),
+            t_s: v.iter().map(|x| x.1).collect(),
+            r_um: v.iter().map(|x| x.2).collect(),
+        });
+    }
+    let rms_residual_um = crate::base::stats::rms(&all_r).unwrap_or(0.0);
+    let residual = residual_test(&residuals, w.is_some().then_some((chi2, dof)));
+    Ok(Identification {
+        topology: config.topology,
+        degree,
+        cv,
+        fit: FitState {
+            basis,
+            theta,
+            covariance,
+            null_space,
+            column_scale: d.scale,
+            identified,
+        },
+        lines: n_lines,
+        targets: rows,
+        rms_residual_um,
+        sigma0,
+        dof,
+        weighted: w.is_some(),
+        residuals,
+        residual,
+        unidentified,
+    })
+}
+
+/// Degree by leave-one-line-out cross-validation: among the degrees that determine at
+/// least the components degree 1 determines, the one with the lowest CV RMS (a degree
+/// too high costs width of the σ bands, one too low a bias they do not show). Lines the others cannot predict at some degree are left out of
+/// every degree's score, so the scores are over the same lines.
+fn choose_degree(
+    table: &LineTable,
+    config: &IdentifyConfig,
+    range: [[f64; 2]; 3],
+    sqrt_w: &[f64],
+    max: usize,
+) -> (usize, Vec<CvScore>) {
+    // (degree, identified count, identified flags, CV per line)
+    type PerDegree = (usize, usize, Vec<bool>, Vec<Option<f64>>);
+    let mut per: Vec<PerDegree> = Vec::new();
+    for deg in 1..=max {
+        let basis = Basis::new(config.topology, range, degrees(config, deg));
+        let d = design(table, &basis, sqrt_w);
+        let dec = decompose(&d.a);
+        let flags = identified_flags(&basis, &dec.null);
+        let count = flags.iter().filter(|f| **f).count();
+        per.push((deg, count, flags, cv_per_line(&d)));
+    }
+    let base = per[0].2.clone();
+    let admissible: Vec<usize> = (0..per.len())
+        .filter(|&i| base.iter().zip(&per[i].2).all(|(b, f)| !b || *f))
+        .collect();
+    let usable: Vec<usize> = (0..table.lines.len())
+        .filter(|&l| admissible.iter().all(|&i| per[i].3[l].is_some()))
+        .collect();
+    let rows: usize = usable.iter().map(|&l| table.lines[l].targets.len()).sum();
+    let scores: Vec<CvScore> = admissible
+        .iter()
+        .map(|&i| {
+            let ss: f64 = usable.iter().map(|&l| per[i].3[l].unwrap_or(0.0)).sum();
+            CvScore {
+                degree: per[i].0,
+                cv_rms_um: if rows > 0 {
+                    (ss / rows as f64).sqrt()
+                } else {
+                    f64::NAN
+                },
+                identified: per[i].1,
+            }
+        })
+        .collect();
+    let best = scores
+        .iter()
+        .map(|s| s.cv_rms_um)
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let chosen = scores
+        .iter()
+        .find(|s| s.cv_rms_um <= best)
+        .map(|s| s.degree)
+        .unwrap_or(2.min(max));
+    (chosen, scores)
+}
+
+/// The residual against the noise. With `s_um` on every row: the weighted chi-square
+/// with its degrees of freedom, Wilson–Hilferty z; without: the lag-1 autocorrelation
+/// of the residuals along each line, z = ρ·√n (white noise gives z ≈ 0 or slightly
+/// negative; a systematic residual a run of same-sign values). `missing_physics` when
+/// z > 3.09 (one-sided p < 0.001).
+fn residual_test(res: &[LineResidual], chi2: Option<(f64, usize)>) -> ResidualVerdict {
+    let (test, z) = match chi2 {
+        Some((c, dof)) => {
+            let nu = dof as f64;
+            let h = 2.0 / (9.0 * nu);
+            ("chi-square", ((c / nu).cbrt() - (1.0 - h)) / h.sqrt())
+        }
+        None => {
+            let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
+            for l in res {
+                den += l.r_um.iter().map(|r| r * r).sum::<f64>();
+                num += l.r_um.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
+                n += l.r_um.len().saturating_sub(1);
+            }
+            let rho = if den > 0.0 { num / den } else { 0.0 };
+            ("lag-1 autocorrelation", rho * (n as f64).sqrt())
+        }
+    };
+    ResidualVerdict {
+        verdict: if z > 3.09 {
+            "missing_physics"
+        } else {
+            "consistent"
+        }
+        .into(),
+        effects: Vec::new(),
+        test: test.into(),
+        z,
+    }
+}
+
+impl Identification {
+    /// Report positions along axis k: `n` evenly over the range, 0 included.
+    pub fn positions(&self, k: usize, n: usize) -> Vec<f64> {
+        let [lo, hi] = self.fit.basis.range_mm[k];
+        let n = n.max(5);
+        let mut v: Vec<f64> = (0..n)
+            .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+            .collect();
+        if !v.iter().any(|x| x.abs() < 1e-9) {
+            v.push(0.0);
+            v.sort_by(f64::total_cmp);
+        }
+        v
+    }
+
+    /// The spec's `identify --json` document; with `fit`, the state `predict` needs.
+    pub fn to_json(&self, positions: usize, with_fit: bool) -> serde_json::Value {
+        use serde_json::{Value, json};
+        let mut comps = serde_json::Map::new();
+        for c in Component::all() {
+            let i = c.index();
+            let pos = self.positions(c.axis, positions);
+            let vals: Option<Vec<(f64, f64)>> =
+                pos.iter().map(|&a| self.fit.component(i, a)).collect();
+            let (values, sigma) = match vals {
+                Some(v) => (
+                    json!(v.iter().map(|x| x.0).collect::<Vec<_>>()),
+                    json!(v.iter().map(|x| x.1).collect::<Vec<_>>()),
+                ),
+                None => (Value::Null, Value::Null),
+            };
+            comps.insert(
+                c.name(),
+                json!({"identified": self.fit.identified[i], "unit": c.unit(),
+                       "positions_mm": pos, "values": values, "sigma": sigma}),
+            );
+        }
+        for (i, name) in SQUARENESS.iter().enumerate() {
+            let v = self.fit.squareness(i);
+            comps.insert(
+                name.to_string(),
+                json!({"identified": self.fit.identified[18 + i], "unit": "urad",
+                       "value": v.map(|x| x.0), "sigma": v.map(|x| x.1)}),
+            );
+        }
+        let mut doc = json!({
+            "topology": self.topology.to_string(),
+            "rms_residual_um": self.rms_residual_um,
+            "lines": self.lines,
+            "targets": self.targets,
+            "components": comps,
+            "unidentified": self.unidentified,
+            "residual": self.residual,
+            "degree": self.degree,
+            "cv": self.cv,
+            "gauge": super::GAUGE,
+        });
+        if with_fit {
+            doc["fit"] = serde_json::to_value(&self.fit).unwrap_or(Value::Null);
+        }
+        doc
+    }
+}

@@ -1,0 +1,378 @@
+//! Line tables (spec `volumetric.md`, "Line table"): one row per target, grouped into
+//! lines by the `line` column, read and written as CSV or Parquet through
+//! [`crate::table`]'s frame readers and cell validation.
+//!
+//! Checks, each an error naming the file, the data row (1-based; CSV line = row + 1) and
+//! the column, or the line: a missing required column, a non-numeric or non-finite cell;
+//! a beam direction (ux, uy, uz) whose norm differs from 1 by more than 1e−6; rows of one
+//! line disagreeing on u (by more than 1e−6) or on the probe offset (by more than
+//! 1e−6 mm); a target more than 1 µm off the line through the line's first target along
+//! u; a line with fewer than 3 distinct targets (positions along the line 1 µm apart);
+//! `s_um` not positive. Rows of a line need not be contiguous; lines keep the order of
+//! their first row and targets the order of the file.
+
+use std::path::Path;
+
+use polars::prelude::*;
+
+use super::error::VolumetricError;
+use super::model::dot;
+use crate::table::{
+    Cells, TableError, column_cells, format_err, parse_cell, read_frame, required_cell, write_frame,
+};
+
+/// Tolerance on |u| − 1 and on the agreement of u between rows of a line.
+pub const UNIT_TOL: f64 = 1e-6;
+/// How far a target may lie off its line, mm.
+pub const OFF_LINE_TOL_MM: f64 = 1e-3;
+/// Fewest distinct targets of a line.
+pub const MIN_TARGETS: usize = 3;
+
+/// One row of a line table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Target {
+    /// Data row, 1-based (header excluded).
+    pub row: usize,
+    pub pos_mm: [f64; 3],
+    /// Error along the line, indicated − reference, µm (absent in a table to predict).
+    pub e_um: Option<f64>,
+    pub s_um: Option<f64>,
+    pub t_s: Option<f64>,
+    pub scale_temp_c: Option<f64>,
+    pub air_temp_c: Option<f64>,
+    pub part_temp_c: Option<f64>,
+}
+
+impl Target {
+    pub fn new(pos_mm: [f64; 3], e_um: f64) -> Target {
+        Target {
+            row: 0,
+            pos_mm,
+            e_um: Some(e_um),
+            s_um: None,
+            t_s: None,
+            scale_temp_c: None,
+            air_temp_c: None,
+            part_temp_c: None,
+        }
+    }
+}
+
+/// One line: a beam direction, a probe offset and its targets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    pub id: String,
+    /// Unit beam direction.
+    pub u: [f64; 3],
+    pub probe_mm: [f64; 3],
+    pub targets: Vec<Target>,
+}
+
+impl Line {
+    /// Distance along the line from the first target, mm.
+    pub fn s_mm(&self, t: &Target) -> f64 {
+        let p0 = self.targets[0].pos_mm;
+        dot(sub(t.pos_mm, p0), self.u)
+    }
+}
+
+/// A validated line table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineTable {
+    pub source: String,
+    pub lines: Vec<Line>,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn bad(path: &Path, row: usize, column: &str, problem: String) -> VolumetricError {
+    VolumetricError::Table(TableError::BadValue {
+        path: path.to_path_buf(),
+        row,
+        line: row + 1,
+        column: column.to_string(),
+        problem,
+    })
+}
+
+const OPTIONAL: [&str; 8] = [
+    "px_mm",
+    "py_mm",
+    "pz_mm",
+    "s_um",
+    "t_s",
+    "scale_temp_c",
+    "air_temp_c",
+    "part_temp_c",
+];
+
+impl LineTable {
+    /// Reads and validates a line table; `e_um` is required when `require_e`.
+    pub fn read(path: &Path, require_e: bool) -> Result<LineTable, VolumetricError> {
+        let df = read_frame(path)?;
+        Self::from_frame(path, &df, require_e)
+    }
+
+    pub fn from_frame(
+        path: &Path,
+        df: &DataFrame,
+        require_e: bool,
+    ) -> Result<LineTable, VolumetricError> {
+        let ids = column_cells(path, df, "line")?;
+        let req = ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
+            .iter()
+            .map(|c| column_cells(path, df, c))
+            .collect::<Result<Vec<_>, _>>()?;
+        let e_cells = if require_e || df.column("e_um").is_ok() {
+            Some(column_cells(path, df, "e_um")?)
+        } else {
+            None
+        };
+        let opt: Vec<Option<Cells>> = OPTIONAL
+            .iter()
+            .map(|c| {
+                df.column(c)
+                    .ok()
+                    .map(|_| column_cells(path, df, c))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        if df.height() == 0 {
+            return Err(TableError::Empty {
+                path: path.to_path_buf(),
+            }
+            .into());
+        }
+        let mut lines: Vec<Line> = Vec::new();
+        let mut first_row: Vec<usize> = Vec::new();
+        for r0 in 0..df.height() {
+            let row = r0 + 1;
+            let id = line_id(path, &ids, r0)?;
+            let mut v = [0.0; 6];
+            for (k, name) in ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
+                .iter()
+                .enumerate()
+            {
+                v[k] = required_cell(path, &req[k], r0, name)?;
+            }
+            let e_um = match &e_cells {
+                Some(c) if require_e => Some(required_cell(path, c, r0, "e_um")?),
+                Some(c) => parse_cell(path, c, r0, "e_um")?,
+                None => None,
+            };
+            let mut o = [None; 8];
+            for (k, cells) in opt.iter().enumerate() {
+                if let Some(c) = cells {
+                    o[k] = parse_cell(path, c, r0, OPTIONAL[k])?;
+                }
+            }
+            if let Some(s) = o[3]
+                && s <= 0.0
+            {
+                return Err(bad(
+                    path,
+                    row,
+                    "s_um",
+                    format!("one-sigma {s} must be positive"),
+                ));
+            }
+            let u = [v[3], v[4], v[5]];
+            let norm = dot(u, u).sqrt();
+            if (norm - 1.0).abs() > UNIT_TOL {
+                return Err(bad(
+                    path,
+                    row,
+                    "ux",
+                    format!(
+                        "the beam direction ({}, {}, {}) of line `{id}` has norm {norm:.9}, not 1 \
+                         (checked to 1e-6)",
+                        u[0], u[1], u[2]
+                    ),
+                ));
+            }
+            let u = u.map(|c| c / norm);
+            let probe = [o[0], o[1], o[2]].map(|p| p.unwrap_or(0.0));
+            let target = Target {
+                row,
+                pos_mm: [v[0], v[1], v[2]],
+                e_um,
+                s_um: o[3],
+                t_s: o[4],
+                scale_temp_c: o[5],
+                air_temp_c: o[6],
+                part_temp_c: o[7],
+            };
+            match lines.iter_mut().position(|l| l.id == id) {
+                None => {
+                    first_row.push(row);
+                    lines.push(Line {
+                        id,
+                        u,
+                        probe_mm: probe,
+                        targets: vec![target],
+                    });
+                }
+                Some(i) => {
+                    let l = &mut lines[i];
+                    for (k, col) in ["ux", "uy", "uz"].iter().enumerate() {
+                        if (l.u[k] - u[k]).abs() > UNIT_TOL {
+                            return Err(bad(
+                                path,
+                                row,
+                                col,
+                                format!(
+                                    "{} differs from {} on row {} of the same line `{}`: rows of a \
+                                     line share the beam direction",
+                                    u[k], l.u[k], first_row[i], l.id
+                                ),
+                            ));
+                        }
+                    }
+                    for (k, col) in ["px_mm", "py_mm", "pz_mm"].iter().enumerate() {
+                        if (l.probe_mm[k] - probe[k]).abs() > 1e-6 {
+                            return Err(bad(
+                                path,
+                                row,
+                                col,
+                                format!(
+                                    "probe offset {} mm differs from {} mm on row {} of the same \
+                                     line `{}`: rows of a line share the probe offset",
+                                    probe[k], l.probe_mm[k], first_row[i], l.id
+                                ),
+                            ));
+                        }
+                    }
+                    let p0 = l.targets[0].pos_mm;
+                    let d = sub(target.pos_mm, p0);
+                    let s = dot(d, l.u);
+                    let off = sub(d, l.u.map(|c| c * s));
+                    let dist = dot(off, off).sqrt();
+                    if dist > OFF_LINE_TOL_MM {
+                        return Err(bad(
+                            path,
+                            row,
+                            "x_mm",
+                            format!(
+                                "target ({}, {}, {}) mm is {:.4} µm off line `{}` (through row {} \
+                                 along ({:.6}, {:.6}, {:.6}); the limit is 1 µm)",
+                                target.pos_mm[0],
+                                target.pos_mm[1],
+                                target.pos_mm[2],
+                                dist * 1e3,
+                                l.id,
+                                first_row[i],
+                                l.u[0],
+                                l.u[1],
+                                l.u[2]
+                            ),
+                        ));
+                    }
+                    l.targets.push(target);
+                }
+            }
+        }
+        for (l, &row) in lines.iter().zip(&first_row) {
+            let mut s: Vec<f64> = l.targets.iter().map(|t| l.s_mm(t)).collect();
+            s.sort_by(f64::total_cmp);
+            s.dedup_by(|a, b| (*a - *b).abs() < OFF_LINE_TOL_MM);
+            if s.len() < MIN_TARGETS {
+                return Err(VolumetricError::Line {
+                    path: path.to_path_buf(),
+                    line: l.id.clone(),
+                    row,
+                    file_line: row + 1,
+                    problem: format!(
+                        "{} distinct target(s); a line needs at least {MIN_TARGETS}",
+                        s.len()
+                    ),
+                });
+            }
+        }
+        Ok(LineTable {
+            source: path.display().to_string(),
+            lines,
+        })
+    }
+
+    /// Number of rows.
+    pub fn targets(&self) -> usize {
+        self.lines.iter().map(|l| l.targets.len()).sum()
+    }
+
+    /// Writes the table (CSV or Parquet by extension); optional columns are written when
+    /// any row has them.
+    pub fn write(&self, path: &Path) -> Result<(), VolumetricError> {
+        let rows: Vec<(&Line, &Target)> = self
+            .lines
+            .iter()
+            .flat_map(|l| l.targets.iter().map(move |t| (l, t)))
+            .collect();
+        let num = |name: &str, f: &dyn Fn(&Line, &Target) -> f64| {
+            Column::new(
+                name.into(),
+                rows.iter().map(|(l, t)| f(l, t)).collect::<Vec<f64>>(),
+            )
+        };
+        let mut cols = vec![
+            Column::new(
+                "line".into(),
+                rows.iter()
+                    .map(|(l, _)| l.id.clone())
+                    .collect::<Vec<String>>(),
+            ),
+            num("x_mm", &|_, t| t.pos_mm[0]),
+            num("y_mm", &|_, t| t.pos_mm[1]),
+            num("z_mm", &|_, t| t.pos_mm[2]),
+            num("ux", &|l, _| l.u[0]),
+            num("uy", &|l, _| l.u[1]),
+            num("uz", &|l, _| l.u[2]),
+            num("px_mm", &|l, _| l.probe_mm[0]),
+            num("py_mm", &|l, _| l.probe_mm[1]),
+            num("pz_mm", &|l, _| l.probe_mm[2]),
+        ];
+        type Getter<'a> = &'a dyn Fn(&Target) -> Option<f64>;
+        let optional: [(&str, Getter); 6] = [
+            ("e_um", &|t| t.e_um),
+            ("s_um", &|t| t.s_um),
+            ("t_s", &|t| t.t_s),
+            ("scale_temp_c", &|t| t.scale_temp_c),
+            ("air_temp_c", &|t| t.air_temp_c),
+            ("part_temp_c", &|t| t.part_temp_c),
+        ];
+        for (name, f) in optional {
+            if rows.iter().any(|(_, t)| f(t).is_some()) {
+                cols.push(Column::new(
+                    name.into(),
+                    rows.iter().map(|(_, t)| f(t)).collect::<Vec<Option<f64>>>(),
+                ));
+            }
+        }
+        let mut df = DataFrame::new(rows.len(), cols).map_err(|e| format_err(path, e))?;
+        Ok(write_frame(path, &mut df)?)
+    }
+}
+
+fn line_id(path: &Path, cells: &Cells, r0: usize) -> Result<String, VolumetricError> {
+    let id = match cells {
+        Cells::Text(v) => v[r0].as_deref().map(str::trim).map(str::to_string),
+        Cells::Number(v) => v[r0].map(|x| {
+            if x.fract() == 0.0 && x.abs() < 1e15 {
+                format!("{}", x as i64)
+            } else {
+                format!("{x}")
+            }
+        }),
+    };
+    match id {
+        Some(s) if !s.is_empty() => Ok(s),
+        _ => Err(TableError::EmptyCell {
+            path: path.to_path_buf(),
+            row: r0 + 1,
+            line: r0 + 2,
+            column: "line".into(),
+        }
+        .into()),
+    }
+}

@@ -1,0 +1,101 @@
+//! Volumetric errors from laser line measurements (spec `volumetric.md`, issue #12): the
+//! 21 geometric errors of a three-axis machine (ISO 230-1:2012 names) identified from
+//! displacements measured along lines — the displacement method of Zhang et al. (CIRP
+//! Annals 37/1, 1988) and its successors — and the error vector anywhere in the volume.
+//!
+//! | module | does | cost |
+//! |---|---|---|
+//! | [`model`] | topology, components, lever arms, E(x, y, z; p), the machine-model TOML | O(18) per point |
+//! | [`lines`] | line tables (CSV/Parquet): read, validate, write | O(rows · lines) |
+//! | [`basis`] | the linear parameterisation with the gauge built in | O(params) per row |
+//! | [`identify`] | least squares, σ bands, identifiability, degree by CV, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
+//! | [`identifiability`] | which line would determine an undetermined component | one small SVD per candidate |
+//! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
+//! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, simulated line tables | O(rows) |
+//!
+//! # Model and signs
+//!
+//! E(x, y, z; p) = Σ_k [δ_k(a_k) + 1e−3·ε_k(a_k) × r_k] + Δ_sq (µm; δ µm, ε µrad, r mm),
+//! r_k = Σ_{j after k in the chain} a_j·ê_j + p, Δ_sq = 1e−3·(−E_C0Y·y + E_B0Z·z,
+//! −E_A0Z·z, 0). A laser reading along the unit beam u records e = −u·E + c_line + noise
+//! (indicated − reference). The table's x_mm, y_mm, z_mm are the axis positions at
+//! which the components are evaluated (E(P_i; p) as the spec writes it).
+//!
+//! # Identification
+//!
+//! Linear least squares: each component a polynomial in ξ = a/L_k without constant term
+//! ([`basis`]), each squareness a constant, one free constant per line. The line constants
+//! are eliminated exactly by centring each line's rows (weighted mean); rows are weighted
+//! by 1/s_um when every row has `s_um`, otherwise equally; columns are equilibrated to
+//! unit norm. The equilibrated design's SVD gives the solution (pseudo-inverse on the
+//! determined subspace), the covariance σ₀²·(AᵀWA)⁺ scaled by the residual
+//! (σ₀² = χ²/(rows − rank − lines)), and the null space: singular values at or below
+//! [`identify::RANK_TOL`] = 1e−8 of the largest count as zero. A component is
+//! **identified** when every one of its parameters is orthogonal to the null space
+//! (its rows of the orthonormal null basis below [`identify::NULL_TOL`] = 1e−6); then its
+//! estimate and σ do not depend on how the undetermined directions are resolved.
+//! Unidentified components are reported with `values`/`sigma` null, grouped by the
+//! simplest line of a catalogue whose addition determines them ([`identifiability`]).
+//! A straightness component of degree D has the basis ξ²…ξ^max(D,2) (slope removed), so a
+//! straightness that no line sees is never "identified as zero".
+//!
+//! **Degree.** One global degree D (1 = linear, …), or per component; `auto` fits
+//! D = 1 … max (default 4) and scores each by leave-one-line-out cross-validation (each
+//! held-out line's profile predicted by the other lines, its constant refitted), over the
+//! lines every degree can predict, among degrees determining at least what D = 1
+//! determines; the degree with the lowest score is chosen (a degree too high widens the σ
+//! bands honestly, one too low biases the components without showing in σ).
+//!
+//! # Gauge
+//!
+//! Line displacements do not see a rigid rotation ω × P of the whole error field, and a
+//! squareness moves points exactly as a linear trend of a straightness does. The
+//! convention ([`GAUGE`]): **every straightness component has zero least-squares slope
+//! over its axis' range** (the continuous least-squares line over [min(0, a_min),
+//! max(0, a_max)], its slope removed, the value at 0 staying 0), and **all linear trends
+//! are reported as the three squareness errors of the spec's Δ_sq** — which fixes the
+//! global rotation with X as the reference axis (X has no trend in y or z) and Y the
+//! reference for Z's trend in y. Positioning and angular components are not affected.
+//! A machine described in any other convention maps onto this one as follows, with
+//! β_jk the least-squares slope of straightness E_jk over the range, in µm/mm:
+//! E_C0Y' = E_C0Y − 1e3·(β_XY + β_YX), E_B0Z' = E_B0Z + 1e3·(β_XZ + β_ZX),
+//! E_A0Z' = E_A0Z − 1e3·(β_YZ + β_ZY), E_jk' = E_jk − β_jk·a.
+//!
+//! # Residual (this slice)
+//!
+//! The campaign's residual is tested against the noise, not yet diagnosed by the
+//! diagnosis engine: with `s_um` on every row, the weighted χ² against its degrees of
+//! freedom (Wilson–Hilferty z); without, the lag-1 autocorrelation of the residuals along
+//! each line (z = ρ·√n). z > 3.09 (one-sided p < 0.001) is `missing_physics`, otherwise
+//! `consistent`; `effects` is empty. Naming and fitting a thermal drift or a bad line is
+//! a later step.
+//!
+//! # References
+//!
+//! ISO 230-1:2012, *Test code for machine tools — Part 1: Geometric accuracy* (component
+//! and squareness names, signs). S. Zhang, J. Ouyang et al., "A displacement method for
+//! machine geometry calibration", CIRP Annals 37/1 (1988). ISO 10360-2 (length
+//! measurement error along lines).
+
+pub mod basis;
+mod error;
+pub mod identifiability;
+pub mod identify;
+pub mod lines;
+pub mod model;
+pub mod predict;
+pub mod simulate;
+
+pub use basis::{Basis, GaugeTruth};
+pub use error::VolumetricError;
+pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
+pub use lines::{Line, LineTable, Target};
+pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology};
+pub use predict::{Prediction, Predictor};
+pub use simulate::{Plan, PlanFile, PlannedLine, simulate};
+
+/// The gauge convention in words (also in the JSON and the report).
+pub const GAUGE: &str = "every straightness component has zero least-squares slope over its \
+    axis' measured range (value 0 at 0 kept); all linear trends are reported as the squareness \
+    errors E_C0Y, E_B0Z, E_A0Z of the spec's Δ_sq, i.e. X is the reference axis (no trend of X \
+    in y or z) and Y the reference for Z's trend in y";

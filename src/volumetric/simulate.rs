@@ -1,0 +1,492 @@
+//! Simulated laser campaigns: a volumetric measurement plan (TOML) with presets, the time
+//! each line takes, and a line table from a machine model with seeded noise and a
+//! per-line laser zero.
+//!
+//! # Plan file (`datasets/volumetric/plan.toml`)
+//!
+//! Top level: `seed`, `noise_um` (one-sigma of one reading, default 0.1), `laser_zero_um`
+//! (one-sigma of each line's unknown zero, default 5), `runs` (default 1), `feed_mm_s`
+//! (default 20), `dwell_s` (settling and averaging at a target, default 4), `setup_s`
+//! (aligning the laser to a new line, default 600), and either `preset` with `volume_mm =
+//! [[x0, y0, z0], [x1, y1, z1]]`, `targets` (default 11) and `probe_offset_mm` (default
+//! 100), or `[[line]]` tables, or both (the preset's lines first). A `[[line]]` has
+//! `start_mm`, then `end_mm` or `direction` (normalised) and `length_mm`, and optionally
+//! `name`, `targets`, `probe_mm` and `runs`.
+//!
+//! # Timing
+//!
+//! Each line starts with `setup_s`; each run moves from target to target at `feed_mm_s`,
+//! dwells `dwell_s` and reads at the end of the dwell, then returns to the start. A row is
+//! the mean of its runs; its `t_s` the mean reading time and `s_um` = noise/√runs.
+//!
+//! # Presets
+//!
+//! * `zhang22` — 22 lines in the spirit of the displacement method of Zhang, Ouyang, Lu,
+//!   Hocken, Veale and Donmez (CIRP Annals 37/1, 1988). The paper's exact line list could
+//!   not be consulted, so this is our set of 22 chosen to determine all 21 errors for
+//!   every topology (checked by the identifiability analysis in the tests): per axis a
+//!   line along it through the box's lower corner, and two more with the probe offset along
+//!   each other axis (9 lines: positioning and the two rotations seen by Abbe offsets);
+//!   per plane both face diagonals, one diagonal with a probe offset across the plane
+//!   (rolls) and one half-length diagonal parallel to the first, shifted (separates the
+//!   two straightnesses of the plane) (12 lines); and one body diagonal.
+//! * `rich` — 43 lines: per axis four lines along it at the four corners of the other two
+//!   ranges and two at the centre with probe offsets along the other axes (18); per plane
+//!   both face diagonals at the low and the high end of the third axis, two half-length
+//!   shifted parallels and one diagonal with a probe offset across the plane (21); the four
+//!   body diagonals.
+
+use std::path::Path;
+
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use serde::Deserialize;
+
+use super::error::{VolumetricError, config_err, read_toml};
+use super::lines::{Line, LineTable, Target};
+use super::model::{AXES, Machine};
+use crate::base::stats::gaussian;
+
+/// The plan file as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanFile {
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default = "d_noise")]
+    pub noise_um: f64,
+    #[serde(default = "d_zero")]
+    pub laser_zero_um: f64,
+    #[serde(default = "d_one")]
+    pub runs: u32,
+    #[serde(default = "d_feed")]
+    pub feed_mm_s: f64,
+    #[serde(default = "d_dwell")]
+    pub dwell_s: f64,
+    #[serde(default = "d_setup")]
+    pub setup_s: f64,
+    pub preset: Option<String>,
+    pub volume_mm: Option<[[f64; 3]; 2]>,
+    #[serde(default = "d_targets")]
+    pub targets: usize,
+    pub probe_offset_mm: Option<f64>,
+    #[serde(default, rename = "line")]
+    pub lines: Vec<LineSpec>,
+}
+
+fn d_noise() -> f64 {
+    0.1
+}
+fn d_zero() -> f64 {
+    5.0
+}
+fn d_one() -> u32 {
+    1
+}
+fn d_feed() -> f64 {
+    20.0
+}
+fn d_dwell() -> f64 {
+    4.0
+}
+fn d_setup() -> f64 {
+    600.0
+}
+fn d_targets() -> usize {
+    11
+}
+
+/// One `[[line]]` as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineSpec {
+    pub name: Option<String>,
+    pub start_mm: [f64; 3],
+    pub end_mm: Option<[f64; 3]>,
+    pub direction: Option<[f64; 3]>,
+    pub length_mm: Option<f64>,
+    pub targets: Option<usize>,
+    #[serde(default)]
+    pub probe_mm: [f64; 3],
+    pub runs: Option<u32>,
+}
+
+/// A validated line of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedLine {
+    pub name: String,
+    pub start_mm: [f64; 3],
+    /// Unit direction.
+    pub u: [f64; 3],
+    pub length_mm: f64,
+    pub targets: usize,
+    pub probe_mm: [f64; 3],
+    pub runs: u32,
+}
+
+/// A validated plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    pub seed: u64,
+    pub noise_um: f64,
+    pub laser_zero_um: f64,
+    pub feed_mm_s: f64,
+    pub dwell_s: f64,
+    pub setup_s: f64,
+    pub lines: Vec<PlannedLine>,
+}
+
+fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
+}
+
+impl PlanFile {
+    pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
+        let f: PlanFile = read_toml(path)?;
+        f.validate(path)
+    }
+
+    pub fn validate(&self, path: &Path) -> Result<Plan, VolumetricError> {
+        let scalars = [
+            ("noise_um", self.noise_um, true),
+            ("laser_zero_um", self.laser_zero_um, true),
+            ("feed_mm_s", self.feed_mm_s, false),
+            ("dwell_s", self.dwell_s, true),
+            ("setup_s", self.setup_s, true),
+        ];
+        for (key, v, zero_ok) in scalars {
+            if !v.is_finite() || v < 0.0 || (!zero_ok && v == 0.0) {
+                return Err(config_err(
+                    path,
+                    key,
+                    format!(
+                        "{v} must be a finite {} number",
+                        if zero_ok { "non-negative" } else { "positive" }
+                    ),
+                ));
+            }
+        }
+        if self.runs == 0 {
+            return Err(config_err(path, "runs", "at least 1 run"));
+        }
+        let mut lines = Vec::new();
+        if let Some(name) = &self.preset {
+            let Some(vol) = self.volume_mm else {
+                return Err(config_err(
+                    path,
+                    "volume_mm",
+                    "a preset needs volume_mm = [[x0, y0, z0], [x1, y1, z1]]",
+                ));
+            };
+            if vol.iter().flatten().any(|v| !v.is_finite())
+                || (0..3).any(|k| vol[1][k] <= vol[0][k])
+            {
+                return Err(config_err(
+                    path,
+                    "volume_mm",
+                    "corners must be finite with x1 > x0, y1 > y0, z1 > z0",
+                ));
+            }
+            if self.targets < 3 {
+                return Err(config_err(
+                    path,
+                    "targets",
+                    "a line needs at least 3 targets",
+                ));
+            }
+            let p = self.probe_offset_mm.unwrap_or(100.0);
+            if !p.is_finite() {
+                return Err(config_err(path, "probe_offset_mm", "not finite"));
+            }
+            lines = preset(name, vol, self.targets, p, self.runs)
+                .map_err(|m| config_err(path, "preset", m))?;
+        }
+        for (i, l) in self.lines.iter().enumerate() {
+            let key = |f: &str| format!("line[{}].{f}", i + 1);
+            let all = l
+                .start_mm
+                .iter()
+                .chain(l.end_mm.iter().flatten())
+                .chain(l.direction.iter().flatten())
+                .chain(l.length_mm.iter())
+                .chain(l.probe_mm.iter());
+            if all.clone().any(|v| !v.is_finite()) {
+                return Err(config_err(path, key("start_mm"), "a value is not finite"));
+            }
+            let (u, len) = match (l.end_mm, l.direction, l.length_mm) {
+                (Some(end), None, None) => {
+                    let d = [0, 1, 2].map(|k| end[k] - l.start_mm[k]);
+                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let u = unit(d)
+                        .ok_or_else(|| config_err(path, key("end_mm"), "end equals start"))?;
+                    (u, len)
+                }
+                (None, Some(d), Some(len)) => {
+                    let u = unit(d)
+                        .ok_or_else(|| config_err(path, key("direction"), "zero direction"))?;
+                    if len <= 0.0 {
+                        return Err(config_err(
+                            path,
+                            key("length_mm"),
+                            format!("{len} must be positive"),
+                        ));
+                    }
+                    (u, len)
+                }
+                _ => {
+                    return Err(config_err(
+                        path,
+                        key("end_mm"),
+                        "give either end_mm, or direction and length_mm",
+                    ));
+                }
+            };
+            let targets = l.targets.unwrap_or(self.targets);
+            if targets < 3 {
+                return Err(config_err(
+                    path,
+                    key("targets"),
+                    format!("{targets}: a line needs at least 3 targets"),
+                ));
+            }
+            let runs = l.runs.unwrap_or(self.runs);
+            if runs == 0 {
+                return Err(config_err(path, key("runs"), "at least 1 run"));
+            }
+            lines.push(PlannedLine {
+                name: l
+                    .name
+                    .clone()
+                    .unwrap_or_else(|| format!("L{}", lines.len() + 1)),
+                start_mm: l.start_mm,
+                u,
+                length_mm: len,
+                targets,
+                probe_mm: l.probe_mm,
+                runs,
+            });
+        }
+        if lines.is_empty() {
+            return Err(config_err(
+                path,
+                "line",
+                "no lines: give a preset or [[line]] tables",
+            ));
+        }
+        let mut names: Vec<&str> = lines.iter().map(|l| l.name.as_str()).collect();
+        names.sort_unstable();
+        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+            return Err(config_err(
+                path,
+                "line",
+                format!("line name `{}` is used twice", w[0]),
+            ));
+        }
+        Ok(Plan {
+            seed: self.seed,
+            noise_um: self.noise_um,
+            laser_zero_um: self.laser_zero_um,
+            feed_mm_s: self.feed_mm_s,
+            dwell_s: self.dwell_s,
+            setup_s: self.setup_s,
+            lines,
+        })
+    }
+}
+
+/// Names of the presets.
+pub const PRESETS: [&str; 2] = ["zhang22", "rich"];
+
+fn e(k: usize, v: f64) -> [f64; 3] {
+    let mut x = [0.0; 3];
+    x[k] = v;
+    x
+}
+
+/// The lines of a preset over the box `vol`.
+pub fn preset(
+    name: &str,
+    vol: [[f64; 3]; 2],
+    targets: usize,
+    probe: f64,
+    runs: u32,
+) -> Result<Vec<PlannedLine>, String> {
+    let [lo, hi] = vol;
+    let mid: [f64; 3] = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let mut out: Vec<PlannedLine> = Vec::new();
+    let mut push = |name: String, start: [f64; 3], end: [f64; 3], p: [f64; 3]| {
+        let d = [0, 1, 2].map(|k| end[k] - start[k]);
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        out.push(PlannedLine {
+            name,
+            start_mm: start,
+            u: d.map(|c| c / len),
+            length_mm: len,
+            targets,
+            probe_mm: p,
+            runs,
+        });
+    };
+    let along = |k: usize, base: [f64; 3]| {
+        let mut s = base;
+        let mut t = base;
+        s[k] = lo[k];
+        t[k] = hi[k];
+        (s, t)
+    };
+    let planes = [(0usize, 1usize, 2usize), (0, 2, 1), (1, 2, 0)];
+    // A diagonal of plane (k, j) at third coordinate c, from fraction f0 to f1 of the
+    // diagonal, shifted by `shift` of the k range; `minus` runs j downwards.
+    let diag = |k: usize, j: usize, l: usize, c: f64, minus: bool, f0: f64, f1: f64, shift: f64| {
+        let mut s = [0.0; 3];
+        let mut t = [0.0; 3];
+        s[l] = c;
+        t[l] = c;
+        let (sk, sj) = (hi[k] - lo[k], hi[j] - lo[j]);
+        s[k] = lo[k] + shift * sk + f0 * sk;
+        t[k] = lo[k] + shift * sk + f1 * sk;
+        if minus {
+            s[j] = hi[j] - f0 * sj;
+            t[j] = hi[j] - f1 * sj;
+        } else {
+            s[j] = lo[j] + f0 * sj;
+            t[j] = lo[j] + f1 * sj;
+        }
+        (s, t)
+    };
+    let pname = |k: usize, j: usize| format!("{}{}", AXES[k], AXES[j]);
+    match name {
+        "zhang22" => {
+            for (k, name) in AXES.iter().enumerate() {
+                let (s, t) = along(k, lo);
+                push(format!("{name}0"), s, t, [0.0; 3]);
+                for j in (0..3).filter(|&j| j != k) {
+                    push(format!("{name}p{}", AXES[j]), s, t, e(j, probe));
+                }
+            }
+            for &(k, j, l) in &planes {
+                let pl = pname(k, j);
+                let (s, t) = diag(k, j, l, lo[l], false, 0.0, 1.0, 0.0);
+                push(format!("D{pl}+"), s, t, [0.0; 3]);
+                push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
+                let (s, t) = diag(k, j, l, lo[l], true, 0.0, 1.0, 0.0);
+                push(format!("D{pl}-"), s, t, [0.0; 3]);
+                let (s, t) = diag(k, j, l, lo[l], false, 0.0, 0.5, 0.5);
+                push(format!("D{pl}+s"), s, t, [0.0; 3]);
+            }
+            push("B+++".into(), lo, hi, [0.0; 3]);
+        }
+        "rich" => {
+            for (k, name) in AXES.iter().enumerate() {
+                let others: Vec<usize> = (0..3).filter(|&j| j != k).collect();
+                for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let mut base = lo;
+                    base[others[0]] = if a == 0 { lo[others[0]] } else { hi[others[0]] };
+                    base[others[1]] = if b == 0 { lo[others[1]] } else { hi[others[1]] };
+                    let (s, t) = along(k, base);
+                    push(format!("{name}{a}{b}"), s, t, [0.0; 3]);
+                }
+                for &j in &others {
+                    let (s, t) = along(k, mid);
+                    push(format!("{name}cp{}", AXES[j]), s, t, e(j, probe));
+                }
+            }
+            for &(k, j, l) in &planes {
+                let pl = pname(k, j);
+                for (tag, c) in [("lo", lo[l]), ("hi", hi[l])] {
+                    let (s, t) = diag(k, j, l, c, false, 0.0, 1.0, 0.0);
+                    push(format!("D{pl}+{tag}"), s, t, [0.0; 3]);
+                    let (s, t) = diag(k, j, l, c, true, 0.0, 1.0, 0.0);
+                    push(format!("D{pl}-{tag}"), s, t, [0.0; 3]);
+                }
+                let (s, t) = diag(k, j, l, mid[l], false, 0.0, 0.5, 0.5);
+                push(format!("D{pl}+s1"), s, t, [0.0; 3]);
+                let (s, t) = diag(k, j, l, mid[l], false, 0.5, 1.0, -0.5);
+                push(format!("D{pl}+s2"), s, t, [0.0; 3]);
+                let (s, t) = diag(k, j, l, mid[l], false, 0.0, 1.0, 0.0);
+                push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
+            }
+            for (i, flip) in [[false, false], [true, false], [false, true], [true, true]]
+                .iter()
+                .enumerate()
+            {
+                let mut s = lo;
+                let mut t = hi;
+                if flip[0] {
+                    s[0] = hi[0];
+                    t[0] = lo[0];
+                }
+                if flip[1] {
+                    s[1] = hi[1];
+                    t[1] = lo[1];
+                }
+                push(format!("B{}", i + 1), s, t, [0.0; 3]);
+            }
+        }
+        other => {
+            return Err(format!(
+                "unknown preset `{other}` (presets: {})",
+                PRESETS.join(", ")
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Simulates the campaign: a line table with e_um = −u·E + the line's zero + noise, the
+/// mean of the runs at each target, t_s from the plan's timing.
+pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
+    let mut rng = StdRng::seed_from_u64(plan.seed);
+    let mut t = 0.0;
+    let mut lines = Vec::with_capacity(plan.lines.len());
+    for pl in &plan.lines {
+        t += plan.setup_s;
+        let zero = plan.laser_zero_um * gaussian(&mut rng);
+        let n = pl.targets;
+        let pos: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let s = pl.length_mm * i as f64 / (n - 1) as f64;
+                [0, 1, 2].map(|k| pl.start_mm[k] + s * pl.u[k])
+            })
+            .collect();
+        let step_s = pl.length_mm / (n - 1) as f64 / plan.feed_mm_s;
+        let mut sum_e = vec![0.0; n];
+        let mut sum_t = vec![0.0; n];
+        for _ in 0..pl.runs {
+            for i in 0..n {
+                if i > 0 {
+                    t += step_s;
+                }
+                t += plan.dwell_s;
+                sum_t[i] += t;
+                sum_e[i] += plan.noise_um * gaussian(&mut rng);
+            }
+            t += pl.length_mm / plan.feed_mm_s;
+        }
+        let runs = f64::from(pl.runs);
+        let targets = pos
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                let mut tg = Target::new(
+                    p,
+                    machine.line_error_um(p, pl.u, pl.probe_mm) + zero + sum_e[i] / runs,
+                );
+                tg.s_um = (plan.noise_um > 0.0).then(|| plan.noise_um / runs.sqrt());
+                tg.t_s = Some(sum_t[i] / runs);
+                tg
+            })
+            .collect();
+        lines.push(Line {
+            id: pl.name.clone(),
+            u: pl.u,
+            probe_mm: pl.probe_mm,
+            targets,
+        });
+    }
+    LineTable {
+        source: "simulated campaign".into(),
+        lines,
+    }
+}
