@@ -8,6 +8,7 @@
 //! | [`findings`] | a comparison's findings in plain words |
 //! | [`json`] | the `compare --json` document |
 //! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
@@ -25,6 +26,7 @@ pub mod experiment;
 pub mod findings;
 pub mod iso230;
 pub mod json;
+pub mod uncertainty;
 
 pub use compare::write_report;
 pub use findings::group_by_reason;

@@ -13,3 +13,4 @@ mod layers;
 mod physics;
 mod table2;
 mod tables;
+mod uncertainty;
