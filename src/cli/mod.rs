@@ -8,6 +8,7 @@
 //! | [`model`] | fit, compare, export, simulate, fuzzy-sim |
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
+//! | [`certificate`] | certificate |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 
 use std::process::ExitCode;
@@ -17,6 +18,7 @@ use clap::{Parser, Subcommand};
 
 pub mod acquisition;
 pub mod args;
+pub mod certificate;
 pub mod demo;
 pub mod diagnose;
 pub mod model;
@@ -64,6 +66,8 @@ pub enum Command {
     Diagnose(DiagnoseArgs),
     /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
     Export(ExportArgs),
+    /// Write the calibration certificate (PDF) of a session.
+    Certificate(certificate::CertificateArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -91,6 +95,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Simulate(a) => model::simulate_cmd(a),
         Command::Diagnose(a) => diagnose::diagnose_cmd(a),
         Command::Export(a) => model::export_cmd(a),
+        Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

@@ -30,7 +30,9 @@ pub fn budget_rows(budget: &Budget, decimals: usize) -> Vec<BudgetRow> {
         .map(|c| BudgetRow {
             name: c.name.to_string(),
             input: format!("{} {}", sig(c.input), c.input_unit),
-            sensitivity: format!("{} {}", sig(c.sensitivity), c.sensitivity_unit),
+            sensitivity: format!("{} {}", sig(c.sensitivity), c.sensitivity_unit)
+                .trim_end()
+                .to_string(),
             u: match c.kind {
                 Kind::Length => format!("{} ppm", sig(c.u)),
                 Kind::Reading => format!("{:.decimals$} µm", c.u),

@@ -333,7 +333,7 @@ pub struct Contribution {
     pub input_unit: &'static str,
     /// Sensitivity coefficient, in `sensitivity_unit` (1 where there is none).
     pub sensitivity: f64,
-    /// Unit of `sensitivity`.
+    /// Unit of `sensitivity` (empty when dimensionless).
     pub sensitivity_unit: &'static str,
     /// Length or reading term.
     pub kind: Kind,
@@ -486,7 +486,7 @@ impl Budget {
                 input: c.resolution_um,
                 input_unit: "µm",
                 sensitivity: 1.0 / (2.0 * SQRT3),
-                sensitivity_unit: "1",
+                sensitivity_unit: "",
                 kind: Kind::Reading,
                 u: c.resolution_um / (2.0 * SQRT3),
             },
