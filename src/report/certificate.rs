@@ -737,8 +737,9 @@ mod tests {
     #[test]
     fn ticks_are_round_and_inside() {
         assert_eq!(ticks(0.0, 10.0, 5), vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
+        // 0.065 / 6 = 0.0108: the next 1-2-5 step up is 0.02.
         let t = ticks(-0.013, 0.052, 6);
         assert!(t.iter().all(|v| (-0.013..=0.052).contains(v)), "{t:?}");
-        assert!((t[1] - t[0] - 0.01).abs() < 1e-15, "{t:?}");
+        assert_eq!(t, vec![0.0, 0.02, 0.04]);
     }
 }
