@@ -12,7 +12,7 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::session::{self, iso230};
+use errmap::session::{self, iso230, uncertainty};
 
 use super::args::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
@@ -250,7 +250,15 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
         let lines: Vec<_> = reduced
             .iso
             .iter()
-            .map(|(l, s)| serde_json::json!({"line_mm": [l.0, l.1], "iso230": s}))
+            .zip(&reduced.budgets)
+            .map(|((l, s), b)| {
+                serde_json::json!({
+                    "line_mm": [l.0, l.1],
+                    "iso230": s,
+                    "uncertainty": {"budget": b, "expanded": b.expanded()},
+                    "gb_t_17421_2": "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)",
+                })
+            })
             .collect();
         println!(
             "{}",
@@ -265,6 +273,8 @@ pub struct Reduced {
     pub table: errmap::table::ErrorTable,
     pub summary: session::ReductionSummary,
     pub iso: Vec<((f64, f64), iso230::AxisStats)>,
+    /// The uncertainty budget of each line of `iso` (default configuration).
+    pub budgets: Vec<errmap::session::uncertainty::Budget>,
 }
 
 /// Reduces a session (table or capture directory) to the error table `out`, with the
@@ -300,6 +310,13 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
     for (line, e) in failed {
         eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
     }
+    let budgets = iso
+        .iter()
+        .map(|(_, s)| {
+            uncertainty::line_budget(&uncertainty::UncertaintyConfig::default(), &rows, s)
+                .map(|(b, _)| b)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
         let environment = errmap::report::environment::environment_summary(&rows);
@@ -308,6 +325,7 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
             &axis,
             &environment,
             &iso,
+            &budgets,
             dir,
         )?;
         eprintln!("table: ISO 230-2 report in {}", p.display());
@@ -316,6 +334,7 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
         table,
         summary,
         iso,
+        budgets,
     })
 }
 

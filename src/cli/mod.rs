@@ -8,6 +8,7 @@
 //! | [`model`] | fit, compare, export, simulate, fuzzy-sim |
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
+//! | [`certificate`] | certificate |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
@@ -20,6 +21,7 @@ use clap::{Parser, Subcommand};
 
 pub mod acquisition;
 pub mod args;
+pub mod certificate;
 pub mod demo;
 pub mod diagnose;
 pub mod model;
@@ -74,6 +76,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
     Volumetric(volumetric::VolumetricArgs),
+    /// Write the calibration certificate (PDF) of a session.
+    Certificate(certificate::CertificateArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -103,6 +107,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Export(a) => model::export_cmd(a),
         Command::Plan(a) => plan::plan_cmd(a),
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
+        Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

@@ -177,6 +177,11 @@ pub(super) enum Sample {
         color: RGBColor,
         marker: Option<Marker>,
     },
+    /// A dashed line, optionally with a marker in the middle.
+    Dashed {
+        color: RGBColor,
+        marker: Option<Marker>,
+    },
     /// A filled marker.
     Marker { color: RGBColor, marker: Marker },
     /// A bar swatch.
@@ -243,6 +248,21 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                     color.stroke_width(t.upx(LINE_W)),
                 ))
                 .map_err(de)?;
+                if let Some(m) = marker {
+                    draw_marker(area, (xm, y), m, color, true, t)?;
+                }
+            }
+            Sample::Dashed { color, marker } => {
+                // Three dashes across the sample's width.
+                let w = x1 - x0;
+                for k in 0..3 {
+                    let a = x0 + w * (5 * k) / 14;
+                    area.draw(&PathElement::new(
+                        vec![(a, y), (a + w * 4 / 14, y)],
+                        color.stroke_width(t.upx(LINE_W)),
+                    ))
+                    .map_err(de)?;
+                }
                 if let Some(m) = marker {
                     draw_marker(area, (xm, y), m, color, true, t)?;
                 }

@@ -120,6 +120,75 @@ pub enum XyStyle {
     /// A line through the points in the given order (no markers; an isolated point
     /// between two missing values is drawn as a small dot so that it does not vanish).
     Line,
+    /// A line in a chosen colour, solid or dashed, with a marker at each point when
+    /// `markers`. `colour` indexes the palette (modulo its 10 colours), so several series
+    /// can share one colour — as a calibration chart draws a direction's mean solid and its
+    /// ±2s limits dashed in the same colour. Dashes are 9 px long with 6 px gaps, measured
+    /// along the line in output pixels.
+    Styled {
+        /// Palette index.
+        colour: usize,
+        /// Dashed instead of solid.
+        dashed: bool,
+        /// A marker (the colour's shape) at each finite point.
+        markers: bool,
+    },
+}
+
+/// Dash and gap lengths of [`XyStyle::Styled`] dashed lines, output pixels.
+const DASH_PX: f64 = 9.0;
+const GAP_PX: f64 = 6.0;
+
+/// Cuts a polyline into dashes `dash` long with gaps `gap` between them, lengths measured
+/// after mapping each point through `to_px` (axis units → pixels). The pattern runs on
+/// across vertices. Returns the dashes in axis units.
+fn dashes(
+    pts: &[(f64, f64)],
+    to_px: impl Fn((f64, f64)) -> (f64, f64),
+    dash: f64,
+    gap: f64,
+) -> Vec<Vec<(f64, f64)>> {
+    const EPS: f64 = 1e-9;
+    let period = dash + gap;
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    // Distance into the current dash+gap period, px.
+    let mut phase = 0.0;
+    for w in pts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (pa, pb) = (to_px(a), to_px(b));
+        let len = ((pb.0 - pa.0).powi(2) + (pb.1 - pa.1).powi(2)).sqrt();
+        let at = |d: f64| {
+            let f = if len > 0.0 { d / len } else { 0.0 };
+            (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1))
+        };
+        let mut d = 0.0;
+        while d < len - EPS {
+            if phase < dash - EPS {
+                let next = (d + dash - phase).min(len);
+                if current.is_empty() {
+                    current.push(at(d));
+                }
+                current.push(at(next));
+                phase += next - d;
+                d = next;
+                if phase >= dash - EPS {
+                    out.push(std::mem::take(&mut current));
+                }
+            } else {
+                let next = (d + period - phase).min(len);
+                phase += next - d;
+                d = next;
+                if phase >= period - EPS {
+                    phase = 0.0;
+                }
+            }
+        }
+    }
+    if current.len() > 1 {
+        out.push(current);
+    }
+    out
 }
 
 /// Category chart like a paper's "measured vs predicted per test point".
@@ -579,6 +648,19 @@ pub fn xy(
                     color,
                     marker: None,
                 },
+                XyStyle::Styled {
+                    colour,
+                    dashed,
+                    markers,
+                } => {
+                    let (color, marker) = series_look(colour % PALETTE.len());
+                    let marker = markers.then_some(marker);
+                    if dashed {
+                        Sample::Dashed { color, marker }
+                    } else {
+                        Sample::Line { color, marker }
+                    }
+                }
             };
             LegendEntry {
                 label: s.name.clone(),
@@ -597,6 +679,40 @@ pub fn xy(
         let pts = finite(s);
         match s.style {
             XyStyle::Line => push_lines(&mut prims, &pts, color, true),
+            XyStyle::Styled {
+                colour,
+                dashed,
+                markers,
+            } => {
+                let (color, marker) = series_look(colour % PALETTE.len());
+                if dashed {
+                    let plot_h = plot_height(HEIGHT, x_area);
+                    let to_px = |(x, y): (f64, f64)| {
+                        (
+                            (x - xlo) / (xhi - xlo) * plot_w,
+                            (y - ylo) / (yhi - ylo) * plot_h,
+                        )
+                    };
+                    for run in pts.split(|p| p.is_none()) {
+                        let run: Vec<(f64, f64)> = run.iter().flatten().copied().collect();
+                        for pts in dashes(&run, to_px, DASH_PX, GAP_PX) {
+                            prims.push(Prim::Line { pts, color });
+                        }
+                    }
+                } else {
+                    push_lines(&mut prims, &pts, color, !markers);
+                }
+                if markers {
+                    for at in pts.iter().flatten() {
+                        prims.push(Prim::Marker {
+                            at: *at,
+                            marker,
+                            color,
+                            filled: true,
+                        });
+                    }
+                }
+            }
             XyStyle::Points => {
                 // A marker whose grid cell of 2.5 px (half its radius) already holds one of
                 // the same series adds almost nothing visible: drop it, so a 100 000-point
@@ -1007,5 +1123,23 @@ mod tests {
         assert!(!with_suffix(&stem, ".png").exists());
         assert!(!with_suffix(&stem, ".svg").exists());
         Ok(())
+    }
+
+    #[test]
+    fn dashes_follow_the_pattern_across_vertices() {
+        let id = |p: (f64, f64)| p;
+        // 30 px straight: dashes 0–9 and 15–24, the gap 24–30 left empty.
+        let d = dashes(&[(0.0, 0.0), (30.0, 0.0)], id, 9.0, 6.0);
+        assert_eq!(
+            d,
+            vec![vec![(0.0, 0.0), (9.0, 0.0)], vec![(15.0, 0.0), (24.0, 0.0)]]
+        );
+        // A dash bends round a corner 5 px along and ends 4 px up the second leg.
+        let d = dashes(&[(0.0, 0.0), (5.0, 0.0), (5.0, 10.0)], id, 9.0, 6.0);
+        assert_eq!(d, vec![vec![(0.0, 0.0), (5.0, 0.0), (5.0, 4.0)]]);
+        // Lengths are measured in pixels: a unit step in x that maps to 30 px.
+        let d = dashes(&[(0.0, 0.0), (1.0, 0.0)], |(x, y)| (30.0 * x, y), 9.0, 6.0);
+        assert_eq!(d.len(), 2);
+        assert!((d[1][0].0 - 0.5).abs() < 1e-12 && (d[1][1].0 - 0.8).abs() < 1e-12);
     }
 }

@@ -7,10 +7,48 @@ use std::path::{Path, PathBuf};
 use super::ReportError;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
 use crate::session::iso230::{AxisStats, TargetStats};
+use crate::session::uncertainty::{Budget, StatUncertainty};
 
-/// A Markdown report section: the sign convention, a per-target table and the axis
-/// values with ISO 230-2's symbols, then the VDI/DGQ 3441 values. µm to 3 decimals.
+/// Decimals (of µm) to print a line's statistics with: three significant digits of the
+/// smallest non-zero spread the test measured (the axis values `B`, `R`, `E`, `M`, `A` and
+/// every `2s_i`), at least 3 (1 nm) and at most 6 (1 pm). A test whose smallest spread is
+/// 0.1 µm or more prints 3 decimals; a nanometre-scale record keeps its digits (a 12 nm
+/// reversal prints as 0.0120, not 0.012).
+pub fn decimals(stats: &AxisStats) -> usize {
+    let axis = [stats.b_um, stats.r_um, stats.e_um, stats.m_um, stats.a_um];
+    let spreads = stats
+        .targets
+        .iter()
+        .flat_map(|t| [2.0 * t.s_up_um, 2.0 * t.s_down_um]);
+    let smallest = axis
+        .into_iter()
+        .chain(spreads)
+        .map(f64::abs)
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if !smallest.is_finite() {
+        return 3;
+    }
+    (2.0 - smallest.log10().floor()).clamp(3.0, 6.0) as usize
+}
+
+/// A Markdown report section in the layout of a calibration certificate: the sign
+/// convention, a per-target table (target; mean ↑ and ↓; reversal `B_i`; `2s` ↑ and ↓;
+/// `R` ↑, ↓ and bidirectional), the axis values `E`, `M`, `A`, `R`, `B` with ISO 230-2's
+/// symbols, then the VDI/DGQ 3441 values. µm to [`decimals`] places.
 pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
+    markdown_with_uncertainty(stats, axis_name, None)
+}
+
+/// [`markdown`], with the expanded uncertainty `U` beside each axis value when `u` is given
+/// (see [`crate::session::uncertainty`]).
+pub fn markdown_with_uncertainty(
+    stats: &AxisStats,
+    axis_name: &str,
+    u: Option<&StatUncertainty>,
+) -> String {
+    let d = decimals(stats);
+    let f = |v: f64| format!("{v:.d$}");
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -23,7 +61,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
          negative one. s uses n − 1.\n"
     );
     let header = [
-        "i", "P_i mm", "n↑", "n↓", "x̄_i↑", "x̄_i↓", "x̄_i", "B_i", "s_i↑", "s_i↓", "R_i↑", "R_i↓",
+        "target i", "P_i mm", "n↑", "n↓", "x̄_i↑", "x̄_i↓", "B_i", "2s_i↑", "2s_i↓", "R_i↑", "R_i↓",
         "R_i",
     ];
     let _ = writeln!(s, "| {} |", header.join(" | "));
@@ -31,46 +69,49 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
     for t in &stats.targets {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             t.target,
             t.position_mm,
             t.n_up,
             t.n_down,
-            t.mean_up_um,
-            t.mean_down_um,
-            t.mean_bidir_um,
-            t.reversal_um,
-            t.s_up_um,
-            t.s_down_um,
-            t.repeat_up_um,
-            t.repeat_down_um,
-            t.repeat_bidir_um
+            f(t.mean_up_um),
+            f(t.mean_down_um),
+            f(t.reversal_um),
+            f(2.0 * t.s_up_um),
+            f(2.0 * t.s_down_um),
+            f(t.repeat_up_um),
+            f(t.repeat_down_um),
+            f(t.repeat_bidir_um)
         );
     }
 
-    let _ = writeln!(s, "\n| axis value | symbol | ↑ | ↓ | bidirectional |");
-    let _ = writeln!(s, "|---|---|---:|---:|---:|");
-    let rows = [
-        (
-            "accuracy of positioning",
-            "A",
-            Some(stats.a_up_um),
-            Some(stats.a_down_um),
-            stats.a_um,
-        ),
-        (
-            "repeatability of positioning",
-            "R",
-            Some(stats.r_up_um),
-            Some(stats.r_down_um),
-            stats.r_um,
-        ),
+    let (u_col, u_head, u_rule) = match u {
+        Some(u) => (Some(u), format!(" U (k = {}) |", u.k), "---:|".to_string()),
+        None => (None, String::new(), String::new()),
+    };
+    let _ = writeln!(
+        s,
+        "\n| axis value | symbol | ↑ | ↓ | bidirectional |{u_head}"
+    );
+    let _ = writeln!(s, "|---|---|---:|---:|---:|{u_rule}");
+    let travel = |u: &StatUncertainty| u.along_travel_um;
+    let target = |u: &StatUncertainty| u.at_one_target_um;
+    type Row<'a> = (
+        &'a str,
+        &'a str,
+        Option<f64>,
+        Option<f64>,
+        f64,
+        &'a dyn Fn(&StatUncertainty) -> f64,
+    );
+    let rows: [Row; 6] = [
         (
             "systematic positional deviation",
             "E",
             Some(stats.e_up_um),
             Some(stats.e_down_um),
             stats.e_um,
+            &travel,
         ),
         (
             "mean bidirectional positional deviation",
@@ -78,23 +119,43 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
             None,
             None,
             stats.m_um,
+            &travel,
         ),
-        ("reversal value", "B", None, None, stats.b_um),
+        (
+            "accuracy of positioning",
+            "A",
+            Some(stats.a_up_um),
+            Some(stats.a_down_um),
+            stats.a_um,
+            &travel,
+        ),
+        (
+            "repeatability of positioning",
+            "R",
+            Some(stats.r_up_um),
+            Some(stats.r_down_um),
+            stats.r_um,
+            &target,
+        ),
+        ("reversal value", "B", None, None, stats.b_um, &target),
         (
             "mean reversal value",
             "B̄",
             None,
             None,
             stats.mean_reversal_um,
+            &target,
         ),
     ];
-    let cell = |v: Option<f64>| v.map_or_else(|| "—".to_string(), |v| format!("{v:.3}"));
-    for (name, symbol, up, down, bi) in rows {
+    let cell = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
+    for (name, symbol, up, down, bi, which) in rows {
+        let u_cell = u_col.map_or_else(String::new, |u| format!(" {} |", f(which(u))));
         let _ = writeln!(
             s,
-            "| {name} | {symbol} | {} | {} | {bi:.3} |",
+            "| {name} | {symbol} | {} | {} | {} |{u_cell}",
             cell(up),
-            cell(down)
+            cell(down),
+            f(bi)
         );
     }
 
@@ -102,10 +163,26 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
     let _ = writeln!(
         s,
         "\nVDI/DGQ 3441 (±3s scatter, Ps_i = 6 (s_i↑ + s_i↓)/2, U_i = |B_i|): position \
-         uncertainty P = {:.3} µm, position deviation Pa = {:.3} µm, position scatter \
-         Ps max = {:.3} µm (mean {:.3} µm), reversal span U max = {:.3} µm (mean {:.3} µm).",
-        v.p_um, v.pa_um, v.ps_max_um, v.ps_mean_um, v.u_max_um, v.u_mean_um
+         uncertainty P = {} µm, position deviation Pa = {} µm, position scatter \
+         Ps max = {} µm (mean {} µm), reversal span U max = {} µm (mean {} µm).",
+        f(v.p_um),
+        f(v.pa_um),
+        f(v.ps_max_um),
+        f(v.ps_mean_um),
+        f(v.u_max_um),
+        f(v.u_mean_um)
     );
+    if let Some(u) = u {
+        let _ = writeln!(
+            s,
+            "\nExpanded uncertainty (k = {}): U = {} µm for E, M, A, P and Pa (over the {} mm \
+             travel), U = {} µm for R, B, Ps and U (at one target).",
+            u.k,
+            f(u.along_travel_um),
+            u.travel_mm,
+            f(u.at_one_target_um)
+        );
+    }
     let n_min = stats
         .targets
         .iter()
@@ -122,28 +199,43 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
     s
 }
 
-/// Deviation chart as calibration labs draw it: mean deviation `x̄_i↑` and `x̄_i↓` against
-/// target position, each with its `x̄ ± 2s` limits as separate lines, written to
-/// `<stem>.png` and `<stem>.svg` (see [`plot::xy`]). Targets are drawn in order of
-/// position. Returns the two paths, PNG first.
+/// Deviation chart in the style of ISO 230-2 certificates: one colour per direction
+/// (↑ blue, ↓ red), the mean deviations `x̄_i↑`, `x̄_i↓` solid with a marker at each
+/// target, their `x̄ ± 2s` limits dashed in the same colour; written to `<stem>.png` and
+/// `<stem>.svg` (see [`plot::xy`]). Targets are drawn in order of position. Returns the
+/// two paths, PNG first.
 pub fn plot(stats: &AxisStats, stem: &Path, title: &str) -> Result<Vec<PathBuf>, PlotError> {
     let mut t: Vec<&TargetStats> = stats.targets.iter().collect();
     t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
     let x: Vec<f64> = t.iter().map(|s| s.position_mm).collect();
-    let line = |name: &str, f: &dyn Fn(&TargetStats) -> f64| XySeries {
-        name: name.to_owned(),
-        x: x.clone(),
-        y: t.iter().map(|s| f(s)).collect(),
-        style: XyStyle::Line,
-    };
+    // Palette indices: 0 is blue, 3 is red (Tableau 10).
+    let line =
+        |name: &str, colour: usize, dashed: bool, f: &dyn Fn(&TargetStats) -> f64| XySeries {
+            name: name.to_owned(),
+            x: x.clone(),
+            y: t.iter().map(|s| f(s)).collect(),
+            style: XyStyle::Styled {
+                colour,
+                dashed,
+                markers: !dashed,
+            },
+        };
     // Plain "mean x" rather than x̄: the combining macron does not render in the PNG.
     let series = [
-        line("mean x↑ (positive approach)", &|s| s.mean_up_um),
-        line("mean x↓ (negative approach)", &|s| s.mean_down_um),
-        line("mean x↑ + 2s↑", &|s| s.mean_up_um + 2.0 * s.s_up_um),
-        line("mean x↑ − 2s↑", &|s| s.mean_up_um - 2.0 * s.s_up_um),
-        line("mean x↓ + 2s↓", &|s| s.mean_down_um + 2.0 * s.s_down_um),
-        line("mean x↓ − 2s↓", &|s| {
+        line("mean x↑ (positive approach)", 0, false, &|s| s.mean_up_um),
+        line("mean x↑ + 2s↑", 0, true, &|s| {
+            s.mean_up_um + 2.0 * s.s_up_um
+        }),
+        line("mean x↑ − 2s↑", 0, true, &|s| {
+            s.mean_up_um - 2.0 * s.s_up_um
+        }),
+        line("mean x↓ (negative approach)", 3, false, &|s| {
+            s.mean_down_um
+        }),
+        line("mean x↓ + 2s↓", 3, true, &|s| {
+            s.mean_down_um + 2.0 * s.s_down_um
+        }),
+        line("mean x↓ − 2s↓", 3, true, &|s| {
             s.mean_down_um - 2.0 * s.s_down_um
         }),
     ];
@@ -157,14 +249,16 @@ pub fn plot(stats: &AxisStats, stem: &Path, title: &str) -> Result<Vec<PathBuf>,
 }
 
 /// Writes the ISO 230-2 report of a session into `dir` (created when missing):
-/// `report.md` with the environment and a section per line, and a deviation chart per
-/// line (`lineN.png`/`.svg`). `source` names the session; returns the path of
+/// `report.md` with the environment and a section per line (with the uncertainty budget of
+/// `budgets[k]` for line `k` when given), and a deviation chart per line
+/// (`lineN.png`/`.svg`). `source` names the session; returns the path of
 /// `report.md`.
 pub fn write_session_report(
     source: &str,
     axis: &str,
     environment: &str,
     iso: &[((f64, f64), AxisStats)],
+    budgets: &[Budget],
     dir: &Path,
 ) -> Result<PathBuf, ReportError> {
     std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
@@ -179,11 +273,17 @@ pub fn write_session_report(
     md.push('\n');
     for (k, (line, stats)) in iso.iter().enumerate() {
         let _ = write!(md, "## Line {} at ({}, {}) mm\n\n", k + 1, line.0, line.1);
+        let budget = budgets.get(k);
+        let u = budget.map(Budget::expanded);
         md.push_str(
-            &markdown(stats, axis)
+            &markdown_with_uncertainty(stats, axis, u.as_ref())
                 .replace("\n## ", "\n### ")
                 .replacen("## ", "### ", 1),
         );
+        if let Some(b) = budget {
+            md.push('\n');
+            md.push_str(&super::uncertainty::budget_markdown(b, decimals(stats)));
+        }
         let stem = dir.join(format!("line{}", k + 1));
         plot(
             stats,

@@ -8,6 +8,8 @@
 //! | [`findings`] | a comparison's findings in plain words |
 //! | [`json`] | the `compare --json` document |
 //! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | [`certificate`] | the calibration certificate PDF (`errmap certificate`) |
+//! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
@@ -18,6 +20,7 @@ use std::path::PathBuf;
 use crate::plot::PlotError;
 use crate::table::TableError;
 
+pub mod certificate;
 pub mod compare;
 pub mod concealed;
 pub mod diagnosis;
@@ -26,6 +29,7 @@ pub mod experiment;
 pub mod findings;
 pub mod iso230;
 pub mod json;
+pub mod uncertainty;
 pub mod volumetric;
 
 pub use compare::write_report;

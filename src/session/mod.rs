@@ -20,6 +20,7 @@
 
 pub mod iso230;
 mod reduce;
+pub mod uncertainty;
 
 pub use reduce::{
     ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,

@@ -3,6 +3,7 @@
 //! binary in `tests/diagnosis/`.
 
 mod acquisition;
+mod certificate;
 mod cli;
 mod experiment;
 mod export;
@@ -15,4 +16,5 @@ mod physics;
 mod table2;
 mod tables;
 mod testplan;
+mod uncertainty;
 mod volumetric;

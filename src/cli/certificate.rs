@@ -1,0 +1,69 @@
+//! `errmap certificate SESSION [--info INFO.toml] --out certificate.pdf`: the calibration
+//! certificate of a session. Glue only: the statistics are `errmap::session`'s, the budget
+//! `errmap::session::uncertainty`'s, the PDF `errmap::report::certificate`'s.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use errmap::report::certificate::{self, CertificateData, LineResult, info::CertificateInfo};
+use errmap::session::{self, uncertainty};
+
+use super::acquisition::session_file;
+
+/// Arguments of `errmap certificate`.
+#[derive(Debug, Args)]
+pub struct CertificateArgs {
+    /// Session table (CSV/Parquet) or a capture directory holding one.
+    pub session: PathBuf,
+    /// Info TOML: lab, operator, customer, machine, instruments, date of test, and
+    /// uncertainty inputs (unknown keys are an error). Without it the fields are blank.
+    #[arg(long)]
+    pub info: Option<PathBuf>,
+    /// The PDF to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
+    let info = match &a.info {
+        Some(p) => CertificateInfo::read(p)?,
+        None => CertificateInfo::default(),
+    };
+    let path = session_file(&a.session)?;
+    let rows = session::read_session(&path)?;
+    let source = path.display().to_string();
+    let (_, summary) = session::error_table(&source, &rows)?;
+    let (iso, failed) = session::iso_by_line(&rows);
+    for (line, e) in &failed {
+        eprintln!("certificate: no ISO 230-2 statistics for line {line:?}: {e}");
+    }
+    let budgets = iso
+        .iter()
+        .map(|(_, s)| uncertainty::line_budget(&info.uncertainty, &rows, s).map(|(b, _)| b))
+        .collect::<Result<Vec<_>, _>>()?;
+    let axis = summary.axis.clone().unwrap_or_default();
+    let data = CertificateData {
+        source: &source,
+        axis: &axis,
+        rows: &rows,
+        lines: iso
+            .iter()
+            .zip(&budgets)
+            .map(|((line_mm, stats), budget)| LineResult {
+                line_mm: *line_mm,
+                stats,
+                budget,
+            })
+            .collect(),
+        info: &info,
+    };
+    certificate::write(&a.out, &data)
+        .with_context(|| format!("certificate of {}", path.display()))?;
+    eprintln!(
+        "certificate: {} line(s) of axis {axis} → {}",
+        data.lines.len(),
+        a.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,317 @@
+//! The calibration certificate read as a reader would: the PDF's text extracted with
+//! poppler's `pdftotext` and every printed statistic compared with the computed one at the
+//! printed precision; every page rendered with `pdftoppm`. When poppler-utils are not
+//! installed those tests print a skip message (`.ci/run` installs them when it can).
+//! Also the info TOML through the binary, and a real positioning record.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use errmap::report::certificate::{
+    self, CertificateData, LineResult, axis_rows, info::CertificateInfo, mm, target_rows,
+};
+use errmap::session::iso230::AxisStats;
+use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
+use errmap::session::{self, read_session};
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A real record from `../shared` (present in CI), or `None` with a skip message.
+fn shared(name: &str) -> Option<PathBuf> {
+    let p = root()
+        .join("../shared/data/real_iso230/converted")
+        .join(name);
+    if p.is_file() {
+        Some(p)
+    } else {
+        eprintln!("skipped: {} is not here", p.display());
+        None
+    }
+}
+
+fn have(tool: &str) -> bool {
+    let ok = Command::new(tool)
+        .arg("-v")
+        .output()
+        .is_ok_and(|o| o.status.success() || !o.stderr.is_empty());
+    if !ok {
+        eprintln!("skipped: `{tool}` (poppler-utils) is not installed");
+    }
+    ok
+}
+
+struct Computed {
+    iso: Vec<((f64, f64), AxisStats)>,
+    budgets: Vec<Budget>,
+    rows: Vec<errmap::drivers::SessionRow>,
+}
+
+fn compute(path: &Path) -> Result<Computed, Box<dyn std::error::Error>> {
+    let rows = read_session(path)?;
+    let (iso, failed) = session::iso_by_line(&rows);
+    assert!(failed.is_empty(), "{failed:?}");
+    let budgets = iso
+        .iter()
+        .map(|(_, s)| line_budget(&UncertaintyConfig::default(), &rows, s).map(|(b, _)| b))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Computed { iso, budgets, rows })
+}
+
+fn render(c: &Computed, info: &CertificateInfo) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    let data = CertificateData {
+        source: "test session",
+        axis: "X",
+        rows: &c.rows,
+        lines: c
+            .iso
+            .iter()
+            .zip(&c.budgets)
+            .map(|((line_mm, stats), budget)| LineResult {
+                line_mm: *line_mm,
+                stats,
+                budget,
+            })
+            .collect(),
+        info,
+    };
+    Ok(certificate::render(&data)?)
+}
+
+/// Decimals of a printed number.
+fn printed_decimals(s: &str) -> i32 {
+    s.split_once('.').map_or(0, |(_, f)| f.len() as i32)
+}
+
+/// The printed value equals the computed one at the printed precision.
+fn agrees(printed: &str, computed: &str, what: &str) {
+    if printed == "—" || computed == "—" {
+        assert_eq!(printed, computed, "{what}");
+        return;
+    }
+    let p: f64 = printed.parse().unwrap_or(f64::NAN);
+    let c: f64 = computed.parse().unwrap_or(f64::NAN);
+    let half = 0.5 * 10f64.powi(-printed_decimals(printed)) + 1e-12;
+    assert!(
+        (p - c).abs() <= half,
+        "{what}: printed {printed}, computed {computed}"
+    );
+    assert_eq!(
+        printed_decimals(printed),
+        printed_decimals(computed),
+        "{what}: precision"
+    );
+}
+
+/// Extracts the text with `pdftotext -layout` and checks every per-target and axis value
+/// of every line, in order, against the statistics computed from the session.
+fn check_text(pdf: &[u8], c: &Computed, dir: &Path) -> TestResult {
+    let file = dir.join("certificate.pdf");
+    std::fs::write(&file, pdf)?;
+    let out = Command::new("pdftotext")
+        .args(["-layout", "-enc", "UTF-8"])
+        .arg(&file)
+        .arg("-")
+        .output()?;
+    assert!(out.status.success(), "pdftotext failed");
+    let text = String::from_utf8(out.stdout)?;
+    let lines: Vec<Vec<&str>> = text
+        .lines()
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let mut cursor = 0;
+    let mut checked = 0;
+    for ((_, stats), budget) in c.iso.iter().zip(&c.budgets) {
+        for want in target_rows(stats) {
+            // The row that starts with this target's index and position.
+            let at = lines[cursor..]
+                .iter()
+                .position(|t| t.len() == want.len() && t[0] == want[0] && t[1] == want[1])
+                .map(|k| k + cursor)
+                .ok_or_else(|| format!("no row for target {} in:\n{text}", want[0]))?;
+            for (k, (p, w)) in lines[at].iter().zip(&want).enumerate().skip(2) {
+                agrees(p, w, &format!("target {} column {k}", want[0]));
+                checked += 1;
+            }
+            cursor = at + 1;
+        }
+        for want in axis_rows(stats, budget) {
+            // "E systematic positional deviation 0.0330 0.0246 0.0368 0.0773": the last
+            // four tokens are ↑, ↓, bidirectional and U.
+            // The symbol may be two words ("Ps max").
+            let sym = want[0].split_whitespace().count();
+            let name = sym + want[1].split_whitespace().count();
+            let at = lines[cursor..]
+                .iter()
+                .position(|t| {
+                    t.len() == name + 4
+                        && t[..sym].join(" ") == want[0]
+                        && t[sym..name].join(" ") == want[1]
+                })
+                .map(|k| k + cursor)
+                .ok_or_else(|| format!("no row {want:?} in:\n{text}"))?;
+            let got = &lines[at][name..];
+            for (p, w) in got.iter().zip(&want[2..]) {
+                agrees(p, w, &want[1]);
+                checked += 1;
+            }
+            cursor = at + 1;
+        }
+    }
+    let per_line: usize = c
+        .iso
+        .iter()
+        .map(|(_, s)| 8 * s.targets.len() + 12 * 4)
+        .sum();
+    assert_eq!(checked, per_line, "every value was found and checked");
+    // Each page renders.
+    let pages = text.matches('\u{c}').count().max(1);
+    let png = dir.join("page");
+    let st = Command::new("pdftoppm")
+        .args(["-r", "40", "-png"])
+        .arg(&file)
+        .arg(&png)
+        .status()?;
+    assert!(st.success(), "pdftoppm failed");
+    let rendered = std::fs::read_dir(dir)?
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.file_name().to_string_lossy().ends_with(".png"))
+        })
+        .count();
+    assert_eq!(rendered, pages, "one image per page");
+    Ok(())
+}
+
+#[test]
+fn certificate_prints_every_statistic_as_computed() -> TestResult {
+    if !(have("pdftotext") && have("pdftoppm")) {
+        return Ok(());
+    }
+    let c = compute(&root().join("datasets/physics/example-session.parquet"))?;
+    let pdf = render(&c, &CertificateInfo::default())?;
+    assert!(pdf.starts_with(b"%PDF-"));
+    check_text(&pdf, &c, tempfile::tempdir()?.path())
+}
+
+/// A nanometre-scale record: its values keep their digits (4 decimals of µm, not 3).
+#[test]
+fn nanometre_record_keeps_its_digits_in_the_certificate() -> TestResult {
+    let Some(p) = shared("psi-fat_sat.csv") else {
+        return Ok(());
+    };
+    let c = compute(&p)?;
+    assert_eq!(errmap::report::iso230::decimals(&c.iso[0].1), 4);
+    if !(have("pdftotext") && have("pdftoppm")) {
+        return Ok(());
+    }
+    let pdf = render(&c, &CertificateInfo::default())?;
+    check_text(&pdf, &c, tempfile::tempdir()?.path())
+}
+
+fn errmap(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("runs errmap")
+}
+
+#[test]
+fn info_fields_are_printed_and_a_misspelt_key_is_an_error() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let info = dir.path().join("info.toml");
+    std::fs::write(
+        &info,
+        "lab = \"Example Metrology Lab\"\noperator = \"A. N. Other\"\ndate_of_test = \"2026-11-30\"\n\
+         [laser]\nserial = \"L-1234\"\ncalibrated = \"2026-03-01\"\n[uncertainty]\nair_temp_k = 0.05\n",
+    )?;
+    let out = dir.path().join("c.pdf");
+    let o = errmap(&[
+        "certificate",
+        "datasets/physics/example-session.parquet",
+        "--info",
+        info.to_str().ok_or("utf8")?,
+        "--out",
+        out.to_str().ok_or("utf8")?,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    if have("pdftotext") {
+        let t = Command::new("pdftotext").arg(&out).arg("-").output()?;
+        let text = String::from_utf8(t.stdout)?;
+        for s in [
+            "Example Metrology Lab",
+            "A. N. Other",
+            "2026-11-30",
+            "L-1234",
+            "0.05000 K",
+        ] {
+            assert!(text.contains(s), "{s:?} missing");
+        }
+    }
+    // A misspelt key, a bad date, a negative uncertainty: exit 1 naming file and key.
+    for (body, key) in [
+        ("operater = \"x\"\n", "operater"),
+        ("[laser]\nserail = \"x\"\n", "serail"),
+        ("date_of_test = \"2026-02-30\"\n", "date_of_test"),
+        (
+            "[uncertainty]\nair_temp_k = -1.0\n",
+            "uncertainty.air_temp_k",
+        ),
+    ] {
+        std::fs::write(&info, body)?;
+        let o = errmap(&[
+            "certificate",
+            "datasets/physics/example-session.parquet",
+            "--info",
+            info.to_str().ok_or("utf8")?,
+            "--out",
+            out.to_str().ok_or("utf8")?,
+        ]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{body}: {e}");
+        assert!(e.contains(key) && e.contains("info.toml"), "{body}: {e}");
+    }
+    Ok(())
+}
+
+/// Real ecmc test records against the values their own reports print (mm there, µm
+/// here, to the report's print precision): B, M and A, and the report's
+/// "R = max(R_fwd, R_bwd)" — which is max(R↑, R↓), not ISO 230-2's R (the record's R and E
+/// are known to be computed wrongly: see the converted data set's README).
+#[test]
+fn real_records_match_the_values_their_reports_print() -> TestResult {
+    // (file, B, M, A, max(R↑, R↓), tolerance = half the report's last digit)
+    let cases = [
+        ("b02-x.csv", 33.58, 93.65, 135.27, 28.31, 0.005),
+        ("psi-fat_sat.csv", 0.0122, 0.0277, 0.08881, 0.0629, 0.00005),
+    ];
+    for (name, b, m, a, r_uni, tol) in cases {
+        let Some(p) = shared(name) else {
+            continue;
+        };
+        let c = compute(&p)?;
+        assert_eq!(c.iso.len(), 1, "{name}");
+        let s = &c.iso[0].1;
+        for (got, want, what) in [
+            (s.b_um, b, "B"),
+            (s.m_um, m, "M"),
+            (s.a_um, a, "A"),
+            (s.r_up_um.max(s.r_down_um), r_uni, "max(R↑, R↓)"),
+        ] {
+            assert!(
+                (got - want).abs() <= tol + 1e-9,
+                "{name} {what}: {got} vs {want}"
+            );
+        }
+        // Positions print without float noise.
+        for (row, t) in target_rows(s).iter().zip(&s.targets) {
+            assert_eq!(row[1], mm(t.position_mm));
+            assert!(printed_decimals(&row[1]) <= 4, "{}", row[1]);
+        }
+    }
+    Ok(())
+}
