@@ -15,12 +15,16 @@ use super::values::{
 
 #[derive(Debug, Args)]
 pub struct ExportArgs {
-    /// Error table to fit.
+    /// Error table to fit (with --bidirectional: a session table or capture directory).
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
     /// squared exponential).
-    #[arg(long, value_parser = method_name())]
-    pub method: MethodName,
+    #[arg(long, value_parser = method_name(), required_unless_present = "bidirectional")]
+    pub method: Option<MethodName>,
+    /// Direction-dependent table from a session's per-direction means (ISO 230-2's
+    /// x̄↑ and x̄↓ at each target; LinuxCNC's forward and reverse columns), no model.
+    #[arg(long, conflicts_with_all = ["method", "order", "step", "ends"])]
+    pub bidirectional: bool,
     /// Lagrange degrees MxNxQ (or auto).
     #[arg(long)]
     pub order: Option<OrderArg>,
@@ -31,8 +35,8 @@ pub struct ExportArgs {
     #[arg(long, default_value = "")]
     pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
-    #[arg(long)]
-    pub step: f64,
+    #[arg(long, required_unless_present = "bidirectional")]
+    pub step: Option<f64>,
     /// Line start and end, mm (default: the table's range on the axis).
     #[arg(long, allow_negative_numbers = true)]
     pub start: Option<f64>,

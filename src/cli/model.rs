@@ -286,7 +286,14 @@ pub fn print_summary(c: &compare::Comparison, dir: &Path) {
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{ExportFormat, Extrapolation, LineSpec, VolumeSpec, write_grid};
-    let Fitted { model, extent, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
+    if a.bidirectional {
+        return export_bidirectional(&a);
+    }
+    // clap requires both without --bidirectional.
+    let (Some(method), Some(step)) = (a.method, a.step) else {
+        bail!("--method and --step are needed (or --bidirectional with a session)");
+    };
+    let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
     } else {
@@ -311,7 +318,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
             &VolumeSpec {
                 lo_mm: lo,
                 hi_mm: hi,
-                spacing_mm: a.step,
+                spacing_mm: step,
             },
             extrapolation,
             &a.out,
@@ -330,7 +337,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         at_mm: at,
         start_mm: a.start.unwrap_or(lo[axis.index()]),
         end_mm: a.end.unwrap_or(hi[axis.index()]),
-        step_mm: a.step,
+        step_mm: step,
     };
     let fit = super::step::step_fit(&format, a.ends, a.reference);
     let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
@@ -394,5 +401,100 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
     } else {
         eprint!("{md}");
     }
+    Ok(())
+}
+
+/// `export SESSION --bidirectional`: LinuxCNC's forward and reverse columns from the
+/// session's per-direction means at each target (ISO 230-2's x̄↑ and x̄↓, with the sign
+/// turned back to errmap's e = −x), on one line of the session. No model: the controller
+/// interpolates linearly between the measured targets.
+fn export_bidirectional(a: &ExportArgs) -> Result<()> {
+    use errmap::base::Axis;
+    use errmap::export::{ExportFormat, Sampled};
+    let format = match a.format {
+        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
+            comp_type: a.comp_type.into(),
+        },
+        other => bail!(
+            "--bidirectional: only LinuxCNC's COMP_FILE has direction-dependent columns \
+             (forward/reverse); {} takes one table per axis — export the bidirectional \
+             mean from the error table instead",
+            format!("{other:?}").to_lowercase()
+        ),
+    };
+    let path = super::acquisition::session_file(&a.table)?;
+    let rows = errmap::session::read_session(&path)?;
+    let Some(first) = rows.first() else {
+        bail!("{}: the session has no rows", path.display());
+    };
+    let axis = Axis::from(first.axis);
+    let (lines, failed) = errmap::session::iso_by_line(&rows);
+    let others: Vec<Axis> = Axis::ALL.into_iter().filter(|&b| b != axis).collect();
+    let wanted: Vec<(Axis, f64)> = a.at.0.clone();
+    let matches = |line: (f64, f64)| {
+        wanted.iter().all(|&(k, v)| {
+            let c = if k == others[0] {
+                line.0
+            } else if k == others[1] {
+                line.1
+            } else {
+                f64::NAN
+            };
+            (c - v).abs() <= 1e-6
+        })
+    };
+    let chosen: Vec<&((f64, f64), errmap::session::iso230::AxisStats)> =
+        lines.iter().filter(|(l, _)| matches(*l)).collect();
+    let ((c0, c1), stats) = match chosen.as_slice() {
+        [one] => *one,
+        [] => {
+            let known: Vec<String> = lines
+                .iter()
+                .map(|(l, _)| format!("{}={},{}={}", others[0], l.0, others[1], l.1))
+                .collect();
+            let why: Vec<String> = failed.iter().map(|(l, e)| format!("{l:?}: {e}")).collect();
+            bail!(
+                "{}: no line of the session with ISO 230-2 statistics matches --at (lines: {}{})",
+                path.display(),
+                known.join("; "),
+                if why.is_empty() {
+                    String::new()
+                } else {
+                    format!("; without statistics: {}", why.join("; "))
+                }
+            )
+        }
+        many => bail!(
+            "{}: {} lines match; choose one with --at {}=…,{}=…",
+            path.display(),
+            many.len(),
+            others[0],
+            others[1]
+        ),
+    };
+    let mut targets = stats.targets.clone();
+    targets.sort_by(|p, q| p.position_mm.total_cmp(&q.position_mm));
+    let mut at_mm = [0.0; 3];
+    at_mm[others[0].index()] = *c0;
+    at_mm[others[1].index()] = *c1;
+    let positions: Vec<f64> = targets.iter().map(|t| t.position_mm).collect();
+    // ISO 230-2 deviations are x = −e.
+    let up: Vec<f64> = targets.iter().map(|t| -t.mean_up_um).collect();
+    let down: Vec<f64> = targets.iter().map(|t| -t.mean_down_um).collect();
+    let forward = Sampled::measured(axis, at_mm, positions.clone(), up);
+    let reverse = Sampled::measured(axis, at_mm, positions, down);
+    let text = format.render_line(&forward, Some(&reverse))?;
+    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "export: linuxcnc {} targets along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
+         (mean reversal {:.4} µm) → {}; compensation = −error",
+        forward.len(),
+        at_mm[0],
+        at_mm[1],
+        at_mm[2],
+        stats.targets.iter().map(|t| t.reversal_um).sum::<f64>()
+            / stats.targets.len().max(1) as f64,
+        a.out.display()
+    );
     Ok(())
 }

@@ -212,6 +212,25 @@ pub struct Sampled {
 }
 
 impl Sampled {
+    /// Errors measured at positions along a line, with no model between them (e.g. a
+    /// session's per-target means in one direction); the renderers check them as they
+    /// check a sampled model (increasing positions, finite values).
+    pub fn measured(
+        axis: Axis,
+        at_mm: [f64; 3],
+        positions_mm: Vec<f64>,
+        error_um: Vec<f64>,
+    ) -> Self {
+        let n = positions_mm.len();
+        Sampled {
+            axis,
+            at_mm,
+            positions_mm,
+            error_um,
+            extrapolated: vec![false; n],
+        }
+    }
+
     pub fn len(&self) -> usize {
         self.positions_mm.len()
     }

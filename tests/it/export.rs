@@ -770,3 +770,66 @@ proptest! {
         prop_assert!(s.positions_mm.windows(2).all(|w| w[1] > w[0]));
     }
 }
+
+/// `export SESSION --bidirectional`: LinuxCNC's forward and reverse columns come from the
+/// session's per-direction means, so on the concealed case with a hidden 1 µm reversal
+/// (truth.json) the two trims differ by b at every target, and on the clean case by
+/// nothing but noise. Other formats, and an ambiguous line, are refused.
+#[test]
+fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let run = |case: &str, extra: &[&str]| {
+        let out = dir.path().join(format!("{case}.comp"));
+        let session = root.join(format!("datasets/concealed/{case}/recorded.parquet"));
+        let mut args = vec![
+            "export".to_string(),
+            session.display().to_string(),
+            "--bidirectional".into(),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
+            .args(&args)
+            .output()
+            .expect("runs");
+        (o, out)
+    };
+    let line = [
+        "--format",
+        "linuxcnc",
+        "--comp-type",
+        "trim",
+        "--at",
+        "y=1,z=200",
+    ];
+    let truth: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("datasets/concealed/reversal/truth.json"))
+            .expect("truth"),
+    )
+    .expect("json");
+    let b_um = truth["params"]["reversal"]["b_um"].as_f64().expect("b_um");
+    for (case, expected_um) in [("reversal", b_um), ("clean", 0.0)] {
+        let (o, out) = run(case, &line);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let rows = parse_linuxcnc(&std::fs::read_to_string(&out).expect("written"));
+        assert_eq!(rows.len(), 9, "{case}: one triplet per target");
+        for [nominal, forward, reverse] in rows {
+            // Type 1 columns are the trims e (mm); e↑ − e↓ = b for the d·b/2 reversal.
+            let diff_um = (forward - reverse) * 1e3;
+            assert!(
+                (diff_um - expected_um).abs() < 0.05,
+                "{case} at {nominal} mm: forward − reverse = {diff_um} µm, expected {expected_um}"
+            );
+        }
+    }
+    let (o, _) = run("reversal", &["--format", "siemens", "--at", "y=1,z=200"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("direction-dependent"));
+    let (o, _) = run("reversal", &["--format", "linuxcnc"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("4 lines match"));
+    let (o, _) = run("reversal", &["--format", "linuxcnc", "--method", "spline"]);
+    assert_eq!(o.status.code(), Some(2), "--bidirectional takes no model");
+}
