@@ -20,8 +20,8 @@
 
 use std::fmt::Write as _;
 
-use super::{Dialect, ProgramError, comment, feed_mm_min, header_lines, mm3};
-use crate::sim::testplan::{CycleStep, TestPlan};
+use super::{Dialect, IsoWords, ProgramError, header_lines, write_iso_body};
+use crate::sim::testplan::TestPlan;
 
 /// The program number written (`O0230`, after ISO 230).
 pub const PROGRAM_NUMBER: u32 = 230;
@@ -48,39 +48,23 @@ pub fn render(plan: &TestPlan) -> Result<String, ProgramError> {
         });
     }
     let dwell_ms = dwell_ms as u64;
-    let letter = plan.config.axis.upper();
     let mut s = String::new();
     let _ = writeln!(s, "%");
     let _ = writeln!(s, "O{PROGRAM_NUMBER:04} (ERRMAP ISO 230-2)");
     for line in header_lines(plan, Dialect::Fanuc) {
         let _ = writeln!(s, "({})", fanuc_comment(&line));
     }
-    let _ = writeln!(s, "G21 G90 G94");
-    let start = plan.start_point_mm();
-    let _ = writeln!(
-        s,
-        "G01 X{} Y{} Z{} F{}",
-        mm3(start[0]),
-        mm3(start[1]),
-        mm3(start[2]),
-        feed_mm_min(plan.config.feed_mm_s)
+    write_iso_body(
+        &mut s,
+        plan,
+        &IsoWords {
+            comment: &|c| format!("({})", fanuc_comment(c)),
+            setup: "G21 G90 G94",
+            linear: "G01",
+            dwell: &|_| vec![format!("G04 P{dwell_ms}")],
+            end: &["M30", "%"],
+        },
     );
-    for step in plan.cycle() {
-        if let Some(c) = comment(plan, &step) {
-            let _ = writeln!(s, "({})", fanuc_comment(&c));
-        }
-        match step {
-            CycleStep::RunStart { .. } => {}
-            CycleStep::Approach { position_mm, .. } | CycleStep::Overrun { position_mm, .. } => {
-                let _ = writeln!(s, "G01 {letter}{}", mm3(position_mm));
-            }
-            CycleStep::Dwell { .. } => {
-                let _ = writeln!(s, "G04 P{dwell_ms}");
-            }
-        }
-    }
-    let _ = writeln!(s, "M30");
-    let _ = writeln!(s, "%");
     Ok(s)
 }
 

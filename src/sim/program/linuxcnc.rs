@@ -24,8 +24,8 @@
 
 use std::fmt::Write as _;
 
-use super::{ProgramError, comment, feed_mm_min, header_lines, mm3, seconds3};
-use crate::sim::testplan::{CycleStep, TestPlan};
+use super::{IsoWords, ProgramError, header_lines, seconds3, write_iso_body};
+use crate::sim::testplan::TestPlan;
 
 /// LinuxCNC's largest number of motion digital outputs (`EMCMOT_MAX_DIO`).
 pub const MAX_DIO: u32 = 64;
@@ -40,7 +40,6 @@ pub fn render(plan: &TestPlan, mark_output: Option<u32>) -> Result<String, Progr
             max: MAX_DIO - 1,
         });
     }
-    let letter = plan.config.axis.upper();
     let mut s = String::new();
     for line in header_lines(plan, super::Dialect::LinuxCnc) {
         let _ = writeln!(s, "({})", line.replace(['(', ')'], ""));
@@ -51,36 +50,23 @@ pub fn render(plan: &TestPlan, mark_output: Option<u32>) -> Result<String, Progr
             "(digital output {n} is on while the axis dwells at a target)"
         );
     }
-    let _ = writeln!(s, "G21 G90 G94 G61");
-    let start = plan.start_point_mm();
-    let _ = writeln!(
-        s,
-        "G1 X{} Y{} Z{} F{}",
-        mm3(start[0]),
-        mm3(start[1]),
-        mm3(start[2]),
-        feed_mm_min(plan.config.feed_mm_s)
+    let dwell = |dwell_s: f64| -> Vec<String> {
+        let g4 = format!("G4 P{}", seconds3(dwell_s));
+        match mark_output {
+            Some(n) => vec![format!("M64 P{n}"), g4, format!("M65 P{n}")],
+            None => vec![g4],
+        }
+    };
+    write_iso_body(
+        &mut s,
+        plan,
+        &IsoWords {
+            comment: &|c| format!("({c})"),
+            setup: "G21 G90 G94 G61",
+            linear: "G1",
+            dwell: &dwell,
+            end: &["M2"],
+        },
     );
-    for step in plan.cycle() {
-        if let Some(c) = comment(plan, &step) {
-            let _ = writeln!(s, "({c})");
-        }
-        match step {
-            CycleStep::RunStart { .. } => {}
-            CycleStep::Approach { position_mm, .. } | CycleStep::Overrun { position_mm, .. } => {
-                let _ = writeln!(s, "G1 {letter}{}", mm3(position_mm));
-            }
-            CycleStep::Dwell { dwell_s, .. } => {
-                if let Some(n) = mark_output {
-                    let _ = writeln!(s, "M64 P{n}");
-                }
-                let _ = writeln!(s, "G4 P{}", seconds3(dwell_s));
-                if let Some(n) = mark_output {
-                    let _ = writeln!(s, "M65 P{n}");
-                }
-            }
-        }
-    }
-    let _ = writeln!(s, "M2");
     Ok(s)
 }

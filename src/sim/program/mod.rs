@@ -245,3 +245,56 @@ pub(crate) fn other_letters(plan: &TestPlan) -> [&'static str; 2] {
         Axis::Z => ["X", "Y"],
     }
 }
+
+/// The words in which the ISO 6983 (G-code) dialects — LinuxCNC, Fanuc, Siemens 840D —
+/// differ; the program's shape is the same in all three ([`write_iso_body`]).
+pub(crate) struct IsoWords<'a> {
+    /// A comment line, e.g. `(text)` or `; text`.
+    pub comment: &'a dyn Fn(&str) -> String,
+    /// The modal set-up line (units, absolute, feed per minute, exact stop).
+    pub setup: &'a str,
+    /// The linear-move word, `G1` or `G01`.
+    pub linear: &'a str,
+    /// The lines of one dwell (with any output switched around it).
+    pub dwell: &'a dyn Fn(f64) -> Vec<String>,
+    /// The closing lines, e.g. `M2`, or `M30` and `%`.
+    pub end: &'a [&'a str],
+}
+
+/// Writes the program's body after its header: the set-up line, the move to the start
+/// point at the plan's feed, then every step of the test cycle with its comment, and the
+/// closing lines.
+pub(crate) fn write_iso_body(s: &mut String, plan: &TestPlan, words: &IsoWords) {
+    use std::fmt::Write as _;
+    let letter = plan.config.axis.upper();
+    let _ = writeln!(s, "{}", words.setup);
+    let start = plan.start_point_mm();
+    let _ = writeln!(
+        s,
+        "{} X{} Y{} Z{} F{}",
+        words.linear,
+        mm3(start[0]),
+        mm3(start[1]),
+        mm3(start[2]),
+        feed_mm_min(plan.config.feed_mm_s)
+    );
+    for step in plan.cycle() {
+        if let Some(c) = comment(plan, &step) {
+            let _ = writeln!(s, "{}", (words.comment)(&c));
+        }
+        match step {
+            CycleStep::RunStart { .. } => {}
+            CycleStep::Approach { position_mm, .. } | CycleStep::Overrun { position_mm, .. } => {
+                let _ = writeln!(s, "{} {letter}{}", words.linear, mm3(position_mm));
+            }
+            CycleStep::Dwell { dwell_s, .. } => {
+                for line in (words.dwell)(dwell_s) {
+                    let _ = writeln!(s, "{line}");
+                }
+            }
+        }
+    }
+    for line in words.end {
+        let _ = writeln!(s, "{line}");
+    }
+}

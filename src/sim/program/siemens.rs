@@ -17,40 +17,25 @@
 
 use std::fmt::Write as _;
 
-use super::{Dialect, ProgramError, comment, feed_mm_min, header_lines, mm3, seconds3};
-use crate::sim::testplan::{CycleStep, TestPlan};
+use super::{Dialect, IsoWords, ProgramError, header_lines, seconds3, write_iso_body};
+use crate::sim::testplan::TestPlan;
 
 /// The program (an `.MPF` main program).
 pub fn render(plan: &TestPlan) -> Result<String, ProgramError> {
-    let letter = plan.config.axis.upper();
     let mut s = String::new();
     for line in header_lines(plan, Dialect::Siemens) {
         let _ = writeln!(s, "; {line}");
     }
-    let _ = writeln!(s, "G71 G90 G94 G60");
-    let start = plan.start_point_mm();
-    let _ = writeln!(
-        s,
-        "G1 X{} Y{} Z{} F{}",
-        mm3(start[0]),
-        mm3(start[1]),
-        mm3(start[2]),
-        feed_mm_min(plan.config.feed_mm_s)
+    write_iso_body(
+        &mut s,
+        plan,
+        &IsoWords {
+            comment: &|c| format!("; {c}"),
+            setup: "G71 G90 G94 G60",
+            linear: "G1",
+            dwell: &|dwell_s| vec![format!("G4 F{}", seconds3(dwell_s))],
+            end: &["M30"],
+        },
     );
-    for step in plan.cycle() {
-        if let Some(c) = comment(plan, &step) {
-            let _ = writeln!(s, "; {c}");
-        }
-        match step {
-            CycleStep::RunStart { .. } => {}
-            CycleStep::Approach { position_mm, .. } | CycleStep::Overrun { position_mm, .. } => {
-                let _ = writeln!(s, "G1 {letter}{}", mm3(position_mm));
-            }
-            CycleStep::Dwell { dwell_s, .. } => {
-                let _ = writeln!(s, "G4 F{}", seconds3(dwell_s));
-            }
-        }
-    }
-    let _ = writeln!(s, "M30");
     Ok(s)
 }
