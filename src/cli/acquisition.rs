@@ -1,7 +1,7 @@
 //! The acquisition subcommands: serve-sim, capture, replay, table, ports. Glue only: the
 //! work is in `errmap::acquire`, `errmap::session` and `errmap-drivers`.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -86,10 +86,11 @@ pub fn serve_sim(a: ServeSimArgs) -> Result<()> {
         stream.duration_s,
         a.speed
     );
+    let mut announced = Ok(());
     let written = serve_stream(&stream, a.speed, a.linger, a.stall_timeout, |path| {
-        println!("{path}");
-        let _ = std::io::stdout().flush();
+        announced = super::guard::print_stdout(path);
     })?;
+    announced?;
     eprintln!("serve-sim: sent {written} bytes");
     Ok(())
 }
@@ -191,7 +192,9 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
         file(&paths.json)
     );
     if a.json {
-        println!("{}", std::fs::read_to_string(&paths.json)?);
+        let json = std::fs::read_to_string(&paths.json)
+            .with_context(|| format!("cannot read {}", paths.json.display()))?;
+        super::guard::print_stdout(&json)?;
     }
     if let CaptureEnd::Vanished(why) = &cap.end {
         bail!(
@@ -209,11 +212,12 @@ fn file(p: &Path) -> String {
 }
 
 pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
+    super::guard::refuse_aliases(&[("--out", &a.out)], &[("RAW", &a.raw)])?;
     let (rows, stats, _) = acquire::replay(&a.raw, &a.out)?;
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
         v["rows"] = serde_json::json!(rows.len());
-        println!("{v}");
+        super::guard::print_stdout(&v.to_string())?;
     } else {
         eprintln!(
             "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
@@ -252,10 +256,10 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             .iter()
             .map(|(l, s)| serde_json::json!({"line_mm": [l.0, l.1], "iso230": s}))
             .collect();
-        println!(
-            "{}",
-            serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
-        );
+        super::guard::print_stdout(
+            &serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
+                .to_string(),
+        )?;
     }
     Ok(())
 }
@@ -271,6 +275,13 @@ pub struct Reduced {
 /// ISO 230-2 report in `report` when given; says what it did on stderr.
 pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> Result<Reduced> {
     let path = session_file(session_arg)?;
+    super::guard::refuse_aliases(&[("--out", out)], &[("SESSION", &path)])?;
+    if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {
+        bail!(
+            "--report {}: exists and is not a directory (nothing was written)",
+            dir.display()
+        );
+    }
     let rows = session::read_session(&path)?;
     let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
     table.write(out)?;
@@ -325,7 +336,7 @@ pub fn ports() -> Result<()> {
         eprintln!("no serial ports found");
     }
     for p in ports {
-        println!("{}\t{:?}", p.name, p.kind);
+        super::guard::print_stdout(&format!("{}\t{:?}", p.name, p.kind))?;
     }
     Ok(())
 }

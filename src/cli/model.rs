@@ -81,11 +81,18 @@ fn fit_table(
 }
 
 pub fn fit(a: FitArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        super::guard::refuse_aliases(
+            &[("--out", out)],
+            &[("TABLE", &a.table), ("--predict", &a.predict)],
+        )?;
+    }
     let Fitted { method, model, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let points = ErrorTable::read_points(&a.predict)?;
     let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
     let mut values = vec![0.0; positions.len()];
-    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, a.threads)?;
+    let threads = super::guard::threads("--threads", a.threads);
+    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, threads)?;
     let preds: Vec<(ErrorPoint, bool)> = positions
         .iter()
         .zip(&values)
@@ -109,7 +116,7 @@ pub fn fit(a: FitArgs) -> Result<()> {
                 "sigma_um": s
             })).collect::<Vec<_>>(),
         });
-        println!("{json}");
+        super::guard::print_stdout(&json.to_string())?;
     } else {
         eprintln!(
             "{}: {} predictions ({} extrapolated){}",
@@ -257,10 +264,9 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     );
     report::write_report(&comparison, &a.report, &command)?;
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string(&comparison.to_json(Some(&a.report)))?
-        );
+        super::guard::print_stdout(&serde_json::to_string(
+            &comparison.to_json(Some(&a.report)),
+        )?)?;
     } else {
         print_summary(&comparison, &a.report);
     }
@@ -288,6 +294,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{
         ExportFormat, Extrapolation, LineSpec, VolumeSpec, sample_line, volumetric_grid,
     };
+    super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let Fitted { model, extent, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
@@ -353,6 +360,16 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
 
 pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let model = errmap::sim::physics::MachineModel::read(&a.model)?;
+    let map_table = model.error_map.as_ref().map(|m| m.table.clone());
+    let mut inputs = vec![("--model", a.model.as_path()), ("--plan", a.plan.as_path())];
+    if let Some(t) = &map_table {
+        inputs.push(("--model's error_map.table", t.as_path()));
+    }
+    let mut outputs = vec![("--out", a.out.as_path())];
+    if let Some(raw) = &a.raw {
+        outputs.push(("--raw", raw.as_path()));
+    }
+    super::guard::refuse_aliases(&outputs, &inputs)?;
     let plan = errmap::sim::read_plan(Some(&a.plan))?;
     let (stream, _) = errmap::sim::physics::simulate_plan(
         &model,
@@ -391,7 +408,7 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
         std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if a.json {
-        println!("{}", serde_json::to_string(&result)?);
+        super::guard::print_stdout(&serde_json::to_string(&result)?)?;
     } else {
         eprint!("{md}");
     }

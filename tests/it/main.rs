@@ -11,5 +11,6 @@ mod interp;
 mod iso230;
 mod layers;
 mod physics;
+mod robustness;
 mod table2;
 mod tables;
