@@ -112,7 +112,7 @@ fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
             t.sent
         ));
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    super::guard::write_file(path, s.as_bytes())
 }
 
 /// Captures from a serial port into `out`; returns the capture's end.

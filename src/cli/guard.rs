@@ -14,6 +14,8 @@
 //!   already exists with every input by device and inode (so a hard link, a symbolic link
 //!   or `./x` vs `x` are the same file) and refuses with both flags named, before anything
 //!   is written.
+//! - **Whole files.** [`write_file`] writes text and bytes outputs atomically, like the
+//!   library's table writers.
 
 use std::io::Write;
 use std::path::Path;
@@ -46,6 +48,19 @@ fn write_line(out: &mut impl Write, text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
         Err(e) => Err(anyhow::Error::new(e).context("cannot write to stdout")),
     }
+}
+
+/// Writes `bytes` to `path` whole or not at all (a temporary file beside it, renamed into
+/// place: `errmap::table::write_atomically`).
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    errmap::table::write_atomically::<errmap::table::TableError>(path, |f| {
+        f.write_all(bytes)
+            .map_err(|source| errmap::table::TableError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+    })?;
+    Ok(())
 }
 
 /// The cores of this machine (1 if unknown).

@@ -343,7 +343,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     };
     let sampled = sample_line(model.as_ref(), &line, extrapolation)?;
     let text = format.render_line(&sampled, None)?;
-    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    super::guard::write_file(&a.out, text.as_bytes())?;
     eprintln!(
         "export: {} {} entries along {} at ({}, {}, {}) mm ({} extrapolated) → {}; compensation = −error",
         format.name(),
@@ -380,7 +380,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     )?;
     let bytes = stream.bytes();
     if let Some(raw) = &a.raw {
-        std::fs::write(raw, &bytes).with_context(|| format!("cannot write {}", raw.display()))?;
+        super::guard::write_file(raw, &bytes)?;
     }
     let (rows, _, _) = errmap::drivers::decode_all(&bytes);
     errmap::session::write_session(&a.out, &rows)?;

@@ -266,3 +266,258 @@ fn table_with_a_report_path_that_is_a_file_writes_nothing() {
     assert_refused(&o, &["--report", "not a directory"]);
     assert_eq!(std::fs::read_to_string(&e).expect("read"), "SENTINEL\n");
 }
+
+// ---- strict structure ----
+
+#[test]
+fn a_coordinate_written_minus_zero_is_zero() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grid = |zero: &str| {
+        let mut t = String::from("x_mm,y_mm,z_mm,e_um\n");
+        for (k, (x, y, z)) in [
+            (0, 0, 0),
+            (1, 0, 0),
+            (0, 1, 0),
+            (1, 1, 0),
+            (0, 0, 1),
+            (1, 0, 1),
+            (0, 1, 1),
+            (1, 1, 1),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            // e = 1 + 2x + 3y + 4z: trilinear reproduces it exactly.
+            let e = 1 + 2 * x + 3 * y + 4 * z;
+            let xs = if x == 0 && k >= 6 {
+                zero.to_string()
+            } else {
+                x.to_string()
+            };
+            t.push_str(&format!("{xs},{y},{z},{e}\n"));
+        }
+        t
+    };
+    let plain = write(dir.path(), "g.csv", &grid("0"));
+    let negative = write(dir.path(), "n.csv", &grid("-0.000"));
+    let point = write(dir.path(), "p.csv", "x_mm,y_mm,z_mm\n0.5,0.5,0.5\n");
+    for table in [&plain, &negative] {
+        let o = errmap(&[
+            "fit",
+            &table.display().to_string(),
+            "--method",
+            "trilinear",
+            "--predict",
+            &point.display().to_string(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+        let e = v["predictions"][0]["e_um"].as_f64().expect("e_um");
+        assert!((e - 5.5).abs() < 1e-12, "{e}");
+    }
+}
+
+#[test]
+fn a_column_given_twice_is_refused_naming_it_and_the_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let t = write(
+        dir.path(),
+        "dup.csv",
+        "x_mm,y_mm,z_mm,e_um,e_um\n0,0,0,1,2\n1,0,0,1,2\n",
+    );
+    let o = errmap(&[
+        "fit",
+        &t.display().to_string(),
+        "--method",
+        "trilinear",
+        "--predict",
+        &dataset("table2.csv"),
+    ]);
+    assert_refused(&o, &["dup.csv", "`e_um` appears 2 times"]);
+}
+
+#[test]
+fn session_rows_cut_short_or_repeated_are_refused_naming_the_rows() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = errmap_session_text();
+    let lines: Vec<&str> = text.lines().collect();
+    // Cut mid-row: the last row loses its last fields.
+    let last = lines[lines.len() - 1];
+    let cut = last.rsplitn(4, ',').last().expect("fields");
+    let truncated = lines[..lines.len() - 1].join("\n") + "\n" + cut + "\n";
+    let t = write(dir.path(), "cut.csv", &truncated);
+    let out = dir.path().join("e.csv").display().to_string();
+    let o = errmap(&["table", &t.display().to_string(), "--out", &out]);
+    let row = lines.len() - 1;
+    assert_refused(
+        &o,
+        &[
+            "cut.csv",
+            &format!("row {row} (line {})", row + 1),
+            "fields",
+        ],
+    );
+    // Every row twice: the second copy of row 1 is named with row 1.
+    let n = lines.len() - 1;
+    let doubled = text.clone() + &lines[1..].join("\n") + "\n";
+    let t = write(dir.path(), "dup.csv", &doubled);
+    let o = errmap(&["table", &t.display().to_string(), "--out", &out]);
+    assert_refused(
+        &o,
+        &[
+            "dup.csv",
+            &format!("row {} (line {})", n + 1, n + 2),
+            "of row 1",
+        ],
+    );
+    assert!(!Path::new(&out).exists(), "nothing written");
+}
+
+// ---- physical bounds at the door ----
+
+#[test]
+fn values_beyond_the_physical_ranges_are_refused_by_cell() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let t1 = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
+    let mut lines: Vec<String> = t1.lines().map(str::to_string).collect();
+    let first = lines[1].split_once(',').expect("x").1.to_string();
+    lines[1] = format!("1e308,{first}");
+    let far = write(dir.path(), "far.csv", &(lines.join("\n") + "\n"));
+    let far_s = far.display().to_string();
+    // Every method, the Gaussian process included (it panicked on this table).
+    for method in ["gp", "gp-se", "spline"] {
+        let o = errmap(&[
+            "fit",
+            &far_s,
+            "--method",
+            method,
+            "--predict",
+            &dataset("table2.csv"),
+        ]);
+        assert_refused(&o, &["far.csv", "row 1 (line 2)", "x_mm", "physical range"]);
+    }
+    let report = dir.path().join("c").display().to_string();
+    let o = errmap(&[
+        "compare",
+        &far_s,
+        "--test",
+        &dataset("table2.csv"),
+        "--report",
+        &report,
+    ]);
+    assert_refused(&o, &["far.csv", "x_mm"]);
+    // A prediction point far outside: refused, not a NaN in the output.
+    let p = write(dir.path(), "p.csv", "x_mm,y_mm,z_mm\n1e308,1,200\n");
+    let out = dir.path().join("o.csv");
+    let o = errmap(&[
+        "fit",
+        &dataset("table1.csv"),
+        "--method",
+        "spline",
+        "--predict",
+        &p.display().to_string(),
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_refused(&o, &["p.csv", "x_mm"]);
+    assert!(!out.exists());
+}
+
+#[test]
+fn impossible_session_values_are_refused_by_cell() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = errmap_session_text();
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    for (column, value) in [
+        ("error_um", "1e308"),
+        ("air_temp_c", "-273.15"),
+        ("air_pressure_hpa", "5"),
+    ] {
+        let k = header.iter().position(|h| *h == column).expect("column");
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        // Data row 50, on line 51 (any row with air values).
+        let mut f: Vec<String> = lines[50].split(',').map(str::to_string).collect();
+        f[k] = value.into();
+        lines[50] = f.join(",");
+        let s = write(dir.path(), "s.csv", &(lines.join("\n") + "\n"));
+        let out = dir.path().join("e.csv").display().to_string();
+        let o = errmap(&["table", &s.display().to_string(), "--out", &out]);
+        assert_refused(&o, &["s.csv", "row 50 (line 51)", column]);
+    }
+}
+
+#[test]
+fn odd_parquet_column_types_are_refused_by_name() {
+    let o = errmap(&[
+        "fit",
+        &root()
+            .join("tests/it/data/table-decimal.parquet")
+            .display()
+            .to_string(),
+        "--method",
+        "spline",
+        "--predict",
+        &dataset("table2.csv"),
+    ]);
+    assert_refused(&o, &["table-decimal.parquet", "x_mm", "Decimal"]);
+    // A boolean e_um is not 0/1 µm.
+    use polars::prelude::*;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("b.parquet");
+    let mut df = DataFrame::new(
+        2,
+        vec![
+            Column::new("x_mm".into(), [0.0, 1.0]),
+            Column::new("y_mm".into(), [0.0, 0.0]),
+            Column::new("z_mm".into(), [0.0, 0.0]),
+            Column::new("e_um".into(), [true, false]),
+        ],
+    )
+    .expect("frame");
+    ParquetWriter::new(std::fs::File::create(&p).expect("create"))
+        .finish(&mut df)
+        .expect("write");
+    let o = errmap(&[
+        "fit",
+        &p.display().to_string(),
+        "--method",
+        "trilinear",
+        "--predict",
+        &dataset("table2.csv"),
+    ]);
+    assert_refused(&o, &["b.parquet", "e_um", "true/false"]);
+}
+
+#[test]
+fn gp_refuses_more_nodes_than_its_limit_naming_the_alternative() {
+    use errmap::interp::gp::{Gp, GpConfig, GpError, MAX_POINTS};
+    use errmap::table::ErrorPoint;
+    let n = MAX_POINTS + 1;
+    let points: Vec<ErrorPoint> = (0..n)
+        .map(|i| ErrorPoint::new(i as f64, (i % 7) as f64, 0.0, 0.0))
+        .collect();
+    let e = Gp::fit(&points, &GpConfig::default()).expect_err("refused");
+    assert_eq!(
+        e,
+        GpError::TooManyPoints {
+            got: n,
+            max: MAX_POINTS
+        }
+    );
+    assert!(e.to_string().contains("spline"), "{e}");
+    // Two nodes a denormal apart no longer panic: they fit.
+    let tiny = [
+        ErrorPoint::new(0.0, 0.0, 0.0, 1.0),
+        ErrorPoint::new(5e-324, 1.0, 0.0, 2.0),
+        ErrorPoint::new(1.0, 0.0, 0.0, 3.0),
+        ErrorPoint::new(1.0, 1.0, 0.0, 4.0),
+    ];
+    let config = GpConfig {
+        restarts: 1,
+        ..GpConfig::default()
+    };
+    let gp = Gp::fit(&tiny, &config).expect("fits");
+    use errmap::interp::Interpolator;
+    assert!(gp.predict([0.5, 0.5, 0.0]).is_finite());
+}

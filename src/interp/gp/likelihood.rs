@@ -44,6 +44,11 @@ pub(super) fn maximise<'a>(
         }
     }
     let extent: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    // Coordinates a denormal apart (5e-324 mm) would put a length-scale bound at ln 0 =
+    // −inf: the smallest spacing counts as at least 10⁻⁹ of the extent (and 10⁻⁹ mm).
+    for a in 0..3 {
+        spacing[a] = spacing[a].max(1e-9 * extent[a]).max(1e-9);
+    }
     let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 0.0).collect();
     let longest = extent.iter().copied().fold(1.0, f64::max);
     let fixed_ls = [1e3 * longest; 3];
