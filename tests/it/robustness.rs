@@ -521,3 +521,100 @@ fn gp_refuses_more_nodes_than_its_limit_naming_the_alternative() {
     use errmap::interp::Interpolator;
     assert!(gp.predict([0.5, 0.5, 0.0]).is_finite());
 }
+
+// ---- machine models and plans: finite, in range, bounded work ----
+
+const TINY_PLAN: &str = "axis = \"X\"\nlines_mm = [[1.0, 200.0]]\ntargets_mm = [200.0, 400.0]\n\
+runs = 2\nfeed_mm_s = 1000.0\ndwell_s = 0.05\nsample_hz = 100.0\nsettle_s = 0.0\naccel_mm_s2 = 10000.0\n";
+
+/// `simulate` with the model text and plan text given, run under a time limit.
+fn simulate(dir: &Path, model: &str, plan: &str) -> Output {
+    let m = write(dir, "m.toml", model);
+    let p = write(dir, "p.toml", plan);
+    let child = Command::new(bin())
+        .args(["simulate", "--model"])
+        .arg(&m)
+        .arg("--plan")
+        .arg(&p)
+        .arg("--out")
+        .arg(dir.join("s.csv"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    wait_within(child, Duration::from_secs(60), "simulate")
+}
+
+#[test]
+fn non_finite_or_impossible_model_values_are_refused_by_key() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for (model, key) in [
+        ("[scale_factor]\nppm = nan\n", "scale_factor.ppm"),
+        (
+            "[abbe]\noffset_axis = \"y\"\ntheta0_urad = inf\n",
+            "abbe.theta0_urad",
+        ),
+        (
+            "[environment]\nair_temp_c = { kind = \"constant\", value = nan }\n",
+            "environment.air_temp_c.value",
+        ),
+        (
+            "[environment]\nair_temp_c = { kind = \"constant\", value = -273.15 }\n",
+            "environment.air_temp_c.value",
+        ),
+        (
+            "[thermal_drift]\namplitude_um = 1.0\ntau_s = inf\n",
+            "thermal_drift.tau_s",
+        ),
+        (
+            "[environment]\nair_pressure_hpa = { kind = \"table\", t_s = [0.0, 5.0, 5.0], value = [1013.0, 1012.0, 1011.0] }\n",
+            "strictly increasing",
+        ),
+    ] {
+        let o = simulate(dir.path(), model, TINY_PLAN);
+        assert_refused(&o, &["m.toml", key]);
+        assert!(
+            !dir.path().join("s.csv").exists(),
+            "{model}: nothing written"
+        );
+    }
+}
+
+#[test]
+fn plans_implying_too_much_work_or_bad_values_are_refused_by_key() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plan = |key: &str, value: &str| {
+        TINY_PLAN
+            .lines()
+            .map(|l| {
+                if l.starts_with(&format!("{key} =")) {
+                    format!("{key} = {value}")
+                } else {
+                    l.to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let targets: Vec<String> = (0..20_000).map(|i| format!("{}.0", i * 10)).collect();
+    for (p, key) in [
+        (plan("dwell_s", "1e9"), "dwell_s"),
+        (plan("dwell_s", "1e7"), "samples"),
+        (plan("feed_mm_s", "1e-9"), "feed_mm_s"),
+        (plan("sample_hz", "inf"), "sample_hz"),
+        (plan("sample_hz", "5e-324"), "sample_hz"),
+        (plan("accel_mm_s2", "inf"), "accel_mm_s2"),
+        (plan("settle_s", "-1.0"), "settle_s"),
+        (
+            plan("targets_mm", &format!("[{}]", targets.join(", ")))
+                .replace("dwell_s = 0.05", "dwell_s = 0.5"),
+            "samples",
+        ),
+    ] {
+        let o = simulate(dir.path(), "", &p);
+        assert_refused(&o, &["p.toml", key]);
+    }
+    // The tiny plan itself simulates.
+    let o = simulate(dir.path(), "", TINY_PLAN);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
