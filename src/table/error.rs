@@ -89,6 +89,17 @@ pub enum TableError {
     )]
     TooFewNodes { path: PathBuf, count: usize },
     #[error(
+        "{path}: the {axis} coordinates {a:e} and {b:e} mm of two grid nodes are closer than {min_mm:e} mm; \
+         no interpolation is meaningful across that gap (a typing error?)"
+    )]
+    NodesTooClose {
+        path: PathBuf,
+        axis: char,
+        a: f64,
+        b: f64,
+        min_mm: f64,
+    },
+    #[error(
         "{path}: column `{column}` appears {count} times in the header; which one holds the data is ambiguous"
     )]
     DuplicateColumn {

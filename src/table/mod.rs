@@ -80,6 +80,10 @@ pub use output::{check_finite, write_atomically};
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
 
+/// The closest two coordinates of a grid axis may be, mm (a nanometre): closer nodes are
+/// a typing error, and the interpolators' divisions by the spacing would overflow.
+pub const MIN_NODE_SPACING_MM: f64 = 1e-6;
+
 use crate::base::limits::{ERROR_UM, POSITION_MM};
 
 /// A cell outside its physical range ([`crate::base::limits`]).
@@ -270,10 +274,13 @@ impl ErrorTable {
             });
         }
         let [xs, ys, zs] = axes;
-        let expected = xs.len() * ys.len() * zs.len();
-        let mut values = vec![f64::NAN; expected];
-        let mut filled = vec![false; expected];
+        // Saturating: a scattered table of n nodes spans up to n³ grid nodes, which is
+        // never allocated — only the present nodes are indexed.
+        let (nx, ny) = (xs.len() as u128, ys.len() as u128);
+        let grid_nodes = nx * ny * zs.len() as u128;
+        let expected = usize::try_from(grid_nodes).unwrap_or(usize::MAX);
         let find = |v: &[f64], x: f64| v.binary_search_by(|p| p.total_cmp(&x)).ok();
+        let mut present = std::collections::HashMap::with_capacity(self.points.len());
         for p in &self.points {
             // Every coordinate is one of the axis values by construction.
             if let (Some(i), Some(j), Some(k)) = (
@@ -281,18 +288,20 @@ impl ErrorTable {
                 find(&ys, p.y_mm + 0.0),
                 find(&zs, p.z_mm + 0.0),
             ) {
-                let idx = i + xs.len() * (j + ys.len() * k);
-                values[idx] = p.e_um;
-                filled[idx] = true;
+                present.insert(i as u128 + nx * (j as u128 + ny * k as u128), p.e_um);
             }
         }
-        let node = |idx: usize| {
-            let i = idx % xs.len();
-            let j = (idx / xs.len()) % ys.len();
-            let k = idx / (xs.len() * ys.len());
+        let node = |idx: u128| {
+            let i = (idx % nx) as usize;
+            let j = ((idx / nx) % ny) as usize;
+            let k = (idx / (nx * ny)) as usize;
             [xs[i], ys[j], zs[k]]
         };
-        let mut missing = (0..expected).filter(|&idx| !filled[idx]).map(node);
+        // The first missing nodes in index order: found within present + MISSING_LISTED
+        // steps, however large `expected` is.
+        let mut missing = (0..grid_nodes)
+            .filter(|idx| !present.contains_key(idx))
+            .map(node);
         if let Some([x, y, z]) = missing.next() {
             return Err(TableError::MissingNode {
                 path: self.path(),
@@ -304,6 +313,19 @@ impl ErrorTable {
                 expected,
             });
         }
+        // A full grid: its spacing must be one interpolation can divide by.
+        for (a, v) in [&xs, &ys, &zs].into_iter().enumerate() {
+            if let Some(w) = v.windows(2).find(|w| w[1] - w[0] < MIN_NODE_SPACING_MM) {
+                return Err(TableError::NodesTooClose {
+                    path: self.path(),
+                    axis: ['x', 'y', 'z'][a],
+                    a: w[0],
+                    b: w[1],
+                    min_mm: MIN_NODE_SPACING_MM,
+                });
+            }
+        }
+        let values = (0..grid_nodes).map(|idx| present[&idx]).collect();
         Ok(Grid { xs, ys, zs, values })
     }
 

@@ -618,3 +618,63 @@ fn plans_implying_too_much_work_or_bad_values_are_refused_by_key() {
     let o = simulate(dir.path(), "", TINY_PLAN);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn a_scattered_table_is_not_expanded_to_its_n_cubed_grid() {
+    use errmap::table::{ErrorPoint, ErrorTable, TableError};
+    // 3 000 scattered nodes span 2.7·10¹⁰ grid nodes (216 GB of f64): the grid check
+    // used to allocate them and abort. Now it names the first missing node at once.
+    let points: Vec<ErrorPoint> = (0..3000)
+        .map(|i| {
+            let f = f64::from(i);
+            ErrorPoint::new(f, (f * 7.0) % 3001.0, (f * 13.0) % 3001.0, 0.0)
+        })
+        .collect();
+    let start = Instant::now();
+    let e = ErrorTable::from_points("scattered", points)
+        .grid()
+        .expect_err("not a grid");
+    assert!(
+        matches!(
+            e,
+            TableError::MissingNode {
+                present: 3000,
+                expected: 27_000_000_000,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(start.elapsed() < Duration::from_secs(10));
+}
+
+#[test]
+fn grid_nodes_a_denormal_apart_are_refused_and_the_gp_fits_them() {
+    use errmap::interp::Interpolator;
+    use errmap::interp::gp::{Gp, GpConfig};
+    use errmap::table::{ErrorPoint, ErrorTable, TableError};
+    let mut points = Vec::new();
+    for (x, y, z) in [
+        (0.0, 0.0, 0.0),
+        (5e-324, 0.0, 0.0),
+        (0.0, 1.0, 0.0),
+        (5e-324, 1.0, 0.0),
+    ] {
+        points.push(ErrorPoint::new(x, y, z, y));
+    }
+    let e = ErrorTable::from_points("tiny", points.clone())
+        .grid()
+        .expect_err("too close");
+    assert!(
+        matches!(e, TableError::NodesTooClose { axis: 'x', .. }),
+        "{e}"
+    );
+    // The Gaussian process treats an axis spanning 5e-324 mm as one coordinate.
+    let config = GpConfig {
+        restarts: 1,
+        ..GpConfig::default()
+    };
+    let gp = Gp::fit(&points[..3], &config).expect("fits");
+    let e = gp.predict([0.0, 0.5, 0.0]);
+    assert!(e.is_finite(), "{e}");
+}

@@ -49,7 +49,9 @@ pub(super) fn maximise<'a>(
     for a in 0..3 {
         spacing[a] = spacing[a].max(1e-9 * extent[a]).max(1e-9);
     }
-    let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 0.0).collect();
+    // An axis spanning less than 10⁻⁹ mm (two coordinates a denormal apart) is one
+    // coordinate: fixed like an axis with none, or its bounds would reach ln 0.
+    let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 1e-9).collect();
     let longest = extent.iter().copied().fold(1.0, f64::max);
     let fixed_ls = [1e3 * longest; 3];
 
