@@ -306,6 +306,18 @@ impl SessionBuilder {
         &self.stats
     }
 
+    /// Puts a device description in force before any frame: the HELLO of an earlier
+    /// capture of the same device, for a stream whose own HELLO is missing or damaged.
+    /// A usable HELLO in the stream still takes over (a different one is reported as
+    /// [`ProblemKind::HelloChanged`]). Refuses a HELLO that gives no scaling.
+    pub fn preset_hello(&mut self, h: Hello) -> Result<(), HelloError> {
+        let s = Scaling::from_hello(&h)?;
+        self.first_hello = Some(h);
+        self.hello_in_force = Some(h);
+        self.scaling = Some(s);
+        Ok(())
+    }
+
     /// The first usable HELLO (or, if none was usable, the first HELLO seen).
     pub fn hello(&self) -> Option<&Hello> {
         self.first_hello.as_ref()
@@ -359,6 +371,7 @@ impl SessionBuilder {
             if self.scaling.is_none() {
                 let rows_dropped = self.pending.len() as u64;
                 self.pending.clear();
+                self.stats.unconverted_samples += rows_dropped;
                 self.problem(first.pos, ProblemKind::NoHello { rows_dropped }, sink);
             }
         }
@@ -568,6 +581,7 @@ impl SessionBuilder {
                     self.flush(sink);
                 } else if self.scaling.is_none() {
                     self.pending.pop_front();
+                    self.stats.unconverted_samples += 1;
                     self.problem(first.pos, ProblemKind::NoHello { rows_dropped: 1 }, sink);
                 }
             }
@@ -666,6 +680,14 @@ impl SessionDecoder {
             decoder: Decoder::new(),
             builder: SessionBuilder::new(config),
         }
+    }
+
+    /// A session decoder with the default [`SessionConfig`] and `hello` in force from
+    /// the start ([`SessionBuilder::preset_hello`]).
+    pub fn with_hello(hello: Hello) -> Result<Self, HelloError> {
+        let mut d = Self::new();
+        d.builder.preset_hello(hello)?;
+        Ok(d)
     }
 
     /// Decode `bytes`, handing rows, problems, HELLOs and TEXT lines to `sink`.

@@ -212,8 +212,26 @@ fn file(p: &Path) -> String {
 }
 
 pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
-    super::guard::refuse_aliases(&[("--out", &a.out)], &[("RAW", &a.raw)])?;
-    let (rows, stats, _) = acquire::replay(&a.raw, &a.out)?;
+    let mut inputs = vec![("RAW", a.raw.as_path())];
+    if let Some(h) = &a.hello_from {
+        inputs.push(("--hello-from", h.as_path()));
+    }
+    super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let hello = a
+        .hello_from
+        .as_deref()
+        .map(acquire::hello_from_session_json)
+        .transpose()?;
+    let (rows, stats, _) = acquire::replay_with_hello(&a.raw, &a.out, hello)?;
+    if stats.unconverted_samples > 0 {
+        // Loud, whatever --json says: samples were lost to a missing device description.
+        eprintln!(
+            "replay: WARNING: {} of {} samples could not be converted (no usable HELLO when they \
+             arrived); give the device's description with --hello-from <an earlier capture's \
+             session.json>",
+            stats.unconverted_samples, stats.frames.sample
+        );
+    }
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
         v["rows"] = serde_json::json!(rows.len());

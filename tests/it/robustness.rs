@@ -678,3 +678,60 @@ fn grid_nodes_a_denormal_apart_are_refused_and_the_gp_fits_them() {
     let e = gp.predict([0.0, 0.5, 0.0]);
     assert!(e.is_finite(), "{e}");
 }
+
+// ---- no sample lost silently ----
+
+#[test]
+fn replay_without_a_hello_says_so_and_converts_with_an_earlier_description() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let stream = errmap::sim::simulate_stream(
+        &root().join("datasets/sim/model.toml"),
+        Some(&root().join("datasets/sim/plan.toml")),
+        &errmap::drivers::sim::Faults::default(),
+    )
+    .expect("simulates")
+    .0;
+    let whole = write_bytes(dir.path(), "ok.bin", &stream.bytes());
+    let headless: Vec<u8> = stream.frames[1..]
+        .iter()
+        .flat_map(|f| f.bytes.clone())
+        .collect();
+    let headless = write_bytes(dir.path(), "no-hello.bin", &headless);
+    let path = |p: &Path| p.display().to_string();
+    let ok_csv = dir.path().join("ok.csv");
+    let o = errmap(&["replay", &path(&whole), "--out", &path(&ok_csv)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Without a HELLO: no 0-row table with exit 0, but an error saying what to do.
+    let out = dir.path().join("b.csv");
+    let o = errmap(&["replay", &path(&headless), "--out", &path(&out), "--json"]);
+    assert_refused(&o, &["no-hello.bin", "could be converted", "--hello-from"]);
+    assert!(!out.exists());
+    // With the device description of an earlier session: the very same rows.
+    let json = serde_json::json!({
+        "hello": errmap::acquire::HelloJson::from(&stream.hello),
+    });
+    let session_json = write(dir.path(), "session.json", &json.to_string());
+    let o = errmap(&[
+        "replay",
+        &path(&headless),
+        "--out",
+        &path(&out),
+        "--hello-from",
+        &path(&session_json),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert!(v.get("unconverted_samples").is_none(), "{v}");
+    let a = errmap::session::read_session(&ok_csv).expect("intact");
+    let b = errmap::session::read_session(&out).expect("converted");
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 100);
+    assert_eq!(a, b);
+}
+
+fn write_bytes(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).expect("write");
+    p
+}
