@@ -15,12 +15,12 @@
 //!   or `./x` vs `x` are the same file) and refuses with both flags named, before anything
 //!   is written.
 //! - **Whole files.** [`write_file`] writes text and bytes outputs atomically, like the
-//!   library's table writers.
+//!   library's table writers; [`into_new_dir`] does the same for a new report directory.
 
 use std::io::Write;
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 
 /// The error [`print_stdout`] returns when the reader of stdout has gone; `main` turns it
 /// into a quiet exit with [`STDOUT_CLOSED_STATUS`].
@@ -61,6 +61,33 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
             })
     })?;
     Ok(())
+}
+
+/// Writes a report directory through `fill`. A directory that does not exist yet is
+/// written whole or not at all: `fill` writes a temporary sibling (same parent, so the
+/// same relative paths), renamed to `dir` on success and removed on error. An existing
+/// directory may hold the user's own files, so it is written in place.
+pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    if dir.exists() {
+        return fill(dir);
+    }
+    let name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "report".into());
+    let tmp = dir.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    match fill(&tmp) {
+        Ok(v) => {
+            std::fs::rename(&tmp, dir)
+                .with_context(|| format!("cannot move the report {} into place", dir.display()))?;
+            Ok(v)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            Err(e)
+        }
+    }
 }
 
 /// The cores of this machine (1 if unknown).
@@ -151,6 +178,37 @@ mod tests {
         assert_eq!(threads("--threads", 0), 0);
         assert_eq!(threads("--threads", 1), 1);
         assert_eq!(threads("--threads", 100_000), cores());
+    }
+
+    #[test]
+    fn a_new_report_directory_appears_whole_or_not_at_all() {
+        let root = tempfile::tempdir().expect("ok");
+        let dir = root.path().join("report");
+        let failed: Result<()> = into_new_dir(&dir, |d| {
+            std::fs::create_dir_all(d)?;
+            std::fs::write(d.join("comparison.csv"), "half")?;
+            bail!("a chart failed")
+        });
+        assert!(failed.is_err());
+        let left: Vec<_> = std::fs::read_dir(root.path()).expect("ok").collect();
+        assert!(left.is_empty(), "nothing left after the error");
+        into_new_dir(&dir, |d| {
+            std::fs::create_dir_all(d)?;
+            std::fs::write(d.join("report.md"), "# ok")?;
+            Ok(())
+        })
+        .expect("ok");
+        assert_eq!(
+            std::fs::read_to_string(dir.join("report.md")).expect("ok"),
+            "# ok"
+        );
+        // An existing directory keeps the user's files.
+        std::fs::write(dir.join("notes.txt"), "mine").expect("ok");
+        into_new_dir(&dir, |d| {
+            Ok(std::fs::write(d.join("report.md"), "# again")?)
+        })
+        .expect("ok");
+        assert!(dir.join("notes.txt").exists());
     }
 
     #[test]

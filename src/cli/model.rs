@@ -103,6 +103,24 @@ pub fn fit(a: FitArgs) -> Result<()> {
         use rayon::prelude::*;
         positions.par_iter().map(|&p| model.sigma(p)).collect()
     };
+    // The inputs are finite and in range, so a non-finite prediction is a bug: reported,
+    // never written (JSON would show it as null, CSV as NaN).
+    if let Some((p, e)) = positions
+        .iter()
+        .zip(values.iter().zip(&sigmas))
+        .find(|(_, (e, s))| !e.is_finite() || s.is_some_and(|s| !s.is_finite()))
+    {
+        bail!(
+            "{}: the {} model gave {} µm (σ {:?}) at ({}, {}, {}) mm; nothing written (a bug: please report it)",
+            a.table.display(),
+            method.label(),
+            e.0,
+            e.1,
+            p[0],
+            p[1],
+            p[2]
+        );
+    }
     if let Some(out) = &a.out {
         errmap::table::write_predictions(out, &preds, &sigmas)?;
     }
@@ -262,7 +280,9 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
             format!(" --orders {}", a.orders)
         }
     );
-    report::write_report(&comparison, &a.report, &command)?;
+    super::guard::into_new_dir(&a.report, |dir| {
+        Ok(report::write_report(&comparison, dir, &command)?)
+    })?;
     if a.json {
         super::guard::print_stdout(&serde_json::to_string(
             &comparison.to_json(Some(&a.report)),
