@@ -8,6 +8,12 @@
 //! the stop flag), no byte arrives for the idle timeout, the duration limit passes, or the
 //! port vanishes. A vanished port is reported as [`CaptureEnd::Vanished`] with everything
 //! received so far: the caller writes a valid session and then reports the error.
+//!
+//! A capture that started after the device's power-up has no HELLO, and without one no
+//! SAMPLE can be converted. So when no usable HELLO has arrived [`HELLO_WAIT`] after the
+//! start, the capture sends the spec's `?` once (`wire-protocol.md`: HELLO is sent "at
+//! power-up and after a `?` byte from the host"); the rows held back are converted when
+//! the HELLO comes. A source that cannot be written (a file) ignores the request.
 
 use std::fs::File;
 use std::io::Write;
@@ -18,6 +24,12 @@ use crate::frame::Hello;
 use crate::session::{SessionDecoder, SessionRow};
 use crate::stats::DecoderStats;
 use crate::transport::{ByteSource, ReadOutcome, TransportError};
+
+/// How long a capture waits for a usable HELLO before asking for one with `?`.
+pub const HELLO_WAIT: Duration = Duration::from_secs(1);
+
+/// The host's request for a HELLO (`wire-protocol.md`).
+pub const HELLO_REQUEST: &[u8] = b"?";
 
 /// Capture settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,6 +128,7 @@ pub fn capture(
     let mut last_progress = Instant::now();
     let mut dirty = false;
     let mut max_run = 0u32;
+    let mut hello_asked = false;
     let sync = |raw: &mut File, fsyncs: &mut u64| -> Result<(), CaptureError> {
         raw.flush().map_err(CaptureError::Raw)?;
         raw.sync_data().map_err(CaptureError::Raw)?;
@@ -169,6 +182,11 @@ pub fn capture(
                 dirty = false;
             }
         }
+        if !hello_asked && start.elapsed() >= HELLO_WAIT && decoder.builder().scaling().is_none() {
+            hello_asked = true;
+            // Best effort: a port that takes no bytes still gives what it sends.
+            let _ = source.send(HELLO_REQUEST);
+        }
         if dirty && last_sync.elapsed() >= config.fsync_every {
             sync(raw, &mut fsyncs)?;
             last_sync = Instant::now();
@@ -203,4 +221,97 @@ pub fn capture(
         bytes,
         fsyncs,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::{Device, Faults, Plan, Truth, TruthQuery, simulate};
+
+    struct Zero;
+    impl Truth for Zero {
+        fn error_um(&mut self, _q: &TruthQuery) -> f64 {
+            0.0
+        }
+    }
+
+    /// A device that was powered up before the capture: it sends its frames without the
+    /// HELLO, then the HELLO once it receives `?`, then ends.
+    struct LateDevice {
+        body: Option<Vec<u8>>,
+        hello: Vec<u8>,
+        asked: Vec<u8>,
+        answered: bool,
+    }
+
+    impl ByteSource for LateDevice {
+        fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError> {
+            if let Some(body) = self.body.take() {
+                buf[..body.len()].copy_from_slice(&body);
+                return Ok(ReadOutcome::Data(body.len()));
+            }
+            if self.asked == HELLO_REQUEST && !self.answered {
+                self.answered = true;
+                buf[..self.hello.len()].copy_from_slice(&self.hello);
+                return Ok(ReadOutcome::Data(self.hello.len()));
+            }
+            if self.answered {
+                return Ok(ReadOutcome::Eof);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+            Ok(ReadOutcome::TimedOut)
+        }
+
+        fn send(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+            self.asked.extend_from_slice(bytes);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_capture_without_hello_asks_for_one_and_converts_every_sample() {
+        let plan = Plan {
+            targets_mm: vec![0.0, 50.0],
+            runs: 1,
+            dwell_s: 0.1,
+            ..Plan::default()
+        };
+        let stream =
+            simulate(&plan, &Device::default(), &Faults::default(), &mut Zero).expect("simulates");
+        let body: Vec<u8> = stream.frames[1..]
+            .iter()
+            .flat_map(|f| f.bytes.clone())
+            .collect();
+        let samples = stream.truth.iter().filter(|t| t.sent).count();
+        let mut device = LateDevice {
+            body: Some(body.clone()),
+            hello: stream.frames[0].bytes.clone(),
+            asked: Vec::new(),
+            answered: false,
+        };
+        let raw_path =
+            std::env::temp_dir().join(format!("errmap-late-hello-{}.bin", std::process::id()));
+        let mut raw = File::create(&raw_path).expect("raw");
+        let config = CaptureConfig {
+            read_buf: body.len() + 64,
+            idle_timeout: Some(Duration::from_secs(10)),
+            ..CaptureConfig::default()
+        };
+        let cap = capture(
+            &mut device,
+            &mut raw,
+            &config,
+            &AtomicBool::new(false),
+            &mut |_| {},
+        )
+        .expect("captures");
+        let _ = std::fs::remove_file(&raw_path);
+        assert_eq!(device.asked, HELLO_REQUEST, "asked once for a HELLO");
+        assert_eq!(cap.rows.len(), samples, "every sample converted");
+        assert_eq!(cap.stats.unconverted_samples, 0);
+        // Without the answer the same bytes leave every sample unconverted, counted.
+        let (rows, stats, _) = crate::decode_all(&body);
+        assert!(rows.is_empty());
+        assert_eq!(stats.unconverted_samples, samples as u64);
+    }
 }

@@ -41,7 +41,24 @@ pub use transport::{ByteSource, ReadOutcome, ReaderSource, SerialSource, Transpo
 /// problem log), and the session's HELLO (the first usable one). Used by replay; live
 /// capture pushing the same bytes in any chunks gives the same rows.
 pub fn decode_all(bytes: &[u8]) -> (Vec<SessionRow>, DecoderStats, Option<Hello>) {
-    let mut d = SessionDecoder::new();
+    decode_with(SessionDecoder::new(), bytes)
+}
+
+/// [`decode_all`] with a device description in force from the first byte (the HELLO of
+/// an earlier capture of the same device): the SAMPLEs of a capture whose own HELLO is
+/// missing or damaged become rows instead of `unconverted_samples`. Refuses a HELLO that
+/// gives no scaling.
+pub fn decode_all_with_hello(
+    bytes: &[u8],
+    hello: Hello,
+) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), problem::HelloError> {
+    Ok(decode_with(SessionDecoder::with_hello(hello)?, bytes))
+}
+
+fn decode_with(
+    mut d: SessionDecoder,
+    bytes: &[u8],
+) -> (Vec<SessionRow>, DecoderStats, Option<Hello>) {
     let mut rows = d.push(bytes);
     rows.extend(d.finish());
     let hello = d.hello().copied();

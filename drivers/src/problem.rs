@@ -183,6 +183,26 @@ pub enum ProblemKind {
     /// No SAMPLE with flags = 0 before the end (or before the pending-row cap): the first
     /// SAMPLE's counters serve as origin instead.
     NoCleanSample,
+    /// An ENV frame with physically impossible air values (outside −50 … 100 °C,
+    /// 300 … 1 300 hPa or 0 … 100 % RH): a broken sensor. It is not used: the rows after
+    /// it carry no air values and a laser length not compensated for the air, the
+    /// spec's mark of a row without air data, until a plausible ENV comes.
+    ImplausibleEnv {
+        /// Air temperature, milli-°C.
+        air_temp_mc: i32,
+        /// Pressure, Pa.
+        pressure_pa: u32,
+        /// Relative humidity, ‰.
+        rh_permille: u16,
+    },
+    /// A MATERIAL frame with a temperature outside −50 … 100 °C: not used (the material
+    /// columns stay empty until a plausible MATERIAL comes).
+    ImplausibleMaterial {
+        /// Sensor index.
+        sensor: u8,
+        /// Its temperature, milli-°C.
+        temp_mc: i32,
+    },
 }
 
 impl ProblemKind {
@@ -208,6 +228,8 @@ impl ProblemKind {
             ProblemKind::BadMark { .. } => "bad_mark",
             ProblemKind::NoHello { .. } => "no_hello",
             ProblemKind::NoCleanSample => "no_clean_sample",
+            ProblemKind::ImplausibleEnv { .. } => "implausible_env",
+            ProblemKind::ImplausibleMaterial { .. } => "implausible_material",
         }
     }
 

@@ -23,6 +23,14 @@
 //!   axis is `scale_mm`; the line positions go to the two other axes (Y, Z when measuring
 //!   X; X, Z when measuring Y; X, Y when measuring Z).
 //! - Flagged rows are kept with their flags (BEAM_LOW rows still get `laser_mm`).
+//! - A physically impossible sensor reading (air outside −50 … 100 °C, 300 … 1 300 hPa
+//!   or 0 … 100 % RH; a material temperature outside −50 … 100 °C) is a broken sensor:
+//!   the frame is not used, so the rows after it are marked the spec's way, with empty
+//!   air (or material) columns and n_air = 1, until a plausible frame comes; the problem
+//!   log counts it (`implausible_env`, `implausible_material`).
+//! - SAMPLEs that no usable HELLO ever describes are counted in
+//!   [`DecoderStats::unconverted_samples`](crate::DecoderStats) (and the `no_hello`
+//!   problem); [`SessionBuilder::preset_hello`] supplies an earlier capture's HELLO.
 //!
 //! Cost: O(1) per frame; the Edlén index is recomputed only when ENV or HELLO changes.
 
@@ -105,6 +113,17 @@ impl SessionRow {
         "part_temp_c",
         "flags",
     ];
+}
+
+/// The physical range of a temperature sensor, milli-°C (−50 … 100 °C, the range of
+/// errmap's readers: `errmap::base::limits`).
+const TEMP_MC: (i32, i32) = (-50_000, 100_000);
+
+/// The physical range of an air pressure, Pa (300 … 1 300 hPa).
+const PRESSURE_PA: (u32, u32) = (30_000, 130_000);
+
+fn plausible_temp_mc(t: i32) -> bool {
+    (TEMP_MC.0..=TEMP_MC.1).contains(&t)
 }
 
 /// Session-layer settings.
@@ -306,6 +325,18 @@ impl SessionBuilder {
         &self.stats
     }
 
+    /// Puts a device description in force before any frame: the HELLO of an earlier
+    /// capture of the same device, for a stream whose own HELLO is missing or damaged.
+    /// A usable HELLO in the stream still takes over (a different one is reported as
+    /// [`ProblemKind::HelloChanged`]). Refuses a HELLO that gives no scaling.
+    pub fn preset_hello(&mut self, h: Hello) -> Result<(), HelloError> {
+        let s = Scaling::from_hello(&h)?;
+        self.first_hello = Some(h);
+        self.hello_in_force = Some(h);
+        self.scaling = Some(s);
+        Ok(())
+    }
+
     /// The first usable HELLO (or, if none was usable, the first HELLO seen).
     pub fn hello(&self) -> Option<&Hello> {
         self.first_hello.as_ref()
@@ -340,8 +371,8 @@ impl SessionBuilder {
         match df.frame {
             Frame::Hello(h) => self.on_hello(h, pos, sink),
             Frame::Sample(s) => self.on_sample(&s, pos, sink),
-            Frame::Env(e) => self.env = Some(e),
-            Frame::Material(m) => self.on_material(&m),
+            Frame::Env(e) => self.on_env(e, pos, sink),
+            Frame::Material(m) => self.on_material(&m, pos, sink),
             Frame::Mark(m) => self.on_mark(&m, pos, sink),
             Frame::RawAb(r) => self.on_raw_ab(&r, pos, sink),
             Frame::Text(t) => sink(SessionEvent::Text { pos, text: t.text }),
@@ -359,6 +390,7 @@ impl SessionBuilder {
             if self.scaling.is_none() {
                 let rows_dropped = self.pending.len() as u64;
                 self.pending.clear();
+                self.stats.unconverted_samples += rows_dropped;
                 self.problem(first.pos, ProblemKind::NoHello { rows_dropped }, sink);
             }
         }
@@ -405,7 +437,47 @@ impl SessionBuilder {
         self.flush(sink);
     }
 
-    fn on_material(&mut self, m: &Material) {
+    fn on_env<F: FnMut(SessionEvent)>(&mut self, e: Env, pos: StreamPos, sink: &mut F) {
+        if plausible_temp_mc(e.air_temp_mc)
+            && (PRESSURE_PA.0..=PRESSURE_PA.1).contains(&e.pressure_pa)
+            && e.rh_permille <= 1000
+        {
+            self.env = Some(e);
+        } else {
+            // A broken sensor: its n_air would make every laser length wrong.
+            self.env = None;
+            self.problem(
+                pos,
+                ProblemKind::ImplausibleEnv {
+                    air_temp_mc: e.air_temp_mc,
+                    pressure_pa: e.pressure_pa,
+                    rh_permille: e.rh_permille,
+                },
+                sink,
+            );
+        }
+    }
+
+    fn on_material<F: FnMut(SessionEvent)>(&mut self, m: &Material, pos: StreamPos, sink: &mut F) {
+        // Sensors 0 (scale) and 1 (part) are the ones the session table holds.
+        if let Some((sensor, &t)) = m
+            .temps_mc
+            .iter()
+            .take(2)
+            .enumerate()
+            .find(|(_, t)| !plausible_temp_mc(**t))
+        {
+            self.material_mc = None;
+            self.problem(
+                pos,
+                ProblemKind::ImplausibleMaterial {
+                    sensor: sensor as u8,
+                    temp_mc: t,
+                },
+                sink,
+            );
+            return;
+        }
         if let Some(&scale) = m.temps_mc.first() {
             self.material_mc = Some((scale, m.temps_mc.get(1).copied()));
         }
@@ -568,6 +640,7 @@ impl SessionBuilder {
                     self.flush(sink);
                 } else if self.scaling.is_none() {
                     self.pending.pop_front();
+                    self.stats.unconverted_samples += 1;
                     self.problem(first.pos, ProblemKind::NoHello { rows_dropped: 1 }, sink);
                 }
             }
@@ -666,6 +739,14 @@ impl SessionDecoder {
             decoder: Decoder::new(),
             builder: SessionBuilder::new(config),
         }
+    }
+
+    /// A session decoder with the default [`SessionConfig`] and `hello` in force from
+    /// the start ([`SessionBuilder::preset_hello`]).
+    pub fn with_hello(hello: Hello) -> Result<Self, HelloError> {
+        let mut d = Self::new();
+        d.builder.preset_hello(hello)?;
+        Ok(d)
     }
 
     /// Decode `bytes`, handing rows, problems, HELLOs and TEXT lines to `sink`.

@@ -241,40 +241,105 @@ enum Step {
     Line(usize),
 }
 
-fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
-    let bad = |m: &str| Err(SimError::Plan(m.to_string()));
+/// The most samples a plan may imply (about 1 GB for the simulated session in memory:
+/// frames, truth and rows). [`check_plan`] refuses larger plans before any is generated.
+pub const MAX_PLAN_SAMPLES: f64 = 2e6;
+
+/// Checks a plan on its own: finite values in their ranges, and at most
+/// [`MAX_PLAN_SAMPLES`] samples. Messages start with the plan key they are about.
+///
+/// | key | accepted |
+/// |---|---|
+/// | `targets_mm`, `lines_mm` | finite, within ±10⁶ mm; targets ≥ 0, strictly increasing |
+/// | `feed_mm_s`, `extra_feeds_mm_s` | 10⁻⁶ … 10⁵ mm/s |
+/// | `accel_mm_s2` | 10⁻³ … 10⁷ mm/s² |
+/// | `sample_hz` | 10⁻³ … 10⁶ Hz |
+/// | `dwell_s`, `settle_s` | 0 … 10⁹ s |
+/// | `runs` | ≥ 1 |
+pub fn check_plan(plan: &Plan) -> Result<(), SimError> {
+    let bad = |m: String| Err(SimError::Plan(m));
+    let within = |key: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+        if v.is_finite() && lo <= v && v <= hi {
+            Ok(())
+        } else {
+            Err(SimError::Plan(format!(
+                "{key} = {v}: must be finite, within {lo} … {hi} {unit}"
+            )))
+        }
+    };
     if plan.targets_mm.is_empty() {
-        return bad("no targets");
+        return bad("targets_mm: no targets".into());
     }
-    if plan.targets_mm.windows(2).any(|w| w[1] <= w[0]) || plan.targets_mm[0] < 0.0 {
-        return bad("targets must be ≥ 0 and strictly increasing");
+    for (k, &t) in plan.targets_mm.iter().enumerate() {
+        within(&format!("targets_mm[{k}]"), t, 0.0, 1e6, "mm")?;
+    }
+    if plan.targets_mm.windows(2).any(|w| w[1] <= w[0]) {
+        return bad("targets_mm: targets must be ≥ 0 and strictly increasing".into());
     }
     if plan.lines_mm.is_empty() {
-        return bad("no lines");
+        return bad("lines_mm: no lines".into());
     }
-    if plan
-        .extra_feeds_mm_s
-        .iter()
-        .any(|f| !(f.is_finite() && *f > 0.0))
-    {
-        return bad("every feed must be positive");
+    for (k, v) in plan.lines_mm.iter().flatten().enumerate() {
+        within(
+            &format!("lines_mm[{}][{}]", k / 2, k % 2),
+            *v,
+            -1e6,
+            1e6,
+            "mm",
+        )?;
     }
-    if !(plan.feed_mm_s > 0.0
-        && plan.sample_hz > 0.0
-        && plan.dwell_s >= 0.0
-        && plan.runs >= 1
-        && plan.accel_mm_s2 > 0.0)
-    {
-        return bad("feed, sample rate and runs must be positive, dwell ≥ 0");
+    within("feed_mm_s", plan.feed_mm_s, 1e-6, 1e5, "mm/s")?;
+    for (k, &f) in plan.extra_feeds_mm_s.iter().enumerate() {
+        within(&format!("extra_feeds_mm_s[{k}]"), f, 1e-6, 1e5, "mm/s")?;
     }
-    if plan
-        .targets_mm
-        .iter()
-        .chain(plan.lines_mm.iter().flatten())
-        .any(|v| !v.is_finite())
-    {
-        return bad("positions must be finite");
+    within("accel_mm_s2", plan.accel_mm_s2, 1e-3, 1e7, "mm/s²")?;
+    within("sample_hz", plan.sample_hz, 1e-3, 1e6, "Hz")?;
+    within("dwell_s", plan.dwell_s, 0.0, 1e9, "s")?;
+    within("settle_s", plan.settle_s, 0.0, 1e9, "s")?;
+    if plan.runs < 1 {
+        return bad("runs = 0: at least one run".into());
     }
+    let duration = estimated_duration_s(plan);
+    let samples = duration * plan.sample_hz;
+    let dwells =
+        plan.lines_mm.len() as f64 * f64::from(plan.runs) * 2.0 * plan.targets_mm.len() as f64;
+    if samples.max(dwells) > MAX_PLAN_SAMPLES {
+        return bad(format!(
+            "the plan implies about {:.2e} samples ({duration:.3e} s at sample_hz = {}, {dwells:.2e} dwells), \
+             more than the simulator's limit of {MAX_PLAN_SAMPLES:.0e}; shorten dwell_s or settle_s, raise \
+             feed_mm_s or accel_mm_s2, or use fewer runs, targets_mm or lines_mm, or a lower sample_hz",
+            samples.max(dwells),
+            plan.sample_hz
+        ));
+    }
+    Ok(())
+}
+
+/// The plan's duration in seconds, without generating it: settles, dwells and the moves
+/// between targets out and back (a lower bound of what [`simulate`] takes; the moves
+/// from home and between lines are left out).
+fn estimated_duration_s(plan: &Plan) -> f64 {
+    let lines = plan.lines_mm.len() as f64;
+    let n_feeds = 1 + plan.extra_feeds_mm_s.len();
+    let pass = |feed: f64| -> f64 {
+        let moves: f64 = plan
+            .targets_mm
+            .windows(2)
+            .map(|w| Trapezoid::new(w[1] - w[0], feed, plan.accel_mm_s2).duration())
+            .sum();
+        2.0 * (moves + plan.targets_mm.len() as f64 * plan.dwell_s)
+    };
+    let mut total = plan.settle_s * (lines + 1.0);
+    for k in 0..n_feeds.min(plan.runs as usize) {
+        // Runs r = k+1, k+1+n, … move at feed k.
+        let runs_at_k = (plan.runs as usize - k).div_ceil(n_feeds) as f64;
+        total += lines * runs_at_k * pass(feed_of(plan, k as u32 + 1));
+    }
+    total
+}
+
+fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
+    check_plan(plan)?;
     if device.baud < 300 || device.count_resolution_pm == 0 || device.laser_wavelength_fm == 0 {
         return Err(SimError::Device(
             "baud ≥ 300, non-zero resolution and wavelength".into(),
@@ -427,7 +492,8 @@ impl Trapezoid {
 
     /// Distance travelled and speed at time `tau` into the move.
     fn at(&self, tau: f64) -> (f64, f64) {
-        let tau = tau.clamp(0.0, self.total);
+        // max/min, not clamp: clamp panics when the bound is NaN.
+        let tau = tau.max(0.0).min(self.total);
         if tau < self.t_acc {
             (0.5 * self.accel * tau * tau, self.accel * tau)
         } else if tau <= self.total - self.t_acc {
@@ -704,4 +770,86 @@ pub fn simulate(
         dropped,
         duration_s: t,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Zero;
+    impl Truth for Zero {
+        fn error_um(&mut self, _q: &TruthQuery) -> f64 {
+            0.0
+        }
+    }
+
+    #[test]
+    fn the_estimated_duration_is_the_hand_computed_one_and_a_lower_bound() {
+        // One line, one run, targets 0 and 100 mm at 100 mm/s with a brisk 10⁷ mm/s²:
+        // each move takes 2·10⁻⁵ + (100 − 10⁻³)/100 s; out and back, 2 moves and 4 dwells
+        // of 1 s, no settle.
+        let plan = Plan {
+            targets_mm: vec![0.0, 100.0],
+            runs: 1,
+            dwell_s: 1.0,
+            settle_s: 0.0,
+            accel_mm_s2: 1e7,
+            ..Plan::default()
+        };
+        let one_move = 2e-5 + (100.0 - 1e-3) / 100.0;
+        let want = 2.0 * (one_move + 2.0);
+        let got = estimated_duration_s(&plan);
+        assert!((got - want).abs() < 1e-9, "{got} vs {want}");
+        let real = simulate(&plan, &Device::default(), &Faults::default(), &mut Zero)
+            .expect("simulates")
+            .duration_s;
+        assert!(got <= real, "{got} > {real}");
+        // The default plan, with two feeds cycled over five runs, is a lower bound too.
+        let plan = Plan {
+            extra_feeds_mm_s: vec![50.0],
+            ..Plan::default()
+        };
+        let real = simulate(&plan, &Device::default(), &Faults::default(), &mut Zero)
+            .expect("simulates")
+            .duration_s;
+        let got = estimated_duration_s(&plan);
+        assert!(got <= real && got > 0.8 * real, "{got} vs {real}");
+    }
+
+    #[test]
+    fn plans_past_the_sample_budget_or_with_non_finite_values_are_refused_by_key() {
+        let long = Plan {
+            dwell_s: 1e9,
+            ..Plan::default()
+        };
+        let e = check_plan(&long).expect_err("too long").to_string();
+        assert!(e.contains("samples") && e.contains("dwell_s"), "{e}");
+        for (plan, key) in [
+            (
+                Plan {
+                    sample_hz: f64::INFINITY,
+                    ..Plan::default()
+                },
+                "sample_hz",
+            ),
+            (
+                Plan {
+                    accel_mm_s2: f64::NAN,
+                    ..Plan::default()
+                },
+                "accel_mm_s2",
+            ),
+            (
+                Plan {
+                    settle_s: -1.0,
+                    ..Plan::default()
+                },
+                "settle_s",
+            ),
+        ] {
+            let e = check_plan(&plan).expect_err("refused").to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        check_plan(&Plan::default()).expect("the default plan");
+    }
 }

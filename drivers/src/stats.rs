@@ -177,10 +177,20 @@ pub struct DecoderStats {
     pub raw_ab: RawAbStats,
     /// Session rows written.
     pub rows: u64,
+    /// SAMPLEs that could not be converted to rows because no usable HELLO (device
+    /// description) was in force: the capture started after the HELLO, or the HELLO was
+    /// damaged. Serialised only when not 0, so the spec's JSON is unchanged for every
+    /// capture that lost nothing (`unconverted_samples` is an extension of the spec).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unconverted_samples: u64,
     /// Problem counts and first positions (not part of the spec JSON; serialise it on its
     /// own).
     #[serde(skip)]
     pub problems: ProblemLog,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 impl DecoderStats {
@@ -218,6 +228,7 @@ impl DecoderStats {
                 laser_illegal: self.raw_ab.laser_illegal + other.raw_ab.laser_illegal,
             },
             rows: self.rows + other.rows,
+            unconverted_samples: self.unconverted_samples + other.unconverted_samples,
             problems,
         }
     }

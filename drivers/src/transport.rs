@@ -59,6 +59,13 @@ pub enum ReadOutcome {
 pub trait ByteSource {
     /// Read up to `buf.len()` bytes, waiting at most the source's timeout.
     fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError>;
+
+    /// Send `bytes` to the device (the host's `?` asking for a HELLO). A read-only
+    /// source (a file being replayed) ignores them; that is the default.
+    fn send(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        let _ = bytes;
+        Ok(())
+    }
 }
 
 /// A serial port opened by path.
@@ -175,6 +182,14 @@ fn is_vanished(e: &io::Error) -> bool {
 }
 
 impl ByteSource for SerialSource {
+    fn send(&mut self, bytes: &[u8]) -> Result<(), TransportError> {
+        use std::io::Write;
+        self.port
+            .write_all(bytes)
+            .and_then(|()| self.port.flush())
+            .map_err(|e| classify(&self.path, e))
+    }
+
     fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError> {
         let path = &self.path;
         read_once(

@@ -45,6 +45,16 @@ pub enum AcquireError {
     #[error("{path}: no valid frame in {bytes} bytes (is this a raw capture?)")]
     NoFrames { path: PathBuf, bytes: usize },
     #[error(
+        "{path}: none of its {samples} samples could be converted: no usable HELLO (device \
+         description) in the capture ({hellos} HELLO frame(s), none usable); give the device's \
+         description with --hello-from <an earlier capture's session.json>"
+    )]
+    NoHello {
+        path: PathBuf,
+        samples: u64,
+        hellos: u64,
+    },
+    #[error(
         "{path} already exists: a capture never overwrites an earlier one; choose another --out"
     )]
     Exists { path: PathBuf },
@@ -73,7 +83,7 @@ pub struct SessionJson {
 }
 
 /// HELLO fields in readable form.
-#[derive(Debug, Serialize)]
+#[derive(Debug, Serialize, serde::Deserialize)]
 pub struct HelloJson {
     pub protocol_version: u8,
     pub device_id: String,
@@ -100,6 +110,50 @@ impl From<&Hello> for HelloJson {
                 .map_or_else(|| format!("code {}", h.axis_code), |a| a.to_string()),
         }
     }
+}
+
+impl HelloJson {
+    /// The HELLO these fields describe; `None` when the axis is not X, Y or Z.
+    pub fn to_hello(&self) -> Option<Hello> {
+        let mut h = Hello {
+            protocol_version: self.protocol_version,
+            device_id: errmap_drivers::frame::DeviceId::from_text(&self.device_id),
+            grating_period_nm: self.grating_period_nm,
+            count_resolution_pm: self.count_resolution_pm,
+            laser_wavelength_fm: self.laser_wavelength_fm,
+            optical_fold: self.optical_fold,
+            edges_per_fringe: self.edges_per_fringe,
+            axis_code: 0,
+        };
+        h.axis_code = (0..3u8).find(|&c| {
+            let probe = Hello { axis_code: c, ..h };
+            probe.axis().is_some_and(|a| a.to_string() == self.axis)
+        })?;
+        Some(h)
+    }
+}
+
+/// The device description (`hello`) of an earlier capture's `session.json`, for
+/// [`replay_with_hello`].
+pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
+    #[derive(serde::Deserialize)]
+    struct Partial {
+        hello: Option<HelloJson>,
+    }
+    let bad = |message: String| AcquireError::Config {
+        path: path.to_path_buf(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+    let p: Partial = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let json = p
+        .hello
+        .ok_or_else(|| bad("no `hello`: that capture had no device description either".into()))?;
+    let hello = json
+        .to_hello()
+        .ok_or_else(|| bad(format!("hello.axis `{}` is not X, Y or Z", json.axis)))?;
+    errmap_drivers::session::Scaling::from_hello(&hello).map_err(|e| bad(format!("hello: {e}")))?;
+    Ok(hello)
 }
 
 /// Where a capture writes.
@@ -193,13 +247,40 @@ pub fn replay(
     raw: &Path,
     out: &Path,
 ) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), AcquireError> {
+    replay_with_hello(raw, out, None)
+}
+
+/// [`replay`], with the device description `hello` in force from the first byte when
+/// given (from [`hello_from_session_json`]). Samples that no HELLO describes are counted
+/// in `unconverted_samples`; when they are all there is, nothing is written and the
+/// error says how to convert them ([`AcquireError::NoHello`]).
+pub fn replay_with_hello(
+    raw: &Path,
+    out: &Path,
+    hello: Option<Hello>,
+) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), AcquireError> {
     let bytes = std::fs::read(raw).map_err(io_err(raw))?;
-    let (rows, stats, hello) = decode_all(&bytes);
+    let (rows, stats, hello) = match hello {
+        None => decode_all(&bytes),
+        Some(h) => {
+            errmap_drivers::decode_all_with_hello(&bytes, h).map_err(|e| AcquireError::Config {
+                path: raw.to_path_buf(),
+                message: format!("the given HELLO gives no scaling: {e}"),
+            })?
+        }
+    };
     let frames = stats.frames.total();
     if frames == 0 {
         return Err(AcquireError::NoFrames {
             path: raw.to_path_buf(),
             bytes: bytes.len(),
+        });
+    }
+    if rows.is_empty() && stats.unconverted_samples > 0 {
+        return Err(AcquireError::NoHello {
+            path: raw.to_path_buf(),
+            samples: stats.unconverted_samples,
+            hellos: stats.frames.hello,
         });
     }
     write_session(out, &rows)?;

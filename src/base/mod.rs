@@ -9,9 +9,11 @@
 //! | [`vocabulary`] | the diagnosis vocabulary: effect ids and parameter names, spelt once |
 //! | [`optim`] | L-BFGS and golden-section minimisers |
 //! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
+//! | [`limits`] | the physical ranges every reader checks its numbers against |
 
 pub mod axis;
 pub mod consts;
+pub mod limits;
 pub mod optim;
 pub mod stats;
 pub mod vocabulary;

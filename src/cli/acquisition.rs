@@ -1,7 +1,7 @@
 //! The acquisition subcommands: serve-sim, capture, replay, table, ports. Glue only: the
 //! work is in `errmap::acquire`, `errmap::session` and `errmap-drivers`.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -86,10 +86,11 @@ pub fn serve_sim(a: ServeSimArgs) -> Result<()> {
         stream.duration_s,
         a.speed
     );
+    let mut announced = Ok(());
     let written = serve_stream(&stream, a.speed, a.linger, a.stall_timeout, |path| {
-        println!("{path}");
-        let _ = std::io::stdout().flush();
+        announced = super::guard::print_stdout(path);
     })?;
+    announced?;
     eprintln!("serve-sim: sent {written} bytes");
     Ok(())
 }
@@ -111,7 +112,7 @@ fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
             t.sent
         ));
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    super::guard::write_file(path, s.as_bytes())
 }
 
 /// Captures from a serial port into `out`; returns the capture's end.
@@ -191,7 +192,9 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
         file(&paths.json)
     );
     if a.json {
-        println!("{}", std::fs::read_to_string(&paths.json)?);
+        let json = std::fs::read_to_string(&paths.json)
+            .with_context(|| format!("cannot read {}", paths.json.display()))?;
+        super::guard::print_stdout(&json)?;
     }
     if let CaptureEnd::Vanished(why) = &cap.end {
         bail!(
@@ -209,11 +212,30 @@ fn file(p: &Path) -> String {
 }
 
 pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
-    let (rows, stats, _) = acquire::replay(&a.raw, &a.out)?;
+    let mut inputs = vec![("RAW", a.raw.as_path())];
+    if let Some(h) = &a.hello_from {
+        inputs.push(("--hello-from", h.as_path()));
+    }
+    super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let hello = a
+        .hello_from
+        .as_deref()
+        .map(acquire::hello_from_session_json)
+        .transpose()?;
+    let (rows, stats, _) = acquire::replay_with_hello(&a.raw, &a.out, hello)?;
+    if stats.unconverted_samples > 0 {
+        // Loud, whatever --json says: samples were lost to a missing device description.
+        eprintln!(
+            "replay: WARNING: {} of {} samples could not be converted (no usable HELLO when they \
+             arrived); give the device's description with --hello-from <an earlier capture's \
+             session.json>",
+            stats.unconverted_samples, stats.frames.sample
+        );
+    }
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
         v["rows"] = serde_json::json!(rows.len());
-        println!("{v}");
+        super::guard::print_stdout(&v.to_string())?;
     } else {
         eprintln!(
             "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
@@ -260,10 +282,10 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
                 })
             })
             .collect();
-        println!(
-            "{}",
-            serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
-        );
+        super::guard::print_stdout(
+            &serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
+                .to_string(),
+        )?;
     }
     Ok(())
 }
@@ -281,6 +303,13 @@ pub struct Reduced {
 /// ISO 230-2 report in `report` when given; says what it did on stderr.
 pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> Result<Reduced> {
     let path = session_file(session_arg)?;
+    super::guard::refuse_aliases(&[("--out", out)], &[("SESSION", &path)])?;
+    if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {
+        bail!(
+            "--report {}: exists and is not a directory (nothing was written)",
+            dir.display()
+        );
+    }
     let rows = session::read_session(&path)?;
     let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
     table.write(out)?;
@@ -344,7 +373,7 @@ pub fn ports() -> Result<()> {
         eprintln!("no serial ports found");
     }
     for p in ports {
-        println!("{}\t{:?}", p.name, p.kind);
+        super::guard::print_stdout(&format!("{}\t{:?}", p.name, p.kind))?;
     }
     Ok(())
 }

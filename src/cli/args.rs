@@ -220,6 +220,10 @@ pub struct ReplayArgs {
     /// Print the decoder statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// The device description (HELLO) from an earlier capture's session.json, for a
+    /// capture whose own HELLO is missing or damaged.
+    #[arg(long)]
+    pub hello_from: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

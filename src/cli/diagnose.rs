@@ -34,7 +34,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     };
     let d = run_diagnosis(&a.recorded, &against, &a.report, a.grating_period_um)?;
     if a.json {
-        println!("{}", serde_json::to_string(&d)?);
+        super::guard::print_stdout(&serde_json::to_string(&d)?)?;
     } else {
         print_summary(&d, &a.report)?;
     }
@@ -84,18 +84,25 @@ pub fn run_diagnosis(
         .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
     // Every report carries the session's environment.
     let environment = errmap::report::environment::environment_summary(&recorded_rows);
-    write_report(&d, report, Some(&environment))?;
-    if let Some(mut m) = model {
+    // A new report directory appears whole or not at all (guard::into_new_dir); the
+    // temporary one is a sibling, so the model's relative table path is the same.
+    let notes = super::guard::into_new_dir(report, |dir| {
+        write_report(&d, dir, Some(&environment))?;
+        let Some(mut m) = model else {
+            return Ok(None);
+        };
         let notes = apply_found_effects(&mut m, &d.effects);
         if let Some(map) = &mut m.error_map {
             map.table = relative_to(&map.table, report);
         }
-        let out = report.join("updated-model.toml");
-        m.write(&out)?;
+        m.write(&dir.join("updated-model.toml"))?;
+        Ok(Some(notes))
+    })?;
+    if let Some(notes) = notes {
         eprintln!(
             "diagnose: updated model ({}) → {}",
             notes.join("; "),
-            out.display()
+            report.join("updated-model.toml").display()
         );
     }
     Ok(d)

@@ -24,6 +24,7 @@ pub mod args;
 pub mod certificate;
 pub mod demo;
 pub mod diagnose;
+pub mod guard;
 pub mod model;
 pub mod plan;
 pub mod step;
@@ -84,6 +85,9 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<guard::StdoutClosed>().is_some() => {
+            ExitCode::from(guard::STDOUT_CLOSED_STATUS)
+        }
         Err(e) => {
             eprintln!("errmap: error: {e:#}");
             ExitCode::from(1)
@@ -111,11 +115,11 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),
-                threads: a.threads,
+                threads: guard::threads("--threads", a.threads),
                 ..Default::default()
             });
             if a.json {
-                println!("{}", serde_json::to_string(&r)?);
+                guard::print_stdout(&serde_json::to_string(&r)?)?;
             } else {
                 eprint!("{}", errmap::bench::markdown(&r));
             }

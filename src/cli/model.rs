@@ -81,11 +81,18 @@ fn fit_table(
 }
 
 pub fn fit(a: FitArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        super::guard::refuse_aliases(
+            &[("--out", out)],
+            &[("TABLE", &a.table), ("--predict", &a.predict)],
+        )?;
+    }
     let Fitted { method, model, .. } = fit_table(&a.table, a.method, a.order, &a.model)?;
     let points = ErrorTable::read_points(&a.predict)?;
     let positions: Vec<[f64; 3]> = points.points.iter().map(|p| p.position()).collect();
     let mut values = vec![0.0; positions.len()];
-    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, a.threads)?;
+    let threads = super::guard::threads("--threads", a.threads);
+    errmap::interp::predict_parallel(model.as_ref(), &positions, &mut values, threads)?;
     let preds: Vec<(ErrorPoint, bool)> = positions
         .iter()
         .zip(&values)
@@ -96,6 +103,24 @@ pub fn fit(a: FitArgs) -> Result<()> {
         use rayon::prelude::*;
         positions.par_iter().map(|&p| model.sigma(p)).collect()
     };
+    // The inputs are finite and in range, so a non-finite prediction is a bug: reported,
+    // never written (JSON would show it as null, CSV as NaN).
+    if let Some((p, e)) = positions
+        .iter()
+        .zip(values.iter().zip(&sigmas))
+        .find(|(_, (e, s))| !e.is_finite() || s.is_some_and(|s| !s.is_finite()))
+    {
+        bail!(
+            "{}: the {} model gave {} µm (σ {:?}) at ({}, {}, {}) mm; nothing written (a bug: please report it)",
+            a.table.display(),
+            method.label(),
+            e.0,
+            e.1,
+            p[0],
+            p[1],
+            p[2]
+        );
+    }
     if let Some(out) = &a.out {
         errmap::table::write_predictions(out, &preds, &sigmas)?;
     }
@@ -109,7 +134,7 @@ pub fn fit(a: FitArgs) -> Result<()> {
                 "sigma_um": s
             })).collect::<Vec<_>>(),
         });
-        println!("{json}");
+        super::guard::print_stdout(&json.to_string())?;
     } else {
         eprintln!(
             "{}: {} predictions ({} extrapolated){}",
@@ -255,12 +280,13 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
             format!(" --orders {}", a.orders)
         }
     );
-    report::write_report(&comparison, &a.report, &command)?;
+    super::guard::into_new_dir(&a.report, |dir| {
+        Ok(report::write_report(&comparison, dir, &command)?)
+    })?;
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string(&comparison.to_json(Some(&a.report)))?
-        );
+        super::guard::print_stdout(&serde_json::to_string(
+            &comparison.to_json(Some(&a.report)),
+        )?)?;
     } else {
         print_summary(&comparison, &a.report);
     }
@@ -293,6 +319,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     let (Some(method), Some(step)) = (a.method, a.step) else {
         bail!("--method and --step are needed (or --bidirectional with a session)");
     };
+    super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
     let extrapolation = if a.forbid_extrapolation {
         Extrapolation::Forbid
@@ -342,7 +369,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     let fit = super::step::step_fit(&format, a.ends, a.reference);
     let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
     let text = format.render_line(&sampled, None)?;
-    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    super::guard::write_file(&a.out, text.as_bytes())?;
     eprintln!(
         "export: {} {} entries along {} at ({}, {}, {}) mm ({} extrapolated) → {}; compensation = −error",
         format.name(),
@@ -359,6 +386,16 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
 
 pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let model = errmap::sim::physics::MachineModel::read(&a.model)?;
+    let map_table = model.error_map.as_ref().map(|m| m.table.clone());
+    let mut inputs = vec![("--model", a.model.as_path()), ("--plan", a.plan.as_path())];
+    if let Some(t) = &map_table {
+        inputs.push(("--model's error_map.table", t.as_path()));
+    }
+    let mut outputs = vec![("--out", a.out.as_path())];
+    if let Some(raw) = &a.raw {
+        outputs.push(("--raw", raw.as_path()));
+    }
+    super::guard::refuse_aliases(&outputs, &inputs)?;
     let plan = errmap::sim::read_plan(Some(&a.plan))?;
     let (stream, _) = errmap::sim::physics::simulate_plan(
         &model,
@@ -369,7 +406,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     )?;
     let bytes = stream.bytes();
     if let Some(raw) = &a.raw {
-        std::fs::write(raw, &bytes).with_context(|| format!("cannot write {}", raw.display()))?;
+        super::guard::write_file(raw, &bytes)?;
     }
     let (rows, _, _) = errmap::drivers::decode_all(&bytes);
     errmap::session::write_session(&a.out, &rows)?;
@@ -397,7 +434,7 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
         std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if a.json {
-        println!("{}", serde_json::to_string(&result)?);
+        super::guard::print_stdout(&serde_json::to_string(&result)?)?;
     } else {
         eprint!("{md}");
     }

@@ -58,7 +58,8 @@ pub fn seconds(s: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// A speed factor: finite and positive.
+/// A speed factor: finite, within 10⁻³…10⁶ (playback intervals divided by it become
+/// `Duration`s, which a speed of 10⁻³⁰⁰ would overflow).
 pub fn positive(s: &str) -> Result<f64, String> {
     let v: f64 = s
         .trim()
@@ -66,6 +67,9 @@ pub fn positive(s: &str) -> Result<f64, String> {
         .map_err(|_| format!("`{s}` is not a number"))?;
     if !v.is_finite() || v <= 0.0 {
         return Err(format!("`{s}` must be finite and > 0"));
+    }
+    if !(1e-3..=1e6).contains(&v) {
+        return Err(format!("`{s}` is outside 0.001…1000000"));
     }
     Ok(v)
 }

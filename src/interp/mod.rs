@@ -121,8 +121,8 @@ pub enum InterpError {
 }
 
 /// Evaluates `model` at every point into `out`, over `threads` worker threads (1: the
-/// calling thread only; 0: all cores). Points are split into chunks of 4096 so each
-/// worker's evaluation allocates nothing per point.
+/// calling thread only; 0: all cores; more than the cores: the cores). Points are split
+/// into chunks of 4096 so each worker's evaluation allocates nothing per point.
 pub fn predict_parallel(
     model: &dyn Interpolator,
     points: &[[f64; 3]],
@@ -134,8 +134,10 @@ pub fn predict_parallel(
         model.predict_into(points, out);
         return Ok(());
     }
+    // More threads than cores only add switching; 100 000 would take minutes to start.
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
+        .num_threads(threads.min(cores))
         .build()?;
     pool.install(|| {
         points

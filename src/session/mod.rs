@@ -3,7 +3,11 @@
 //!
 //! Writing and reading go through polars (CSV or Parquet by extension). Capture and replay
 //! write through the same function, so a replayed capture gives the same file byte for
-//! byte. Reading validates every required cell and reports file, row and column.
+//! byte. Reading validates every required cell and reports file, row and column: numbers
+//! inside their physical ranges ([`crate::base::limits`]: positions ±10⁶ mm, errors
+//! ±10⁶ µm, temperatures −50 … 100 °C, pressure 300 … 1 300 hPa, humidity 0 … 100 %,
+//! times ±10⁹ s, feeds 0 … 10⁵ mm/s), every row with all the header's fields, and each
+//! `(run, sample)` once (the spec: a sample index is unique within its run).
 //!
 //! **Session → error table.** For each line (the two fixed coordinates) and target, the
 //! error is the mean over runs and both directions of the samples dwelling at the target
@@ -148,6 +152,9 @@ pub fn read_session(path: &Path) -> Result<Vec<SessionRow>, TableError> {
         })
         .collect::<Result<_, _>>()?;
     let mut rows = Vec::with_capacity(df.height());
+    // (run, sample) → the 0-based row that first had it.
+    let mut seen: std::collections::HashMap<(u32, i64), usize> =
+        std::collections::HashMap::with_capacity(df.height());
     for r in 0..df.height() {
         let req = |k: usize| required_cell(path, &cells[k], r, REQUIRED[k]);
         let opt = |k: usize| parse_cell(path, &cells[k], r, REQUIRED[k]);
@@ -182,10 +189,22 @@ pub fn read_session(path: &Path) -> Result<Vec<SessionRow>, TableError> {
             }
             None => 0,
         };
-        rows.push(SessionRow {
-            run: u32::try_from(run)
-                .map_err(|_| bad(path, r, "run", format!("{run} is negative")))?,
-            sample: integer(path, req(1)?, r, "sample")?,
+        let run =
+            u32::try_from(run).map_err(|_| bad(path, r, "run", format!("{run} is negative")))?;
+        let sample = integer(path, req(1)?, r, "sample")?;
+        if let Some(first) = seen.insert((run, sample), r) {
+            return Err(TableError::DuplicateSample {
+                path: path.to_path_buf(),
+                row: r + 1,
+                line: r + 2,
+                first_row: first + 1,
+                run,
+                sample,
+            });
+        }
+        let row = SessionRow {
+            run,
+            sample,
             t_s: req(2)?,
             axis: axis_cell(path, &cells[3], r)?,
             direction: direction as i8,
@@ -203,7 +222,39 @@ pub fn read_session(path: &Path) -> Result<Vec<SessionRow>, TableError> {
             scale_temp_c: extra(3)?,
             part_temp_c: extra(4)?,
             flags,
-        });
+        };
+        check_ranges(path, r, &row)?;
+        rows.push(row);
     }
     Ok(rows)
+}
+
+/// Every number of a session row inside its physical range ([`crate::base::limits`]).
+fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableError> {
+    use crate::base::limits::{
+        Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
+    };
+    let cells: [(&str, Option<f64>, Bound); 13] = [
+        ("t_s", Some(row.t_s), TIME_S),
+        ("feed_mm_s", row.feed_mm_s, FEED_MM_S),
+        ("x_mm", row.x_mm, POSITION_MM),
+        ("y_mm", row.y_mm, POSITION_MM),
+        ("z_mm", row.z_mm, POSITION_MM),
+        ("scale_mm", Some(row.scale_mm), POSITION_MM),
+        ("laser_mm", Some(row.laser_mm), POSITION_MM),
+        ("error_um", Some(row.error_um), ERROR_UM),
+        ("air_temp_c", row.air_temp_c, TEMPERATURE_C),
+        ("air_pressure_hpa", row.air_pressure_hpa, PRESSURE_HPA),
+        ("air_rh_pct", row.air_rh_pct, HUMIDITY_PCT),
+        ("scale_temp_c", row.scale_temp_c, TEMPERATURE_C),
+        ("part_temp_c", row.part_temp_c, TEMPERATURE_C),
+    ];
+    for (column, value, bound) in cells {
+        if let Some(v) = value {
+            bound
+                .check(v)
+                .map_err(|problem| bad(path, row0, column, problem))?;
+        }
+    }
+    Ok(())
 }

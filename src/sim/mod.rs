@@ -11,7 +11,9 @@
 //! | [`update`] | writing a diagnosis' found effects back into a model |
 //! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
 //! | [`error`] | [`SimError`] |
+//! | `bounds` | the physical range of every number in a model or plan file |
 
+mod bounds;
 pub mod concealed;
 pub mod error;
 pub mod physics;

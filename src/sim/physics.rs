@@ -134,8 +134,10 @@ impl History {
                         "{what}: t_s and value must have the same non-zero length"
                     ));
                 }
-                if t_s.windows(2).any(|w| w[1] < w[0]) {
-                    return Err(format!("{what}: t_s must be increasing"));
+                if t_s.windows(2).any(|w| w[1] <= w[0]) {
+                    return Err(format!(
+                        "{what}: t_s must be strictly increasing (a repeated time has two values)"
+                    ));
                 }
                 Ok(())
             }
@@ -369,6 +371,7 @@ impl MachineModel {
         })?;
         let mut m: MachineModel =
             toml::from_str(&text).map_err(|e| config_err(path, e.to_string()))?;
+        super::bounds::check_numbers(path, &text)?;
         if let Some(map) = &mut m.error_map
             && map.table.is_relative()
         {
@@ -606,7 +609,7 @@ impl Truth for PhysicsTruth {
 }
 
 /// Duration of a plan's stream in board seconds (a dry run with a perfect machine).
-fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, SimError> {
+fn plan_duration(plan: &Plan, device: &Device, model_path: &Path) -> Result<f64, SimError> {
     struct Zero;
     impl Truth for Zero {
         fn error_um(&mut self, _q: &TruthQuery) -> f64 {
@@ -615,10 +618,7 @@ fn plan_duration(plan: &Plan, device: &Device) -> Result<f64, SimError> {
     }
     simulate(plan, device, &Faults::default(), &mut Zero)
         .map(|s| s.duration_s)
-        .map_err(|e| SimError::Config {
-            path: PathBuf::from("plan"),
-            message: e.to_string(),
-        })
+        .map_err(|e| config_err(model_path, e.to_string()))
 }
 
 /// Simulates a plan with a model: the board's stream and the truth used.
@@ -630,7 +630,7 @@ pub fn simulate_plan(
     noise: bool,
 ) -> Result<(SimStream, PhysicsTruth), SimError> {
     let device = model.device.clone();
-    let duration = plan_duration(plan, &device)?;
+    let duration = plan_duration(plan, &device, model_path)?;
     let mut truth = model.truth(model_path, plan.axis, duration)?;
     truth.noise = noise;
     let stream = simulate(plan, &device, faults, &mut truth)

@@ -68,8 +68,13 @@ fn default_accel() -> f64 {
 }
 
 impl PlanSpec {
+    /// Reads a plan file: unknown keys refused, every number finite and in its range
+    /// ([`super::bounds`]).
     pub fn read(path: &Path) -> Result<Self, SimError> {
-        read_toml(path)
+        let spec = read_toml(path)?;
+        let text = std::fs::read_to_string(path).map_err(super::error::io_err(path))?;
+        super::bounds::check_numbers(path, &text)?;
+        Ok(spec)
     }
 
     pub fn plan(&self, path: &Path) -> Result<Plan, SimError> {
@@ -84,7 +89,7 @@ impl PlanSpec {
                 message: format!("overrun_mm = {} must be ≥ 0", self.overrun_mm),
             });
         }
-        Ok(Plan {
+        let plan = Plan {
             axis,
             lines_mm: self.lines_mm.clone(),
             targets_mm: self.targets_mm.clone(),
@@ -96,7 +101,16 @@ impl PlanSpec {
             settle_s: self.settle_s,
             accel_mm_s2: self.accel_mm_s2,
             seed: self.seed,
-        })
+        };
+        // The board's checks, with this file's name: ranges, order, the sample budget.
+        errmap_drivers::sim::check_plan(&plan).map_err(|e| SimError::Config {
+            path: path.to_path_buf(),
+            message: match e {
+                errmap_drivers::sim::SimError::Plan(m)
+                | errmap_drivers::sim::SimError::Device(m) => m,
+            },
+        })?;
+        Ok(plan)
     }
 }
 

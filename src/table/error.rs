@@ -88,6 +88,52 @@ pub enum TableError {
         "{path}: {count} node(s) at one position; interpolation needs at least 2 nodes along some axis"
     )]
     TooFewNodes { path: PathBuf, count: usize },
+    #[error(
+        "{path}: the {axis} coordinates {a:e} and {b:e} mm of two grid nodes are closer than {min_mm:e} mm; \
+         no interpolation is meaningful across that gap (a typing error?)"
+    )]
+    NodesTooClose {
+        path: PathBuf,
+        axis: char,
+        a: f64,
+        b: f64,
+        min_mm: f64,
+    },
+    #[error(
+        "{path}: column `{column}` appears {count} times in the header; which one holds the data is ambiguous"
+    )]
+    DuplicateColumn {
+        path: PathBuf,
+        column: String,
+        count: usize,
+    },
+    #[error("{path}: row {row} (line {line}) is not valid UTF-8 text")]
+    NotUtf8 {
+        path: PathBuf,
+        row: usize,
+        line: usize,
+    },
+    #[error(
+        "{path}: row {row} (line {line}) repeats (run, sample) = ({run}, {sample}) of row {first_row}; \
+         a sample index is unique within its run"
+    )]
+    DuplicateSample {
+        path: PathBuf,
+        row: usize,
+        line: usize,
+        first_row: usize,
+        run: u32,
+        sample: i64,
+    },
+    #[error(
+        "{path}: not written: row {row}, column `{column}` would hold {value} (a bug: every output value must be finite)"
+    )]
+    NonFiniteOutput {
+        path: PathBuf,
+        row: usize,
+        column: String,
+        value: f64,
+    },
 }
 
 /// "node (x, y, z) mm is missing", or "nodes (…), (…), … mm are missing" for several.

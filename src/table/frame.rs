@@ -37,19 +37,17 @@ pub(crate) fn is_parquet(path: &Path) -> Result<bool, TableError> {
 /// and column here rather than silently turning a whole column into text.
 pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
     if is_parquet(path)? {
-        let file = File::open(path).map_err(|source| TableError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        ParquetReader::new(file)
+        super::structure::parquet_reader(path)?
             .finish()
             .map_err(|e| format_err(path, e))
     } else {
-        // Open first so that a missing file is an I/O error with the OS's words.
+        // Open first so that a missing file is an I/O error with the OS's words; then the
+        // header names and field counts (polars accepts repeated names and short rows).
         File::open(path).map_err(|source| TableError::Io {
             path: path.to_path_buf(),
             source,
         })?;
+        super::structure::check_csv(path)?;
         CsvReadOptions::default()
             .with_has_header(true)
             .with_infer_schema_length(Some(0))
@@ -59,30 +57,24 @@ pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
     }
 }
 
-/// Writes a DataFrame as CSV or Parquet by extension, creating the parent directory.
+/// Writes a DataFrame as CSV or Parquet by extension, creating the parent directory:
+/// atomically, and never with a NaN or inf (see [`super::output`]).
 pub fn write_frame(path: &Path, df: &mut DataFrame) -> Result<(), TableError> {
     let parquet = is_parquet(path)?;
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|source| TableError::Io {
-            path: parent.to_path_buf(),
-            source,
-        })?;
-    }
-    let mut file = File::create(path).map_err(|source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if parquet {
-        ParquetWriter::new(&mut file)
-            .finish(df)
-            .map(|_| ())
-            .map_err(|e| format_err(path, e))
-    } else {
-        CsvWriter::new(&mut file)
-            .include_header(true)
-            .finish(df)
-            .map_err(|e| format_err(path, e))
-    }
+    super::output::check_finite(path, df)?;
+    super::output::write_atomically(path, |file| {
+        if parquet {
+            ParquetWriter::new(file)
+                .finish(df)
+                .map(|_| ())
+                .map_err(|e| format_err(path, e))
+        } else {
+            CsvWriter::new(file)
+                .include_header(true)
+                .finish(df)
+                .map_err(|e| format_err(path, e))
+        }
+    })
 }
 
 /// A column's cells as optional text (CSV) or optional f64 (Parquet), row by row.
@@ -108,6 +100,12 @@ pub(crate) fn column_cells(path: &Path, df: &DataFrame, name: &str) -> Result<Ce
     if let Ok(ca) = col.str() {
         return Ok(Cells::Text(
             ca.iter().map(|v| v.map(str::to_string)).collect(),
+        ));
+    }
+    if col.dtype() == &DataType::Boolean {
+        return Err(format_err(
+            path,
+            format!("column `{name}` holds true/false values, not numbers"),
         ));
     }
     let cast = col
@@ -140,6 +138,8 @@ pub(crate) fn parse_cell(
             })?),
         },
     };
+    // −0 is 0: a coordinate written `-0.000` is the same node as `0`.
+    let v = v.map(|x| x + 0.0);
     if let Some(value) = v
         && !value.is_finite()
     {

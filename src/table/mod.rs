@@ -2,10 +2,14 @@
 //!
 //! Tables are read and written as CSV or Parquet with polars, chosen by the file extension.
 //! Every cell is validated once, here, so that the interpolators can trust their input:
-//! missing columns, non-numeric cells, NaN/inf, duplicate nodes, scattered nodes that do
-//! not form a rectilinear grid, and axes with fewer than two nodes are each reported with
-//! the file, the data row (1-based, header excluded; the CSV line is row + 1) and the
-//! column.
+//! missing columns, non-numeric cells, NaN/inf, values outside their physical range
+//! (positions ±10⁶ mm, errors ±10⁶ µm: [`crate::base::limits`]), duplicate nodes,
+//! scattered nodes that do not form a rectilinear grid, and axes with fewer than two nodes
+//! are each reported with the file, the data row (1-based, header excluded; the CSV line
+//! is row + 1) and the column. Before the cells, the structure: a column name given twice
+//! and a CSV row with more or fewer fields than the header are errors (`structure.rs`).
+//! A coordinate written `-0` is 0. Outputs are written whole or not at all and never hold
+//! a NaN (`output.rs`).
 
 use std::path::{Path, PathBuf};
 
@@ -65,13 +69,33 @@ pub use crate::base::Axis;
 mod error;
 mod frame;
 mod grid;
+mod output;
+mod structure;
 
 pub use error::{MISSING_LISTED, TableError};
 pub(crate) use frame::{Cells, column_cells, format_err, parse_cell, required_cell};
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};
+pub use output::{check_finite, write_atomically};
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
+
+/// The closest two coordinates of a grid axis may be, mm (a nanometre): closer nodes are
+/// a typing error, and the interpolators' divisions by the spacing would overflow.
+pub const MIN_NODE_SPACING_MM: f64 = 1e-6;
+
+use crate::base::limits::{ERROR_UM, POSITION_MM};
+
+/// A cell outside its physical range ([`crate::base::limits`]).
+fn out_of_range(path: &Path, row0: usize, column: &str, problem: String) -> TableError {
+    TableError::BadValue {
+        path: path.to_path_buf(),
+        row: row0 + 1,
+        line: row0 + 2,
+        column: column.to_string(),
+        problem,
+    }
+}
 
 impl ErrorTable {
     /// Reads and validates an error table or test-point table. Duplicate nodes are an
@@ -122,6 +146,10 @@ impl ErrorTable {
             let mut v = [0.0, 0.0, 0.0, f64::NAN];
             for (k, cells) in required.iter().enumerate() {
                 v[k] = required_cell(path, cells, r, names[k])?;
+                let bound = if k < 3 { POSITION_MM } else { ERROR_UM };
+                bound
+                    .check(v[k])
+                    .map_err(|problem| out_of_range(path, r, names[k], problem))?;
             }
             let n = match &n_cells {
                 Some(c) => match parse_cell(path, c, r, "n")? {
@@ -145,6 +173,15 @@ impl ErrorTable {
                 Some(c) => parse_cell(path, c, r, "s_um")?,
                 None => None,
             };
+            if let Some(s) = s_um
+                && !(0.0..=ERROR_UM.hi).contains(&s)
+            {
+                let problem = format!(
+                    "{s:e} is not a standard deviation within 0 … {} µm",
+                    ERROR_UM.hi
+                );
+                return Err(out_of_range(path, r, "s_um", problem));
+            }
             points.push(ErrorPoint {
                 x_mm: v[0],
                 y_mm: v[1],
@@ -224,7 +261,8 @@ impl ErrorTable {
     pub fn grid(&self) -> Result<Grid, TableError> {
         let mut axes: [Vec<f64>; 3] = Default::default();
         for (a, axis) in axes.iter_mut().enumerate() {
-            let mut v: Vec<f64> = self.points.iter().map(|p| p.position()[a]).collect();
+            // `+ 0.0` turns −0 into 0: one node, however it was written.
+            let mut v: Vec<f64> = self.points.iter().map(|p| p.position()[a] + 0.0).collect();
             v.sort_by(f64::total_cmp);
             v.dedup();
             *axis = v;
@@ -236,27 +274,34 @@ impl ErrorTable {
             });
         }
         let [xs, ys, zs] = axes;
-        let expected = xs.len() * ys.len() * zs.len();
-        let mut values = vec![f64::NAN; expected];
-        let mut filled = vec![false; expected];
+        // Saturating: a scattered table of n nodes spans up to n³ grid nodes, which is
+        // never allocated — only the present nodes are indexed.
+        let (nx, ny) = (xs.len() as u128, ys.len() as u128);
+        let grid_nodes = nx * ny * zs.len() as u128;
+        let expected = usize::try_from(grid_nodes).unwrap_or(usize::MAX);
         let find = |v: &[f64], x: f64| v.binary_search_by(|p| p.total_cmp(&x)).ok();
+        let mut present = std::collections::HashMap::with_capacity(self.points.len());
         for p in &self.points {
             // Every coordinate is one of the axis values by construction.
-            if let (Some(i), Some(j), Some(k)) =
-                (find(&xs, p.x_mm), find(&ys, p.y_mm), find(&zs, p.z_mm))
-            {
-                let idx = i + xs.len() * (j + ys.len() * k);
-                values[idx] = p.e_um;
-                filled[idx] = true;
+            if let (Some(i), Some(j), Some(k)) = (
+                find(&xs, p.x_mm + 0.0),
+                find(&ys, p.y_mm + 0.0),
+                find(&zs, p.z_mm + 0.0),
+            ) {
+                present.insert(i as u128 + nx * (j as u128 + ny * k as u128), p.e_um);
             }
         }
-        let node = |idx: usize| {
-            let i = idx % xs.len();
-            let j = (idx / xs.len()) % ys.len();
-            let k = idx / (xs.len() * ys.len());
+        let node = |idx: u128| {
+            let i = (idx % nx) as usize;
+            let j = ((idx / nx) % ny) as usize;
+            let k = (idx / (nx * ny)) as usize;
             [xs[i], ys[j], zs[k]]
         };
-        let mut missing = (0..expected).filter(|&idx| !filled[idx]).map(node);
+        // The first missing nodes in index order: found within present + MISSING_LISTED
+        // steps, however large `expected` is.
+        let mut missing = (0..grid_nodes)
+            .filter(|idx| !present.contains_key(idx))
+            .map(node);
         if let Some([x, y, z]) = missing.next() {
             return Err(TableError::MissingNode {
                 path: self.path(),
@@ -268,6 +313,19 @@ impl ErrorTable {
                 expected,
             });
         }
+        // A full grid: its spacing must be one interpolation can divide by.
+        for (a, v) in [&xs, &ys, &zs].into_iter().enumerate() {
+            if let Some(w) = v.windows(2).find(|w| w[1] - w[0] < MIN_NODE_SPACING_MM) {
+                return Err(TableError::NodesTooClose {
+                    path: self.path(),
+                    axis: ['x', 'y', 'z'][a],
+                    a: w[0],
+                    b: w[1],
+                    min_mm: MIN_NODE_SPACING_MM,
+                });
+            }
+        }
+        let values = (0..grid_nodes).map(|idx| present[&idx]).collect();
         Ok(Grid { xs, ys, zs, values })
     }
 

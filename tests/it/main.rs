@@ -13,6 +13,7 @@ mod interp;
 mod iso230;
 mod layers;
 mod physics;
+mod robustness;
 mod table2;
 mod tables;
 mod testplan;

@@ -5,6 +5,7 @@
 
 mod common;
 mod corruption;
+mod implausible;
 mod properties;
 mod quadrature;
 mod session;

@@ -44,7 +44,14 @@ pub(super) fn maximise<'a>(
         }
     }
     let extent: [f64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
-    let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 0.0).collect();
+    // Coordinates a denormal apart (5e-324 mm) would put a length-scale bound at ln 0 =
+    // −inf: the smallest spacing counts as at least 10⁻⁹ of the extent (and 10⁻⁹ mm).
+    for a in 0..3 {
+        spacing[a] = spacing[a].max(1e-9 * extent[a]).max(1e-9);
+    }
+    // An axis spanning less than 10⁻⁹ mm (two coordinates a denormal apart) is one
+    // coordinate: fixed like an axis with none, or its bounds would reach ln 0.
+    let free: Vec<usize> = (0..3).filter(|&a| extent[a] > 1e-9).collect();
     let longest = extent.iter().copied().fold(1.0, f64::max);
     let fixed_ls = [1e3 * longest; 3];
 

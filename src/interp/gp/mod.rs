@@ -80,6 +80,7 @@ use std::fmt;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use crate::base::limits::{ERROR_UM, POSITION_MM};
 use crate::interp::Interpolator;
 use crate::table::ErrorPoint;
 
@@ -88,6 +89,13 @@ use likelihood::{Objective, forward_substitute, inverse_lower};
 
 /// The fewest points [`Gp::fit`] accepts.
 pub const MIN_POINTS: usize = 3;
+
+/// The most points [`Gp::fit`] and [`Gp::with_hyper`] accept: the fit is O(n³) per
+/// likelihood evaluation (about 30 s for 500 points in a release build, minutes beyond)
+/// and the comparison's cross-validation holds n factors of n² numbers (1 GB at 500).
+/// Larger tables are refused with [`GpError::TooManyPoints`], which names the
+/// alternatives: a grid method on a full grid, or fewer nodes.
+pub const MAX_POINTS: usize = 500;
 
 /// Relative nugget: σ_f² × this is always added to the diagonal (see the module docs).
 const NUGGET: f64 = 1e-10;
@@ -136,6 +144,18 @@ pub struct GpHyper {
 pub enum GpError {
     #[error("a Gaussian-process fit needs at least {min} points, got {got}")]
     TooFewPoints { got: usize, min: usize },
+    #[error(
+        "{got} points are more than the Gaussian process's limit of {max} (its cost grows as n³); \
+         fit trilinear or spline to a full grid, or thin the nodes to at most {max}"
+    )]
+    TooManyPoints { got: usize, max: usize },
+    #[error("points[{index}]: {field} = {value:e} is outside {bound}")]
+    OutOfRange {
+        index: usize,
+        field: &'static str,
+        value: f64,
+        bound: String,
+    },
     #[error("points[{index}]: {field} = {value} is not finite")]
     NonFinite {
         index: usize,
@@ -194,8 +214,10 @@ impl fmt::Debug for Gp {
 impl Gp {
     /// Fits the hyperparameters and conditions on `points`.
     ///
-    /// Rejects fewer than [`MIN_POINTS`] points, a non-finite coordinate or error, and two
-    /// points at exactly the same position (average repeats first). The points need not
+    /// Rejects fewer than [`MIN_POINTS`] or more than [`MAX_POINTS`] points, a non-finite
+    /// coordinate or error or one outside its physical range (±10⁶ mm, ±10⁶ µm:
+    /// [`crate::base::limits`]), and two points at exactly the same position (average
+    /// repeats first). The points need not
     /// form a grid; an axis along which every point has the same coordinate is allowed.
     pub fn fit(points: &[ErrorPoint], config: &GpConfig) -> Result<Gp, GpError> {
         let positions = validate(points)?;
@@ -468,6 +490,12 @@ fn validate(points: &[ErrorPoint]) -> Result<Vec<[f64; 3]>, GpError> {
             min: MIN_POINTS,
         });
     }
+    if points.len() > MAX_POINTS {
+        return Err(GpError::TooManyPoints {
+            got: points.len(),
+            max: MAX_POINTS,
+        });
+    }
     for (index, p) in points.iter().enumerate() {
         for (field, value) in [
             ("x_mm", p.x_mm),
@@ -480,6 +508,21 @@ fn validate(points: &[ErrorPoint]) -> Result<Vec<[f64; 3]>, GpError> {
                     index,
                     field,
                     value,
+                });
+            }
+            // Inside the physical ranges the extents, spacings and scales of the
+            // hyperparameter bounds stay finite (1e308 would make them inf).
+            let bound = if field == "e_um" {
+                ERROR_UM
+            } else {
+                POSITION_MM
+            };
+            if !bound.contains(value) {
+                return Err(GpError::OutOfRange {
+                    index,
+                    field,
+                    value,
+                    bound: bound.to_string(),
                 });
             }
         }

@@ -1,0 +1,135 @@
+//! The physical ranges every reader checks its numbers against (issue 17: "physical bounds
+//! at the door"). A value outside its range is refused like a NaN, with the file and the
+//! row and column (tables) or the key (TOML files): it is a typing or unit mistake, or
+//! corrupt data, and would otherwise overflow to inf or NaN inside a fit and reach an
+//! output.
+//!
+//! | quantity | range | why this wide |
+//! |---|---|---|
+//! | position, length (`_mm`) | ±10⁶ mm | a kilometre: beyond every machine tool and CMM |
+//! | error, deviation (`_um`) | ±10⁶ µm | a metre of error is no longer a measurement |
+//! | temperature of air, scale or part (`_c`) | −50 … 100 °C | a workshop, a climate chamber, a hot part |
+//! | air pressure (`_hpa`) | 300 … 1 300 hPa | from 9 000 m altitude to a deep mine |
+//! | relative humidity (`_pct`) | 0 … 100 % | by definition |
+//! | time (`_s`) | ±10⁹ s | 31 years |
+//! | feed (`_mm_s`) | 0 … 10⁵ mm/s | 100 m/s; the fastest linear axes reach a few m/s |
+//!
+//! The ranges are deliberately generous: they catch 1e308, −273.15 °C and mm given as m,
+//! never a real measurement. Sums and squares of values inside them stay far from the
+//! float range (10⁶ squared times 10⁶ samples is 10¹⁸), so no statistic of an accepted
+//! table overflows.
+
+use std::fmt;
+
+/// A closed range of physically possible values of one quantity, with its unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bound {
+    pub lo: f64,
+    pub hi: f64,
+    pub unit: &'static str,
+    pub what: &'static str,
+}
+
+impl Bound {
+    /// Whether `v` is finite and inside the range.
+    pub fn contains(&self, v: f64) -> bool {
+        v.is_finite() && self.lo <= v && v <= self.hi
+    }
+
+    /// `Ok` inside the range, else why not, in words for a message.
+    pub fn check(&self, v: f64) -> Result<(), String> {
+        if self.contains(v) {
+            Ok(())
+        } else if !v.is_finite() {
+            Err(format!("value {v} is not finite"))
+        } else {
+            Err(format!(
+                "value {v:e} is outside the physical range of {self}"
+            ))
+        }
+    }
+}
+
+impl fmt::Display for Bound {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({} … {} {})", self.what, self.lo, self.hi, self.unit)
+    }
+}
+
+/// Positions and lengths, mm.
+pub const POSITION_MM: Bound = Bound {
+    lo: -1e6,
+    hi: 1e6,
+    unit: "mm",
+    what: "a position",
+};
+
+/// Errors and deviations, µm.
+pub const ERROR_UM: Bound = Bound {
+    lo: -1e6,
+    hi: 1e6,
+    unit: "µm",
+    what: "an error",
+};
+
+/// Air, scale and part temperatures, °C.
+pub const TEMPERATURE_C: Bound = Bound {
+    lo: -50.0,
+    hi: 100.0,
+    unit: "°C",
+    what: "a temperature",
+};
+
+/// Air pressure, hPa.
+pub const PRESSURE_HPA: Bound = Bound {
+    lo: 300.0,
+    hi: 1300.0,
+    unit: "hPa",
+    what: "an air pressure",
+};
+
+/// Relative humidity, %.
+pub const HUMIDITY_PCT: Bound = Bound {
+    lo: 0.0,
+    hi: 100.0,
+    unit: "%",
+    what: "a relative humidity",
+};
+
+/// Times, s.
+pub const TIME_S: Bound = Bound {
+    lo: -1e9,
+    hi: 1e9,
+    unit: "s",
+    what: "a time",
+};
+
+/// Feeds, mm/s.
+pub const FEED_MM_S: Bound = Bound {
+    lo: 0.0,
+    hi: 1e5,
+    unit: "mm/s",
+    what: "a feed",
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_hold_their_ends_and_refuse_beyond_them() {
+        assert!(POSITION_MM.contains(1e6) && POSITION_MM.contains(-1e6));
+        assert!(!POSITION_MM.contains(1.000001e6));
+        assert!(!POSITION_MM.contains(f64::NAN));
+        assert!(TEMPERATURE_C.contains(20.0));
+        assert!(!TEMPERATURE_C.contains(-273.15));
+        let m = ERROR_UM.check(1e308).expect_err("refused");
+        assert!(m.contains("1e308") && m.contains("µm"), "{m}");
+        assert!(
+            TIME_S
+                .check(f64::INFINITY)
+                .expect_err("refused")
+                .contains("not finite")
+        );
+    }
+}

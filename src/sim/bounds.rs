@@ -1,0 +1,210 @@
+//! Every number of a machine-model or plan TOML file, checked against a physical range
+//! before the file is used (issue 17). TOML admits `nan` and `inf` as floats, and serde
+//! takes them into any `f64` field: one `ppm = nan` gave a whole simulated session of
+//! `laser_mm = 0`. Here the file is walked as a TOML tree and every float must be finite
+//! and every number inside the range its key's name implies, with the file and the dotted
+//! key (`environment.air_temp_c.value`, `targets_mm[3]`) in the message.
+//!
+//! | key (by name) | range |
+//! |---|---|
+//! | environment temperature histories (`…temp_c`): value, start, end, mean, table values | −50 … 100 °C ([`TEMPERATURE_C`]) |
+//! | `environment.air_pressure_hpa`: the same | 300 … 1 300 hPa ([`PRESSURE_HPA`]) |
+//! | `environment.air_rh_pct`: the same | 0 … 100 % ([`HUMIDITY_PCT`]) |
+//! | a history's `amplitude` | at most the width of its quantity's range |
+//! | `…_mm_s` (feeds) | 0 … 10⁵ mm/s ([`FEED_MM_S`]) |
+//! | `…_mm_s2` (accelerations) | 10⁻³ … 10⁷ mm/s² |
+//! | `…_hz` (sample rates) | 10⁻³ … 10⁶ Hz |
+//! | `…_s` (times) | ±10⁹ s ([`TIME_S`]) |
+//! | `…_mm` (positions, lengths) | ±10⁶ mm ([`POSITION_MM`]) |
+//! | `…_um` (errors, noise, periods) | ±10⁶ µm ([`ERROR_UM`]) |
+//! | every other float (ppm, µrad, coefficients) | ±10⁶ in its unit |
+//!
+//! Signs and the finer rules (a period > 0, a dwell ≥ 0, increasing targets) are checked
+//! where the values are used ([`super::physics`], the board's plan validation); misspelt
+//! keys are refused by serde (`deny_unknown_fields`) before this walk.
+//!
+//! [`TEMPERATURE_C`]: crate::base::limits::TEMPERATURE_C
+//! [`PRESSURE_HPA`]: crate::base::limits::PRESSURE_HPA
+//! [`HUMIDITY_PCT`]: crate::base::limits::HUMIDITY_PCT
+//! [`FEED_MM_S`]: crate::base::limits::FEED_MM_S
+//! [`TIME_S`]: crate::base::limits::TIME_S
+//! [`POSITION_MM`]: crate::base::limits::POSITION_MM
+//! [`ERROR_UM`]: crate::base::limits::ERROR_UM
+
+use std::path::Path;
+
+use crate::base::limits::{
+    Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
+};
+
+use super::error::SimError;
+
+const ACCEL_MM_S2: Bound = Bound {
+    lo: 1e-3,
+    hi: 1e7,
+    unit: "mm/s²",
+    what: "an acceleration",
+};
+
+const RATE_HZ: Bound = Bound {
+    lo: 1e-3,
+    hi: 1e6,
+    unit: "Hz",
+    what: "a sample rate",
+};
+
+const COEFFICIENT: Bound = Bound {
+    lo: -1e6,
+    hi: 1e6,
+    unit: "in its unit",
+    what: "a model coefficient",
+};
+
+/// The range of the value at `keys` (table keys; array elements carry their array's key).
+fn rule(keys: &[&str]) -> Bound {
+    let name = keys.last().copied().unwrap_or_default();
+    // Environment histories: environment.<quantity>.<field>.
+    if keys.first() == Some(&"environment") && keys.len() >= 3 {
+        let quantity = keys[1];
+        let q = if quantity.ends_with("_hpa") {
+            PRESSURE_HPA
+        } else if quantity.ends_with("_pct") {
+            HUMIDITY_PCT
+        } else {
+            TEMPERATURE_C
+        };
+        match name {
+            "value" | "start" | "end" | "mean" => return q,
+            "amplitude" => {
+                let w = q.hi - q.lo;
+                return Bound {
+                    lo: -w,
+                    hi: w,
+                    unit: q.unit,
+                    what: "a history's amplitude",
+                };
+            }
+            _ => {}
+        }
+    }
+    if name.ends_with("_mm_s") {
+        FEED_MM_S
+    } else if name.ends_with("_mm_s2") {
+        ACCEL_MM_S2
+    } else if name.ends_with("_hz") {
+        RATE_HZ
+    } else if name.ends_with("_s") {
+        TIME_S
+    } else if name.ends_with("_mm") {
+        POSITION_MM
+    } else if name.ends_with("_um") {
+        ERROR_UM
+    } else {
+        COEFFICIENT
+    }
+}
+
+/// Checks every number of the TOML document `text` read from `path` (see the module docs).
+pub(crate) fn check_numbers(path: &Path, text: &str) -> Result<(), SimError> {
+    let table: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| SimError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    let mut keys = Vec::new();
+    walk_table(&table, &mut keys).map_err(|message| SimError::Config {
+        path: path.to_path_buf(),
+        message,
+    })
+}
+
+fn walk_table<'a>(table: &'a toml::Table, keys: &mut Vec<&'a str>) -> Result<(), String> {
+    for (k, v) in table {
+        keys.push(k);
+        walk(v, keys, k.clone())?;
+        keys.pop();
+    }
+    Ok(())
+}
+
+fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Result<(), String> {
+    let number = match v {
+        toml::Value::Float(f) => Some(*f),
+        toml::Value::Integer(i) => Some(*i as f64),
+        toml::Value::Table(t) => {
+            for (k, v) in t {
+                keys.push(k);
+                walk(v, keys, format!("{shown}.{k}"))?;
+                keys.pop();
+            }
+            None
+        }
+        toml::Value::Array(a) => {
+            for (i, v) in a.iter().enumerate() {
+                walk(v, keys, format!("{shown}[{i}]"))?;
+            }
+            None
+        }
+        _ => None,
+    };
+    // An integer is checked when its key names a unit (`value = -300` in a temperature
+    // history, `dwell_s = 1000000000000`); other integers are ids, counts and seeds,
+    // typed by serde and ranged where they are used.
+    if let Some(x) = number {
+        let bound = rule(keys);
+        if matches!(v, toml::Value::Float(_)) || bound != COEFFICIENT {
+            bound
+                .check(x)
+                .map_err(|problem| format!("{shown}: {problem}"))?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(text: &str) -> Result<(), String> {
+        check_numbers(Path::new("m.toml"), text).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn nan_inf_and_out_of_range_values_are_refused_by_key() {
+        let e = check("[scale_factor]\nppm = nan\n").expect_err("nan");
+        assert!(
+            e.contains("m.toml") && e.contains("scale_factor.ppm"),
+            "{e}"
+        );
+        let e = check("[environment.air_temp_c]\nkind = \"constant\"\nvalue = -273.15\n")
+            .expect_err("absolute zero");
+        assert!(
+            e.contains("environment.air_temp_c.value") && e.contains("°C"),
+            "{e}"
+        );
+        let e = check("[thermal_drift]\ntau_s = inf\n").expect_err("inf");
+        assert!(e.contains("thermal_drift.tau_s"), "{e}");
+        let e = check("targets_mm = [0.0, 1e308]\n").expect_err("far");
+        assert!(e.contains("targets_mm[1]") && e.contains("mm"), "{e}");
+        let e = check("sample_hz = 5e-324\n").expect_err("denormal rate");
+        assert!(e.contains("sample_hz"), "{e}");
+        let e = check("[environment.air_pressure_hpa]\nkind = \"table\"\nt_s = [0.0, 1.0]\nvalue = [1013.0, 5.0]\n")
+            .expect_err("pressure");
+        assert!(e.contains("air_pressure_hpa.value[1]"), "{e}");
+    }
+
+    #[test]
+    fn ordinary_models_and_plans_pass() {
+        check(
+            "noise_um = 0.05\nseed = 7\n[environment.air_temp_c]\nkind = \"cycle\"\nmean = 20.5\n\
+             amplitude = 0.4\nperiod_s = 600.0\n[scale_factor]\nppm = -12.0\n",
+        )
+        .expect("model");
+        check(
+            "axis = \"X\"\nlines_mm = [[1.0, 200.0]]\ntargets_mm = [0.0, 100.0]\nfeed_mm_s = 120.0\n\
+             dwell_s = 0.5\nsample_hz = 50.0\naccel_mm_s2 = 2000.0\nruns = 5\n",
+        )
+        .expect("plan");
+    }
+}
