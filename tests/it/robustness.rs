@@ -822,3 +822,32 @@ fn out_of_range_flag_values_exit_2_before_any_work() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn order_auto_refuses_grids_beyond_its_bound_at_once() {
+    use errmap::evaluate::compare::{AUTO_ORDER_MAX_NODES, auto_order};
+    use errmap::interp::InterpError;
+    use errmap::table::{ErrorPoint, ErrorTable};
+    let mut points = Vec::new();
+    for i in 0..40 {
+        for j in 0..40 {
+            for k in 0..40 {
+                points.push(ErrorPoint::new(
+                    f64::from(i),
+                    f64::from(j),
+                    f64::from(k),
+                    0.0,
+                ));
+            }
+        }
+    }
+    let grid = ErrorTable::from_points("40³", points).grid().expect("grid");
+    let start = Instant::now();
+    let e = auto_order(&grid, 4).expect_err("refused");
+    assert!(
+        matches!(e, InterpError::TooLargeForAuto { nodes: 64_000, max } if max == AUTO_ORDER_MAX_NODES),
+        "{e}"
+    );
+    assert!(e.to_string().contains("--order MxNxQ"), "{e}");
+    assert!(start.elapsed() < Duration::from_secs(5));
+}
