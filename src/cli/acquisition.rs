@@ -25,15 +25,7 @@ fn install_ctrlc() {
 }
 
 fn faults(a: &FaultArgs) -> Result<Faults> {
-    let beam_loss_s = match &a.beam_loss {
-        None => None,
-        Some(s) => {
-            let (x, y) = s
-                .split_once(':')
-                .context("--beam-loss takes START:END in seconds")?;
-            Some((x.trim().parse::<f64>()?, y.trim().parse::<f64>()?))
-        }
-    };
+    let beam_loss_s = a.beam_loss.map(|w| (w.0, w.1));
     for (name, p) in [
         ("--garbage", a.garbage),
         ("--bit-flips", a.bit_flips),

@@ -9,8 +9,9 @@ use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, fuzzy};
 
 use super::values::{
-    CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, axis,
-    kernel, method_name, positive, seconds,
+    CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
+    at_least_two, axis, baud, fuzzy_width, kernel, length, method_name, positive, probability,
+    seconds,
 };
 
 #[derive(Debug, Args)]
@@ -35,7 +36,7 @@ pub struct ExportArgs {
     #[arg(long, default_value = "")]
     pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
-    #[arg(long, required_unless_present = "bidirectional")]
+    #[arg(long, value_parser = length, required_unless_present = "bidirectional")]
     pub step: Option<f64>,
     /// Line start and end, mm (default: the table's range on the axis).
     #[arg(long, allow_negative_numbers = true)]
@@ -60,7 +61,7 @@ pub struct ExportArgs {
     #[arg(long, default_value = "X1")]
     pub siemens_axis: String,
     /// Siemens MD38000 MM_ENC_COMP_MAX_POINTS of the control.
-    #[arg(long, default_value_t = errmap::export::SIEMENS_808D_MAX_POINTS)]
+    #[arg(long, default_value_t = errmap::export::SIEMENS_808D_MAX_POINTS, value_parser = at_least_two)]
     pub max_points: usize,
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]
@@ -86,7 +87,7 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     pub report: PathBuf,
     /// The scale's grating period, µm (default: the model's, or the capture's HELLO).
-    #[arg(long)]
+    #[arg(long, value_parser = length)]
     pub grating_period_um: Option<f64>,
     #[arg(long)]
     pub json: bool,
@@ -143,17 +144,17 @@ pub struct SimulateArgs {
 #[derive(Debug, Args)]
 pub struct FaultArgs {
     /// Probability per frame of a burst of garbage bytes before it.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub garbage: f64,
     /// Probability per frame of one flipped bit.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub bit_flips: f64,
     /// Probability per frame that it is lost on the line.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub drop_frames: f64,
     /// Beam-loss window in session seconds, START:END.
     #[arg(long)]
-    pub beam_loss: Option<String>,
+    pub beam_loss: Option<Window>,
     /// Start both counters this many counts below the 32-bit wrap.
     #[arg(long)]
     pub near_wrap: Option<i32>,
@@ -194,7 +195,7 @@ pub struct CaptureArgs {
     /// Session directory (created; an existing capture there is never overwritten).
     #[arg(long)]
     pub out: PathBuf,
-    #[arg(long, default_value_t = 115_200)]
+    #[arg(long, default_value_t = 115_200, value_parser = baud)]
     pub baud: u32,
     /// Session table format.
     #[arg(long, value_enum, default_value = "csv")]
@@ -250,7 +251,7 @@ pub struct DemoArgs {
 #[derive(Debug, Args)]
 pub struct ModelArgs {
     /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
-    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Highest Lagrange degree per axis tried by `auto`/`all`.
     #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
@@ -327,7 +328,7 @@ pub struct FuzzySimArgs {
     pub seed: u64,
     #[arg(long, default_value_t = 200)]
     pub trials: usize,
-    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA)]
+    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Write a markdown report here.
     #[arg(long)]

@@ -74,6 +74,86 @@ pub fn positive(s: &str) -> Result<f64, String> {
     Ok(v)
 }
 
+/// A length, mm or µm: finite, > 0, at most 10⁶ (`--step`, `--grating-period-um`).
+pub fn length(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !(v.is_finite() && v > 0.0 && v <= 1e6) {
+        return Err(format!("`{s}` must be a finite length > 0 and ≤ 10⁶"));
+    }
+    Ok(v)
+}
+
+/// A probability: finite, within 0 … 1 (`--garbage`, `--bit-flips`, `--drop-frames`).
+pub fn probability(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !(0.0..=1.0).contains(&v) {
+        return Err(format!("`{s}` is not a probability in [0, 1]"));
+    }
+    Ok(v)
+}
+
+/// The fuzzy membership width σ, a fraction of the cell: finite, > 0, ≤ 100.
+pub fn fuzzy_width(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !(v.is_finite() && v > 0.0 && v <= 100.0) {
+        return Err(format!("`{s}`: σ must be finite, > 0 and ≤ 100 cells"));
+    }
+    Ok(v)
+}
+
+/// A count of at least 2 (`--max-points`: a compensation table needs two points).
+pub fn at_least_two(s: &str) -> Result<usize, String> {
+    let v: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if v < 2 {
+        return Err(format!("`{s}`: at least 2"));
+    }
+    Ok(v)
+}
+
+/// A baud rate of a serial line: 50 … 10 000 000.
+pub fn baud(s: &str) -> Result<u32, String> {
+    let v: u32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if !(50..=10_000_000).contains(&v) {
+        return Err(format!("`{s}` is not a baud rate (50 … 10 000 000)"));
+    }
+    Ok(v)
+}
+
+/// `--beam-loss START:END`: a window of session seconds, 0 ≤ START < END ≤ 10⁹.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window(pub f64, pub f64);
+
+impl FromStr for Window {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let (a, b) = s
+            .split_once(':')
+            .ok_or_else(|| format!("`{s}`: START:END in seconds, like 5:7.5"))?;
+        let a = seconds(a)?;
+        let b = seconds(b)?;
+        if a >= b {
+            return Err(format!("`{s}`: START must be before END"));
+        }
+        Ok(Window(a, b))
+    }
+}
+
 /// `--order`: Lagrange degrees `MxNxQ`, or `auto` (chosen by cross-validation).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OrderArg {

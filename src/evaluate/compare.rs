@@ -420,9 +420,22 @@ impl Comparison {
     }
 }
 
+/// The most grid nodes [`auto_order`] accepts: it fits every admissible order (up to 64)
+/// once per grid plane, so its cost grows faster than the square of the nodes (minutes
+/// at 10⁶). Larger grids are refused with [`InterpError::TooLargeForAuto`].
+pub const AUTO_ORDER_MAX_NODES: usize = 50_000;
+
 /// The Lagrange order with the lowest leave-one-plane-out CV RMS among every admissible
 /// order up to `max_degree` per axis (`--orders auto`); ties go to the lower total degree.
+/// Refuses grids of more than [`AUTO_ORDER_MAX_NODES`] nodes.
 pub fn auto_order(grid: &Grid, max_degree: usize) -> Result<(Order, CvResult), InterpError> {
+    let nodes = grid.values.len();
+    if nodes > AUTO_ORDER_MAX_NODES {
+        return Err(InterpError::TooLargeForAuto {
+            nodes,
+            max: AUTO_ORDER_MAX_NODES,
+        });
+    }
     let mut best: Option<(Order, CvResult)> = None;
     for order in admissible_orders(grid.shape(), max_degree) {
         let cv = leave_one_plane_out(grid, &Method::Lagrange(order))?;

@@ -118,6 +118,11 @@ pub enum InterpError {
     Gp(String),
     #[error("no method can be fitted to this table ({why})")]
     NothingFits { why: String },
+    #[error(
+        "choosing the order by cross-validation refits every admissible order once per grid plane; \
+         on {nodes} nodes (more than {max}) that takes too long: give the degrees (--order MxNxQ)"
+    )]
+    TooLargeForAuto { nodes: usize, max: usize },
 }
 
 /// Evaluates `model` at every point into `out`, over `threads` worker threads (1: the

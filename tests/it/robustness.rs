@@ -735,3 +735,119 @@ fn write_bytes(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
     std::fs::write(&p, bytes).expect("write");
     p
 }
+
+// ---- bad flag values are usage errors (exit 2) ----
+
+#[test]
+fn out_of_range_flag_values_exit_2_before_any_work() {
+    let t1 = dataset("table1.csv");
+    let t2 = dataset("table2.csv");
+    let model = dataset("sim/model.toml");
+    let export = |flag: &str, value: &str| -> Vec<String> {
+        let mut v: Vec<String> = [
+            "export",
+            &t1,
+            "--method",
+            "spline",
+            "--format",
+            "csv",
+            "--axis",
+            "x",
+            "--out",
+            "/nonexistent/x.csv",
+            "--step",
+            "50",
+        ]
+        .map(String::from)
+        .to_vec();
+        v.push(flag.into());
+        v.push(value.into());
+        v
+    };
+    let cases: Vec<Vec<String>> = vec![
+        export("--step", "0"),
+        export("--step", "nan"),
+        export("--step", "-1"),
+        export("--max-points", "0"),
+        export("--fuzzy-sigma", "0"),
+        [
+            "fit",
+            &t1,
+            "--method",
+            "fuzzy",
+            "--predict",
+            &t2,
+            "--fuzzy-sigma",
+            "inf",
+        ]
+        .map(String::from)
+        .to_vec(),
+        ["serve-sim", "--model", &model, "--garbage", "2"]
+            .map(String::from)
+            .to_vec(),
+        ["serve-sim", "--model", &model, "--beam-loss", "5:1"]
+            .map(String::from)
+            .to_vec(),
+        ["serve-sim", "--model", &model, "--beam-loss", "nan:inf"]
+            .map(String::from)
+            .to_vec(),
+        [
+            "capture",
+            "--port",
+            "/nonexistent",
+            "--out",
+            "/nonexistent/c",
+            "--baud",
+            "0",
+        ]
+        .map(String::from)
+        .to_vec(),
+        [
+            "diagnose",
+            "--recorded",
+            "r.csv",
+            "--model",
+            "m.toml",
+            "--report",
+            "/nonexistent/r",
+            "--grating-period-um",
+            "0",
+        ]
+        .map(String::from)
+        .to_vec(),
+    ];
+    for args in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = errmap(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}
+
+#[test]
+fn order_auto_refuses_grids_beyond_its_bound_at_once() {
+    use errmap::evaluate::compare::{AUTO_ORDER_MAX_NODES, auto_order};
+    use errmap::interp::InterpError;
+    use errmap::table::{ErrorPoint, ErrorTable};
+    let mut points = Vec::new();
+    for i in 0..40 {
+        for j in 0..40 {
+            for k in 0..40 {
+                points.push(ErrorPoint::new(
+                    f64::from(i),
+                    f64::from(j),
+                    f64::from(k),
+                    0.0,
+                ));
+            }
+        }
+    }
+    let grid = ErrorTable::from_points("40³", points).grid().expect("grid");
+    let start = Instant::now();
+    let e = auto_order(&grid, 4).expect_err("refused");
+    assert!(
+        matches!(e, InterpError::TooLargeForAuto { nodes: 64_000, max } if max == AUTO_ORDER_MAX_NODES),
+        "{e}"
+    );
+    assert!(e.to_string().contains("--order MxNxQ"), "{e}");
+    assert!(start.elapsed() < Duration::from_secs(5));
+}
