@@ -350,6 +350,39 @@ fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
             "fold and edges per fringe must be non-zero".into(),
         ));
     }
+    // A laser between 100 nm and 2 µm (HeNe 633 nm), and a scale count of at most 1 mm.
+    if !(100_000_000..=2_000_000_000).contains(&device.laser_wavelength_fm) {
+        return Err(SimError::Device(format!(
+            "laser_wavelength_fm = {} is not a laser's wavelength (100 nm … 2 µm)",
+            device.laser_wavelength_fm
+        )));
+    }
+    if device.count_resolution_pm > 1_000_000_000 {
+        return Err(SimError::Device(format!(
+            "count_resolution_pm = {} is more than 1 mm per count",
+            device.count_resolution_pm
+        )));
+    }
+    // The decoder unwraps the 32-bit counters assuming fewer than 2^31 counts between two
+    // samples, and reports more than 2^24 as a jump: the fastest move between two samples
+    // must stay below 2^24 counts of either counter.
+    let fastest = plan
+        .extra_feeds_mm_s
+        .iter()
+        .fold(plan.feed_mm_s, |a, &b| a.max(b));
+    let step_mm = fastest / plan.sample_hz;
+    let scale_count_mm = f64::from(device.count_resolution_pm) * 1e-9;
+    let laser_count_mm = f64::from(device.laser_wavelength_fm) * 1e-12
+        / (f64::from(device.optical_fold) * f64::from(device.edges_per_fringe));
+    let counts = step_mm / scale_count_mm.min(laser_count_mm);
+    if counts > f64::from(1u32 << 24) {
+        return Err(SimError::Device(format!(
+            "a move of {step_mm} mm between two samples (feed {fastest} mm/s at sample_hz {}) is \
+             {counts:.3e} counts of count_resolution_pm = {} or laser_wavelength_fm = {}, more than \
+             the 2^24 per sample the decoder takes for motion; raise sample_hz or coarsen the counts",
+            plan.sample_hz, device.count_resolution_pm, device.laser_wavelength_fm
+        )));
+    }
     Ok(())
 }
 
@@ -851,5 +884,32 @@ mod tests {
             assert!(e.contains(key), "{e}");
         }
         check_plan(&Plan::default()).expect("the default plan");
+    }
+
+    #[test]
+    fn a_device_whose_counts_outrun_the_decoder_is_refused_by_key() {
+        let simulate_with = |device: Device| {
+            simulate(&Plan::default(), &device, &Faults::default(), &mut Zero)
+                .map(|_| ())
+                .map_err(|e| e.to_string())
+        };
+        // 16 fm is no laser: 1 mm between samples would be 5·10¹¹ counts.
+        let e = simulate_with(Device {
+            laser_wavelength_fm: 16,
+            ..Device::default()
+        })
+        .expect_err("refused");
+        assert!(e.contains("laser_wavelength_fm"), "{e}");
+        // 1 pm per count: the default plan's 1 mm per sample is 10⁹ counts > 2^24.
+        let e = simulate_with(Device {
+            count_resolution_pm: 1,
+            ..Device::default()
+        })
+        .expect_err("refused");
+        assert!(
+            e.contains("count_resolution_pm") && e.contains("2^24"),
+            "{e}"
+        );
+        simulate_with(Device::default()).expect("the default device");
     }
 }

@@ -82,6 +82,25 @@ pub fn run_diagnosis(
     };
     let d = diagnose(&recorded_rows, &simulated, &config)
         .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
+    // The inputs are finite and in range: a non-finite figure is a bug, reported, and
+    // neither the report nor the JSON (where it would read `null`) is written.
+    let figures = [
+        ("rms_before_um", d.rms_before_um),
+        ("rms_after_um", d.rms_after_um),
+        ("cv_rms_after_um", d.cv_rms_after_um),
+        ("rms_before_centred_um", d.rms_before_centred_um),
+        ("noise_sigma_um", d.noise_sigma_um),
+    ];
+    let effects = d.effects.iter().flat_map(|e| {
+        std::iter::once(("explains_um", e.explains_um))
+            .chain(e.uncertainty.values().map(|&u| ("uncertainty", u)))
+    });
+    if let Some((name, v)) = figures.into_iter().chain(effects).find(|(_, v)| !v.is_finite()) {
+        bail!(
+            "{}: the diagnosis computed {name} = {v}; nothing written (a bug: please report it)",
+            rec_path.display()
+        );
+    }
     // Every report carries the session's environment.
     let environment = errmap::report::environment::environment_summary(&recorded_rows);
     // A new report directory appears whole or not at all (guard::into_new_dir); the

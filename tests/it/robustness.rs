@@ -851,3 +851,121 @@ fn order_auto_refuses_grids_beyond_its_bound_at_once() {
     assert!(e.to_string().contains("--order MxNxQ"), "{e}");
     assert!(start.elapsed() < Duration::from_secs(5));
 }
+
+// ---- properties: whatever the input, an answer or a typed error, never a panic ----
+
+mod never_panics {
+    use std::path::Path;
+
+    use errmap::interp::Method;
+    use errmap::table::ErrorTable;
+    use proptest::prelude::*;
+
+    use super::{dataset, root};
+
+    /// Values that broke readers in the campaign, and ordinary ones.
+    const SPECIAL: [&str; 16] = [
+        "nan", "inf", "-inf", "1e308", "-1e308", "1e309", "5e-324", "-0", "-0.000", "", "abc",
+        "0x10", "1,5", "0", "12.5", "-3",
+    ];
+
+    /// `text` with the cell at (row, column) of its CSV body replaced by `value`.
+    fn with_cell(text: &str, row: usize, column: usize, value: &str) -> String {
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let r = 1 + row % (lines.len() - 1);
+        let mut cells: Vec<String> = lines[r].split(',').map(str::to_string).collect();
+        let c = column % cells.len();
+        cells[c] = value.to_string();
+        lines[r] = cells.join(",");
+        lines.join("\n") + "\n"
+    }
+
+    fn in_dir(name: &str, bytes: &[u8]) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let p = dir.path().join(name);
+        std::fs::write(&p, bytes).expect("write");
+        (dir, p)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+
+        #[test]
+        fn a_damaged_error_table_fits_to_finite_values_or_is_refused(
+            row in 0usize..64, column in 0usize..8, k in 0usize..SPECIAL.len()
+        ) {
+            let text = std::fs::read_to_string(dataset("table1.csv")).expect("table 1");
+            let (_d, p) = in_dir("t.csv", with_cell(&text, row, column, SPECIAL[k]).as_bytes());
+            if let Ok(t) = ErrorTable::read(&p)
+                && let Ok(g) = t.grid()
+                && let Ok(m) = Method::Spline.fit(&g)
+            {
+                for q in [[1.2424, 391.0, 129.3769], [200.0, 560.0, 600.0]] {
+                    prop_assert!(m.predict(q).is_finite());
+                }
+            }
+        }
+
+        #[test]
+        fn random_bytes_are_no_table_and_no_session(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+            let (_d, p) = in_dir("r.csv", &bytes);
+            let _ = ErrorTable::read(&p);
+            let _ = errmap::session::read_session(&p);
+        }
+
+        #[test]
+        fn a_damaged_session_reads_to_valid_rows_or_is_refused(
+            row in 0usize..200, column in 0usize..19, k in 0usize..SPECIAL.len()
+        ) {
+            static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+            let text = TEXT.get_or_init(super::errmap_session_text);
+            let (_d, p) = in_dir("s.csv", with_cell(text, row, column, SPECIAL[k]).as_bytes());
+            if let Ok(rows) = errmap::session::read_session(&p) {
+                prop_assert!(rows.iter().all(|r| r.error_um.is_finite() && r.laser_mm.is_finite()));
+                if let Ok((t, _)) = errmap::session::error_table("s", &rows) {
+                    prop_assert!(t.points.iter().all(|q| q.e_um.is_finite()));
+                }
+            }
+        }
+
+        #[test]
+        fn a_damaged_machine_model_is_refused_or_simulates_finite_rows(
+            line in 0usize..200, k in 0usize..SPECIAL.len()
+        ) {
+            let path = root().join("datasets/physics/example-model.toml");
+            let text = std::fs::read_to_string(&path).expect("model");
+            // Replace the number of the chosen `key = number` line.
+            let lines: Vec<&str> = text.lines().collect();
+            let numeric: Vec<usize> = (0..lines.len())
+                .filter(|&i| {
+                    let l = lines[i];
+                    !l.trim_start().starts_with('#')
+                        && l.split_once('=').is_some_and(|(_, v)| {
+                            v.split('#').next().is_some_and(|v| v.trim().parse::<f64>().is_ok())
+                        })
+                })
+                .collect();
+            let i = numeric[line % numeric.len()];
+            let key = lines[i].split_once('=').expect("key").0;
+            let mut out: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+            let v = if SPECIAL[k].is_empty() { "0" } else { SPECIAL[k] };
+            out[i] = format!("{key}= {v}");
+            let dir = tempfile::tempdir().expect("tempdir");
+            // Beside a copy of the table it names, so the relative path still resolves.
+            let model = dir.path().join("physics").join("m.toml");
+            std::fs::create_dir_all(model.parent().expect("dir")).expect("mkdir");
+            std::fs::copy(dataset("table1.csv"), dir.path().join("table1.csv")).expect("copy");
+            std::fs::write(&model, out.join("\n")).expect("write");
+            if let Ok(m) = errmap::sim::physics::MachineModel::read(&model) {
+                let plan = errmap::sim::read_plan(Some(Path::new(&dataset("sim/plan.toml"))))
+                    .expect("plan");
+                if let Ok(rows) = errmap::sim::physics::simulate_session(&m, &model, &plan, false) {
+                    // Finite, and physical: the example's effects are µm, not the metres a
+                    // NaN turned into (`ppm = nan` gave laser_mm = 0 on every row).
+                    prop_assert!(rows.iter().all(|r| r.error_um.is_finite()
+                        && (r.scale_mm - r.laser_mm).abs() < 1.0));
+                }
+            }
+        }
+    }
+}
