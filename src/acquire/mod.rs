@@ -45,16 +45,6 @@ pub enum AcquireError {
     #[error("{path}: no valid frame in {bytes} bytes (is this a raw capture?)")]
     NoFrames { path: PathBuf, bytes: usize },
     #[error(
-        "{path}: none of its {samples} samples could be converted: no usable HELLO (device \
-         description) in the capture ({hellos} HELLO frame(s), none usable); give the device's \
-         description with --hello-from <an earlier capture's session.json>"
-    )]
-    NoHello {
-        path: PathBuf,
-        samples: u64,
-        hellos: u64,
-    },
-    #[error(
         "{path} already exists: a capture never overwrites an earlier one; choose another --out"
     )]
     Exists { path: PathBuf },
@@ -252,8 +242,9 @@ pub fn replay(
 
 /// [`replay`], with the device description `hello` in force from the first byte when
 /// given (from [`hello_from_session_json`]). Samples that no HELLO describes are counted
-/// in `unconverted_samples`; when they are all there is, nothing is written and the
-/// error says how to convert them ([`AcquireError::NoHello`]).
+/// in `unconverted_samples` (the caller says so loudly). A capture whose samples no HELLO
+/// describes is a damaged capture, not bad input (`cli-contract.md`): its table is
+/// written with what could be converted — possibly nothing — and the count tells why.
 pub fn replay_with_hello(
     raw: &Path,
     out: &Path,
@@ -274,13 +265,6 @@ pub fn replay_with_hello(
         return Err(AcquireError::NoFrames {
             path: raw.to_path_buf(),
             bytes: bytes.len(),
-        });
-    }
-    if rows.is_empty() && stats.unconverted_samples > 0 {
-        return Err(AcquireError::NoHello {
-            path: raw.to_path_buf(),
-            samples: stats.unconverted_samples,
-            hellos: stats.frames.hello,
         });
     }
     write_session(out, &rows)?;

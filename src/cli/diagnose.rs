@@ -95,7 +95,11 @@ pub fn run_diagnosis(
         std::iter::once(("explains_um", e.explains_um))
             .chain(e.uncertainty.values().map(|&u| ("uncertainty", u)))
     });
-    if let Some((name, v)) = figures.into_iter().chain(effects).find(|(_, v)| !v.is_finite()) {
+    if let Some((name, v)) = figures
+        .into_iter()
+        .chain(effects)
+        .find(|(_, v)| !v.is_finite())
+    {
         bail!(
             "{}: the diagnosis computed {name} = {v}; nothing written (a bug: please report it)",
             rec_path.display()
