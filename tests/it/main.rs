@@ -16,3 +16,4 @@ mod table2;
 mod tables;
 mod testplan;
 mod volumetric;
+mod volumetric_thermal;
