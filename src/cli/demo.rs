@@ -134,7 +134,9 @@ pub fn demo(a: DemoArgs) -> Result<()> {
     eprintln!("errmap demo [5/6]: the paper's Table 1 → Table 2 (seed 001)");
     demo_compare(&t1, &t2, &a.out.join("table2"))?;
 
-    eprintln!("errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors");
+    eprintln!(
+        "errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors → TwinCAT tables"
+    );
     super::volumetric::demo_step(&a.out)?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())

@@ -12,6 +12,7 @@
 //! | [`identifiability`] | which line would determine an undetermined component | one small SVD per candidate |
 //! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
 //! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
+//! | [`compensation`] | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
 //! | [`thermal`] | the scale-expansion column, its t-test and its effect | one more SVD of the design |
 //!
 //! # Model and signs
@@ -83,6 +84,7 @@
 //! measurement error along lines).
 
 pub mod basis;
+pub mod compensation;
 mod error;
 pub mod identifiability;
 pub mod identify;

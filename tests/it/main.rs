@@ -16,4 +16,5 @@ mod table2;
 mod tables;
 mod testplan;
 mod volumetric;
+mod volumetric_export;
 mod volumetric_thermal;

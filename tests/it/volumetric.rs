@@ -276,7 +276,7 @@ fn presets_determine_all_21_errors_on_every_topology() {
 }
 
 /// Axis-parallel lines at the four corners of the other two ranges, no probe offset.
-fn poor_lines() -> Vec<Line> {
+pub(super) fn poor_lines() -> Vec<Line> {
     let mut out = Vec::new();
     for k in 0..3 {
         let o: Vec<usize> = (0..3).filter(|&j| j != k).collect();
