@@ -52,7 +52,8 @@ pub struct IdentifyArgs {
     /// moving-bridge CMM).
     #[arg(long)]
     pub topology: String,
-    /// Polynomial degree of every component, or `auto` (leave-one-line-out CV).
+    /// Polynomial degree of every component, `auto` (one degree by leave-one-line-out
+    /// CV) or `auto-each` (then each component's own degree by the same CV).
     #[arg(long, default_value = "auto")]
     pub degree: String,
     /// Highest degree `auto` tries.
@@ -183,10 +184,10 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     let topology: Topology = a.topology.parse()?;
     let degree = match a.degree.trim() {
         "auto" => Degree::Auto { max: a.max_degree },
-        d => Degree::Fixed(
-            d.parse()
-                .with_context(|| format!("--degree `{d}` is neither `auto` nor a whole number"))?,
-        ),
+        "auto-each" => Degree::AutoEach { max: a.max_degree },
+        d => Degree::Fixed(d.parse().with_context(|| {
+            format!("--degree `{d}` is neither `auto`, `auto-each` nor a whole number")
+        })?),
     };
     let config = IdentifyConfig {
         topology,

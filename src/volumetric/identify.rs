@@ -31,6 +31,11 @@ pub enum Degree {
     Auto {
         max: usize,
     },
+    /// As `Auto`, then each component's own degree by the same cross-validation
+    /// ([`super::degree`]).
+    AutoEach {
+        max: usize,
+    },
     Fixed(usize),
 }
 
@@ -187,6 +192,8 @@ pub struct Identification {
     pub unidentified: Vec<Unidentified>,
     /// The scale-expansion test, when every row has `scale_temp_c`.
     pub thermal: Option<ThermalTest>,
+    /// The per-component degree search (`Degree::AutoEach`).
+    pub cv_each: Option<super::degree::EachScore>,
 }
 
 /// The centred, weighted design of a line table under a basis.
@@ -340,7 +347,7 @@ fn degrees(config: &IdentifyConfig, d: usize) -> Vec<usize> {
 /// Leave-one-line-out score of a design: per held-out line, the others' fit predicts its
 /// (centred) profile. Returns the sum of squared weighted residuals per line, `None` for
 /// a line the others cannot predict (it alone determines some direction).
-fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
+pub(crate) fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
     let dec = decompose(&d.a);
     let ah = &d.a * &dec.v_range;
     let g = ah.transpose() * &ah;
@@ -411,7 +418,7 @@ fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
 
 /// The design with one more column (unweighted, centred per line), equilibrated; `None`
 /// when the column is zero.
-fn augment(d: &Design, col: &[f64]) -> Option<Design> {
+pub(crate) fn augment(d: &Design, col: &[f64]) -> Option<Design> {
     let weighted: Vec<f64> = col.iter().zip(&d.sqrt_w).map(|(a, b)| a * b).collect();
     let norm = weighted.iter().map(|v| v * v).sum::<f64>().sqrt();
     if !(norm > 0.0 && norm.is_finite()) {
@@ -501,12 +508,32 @@ pub fn identify(
     let (degree, cv) = match config.degree {
         Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
         Degree::Fixed(d) => (d, Vec::new()),
-        Degree::Auto { max } => {
+        Degree::Auto { max } | Degree::AutoEach { max } => {
             let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
             choose_degree(table, config, range, &sqrt_w, col, max.max(1))
         }
     };
-    let basis = Basis::new(config.topology, range, degrees(config, degree));
+    let mut degs = degrees(config, degree);
+    let mut cv_each = None;
+    if let Degree::AutoEach { max } = config.degree {
+        let fixed: Vec<bool> = (0..18)
+            .map(|c| config.component_degrees.contains_key(&c))
+            .collect();
+        let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
+        let (chosen, score) = super::degree::choose_each(
+            table,
+            config.topology,
+            range,
+            &sqrt_w,
+            col,
+            degs,
+            &fixed,
+            max.max(1),
+        );
+        degs = chosen;
+        cv_each = Some(score);
+    }
+    let basis = Basis::new(config.topology, range, degs);
     let d = design(table, &basis, &sqrt_w);
     let rows = table.targets();
     let n_lines = table.lines.len();
@@ -588,6 +615,7 @@ pub fn identify(
         residual,
         unidentified,
         thermal,
+        cv_each,
     })
 }
 
@@ -779,6 +807,10 @@ impl Identification {
             "cv": self.cv,
             "gauge": super::GAUGE,
             "thermal": self.thermal,
+            "cv_each": self.cv_each,
+            "component_degrees": Component::all()
+                .map(|c| (c.name(), self.fit.basis.degrees[c.index()]))
+                .collect::<BTreeMap<String, usize>>(),
         });
         if with_fit {
             doc["fit"] = serde_json::to_value(&self.fit).unwrap_or(Value::Null);

@@ -13,6 +13,7 @@
 //! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
 //! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
 //! | [`compensation`] | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
+//! | [`degree`] | a degree per component by leave-one-line-out CV (coordinate descent) | ≈ 18·(max − 1) CV fits a sweep |
 //! | [`thermal`] | the scale-expansion column, its t-test and its effect | one more SVD of the design |
 //!
 //! # Model and signs
@@ -41,7 +42,8 @@
 //! A straightness component of degree D has the basis ξ²…ξ^max(D,2) (slope removed), so a
 //! straightness that no line sees is never "identified as zero".
 //!
-//! **Degree.** One global degree D (1 = linear, …), or per component; `auto` fits
+//! **Degree.** One global degree D (1 = linear, …), or per component (fixed, or
+//! `auto-each`: each component's own by the same cross-validation, [`degree`]); `auto` fits
 //! D = 1 … max (default 4) and scores each by leave-one-line-out cross-validation (each
 //! held-out line's profile predicted by the other lines, its constant refitted), over the
 //! lines every degree can predict, among degrees determining at least what D = 1
@@ -85,6 +87,7 @@
 
 pub mod basis;
 pub mod compensation;
+pub mod degree;
 mod error;
 pub mod identifiability;
 pub mod identify;

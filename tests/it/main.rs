@@ -16,5 +16,6 @@ mod table2;
 mod tables;
 mod testplan;
 mod volumetric;
+mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_thermal;
