@@ -2,7 +2,10 @@
 //! random points inside it, one thread and all threads; fit times on 21³; the Gaussian
 //! process on 200 scattered nodes; the wire decoder's bytes per second. The same data as
 //! `errmap bench` (`src/bench.rs`), measured by divan's sampler instead of medians.
-//! `cargo bench -- points` runs only the evaluation group.
+//! Volumetric: identification of a 60-line, 21-targets-per-line campaign (with σ and
+//! identifiability; degree by cross-validation, and degree 3) and the error vector with σ
+//! at 41³ points (`errmap::bench::volumetric`). `cargo bench -- points` runs only the
+//! evaluation group, `cargo bench -- volumetric` only the volumetric ones.
 
 use std::sync::LazyLock;
 
@@ -124,4 +127,33 @@ fn decode_rows(b: Bencher) {
     let capture = synthetic_capture(400_000);
     b.counter(BytesCount::new(capture.len()))
         .bench_local(|| errmap_drivers::decode_all(black_box(&capture)).0.len());
+}
+
+/// Volumetric identification, the command line's default (degree by leave-one-line-out
+/// cross-validation over 1…4), with σ and identifiability.
+#[divan::bench(sample_count = 5)]
+fn volumetric_identify_auto(b: Bencher) {
+    let (_, table) = errmap::bench::volumetric::campaign(1);
+    let config = errmap::bench::volumetric::config(None);
+    b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
+}
+
+/// Volumetric identification at a fixed degree 3.
+#[divan::bench(sample_count = 5)]
+fn volumetric_identify_degree3(b: Bencher) {
+    let (_, table) = errmap::bench::volumetric::campaign(1);
+    let config = errmap::bench::volumetric::config(Some(3));
+    b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
+}
+
+/// The error vector with σ at 41³ points from the identified model, points per second.
+#[divan::bench(sample_count = 5)]
+fn volumetric_vector_map(b: Bencher) {
+    let (_, table) = errmap::bench::volumetric::campaign(1);
+    let id = errmap::volumetric::identify(&table, &errmap::bench::volumetric::config(Some(3)))
+        .expect("the benchmark campaign identifies");
+    let model = errmap::volumetric::Predictor::Fit(id.fit);
+    let points = errmap::bench::volumetric::grid_points();
+    b.counter(ItemsCount::new(points.len()))
+        .bench_local(|| model.predict_grid(black_box(&points), [0.0; 3]).is_ok());
 }

@@ -3,9 +3,11 @@
 //!
 //! Interpolation: a 41×41×41 grid of random errors and 10⁶ random query points inside it,
 //! each method at one thread and at all threads. Fit: a 21×21×21 table. Decoder: a
-//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Timings are wall-clock medians
+//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Volumetric: [`volumetric`]. Timings are wall-clock medians
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
+
+pub mod volumetric;
 
 use crate::base::stats::median;
 use std::time::Instant;
@@ -49,6 +51,9 @@ pub struct BenchReport {
     pub decode_bytes: usize,
     /// Extra measurements (name → seconds), e.g. the GP fit and the diagnosis.
     pub extra: Vec<(String, f64)>,
+    /// Volumetric identification of a 60-line campaign and the 41³ vector map
+    /// ([`volumetric`]).
+    pub volumetric: Option<volumetric::VolumetricBench>,
 }
 
 /// Bench settings.
@@ -192,6 +197,8 @@ pub fn run(config: &BenchConfig) -> BenchReport {
             secs,
         ));
     }
+    let repeats = config.repeats;
+    let volumetric = volumetric::run(&mut |f| time(repeats, &mut *f));
     BenchReport {
         grid: grid.shape(),
         points: points.len(),
@@ -201,6 +208,7 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         decode_rows_mb_s: capture.len() as f64 / decode_rows / 1e6,
         decode_bytes: capture.len(),
         extra,
+        volumetric,
     }
 }
 
@@ -330,6 +338,20 @@ pub fn markdown(r: &BenchReport) -> String {
     ));
     for (name, secs) in &r.extra {
         s.push_str(&format!("\n{name}: {secs:.3} s\n"));
+    }
+    if let Some(v) = &r.volumetric {
+        s.push_str(&format!(
+            "\nVolumetric, one core: identification of {} lines × {} targets with σ and \
+             identifiability {:.3} s (degree by cross-validation, 1…4) and {:.3} s (degree 3, \
+             {} parameters); the error vector with σ at {} grid points {:.3} s.\n",
+            v.lines,
+            v.targets_per_line,
+            v.identify_auto_s,
+            v.identify_degree3_s,
+            v.params,
+            v.grid_points,
+            v.predict_grid_s
+        ));
     }
     s
 }

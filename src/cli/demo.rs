@@ -41,7 +41,7 @@ fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
 
 /// The whole pipeline on built-in data: the simulated board on a pseudo-terminal →
 /// capture → error table (+ ISO 230-2) → comparison against the simulated truth; then the
-/// paper's Table 1 → Table 2 comparison.
+/// paper's Table 1 → Table 2 comparison; then a simulated volumetric laser campaign.
 pub fn demo(a: DemoArgs) -> Result<()> {
     let inputs = a.out.join("inputs");
     std::fs::create_dir_all(&inputs)
@@ -74,7 +74,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
             .replace("\"../table1.csv\"", "\"table1.csv\""),
     )?;
 
-    eprintln!("errmap demo [1/5]: simulated board (machine.toml) on a pseudo-terminal → capture");
+    eprintln!("errmap demo [1/6]: simulated board (machine.toml) on a pseudo-terminal → capture");
     let session_dir = a.out.join("session");
     if session_dir.exists() {
         std::fs::remove_dir_all(&session_dir).with_context(|| {
@@ -116,23 +116,28 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         session_dir.display()
     );
 
-    eprintln!("errmap demo [2/5]: session → error table (+ ISO 230-2 report)");
+    eprintln!("errmap demo [2/6]: session → error table (+ ISO 230-2 report)");
     let errors = session_dir.join("errors.csv");
     acquisition::reduce_session(&session_dir, &errors, Some(&session_dir.join("iso230")))?;
 
-    eprintln!("errmap demo [3/5]: fit every method to the captured table, compare with the truth");
+    eprintln!("errmap demo [3/6]: fit every method to the captured table, compare with the truth");
     let test = errmap::sim::truth_test_points(&truth, &errors, 40, 11)?;
     let test_path = session_dir.join("truth_points.csv");
     test.write(&test_path)?;
     demo_compare(&errors, &test_path, &a.out.join("capture_comparison"))?;
 
-    eprintln!("errmap demo [4/5]: diagnose the capture against the nominal model (model.toml)");
+    eprintln!("errmap demo [4/6]: diagnose the capture against the nominal model (model.toml)");
     let report = a.out.join("diagnosis");
     let d = diagnose::run_diagnosis(&session_dir, &Against::Model(model), &report, None)?;
     diagnose::print_summary(&d, &report)?;
 
-    eprintln!("errmap demo [5/5]: the paper's Table 1 → Table 2 (seed 001)");
+    eprintln!("errmap demo [5/6]: the paper's Table 1 → Table 2 (seed 001)");
     demo_compare(&t1, &t2, &a.out.join("table2"))?;
+
+    eprintln!(
+        "errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors → TwinCAT tables"
+    );
+    super::volumetric::demo_step(&a.out)?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())
 }

@@ -3,13 +3,13 @@
 //! `errmap::report::volumetric`.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
 use errmap::volumetric::{
-    Component, Degree, IdentifyConfig, LineTable, Machine, PlanFile, Predictor, Topology, identify,
-    predict, simulate,
+    Component, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor,
+    Topology, identify, predict, simulate,
 };
 
 #[derive(Debug, Subcommand)]
@@ -20,6 +20,9 @@ pub enum VolumetricCommand {
     Identify(IdentifyArgs),
     /// Predict along the lines of a table, or the error vector over a grid.
     Predict(PredictArgs),
+    /// Export an identified model for controllers: TwinCAT 3 CNC (TF5280) volumetric
+    /// component tables, and each axis' positioning error as a 1-D table.
+    Export(ExportArgs),
 }
 
 #[derive(Debug, Args)]
@@ -49,7 +52,8 @@ pub struct IdentifyArgs {
     /// moving-bridge CMM).
     #[arg(long)]
     pub topology: String,
-    /// Polynomial degree of every component, or `auto` (leave-one-line-out CV).
+    /// Polynomial degree of every component, `auto` (one degree by leave-one-line-out
+    /// CV) or `auto-each` (then each component's own degree by the same CV).
     #[arg(long, default_value = "auto")]
     pub degree: String,
     /// Highest degree `auto` tries.
@@ -93,11 +97,46 @@ pub struct PredictArgs {
     pub json: bool,
 }
 
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("what").required(true).multiple(true).args(["twincat", "axis_tables"])))]
+pub struct ExportArgs {
+    /// MODEL.json from `identify --out` (or the report's model.json).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Write the TwinCAT 3 CNC TF5280 ISG CSV component tables (file_format ISG_CSV).
+    #[arg(long)]
+    pub twincat: Option<PathBuf>,
+    /// Write each axis' positioning error as a 1-D table into this directory (X, Y, Z).
+    #[arg(long)]
+    pub axis_tables: Option<PathBuf>,
+    /// Format of the 1-D tables.
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: AxisTableFormat,
+    /// The line the 1-D tables run along, through this point (mm): X,Y,Z.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub at: String,
+    /// Positions per axis, evenly spaced over the identified range.
+    #[arg(long, default_value_t = 21)]
+    pub points: usize,
+}
+
+/// The 1-D formats of `volumetric export --axis-tables`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AxisTableFormat {
+    /// `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
+    Csv,
+    /// A LinuxCNC COMP_FILE of type 0 (the positions actually reached).
+    Linuxcnc,
+    /// A SINUMERIK 840D sl LEC/MSEC program for machine axes X1, Y1, Z1.
+    Siemens,
+}
+
 pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
     match a.command {
         VolumetricCommand::Simulate(a) => simulate_cmd(a),
         VolumetricCommand::Identify(a) => identify_cmd(a),
         VolumetricCommand::Predict(a) => predict_cmd(a),
+        VolumetricCommand::Export(a) => export_cmd(a),
     }
 }
 
@@ -145,10 +184,10 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     let topology: Topology = a.topology.parse()?;
     let degree = match a.degree.trim() {
         "auto" => Degree::Auto { max: a.max_degree },
-        d => Degree::Fixed(
-            d.parse()
-                .with_context(|| format!("--degree `{d}` is neither `auto` nor a whole number"))?,
-        ),
+        "auto-each" => Degree::AutoEach { max: a.max_degree },
+        d => Degree::Fixed(d.parse().with_context(|| {
+            format!("--degree `{d}` is neither `auto`, `auto-each` nor a whole number")
+        })?),
     };
     let config = IdentifyConfig {
         topology,
@@ -170,17 +209,88 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
             serde_json::to_string(&id.to_json(config.positions, false))?
         );
     } else {
-        let n_id = id.fit.identified.iter().filter(|f| **f).count();
-        eprintln!(
-            "volumetric identify: {} lines, {} targets, degree {}, RMS residual {:.4} µm, {} of 21 \
-             errors identified, residual {}",
-            id.lines, id.targets, id.degree, id.rms_residual_um, n_id, id.residual.verdict
-        );
-        for u in &id.unidentified {
-            eprintln!("  {}: {}", u.components.join(", "), u.why);
-        }
+        print_summary(&id);
     }
     Ok(())
+}
+
+/// The identification in a few lines on stderr.
+fn print_summary(id: &Identification) {
+    let n_id = id.fit.identified.iter().filter(|f| **f).count();
+    eprintln!(
+        "volumetric identify: {} lines, {} targets, degree {}, RMS residual {:.4} µm, {} of 21 \
+         errors identified, residual {}",
+        id.lines, id.targets, id.degree, id.rms_residual_um, n_id, id.residual.verdict
+    );
+    for e in &id.residual.effects {
+        let params: Vec<String> = e
+            .params
+            .iter()
+            .map(|(k, v)| match (v.as_f64(), e.uncertainty.get(k)) {
+                (Some(x), Some(s)) => format!("{k} = {x:.4} ± {s:.4}"),
+                _ => format!("{k} = {v}"),
+            })
+            .collect();
+        eprintln!(
+            "  {}: {} (explains {:.3} µm)",
+            e.id,
+            params.join(", "),
+            e.explains_um
+        );
+    }
+    for u in &id.unidentified {
+        eprintln!("  {}: {}", u.components.join(", "), u.why);
+    }
+}
+
+/// `errmap demo`'s volumetric step: the dataset's machine (`datasets/volumetric/model.toml`)
+/// measured with the dataset's plan, simulated into `OUT/volumetric/lines.csv`, identified
+/// (degree by cross-validation) with the report, `model.json` included, in
+/// `OUT/volumetric/`, the summary printed, and the TwinCAT component tables exported
+/// (`volcomp_twincat.csv`). Returns the identification.
+pub fn demo_step(out: &Path) -> Result<Identification> {
+    let dir = out.join("volumetric");
+    let inputs = dir.join("inputs");
+    std::fs::create_dir_all(&inputs)
+        .with_context(|| format!("cannot create {}", inputs.display()))?;
+    let model = inputs.join("model.toml");
+    let plan = inputs.join("plan.toml");
+    for (path, text) in [
+        (&model, include_str!("../../datasets/volumetric/model.toml")),
+        (&plan, include_str!("../../datasets/volumetric/plan.toml")),
+    ] {
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let machine = Machine::read(&model)?;
+    let plan = PlanFile::read(&plan)?;
+    let table = simulate(&machine, &plan);
+    let lines = dir.join("lines.csv");
+    table.write(&lines)?;
+    eprintln!(
+        "  simulated {} lines, {} targets ({}) → {}",
+        table.lines.len(),
+        table.targets(),
+        machine.topology,
+        lines.display()
+    );
+    let table = LineTable::read(&lines, true)?;
+    let config = IdentifyConfig::new(machine.topology);
+    let id = identify(&table, &config)?;
+    errmap::report::volumetric::write_report(&id, config.positions, &dir)?;
+    print_summary(&id);
+    eprintln!("  report → {}", dir.join("report.md").display());
+    let tables = errmap::volumetric::compensation::component_tables(&id.fit, 21)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", lines.display()))?;
+    let twincat = dir.join("volcomp_twincat.csv");
+    write_text(
+        &twincat,
+        &errmap::volumetric::compensation::render_twincat(&tables, &lines.display().to_string()),
+    )?;
+    eprintln!(
+        "  TwinCAT 3 CNC (TF5280) ISG CSV component tables → {}",
+        twincat.display()
+    );
+    Ok(id)
 }
 
 fn write_json(path: &PathBuf, v: &serde_json::Value) -> Result<()> {
@@ -263,4 +373,117 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         out.display()
     );
     Ok(())
+}
+
+fn export_cmd(a: ExportArgs) -> Result<()> {
+    use errmap::export::{ExportFormat, LinuxCncCompType, SIEMENS_808D_MAX_POINTS, Sampled};
+    use errmap::volumetric::compensation;
+    let fit = match Predictor::read(&a.model)? {
+        Predictor::Fit(f) => f,
+        Predictor::Machine(_) => bail!(
+            "{}: export needs an identified model (MODEL.json from `volumetric identify --out`)",
+            a.model.display()
+        ),
+    };
+    if a.points < 2 {
+        bail!("--points {}: at least 2 positions per axis", a.points);
+    }
+    if let Some(out) = &a.twincat {
+        let tables = compensation::component_tables(&fit, a.points)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
+        let text = compensation::render_twincat(&tables, &a.model.display().to_string());
+        write_text(out, &text)?;
+        eprintln!(
+            "volumetric export: TwinCAT 3 CNC ISG CSV component tables ({} positions per axis) → {}",
+            a.points,
+            out.display()
+        );
+    }
+    if let Some(dir) = &a.axis_tables {
+        let at = parse_probe(&a.at).context("--at")?;
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        for axis in errmap::base::Axis::ALL {
+            let k = axis.index();
+            let positions = compensation::axis_positions(&fit, k, a.points);
+            let profile = compensation::positioning_profile(&fit, k, at, &positions)
+                .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
+            let sampled = Sampled {
+                axis,
+                at_mm: at,
+                error_um: profile.iter().map(|p| p.0).collect(),
+                extrapolated: vec![false; positions.len()],
+                positions_mm: positions,
+            };
+            let letter = ['X', 'Y', 'Z'][k];
+            let (format, ext) = match a.format {
+                AxisTableFormat::Csv => (ExportFormat::Csv, "csv"),
+                AxisTableFormat::Linuxcnc => (
+                    ExportFormat::LinuxCnc {
+                        comp_type: LinuxCncCompType::ActualPosition,
+                    },
+                    "comp",
+                ),
+                AxisTableFormat::Siemens => (
+                    ExportFormat::Siemens {
+                        axis_name: format!("{letter}1"),
+                        max_points: SIEMENS_808D_MAX_POINTS,
+                    },
+                    "spf",
+                ),
+            };
+            let text = format.render_line(&sampled, None)?;
+            let path = dir.join(format!("{letter}.{ext}"));
+            write_text(&path, &text)?;
+        }
+        eprintln!(
+            "volumetric export: positioning errors of X, Y, Z ({}) → {}",
+            format_name(a.format),
+            dir.display()
+        );
+    }
+    Ok(())
+}
+
+fn format_name(f: AxisTableFormat) -> &'static str {
+    match f {
+        AxisTableFormat::Csv => "CSV",
+        AxisTableFormat::Linuxcnc => "LinuxCNC COMP_FILE type 0",
+        AxisTableFormat::Siemens => "SINUMERIK LEC/MSEC",
+    }
+}
+
+fn write_text(path: &Path, text: &str) -> Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
+    }
+    std::fs::write(path, text).with_context(|| format!("{}: cannot write", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn demo_step_identifies_the_dataset_campaign_and_writes_the_report() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let id = demo_step(dir.path()).expect("demo step");
+        // The rich preset determines all 21 errors of the dataset's YXZ machine, and the
+        // rigid campaign's residual is noise.
+        assert_eq!(id.topology.to_string(), "YXZ");
+        assert!(id.fit.identified.iter().all(|f| *f));
+        assert_eq!(id.residual.verdict, "consistent");
+        // E_XX at 800 mm is 4 − 2.5 + 1 = 2.5 µm in the dataset (positioning: no gauge).
+        let (v, s) = id.fit.component(0, 800.0).expect("E_XX");
+        assert!((v - 2.5).abs() < 4.0 * s, "{v} ± {s}");
+        let v = dir.path().join("volumetric");
+        for f in [
+            "lines.csv",
+            "report.md",
+            "model.json",
+            "E_XX.png",
+            "volcomp_twincat.csv",
+        ] {
+            assert!(v.join(f).is_file(), "{f}");
+        }
+    }
 }

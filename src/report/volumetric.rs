@@ -57,10 +57,56 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
     let _ = writeln!(md, "**Gauge convention.** {GAUGE}.\n");
     let _ = writeln!(
         md,
-        "**Residual.** {} ({} test, z = {:.2}; `missing_physics` above 3.09). This slice tests \
-         the residual against the noise; naming a drift or a bad line is not done yet.\n",
+        "**Residual.** {} (what remains after the fit: {} test, z = {:.2}; `missing_physics` \
+         above 3.09). A drift in time or a single bad line is not yet named: it shows as \
+         `unexplained`.\n",
         id.residual.verdict, id.residual.test, id.residual.z
     );
+    if let Some(th) = &id.thermal {
+        let words = match (th.alpha_ppm_per_k, th.sigma_ppm_per_k) {
+            (Some(a), Some(s)) if th.kept => format!(
+                "α = {a:.3} ± {s:.3} ppm/K (|α|/σ = {:.1} > 3): kept; the components below are \
+                 **at 20 °C**",
+                a.abs() / s
+            ),
+            (Some(a), Some(s)) => {
+                format!("α = {a:.3} ± {s:.3} ppm/K, not significant (|α|/σ ≤ 3): not fitted")
+            }
+            _ => "α is not determined (the temperature did not change enough between lines \
+                  along the same axes): not fitted; the positioning components are those at the \
+                  campaign's temperature"
+                .to_string(),
+        };
+        let _ = writeln!(
+            md,
+            "**Scale temperature.** scale_temp_c {:.2}–{:.2} °C over the campaign; {words}.\n",
+            th.temp_c[0], th.temp_c[1]
+        );
+    }
+    if !id.residual.effects.is_empty() {
+        let _ = writeln!(
+            md,
+            "| effect | parameters | one-sigma | explains (µm) | where |\n|---|---|---|---|---|"
+        );
+        for e in &id.residual.effects {
+            let params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+            let sig: Vec<String> = e
+                .uncertainty
+                .iter()
+                .map(|(k, v)| format!("{k}: {v:.3}"))
+                .collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.3} | {} |",
+                e.id,
+                params.join(", "),
+                sig.join(", "),
+                e.explains_um,
+                e.where_
+            );
+        }
+        let _ = writeln!(md);
+    }
     let _ = writeln!(md, "## Components\n");
     let _ = writeln!(
         md,

@@ -102,6 +102,23 @@ impl Basis {
         self.offset(21)
     }
 
+    /// As [`Basis::functions`], into `out` (cleared first).
+    pub fn functions_into(&self, c: usize, a_mm: f64, out: &mut Vec<f64>) {
+        out.clear();
+        let comp = Component::from_index(c);
+        let k = comp.axis;
+        let l = self.scale_mm[k];
+        let xi = a_mm / l;
+        if comp.is_straightness() {
+            let [lo, hi] = self.range_mm[k].map(|v| v / l);
+            out.extend(
+                (2..=self.degrees[c].max(2) as i32).map(|d| xi.powi(d) - ls_slope(lo, hi, d) * xi),
+            );
+        } else {
+            out.extend((1..=self.degrees[c] as i32).map(|d| xi.powi(d)));
+        }
+    }
+
     /// Values of component `c`'s basis functions at `a_mm`.
     pub fn functions(&self, c: usize, a_mm: f64) -> Vec<f64> {
         let comp = Component::from_index(c);

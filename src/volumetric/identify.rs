@@ -13,6 +13,9 @@ use super::error::VolumetricError;
 use super::identifiability::suggest;
 use super::lines::LineTable;
 use super::model::{Component, SQUARENESS, Topology};
+use super::thermal::{self, ThermalTest};
+use crate::base::vocabulary::{EffectId, ParamName};
+use crate::diagnose::FoundEffect;
 
 /// Relative tolerance on singular values (after column equilibration) below which a
 /// direction of the design is taken as undetermined.
@@ -26,6 +29,11 @@ pub const NULL_TOL: f64 = 1e-6;
 pub enum Degree {
     /// Chosen by leave-one-line-out cross-validation among 1..=max.
     Auto {
+        max: usize,
+    },
+    /// As `Auto`, then each component's own degree by the same cross-validation
+    /// ([`super::degree`]).
+    AutoEach {
         max: usize,
     },
     Fixed(usize),
@@ -145,12 +153,13 @@ pub struct LineResidual {
     pub r_um: Vec<f64>,
 }
 
-/// The residual's verdict: a test against the noise (this slice; the diagnosis engine's
-/// effects are a later step, so `effects` is empty).
+/// The residual's verdict: the scale-expansion term when the table has temperatures and
+/// it is significant ([`super::thermal`]), then a test of what remains against the noise
+/// (an `unexplained` effect when it fails). Effects in `cli-contract.md`'s shape.
 #[derive(Debug, Clone, Serialize)]
 pub struct ResidualVerdict {
     pub verdict: String,
-    pub effects: Vec<serde_json::Value>,
+    pub effects: Vec<FoundEffect>,
     /// `chi-square` (s_um given) or `lag-1 autocorrelation` (no s_um).
     pub test: String,
     /// The test's standard-normal statistic (Wilson–Hilferty z, or ρ·√n).
@@ -181,6 +190,10 @@ pub struct Identification {
     pub residuals: Vec<LineResidual>,
     pub residual: ResidualVerdict,
     pub unidentified: Vec<Unidentified>,
+    /// The scale-expansion test, when every row has `scale_temp_c`.
+    pub thermal: Option<ThermalTest>,
+    /// The per-component degree search (`Degree::AutoEach`).
+    pub cv_each: Option<super::degree::EachScore>,
 }
 
 /// The centred, weighted design of a line table under a basis.
@@ -334,7 +347,7 @@ fn degrees(config: &IdentifyConfig, d: usize) -> Vec<usize> {
 /// Leave-one-line-out score of a design: per held-out line, the others' fit predicts its
 /// (centred) profile. Returns the sum of squared weighted residuals per line, `None` for
 /// a line the others cannot predict (it alone determines some direction).
-fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
+pub(crate) fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
     let dec = decompose(&d.a);
     let ah = &d.a * &dec.v_range;
     let g = ah.transpose() * &ah;
@@ -359,6 +372,118 @@ fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
         .collect()
 }
 
+/// A solved least-squares problem, parameters unscaled.
+struct Solved {
+    theta: Vec<f64>,
+    cov: DMatrix<f64>,
+    /// Weighted residual per row.
+    res_w: DVector<f64>,
+    chi2: f64,
+    dof: usize,
+    sigma0: f64,
+    null: DMatrix<f64>,
+}
+
+/// θ = V Σ⁻¹ Uᵀ e on the determined subspace, the covariance σ₀²·V Σ⁻² Vᵀ, the null space.
+fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
+    let dec = decompose(&d.a);
+    let rank = dec.sv_range.len();
+    let rows = d.a.nrows();
+    if rows <= rank + n_lines {
+        return Err(format!(
+            "{rows} targets on {n_lines} lines leave no degree of freedom for {rank} determined \
+             parameters and {n_lines} line constants; measure more targets or lower the degree"
+        ));
+    }
+    let dof = rows - rank - n_lines;
+    let ut_e = dec.u_range.transpose() * &d.e;
+    let coef = DVector::from_fn(rank, |k, _| ut_e[k] / dec.sv_range[k]);
+    let theta_s = &dec.v_range * coef;
+    let res_w = &d.e - &d.a * &theta_s;
+    let chi2 = res_w.norm_squared();
+    let sigma0 = (chi2 / dof as f64).sqrt();
+    let n = d.a.ncols();
+    let vs = DMatrix::from_fn(n, rank, |i, k| dec.v_range[(i, k)] / dec.sv_range[k]);
+    let cov_s = &vs * vs.transpose() * (sigma0 * sigma0);
+    Ok(Solved {
+        theta: (0..n).map(|j| theta_s[j] / d.scale[j]).collect(),
+        cov: DMatrix::from_fn(n, n, |i, j| cov_s[(i, j)] / (d.scale[i] * d.scale[j])),
+        res_w,
+        chi2,
+        dof,
+        sigma0,
+        null: dec.null,
+    })
+}
+
+/// The design with one more column (unweighted, centred per line), equilibrated; `None`
+/// when the column is zero.
+pub(crate) fn augment(d: &Design, col: &[f64]) -> Option<Design> {
+    let weighted: Vec<f64> = col.iter().zip(&d.sqrt_w).map(|(a, b)| a * b).collect();
+    let norm = weighted.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if !(norm > 0.0 && norm.is_finite()) {
+        return None;
+    }
+    let n = d.a.ncols();
+    let mut a = d.a.clone().insert_column(n, 0.0);
+    for (i, v) in weighted.iter().enumerate() {
+        a[(i, n)] = v / norm;
+    }
+    let mut scale = d.scale.clone();
+    scale.push(norm);
+    Some(Design {
+        a,
+        e: d.e.clone(),
+        line_rows: d.line_rows.clone(),
+        sqrt_w: d.sqrt_w.clone(),
+        scale,
+    })
+}
+
+/// The joint fit with the scale-expansion column and its t-test ([`super::thermal`]).
+fn thermal_fit(
+    d: &Design,
+    col: &thermal::ThermalColumn,
+    n_lines: usize,
+) -> (ThermalTest, Option<Solved>) {
+    let mut test = ThermalTest {
+        alpha_ppm_per_k: None,
+        sigma_ppm_per_k: None,
+        t: None,
+        kept: false,
+        temp_c: col.temp_c,
+        t_s: col.t_s,
+        explains_um: 0.0,
+    };
+    let Some(aug) = augment(d, &col.centred) else {
+        return (test, None);
+    };
+    let Ok(solved) = solve(&aug, n_lines) else {
+        return (test, None);
+    };
+    let n = d.a.ncols();
+    if solved.null.nrows() > n && solved.null.row(n).norm() > NULL_TOL {
+        return (test, None);
+    }
+    let alpha = solved.theta[n];
+    let sigma = solved.cov[(n, n)].max(0.0).sqrt();
+    let t = if sigma > 0.0 {
+        alpha.abs() / sigma
+    } else {
+        f64::INFINITY
+    };
+    test.alpha_ppm_per_k = Some(alpha);
+    test.sigma_ppm_per_k = Some(sigma);
+    test.t = Some(t);
+    test.kept = t > thermal::THERMAL_T;
+    if !test.kept {
+        return (test, None);
+    }
+    let contribution: Vec<f64> = col.centred.iter().map(|g| alpha * g).collect();
+    test.explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
+    (test, Some(solved))
+}
+
 /// Fits the lines. Errors when the table cannot carry a fit at all (no degrees of
 /// freedom left after the line constants and the determined parameters).
 pub fn identify(
@@ -378,47 +503,62 @@ pub fn identify(
             Component::from_index(c).name()
         )));
     }
+    let row_w: Vec<f64> = sqrt_w.iter().map(|s| s * s).collect();
+    let thermal_col = thermal::column(table, &row_w);
     let (degree, cv) = match config.degree {
         Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
         Degree::Fixed(d) => (d, Vec::new()),
-        Degree::Auto { max } => choose_degree(table, config, range, &sqrt_w, max.max(1)),
+        Degree::Auto { max } | Degree::AutoEach { max } => {
+            let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
+            choose_degree(table, config, range, &sqrt_w, col, max.max(1))
+        }
     };
-    let basis = Basis::new(config.topology, range, degrees(config, degree));
+    let mut degs = degrees(config, degree);
+    let mut cv_each = None;
+    if let Degree::AutoEach { max } = config.degree {
+        let fixed: Vec<bool> = (0..18)
+            .map(|c| config.component_degrees.contains_key(&c))
+            .collect();
+        let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
+        let (chosen, score) = super::degree::choose_each(
+            table,
+            config.topology,
+            range,
+            &sqrt_w,
+            col,
+            degs,
+            &fixed,
+            max.max(1),
+        );
+        degs = chosen;
+        cv_each = Some(score);
+    }
+    let basis = Basis::new(config.topology, range, degs);
     let d = design(table, &basis, &sqrt_w);
-    let dec = decompose(&d.a);
-    let rank = dec.sv_range.len();
     let rows = table.targets();
     let n_lines = table.lines.len();
-    if rows <= rank + n_lines {
-        return Err(fit_err(format!(
-            "{rows} targets on {n_lines} lines leave no degree of freedom for {rank} determined \
-             parameters and {n_lines} line constants; measure more targets or lower the degree"
-        )));
-    }
-    let dof = rows - rank - n_lines;
-    // θ_s = V Σ⁻¹ Uᵀ e
-    let ut_e = dec.u_range.transpose() * &d.e;
-    let coef = DVector::from_fn(rank, |k, _| ut_e[k] / dec.sv_range[k]);
-    let theta_s = &dec.v_range * coef;
-    let res_w = &d.e - &d.a * &theta_s;
-    let chi2 = res_w.norm_squared();
-    let sigma0 = (chi2 / dof as f64).sqrt();
+    let plain = solve(&d, n_lines).map_err(fit_err)?;
+    // Identifiability from the 21 errors' design alone: with α determined, the joint
+    // design's null space is this one padded with 0.
+    let identified = identified_flags(&basis, &plain.null);
+    let unidentified = suggest(&basis, &d.scale, &plain.null, &identified);
+    let null_space: Vec<Vec<f64>> = (0..plain.null.nrows())
+        .map(|i| plain.null.row(i).iter().copied().collect())
+        .collect();
+    let (thermal, joint) = match &thermal_col {
+        Some(col) => {
+            let (t, s) = thermal_fit(&d, col, n_lines);
+            (Some(t), s)
+        }
+        None => (None, None),
+    };
+    let solved = joint.unwrap_or(plain);
     let n = basis.n_params();
-    let theta: Vec<f64> = (0..n).map(|j| theta_s[j] / d.scale[j]).collect();
-    let vs = DMatrix::from_fn(n, rank, |i, k| dec.v_range[(i, k)] / dec.sv_range[k]);
-    let cov_s = &vs * vs.transpose() * (sigma0 * sigma0);
+    let theta = solved.theta[..n].to_vec();
     let covariance: Vec<Vec<f64>> = (0..n)
-        .map(|i| {
-            (0..n)
-                .map(|j| cov_s[(i, j)] / (d.scale[i] * d.scale[j]))
-                .collect()
-        })
+        .map(|i| (0..n).map(|j| solved.cov[(i, j)]).collect())
         .collect();
-    let identified = identified_flags(&basis, &dec.null);
-    let null_space: Vec<Vec<f64>> = (0..n)
-        .map(|i| dec.null.row(i).iter().copied().collect())
-        .collect();
-    let unidentified = suggest(&basis, &d.scale, &dec.null, &identified);
+    let res_w = &solved.res_w;
     // Residuals, unweighted, in line order sorted along the line.
     let mut residuals = Vec::new();
     let mut all_r = Vec::with_capacity(rows);
@@ -439,7 +579,20 @@ pub fn identify(
         });
     }
     let rms_residual_um = crate::base::stats::rms(&all_r).unwrap_or(0.0);
-    let residual = residual_test(&residuals, w.is_some().then_some((chi2, dof)));
+    let mut residual = residual_test(
+        &residuals,
+        w.is_some().then_some((solved.chi2, solved.dof)),
+        rms_residual_um,
+        solved.sigma0,
+    );
+    if let Some(e) = thermal
+        .as_ref()
+        .filter(|t| t.kept)
+        .and_then(thermal::effect)
+    {
+        residual.effects.insert(0, e);
+        residual.verdict = "missing_physics".into();
+    }
     Ok(Identification {
         topology: config.topology,
         degree,
@@ -449,18 +602,20 @@ pub fn identify(
             theta,
             covariance,
             null_space,
-            column_scale: d.scale,
+            column_scale: d.scale[..n].to_vec(),
             identified,
         },
         lines: n_lines,
         targets: rows,
         rms_residual_um,
-        sigma0,
-        dof,
+        sigma0: solved.sigma0,
+        dof: solved.dof,
         weighted: w.is_some(),
         residuals,
         residual,
         unidentified,
+        thermal,
+        cv_each,
     })
 }
 
@@ -473,6 +628,7 @@ fn choose_degree(
     config: &IdentifyConfig,
     range: [[f64; 2]; 3],
     sqrt_w: &[f64],
+    thermal: Option<&[f64]>,
     max: usize,
 ) -> (usize, Vec<CvScore>) {
     // (degree, identified count, identified flags, CV per line)
@@ -484,7 +640,12 @@ fn choose_degree(
         let dec = decompose(&d.a);
         let flags = identified_flags(&basis, &dec.null);
         let count = flags.iter().filter(|f| **f).count();
-        per.push((deg, count, flags, cv_per_line(&d)));
+        // With temperatures, each degree is scored with the scale-expansion column in.
+        let cv = match thermal.and_then(|c| augment(&d, c)) {
+            Some(aug) => cv_per_line(&aug),
+            None => cv_per_line(&d),
+        };
+        per.push((deg, count, flags, cv));
     }
     let base = per[0].2.clone();
     let admissible: Vec<usize> = (0..per.len())
@@ -526,8 +687,15 @@ fn choose_degree(
 /// with its degrees of freedom, Wilson–Hilferty z; without: the lag-1 autocorrelation
 /// of the residuals along each line, z = ρ·√n (white noise gives z ≈ 0 or slightly
 /// negative; a systematic residual a run of same-sign values). `missing_physics` when
-/// z > 3.09 (one-sided p < 0.001).
-fn residual_test(res: &[LineResidual], chi2: Option<(f64, usize)>) -> ResidualVerdict {
+/// z > 3.09 (one-sided p < 0.001), with an `unexplained` effect: `rms_um` the residual's
+/// RMS, `explains_um` its part above the noise, RMS·√(1 − 1/σ₀²) when rows are weighted
+/// (σ₀² = χ²/ν), the whole RMS otherwise.
+fn residual_test(
+    res: &[LineResidual],
+    chi2: Option<(f64, usize)>,
+    rms_um: f64,
+    sigma0: f64,
+) -> ResidualVerdict {
     let (test, z) = match chi2 {
         Some((c, dof)) => {
             let nu = dof as f64;
@@ -545,18 +713,42 @@ fn residual_test(res: &[LineResidual], chi2: Option<(f64, usize)>) -> ResidualVe
             ("lag-1 autocorrelation", rho * (n as f64).sqrt())
         }
     };
+    let mut effects = Vec::new();
+    if z > Z_MISSING {
+        let excess = if chi2.is_some() {
+            rms_um * (1.0 - 1.0 / (sigma0 * sigma0)).max(0.0).sqrt()
+        } else {
+            rms_um
+        };
+        let mut params = BTreeMap::new();
+        params.insert(ParamName::RmsUm.as_str().to_string(), rms_um.into());
+        effects.push(FoundEffect {
+            id: EffectId::Unexplained,
+            params,
+            uncertainty: BTreeMap::new(),
+            where_: format!(
+                "the residual of the rigid-body fit fails the {test} test against the noise \
+                 (z = {z:.1} > {Z_MISSING}): a drift, a bad line or a component of higher degree \
+                 than fitted; see the residual per line and against time in the report"
+            ),
+            explains_um: excess,
+        });
+    }
     ResidualVerdict {
-        verdict: if z > 3.09 {
+        verdict: if z > Z_MISSING {
             "missing_physics"
         } else {
             "consistent"
         }
         .into(),
-        effects: Vec::new(),
+        effects,
         test: test.into(),
         z,
     }
 }
+
+/// One-sided p < 0.001 of the residual test.
+pub const Z_MISSING: f64 = 3.09;
 
 impl Identification {
     /// Report positions along axis k: `n` evenly over the range, 0 included.
@@ -614,6 +806,11 @@ impl Identification {
             "degree": self.degree,
             "cv": self.cv,
             "gauge": super::GAUGE,
+            "thermal": self.thermal,
+            "cv_each": self.cv_each,
+            "component_degrees": Component::all()
+                .map(|c| (c.name(), self.fit.basis.degrees[c.index()]))
+                .collect::<BTreeMap<String, usize>>(),
         });
         if with_fit {
             doc["fit"] = serde_json::to_value(&self.fit).unwrap_or(Value::Null);

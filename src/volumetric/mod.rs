@@ -8,10 +8,13 @@
 //! | [`model`] | topology, components, lever arms, E(x, y, z; p), the machine-model TOML | O(18) per point |
 //! | [`lines`] | line tables (CSV/Parquet): read, validate, write | O(rows · lines) |
 //! | [`basis`] | the linear parameterisation with the gauge built in | O(params) per row |
-//! | [`identify`] | least squares, σ bands, identifiability, degree by CV, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
+//! | [`identify`] | least squares, σ bands, identifiability, degree by CV, scale expansion, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
 //! | [`identifiability`] | which line would determine an undetermined component | one small SVD per candidate |
 //! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
-//! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, simulated line tables | O(rows) |
+//! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
+//! | [`compensation`] | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
+//! | [`degree`] | a degree per component by leave-one-line-out CV (coordinate descent) | ≈ 18·(max − 1) CV fits a sweep |
+//! | [`thermal`] | the scale-expansion column, its t-test and its effect | one more SVD of the design |
 //!
 //! # Model and signs
 //!
@@ -39,7 +42,8 @@
 //! A straightness component of degree D has the basis ξ²…ξ^max(D,2) (slope removed), so a
 //! straightness that no line sees is never "identified as zero".
 //!
-//! **Degree.** One global degree D (1 = linear, …), or per component; `auto` fits
+//! **Degree.** One global degree D (1 = linear, …), or per component (fixed, or
+//! `auto-each`: each component's own by the same cross-validation, [`degree`]); `auto` fits
 //! D = 1 … max (default 4) and scores each by leave-one-line-out cross-validation (each
 //! held-out line's profile predicted by the other lines, its constant refitted), over the
 //! lines every degree can predict, among degrees determining at least what D = 1
@@ -61,14 +65,18 @@
 //! E_C0Y' = E_C0Y − 1e3·(β_XY + β_YX), E_B0Z' = E_B0Z + 1e3·(β_XZ + β_ZX),
 //! E_A0Z' = E_A0Z − 1e3·(β_YZ + β_ZY), E_jk' = E_jk − β_jk·a.
 //!
-//! # Residual (this slice)
+//! # Residual and the scale's temperature
 //!
-//! The campaign's residual is tested against the noise, not yet diagnosed by the
-//! diagnosis engine: with `s_um` on every row, the weighted χ² against its degrees of
-//! freedom (Wilson–Hilferty z); without, the lag-1 autocorrelation of the residuals along
-//! each line (z = ρ·√n). z > 3.09 (one-sided p < 0.001) is `missing_physics`, otherwise
-//! `consistent`; `effects` is empty. Naming and fitting a thermal drift or a bad line is
-//! a later step.
+//! When every row has `scale_temp_c`, the scales' expansion during the campaign is
+//! fitted jointly with the 21 errors (one more design column, one α for the three
+//! scales) and kept when |α̂| > 3σ_α ([`thermal`]); then the components are those at
+//! 20 °C and `residual.effects` carries `scale_thermal_expansion` (`cli-contract.md`'s
+//! vocabulary and shape), verdict `missing_physics`. What remains is tested against the
+//! noise: with `s_um` on every row, the weighted χ² against its degrees of freedom
+//! (Wilson–Hilferty z); without, the lag-1 autocorrelation of the residuals along each
+//! line (z = ρ·√n). z > 3.09 (one-sided p < 0.001) adds an `unexplained` effect and
+//! makes the verdict `missing_physics`; otherwise the residual is `consistent`. A drift
+//! in time or a single bad line is not yet named or fitted (it shows as `unexplained`).
 //!
 //! # References
 //!
@@ -78,6 +86,8 @@
 //! measurement error along lines).
 
 pub mod basis;
+pub mod compensation;
+pub mod degree;
 mod error;
 pub mod identifiability;
 pub mod identify;
@@ -85,6 +95,7 @@ pub mod lines;
 pub mod model;
 pub mod predict;
 pub mod simulate;
+pub mod thermal;
 
 pub use basis::{Basis, GaugeTruth};
 pub use error::VolumetricError;
@@ -92,7 +103,8 @@ pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
 pub use lines::{Line, LineTable, Target};
 pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology};
 pub use predict::{Prediction, Predictor};
-pub use simulate::{Plan, PlanFile, PlannedLine, simulate};
+pub use simulate::{Plan, PlanFile, PlannedLine, ThermalHistory, simulate};
+pub use thermal::ThermalTest;
 
 /// The gauge convention in words (also in the JSON and the report).
 pub const GAUGE: &str = "every straightness component has zero least-squares slope over its \

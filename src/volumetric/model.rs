@@ -28,6 +28,21 @@
 //! along one axis — by default; `lagrange` takes `degree`). A table must contain 0 with
 //! value 0. Unknown keys, misspelt component names and non-finite numbers are errors
 //! naming the file and the key.
+//!
+//! # Scale temperature
+//!
+//! An optional top-level `scale_alpha_ppm_per_k` (absent: 0, scales that do not expand)
+//! is the expansion coefficient of all three axes' scales (steel ≈ 11.5, glass ≈ 8,
+//! glass ceramic ≈ 0). The components of the file are the machine **at 20 °C**; with the
+//! scales at T, each positioning component gains the scale's expansion,
+//!
+//! E_kk(a; T) = E_kk(a) + α·(T − 20)·a·1e−3 µm  (α ppm/K, a mm),
+//!
+//! with the fixed point at the axis' reference position 0. The sign follows the spec's
+//! E = actual − nominal: a scale longer than at 20 °C carries the axis further than it
+//! indicates. A laser along +k then records e = −u·E ⊃ −α·ΔT·a·1e−3, exactly the
+//! `scale_thermal_expansion` signature of `cli-contract.md` (r = −α·ΔT·(x − x0)·1e−3,
+//! here x0 = 0) in the recorded error (indicated − reference).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -303,6 +318,8 @@ pub struct Machine {
     pub components: Vec<ComponentFn>,
     /// E_C0Y, E_B0Z, E_A0Z, µrad.
     pub squareness_urad: [f64; 3],
+    /// Expansion coefficient of the three axes' scales, ppm/K (0: they do not expand).
+    pub scale_alpha_ppm_per_k: f64,
 }
 
 impl Machine {
@@ -312,6 +329,7 @@ impl Machine {
             topology,
             components: (0..18).map(|_| ComponentFn::Zero).collect(),
             squareness_urad: [0.0; 3],
+            scale_alpha_ppm_per_k: 0.0,
         }
     }
 
@@ -353,6 +371,28 @@ impl Machine {
         -dot(u, self.error_um(pos_mm, probe_mm))
     }
 
+    /// The error vector with the scales at `scale_temp_c`: E(x, y, z; p) plus
+    /// α·(T − 20)·1e−3·(x, y, z) µm (each positioning component's expansion).
+    pub fn error_at_um(&self, pos_mm: [f64; 3], probe_mm: [f64; 3], scale_temp_c: f64) -> [f64; 3] {
+        let mut e = self.error_um(pos_mm, probe_mm);
+        let k = self.scale_alpha_ppm_per_k * (scale_temp_c - 20.0) * 1e-3;
+        for (ei, a) in e.iter_mut().zip(pos_mm) {
+            *ei += k * a;
+        }
+        e
+    }
+
+    /// The recorded error along `u` with the scales at `scale_temp_c`: −u·E(pos; p, T).
+    pub fn line_error_at_um(
+        &self,
+        pos_mm: [f64; 3],
+        u: [f64; 3],
+        probe_mm: [f64; 3],
+        scale_temp_c: f64,
+    ) -> f64 {
+        -dot(u, self.error_at_um(pos_mm, probe_mm, scale_temp_c))
+    }
+
     /// Reads and validates a machine-model TOML file.
     pub fn read(path: &Path) -> Result<Machine, VolumetricError> {
         let file: MachineFile = read_toml(path)?;
@@ -365,6 +405,7 @@ impl Machine {
 #[serde(deny_unknown_fields)]
 struct MachineFile {
     topology: String,
+    scale_alpha_ppm_per_k: Option<f64>,
     #[serde(default)]
     squareness_urad: BTreeMap<String, f64>,
     #[serde(default)]
@@ -414,6 +455,16 @@ impl MachineFile {
             .parse()
             .map_err(|e: VolumetricError| config_err(path, "topology", e.to_string()))?;
         let mut m = Machine::perfect(topology);
+        if let Some(a) = self.scale_alpha_ppm_per_k {
+            if !(a.is_finite() && a.abs() <= 1000.0) {
+                return Err(config_err(
+                    path,
+                    "scale_alpha_ppm_per_k",
+                    format!("{a} must be a finite coefficient within ±1000 ppm/K"),
+                ));
+            }
+            m.scale_alpha_ppm_per_k = a;
+        }
         for (key, v) in &self.squareness_urad {
             let Some(i) = SQUARENESS.iter().position(|s| s == key) else {
                 let names: Vec<String> = SQUARENESS.iter().map(|s| s.to_string()).collect();

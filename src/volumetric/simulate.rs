@@ -13,6 +13,17 @@
 //! `start_mm`, then `end_mm` or `direction` (normalised) and `length_mm`, and optionally
 //! `name`, `targets`, `probe_mm` and `runs`.
 //!
+//! # Thermal history
+//!
+//! An optional `[thermal]` table gives the scales' temperature during the campaign,
+//! `start_c` at t = 0 approaching `end_c` exponentially with time constant `tau_s`:
+//! T(t) = end_c + (start_c − end_c)·exp(−t/τ) (a machine warming up after the shop
+//! opens). Each reading then sees the machine model's scale expansion at T(t) (the
+//! positioning components gain α·(T − 20)·a·1e−3 µm, α the model's
+//! `scale_alpha_ppm_per_k`; [`super::model`]), and every row gets `scale_temp_c`, the
+//! mean of T over its runs' reading times. Without `[thermal]` the scales stay at 20 °C
+//! and no temperature is written.
+//!
 //! # Timing
 //!
 //! Each line starts with `setup_s`; each run moves from target to target at `feed_mm_s`,
@@ -72,6 +83,24 @@ pub struct PlanFile {
     pub probe_offset_mm: Option<f64>,
     #[serde(default, rename = "line")]
     pub lines: Vec<LineSpec>,
+    pub thermal: Option<ThermalHistory>,
+}
+
+/// The scales' temperature over the campaign (`[thermal]`):
+/// T(t) = end_c + (start_c − end_c)·exp(−t/tau_s).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalHistory {
+    pub start_c: f64,
+    pub end_c: f64,
+    pub tau_s: f64,
+}
+
+impl ThermalHistory {
+    /// The scale temperature at `t_s`, °C.
+    pub fn temp_c(&self, t_s: f64) -> f64 {
+        self.end_c + (self.start_c - self.end_c) * (-t_s / self.tau_s).exp()
+    }
 }
 
 fn d_noise() -> f64 {
@@ -134,6 +163,7 @@ pub struct Plan {
     pub dwell_s: f64,
     pub setup_s: f64,
     pub lines: Vec<PlannedLine>,
+    pub thermal: Option<ThermalHistory>,
 }
 
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
@@ -169,6 +199,24 @@ impl PlanFile {
         }
         if self.runs == 0 {
             return Err(config_err(path, "runs", "at least 1 run"));
+        }
+        if let Some(th) = &self.thermal {
+            for (key, v) in [("thermal.start_c", th.start_c), ("thermal.end_c", th.end_c)] {
+                if !(v.is_finite() && (-50.0..=150.0).contains(&v)) {
+                    return Err(config_err(
+                        path,
+                        key,
+                        format!("{v} °C: a scale temperature between −50 and 150 °C"),
+                    ));
+                }
+            }
+            if !(th.tau_s.is_finite() && th.tau_s > 0.0) {
+                return Err(config_err(
+                    path,
+                    "thermal.tau_s",
+                    format!("{} must be a positive time constant in seconds", th.tau_s),
+                ));
+            }
         }
         let mut lines = Vec::new();
         if let Some(name) = &self.preset {
@@ -291,6 +339,7 @@ impl PlanFile {
             dwell_s: self.dwell_s,
             setup_s: self.setup_s,
             lines,
+            thermal: self.thermal,
         })
     }
 }
@@ -435,7 +484,8 @@ pub fn preset(
 }
 
 /// Simulates the campaign: a line table with e_um = −u·E + the line's zero + noise, the
-/// mean of the runs at each target, t_s from the plan's timing.
+/// mean of the runs at each target, t_s from the plan's timing; with a `[thermal]`
+/// history, E at each reading's scale temperature and `scale_temp_c` on every row.
 pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
     let mut rng = StdRng::seed_from_u64(plan.seed);
     let mut t = 0.0;
@@ -453,6 +503,7 @@ pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
         let step_s = pl.length_mm / (n - 1) as f64 / plan.feed_mm_s;
         let mut sum_e = vec![0.0; n];
         let mut sum_t = vec![0.0; n];
+        let mut sum_temp = vec![0.0; n];
         for _ in 0..pl.runs {
             for i in 0..n {
                 if i > 0 {
@@ -461,6 +512,13 @@ pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
                 t += plan.dwell_s;
                 sum_t[i] += t;
                 sum_e[i] += plan.noise_um * gaussian(&mut rng);
+                if let Some(th) = &plan.thermal {
+                    let temp = th.temp_c(t);
+                    sum_temp[i] += temp;
+                    // The scale's expansion alone: the rest of the model is added below.
+                    sum_e[i] += machine.line_error_at_um(pos[i], pl.u, pl.probe_mm, temp)
+                        - machine.line_error_um(pos[i], pl.u, pl.probe_mm);
+                }
             }
             t += pl.length_mm / plan.feed_mm_s;
         }
@@ -475,6 +533,7 @@ pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
                 );
                 tg.s_um = (plan.noise_um > 0.0).then(|| plan.noise_um / runs.sqrt());
                 tg.t_s = Some(sum_t[i] / runs);
+                tg.scale_temp_c = plan.thermal.map(|_| sum_temp[i] / runs);
                 tg
             })
             .collect();

@@ -19,3 +19,6 @@ mod tables;
 mod testplan;
 mod uncertainty;
 mod volumetric;
+mod volumetric_degree;
+mod volumetric_export;
+mod volumetric_thermal;

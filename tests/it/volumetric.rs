@@ -13,9 +13,9 @@ use errmap::volumetric::{
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-const VOLUME: [[f64; 3]; 2] = [[0.0, 0.0, 0.0], [800.0, 600.0, 400.0]];
+pub(super) const VOLUME: [[f64; 3]; 2] = [[0.0, 0.0, 0.0], [800.0, 600.0, 400.0]];
 
-fn topo(s: &str) -> Topology {
+pub(super) fn topo(s: &str) -> Topology {
     s.parse().expect("topology")
 }
 
@@ -27,7 +27,7 @@ fn linear(c: f64) -> ComponentFn {
     }
 }
 
-fn plan_file(preset: Option<&str>, seed: u64, noise_um: f64) -> PlanFile {
+pub(super) fn plan_file(preset: Option<&str>, seed: u64, noise_um: f64) -> PlanFile {
     PlanFile {
         seed,
         noise_um,
@@ -41,6 +41,7 @@ fn plan_file(preset: Option<&str>, seed: u64, noise_um: f64) -> PlanFile {
         targets: 11,
         probe_offset_mm: Some(100.0),
         lines: Vec::new(),
+        thermal: None,
     }
 }
 
@@ -188,7 +189,7 @@ fn lever_arms_of_every_topology_by_hand() {
 }
 
 /// Random polynomial errors of degree ≤ 3 (a few µm, µrad) and squareness (±20 µrad).
-fn random_machine(t: Topology, rng: &mut StdRng) -> Machine {
+pub(super) fn random_machine(t: Topology, rng: &mut StdRng) -> Machine {
     let mut m = Machine::perfect(t);
     for c in Component::all() {
         let amp = if c.is_straightness() { 1.5 } else { 3.0 };
@@ -275,7 +276,7 @@ fn presets_determine_all_21_errors_on_every_topology() {
 }
 
 /// Axis-parallel lines at the four corners of the other two ranges, no probe offset.
-fn poor_lines() -> Vec<Line> {
+pub(super) fn poor_lines() -> Vec<Line> {
     let mut out = Vec::new();
     for k in 0..3 {
         let o: Vec<usize> = (0..3).filter(|&j| j != k).collect();
@@ -469,7 +470,7 @@ fn gauge_maps_the_dataset_model_as_computed_by_hand() {
     assert!((g.squareness_urad[2] - (3.0 + 0.575 + 0.7 / 0.6)).abs() < 1e-6);
 }
 
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+pub(super) fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).expect("write");
     p
@@ -590,7 +591,7 @@ fn machine_model_files_refuse_misspelt_names_and_non_finite_values() {
     }
 }
 
-fn errmap(args: &[&str]) -> Output {
+pub(super) fn errmap(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_errmap"))
         .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))

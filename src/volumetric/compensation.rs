@@ -1,0 +1,221 @@
+//! What controllers with compensation need from an identification: the component tables
+//! of Beckhoff TwinCAT 3 CNC volumetric compensation (TF5280, the ISG kernel's
+//! `ISG_CSV` parameter file), and each axis' positioning error as a 1-D profile for the
+//! existing single-axis exporters (`crate::export`, which the binary drives).
+//!
+//! # TwinCAT 3 CNC TF5280 / ISG `ISG_CSV` — what is sourced
+//!
+//! From the TF5280 documentation (Beckhoff Information System, `tf5280_volumetric_comp`;
+//! the same pages in ISG's kernel documentation, isg-stuttgart.de `kernel-html`):
+//!
+//! * "ISG CSV format" (page 296429067): a header naming the columns — arguments and
+//!   parameters — then one record per row; `//` starts a row comment; a line `#` is a
+//!   "file break" after which a new header and its records follow. Component errors of
+//!   the X axis have the header `X EXX EYX EZX EAX EBX ECX` (argument X, then the six
+//!   ISO 230-1 component errors); the columns in the manual's examples are separated by
+//!   blanks, as written here.
+//! * "Units of measure" (page 296426379): parameter values in **millimetres** for
+//!   offsets and **radians** for angles; the arguments X, Y, Z in millimetres.
+//! * "Overview" (page 296386187): the model follows DIN ISO 230-1/-7 and ISO/TR 16907,
+//!   serial kinematics with exactly three linear axes; only the tool position is
+//!   compensated.
+//! * "Workpiece axes" (page 296411019): `workpiece_axes`, default 0 = every axis on the
+//!   tool side — errmap's model (workpiece on the base, the whole chain carries the
+//!   tool). "Tool length" (page 296392971): by default the compensation is computed for
+//!   tool length 0 — errmap's components are those of the tool reference point with probe
+//!   offset 0, so no N0X/N0Y/N0Z is written.
+//! * Configuration (pages 296390283, 1218769547): `file[j]` and `file_format[j] ISG_CSV`
+//!   in the compensation list; axis assignment `X 1`, `Y 2`, `Z 3` by logical axis
+//!   number (machine-specific — errmap does not write the list, only says what to set).
+//!
+//! # What is *not* sourced, and how the file avoids it
+//!
+//! The pages consulted show position errors only by example (`Y0A Z0A X0B`, location
+//! errors of rotary axes); the name the kernel gives a **squareness** of linear axes is
+//! not in them, nor is the format of the `Chain` parameter. So the file carries no
+//! squareness column: each squareness is written into the straightness it is
+//! indistinguishable from in the first-order model (the spec's Δ_sq moves points exactly
+//! as a linear straightness of the second axis),
+//!
+//! E_XY(y) += −1e−3·E_C0Y·y,  E_XZ(z) += +1e−3·E_B0Z·z,  E_YZ(z) += −1e−3·E_A0Z·z  (µm),
+//!
+//! which reproduces the error vector E(x, y, z) exactly (a test checks it) whatever
+//! position-error names the controller uses; the `Chain` (the topology) is stated in a
+//! comment for the integrator to configure. The sign is ISO 230-1's (actual − nominal),
+//! as errmap's; the controller compensates by subtracting it (its `negate` parameter
+//! flips it, should a commissioning test show otherwise).
+//!
+//! # Positioning profiles
+//!
+//! The 1-D profile of axis k is what a laser along k through `at_mm` (probe offset 0)
+//! records without a line constant, e(a) = −ê_k·E(P(a)) with P(a) = `at_mm` whose
+//! coordinate k is replaced by a — errmap's error convention (indicated − reference),
+//! which `crate::export` renders for LinuxCNC, SINUMERIK or CSV. At `at_mm` = 0 it is
+//! −E_kk(a), zero at a = 0.
+
+use std::fmt::Write as _;
+
+use super::identify::FitState;
+use super::model::{AXES, Component, SQUARENESS, Topology};
+
+/// Sampled component tables, one per axis, errmap units (µm, µrad), squareness folded in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ComponentTables {
+    pub topology: Topology,
+    /// Positions per axis, mm.
+    pub positions_mm: [Vec<f64>; 3],
+    /// Per axis, per position, the six components E_X… E_C of that axis (µm, µrad).
+    pub values: [Vec<[f64; 6]>; 3],
+    /// Per axis, the largest one-sigma of each of the six (µm, µrad).
+    pub max_sigma: [[f64; 6]; 3],
+}
+
+/// `n` (≥ 2) evenly spaced positions over axis `k`'s identified range.
+pub fn axis_positions(fit: &FitState, k: usize, n: usize) -> Vec<f64> {
+    let [lo, hi] = fit.basis.range_mm[k];
+    let n = n.max(2);
+    (0..n)
+        .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+        .collect()
+}
+
+fn undetermined(fit: &FitState) -> Vec<String> {
+    (0..21)
+        .filter(|&c| !fit.identified[c])
+        .map(|c| {
+            if c < 18 {
+                Component::from_index(c).name()
+            } else {
+                SQUARENESS[c - 18].to_string()
+            }
+        })
+        .collect()
+}
+
+/// The component tables at `n` positions per axis, the squareness folded into the
+/// straightness of Y (in x) and Z (in x and y). Errors naming the components the lines
+/// did not determine.
+pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, String> {
+    let missing = undetermined(fit);
+    if !missing.is_empty() {
+        return Err(format!(
+            "the compensation needs {}, which the lines did not determine",
+            missing.join(", ")
+        ));
+    }
+    let sq: Vec<f64> = (0..3)
+        .map(|i| fit.squareness(i).map_or(0.0, |v| v.0))
+        .collect();
+    let mut positions_mm: [Vec<f64>; 3] = Default::default();
+    let mut values: [Vec<[f64; 6]>; 3] = Default::default();
+    let mut max_sigma = [[0.0f64; 6]; 3];
+    for k in 0..3 {
+        positions_mm[k] = axis_positions(fit, k, n);
+        for &a in &positions_mm[k] {
+            let mut row = [0.0; 6];
+            for (kind, slot) in row.iter_mut().enumerate() {
+                let c = Component { axis: k, kind };
+                let (v, s) = fit
+                    .component(c.index(), a)
+                    .ok_or_else(|| format!("{} is not determined", c.name()))?;
+                *slot = v;
+                max_sigma[k][kind] = max_sigma[k][kind].max(s);
+            }
+            // Δ_sq = 1e−3·(−E_C0Y·y + E_B0Z·z, −E_A0Z·z, 0) as straightness of Y and Z.
+            match k {
+                1 => row[0] += -1e-3 * sq[0] * a,
+                2 => {
+                    row[0] += 1e-3 * sq[1] * a;
+                    row[1] += -1e-3 * sq[2] * a;
+                }
+                _ => {}
+            }
+            values[k].push(row);
+        }
+    }
+    Ok(ComponentTables {
+        topology: fit.basis.topology(),
+        positions_mm,
+        values,
+        max_sigma,
+    })
+}
+
+/// The ISG CSV parameter file (TwinCAT 3 CNC TF5280): three blocks separated by file
+/// breaks, `X EXX EYX EZX EAX EBX ECX` and the same for Y and Z, in mm and rad.
+pub fn render_twincat(t: &ComponentTables, source: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// errmap volumetric compensation, ISG CSV (TwinCAT 3 CNC TF5280, file_format ISG_CSV)"
+    );
+    let _ = writeln!(s, "// identified from: {source}");
+    let _ = writeln!(
+        s,
+        "// component errors per ISO 230-1 (actual - nominal): translations in mm, rotations in rad, \
+         arguments in mm"
+    );
+    let _ = writeln!(
+        s,
+        "// kinematic chain from the workpiece (base) to the tool: {} - all axes on the tool side \
+         (workpiece_axes 0); tool length 0",
+        t.topology
+    );
+    let _ = writeln!(
+        s,
+        "// squareness folded into the straightness of Y and Z (E_XY, E_XZ, E_YZ): no position-error \
+         parameter is written"
+    );
+    for (k, &ax) in AXES.iter().enumerate() {
+        if k > 0 {
+            let _ = writeln!(s, "#");
+        }
+        let sig: Vec<String> = (0..6)
+            .map(|kind| {
+                let c = Component { axis: k, kind };
+                format!("{} {:.3} {}", c.name(), t.max_sigma[k][kind], c.unit())
+            })
+            .collect();
+        let _ = writeln!(s, "// largest one-sigma: {}", sig.join(", "));
+        let mut header = format!("{ax:<12}");
+        for kind in ['X', 'Y', 'Z', 'A', 'B', 'C'] {
+            let _ = write!(header, " {:>18}", format!("E{kind}{ax}"));
+        }
+        let _ = writeln!(s, "{}", header.trim_end());
+        for (a, row) in t.positions_mm[k].iter().zip(&t.values[k]) {
+            let mut line = format!("{a:<12.4}");
+            for (kind, v) in row.iter().enumerate() {
+                let written = if kind < 3 { v * 1e-3 } else { v * 1e-6 };
+                let _ = write!(line, " {written:>18.12}");
+            }
+            let _ = writeln!(s, "{line}");
+        }
+    }
+    s
+}
+
+/// The positioning profile of axis `k` through `at_mm` (probe offset 0) at `positions`:
+/// e = −ê_k·E(P) and its one-sigma, µm (errmap's indicated − reference).
+pub fn positioning_profile(
+    fit: &FitState,
+    k: usize,
+    at_mm: [f64; 3],
+    positions: &[f64],
+) -> Result<Vec<(f64, f64)>, String> {
+    positions
+        .iter()
+        .map(|&a| {
+            let mut p = at_mm;
+            p[k] = a;
+            let rows = fit.basis.effect_rows(p, [0.0; 3]);
+            let g: Vec<f64> = rows[k].iter().map(|v| -v).collect();
+            fit.functional(&g).ok_or_else(|| {
+                format!(
+                    "the positioning error of {} at {a} mm depends on components the lines did \
+                     not determine",
+                    AXES[k]
+                )
+            })
+        })
+        .collect()
+}
