@@ -481,6 +481,7 @@ mod tests {
             "report.md",
             "model.json",
             "E_XX.png",
+            "residual_time.png",
             "volcomp_twincat.csv",
         ] {
             assert!(v.join(f).is_file(), "{f}");

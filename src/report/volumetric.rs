@@ -1,6 +1,7 @@
 //! The volumetric identification report (`volumetric identify --report DIR`): `report.md`
-//! (summary, gauge convention, component table, squareness, identifiability, degree by
-//! cross-validation, residual per line), `model.json` (what `predict` reads) and one
+//! (summary, gauge convention, scale temperature and found effects, component table,
+//! squareness, identifiability, degree by cross-validation, residual per line and against
+//! time), `model.json` (what `predict` reads) and one
 //! figure per identified component with its one-sigma band (`E_XX.png`/`.svg` …).
 
 use std::fmt::Write as _;
@@ -57,10 +58,22 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
     let _ = writeln!(md, "**Gauge convention.** {GAUGE}.\n");
     let _ = writeln!(
         md,
-        "**Residual.** {} (what remains after the fit: {} test, z = {:.2}; `missing_physics` \
-         above 3.09). A drift in time or a single bad line is not yet named: it shows as \
-         `unexplained`.\n",
-        id.residual.verdict, id.residual.test, id.residual.z
+        "**Residual.** Verdict `{}`. What remains after the fit{} against the noise: {} test, \
+         z = {:.2} ({}; above 3.09 it is an `unexplained` effect). A drift in time or a single \
+         bad line is not yet named.\n",
+        id.residual.verdict,
+        if id.thermal.as_ref().is_some_and(|t| t.kept) {
+            " and the scales' expansion"
+        } else {
+            ""
+        },
+        id.residual.test,
+        id.residual.z,
+        if id.residual.z > crate::volumetric::identify::Z_MISSING {
+            "not noise"
+        } else {
+            "noise"
+        }
     );
     if let Some(th) = &id.thermal {
         let words = match (th.alpha_ppm_per_k, th.sigma_ppm_per_k) {
@@ -218,9 +231,40 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
             );
         }
     }
+    let _ = writeln!(md, "\n## Residual per line\n");
+    // Against time: a scale warming or a drift shows as a trend from line to line.
+    let timed: Vec<(f64, f64)> = id
+        .residuals
+        .iter()
+        .flat_map(|l| l.t_s.iter().zip(&l.r_um))
+        .filter_map(|(t, r)| t.map(|t| (t / 3600.0, *r)))
+        .collect();
+    if !timed.is_empty() {
+        let series = vec![XySeries {
+            name: "residual".into(),
+            x: timed.iter().map(|p| p.0).collect(),
+            y: timed.iter().map(|p| p.1).collect(),
+            style: XyStyle::Points,
+        }];
+        if xy(
+            &dir.join("residual_time"),
+            "Residual against time",
+            "t (h)",
+            "residual (µm)",
+            &series,
+        )
+        .is_ok()
+        {
+            let _ = writeln!(
+                md,
+                "Against the campaign's time: [png](residual_time.png) (a trend from line to \
+                 line is a drift or a warming scale the fit left out).\n"
+            );
+        }
+    }
     let _ = writeln!(
         md,
-        "\n## Residual per line\n\n| line | targets | RMS (µm) | max abs (µm) | mean t (s) |\n|---|---|---|---|---|"
+        "| line | targets | RMS (µm) | max abs (µm) | mean t (s) |\n|---|---|---|---|---|"
     );
     for l in &id.residuals {
         let rms = crate::base::stats::rms(&l.r_um).unwrap_or(0.0);

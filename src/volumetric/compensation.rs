@@ -1,7 +1,7 @@
 //! What controllers with compensation need from an identification: the component tables
 //! of Beckhoff TwinCAT 3 CNC volumetric compensation (TF5280, the ISG kernel's
 //! `ISG_CSV` parameter file), and each axis' positioning error as a 1-D profile for the
-//! existing single-axis exporters (`crate::export`, which the binary drives).
+//! existing single-axis exporters (the `export` stage, which the binary drives).
 //!
 //! # TwinCAT 3 CNC TF5280 / ISG `ISG_CSV` — what is sourced
 //!
@@ -50,7 +50,7 @@
 //! The 1-D profile of axis k is what a laser along k through `at_mm` (probe offset 0)
 //! records without a line constant, e(a) = −ê_k·E(P(a)) with P(a) = `at_mm` whose
 //! coordinate k is replaced by a — errmap's error convention (indicated − reference),
-//! which `crate::export` renders for LinuxCNC, SINUMERIK or CSV. At `at_mm` = 0 it is
+//! which the `export` stage renders for LinuxCNC, SINUMERIK or CSV. At `at_mm` = 0 it is
 //! −E_kk(a), zero at a = 0.
 
 use std::fmt::Write as _;
