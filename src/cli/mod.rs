@@ -11,6 +11,7 @@
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
+//! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 
 use std::process::ExitCode;
@@ -25,6 +26,7 @@ pub mod diagnose;
 pub mod model;
 pub mod plan;
 pub mod step;
+pub mod stream;
 pub mod values;
 pub mod volumetric;
 
@@ -74,6 +76,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
     Volumetric(volumetric::VolumetricArgs),
+    /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
+    GenCapture(stream::GenCaptureArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -103,6 +107,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Export(a) => model::export_cmd(a),
         Command::Plan(a) => plan::plan_cmd(a),
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
+        Command::GenCapture(a) => stream::gen_capture(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),
