@@ -11,15 +11,16 @@
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
 use std::fs::{File, OpenOptions};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use errmap_drivers::capture::{Capture, CaptureConfig, CaptureEnd, Progress, capture};
 use errmap_drivers::frame::Hello;
-use errmap_drivers::{ByteSource, DecoderStats, SessionRow, decode_all};
+use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
-use crate::session::write_session;
+use crate::session::{SessionWriter, write_session};
 use crate::table::TableError;
 
 /// Errors of the acquisition glue (files and configuration; the capture's own errors are
@@ -186,22 +187,65 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), AcquireError> 
     std::fs::write(path, text + "\n").map_err(io_err(path))
 }
 
-/// Decodes a raw capture into a session table. A damaged capture is not an error: every
-/// decodable row is written and the damage is in the statistics. Fails only when the file
-/// cannot be read or holds no valid frame.
-pub fn replay(
-    raw: &Path,
-    out: &Path,
-) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), AcquireError> {
-    let bytes = std::fs::read(raw).map_err(io_err(raw))?;
-    let (rows, stats, hello) = decode_all(&bytes);
-    let frames = stats.frames.total();
-    if frames == 0 {
+/// Bytes read from a raw capture per decoder push, in [`replay`].
+pub const REPLAY_CHUNK_BYTES: usize = 1 << 20;
+
+/// What [`replay`] decoded.
+#[derive(Debug, Clone)]
+pub struct Replayed {
+    pub rows: u64,
+    pub stats: DecoderStats,
+    pub hello: Option<Hello>,
+}
+
+/// Decodes a raw capture into a session table, streaming: the file is read
+/// [`REPLAY_CHUNK_BYTES`] at a time into the [`SessionDecoder`] and its rows go to a
+/// [`SessionWriter`] as they come, so memory is bounded by one chunk and one batch of rows
+/// whatever the capture's length. A damaged capture is not an error: every decodable row
+/// is written and the damage is in the statistics. Fails only when the file cannot be read
+/// or holds no valid frame (the table is then removed).
+pub fn replay(raw: &Path, out: &Path) -> Result<Replayed, AcquireError> {
+    let mut file = File::open(raw).map_err(io_err(raw))?;
+    let mut writer = SessionWriter::create(out)?;
+    let mut decoder = SessionDecoder::new();
+    let mut buf = vec![0u8; REPLAY_CHUNK_BYTES];
+    let mut failed: Option<TableError> = None;
+    let mut bytes = 0usize;
+    let mut sink = |e: SessionEvent| {
+        if let SessionEvent::Row(r) = e
+            && failed.is_none()
+            && let Err(e) = writer.push(r)
+        {
+            failed = Some(e);
+        }
+    };
+    loop {
+        let n = match file.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(io_err(raw)(e)),
+        };
+        bytes += n;
+        decoder.push_with(&buf[..n], &mut sink);
+    }
+    decoder.finish_with(&mut sink);
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+    let stats = decoder.stats();
+    if stats.frames.total() == 0 {
+        drop(writer);
+        let _ = std::fs::remove_file(out);
         return Err(AcquireError::NoFrames {
             path: raw.to_path_buf(),
-            bytes: bytes.len(),
+            bytes,
         });
     }
-    write_session(out, &rows)?;
-    Ok((rows, stats, hello))
+    let rows = writer.finish()?;
+    Ok(Replayed {
+        rows,
+        stats,
+        hello: decoder.hello().copied(),
+    })
 }

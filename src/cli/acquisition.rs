@@ -209,15 +209,15 @@ fn file(p: &Path) -> String {
 }
 
 pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
-    let (rows, stats, _) = acquire::replay(&a.raw, &a.out)?;
+    let acquire::Replayed { rows, stats, .. } = acquire::replay(&a.raw, &a.out)?;
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
-        v["rows"] = serde_json::json!(rows.len());
+        v["rows"] = serde_json::json!(rows);
         println!("{v}");
     } else {
         eprintln!(
             "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
-            rows.len(),
+            rows,
             stats.frames.total(),
             stats.crc_failures,
             stats.resyncs,

@@ -1,0 +1,139 @@
+//! Streaming session tables (issue 13): the batched writer gives the bytes of the
+//! whole-table writer, the batched reader gives back the rows and names the file's row
+//! on bad input, replay streams to the same table as decoding the capture in memory.
+
+use std::path::Path;
+
+use errmap::acquire::replay;
+use errmap::drivers::decode_all;
+use errmap::drivers::longrun::write_long_capture;
+use errmap::session::{BATCH_ROWS, SessionWriter, for_each_batch, read_session, write_session};
+use errmap::table::TableError;
+use errmap_drivers::SessionRow;
+
+fn capture(min_bytes: u64) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    write_long_capture(&mut bytes, min_bytes, 3, 200.0).expect("in memory");
+    bytes
+}
+
+fn streamed(path: &Path, rows: &[SessionRow], batch: usize) -> Vec<u8> {
+    let mut w = SessionWriter::with_batch(path, batch).expect("create");
+    for (i, r) in rows.iter().enumerate() {
+        w.push(r.clone()).expect("push");
+        if i % 97 == 0 {
+            w.flush().expect("flush");
+        }
+    }
+    assert_eq!(w.finish().expect("finish"), rows.len() as u64);
+    std::fs::read(path).expect("read back")
+}
+
+#[test]
+fn streamed_tables_are_byte_identical_to_the_whole_table_writer() {
+    let (rows, _, _) = decode_all(&capture(1));
+    assert!(rows.len() > 10_000, "{} rows", rows.len());
+    let dir = tempfile::tempdir().expect("tempdir");
+    for ext in ["csv", "parquet"] {
+        let whole = dir.path().join(format!("whole.{ext}"));
+        write_session(&whole, &rows).expect("write");
+        let whole = std::fs::read(&whole).expect("read");
+        // CSV: any batching; Parquet: one row group when the batch holds the session.
+        let batches: &[usize] = if ext == "csv" {
+            &[1, 777, 1 << 16]
+        } else {
+            &[1 << 16]
+        };
+        for &b in batches {
+            let got = streamed(&dir.path().join(format!("s{b}.{ext}")), &rows, b);
+            assert!(got == whole, "{ext}, batch {b}: bytes differ");
+        }
+    }
+}
+
+#[test]
+fn a_parquet_table_in_many_row_groups_reads_back_row_for_row_in_batches() {
+    let (rows, _, _) = decode_all(&capture(1));
+    let dir = tempfile::tempdir().expect("tempdir");
+    for ext in ["csv", "parquet"] {
+        let p = dir.path().join(format!("t.{ext}"));
+        streamed(&p, &rows, 1000);
+        assert_eq!(read_session(&p).expect("read"), rows, "{ext}");
+        let mut back = Vec::new();
+        let mut sizes = Vec::new();
+        let n = for_each_batch(&p, 4096, &mut |b| {
+            sizes.push(b.len());
+            back.extend_from_slice(b);
+            Ok(())
+        })
+        .expect("batches");
+        assert_eq!(n, rows.len() as u64);
+        assert!(
+            sizes.iter().all(|&s| s <= 4096) && sizes.len() > 1,
+            "{sizes:?}"
+        );
+        assert_eq!(back, rows, "{ext}");
+    }
+}
+
+#[test]
+fn a_bad_cell_deep_in_a_batched_read_names_the_files_row_and_line() {
+    let (rows, _, _) = decode_all(&capture(1));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("t.csv");
+    write_session(&p, &rows[..500]).expect("write");
+    let text = std::fs::read_to_string(&p).expect("read");
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    // Data row 300 is line 301; its `laser_mm` (12th column) becomes text.
+    let mut cells: Vec<String> = lines[300].split(',').map(str::to_string).collect();
+    cells[11] = "oops".into();
+    lines[300] = cells.join(",");
+    std::fs::write(&p, lines.join("\n") + "\n").expect("write");
+    let e = for_each_batch(&p, 64, &mut |_| Ok(())).expect_err("bad cell");
+    match e {
+        TableError::NotNumeric {
+            row, line, column, ..
+        } => {
+            assert_eq!((row, line, column.as_str()), (300, 301, "laser_mm"));
+        }
+        other => panic!("unexpected error {other}"),
+    }
+    let whole = read_session(&p).expect_err("bad cell");
+    assert_eq!(
+        whole.to_string(),
+        for_each_batch(&p, 64, &mut |_| Ok(()))
+            .expect_err("bad")
+            .to_string()
+    );
+}
+
+#[test]
+fn streamed_replay_writes_the_table_of_the_capture_decoded_in_memory() {
+    // Two line sessions back to back, > 1 MiB: several read chunks.
+    let bytes = capture(1_500_000);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let raw = dir.path().join("raw.bin");
+    std::fs::write(&raw, &bytes).expect("write raw");
+    let (rows, stats, hello) = decode_all(&bytes);
+    for ext in ["csv", "parquet"] {
+        let out = dir.path().join(format!("replay.{ext}"));
+        let r = replay(&raw, &out).expect("replay");
+        assert_eq!(r.rows, rows.len() as u64);
+        assert_eq!(r.stats, stats);
+        assert_eq!(r.hello, hello);
+        // CSV: the whole-table writer's bytes. Parquet (more rows than one batch here):
+        // the streaming writer's row groups of BATCH_ROWS, as live capture writes them.
+        let reference = dir.path().join(format!("reference.{ext}"));
+        if ext == "csv" {
+            write_session(&reference, &rows).expect("write");
+        } else {
+            assert!(rows.len() > BATCH_ROWS, "{} rows", rows.len());
+            streamed(&reference, &rows, BATCH_ROWS);
+        }
+        assert!(
+            std::fs::read(&out).expect("o") == std::fs::read(&reference).expect("r"),
+            "{ext}"
+        );
+        assert_eq!(read_session(&out).expect("read"), rows, "{ext}");
+    }
+}
