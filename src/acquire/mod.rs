@@ -6,7 +6,8 @@
 //! A session directory written by `capture` holds:
 //! - `raw.bin` — every byte read from the port, appended before decoding, fsynced at
 //!   least once a second and at every run end;
-//! - `session.csv` (or `.parquet`) — the session table;
+//! - `session.csv` (or `.parquet`) — the session table, written as rows are decoded
+//!   (see [`capture_session`]; `replay` of `raw.bin` rebuilds it exactly);
 //! - `session.json` — the device's HELLO, the decoder statistics (spec shape, with the
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
@@ -15,12 +16,14 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use errmap_drivers::capture::{Capture, CaptureConfig, CaptureEnd, Progress, capture};
+use errmap_drivers::capture::{
+    CaptureConfig, CaptureEnd, Captured, Progress, RowSink, SinkError, capture_to,
+};
 use errmap_drivers::frame::Hello;
 use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
-use crate::session::{SessionWriter, write_session};
+use crate::session::SessionWriter;
 use crate::table::TableError;
 
 /// Errors of the acquisition glue (files and configuration; the capture's own errors are
@@ -127,13 +130,20 @@ impl SessionPaths {
 /// Captures from `source` into a session directory (see the module docs). The raw file
 /// must not exist yet. Returns the capture; the session table and JSON are written even
 /// when the port vanished (the caller reports that as an error afterwards).
+///
+/// Rows go to the session table as they are decoded ([`SessionWriter`]): a CSV table is
+/// written up to the last row at every fsync of the raw file (≤ 1 s), a Parquet table in
+/// row groups of [`crate::session::BATCH_ROWS`] rows with its footer at the end. A killed
+/// capture leaves the raw file (fsynced ≤ 1 s ago) and a CSV table valid up to its last
+/// complete line or a Parquet table without its footer; `errmap replay raw.bin --out
+/// session.parquet` rebuilds the table exactly, byte for byte.
 pub fn capture_session(
     source: &mut dyn ByteSource,
     paths: &SessionPaths,
     config: &CaptureConfig,
     stop: &AtomicBool,
     progress: &mut dyn FnMut(&Progress),
-) -> Result<Capture, AcquireError> {
+) -> Result<Captured, AcquireError> {
     std::fs::create_dir_all(&paths.dir).map_err(io_err(&paths.dir))?;
     let mut raw: File = OpenOptions::new()
         .write(true)
@@ -151,13 +161,15 @@ pub fn capture_session(
                 }
             }
         })?;
-    let cap = capture(source, &mut raw, config, stop, progress).map_err(|source| {
-        AcquireError::Capture {
-            path: paths.raw.clone(),
-            source,
-        }
-    })?;
-    write_session(&paths.table, &cap.rows)?;
+    let mut table = SessionWriter::create(&paths.table)?;
+    let cap =
+        capture_to(source, &mut raw, &mut table, config, stop, progress).map_err(|source| {
+            AcquireError::Capture {
+                path: paths.raw.clone(),
+                source,
+            }
+        })?;
+    table.finish()?;
     write_json(
         &paths.json,
         &SessionJson {
@@ -171,6 +183,16 @@ pub fn capture_session(
         },
     )?;
     Ok(cap)
+}
+
+impl RowSink for SessionWriter {
+    fn row(&mut self, row: errmap_drivers::SessionRow) -> Result<(), SinkError> {
+        self.push(row).map_err(Into::into)
+    }
+
+    fn flush(&mut self) -> Result<(), SinkError> {
+        SessionWriter::flush(self).map_err(Into::into)
+    }
 }
 
 fn file_name(p: &Path) -> String {

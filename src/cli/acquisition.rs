@@ -121,7 +121,7 @@ pub fn capture_from_port(
     paths: &SessionPaths,
     config: &CaptureConfig,
     show_progress: bool,
-) -> Result<errmap::drivers::capture::Capture> {
+) -> Result<errmap::drivers::capture::Captured> {
     let mut source = SerialSource::open(port, baud, Duration::from_millis(100))?;
     let bar = (show_progress && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new_spinner();
@@ -160,7 +160,7 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
     eprintln!(
         "capture: {} bytes, {} rows, {} frames; CRC failures {}, resyncs {} ({} bytes skipped), seq gaps {} ({} frames lost), wraps {}/{}, flagged samples {}, truncated tail {} bytes",
         cap.bytes,
-        cap.rows.len(),
+        cap.rows,
         s.frames.total(),
         s.crc_failures,
         s.resyncs,
@@ -184,11 +184,14 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
         );
     }
     eprintln!(
-        "capture: session in {} ({}, {}, {})",
+        "capture: session in {} ({}, {}, {}); `errmap replay {} --out {}` rebuilds the table exactly \
+         (after a killed capture too)",
         paths.dir.display(),
         file(&paths.raw),
         file(&paths.table),
-        file(&paths.json)
+        file(&paths.json),
+        paths.raw.display(),
+        paths.table.display()
     );
     if a.json {
         println!("{}", std::fs::read_to_string(&paths.json)?);

@@ -11,7 +11,8 @@
 //! [`BATCH_ROWS`] rows (one row group in both); longer ones are cut in row groups of
 //! exactly [`BATCH_ROWS`] rows (`write_session` cuts ≥ 262 144 rows into equal parts).
 //! Since the row groups depend only on the row count, capture and replay of the same bytes
-//! still give identical files. [`SessionWriter::flush`] writes the rows buffered so far
+//! still give identical files. Each CSV batch is rendered in memory and written with one
+//! `write`, so a killed process leaves whole lines. [`SessionWriter::flush`] writes the rows buffered so far
 //! to a CSV table at any time (capture calls it with every fsync of the raw file, at
 //! least once a second); a Parquet table is readable only once its footer is written by
 //! [`SessionWriter::finish`] — after a killed capture, `replay` of the raw file rebuilds
@@ -32,7 +33,8 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use errmap_drivers::SessionRow;
-use polars::io::csv::write::BatchedWriter as CsvBatched;
+use std::io::Write;
+
 use polars::io::parquet::write::BatchedWriter as ParquetBatched;
 use polars::prelude::*;
 
@@ -43,7 +45,8 @@ use crate::table::{TableError, format_err, is_parquet};
 pub const BATCH_ROWS: usize = 65_536;
 
 enum Sink {
-    Csv(CsvBatched<File>),
+    /// The file, a reused buffer for one batch's text, and whether the header is written.
+    Csv(File, Vec<u8>, bool),
     Parquet(Box<ParquetBatched<File>>),
 }
 
@@ -85,21 +88,15 @@ impl SessionWriter {
             path: path.to_path_buf(),
             source,
         })?;
-        let empty = session_frame(&[]).map_err(|e| format_err(path, e))?;
-        let schema = empty.schema();
         let sink = if parquet {
+            let empty = session_frame(&[]).map_err(|e| format_err(path, e))?;
             Sink::Parquet(Box::new(
                 ParquetWriter::new(file)
-                    .batched(schema)
+                    .batched(empty.schema())
                     .map_err(|e| format_err(path, e))?,
             ))
         } else {
-            Sink::Csv(
-                CsvWriter::new(file)
-                    .include_header(true)
-                    .batched(schema)
-                    .map_err(|e| format_err(path, e))?,
-            )
+            Sink::Csv(file, Vec::new(), false)
         };
         let batch_rows = batch_rows.max(1);
         Ok(SessionWriter {
@@ -130,7 +127,7 @@ impl SessionWriter {
     /// boundary here would make the file depend on timing; see the module docs).
     pub fn flush(&mut self) -> Result<(), TableError> {
         match self.sink {
-            Sink::Csv(_) => self.write_batch(),
+            Sink::Csv(..) => self.write_batch(),
             Sink::Parquet(_) => Ok(()),
         }
     }
@@ -139,12 +136,8 @@ impl SessionWriter {
         if self.batch.is_empty() {
             return Ok(());
         }
-        let df = session_frame(&self.batch).map_err(|e| format_err(&self.path, e))?;
-        match &mut self.sink {
-            Sink::Csv(w) => w.write_batch(&df),
-            Sink::Parquet(w) => w.write_batch(&df),
-        }
-        .map_err(|e| format_err(&self.path, e))?;
+        let mut df = session_frame(&self.batch).map_err(|e| format_err(&self.path, e))?;
+        write_df(&self.path, &mut self.sink, &mut df)?;
         self.batch.clear();
         Ok(())
     }
@@ -154,11 +147,36 @@ impl SessionWriter {
     pub fn finish(mut self) -> Result<u64, TableError> {
         self.write_batch()?;
         match &mut self.sink {
-            Sink::Csv(w) => w.finish(),
-            Sink::Parquet(w) => w.finish().map(|_| ()),
+            Sink::Csv(_, _, true) => {}
+            Sink::Csv(..) => {
+                let mut empty = session_frame(&[]).map_err(|e| format_err(&self.path, e))?;
+                write_df(&self.path, &mut self.sink, &mut empty)?;
+            }
+            Sink::Parquet(w) => {
+                w.finish().map_err(|e| format_err(&self.path, e))?;
+            }
         }
-        .map_err(|e| format_err(&self.path, e))?;
         Ok(self.rows)
+    }
+}
+
+/// Writes one batch. CSV: rendered whole, then handed to the file in one `write` (a killed
+/// process leaves whole lines; a regular file's write is not cut by a signal).
+fn write_df(path: &Path, sink: &mut Sink, df: &mut DataFrame) -> Result<(), TableError> {
+    match sink {
+        Sink::Csv(file, text, header) => {
+            text.clear();
+            CsvWriter::new(&mut *text)
+                .include_header(!*header)
+                .finish(df)
+                .map_err(|e| format_err(path, e))?;
+            *header = true;
+            file.write_all(text).map_err(|source| TableError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
+        Sink::Parquet(w) => w.write_batch(df).map_err(|e| format_err(path, e)),
     }
 }
 
