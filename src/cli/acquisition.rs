@@ -274,8 +274,17 @@ pub struct Reduced {
 /// ISO 230-2 report in `report` when given; says what it did on stderr.
 pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> Result<Reduced> {
     let path = session_file(session_arg)?;
-    let rows = session::read_session(&path)?;
-    let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
+    // One pass in batches: memory bounded by a batch and the dwell accumulators.
+    let mut reducer = session::Reducer::new();
+    let mut environment = session::environment::EnvironmentStats::default();
+    session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
+        for r in rows {
+            reducer.push(r);
+            environment.push(r);
+        }
+        Ok(())
+    })?;
+    let (table, summary) = reducer.error_table(&path.display().to_string())?;
     table.write(out)?;
     eprintln!(
         "table: {} nodes ({} lines × {} targets) from {} dwell samples; {} flagged samples left out, {} rows not dwelling → {}",
@@ -299,13 +308,13 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
              (uncompensated lengths read about 270 ppm long in a normal room)"
         );
     }
-    let (iso, failed) = session::iso_by_line(&rows);
+    let (iso, failed) = reducer.iso_by_line();
     for (line, e) in failed {
         eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
     }
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
-        let environment = errmap::report::environment::environment_summary(&rows);
+        let environment = errmap::report::environment::environment_text(&environment);
         let p = errmap::report::iso230::write_session_report(
             &path.display().to_string(),
             &axis,

@@ -18,12 +18,13 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
+pub mod environment;
 pub mod iso230;
 mod reduce;
 pub mod stream;
 
 pub use reduce::{
-    ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
+    Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
 };
 pub use stream::{BATCH_ROWS, SessionWriter, for_each_batch};
 

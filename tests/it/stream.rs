@@ -210,3 +210,126 @@ fn capture_streams_rows_to_the_table_and_equals_replay_of_its_raw_file() {
         }
     }
 }
+
+/// The error table computed the plain way, two passes over the rows in memory: per
+/// (line µm, target) the mean and sample standard deviation of the unflagged dwell errors
+/// (rows without air values left out when any row has them), the node's coordinate along
+/// the axis the mean scale reading per target rounded to 0.1 µm.
+fn two_pass(rows: &[SessionRow]) -> Vec<([f64; 3], f64, usize, Option<f64>)> {
+    use std::collections::BTreeMap;
+    let air = |r: &SessionRow| {
+        r.air_temp_c.is_some() && r.air_pressure_hpa.is_some() && r.air_rh_pct.is_some()
+    };
+    let any_air = rows.iter().any(air);
+    let a = errmap::base::Axis::from(rows[0].axis).index();
+    let mut groups: BTreeMap<(i64, i64, i32), Vec<f64>> = BTreeMap::new();
+    let mut along: BTreeMap<i32, Vec<f64>> = BTreeMap::new();
+    for r in rows {
+        if r.target < 0 || r.run == 0 || r.flags != 0 || (any_air && !air(r)) {
+            continue;
+        }
+        let c = [r.x_mm, r.y_mm, r.z_mm];
+        let o: Vec<Option<f64>> = (0..3).filter(|&b| b != a).map(|b| c[b]).collect();
+        let (Some(c1), Some(c2)) = (o[0], o[1]) else {
+            continue;
+        };
+        let key = (
+            (c1 * 1e3).round() as i64,
+            (c2 * 1e3).round() as i64,
+            r.target,
+        );
+        groups.entry(key).or_default().push(r.error_um);
+        along.entry(r.target).or_default().push(r.scale_mm);
+    }
+    groups
+        .iter()
+        .map(|(&(c1, c2, t), e)| {
+            let p = &along[&t];
+            let at = (p.iter().sum::<f64>() / p.len() as f64 * 1e4).round() / 1e4;
+            let mut others = [c1 as f64 / 1e3, c2 as f64 / 1e3].into_iter();
+            let pos: [f64; 3] = std::array::from_fn(|b| {
+                if b == a {
+                    at
+                } else {
+                    others.next().unwrap_or(0.0)
+                }
+            });
+            let n = e.len();
+            let mean = e.iter().sum::<f64>() / n as f64;
+            let s = (n > 1).then(|| {
+                (e.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+            });
+            (pos, mean, n, s)
+        })
+        .collect()
+}
+
+fn sessions() -> Vec<std::path::PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut out = vec![root.join("datasets/physics/example-session.parquet")];
+    let real = root.join("../shared/data/real_iso230/converted");
+    if let Ok(dir) = std::fs::read_dir(&real) {
+        let mut csv: Vec<_> = dir
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+            .collect();
+        csv.sort();
+        out.extend(csv);
+    }
+    out
+}
+
+#[test]
+fn the_streamed_reduction_matches_the_two_pass_error_table_on_recorded_sessions() {
+    use errmap::session::{Reducer, iso_by_line};
+    let mut checked = 0;
+    for path in sessions() {
+        let rows = read_session(&path).expect("session");
+        let mut red = Reducer::new();
+        for_each_batch(&path, 1000, &mut |b| {
+            b.iter().for_each(|r| red.push(r));
+            Ok(())
+        })
+        .expect("batches");
+        let name = path.display().to_string();
+        let (table, summary) = red.error_table(&name).expect("reduces");
+        let want = two_pass(&rows);
+        assert_eq!(table.points.len(), want.len(), "{name}");
+        assert_eq!(
+            summary.used,
+            want.iter().map(|w| w.2).sum::<usize>(),
+            "{name}"
+        );
+        let mut points = table.points.clone();
+        points.sort_by(|p, q| {
+            (p.y_mm, p.z_mm, p.x_mm)
+                .partial_cmp(&(q.y_mm, q.z_mm, q.x_mm))
+                .expect("finite")
+        });
+        let mut want = want;
+        want.sort_by(|p, q| {
+            (p.0[1], p.0[2], p.0[0])
+                .partial_cmp(&(q.0[1], q.0[2], q.0[0]))
+                .expect("finite")
+        });
+        for (p, (pos, mean, n, s)) in points.iter().zip(&want) {
+            assert_eq!([p.x_mm, p.y_mm, p.z_mm], *pos, "{name}");
+            assert_eq!(p.n, Some(*n as u32), "{name}");
+            let tol = 1e-12 * (1.0 + mean.abs());
+            assert!((p.e_um - mean).abs() <= tol, "{name}: {} vs {mean}", p.e_um);
+            match (p.s_um, s) {
+                (Some(a), Some(b)) => {
+                    assert!((a - b).abs() <= 1e-9 * (1.0 + b), "{name}: s {a} vs {b}")
+                }
+                (a, b) => assert_eq!(a, *b, "{name}"),
+            }
+        }
+        // ISO 230-2 statistics: streamed in batches = computed on the rows in memory.
+        let (ok, failed) = red.iso_by_line();
+        let (ok_all, failed_all) = iso_by_line(&rows);
+        assert_eq!(format!("{ok:?}"), format!("{ok_all:?}"), "{name}");
+        assert_eq!(failed.len(), failed_all.len(), "{name}");
+        checked += 1;
+    }
+    assert!(checked >= 1);
+}
