@@ -11,6 +11,8 @@
 //! - `session.json` — the device's HELLO, the decoder statistics (spec shape, with the
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
+pub mod measure;
+
 use std::fs::{File, OpenOptions};
 use std::io::Read;
 use std::path::{Path, PathBuf};

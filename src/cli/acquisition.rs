@@ -216,6 +216,8 @@ pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
         v["rows"] = serde_json::json!(rows);
+        // The process's resident high-water mark (Linux), MB: memory stays bounded.
+        v["peak_rss_mb"] = serde_json::json!(acquire::measure::peak_rss_mb());
         println!("{v}");
     } else {
         eprintln!(

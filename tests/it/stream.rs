@@ -333,3 +333,56 @@ fn the_streamed_reduction_matches_the_two_pass_error_table_on_recorded_sessions(
     }
     assert!(checked >= 1);
 }
+
+#[test]
+fn the_streaming_benchmark_reduces_a_generated_capture_to_its_known_nodes() {
+    // One line session (~3.3 MB at 1 kHz): one line × 11 targets.
+    let b = errmap::acquire::measure::stream_bench(1.0).expect("bench");
+    assert!(b.capture_bytes >= 1_000_000);
+    assert!(b.rows > 100_000, "{} rows", b.rows);
+    assert_eq!(b.nodes, 11);
+    assert!(b.replay_mb_s > 0.0 && b.table_mb_s > 0.0);
+}
+
+fn replay_peak_rss_mb(dir: &Path, mb: f64) -> (f64, u64) {
+    let bin = env!("CARGO_BIN_EXE_errmap");
+    let raw = dir.join(format!("raw-{mb}.bin"));
+    let o = std::process::Command::new(bin)
+        .args(["gen-capture", "--mb", &mb.to_string(), "--out"])
+        .arg(&raw)
+        .output()
+        .expect("gen-capture runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = std::process::Command::new(bin)
+        .arg("replay")
+        .arg(&raw)
+        .arg("--out")
+        .arg(dir.join(format!("t-{mb}.parquet")))
+        .arg("--json")
+        .output()
+        .expect("replay runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    (
+        v["peak_rss_mb"].as_f64().expect("peak_rss_mb (Linux)"),
+        v["rows"].as_u64().expect("rows"),
+    )
+}
+
+/// Regression for issue 13 (replay held every row: 2.6 GB for a 200 MB capture): a capture
+/// six times longer replays in about the same memory.
+#[test]
+fn replay_memory_does_not_grow_with_the_capture() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (small_mb, small_rows) = replay_peak_rss_mb(dir.path(), 3.0);
+    let (large_mb, large_rows) = replay_peak_rss_mb(dir.path(), 18.0);
+    assert!(
+        large_rows >= 5 * small_rows,
+        "{large_rows} vs {small_rows} rows"
+    );
+    // Holding the rows would add ≥ 168 B per row: ≥ 80 MB for the extra ~500 000 rows.
+    assert!(
+        large_mb < small_mb + 30.0,
+        "peak RSS {large_mb:.0} MB for {large_rows} rows vs {small_mb:.0} MB for {small_rows}"
+    );
+}
