@@ -12,6 +12,7 @@ mod interp;
 mod iso230;
 mod layers;
 mod physics;
+mod soak;
 mod stream;
 mod table2;
 mod tables;
