@@ -54,6 +54,9 @@ pub struct BenchReport {
     /// Volumetric identification of a 60-line campaign and the 41³ vector map
     /// ([`volumetric`]).
     pub volumetric: Option<volumetric::VolumetricBench>,
+    /// Replay and table on a generated long capture: MB/s and peak RSS (None: the
+    /// measurement failed).
+    pub stream: Option<crate::acquire::measure::StreamBench>,
 }
 
 /// Bench settings.
@@ -94,6 +97,9 @@ fn time<T>(repeats: usize, mut f: impl FnMut() -> T) -> f64 {
     }
     median(&runs)
 }
+
+/// Size of the generated capture of the streaming benchmark, MB.
+pub const STREAM_BENCH_MB: f64 = 10.0;
 
 /// Least total time spent timing one measurement, s.
 const MIN_BENCH_S: f64 = 0.3;
@@ -209,6 +215,7 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         decode_bytes: capture.len(),
         extra,
         volumetric,
+        stream: crate::acquire::measure::stream_bench(STREAM_BENCH_MB).ok(),
     }
 }
 
@@ -351,6 +358,18 @@ pub fn markdown(r: &BenchReport) -> String {
             v.params,
             v.grid_points,
             v.predict_grid_s
+        ));
+    }
+    if let Some(b) = &r.stream {
+        let mb = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.0} MB"));
+        s.push_str(&format!(
+            "\nStreaming on a {:.1} MB generated capture ({} rows): replay → Parquet {:.1} MB/s, peak RSS {}; table {:.1} MB/s, peak RSS {}.\n",
+            b.capture_bytes as f64 / 1e6,
+            b.rows,
+            b.replay_mb_s,
+            mb(b.replay_peak_rss_mb),
+            b.table_mb_s,
+            mb(b.table_peak_rss_mb)
         ));
     }
     s

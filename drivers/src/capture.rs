@@ -14,6 +14,10 @@
 //! start, the capture sends the spec's `?` once (`wire-protocol.md`: HELLO is sent "at
 //! power-up and after a `?` byte from the host"); the rows held back are converted when
 //! the HELLO comes. A source that cannot be written (a file) ignores the request.
+//!
+//! [`capture_to`] hands each row to a [`RowSink`] as it is decoded and asks the sink to
+//! flush with every fsync of the raw file, so a capture's memory does not grow with its
+//! length; [`capture`] collects the rows in a vector (tests, short captures).
 
 use std::fs::File;
 use std::io::Write;
@@ -21,7 +25,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::frame::Hello;
-use crate::session::{SessionDecoder, SessionRow};
+use crate::session::{SessionDecoder, SessionEvent, SessionRow};
 use crate::stats::DecoderStats;
 use crate::transport::{ByteSource, ReadOutcome, TransportError};
 
@@ -97,11 +101,46 @@ pub struct Capture {
     pub fsyncs: u64,
 }
 
+/// Where [`capture_to`] puts the rows as they are decoded.
+pub trait RowSink {
+    /// One decoded row.
+    fn row(&mut self, row: SessionRow) -> Result<(), SinkError>;
+    /// Called with every fsync of the raw file (at least every
+    /// [`CaptureConfig::fsync_every`] while bytes arrive, at every run end, at the end).
+    fn flush(&mut self) -> Result<(), SinkError> {
+        Ok(())
+    }
+}
+
+/// A sink's error, kept whole for the caller.
+pub type SinkError = Box<dyn std::error::Error + Send + Sync>;
+
+impl RowSink for Vec<SessionRow> {
+    fn row(&mut self, row: SessionRow) -> Result<(), SinkError> {
+        self.push(row);
+        Ok(())
+    }
+}
+
+/// What [`capture_to`] produced (the rows went to the sink).
+#[derive(Debug, Clone)]
+pub struct Captured {
+    pub rows: u64,
+    pub stats: DecoderStats,
+    pub hello: Option<Hello>,
+    pub end: CaptureEnd,
+    pub bytes: u64,
+    pub fsyncs: u64,
+}
+
 /// What stops a capture from keeping its promise: the raw file cannot be written.
 #[derive(Debug, thiserror::Error)]
 pub enum CaptureError {
     #[error("cannot write the raw capture file: {0}")]
     Raw(#[source] std::io::Error),
+    /// The row sink failed (the session table cannot be written); the raw file is synced.
+    #[error("cannot write the session table: {0}")]
+    Rows(#[source] SinkError),
     #[error(transparent)]
     Transport(TransportError),
 }
@@ -110,7 +149,7 @@ fn problems(s: &DecoderStats) -> u64 {
     s.crc_failures + s.resyncs + s.seq_gaps + s.flagged_samples
 }
 
-/// Runs a capture from `source` into `raw` (see the module docs).
+/// Runs a capture from `source` into `raw`, collecting the rows (see the module docs).
 pub fn capture(
     source: &mut dyn ByteSource,
     raw: &mut File,
@@ -118,9 +157,32 @@ pub fn capture(
     stop: &AtomicBool,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Capture, CaptureError> {
+    let mut rows = Vec::new();
+    let c = capture_to(source, raw, &mut rows, config, stop, progress)?;
+    Ok(Capture {
+        rows,
+        stats: c.stats,
+        hello: c.hello,
+        end: c.end,
+        bytes: c.bytes,
+        fsyncs: c.fsyncs,
+    })
+}
+
+/// Runs a capture from `source` into `raw`, handing the rows to `sink` as they are
+/// decoded (see the module docs).
+pub fn capture_to(
+    source: &mut dyn ByteSource,
+    raw: &mut File,
+    sink: &mut dyn RowSink,
+    config: &CaptureConfig,
+    stop: &AtomicBool,
+    progress: &mut dyn FnMut(&Progress),
+) -> Result<Captured, CaptureError> {
     let start = Instant::now();
     let mut decoder = SessionDecoder::new();
-    let mut rows: Vec<SessionRow> = Vec::new();
+    let mut n_rows = 0u64;
+    let mut failed: Option<SinkError> = None;
     let mut buf = vec![0u8; config.read_buf.max(1)];
     let (mut bytes, mut fsyncs) = (0u64, 0u64);
     let mut last_sync = Instant::now();
@@ -129,12 +191,13 @@ pub fn capture(
     let mut dirty = false;
     let mut max_run = 0u32;
     let mut hello_asked = false;
-    let sync = |raw: &mut File, fsyncs: &mut u64| -> Result<(), CaptureError> {
-        raw.flush().map_err(CaptureError::Raw)?;
-        raw.sync_data().map_err(CaptureError::Raw)?;
-        *fsyncs += 1;
-        Ok(())
-    };
+    let sync =
+        |raw: &mut File, sink: &mut dyn RowSink, fsyncs: &mut u64| -> Result<(), CaptureError> {
+            raw.flush().map_err(CaptureError::Raw)?;
+            raw.sync_data().map_err(CaptureError::Raw)?;
+            *fsyncs += 1;
+            sink.flush().map_err(CaptureError::Rows)
+        };
     let end = loop {
         if stop.load(Ordering::Relaxed) {
             break CaptureEnd::Stopped;
@@ -157,7 +220,7 @@ pub fn capture(
             }
             Err(e) => {
                 // Keep what we have on disk before giving up.
-                sync(raw, &mut fsyncs)?;
+                sync(raw, sink, &mut fsyncs)?;
                 return Err(CaptureError::Transport(e));
             }
         };
@@ -167,17 +230,27 @@ pub fn capture(
             raw.write_all(&buf[..n]).map_err(CaptureError::Raw)?;
             dirty = true;
             bytes += n as u64;
-            let before = rows.len();
-            rows.extend(decoder.push(&buf[..n]));
             let mut run_ended = false;
-            for r in &rows[before..] {
-                if r.run < max_run || (r.run == 0 && max_run > 0) {
-                    run_ended = true;
+            decoder.push_with(&buf[..n], &mut |e| {
+                if let SessionEvent::Row(r) = e {
+                    if r.run < max_run || (r.run == 0 && max_run > 0) {
+                        run_ended = true;
+                    }
+                    max_run = max_run.max(r.run);
+                    n_rows += 1;
+                    if failed.is_none()
+                        && let Err(e) = sink.row(r)
+                    {
+                        failed = Some(e);
+                    }
                 }
-                max_run = max_run.max(r.run);
+            });
+            if let Some(e) = failed.take() {
+                sync(raw, sink, &mut fsyncs)?;
+                return Err(CaptureError::Rows(e));
             }
             if run_ended && dirty {
-                sync(raw, &mut fsyncs)?;
+                sync(raw, sink, &mut fsyncs)?;
                 last_sync = Instant::now();
                 dirty = false;
             }
@@ -188,7 +261,7 @@ pub fn capture(
             let _ = source.send(HELLO_REQUEST);
         }
         if dirty && last_sync.elapsed() >= config.fsync_every {
-            sync(raw, &mut fsyncs)?;
+            sync(raw, sink, &mut fsyncs)?;
             last_sync = Instant::now();
             dirty = false;
         }
@@ -196,25 +269,37 @@ pub fn capture(
             last_progress = Instant::now();
             progress(&Progress {
                 bytes,
-                samples: rows.len() as u64,
+                samples: n_rows,
                 runs: max_run,
                 elapsed_s: start.elapsed().as_secs_f64(),
                 problems: problems(&decoder.stats()),
             });
         }
     };
-    sync(raw, &mut fsyncs)?;
-    rows.extend(decoder.finish());
+    decoder.finish_with(&mut |e| {
+        if let SessionEvent::Row(r) = e {
+            n_rows += 1;
+            if failed.is_none()
+                && let Err(e) = sink.row(r)
+            {
+                failed = Some(e);
+            }
+        }
+    });
+    sync(raw, sink, &mut fsyncs)?;
+    if let Some(e) = failed {
+        return Err(CaptureError::Rows(e));
+    }
     let stats = decoder.stats();
     progress(&Progress {
         bytes,
-        samples: rows.len() as u64,
+        samples: n_rows,
         runs: max_run,
         elapsed_s: start.elapsed().as_secs_f64(),
         problems: problems(&stats),
     });
-    Ok(Capture {
-        rows,
+    Ok(Captured {
+        rows: n_rows,
         stats,
         hello: decoder.hello().copied(),
         end,

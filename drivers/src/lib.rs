@@ -11,6 +11,7 @@
 //! | [`edlen`] | refractive index of air | modified Edlén (Birch & Downs 1993/94), IAPWS-IF97 | O(1) |
 //! | [`stats`] | decoder statistics (spec JSON) and problem log | spec "Decoder statistics" | — |
 //! | [`problem`] | typed problems with stream positions | — | — |
+//! | [`longrun`] | a long generated capture (benchmarks, soak) | simulated board, line after line | one line's stream in memory |
 //! | [`transport`] | byte sources: serial port, reader (replay) | `serialport` | — |
 //!
 //! Bytes flow `ByteSource → Decoder → SessionBuilder → SessionRow`; nothing below
@@ -22,6 +23,7 @@ pub mod counter;
 pub mod decoder;
 pub mod edlen;
 pub mod frame;
+pub mod longrun;
 pub mod problem;
 pub mod quadrature;
 pub mod serve;

@@ -6,20 +6,26 @@
 //! A session directory written by `capture` holds:
 //! - `raw.bin` — every byte read from the port, appended before decoding, fsynced at
 //!   least once a second and at every run end;
-//! - `session.csv` (or `.parquet`) — the session table;
+//! - `session.csv` (or `.parquet`) — the session table, written as rows are decoded
+//!   (see [`capture_session`]; `replay` of `raw.bin` rebuilds it exactly);
 //! - `session.json` — the device's HELLO, the decoder statistics (spec shape, with the
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
+pub mod measure;
+
 use std::fs::{File, OpenOptions};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use errmap_drivers::capture::{Capture, CaptureConfig, CaptureEnd, Progress, capture};
+use errmap_drivers::capture::{
+    CaptureConfig, CaptureEnd, Captured, Progress, RowSink, SinkError, capture_to,
+};
 use errmap_drivers::frame::Hello;
-use errmap_drivers::{ByteSource, DecoderStats, SessionRow, decode_all};
+use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
-use crate::session::write_session;
+use crate::session::SessionWriter;
 use crate::table::TableError;
 
 /// Errors of the acquisition glue (files and configuration; the capture's own errors are
@@ -170,13 +176,20 @@ impl SessionPaths {
 /// Captures from `source` into a session directory (see the module docs). The raw file
 /// must not exist yet. Returns the capture; the session table and JSON are written even
 /// when the port vanished (the caller reports that as an error afterwards).
+///
+/// Rows go to the session table as they are decoded ([`SessionWriter`]): a CSV table is
+/// written up to the last row at every fsync of the raw file (≤ 1 s), a Parquet table in
+/// row groups of [`crate::session::BATCH_ROWS`] rows with its footer at the end. A killed
+/// capture leaves the raw file (fsynced ≤ 1 s ago) and a CSV table valid up to its last
+/// complete line or a Parquet table without its footer; `errmap replay raw.bin --out
+/// session.parquet` rebuilds the table exactly, byte for byte.
 pub fn capture_session(
     source: &mut dyn ByteSource,
     paths: &SessionPaths,
     config: &CaptureConfig,
     stop: &AtomicBool,
     progress: &mut dyn FnMut(&Progress),
-) -> Result<Capture, AcquireError> {
+) -> Result<Captured, AcquireError> {
     std::fs::create_dir_all(&paths.dir).map_err(io_err(&paths.dir))?;
     let mut raw: File = OpenOptions::new()
         .write(true)
@@ -194,13 +207,15 @@ pub fn capture_session(
                 }
             }
         })?;
-    let cap = capture(source, &mut raw, config, stop, progress).map_err(|source| {
-        AcquireError::Capture {
-            path: paths.raw.clone(),
-            source,
-        }
-    })?;
-    write_session(&paths.table, &cap.rows)?;
+    let mut table = SessionWriter::create(&paths.table)?;
+    let cap =
+        capture_to(source, &mut raw, &mut table, config, stop, progress).map_err(|source| {
+            AcquireError::Capture {
+                path: paths.raw.clone(),
+                source,
+            }
+        })?;
+    table.finish()?;
     write_json(
         &paths.json,
         &SessionJson {
@@ -214,6 +229,16 @@ pub fn capture_session(
         },
     )?;
     Ok(cap)
+}
+
+impl RowSink for SessionWriter {
+    fn row(&mut self, row: errmap_drivers::SessionRow) -> Result<(), SinkError> {
+        self.push(row).map_err(Into::into)
+    }
+
+    fn flush(&mut self) -> Result<(), SinkError> {
+        SessionWriter::flush(self).map_err(Into::into)
+    }
 }
 
 fn file_name(p: &Path) -> String {
@@ -230,13 +255,24 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), AcquireError> 
     std::fs::write(path, text + "\n").map_err(io_err(path))
 }
 
-/// Decodes a raw capture into a session table. A damaged capture is not an error: every
-/// decodable row is written and the damage is in the statistics. Fails only when the file
-/// cannot be read or holds no valid frame.
-pub fn replay(
-    raw: &Path,
-    out: &Path,
-) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), AcquireError> {
+/// Bytes read from a raw capture per decoder push, in [`replay`].
+pub const REPLAY_CHUNK_BYTES: usize = 1 << 20;
+
+/// What [`replay`] decoded.
+#[derive(Debug, Clone)]
+pub struct Replayed {
+    pub rows: u64,
+    pub stats: DecoderStats,
+    pub hello: Option<Hello>,
+}
+
+/// Decodes a raw capture into a session table, streaming: the file is read
+/// [`REPLAY_CHUNK_BYTES`] at a time into the [`SessionDecoder`] and its rows go to a
+/// [`SessionWriter`] as they come, so memory is bounded by one chunk and one batch of rows
+/// whatever the capture's length. A damaged capture is not an error: every decodable row
+/// is written and the damage is in the statistics. Fails only when the file cannot be read
+/// or holds no valid frame (the table is then removed).
+pub fn replay(raw: &Path, out: &Path) -> Result<Replayed, AcquireError> {
     replay_with_hello(raw, out, None)
 }
 
@@ -249,24 +285,54 @@ pub fn replay_with_hello(
     raw: &Path,
     out: &Path,
     hello: Option<Hello>,
-) -> Result<(Vec<SessionRow>, DecoderStats, Option<Hello>), AcquireError> {
-    let bytes = std::fs::read(raw).map_err(io_err(raw))?;
-    let (rows, stats, hello) = match hello {
-        None => decode_all(&bytes),
-        Some(h) => {
-            errmap_drivers::decode_all_with_hello(&bytes, h).map_err(|e| AcquireError::Config {
-                path: raw.to_path_buf(),
-                message: format!("the given HELLO gives no scaling: {e}"),
-            })?
+) -> Result<Replayed, AcquireError> {
+    let mut decoder = match hello {
+        None => SessionDecoder::new(),
+        Some(h) => SessionDecoder::with_hello(h).map_err(|e| AcquireError::Config {
+            path: raw.to_path_buf(),
+            message: format!("the given HELLO gives no scaling: {e}"),
+        })?,
+    };
+    let mut file = File::open(raw).map_err(io_err(raw))?;
+    let mut writer = SessionWriter::create(out)?;
+    let mut buf = vec![0u8; REPLAY_CHUNK_BYTES];
+    let mut failed: Option<TableError> = None;
+    let mut bytes = 0usize;
+    let mut sink = |e: SessionEvent| {
+        if let SessionEvent::Row(r) = e
+            && failed.is_none()
+            && let Err(e) = writer.push(r)
+        {
+            failed = Some(e);
         }
     };
-    let frames = stats.frames.total();
-    if frames == 0 {
+    loop {
+        let n = match file.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(io_err(raw)(e)),
+        };
+        bytes += n;
+        decoder.push_with(&buf[..n], &mut sink);
+    }
+    decoder.finish_with(&mut sink);
+    if let Some(e) = failed {
+        return Err(e.into());
+    }
+    let stats = decoder.stats();
+    if stats.frames.total() == 0 {
+        drop(writer);
+        let _ = std::fs::remove_file(out);
         return Err(AcquireError::NoFrames {
             path: raw.to_path_buf(),
-            bytes: bytes.len(),
+            bytes,
         });
     }
-    write_session(out, &rows)?;
-    Ok((rows, stats, hello))
+    let rows = writer.finish()?;
+    Ok(Replayed {
+        rows,
+        stats,
+        hello: decoder.hello().copied(),
+    })
 }

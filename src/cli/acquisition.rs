@@ -114,7 +114,7 @@ pub fn capture_from_port(
     paths: &SessionPaths,
     config: &CaptureConfig,
     show_progress: bool,
-) -> Result<errmap::drivers::capture::Capture> {
+) -> Result<errmap::drivers::capture::Captured> {
     let mut source = SerialSource::open(port, baud, Duration::from_millis(100))?;
     let bar = (show_progress && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new_spinner();
@@ -153,7 +153,7 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
     eprintln!(
         "capture: {} bytes, {} rows, {} frames; CRC failures {}, resyncs {} ({} bytes skipped), seq gaps {} ({} frames lost), wraps {}/{}, flagged samples {}, truncated tail {} bytes",
         cap.bytes,
-        cap.rows.len(),
+        cap.rows,
         s.frames.total(),
         s.crc_failures,
         s.resyncs,
@@ -177,11 +177,14 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
         );
     }
     eprintln!(
-        "capture: session in {} ({}, {}, {})",
+        "capture: session in {} ({}, {}, {}); `errmap replay {} --out {}` rebuilds the table exactly \
+         (after a killed capture too)",
         paths.dir.display(),
         file(&paths.raw),
         file(&paths.table),
-        file(&paths.json)
+        file(&paths.json),
+        paths.raw.display(),
+        paths.table.display()
     );
     if a.json {
         let json = std::fs::read_to_string(&paths.json)
@@ -214,7 +217,7 @@ pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
         .as_deref()
         .map(acquire::hello_from_session_json)
         .transpose()?;
-    let (rows, stats, _) = acquire::replay_with_hello(&a.raw, &a.out, hello)?;
+    let acquire::Replayed { rows, stats, .. } = acquire::replay_with_hello(&a.raw, &a.out, hello)?;
     if stats.unconverted_samples > 0 {
         // Loud, whatever --json says: samples were lost to a missing device description.
         eprintln!(
@@ -226,12 +229,14 @@ pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
     }
     if a.json {
         let mut v = serde_json::to_value(&stats)?;
-        v["rows"] = serde_json::json!(rows.len());
+        v["rows"] = serde_json::json!(rows);
+        // The process's resident high-water mark (Linux), MB: memory stays bounded.
+        v["peak_rss_mb"] = serde_json::json!(acquire::measure::peak_rss_mb());
         super::guard::print_stdout(&v.to_string())?;
     } else {
         eprintln!(
             "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
-            rows.len(),
+            rows,
             stats.frames.total(),
             stats.crc_failures,
             stats.resyncs,
@@ -302,8 +307,17 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
             dir.display()
         );
     }
-    let rows = session::read_session(&path)?;
-    let (table, summary) = session::error_table(&path.display().to_string(), &rows)?;
+    // One pass in batches: memory bounded by a batch and the dwell accumulators.
+    let mut reducer = session::Reducer::new();
+    let mut environment = session::environment::EnvironmentStats::default();
+    session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
+        for r in rows {
+            reducer.push(r);
+            environment.push(r);
+        }
+        Ok(())
+    })?;
+    let (table, summary) = reducer.error_table(&path.display().to_string())?;
     table.write(out)?;
     eprintln!(
         "table: {} nodes ({} lines × {} targets) from {} dwell samples; {} flagged samples left out, {} rows not dwelling → {}",
@@ -327,20 +341,20 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
              (uncompensated lengths read about 270 ppm long in a normal room)"
         );
     }
-    let (iso, failed) = session::iso_by_line(&rows);
+    let (iso, failed) = reducer.iso_by_line();
     for (line, e) in failed {
         eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
     }
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget(&uncertainty::UncertaintyConfig::default(), &rows, s)
+            uncertainty::line_budget_of(&uncertainty::UncertaintyConfig::default(), &environment, s)
                 .map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
-        let environment = errmap::report::environment::environment_summary(&rows);
+        let environment = errmap::report::environment::environment_text(&environment);
         let p = errmap::report::iso230::write_session_report(
             &path.display().to_string(),
             &axis,

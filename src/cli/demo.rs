@@ -111,7 +111,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
     eprintln!(
         "  captured {} bytes, {} rows, {} CRC failures → {}",
         cap.bytes,
-        cap.rows.len(),
+        cap.rows,
         cap.stats.crc_failures,
         session_dir.display()
     );

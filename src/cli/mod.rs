@@ -12,6 +12,7 @@
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
+//! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 
 use std::process::ExitCode;
@@ -28,6 +29,7 @@ pub mod guard;
 pub mod model;
 pub mod plan;
 pub mod step;
+pub mod stream;
 pub mod values;
 pub mod volumetric;
 
@@ -79,6 +81,8 @@ pub enum Command {
     Volumetric(volumetric::VolumetricArgs),
     /// Write the calibration certificate (PDF) of a session.
     Certificate(certificate::CertificateArgs),
+    /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
+    GenCapture(stream::GenCaptureArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -112,6 +116,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Plan(a) => plan::plan_cmd(a),
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
+        Command::GenCapture(a) => stream::gen_capture(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

@@ -2,33 +2,29 @@
 
 use errmap_drivers::SessionRow;
 
-use crate::base::consts::HENE_WAVELENGTH_UM;
+use crate::session::environment::{EnvironmentStats, Range};
 
 /// The environment of a session in words and a table (markdown): air and material
 /// temperatures over the session, the refraction compensation the laser lengths used, and
 /// what normalisation to the 20 °C reference temperature (ISO 1) would mean.
 pub fn environment_summary(rows: &[SessionRow]) -> String {
+    environment_text(&EnvironmentStats::of(rows))
+}
+
+/// [`environment_summary`] from statistics gathered row by row.
+pub fn environment_text(e: &EnvironmentStats) -> String {
     use std::fmt::Write as _;
-    let stat = |f: &dyn Fn(&SessionRow) -> Option<f64>| -> Option<(f64, f64, f64)> {
-        let v: Vec<f64> = rows.iter().filter_map(f).collect();
-        (!v.is_empty()).then(|| {
-            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            (lo, v.iter().sum::<f64>() / v.len() as f64, hi)
-        })
-    };
     let mut s =
         String::from("## Environment\n\n| quantity | min | mean | max |\n|---|---|---|---|\n");
-    type Column<'a> = (&'a str, &'a dyn Fn(&SessionRow) -> Option<f64>);
-    let items: [Column; 5] = [
-        ("air temperature °C", &|r| r.air_temp_c),
-        ("air pressure hPa", &|r| r.air_pressure_hpa),
-        ("relative humidity %", &|r| r.air_rh_pct),
-        ("scale temperature °C", &|r| r.scale_temp_c),
-        ("part/table temperature °C", &|r| r.part_temp_c),
+    let items: [(&str, &Range); 5] = [
+        ("air temperature °C", &e.air_temp_c),
+        ("air pressure hPa", &e.air_pressure_hpa),
+        ("relative humidity %", &e.air_rh_pct),
+        ("scale temperature °C", &e.scale_temp_c),
+        ("part/table temperature °C", &e.part_temp_c),
     ];
     for (name, f) in items {
-        match stat(f) {
+        match f.min_mean_max() {
             Some((lo, m, hi)) => {
                 let _ = writeln!(s, "| {name} | {lo:.3} | {m:.3} | {hi:.3} |");
             }
@@ -37,16 +33,8 @@ pub fn environment_summary(rows: &[SessionRow]) -> String {
             }
         }
     }
-    let n = |r: &SessionRow| -> Option<f64> {
-        Some(errmap_drivers::edlen::refractive_index(
-            HENE_WAVELENGTH_UM,
-            r.air_temp_c?,
-            r.air_pressure_hpa? * 100.0,
-            r.air_rh_pct?,
-        ))
-    };
-    let uncompensated = rows.iter().filter(|r| r.air_temp_c.is_none()).count();
-    match stat(&n) {
+    let uncompensated = e.rows_without_air;
+    match e.n_air.min_mean_max() {
         Some((lo, m, hi)) => {
             let _ = writeln!(
                 s,
@@ -69,8 +57,8 @@ pub fn environment_summary(rows: &[SessionRow]) -> String {
             "\n{uncompensated} rows came before the first ENV frame and carry no air compensation (n = 1)."
         );
     }
-    if let Some((_, m, _)) = stat(&|r| r.scale_temp_c) {
-        let len = rows.iter().map(|r| r.scale_mm).fold(0.0, f64::max);
+    if let Some((_, m, _)) = e.scale_temp_c.min_mean_max() {
+        let len = e.max_scale_mm;
         let _ = writeln!(
             s,
             "\nNormalisation to 20 °C (ISO 1): the errors above are as measured, not normalised. \

@@ -22,13 +22,16 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
+pub mod environment;
 pub mod iso230;
 mod reduce;
+pub mod stream;
 pub mod uncertainty;
 
 pub use reduce::{
-    ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
+    Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
 };
+pub use stream::{BATCH_ROWS, SessionWriter, for_each_batch};
 
 use std::path::Path;
 
@@ -135,19 +138,88 @@ fn axis_cell(path: &Path, cells: &Cells, row0: usize) -> Result<WireAxis, TableE
     }
 }
 
-/// Reads and validates a session table.
+/// Reads and validates a session table (the whole table in memory; [`for_each_batch`]
+/// reads it in bounded memory).
 pub fn read_session(path: &Path) -> Result<Vec<SessionRow>, TableError> {
     let df = read_frame(path)?;
+    frame_rows(path, &df, 0)
+}
+
+/// Row `r` of a frame that starts at data row `first` of the file (0-based): errors name
+/// the file's row and line.
+fn shifted(e: TableError, first: usize) -> TableError {
+    match e {
+        TableError::NotNumeric {
+            path,
+            row,
+            line,
+            column,
+            value,
+        } => TableError::NotNumeric {
+            path,
+            row: row + first,
+            line: line + first,
+            column,
+            value,
+        },
+        TableError::EmptyCell {
+            path,
+            row,
+            line,
+            column,
+        } => TableError::EmptyCell {
+            path,
+            row: row + first,
+            line: line + first,
+            column,
+        },
+        TableError::NonFinite {
+            path,
+            row,
+            line,
+            column,
+            value,
+        } => TableError::NonFinite {
+            path,
+            row: row + first,
+            line: line + first,
+            column,
+            value,
+        },
+        TableError::BadValue {
+            path,
+            row,
+            line,
+            column,
+            problem,
+        } => TableError::BadValue {
+            path,
+            row: row + first,
+            line: line + first,
+            column,
+            problem,
+        },
+        other => other,
+    }
+}
+
+/// The validated rows of a session-table frame whose first row is data row `first`
+/// (0-based) of the file.
+fn frame_rows(path: &Path, df: &DataFrame, first: usize) -> Result<Vec<SessionRow>, TableError> {
+    frame_rows_at(path, df).map_err(|e| shifted(e, first))
+}
+
+fn frame_rows_at(path: &Path, df: &DataFrame) -> Result<Vec<SessionRow>, TableError> {
     let cells = REQUIRED
         .iter()
-        .map(|c| column_cells(path, &df, c))
+        .map(|c| column_cells(path, df, c))
         .collect::<Result<Vec<_>, _>>()?;
     let optional: Vec<Option<Cells>> = OPTIONAL
         .iter()
         .map(|c| {
             df.column(c)
                 .ok()
-                .map(|_| column_cells(path, &df, c))
+                .map(|_| column_cells(path, df, c))
                 .transpose()
         })
         .collect::<Result<_, _>>()?;

@@ -82,6 +82,7 @@
 //! A dozen evaluations of the Edlén equation per budget, `O(N)` over the session's rows
 //! for the test conditions.
 
+use super::environment::EnvironmentStats;
 use errmap_drivers::SessionRow;
 use errmap_drivers::edlen::refractive_index;
 use serde::{Deserialize, Serialize};
@@ -272,39 +273,31 @@ pub struct TestConditions {
 impl TestConditions {
     /// The conditions of a session's rows, for a line of the given travel.
     pub fn from_rows(rows: &[SessionRow], travel_mm: f64) -> TestConditions {
-        let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
-        let air: Vec<(f64, f64, f64)> = rows
-            .iter()
-            .filter_map(|r| Some((r.air_temp_c?, r.air_pressure_hpa?, r.air_rh_pct?)))
-            .filter(|(t, p, h)| t.is_finite() && p.is_finite() && h.is_finite())
-            .collect();
-        let (t, p, h) = match air.len() {
-            0 => STANDARD_AIR,
-            n => {
-                let s = air
-                    .iter()
-                    .fold((0.0, 0.0, 0.0), |a, v| (a.0 + v.0, a.1 + v.1, a.2 + v.2));
-                (s.0 / n as f64, s.1 / n as f64, s.2 / n as f64)
-            }
+        Self::from_environment(&EnvironmentStats::of(rows), travel_mm)
+    }
+
+    /// The conditions from a session's environment gathered in one pass (a streamed
+    /// session), for a line of the given travel: the mean air (or [`STANDARD_AIR`]
+    /// without air data), the span of the refractive index over the session, and the
+    /// mean scale temperature (else the part's).
+    pub fn from_environment(env: &EnvironmentStats, travel_mm: f64) -> TestConditions {
+        let mean = |r: &super::environment::Range| r.min_mean_max().map(|(_, m, _)| m);
+        let air = match (
+            mean(&env.air_temp_c),
+            mean(&env.air_pressure_hpa),
+            mean(&env.air_rh_pct),
+        ) {
+            (Some(t), Some(p), Some(h)) if env.n_air.n > 0 => Some((t, p, h)),
+            _ => None,
         };
-        let ns: Vec<f64> = air
-            .iter()
-            .map(|&(t, p, h)| refractive_index(HENE_WAVELENGTH_UM, t, p * 100.0, h))
-            .collect();
-        let n_span = (!ns.is_empty()).then(|| {
-            ns.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-                - ns.iter().copied().fold(f64::INFINITY, f64::min)
-        });
-        let finite = |v: Option<f64>| v.filter(|x| x.is_finite());
-        let scale: Vec<f64> = rows.iter().filter_map(|r| finite(r.scale_temp_c)).collect();
-        let part: Vec<f64> = rows.iter().filter_map(|r| finite(r.part_temp_c)).collect();
+        let (t, p, h) = air.unwrap_or(STANDARD_AIR);
         TestConditions {
             air_temp_c: t,
             air_pressure_hpa: p,
             air_rh_pct: h,
-            air_measured: !air.is_empty(),
-            n_span,
-            material_temp_c: mean(&scale).or_else(|| mean(&part)),
+            air_measured: air.is_some(),
+            n_span: env.n_air.min_mean_max().map(|(lo, _, hi)| hi - lo),
+            material_temp_c: mean(&env.scale_temp_c).or_else(|| mean(&env.part_temp_c)),
             travel_mm,
         }
     }
@@ -569,7 +562,19 @@ pub fn line_budget(
     rows: &[SessionRow],
     stats: &AxisStats,
 ) -> Result<(Budget, StatUncertainty), UncertaintyError> {
-    let budget = Budget::new(config, TestConditions::from_rows(rows, travel_mm(stats)))?;
+    line_budget_of(config, &EnvironmentStats::of(rows), stats)
+}
+
+/// [`line_budget`] from a session's environment gathered in one pass.
+pub fn line_budget_of(
+    config: &UncertaintyConfig,
+    env: &EnvironmentStats,
+    stats: &AxisStats,
+) -> Result<(Budget, StatUncertainty), UncertaintyError> {
+    let budget = Budget::new(
+        config,
+        TestConditions::from_environment(env, travel_mm(stats)),
+    )?;
     let u = budget.expanded();
     Ok((budget, u))
 }

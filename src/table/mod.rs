@@ -73,7 +73,7 @@ mod output;
 mod structure;
 
 pub use error::{MISSING_LISTED, TableError};
-pub(crate) use frame::{Cells, column_cells, format_err, parse_cell, required_cell};
+pub(crate) use frame::{Cells, column_cells, format_err, is_parquet, parse_cell, required_cell};
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};
 pub use output::{check_finite, write_atomically};

@@ -167,14 +167,15 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
     let _ = cap.wait();
     let _ = sim.kill();
     let _ = sim.wait();
-    assert!(
-        !out.join("session.csv").exists(),
-        "killed before writing the table"
-    );
+    // The session table was written as rows came (flushed with every fsync): valid, and
+    // the first rows of what replay rebuilds from the raw file.
+    let live = read_session(&out.join("session.csv")).expect("the killed capture's table");
     let replayed = dir.path().join("replay.csv");
     let o = replay(&out.join("raw.bin"), &replayed, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let rows = read_session(&replayed).expect("replayed table");
+    assert!(live.len() <= rows.len());
+    assert_eq!(live[..], rows[..live.len()]);
     // At 200 samples/s (plus the start-up lag of both processes, under 1 s here) the
     // raw file flushed at least every 0.5 s holds every sample up to ~1 s before the kill.
     let must_have = ((killed_after - 1.5) * 200.0) as usize;
@@ -182,6 +183,12 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
         rows.len() >= must_have,
         "{} rows, expected ≥ {must_have}",
         rows.len()
+    );
+    // The table was flushed with the raw file, at most 0.5 s (100 samples) before it.
+    assert!(
+        live.len() + 100 >= must_have,
+        "{} rows in the table, expected ≥ {must_have} − 100",
+        live.len()
     );
     // And they are the device's first samples, with no hole.
     for (k, r) in rows.iter().enumerate() {

@@ -14,6 +14,8 @@ mod iso230;
 mod layers;
 mod physics;
 mod robustness;
+mod soak;
+mod stream;
 mod table2;
 mod tables;
 mod testplan;

@@ -1,0 +1,267 @@
+//! Session tables in bounded memory: a writer that takes rows one at a time and writes
+//! them in batches, and a reader that hands a table back batch by batch. Capture, replay
+//! and `table` use these, so their memory does not grow with the length of a session.
+//!
+//! **Writer.** Rows are buffered up to [`BATCH_ROWS`] and then written: CSV through
+//! polars' batched CSV writer (a header, then the rows of each batch), Parquet through its
+//! batched writer, one row group per batch. The CSV bytes of a row do not depend on the
+//! batch it is in, so a streamed CSV table is byte for byte what [`super::write_session`]
+//! writes for the same rows, whatever the batching. A Parquet file's bytes depend on its
+//! row groups: a streamed Parquet table equals `write_session`'s for sessions of up to
+//! [`BATCH_ROWS`] rows (one row group in both); longer ones are cut in row groups of
+//! exactly [`BATCH_ROWS`] rows (`write_session` cuts ≥ 262 144 rows into equal parts).
+//! Since the row groups depend only on the row count, capture and replay of the same bytes
+//! still give identical files. Each CSV batch is rendered in memory and written with one
+//! `write`, so a killed process leaves whole lines. [`SessionWriter::flush`] writes the rows buffered so far
+//! to a CSV table at any time (capture calls it with every fsync of the raw file, at
+//! least once a second); a Parquet table is readable only once its footer is written by
+//! [`SessionWriter::finish`] — after a killed capture, `replay` of the raw file rebuilds
+//! it exactly.
+//!
+//! **Reader.** [`for_each_batch`] reads a CSV table [`BATCH_ROWS`] lines at a time, a
+//! Parquet table [`BATCH_ROWS`] rows at a time (one row group of a streamed table), and
+//! validates every batch as [`super::read_session`] does, with row numbers counted from
+//! the start of the file.
+//!
+//! **Memory bound.** One batch of rows (`SessionRow` is 168 bytes) plus its DataFrame
+//! (19 columns × 8 bytes, plus validity) plus polars' encoding buffers for one row group:
+//! about 65 536 × (168 + 160) B ≈ 21 MB, twice that while a row group is encoded —
+//! independent of the number of rows.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+use errmap_drivers::SessionRow;
+use std::io::Write;
+
+use polars::io::parquet::write::BatchedWriter as ParquetBatched;
+use polars::prelude::*;
+
+use super::{frame_rows, session_frame};
+use crate::table::{TableError, format_err, is_parquet};
+
+/// Rows per batch (and per Parquet row group) of the streaming writer and reader.
+pub const BATCH_ROWS: usize = 65_536;
+
+enum Sink {
+    /// The file, a reused buffer for one batch's text, and whether the header is written.
+    Csv(File, Vec<u8>, bool),
+    Parquet(Box<ParquetBatched<File>>),
+}
+
+/// A session table written row by row (see the module docs).
+pub struct SessionWriter {
+    path: PathBuf,
+    batch: Vec<SessionRow>,
+    batch_rows: usize,
+    rows: u64,
+    sink: Sink,
+}
+
+impl std::fmt::Debug for SessionWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SessionWriter")
+            .field("path", &self.path)
+            .field("rows", &self.rows)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SessionWriter {
+    /// Creates (or truncates) the table at `path`, CSV or Parquet by extension, with
+    /// batches of [`BATCH_ROWS`] rows.
+    pub fn create(path: &Path) -> Result<Self, TableError> {
+        Self::with_batch(path, BATCH_ROWS)
+    }
+
+    /// As [`SessionWriter::create`] with `batch_rows` rows per batch (at least 1).
+    pub fn with_batch(path: &Path, batch_rows: usize) -> Result<Self, TableError> {
+        let parquet = is_parquet(path)?;
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).map_err(|source| TableError::Io {
+                path: parent.to_path_buf(),
+                source,
+            })?;
+        }
+        let file = File::create(path).map_err(|source| TableError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let sink = if parquet {
+            let empty = session_frame(&[]).map_err(|e| format_err(path, e))?;
+            Sink::Parquet(Box::new(
+                ParquetWriter::new(file)
+                    .batched(empty.schema())
+                    .map_err(|e| format_err(path, e))?,
+            ))
+        } else {
+            Sink::Csv(file, Vec::new(), false)
+        };
+        let batch_rows = batch_rows.max(1);
+        Ok(SessionWriter {
+            path: path.to_path_buf(),
+            batch: Vec::with_capacity(batch_rows.min(BATCH_ROWS)),
+            batch_rows,
+            rows: 0,
+            sink,
+        })
+    }
+
+    /// Adds a row; writes the batch when it is full.
+    pub fn push(&mut self, row: SessionRow) -> Result<(), TableError> {
+        self.batch.push(row);
+        self.rows += 1;
+        if self.batch.len() >= self.batch_rows {
+            self.write_batch()?;
+        }
+        Ok(())
+    }
+
+    /// Rows pushed so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// CSV: writes the rows buffered so far to the file now. Parquet: nothing (a row group
+    /// boundary here would make the file depend on timing; see the module docs).
+    pub fn flush(&mut self) -> Result<(), TableError> {
+        match self.sink {
+            Sink::Csv(..) => self.write_batch(),
+            Sink::Parquet(_) => Ok(()),
+        }
+    }
+
+    fn write_batch(&mut self) -> Result<(), TableError> {
+        if self.batch.is_empty() {
+            return Ok(());
+        }
+        let mut df = session_frame(&self.batch).map_err(|e| format_err(&self.path, e))?;
+        write_df(&self.path, &mut self.sink, &mut df)?;
+        self.batch.clear();
+        Ok(())
+    }
+
+    /// Writes the last batch and the file's end (CSV: the header if no row came; Parquet:
+    /// the footer). Returns the number of rows.
+    pub fn finish(mut self) -> Result<u64, TableError> {
+        self.write_batch()?;
+        match &mut self.sink {
+            Sink::Csv(_, _, true) => {}
+            Sink::Csv(..) => {
+                let mut empty = session_frame(&[]).map_err(|e| format_err(&self.path, e))?;
+                write_df(&self.path, &mut self.sink, &mut empty)?;
+            }
+            Sink::Parquet(w) => {
+                w.finish().map_err(|e| format_err(&self.path, e))?;
+            }
+        }
+        Ok(self.rows)
+    }
+}
+
+/// Writes one batch. CSV: rendered whole, then handed to the file in one `write` (a killed
+/// process leaves whole lines; a regular file's write is not cut by a signal).
+fn write_df(path: &Path, sink: &mut Sink, df: &mut DataFrame) -> Result<(), TableError> {
+    match sink {
+        Sink::Csv(file, text, header) => {
+            text.clear();
+            CsvWriter::new(&mut *text)
+                .include_header(!*header)
+                .finish(df)
+                .map_err(|e| format_err(path, e))?;
+            *header = true;
+            file.write_all(text).map_err(|source| TableError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
+        Sink::Parquet(w) => w.write_batch(df).map_err(|e| format_err(path, e)),
+    }
+}
+
+/// Reads the session table at `path` in batches of at most `batch_rows` rows, validated
+/// as [`super::read_session`] does, and hands each to `each`. Returns the row count.
+pub fn for_each_batch(
+    path: &Path,
+    batch_rows: usize,
+    each: &mut dyn FnMut(&[SessionRow]) -> Result<(), TableError>,
+) -> Result<u64, TableError> {
+    let batch_rows = batch_rows.max(1);
+    let io = |source| TableError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = File::open(path).map_err(io)?;
+    let mut total = 0u64;
+    if is_parquet(path)? {
+        let mut reader = ParquetReader::new(file);
+        let n = reader.num_rows().map_err(|e| format_err(path, e))?;
+        let mut offset = 0;
+        while offset < n {
+            let len = batch_rows.min(n - offset);
+            let file = File::open(path).map_err(io)?;
+            let df = ParquetReader::new(file)
+                .with_slice(Some((offset, len)))
+                .finish()
+                .map_err(|e| format_err(path, e))?;
+            let rows = frame_rows(path, &df, offset)?;
+            each(&rows)?;
+            total += rows.len() as u64;
+            offset += len;
+        }
+        return Ok(total);
+    }
+    let mut lines = BufReader::with_capacity(1 << 20, file);
+    let mut header = String::new();
+    if lines.read_line(&mut header).map_err(io)? == 0 {
+        return Err(format_err(path, "empty file: no header"));
+    }
+    if !header.ends_with('\n') {
+        header.push('\n');
+    }
+    let mut chunk = header.clone().into_bytes();
+    let mut in_chunk = 0usize;
+    let mut offset = 0usize;
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        let got = lines.read_until(b'\n', &mut line).map_err(io)?;
+        if got > 0 && !line.iter().all(u8::is_ascii_whitespace) {
+            chunk.extend_from_slice(&line);
+            if !line.ends_with(b"\n") {
+                chunk.push(b'\n');
+            }
+            in_chunk += 1;
+        }
+        if in_chunk > 0 && (got == 0 || in_chunk >= batch_rows) {
+            let df = CsvReadOptions::default()
+                .with_has_header(true)
+                .with_infer_schema_length(Some(0))
+                .into_reader_with_file_handle(std::io::Cursor::new(std::mem::take(&mut chunk)))
+                .finish()
+                .map_err(|e| format_err(path, e))?;
+            let rows = frame_rows(path, &df, offset)?;
+            each(&rows)?;
+            total += rows.len() as u64;
+            offset += in_chunk;
+            in_chunk = 0;
+            chunk = header.clone().into_bytes();
+        }
+        if got == 0 {
+            break;
+        }
+    }
+    if total == 0 {
+        // Same as read_session: a header alone is a table of no rows; let the columns be
+        // checked on the empty frame.
+        let df = CsvReadOptions::default()
+            .with_has_header(true)
+            .with_infer_schema_length(Some(0))
+            .into_reader_with_file_handle(std::io::Cursor::new(header.into_bytes()))
+            .finish()
+            .map_err(|e| format_err(path, e))?;
+        frame_rows(path, &df, 0)?;
+    }
+    Ok(total)
+}
