@@ -7,9 +7,10 @@
 //! 5 runs out and back. Block `k` measures the line (y, z) = (25·(k mod 8), 25·(⌊k/8⌋ mod 4)) mm
 //! with the controller-timing seed `seed + k`, so a long capture revisits 32 lines and
 //! every (line, target) group keeps growing — what a day-long drift test looks like to the
-//! reduction. The blocks are concatenated on the wire as a board that is power-cycled
-//! between lines would send them: each starts with its HELLO and its own sequence
-//! numbers and clock, which the decoder reports as seq gaps and a new origin.
+//! reduction. The blocks are joined on the wire as one board running for the whole day
+//! would send them: one HELLO at the start, and after it every frame re-encoded with the
+//! sequence number, clock, sample counter and run number continuing from the block
+//! before — so `(run, sample)` stays unique in the session, as `session-table.md` requires.
 //!
 //! The truth is a smooth, known error field (a linear scale error plus a line-dependent
 //! offset), e(x, y, z) = 1 µm/m·x + 0.02·y + 0.01·z µm (x, y, z in mm), so the error table
@@ -19,7 +20,7 @@
 
 use std::io::{self, Write};
 
-use crate::frame::Axis;
+use crate::frame::{Axis, Frame, Parsed, encode, parse_frame};
 use crate::sim::{Device, Faults, Plan, Truth, TruthQuery, simulate};
 
 /// The known error field of generated captures, µm at (x, y, z) mm.
@@ -76,16 +77,58 @@ pub fn write_long_capture<W: Write>(
         blocks: 0,
         samples: 0,
     };
+    let bad = |e: String| io::Error::new(io::ErrorKind::InvalidData, e);
+    let (mut seq, mut sample_off, mut run_off, mut t_off) = (0u16, 0u32, 0u16, 0u64);
     while done.bytes < min_bytes {
         let plan = block_plan(done.blocks, seed, sample_hz);
         let stream = simulate(&plan, &device, &Faults::default(), &mut Field)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        let (mut last_index, mut last_t) = (0u32, 0u64);
         for f in &stream.frames {
-            out.write_all(&f.bytes)?;
-            done.bytes += f.bytes.len() as u64;
+            let Parsed::Frame { mut frame, .. } = parse_frame(&f.bytes) else {
+                return Err(bad("the simulated board wrote an invalid frame".into()));
+            };
+            match &mut frame {
+                Frame::Hello(_) if done.blocks > 0 => continue,
+                Frame::Hello(_) => {}
+                Frame::Sample(x) => {
+                    last_index = last_index.max(x.index);
+                    x.index += sample_off;
+                    last_t = last_t.max(x.t_us);
+                    x.t_us += t_off;
+                }
+                Frame::Mark(m) => {
+                    if m.run > 0 {
+                        m.run += run_off;
+                    }
+                    last_t = last_t.max(m.t_us);
+                    m.t_us += t_off;
+                }
+                Frame::Env(e) => {
+                    last_t = last_t.max(e.t_us);
+                    e.t_us += t_off;
+                }
+                Frame::Material(m) => {
+                    last_t = last_t.max(m.t_us);
+                    m.t_us += t_off;
+                }
+                Frame::RawAb(r) => {
+                    last_t = last_t.max(r.t_us);
+                    r.t_us += t_off;
+                }
+                _ => {}
+            }
+            let bytes = encode(&frame, seq).map_err(|e| bad(e.to_string()))?;
+            seq = seq.wrapping_add(1);
+            out.write_all(&bytes)?;
+            done.bytes += bytes.len() as u64;
         }
         done.samples += stream.truth.iter().filter(|t| t.sent).count() as u64;
         done.blocks += 1;
+        sample_off += last_index + 1;
+        run_off += plan.runs as u16;
+        // The next line starts a second after this one ended, on the same clock.
+        t_off += last_t + 1_000_000;
     }
     out.flush()?;
     Ok(done)
