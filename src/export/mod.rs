@@ -466,22 +466,8 @@ pub fn sample_line(
     line: &LineSpec,
     extrapolation: Extrapolation,
 ) -> Result<Sampled, ExportError> {
-    for axis in Axis::ALL {
-        let value = line.at_mm[axis.index()];
-        if axis != line.axis && !value.is_finite() {
-            return Err(ExportError::NonFiniteCoordinate { axis, value });
-        }
-    }
-    let positions_mm = line.positions()?;
-    let points: Vec<[f64; 3]> = positions_mm.iter().map(|&x| line.point(x)).collect();
-    let (error_um, extrapolated) = evaluate(model, &points, extrapolation)?;
-    Ok(Sampled {
-        axis: line.axis,
-        at_mm: line.at_mm,
-        positions_mm,
-        error_um,
-        extrapolated,
-    })
+    // The step must divide the range: the placement rule of `step::StepFit::Divide`.
+    step::sample_line_fit(model, line, step::StepFit::Divide, extrapolation)
 }
 
 /// Samples the model over a box ([`grid::render`]) and writes
