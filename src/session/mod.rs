@@ -41,7 +41,8 @@ use polars::prelude::*;
 
 use crate::base::Axis;
 use crate::table::{
-    Cells, TableError, column_cells, parse_cell, read_frame, required_cell, write_frame,
+    Cells, TableError, column_cells, optional_column_cells, parse_cell, read_frame, required_cell,
+    write_frame,
 };
 
 /// Writes a session table (CSV or Parquet by extension) with the spec's columns.
@@ -216,12 +217,7 @@ fn frame_rows_at(path: &Path, df: &DataFrame) -> Result<Vec<SessionRow>, TableEr
         .collect::<Result<Vec<_>, _>>()?;
     let optional: Vec<Option<Cells>> = OPTIONAL
         .iter()
-        .map(|c| {
-            df.column(c)
-                .ok()
-                .map(|_| column_cells(path, df, c))
-                .transpose()
-        })
+        .map(|c| optional_column_cells(path, df, c))
         .collect::<Result<_, _>>()?;
     let mut rows = Vec::with_capacity(df.height());
     // (run, sample) → the 0-based row that first had it.

@@ -83,6 +83,19 @@ pub(crate) enum Cells {
     Number(Vec<Option<f64>>),
 }
 
+/// A column's cells when the frame has the column, `None` when it does not (optional
+/// columns); a column that is there but unreadable is an error as in [`column_cells`].
+pub(crate) fn optional_column_cells(
+    path: &Path,
+    df: &DataFrame,
+    name: &str,
+) -> Result<Option<Cells>, TableError> {
+    df.column(name)
+        .ok()
+        .map(|_| column_cells(path, df, name))
+        .transpose()
+}
+
 pub(crate) fn column_cells(path: &Path, df: &DataFrame, name: &str) -> Result<Cells, TableError> {
     let col = df
         .column(name)

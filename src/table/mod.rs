@@ -73,7 +73,9 @@ mod output;
 mod structure;
 
 pub use error::{MISSING_LISTED, TableError};
-pub(crate) use frame::{Cells, column_cells, format_err, is_parquet, parse_cell, required_cell};
+pub(crate) use frame::{
+    Cells, column_cells, format_err, is_parquet, optional_column_cells, parse_cell, required_cell,
+};
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};
 pub use output::{check_finite, write_atomically};
@@ -132,16 +134,8 @@ impl ErrorTable {
                 path: path.to_path_buf(),
             });
         }
-        let n_cells = df
-            .column("n")
-            .ok()
-            .map(|_| column_cells(path, df, "n"))
-            .transpose()?;
-        let s_cells = df
-            .column("s_um")
-            .ok()
-            .map(|_| column_cells(path, df, "s_um"))
-            .transpose()?;
+        let n_cells = optional_column_cells(path, df, "n")?;
+        let s_cells = optional_column_cells(path, df, "s_um")?;
         let mut points = Vec::with_capacity(rows);
         for r in 0..rows {
             let mut v = [0.0, 0.0, 0.0, f64::NAN];

@@ -18,7 +18,8 @@ use polars::prelude::*;
 use super::error::VolumetricError;
 use super::model::dot;
 use crate::table::{
-    Cells, TableError, column_cells, format_err, parse_cell, read_frame, required_cell, write_frame,
+    Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
+    required_cell, write_frame,
 };
 
 /// Tolerance on |u| − 1 and on the agreement of u between rows of a line.
@@ -132,12 +133,7 @@ impl LineTable {
         };
         let opt: Vec<Option<Cells>> = OPTIONAL
             .iter()
-            .map(|c| {
-                df.column(c)
-                    .ok()
-                    .map(|_| column_cells(path, df, c))
-                    .transpose()
-            })
+            .map(|c| optional_column_cells(path, df, c))
             .collect::<Result<_, _>>()?;
         if df.height() == 0 {
             return Err(TableError::Empty {
