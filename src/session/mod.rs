@@ -143,7 +143,7 @@ fn axis_cell(path: &Path, cells: &Cells, row0: usize) -> Result<WireAxis, TableE
 /// reads it in bounded memory).
 pub fn read_session(path: &Path) -> Result<Vec<SessionRow>, TableError> {
     let df = read_frame(path)?;
-    frame_rows(path, &df, 0)
+    frame_rows(path, &df, 0, &mut SampleSet::default())
 }
 
 /// Row `r` of a frame that starts at data row `first` of the file (0-based): errors name
@@ -205,12 +205,23 @@ fn shifted(e: TableError, first: usize) -> TableError {
 }
 
 /// The validated rows of a session-table frame whose first row is data row `first`
-/// (0-based) of the file.
-fn frame_rows(path: &Path, df: &DataFrame, first: usize) -> Result<Vec<SessionRow>, TableError> {
-    frame_rows_at(path, df).map_err(|e| shifted(e, first))
+/// (0-based) of the file; `seen` holds the (run, sample) pairs of the file's earlier
+/// rows, so a repeat is found across the batches of a streamed read too.
+fn frame_rows(
+    path: &Path,
+    df: &DataFrame,
+    first: usize,
+    seen: &mut SampleSet,
+) -> Result<Vec<SessionRow>, TableError> {
+    frame_rows_at(path, df, first, seen).map_err(|e| shifted(e, first))
 }
 
-fn frame_rows_at(path: &Path, df: &DataFrame) -> Result<Vec<SessionRow>, TableError> {
+fn frame_rows_at(
+    path: &Path,
+    df: &DataFrame,
+    first: usize,
+    seen: &mut SampleSet,
+) -> Result<Vec<SessionRow>, TableError> {
     let cells = REQUIRED
         .iter()
         .map(|c| column_cells(path, df, c))
@@ -220,9 +231,6 @@ fn frame_rows_at(path: &Path, df: &DataFrame) -> Result<Vec<SessionRow>, TableEr
         .map(|c| optional_column_cells(path, df, c))
         .collect::<Result<_, _>>()?;
     let mut rows = Vec::with_capacity(df.height());
-    // (run, sample) → the 0-based row that first had it.
-    let mut seen: std::collections::HashMap<(u32, i64), usize> =
-        std::collections::HashMap::with_capacity(df.height());
     for r in 0..df.height() {
         let req = |k: usize| required_cell(path, &cells[k], r, REQUIRED[k]);
         let opt = |k: usize| parse_cell(path, &cells[k], r, REQUIRED[k]);
@@ -260,12 +268,13 @@ fn frame_rows_at(path: &Path, df: &DataFrame) -> Result<Vec<SessionRow>, TableEr
         let run =
             u32::try_from(run).map_err(|_| bad(path, r, "run", format!("{run} is negative")))?;
         let sample = integer(path, req(1)?, r, "sample")?;
-        if let Some(first) = seen.insert((run, sample), r) {
+        // The file's rows, not the frame's (`shifted` leaves this error as it is).
+        if let Some(earlier) = seen.insert(run, sample, first + r) {
             return Err(TableError::DuplicateSample {
                 path: path.to_path_buf(),
-                row: r + 1,
-                line: r + 2,
-                first_row: first + 1,
+                row: first + r + 1,
+                line: first + r + 2,
+                first_row: earlier + 1,
                 run,
                 sample,
             });
@@ -325,4 +334,59 @@ fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableE
         }
     }
     Ok(())
+}
+
+/// The (run, sample) pairs seen so far, as intervals of consecutive samples on
+/// consecutive rows: a capture's rows take one interval per run (and one more per hole in
+/// the counter), whatever the session's length.
+#[derive(Debug, Default)]
+pub(crate) struct SampleSet {
+    /// Per run, disjoint intervals sorted by their first sample: (first sample, last
+    /// sample, the 0-based row of the first).
+    runs: std::collections::HashMap<u32, Vec<(i64, i64, usize)>>,
+}
+
+impl SampleSet {
+    /// Adds `(run, sample)` read at 0-based row `row`; the row that had it before, if any.
+    fn insert(&mut self, run: u32, sample: i64, row: usize) -> Option<usize> {
+        let v = self.runs.entry(run).or_default();
+        let i = v.partition_point(|iv| iv.0 <= sample);
+        if i > 0 {
+            let (lo, hi, row_lo) = v[i - 1];
+            if sample <= hi {
+                return Some(row_lo + (sample - lo) as usize);
+            }
+            let next_free = v.get(i).is_none_or(|n| n.0 > sample);
+            if sample == hi + 1 && row == row_lo + (sample - lo) as usize && next_free {
+                v[i - 1].1 = sample;
+                return None;
+            }
+        }
+        v.insert(i, (sample, sample, row));
+        None
+    }
+}
+
+#[cfg(test)]
+mod sample_set_tests {
+    use super::SampleSet;
+
+    #[test]
+    fn repeats_are_found_with_the_row_that_had_them_first() {
+        let mut s = SampleSet::default();
+        for (k, sample) in (0..1000).enumerate() {
+            assert_eq!(s.insert(1, sample, k), None);
+        }
+        assert_eq!(s.runs[&1].len(), 1, "one interval for consecutive rows");
+        assert_eq!(s.insert(2, 5, 1000), None, "another run");
+        assert_eq!(s.insert(1, 1010, 1001), None, "a hole");
+        assert_eq!(s.insert(1, 500, 1002), Some(500));
+        assert_eq!(s.insert(1, 1010, 1003), Some(1001));
+        assert_eq!(s.insert(2, 5, 1004), Some(1000));
+        // Out of order: still exact.
+        assert_eq!(s.insert(3, 9, 1005), None);
+        assert_eq!(s.insert(3, 8, 1006), None);
+        assert_eq!(s.insert(3, 9, 1007), Some(1005));
+        assert_eq!(s.insert(3, 8, 1008), Some(1006));
+    }
 }

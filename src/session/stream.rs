@@ -38,7 +38,7 @@ use std::io::Write;
 use polars::io::parquet::write::BatchedWriter as ParquetBatched;
 use polars::prelude::*;
 
-use super::{frame_rows, session_frame};
+use super::{SampleSet, frame_rows, session_frame};
 use crate::table::{TableError, format_err, is_parquet};
 
 /// Rows per batch (and per Parquet row group) of the streaming writer and reader.
@@ -203,21 +203,6 @@ pub fn for_each_batch(
     // (run, sample) unique across batches too, in memory bounded by the holes in the
     // sample counters rather than by the rows.
     let mut seen = SampleSet::default();
-    let mut each = |rows: &[SessionRow], first: usize| -> Result<(), TableError> {
-        for (k, r) in rows.iter().enumerate() {
-            if let Some(earlier) = seen.insert(r.run, r.sample, first + k) {
-                return Err(TableError::DuplicateSample {
-                    path: path.to_path_buf(),
-                    row: first + k + 1,
-                    line: first + k + 2,
-                    first_row: earlier + 1,
-                    run: r.run,
-                    sample: r.sample,
-                });
-            }
-        }
-        each(rows)
-    };
     let file = File::open(path).map_err(io)?;
     let mut total = 0u64;
     if parquet {
@@ -231,8 +216,8 @@ pub fn for_each_batch(
                 .with_slice(Some((offset, len)))
                 .finish()
                 .map_err(|e| format_err(path, e))?;
-            let rows = frame_rows(path, &df, offset)?;
-            each(&rows, offset)?;
+            let rows = frame_rows(path, &df, offset, &mut seen)?;
+            each(&rows)?;
             total += rows.len() as u64;
             offset += len;
         }
@@ -267,8 +252,8 @@ pub fn for_each_batch(
                 .into_reader_with_file_handle(std::io::Cursor::new(std::mem::take(&mut chunk)))
                 .finish()
                 .map_err(|e| format_err(path, e))?;
-            let rows = frame_rows(path, &df, offset)?;
-            each(&rows, offset)?;
+            let rows = frame_rows(path, &df, offset, &mut seen)?;
+            each(&rows)?;
             total += rows.len() as u64;
             offset += in_chunk;
             in_chunk = 0;
@@ -287,62 +272,7 @@ pub fn for_each_batch(
             .into_reader_with_file_handle(std::io::Cursor::new(header.into_bytes()))
             .finish()
             .map_err(|e| format_err(path, e))?;
-        frame_rows(path, &df, 0)?;
+        frame_rows(path, &df, 0, &mut SampleSet::default())?;
     }
     Ok(total)
-}
-
-/// The (run, sample) pairs seen so far, as intervals of consecutive samples on
-/// consecutive rows: a capture's rows take one interval per run (and one more per hole in
-/// the counter), whatever the session's length.
-#[derive(Debug, Default)]
-struct SampleSet {
-    /// Per run, disjoint intervals sorted by their first sample: (first sample, last
-    /// sample, the 0-based row of the first).
-    runs: std::collections::HashMap<u32, Vec<(i64, i64, usize)>>,
-}
-
-impl SampleSet {
-    /// Adds `(run, sample)` read at 0-based row `row`; the row that had it before, if any.
-    fn insert(&mut self, run: u32, sample: i64, row: usize) -> Option<usize> {
-        let v = self.runs.entry(run).or_default();
-        let i = v.partition_point(|iv| iv.0 <= sample);
-        if i > 0 {
-            let (lo, hi, row_lo) = v[i - 1];
-            if sample <= hi {
-                return Some(row_lo + (sample - lo) as usize);
-            }
-            let next_free = v.get(i).is_none_or(|n| n.0 > sample);
-            if sample == hi + 1 && row == row_lo + (sample - lo) as usize && next_free {
-                v[i - 1].1 = sample;
-                return None;
-            }
-        }
-        v.insert(i, (sample, sample, row));
-        None
-    }
-}
-
-#[cfg(test)]
-mod sample_set_tests {
-    use super::SampleSet;
-
-    #[test]
-    fn repeats_are_found_with_the_row_that_had_them_first() {
-        let mut s = SampleSet::default();
-        for (k, sample) in (0..1000).enumerate() {
-            assert_eq!(s.insert(1, sample, k), None);
-        }
-        assert_eq!(s.runs[&1].len(), 1, "one interval for consecutive rows");
-        assert_eq!(s.insert(2, 5, 1000), None, "another run");
-        assert_eq!(s.insert(1, 1010, 1001), None, "a hole");
-        assert_eq!(s.insert(1, 500, 1002), Some(500));
-        assert_eq!(s.insert(1, 1010, 1003), Some(1001));
-        assert_eq!(s.insert(2, 5, 1004), Some(1000));
-        // Out of order: still exact.
-        assert_eq!(s.insert(3, 9, 1005), None);
-        assert_eq!(s.insert(3, 8, 1006), None);
-        assert_eq!(s.insert(3, 9, 1007), Some(1005));
-        assert_eq!(s.insert(3, 8, 1008), Some(1006));
-    }
 }

@@ -76,6 +76,38 @@ fn a_parquet_table_in_many_row_groups_reads_back_row_for_row_in_batches() {
     }
 }
 
+/// A repeated (run, sample) inside a later batch, or across two batches, names the
+/// file's rows, as the whole-table read does (regression: within a batch the rows used to
+/// be counted from the batch's start).
+#[test]
+fn a_repeated_sample_in_a_batched_read_names_the_files_rows() {
+    let (rows, _, _) = decode_all(&capture(1));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("t.csv");
+    // Data row 300 (0-based 299) repeats data row 290 (same batch of 64: rows 257–320),
+    // data row 400 repeats data row 10 (an earlier batch).
+    for (copy, of) in [(299usize, 289usize), (399, 9)] {
+        let mut damaged = rows[..500].to_vec();
+        damaged[copy].run = damaged[of].run;
+        damaged[copy].sample = damaged[of].sample;
+        write_session(&p, &damaged).expect("write");
+        let e = for_each_batch(&p, 64, &mut |_| Ok(())).expect_err("repeat");
+        match &e {
+            TableError::DuplicateSample {
+                row,
+                line,
+                first_row,
+                ..
+            } => assert_eq!((*row, *line, *first_row), (copy + 1, copy + 2, of + 1)),
+            other => panic!("unexpected error {other}"),
+        }
+        assert_eq!(
+            read_session(&p).expect_err("repeat").to_string(),
+            e.to_string()
+        );
+    }
+}
+
 #[test]
 fn a_bad_cell_deep_in_a_batched_read_names_the_files_row_and_line() {
     let (rows, _, _) = decode_all(&capture(1));
