@@ -28,11 +28,15 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SimError + '
     }
 }
 
-/// Reads a TOML file into `T`; unknown keys are refused where `T` says so.
+/// Reads a simulator TOML file (a machine model, a plan) into `T`: read once, unknown
+/// keys refused where `T` says so, then every number checked against its physical range
+/// ([`super::bounds`]).
 pub(crate) fn read_toml<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, SimError> {
     let text = std::fs::read_to_string(path).map_err(io_err(path))?;
-    toml::from_str(&text).map_err(|e| SimError::Config {
+    let value = toml::from_str(&text).map_err(|e| SimError::Config {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })
+    })?;
+    super::bounds::check_numbers(path, &text)?;
+    Ok(value)
 }

@@ -365,13 +365,7 @@ fn config_err(path: &Path, message: impl Into<String>) -> SimError {
 impl MachineModel {
     /// Reads a model file; table paths are made relative to the file's directory.
     pub fn read(path: &Path) -> Result<Self, SimError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let mut m: MachineModel =
-            toml::from_str(&text).map_err(|e| config_err(path, e.to_string()))?;
-        super::bounds::check_numbers(path, &text)?;
+        let mut m: MachineModel = super::error::read_toml(path)?;
         if let Some(map) = &mut m.error_map
             && map.table.is_relative()
         {
