@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use super::basis::Basis;
+use super::campaign;
 use super::error::VolumetricError;
 use super::identifiability::suggest;
 use super::lines::LineTable;
@@ -197,6 +198,7 @@ pub struct Identification {
 }
 
 /// The centred, weighted design of a line table under a basis.
+#[derive(Clone)]
 pub(crate) struct Design {
     /// Equilibrated, centred, weighted rows (rows × params).
     pub a: DMatrix<f64>,
@@ -552,7 +554,42 @@ pub fn identify(
         }
         None => (None, None),
     };
-    let solved = joint.unwrap_or(plain);
+    // The campaign's own terms (a drift, a bad line) on top of the 21 errors and α.
+    let thermal_kept = thermal
+        .as_ref()
+        .filter(|t| t.kept)
+        .and(thermal_col.as_ref())
+        .and_then(|c| augment(&d, &c.centred));
+    let chosen = campaign::select(table, &row_w, thermal_kept.as_ref().unwrap_or(&d));
+    let mut extra = None;
+    if !chosen.is_empty() {
+        let mut dd = thermal_kept.unwrap_or_else(|| d.clone());
+        let first = dd.a.ncols();
+        for c in &chosen {
+            if let Some(next) = augment(&dd, &c.col) {
+                dd = next;
+            }
+        }
+        if dd.a.ncols() == first + chosen.len()
+            && let Ok(s) = solve(&dd, n_lines)
+        {
+            extra = Some((first, s));
+        }
+    }
+    let (solved, campaign_effects) = match extra {
+        Some((first, s)) => {
+            let effects: Vec<_> = chosen
+                .iter()
+                .enumerate()
+                .map(|(k, c)| {
+                    let j = first + k;
+                    campaign::effect(table, c, s.theta[j], s.cov[(j, j)].max(0.0).sqrt())
+                })
+                .collect();
+            (s, effects)
+        }
+        None => (joint.unwrap_or(plain), Vec::new()),
+    };
     let n = basis.n_params();
     let theta = solved.theta[..n].to_vec();
     let covariance: Vec<Vec<f64>> = (0..n)
@@ -591,6 +628,11 @@ pub fn identify(
         .and_then(thermal::effect)
     {
         residual.effects.insert(0, e);
+        residual.verdict = "missing_physics".into();
+    }
+    if !campaign_effects.is_empty() {
+        let at = usize::from(thermal.as_ref().is_some_and(|t| t.kept));
+        residual.effects.splice(at..at, campaign_effects);
         residual.verdict = "missing_physics".into();
     }
     Ok(Identification {

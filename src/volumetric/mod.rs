@@ -75,8 +75,10 @@
 //! noise: with `s_um` on every row, the weighted χ² against its degrees of freedom
 //! (Wilson–Hilferty z); without, the lag-1 autocorrelation of the residuals along each
 //! line (z = ρ·√n). z > 3.09 (one-sided p < 0.001) adds an `unexplained` effect and
-//! makes the verdict `missing_physics`; otherwise the residual is `consistent`. A drift
-//! in time or a single bad line is not yet named or fitted (it shows as `unexplained`).
+//! makes the verdict `missing_physics`; otherwise the residual is `consistent`. Before
+//! that test, a drift of the readings in time (`thermal_drift`) and a single line whose
+//! readings scale against the others (`scale_factor`, the line named) are searched for,
+//! and fitted jointly with the 21 errors when significant ([`campaign`]).
 //!
 //! # References
 //!
@@ -86,6 +88,7 @@
 //! measurement error along lines).
 
 pub mod basis;
+pub mod campaign;
 pub mod compensation;
 pub mod degree;
 mod error;

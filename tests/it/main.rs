@@ -21,6 +21,7 @@ mod tables;
 mod testplan;
 mod uncertainty;
 mod volumetric;
+mod volumetric_campaign;
 mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_thermal;

@@ -152,9 +152,18 @@ fn ignoring_the_temperature_would_bias_the_positioning_components() {
     let id = identify(&table, &cfg).expect("identify");
     assert!(id.thermal.is_none());
     assert_eq!(id.residual.verdict, "missing_physics");
-    assert_eq!(id.residual.effects.len(), 1);
-    assert_eq!(id.residual.effects[0].id, "unexplained");
-    assert!(id.residual.effects[0].explains_um > 0.3);
+    // What the warming leaves is not one bad line (every line scales, more as the hours
+    // pass); a drift in time may take part of it, but not all: the rest stays
+    // `unexplained`, and no line is blamed.
+    let ids: Vec<&str> = id.residual.effects.iter().map(|e| e.id.as_str()).collect();
+    assert!(!ids.contains(&"scale_factor"), "{ids:?}");
+    let rest = id
+        .residual
+        .effects
+        .iter()
+        .find(|e| e.id == "unexplained")
+        .expect("unexplained");
+    assert!(rest.explains_um > 0.3);
 }
 
 #[test]
