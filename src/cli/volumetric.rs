@@ -16,6 +16,9 @@ use errmap::volumetric::{
 pub enum VolumetricCommand {
     /// Simulate a laser campaign: a line table from a machine model and a plan.
     Simulate(SimulateArgs),
+    /// A line table from captured sessions: every (line position, run, direction) of an
+    /// axis-parallel session becomes one line (`errmap::volumetric::from_session`).
+    Lines(LinesArgs),
     /// Identify the 21 geometric errors from a line table.
     Identify(IdentifyArgs),
     /// Predict along the lines of a table, or the error vector over a grid.
@@ -42,6 +45,20 @@ pub struct SimulateArgs {
     /// The line table to write (.csv or .parquet).
     #[arg(long)]
     pub out: PathBuf,
+}
+
+#[derive(Debug, Args)]
+pub struct LinesArgs {
+    /// Session tables (CSV/Parquet) or capture directories, one axis each; the line
+    /// positions come from the sessions' MARK frames.
+    #[arg(required = true)]
+    pub sessions: Vec<PathBuf>,
+    /// The line table to write (.csv or .parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Probe (retroreflector) offset of every line, mm: PX,PY,PZ.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub probe: String,
 }
 
 #[derive(Debug, Args)]
@@ -134,10 +151,66 @@ pub enum AxisTableFormat {
 pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
     match a.command {
         VolumetricCommand::Simulate(a) => simulate_cmd(a),
+        VolumetricCommand::Lines(a) => lines_cmd(a),
         VolumetricCommand::Identify(a) => identify_cmd(a),
         VolumetricCommand::Predict(a) => predict_cmd(a),
         VolumetricCommand::Export(a) => export_cmd(a),
     }
+}
+
+fn lines_cmd(a: LinesArgs) -> Result<()> {
+    let probe = parse_probe(&a.probe)?;
+    let files: Vec<PathBuf> = a
+        .sessions
+        .iter()
+        .map(|p| super::acquisition::session_file(p))
+        .collect::<Result<_>>()?;
+    let inputs: Vec<(&str, &Path)> = files.iter().map(|f| ("SESSION", f.as_path())).collect();
+    super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let mut acc = errmap::volumetric::from_session::SessionLines::new();
+    for f in &files {
+        errmap::session::stream::for_each_batch(f, 1 << 16, &mut |rows| {
+            rows.iter().for_each(|r| acc.push(r));
+            Ok(())
+        })?;
+    }
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    let (table, conv) = acc.finish(&names.join(", "), probe);
+    if table.lines.is_empty() {
+        bail!(
+            "{}: no line with at least 3 targets ({} rows, {} dwelling, {} flagged, {} without \
+             the line position of a MARK)",
+            names.join(", "),
+            conv.rows,
+            conv.dwell_rows,
+            conv.flagged,
+            conv.no_line
+        );
+    }
+    table.write(&a.out)?;
+    eprintln!(
+        "volumetric lines: {} lines, {} targets from {} rows of {} → {}",
+        conv.lines,
+        table.targets(),
+        conv.rows,
+        names.join(", "),
+        a.out.display()
+    );
+    if conv.flagged > 0 || conv.no_line > 0 || !conv.short_passes.is_empty() {
+        eprintln!(
+            "  left out: {} flagged dwell rows, {} dwell rows without a line position, {} passes \
+             with fewer than 3 targets{}",
+            conv.flagged,
+            conv.no_line,
+            conv.short_passes.len(),
+            if conv.short_passes.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", conv.short_passes.join(", "))
+            }
+        );
+    }
+    Ok(())
 }
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {

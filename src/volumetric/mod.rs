@@ -92,6 +92,7 @@ pub mod campaign;
 pub mod compensation;
 pub mod degree;
 mod error;
+pub mod from_session;
 pub mod identifiability;
 pub mod identify;
 pub mod lines;

@@ -184,3 +184,124 @@ fn rigid_campaigns_name_no_drift_and_no_bad_line() {
     }
     assert!(alarms.is_empty(), "{alarms:#?}");
 }
+
+/// A captured session becomes a line table (`errmap volumetric lines`): one line per
+/// (line position, run, direction), each target's position and error the mean of its
+/// unflagged dwell samples — checked against the session's rows grouped here by hand —
+/// and the table is one `identify` reads.
+#[test]
+fn a_captured_session_becomes_a_line_table() {
+    use std::collections::BTreeMap;
+    let session = "datasets/physics/example-session.parquet";
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("lines.csv");
+    let o = super::volumetric::errmap(&[
+        "volumetric",
+        "lines",
+        session,
+        "--out",
+        out.to_str().expect("utf-8"),
+        "--probe",
+        "0,0,-50",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = LineTable::read(&out, true).expect("a valid line table");
+    let rows = errmap::session::read_session(&Path::new(env!("CARGO_MANIFEST_DIR")).join(session))
+        .expect("session");
+    // By hand: (y, z, run, direction, target) → (Σ error, Σ scale, n).
+    let mut by_hand: BTreeMap<(i64, i64, u32, i8, i32), (f64, f64, usize)> = BTreeMap::new();
+    for r in rows
+        .iter()
+        .filter(|r| r.target >= 0 && r.run > 0 && r.direction != 0 && r.flags == 0)
+    {
+        let key = (
+            (r.y_mm.expect("y") * 1e3).round() as i64,
+            (r.z_mm.expect("z") * 1e3).round() as i64,
+            r.run,
+            r.direction,
+            r.target,
+        );
+        let e = by_hand.entry(key).or_default();
+        e.0 += r.error_um;
+        e.1 += r.scale_mm;
+        e.2 += 1;
+    }
+    let passes: std::collections::BTreeSet<_> =
+        by_hand.keys().map(|k| (k.0, k.1, k.2, k.3)).collect();
+    assert_eq!(table.lines.len(), passes.len());
+    assert_eq!(table.targets(), by_hand.len());
+    let mut matched = 0;
+    for line in &table.lines {
+        assert_eq!(line.u, [1.0, 0.0, 0.0], "{}", line.id);
+        assert_eq!(line.probe_mm, [0.0, 0.0, -50.0]);
+        let dir: i8 = if line.id.ends_with('+') { 1 } else { -1 };
+        let run: u32 = line.id.split('#').nth(1).expect("run")[..1]
+            .parse()
+            .expect("run number");
+        // In the order of travel.
+        let xs: Vec<f64> = line.targets.iter().map(|t| t.pos_mm[0]).collect();
+        assert!(
+            xs.windows(2).all(|w| (w[1] - w[0]) * f64::from(dir) > 0.0),
+            "{}: {xs:?}",
+            line.id
+        );
+        for t in &line.targets {
+            let (y, z) = (
+                (t.pos_mm[1] * 1e3).round() as i64,
+                (t.pos_mm[2] * 1e3).round() as i64,
+            );
+            let hit = by_hand
+                .iter()
+                .filter(|(k, v)| {
+                    k.0 == y
+                        && k.1 == z
+                        && k.2 == run
+                        && k.3 == dir
+                        && (v.1 / v.2 as f64 - t.pos_mm[0]).abs() < 1e-9
+                })
+                .map(|(_, v)| v.0 / v.2 as f64)
+                .collect::<Vec<_>>();
+            assert_eq!(hit.len(), 1, "{} at {:?}", line.id, t.pos_mm);
+            assert!((hit[0] - t.e_um.expect("e")).abs() < 1e-9);
+            assert!(t.s_um.is_none() && t.t_s.is_some());
+            matched += 1;
+        }
+    }
+    assert_eq!(matched, by_hand.len());
+    // The same table feeds identify: lines along X alone determine E_XX, not E_XY.
+    let o = super::volumetric::errmap(&[
+        "volumetric",
+        "identify",
+        out.to_str().expect("utf-8"),
+        "--topology",
+        "YXZ",
+        "--degree",
+        "3",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value = serde_json::from_slice(&o.stdout).expect("json");
+    assert_eq!(doc["components"]["E_XX"]["identified"], true);
+    assert_eq!(doc["components"]["E_XY"]["identified"], false);
+    // A session without dwell rows on a line position is refused, naming the file.
+    let empty = dir.path().join("empty.csv");
+    std::fs::write(
+        &empty,
+        "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um\n\
+         0,1,0.0,X,0,,-1,0.0,,,0.0,0.0,0.0\n",
+    )
+    .expect("write");
+    let o = super::volumetric::errmap(&[
+        "volumetric",
+        "lines",
+        empty.to_str().expect("utf-8"),
+        "--out",
+        dir.path().join("x.csv").to_str().expect("utf-8"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("empty.csv") && err.contains("no line"),
+        "{err}"
+    );
+}
