@@ -209,7 +209,8 @@ fn a_captured_session_becomes_a_line_table() {
     let rows = errmap::session::read_session(&Path::new(env!("CARGO_MANIFEST_DIR")).join(session))
         .expect("session");
     // By hand: (y, z, run, direction, target) → (Σ error, Σ scale, n).
-    let mut by_hand: BTreeMap<(i64, i64, u32, i8, i32), (f64, f64, usize)> = BTreeMap::new();
+    type Dwell = (i64, i64, u32, i8, i32);
+    let mut by_hand: BTreeMap<Dwell, (f64, f64, usize)> = BTreeMap::new();
     for r in rows
         .iter()
         .filter(|r| r.target >= 0 && r.run > 0 && r.direction != 0 && r.flags == 0)
