@@ -116,9 +116,24 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         session_dir.display()
     );
 
-    eprintln!("errmap demo [2/6]: session → error table (+ ISO 230-2 report)");
+    eprintln!("errmap demo [2/6]: session → error table (+ ISO 230-2 report, certificate.pdf)");
     let errors = session_dir.join("errors.csv");
     acquisition::reduce_session(&session_dir, &errors, Some(&session_dir.join("iso230")))?;
+    // The session's calibration certificate, with the fictitious lab fields of the
+    // example info file (the machine named as the demo's).
+    let info = write_input(
+        &inputs,
+        "certificate-info.toml",
+        &include_str!("../../datasets/certificate/example-info.toml").replace(
+            "machine = \"Simulated CMM of datasets/physics, X axis\"",
+            "machine = \"errmap demo: simulated board (datasets/sim/machine.toml), X axis\"",
+        ),
+    )?;
+    super::certificate::certificate_cmd(super::certificate::CertificateArgs {
+        session: session_dir.clone(),
+        info: Some(info),
+        out: a.out.join("certificate.pdf"),
+    })?;
 
     eprintln!("errmap demo [3/6]: fit every method to the captured table, compare with the truth");
     let test = errmap::sim::truth_test_points(&truth, &errors, 40, 11)?;

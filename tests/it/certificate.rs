@@ -315,3 +315,67 @@ fn real_records_match_the_values_their_reports_print() -> TestResult {
     }
     Ok(())
 }
+
+/// The text of a PDF (`pdftotext -layout`), without the line naming the session file (a
+/// path that depends on where the command ran).
+fn pdf_text(pdf: &Path) -> Result<String, Box<dyn std::error::Error>> {
+    let t = Command::new("pdftotext")
+        .arg("-layout")
+        .arg(pdf)
+        .arg("-")
+        .output()?;
+    assert!(t.status.success(), "pdftotext {}", pdf.display());
+    Ok(String::from_utf8(t.stdout)?
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("Session "))
+        .collect::<Vec<_>>()
+        .join("\n"))
+}
+
+/// The committed example certificates are what today's code prints: regenerated with the
+/// commands of `reports/certificate/README.md`, their text equals the committed PDFs'
+/// (a change to the statistics, the budget or the layout must regenerate them).
+#[test]
+fn committed_certificates_are_not_stale() -> TestResult {
+    if !have("pdftotext") {
+        return Ok(());
+    }
+    let dir = tempfile::tempdir()?;
+    let mut cases = vec![(
+        "reports/certificate/example-session.pdf",
+        vec![
+            "datasets/physics/example-session.parquet".to_string(),
+            "--info".into(),
+            "datasets/certificate/example-info.toml".into(),
+        ],
+    )];
+    if let Some(p) = shared("psi-fat_sat.csv") {
+        cases.push((
+            "reports/certificate/psi-fat_sat.pdf",
+            vec![p.to_str().ok_or("utf8")?.to_string()],
+        ));
+    }
+    for (committed, args) in cases {
+        let out = dir.path().join("c.pdf");
+        let mut a: Vec<&str> = vec!["certificate"];
+        a.extend(args.iter().map(String::as_str));
+        a.extend(["--out", out.to_str().ok_or("utf8")?]);
+        let o = errmap(&a);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (now, then) = (pdf_text(&out)?, pdf_text(&root().join(committed))?);
+        if now != then {
+            let first = now
+                .lines()
+                .zip(then.lines())
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            panic!(
+                "{committed} is stale (regenerate it, reports/certificate/README.md); first \
+                 difference at text line {first}:\n now: {:?}\n committed: {:?}",
+                now.lines().nth(first),
+                then.lines().nth(first)
+            );
+        }
+    }
+    Ok(())
+}
