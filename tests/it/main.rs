@@ -7,6 +7,7 @@ mod certificate;
 mod cli;
 mod experiment;
 mod export;
+mod export_dialects;
 mod export_step;
 mod gp;
 mod interp;
