@@ -382,15 +382,15 @@ pub fn render(
         forward.len(),
         forward.extrapolated_count()
     ));
-    let bidirectional = match &t.reverse {
-        Some(r) => format!(
-            "3605#0=1 3626={} 3627={}",
-            r.negative_number, r.reference_value
+    let (bdp, negative) = match &t.reverse {
+        Some(r) => (
+            1,
+            format!(" 3626={} 3627={}", r.negative_number, r.reference_value),
         ),
-        None => "3605#0=0".into(),
+        None => (0, String::new()),
     };
     out.push_str(&format!(
-        "(PARAMETERS OF AXIS {}: {bidirectional} 3620={} 3621={} 3622={} 3623={} 3624={} MM)\n",
+        "(PARAMETERS OF AXIS {}: 3605#0={bdp} 3620={} 3621={} 3622={} 3623={} 3624={} MM{negative})\n",
         spec.axis_number,
         t.reference_number,
         t.negative_number,

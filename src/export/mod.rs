@@ -72,7 +72,7 @@ pub use heidenhain::HEIDENHAIN_MAX_POINTS;
 pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
 pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType, render as linuxcnc};
 pub use siemens::{SIEMENS_808D_MAX_POINTS, render as siemens};
-pub use step::{Ends, StepFit, sample_line_fit};
+pub use step::{Ends, StepFit, regrid_measured, sample_line_fit};
 
 /// errmap's own cap on sampled points per line or volume, so that a mistyped step cannot
 /// exhaust memory (a 2 000 000-point volume is about 100 MB in flight).

@@ -759,3 +759,162 @@ fn fanuc_grid_through_the_reference_from_a_model() {
     assert_eq!(t.interval_mm, 20.0);
     assert!((t.reference_error_um - truth_x(100.0)).abs() < 0.02);
 }
+
+// ---------------------------------------------------------------------------------------
+// `errmap export SESSION --bidirectional` in the new dialects
+// ---------------------------------------------------------------------------------------
+
+/// Runs `errmap export <case's recorded session> --bidirectional … --out <dir>/<name>`;
+/// returns the exit code, stderr and the file's text.
+fn export_session(
+    case: &str,
+    extra: &[&str],
+    dir: &std::path::Path,
+) -> (Option<i32>, String, String) {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let out = dir.join(format!(
+        "{case}-{}.txt",
+        extra.join("_").replace(['=', ','], "")
+    ));
+    let session = root.join(format!("datasets/concealed/{case}/recorded.parquet"));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .arg("export")
+        .arg(&session)
+        .args(["--bidirectional", "--at", "y=1,z=200", "--out"])
+        .arg(&out)
+        .args(extra)
+        .output()
+        .expect("runs");
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        std::fs::read_to_string(&out).unwrap_or_default(),
+    )
+}
+
+/// The hidden reversal of the concealed `reversal` case (truth.json): e↑ − e↓ = b.
+fn hidden_reversal_um() -> f64 {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let truth: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("datasets/concealed/reversal/truth.json"))
+            .expect("truth"),
+    )
+    .expect("json");
+    truth["params"]["reversal"]["b_um"].as_f64().expect("b_um")
+}
+
+#[test]
+fn bidirectional_isg_and_fanuc_tables_carry_the_reversal_of_the_session() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let b = hidden_reversal_um();
+    for (case, b_um) in [("reversal", b), ("clean", 0.0)] {
+        // ISG: bilateral, pos − neg = c↑ − c↓ = e↓ − e↑ = −b at every target (0.1 µm
+        // units; tolerance: two roundings of 0.05 µm and the session's noise).
+        let (code, err, text) = export_session(case, &["--format", "isg"], dir.path());
+        assert_eq!(code, Some(0), "{err}");
+        let l = parse_isg(&text);
+        assert_eq!(l.scalars["kw.ssfk.bilateral"], "1");
+        assert_eq!(l.setpoint.len(), 9, "one entry per target");
+        for (i, (p, n)) in l.pos.iter().zip(&l.neg).enumerate() {
+            let diff_um = (p - n) as f64 * 0.1;
+            assert!(
+                (diff_um + b_um).abs() <= 0.15,
+                "{case}, target {i}: pos − neg = {diff_um} µm, expected {}",
+                -b_um
+            );
+        }
+        // FANUC on a 50 mm grid (the 100 mm targets' means interpolated linearly), 0.1 µm
+        // detection unit: 3627 and every point of the negative-travel curve sit −b from
+        // the positive one.
+        let (code, err, text) = export_session(
+            case,
+            &[
+                "--format",
+                "fanuc",
+                "--step",
+                "50",
+                "--detection-unit-um",
+                "0.1",
+                "--fanuc-max-value",
+                "100",
+            ],
+            dir.path(),
+        );
+        assert_eq!(code, Some(0), "{err}");
+        let f = parse_fanuc(&text);
+        assert_eq!(f.param("3605#0"), 1);
+        assert_eq!(f.interval_mm, 50.0);
+        let (r, first, last, neg) = (
+            f.param("3620"),
+            f.param("3621"),
+            f.param("3622"),
+            f.param("3626"),
+        );
+        assert_eq!(
+            (r, first, last, neg),
+            (0, 0, 16, 17),
+            "0…800 mm every 50 mm"
+        );
+        let expected_units = -b_um / 0.1;
+        assert!(
+            (f.param("3627") as f64 - expected_units).abs() <= 1.5,
+            "{case}: 3627 = {}",
+            f.param("3627")
+        );
+        for k in 0..=16 {
+            let up = fanuc_absolute(&f.values, 0, r, k) as f64;
+            let down = f.param("3627") as f64 + fanuc_absolute(&f.values, neg - first, r, k) as f64;
+            assert!(
+                (down - up - expected_units).abs() <= 1.5,
+                "{case} at {} mm: down − up = {} units",
+                k * 50,
+                down - up
+            );
+        }
+    }
+    // HEIDENHAIN has no direction-dependent table here; refused, naming those that do.
+    let (code, err, _) = export_session("reversal", &["--format", "heidenhain"], dir.path());
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("direction-dependent") && err.contains("fanuc"),
+        "{err}"
+    );
+    // FANUC needs the reference position on its grid: the targets alone are refused
+    // when --reference is not one of them, with the way out named.
+    let (code, err, _) = export_session(
+        "reversal",
+        &["--format", "fanuc", "--reference", "30"],
+        dir.path(),
+    );
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--ends"), "{err}");
+}
+
+#[test]
+fn regridding_a_measured_line_interpolates_linearly_and_flags_the_ends() {
+    let s = Sampled::measured(Axis::X, AT, vec![0.0, 100.0, 200.0], vec![1.0, 3.0, -1.0]);
+    let fit = StepFit::Grid {
+        reference_mm: 30.0,
+        ends: Ends::Extrapolate,
+    };
+    let g = errmap::export::regrid_measured(&s, 40.0, fit).expect("regrids");
+    assert_eq!(
+        g.positions_mm,
+        vec![-10.0, 30.0, 70.0, 110.0, 150.0, 190.0, 230.0]
+    );
+    let expected = [0.8, 1.6, 2.4, 2.6, 1.0, -0.6, -2.2];
+    for (v, e) in g.error_um.iter().zip(expected) {
+        assert!((v - e).abs() < 1e-12, "{v} vs {e}");
+    }
+    assert_eq!(
+        g.extrapolated,
+        [true, false, false, false, false, false, true]
+    );
+    let clamp = StepFit::Grid {
+        reference_mm: 30.0,
+        ends: Ends::Clamp,
+    };
+    let g = errmap::export::regrid_measured(&s, 40.0, clamp).expect("regrids");
+    assert_eq!((g.error_um[0], g.error_um[6]), (1.0, -1.0));
+    assert!(g.extrapolated.iter().all(|&x| !x));
+}
