@@ -23,8 +23,9 @@ pub struct ExportArgs {
     #[arg(long, value_parser = method_name(), required_unless_present = "bidirectional")]
     pub method: Option<MethodName>,
     /// Direction-dependent table from a session's per-direction means (ISO 230-2's
-    /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns, FANUC's
-    /// bidirectional lists, ISG's bilateral pos/neg. With --step (FANUC: a fixed interval)
+    /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
+    /// Siemens' two direction-dependent CEC tables, FANUC's bidirectional lists, ISG's
+    /// bilateral pos/neg. With --step (FANUC: a fixed interval)
     /// the means are interpolated linearly onto the grid through --reference.
     #[arg(long, conflicts_with_all = ["method", "order"])]
     pub bidirectional: bool,
@@ -62,6 +63,10 @@ pub struct ExportArgs {
     /// Siemens machine-axis name, e.g. X1.
     #[arg(long, default_value = "X1")]
     pub siemens_axis: String,
+    /// Siemens --bidirectional: the first of the two CEC tables (positive direction; the
+    /// next one is the negative direction). The machine axis is AX<--axis-number>.
+    #[arg(long, default_value_t = 0)]
+    pub siemens_table: usize,
     /// The control's table size: Siemens MD38000 MM_ENC_COMP_MAX_POINTS (default 200, the
     /// 808D), HEIDENHAIN entries per .COM (256), ISG P-COMP-00059 kw.ssfk.max_points (1500).
     #[arg(long, value_parser = at_least_two)]

@@ -490,12 +490,20 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
 /// are put on the step's points by that same linear rule (`export::regrid_measured`).
 fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     use errmap::base::Axis;
-    use errmap::export::{Sampled, regrid_measured};
-    let format = export_format(a);
+    use errmap::export::{ExportFormat, Sampled, regrid_measured};
+    // Siemens' direction-dependent compensation is a pair of CEC tables (K3 §4.4.4).
+    let format = match export_format(a) {
+        ExportFormat::Siemens { max_points, .. } => ExportFormat::SiemensCec {
+            axis_number: a.axis_number.unwrap_or(a.axis.index() as u32 + 1),
+            first_table: a.siemens_table,
+            max_points,
+        },
+        other => other,
+    };
     if !format.bidirectional() {
         bail!(
             "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
-             fanuc, isg); export the bidirectional mean from the error table instead",
+             siemens, fanuc, isg); export the bidirectional mean from the error table instead",
             format.name()
         );
     }

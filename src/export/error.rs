@@ -201,7 +201,8 @@ pub enum ExportError {
     ReverseMismatch { problem: String },
     #[error(
         "the {format} format has no direction-dependent table; export the forward errors \
-         and configure backlash separately, or use a format that has one (linuxcnc, fanuc, isg)"
+         and configure backlash separately, or use a format that has one (linuxcnc, fanuc, isg; \
+         siemens through its direction-dependent CEC tables)"
     )]
     ReverseUnsupported { format: &'static str },
     #[error(

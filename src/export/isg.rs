@@ -7,7 +7,7 @@
 //! (infosys.beckhoff.com, `tf5200_axis_compensation` and
 //! `tf5200_axis_compensation_parameters`): "Leadscrew error compensation", "Overview",
 //! P-COMP-00017 to P-COMP-00025, P-COMP-00059 and "Example of a compensation value
-//! list".
+//! list"; and `axiscompensation` (the same function, "Characteristics").
 //!
 //! LSEC changes the position setpoint of the axis by a compensation value in the
 //! position-control cycle (and takes it out of the actual value again, so the display
@@ -32,8 +32,9 @@
 //! slope × 0.05 µm, picometres). Without a reverse line `bilateral` is 0 and `neg`
 //! repeats `pos`. LSEC is switched on in the axis parameters by P-AXIS-00175
 //! `lr_param.ssfk` = 1; for a bilateral table P-AXIS-00243 `lr_param.n_backlash_cyc`
-//! spreads the jump at a reversal over that many cycles. What the control does beyond
-//! the first and last points is not stated in the sources consulted.
+//! spreads the jump at a reversal over that many cycles. Both directions use the same
+//! interpolation points, and outside the table the value at its nearer end is kept
+//! (TwinCAT NC "Axis compensation", leadscrew error compensation, Characteristics).
 //!
 //! # Sign convention
 //!

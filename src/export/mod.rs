@@ -9,7 +9,7 @@
 //! |---|---|---|---|
 //! | [`sample_line`] | a [`Sampled`] line: positions, e, extrapolation flags | [`MAX_SAMPLES`] | n predictions + n `outside` tests |
 //! | [`linuxcnc`](mod@linuxcnc) | a LinuxCNC `COMP_FILE` (type 0 or 1) | [`LINUXCNC_MAX_ENTRIES`] = 256 | O(n) text |
-//! | [`siemens`](mod@siemens) | a SINUMERIK 840D sl LEC/MSEC part program (`%_N_AX_EEC_INI`) | the axis' MD38000, a parameter | O(n) text |
+//! | [`siemens`](mod@siemens) | a SINUMERIK 840D sl LEC/MSEC part program (`%_N_AX_EEC_INI`); direction-dependent: two CEC tables (`%_N_NC_CEC_INI`, K3 §4.4.4) | the axis' MD38000 (CEC: MD18342), a parameter | O(n) text |
 //! | [`fanuc`](mod@fanuc) | FANUC pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 bidirectional) and increments per point | point numbers ≤ [`FANUC_MAX_POINT_NUMBER`], \|value\| ≤ a parameter | O(n) text |
 //! | [`heidenhain`](mod@heidenhain) | a HEIDENHAIN TNC `.COM` nonlinear axis error compensation table | [`HEIDENHAIN_MAX_POINTS`] = 256, a parameter | O(n) text |
 //! | [`isg`](mod@isg) | a TwinCAT CNC (ISG) `kw.ssfk` leadscrew error compensation list, unilateral or bilateral | < P-COMP-00059 ([`ISG_DEFAULT_MAX_POINTS`] = 1500) | O(n) text |
@@ -99,6 +99,14 @@ pub enum ExportFormat {
         axis_name: String,
         max_points: usize,
     },
+    /// SINUMERIK 840D sl direction-dependent leadscrew error compensation: two CEC tables
+    /// from `first_table` on machine axis `AX<axis_number>`, each of at most
+    /// `max_points` (MD18342); needs a reverse line.
+    SiemensCec {
+        axis_number: u32,
+        first_table: usize,
+        max_points: usize,
+    },
     /// FANUC pitch error compensation (bidirectional with a reverse line).
     Fanuc { spec: FanucSpec },
     /// A HEIDENHAIN `.COM` table: the axis key (column name), the table's name and the
@@ -122,6 +130,7 @@ impl ExportFormat {
         match self {
             ExportFormat::LinuxCnc { .. } => "linuxcnc",
             ExportFormat::Siemens { .. } => "siemens",
+            ExportFormat::SiemensCec { .. } => "siemens (direction-dependent, CEC)",
             ExportFormat::Fanuc { .. } => "fanuc",
             ExportFormat::Heidenhain { .. } => "heidenhain",
             ExportFormat::Isg { .. } => "isg",
@@ -144,7 +153,10 @@ impl ExportFormat {
     pub fn bidirectional(&self) -> bool {
         matches!(
             self,
-            ExportFormat::LinuxCnc { .. } | ExportFormat::Fanuc { .. } | ExportFormat::Isg { .. }
+            ExportFormat::LinuxCnc { .. }
+                | ExportFormat::SiemensCec { .. }
+                | ExportFormat::Fanuc { .. }
+                | ExportFormat::Isg { .. }
         )
     }
 
@@ -173,6 +185,25 @@ impl ExportFormat {
                     });
                 }
                 siemens(forward, axis_name, *max_points)
+            }
+            ExportFormat::SiemensCec {
+                axis_number,
+                first_table,
+                max_points,
+            } => {
+                let Some(reverse) = reverse else {
+                    return Err(ExportError::ReverseMismatch {
+                        problem: "the direction-dependent Siemens tables need the reverse line"
+                            .into(),
+                    });
+                };
+                siemens::render_bidirectional(
+                    forward,
+                    reverse,
+                    *axis_number,
+                    *first_table,
+                    *max_points,
+                )
             }
             ExportFormat::Fanuc { spec } => fanuc::render(forward, reverse, spec),
             ExportFormat::Heidenhain {

@@ -824,7 +824,7 @@ fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
             );
         }
     }
-    let (o, _) = run("reversal", &["--format", "siemens", "--at", "y=1,z=200"]);
+    let (o, _) = run("reversal", &["--format", "heidenhain", "--at", "y=1,z=200"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("direction-dependent"));
     let (o, _) = run("reversal", &["--format", "linuxcnc"]);
