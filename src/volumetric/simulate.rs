@@ -166,6 +166,20 @@ pub struct Plan {
     pub thermal: Option<ThermalHistory>,
 }
 
+impl PlannedLine {
+    /// The targets in the order they are visited: `targets` points evenly from the start
+    /// over the length.
+    pub fn target_positions(&self) -> Vec<[f64; 3]> {
+        let n = self.targets;
+        (0..n)
+            .map(|i| {
+                let s = self.length_mm * i as f64 / (n - 1) as f64;
+                [0, 1, 2].map(|k| self.start_mm[k] + s * self.u[k])
+            })
+            .collect()
+    }
+}
+
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
@@ -494,12 +508,7 @@ pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
         t += plan.setup_s;
         let zero = plan.laser_zero_um * gaussian(&mut rng);
         let n = pl.targets;
-        let pos: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let s = pl.length_mm * i as f64 / (n - 1) as f64;
-                [0, 1, 2].map(|k| pl.start_mm[k] + s * pl.u[k])
-            })
-            .collect();
+        let pos = pl.target_positions();
         let step_s = pl.length_mm / (n - 1) as f64 / plan.feed_mm_s;
         let mut sum_e = vec![0.0; n];
         let mut sum_t = vec![0.0; n];

@@ -17,22 +17,22 @@ use errmap::export::{
 use errmap::interp::Method;
 use errmap::table::{Axis, Grid};
 
-const AT: [f64; 3] = [0.0, 200.0, 350.0];
+pub(crate) const AT: [f64; 3] = [0.0, 200.0, 350.0];
 
 /// The axis' error e = indicated − reference along x, µm: a pitch error and a scale error.
-fn truth_x(x: f64) -> f64 {
+pub(crate) fn truth_x(x: f64) -> f64 {
     6.0 * (TAU * x / 640.0).sin() + 0.004 * x
 }
 
 /// max |e''| of [`truth_x`], µm/mm².
-const TRUTH_D2: f64 = 6.0 * (TAU / 640.0) * (TAU / 640.0);
+pub(crate) const TRUTH_D2: f64 = 6.0 * (TAU / 640.0) * (TAU / 640.0);
 
 /// The error measured moving down: the same curve plus a reversal that grows along x.
-fn truth_x_down(x: f64) -> f64 {
+pub(crate) fn truth_x_down(x: f64) -> f64 {
     truth_x(x) + 3.0 + 0.002 * x
 }
 
-fn measured(positions: &[f64], f: impl Fn(f64) -> f64) -> Sampled {
+pub(crate) fn measured(positions: &[f64], f: impl Fn(f64) -> f64) -> Sampled {
     Sampled::measured(
         Axis::X,
         AT,
@@ -41,13 +41,13 @@ fn measured(positions: &[f64], f: impl Fn(f64) -> f64) -> Sampled {
     )
 }
 
-fn grid(lo: f64, hi: f64, h: f64) -> Vec<f64> {
+pub(crate) fn grid(lo: f64, hi: f64, h: f64) -> Vec<f64> {
     let n = ((hi - lo) / h).round() as usize;
     (0..=n).map(|i| lo + i as f64 * h).collect()
 }
 
 /// Linear interpolation in a table, the end values held beyond.
-fn lerp(xs: &[f64], vs: &[f64], x: f64) -> f64 {
+pub(crate) fn lerp(xs: &[f64], vs: &[f64], x: f64) -> f64 {
     if x <= xs[0] {
         return vs[0];
     }
@@ -766,7 +766,7 @@ fn fanuc_grid_through_the_reference_from_a_model() {
 
 /// Runs `errmap export <case's recorded session> --bidirectional … --out <dir>/<name>`;
 /// returns the exit code, stderr and the file's text.
-fn export_session(
+pub(crate) fn export_session(
     case: &str,
     extra: &[&str],
     dir: &std::path::Path,
@@ -793,7 +793,7 @@ fn export_session(
 }
 
 /// The hidden reversal of the concealed `reversal` case (truth.json): e↑ − e↓ = b.
-fn hidden_reversal_um() -> f64 {
+pub(crate) fn hidden_reversal_um() -> f64 {
     let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let truth: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(root.join("datasets/concealed/reversal/truth.json"))
@@ -917,134 +917,4 @@ fn regridding_a_measured_line_interpolates_linearly_and_flags_the_ends() {
     let g = errmap::export::regrid_measured(&s, 40.0, clamp).expect("regrids");
     assert_eq!((g.error_um[0], g.error_um[6]), (1.0, -1.0));
     assert!(g.extrapolated.iter().all(|&x| !x));
-}
-
-// ---------------------------------------------------------------------------------------
-// SINUMERIK direction-dependent compensation (two CEC tables, K3 §4.4.4)
-// ---------------------------------------------------------------------------------------
-
-/// One CEC table read back from a `%_N_NC_CEC_INI` program.
-#[derive(Debug, Default)]
-struct CecTable {
-    values_mm: Vec<f64>,
-    input: String,
-    output: String,
-    step_mm: f64,
-    min_mm: f64,
-    max_mm: f64,
-    direction: i32,
-}
-
-fn parse_cec(text: &str) -> std::collections::BTreeMap<usize, CecTable> {
-    let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "%_N_NC_CEC_INI");
-    assert_eq!(*lines.last().expect("lines"), "M17");
-    let mut tables: std::collections::BTreeMap<usize, CecTable> = Default::default();
-    let mut points: std::collections::BTreeMap<(usize, usize), f64> = Default::default();
-    for line in lines.iter().filter(|l| l.starts_with('$')) {
-        let (lhs, v) = line.split_once('=').expect("assignment");
-        let (name, idx) = lhs.trim_end_matches(']').split_once('[').expect("index");
-        let ix: Vec<usize> = idx.split(',').map(|t| t.parse().expect("index")).collect();
-        let t = tables.entry(ix[0]).or_default();
-        match name {
-            "$AN_CEC" => {
-                points.insert((ix[0], ix[1]), v.parse().expect("mm"));
-            }
-            "$AN_CEC_INPUT_AXIS" => t.input = v.into(),
-            "$AN_CEC_OUTPUT_AXIS" => t.output = v.into(),
-            "$AN_CEC_STEP" => t.step_mm = v.parse().expect("mm"),
-            "$AN_CEC_MIN" => t.min_mm = v.parse().expect("mm"),
-            "$AN_CEC_MAX" => t.max_mm = v.parse().expect("mm"),
-            "$AN_CEC_DIRECTION" => t.direction = v.parse().expect("±1"),
-            "$AN_CEC_MULT_BY_TABLE" | "$AN_CEC_IS_MODULO" => assert_eq!(v, "0"),
-            other => panic!("unexpected {other}"),
-        }
-    }
-    for ((t, n), v) in points {
-        let table = tables.get_mut(&t).expect("table");
-        assert_eq!(table.values_mm.len(), n, "points in order from 0");
-        table.values_mm.push(v);
-    }
-    tables
-}
-
-#[test]
-fn siemens_direction_dependent_tables_round_trip_both_directions() {
-    let h = 10.0;
-    let xs = grid(0.0, 400.0, h);
-    let up = measured(&xs, truth_x);
-    let down = measured(&xs, truth_x_down);
-    let format = ExportFormat::SiemensCec {
-        axis_number: 2,
-        first_table: 4,
-        max_points: 200,
-    };
-    let tables = parse_cec(&format.render_line(&up, Some(&down)).expect("renders"));
-    assert_eq!(tables.keys().copied().collect::<Vec<_>>(), [4, 5]);
-    for (t, truth, direction) in [(4, truth_x as fn(f64) -> f64, 1), (5, truth_x_down, -1)] {
-        let c = &tables[&t];
-        assert_eq!((c.input.as_str(), c.output.as_str()), ("(AX2)", "(AX2)"));
-        assert_eq!(c.direction, direction);
-        // MIN + (points − 1)·STEP = MAX, padded with 0 one step beyond each end.
-        let n = c.values_mm.len();
-        assert_eq!((c.min_mm, c.max_mm, c.step_mm, n), (-10.0, 410.0, 10.0, 43));
-        assert_eq!((c.values_mm[0], c.values_mm[n - 1]), (0.0, 0.0));
-        let tx: Vec<f64> = (0..n).map(|i| c.min_mm + i as f64 * c.step_mm).collect();
-        // LEC sign: the table corrects the actual value, residual e + c; linear between
-        // points, so ≤ h²/8·max|e''| plus the file's 1 nm.
-        let bound = h * h / 8.0 * TRUTH_D2 + 0.001;
-        let mut x = 0.0;
-        while x <= 400.0 {
-            let r = truth(x) + lerp(&tx, &c.values_mm, x) * 1e3;
-            assert!(
-                r.abs() <= bound,
-                "table {t} at {x}: residual {r} µm > {bound}"
-            );
-            x += 0.5;
-        }
-    }
-    // The reversal survives: c↑ − c↓ = e↓ − e↑ = 3 + 0.002·x µm.
-    for (i, &x) in xs.iter().enumerate() {
-        let d = (tables[&4].values_mm[i + 1] - tables[&5].values_mm[i + 1]) * 1e3;
-        assert!((d - (3.0 + 0.002 * x)).abs() < 0.002, "at {x}: {d} µm");
-    }
-    // MD18342 too small: 41 samples + 2 zero points > 42.
-    let small = ExportFormat::SiemensCec {
-        axis_number: 2,
-        first_table: 0,
-        max_points: 42,
-    };
-    match small.render_line(&up, Some(&down)).expect_err("refused") {
-        ExportError::TooManyEntries {
-            controller: Controller::Siemens,
-            samples: 41,
-            padding: 2,
-            limit: 42,
-            ..
-        } => {}
-        other => panic!("{other:?}"),
-    }
-    assert!(matches!(
-        format.render_line(&up, None),
-        Err(ExportError::ReverseMismatch { .. })
-    ));
-}
-
-#[test]
-fn bidirectional_siemens_program_carries_the_reversal_of_the_session() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let b = hidden_reversal_um();
-    for (case, b_um) in [("reversal", b), ("clean", 0.0)] {
-        let (code, err, text) = export_session(case, &["--format", "siemens"], dir.path());
-        assert_eq!(code, Some(0), "{err}");
-        let tables = parse_cec(&text);
-        let (up, down) = (&tables[&0], &tables[&1]);
-        assert_eq!((up.direction, down.direction), (1, -1));
-        assert_eq!(up.values_mm.len(), 11, "9 targets + 2 zero points");
-        for i in 1..=9 {
-            // c↑ − c↓ = e↓ − e↑ = −b.
-            let d_um = (up.values_mm[i] - down.values_mm[i]) * 1e3;
-            assert!((d_um + b_um).abs() < 0.05, "{case}, target {i}: {d_um} µm");
-        }
-    }
 }

@@ -20,6 +20,7 @@ mod stream;
 mod table2;
 mod tables;
 mod testplan;
+mod testplan_lines;
 mod uncertainty;
 mod volumetric;
 mod volumetric_degree;
