@@ -158,23 +158,9 @@ pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
 }
 
 fn program_cmd(a: ProgramArgs) -> Result<()> {
-    use errmap::sim::program::lines::{LinesProgram, ProgramLine, render_lines};
+    use errmap::sim::program::lines::render_lines;
     let plan = PlanFile::read(&a.plan)?;
-    let program = LinesProgram {
-        title: a.plan.display().to_string(),
-        lines: plan
-            .lines
-            .iter()
-            .map(|l| ProgramLine {
-                name: l.name.clone(),
-                targets_mm: l.target_positions(),
-                runs: l.runs,
-                probe_mm: l.probe_mm,
-            })
-            .collect(),
-        feed_mm_s: plan.feed_mm_s,
-        dwell_s: plan.dwell_s,
-    };
+    let program = plan.lines_program(&a.plan.display().to_string());
     let text = render_lines(&program, a.dialect)?;
     write_text(&a.out, &text)?;
     eprintln!(

@@ -78,6 +78,15 @@ fn check_axis_name(name: &str) -> Result<(), ExportError> {
     }
 }
 
+/// The comment naming the line and the sign of the values.
+fn line_comment(s: &Sampled) -> String {
+    format!(
+        "; line along {} at {}; values c = -e in mm (e = indicated - reference)\n",
+        s.axis,
+        fmt_point(s.at_mm)
+    )
+}
+
 /// The checked table geometry: the step as written, and the step.
 fn table_step(s: &Sampled, max_points: usize) -> Result<(f64, String), ExportError> {
     s.check()?;
@@ -124,11 +133,7 @@ pub fn render_bidirectional(
     out.push_str(&format!(
         "; errmap direction-dependent leadscrew error compensation for machine axis {ax} (K3 4.4.4)\n"
     ));
-    out.push_str(&format!(
-        "; line along {} at {}; values c = -e in mm (e = indicated - reference)\n",
-        forward.axis,
-        fmt_point(forward.at_mm)
-    ));
+    out.push_str(&line_comment(forward));
     out.push_str(&format!(
         "; table {first_table}: positive direction (mean up), table {}: negative direction (mean down); \
          {n} samples from {} to {} mm plus a zero point one step beyond each end\n",
@@ -191,11 +196,7 @@ pub fn render(s: &Sampled, axis_name: &str, max_points: usize) -> Result<String,
     out.push_str(&format!(
         "; errmap leadscrew/measuring-system error compensation for machine axis {ax}\n"
     ));
-    out.push_str(&format!(
-        "; line along {} at {}; values c = -e in mm (e = indicated - reference)\n",
-        s.axis,
-        fmt_point(s.at_mm)
-    ));
+    out.push_str(&line_comment(s));
     out.push_str(&format!(
         "; {n} samples from {} to {} mm plus a zero point one step beyond each end; \
          {} extrapolated\n",

@@ -166,6 +166,29 @@ pub struct Plan {
     pub thermal: Option<ThermalHistory>,
 }
 
+impl Plan {
+    /// The plan's lines as a part program's campaign ([`crate::sim::program::lines`]):
+    /// each line's targets in order, its runs, the plan's feed and dwell.
+    pub fn lines_program(&self, title: &str) -> crate::sim::program::lines::LinesProgram {
+        use crate::sim::program::lines::{LinesProgram, ProgramLine};
+        LinesProgram {
+            title: title.to_string(),
+            lines: self
+                .lines
+                .iter()
+                .map(|l| ProgramLine {
+                    name: l.name.clone(),
+                    targets_mm: l.target_positions(),
+                    runs: l.runs,
+                    probe_mm: l.probe_mm,
+                })
+                .collect(),
+            feed_mm_s: self.feed_mm_s,
+            dwell_s: self.dwell_s,
+        }
+    }
+}
+
 impl PlannedLine {
     /// The targets in the order they are visited: `targets` points evenly from the start
     /// over the length.

@@ -15,7 +15,7 @@ use errmap::table::{Axis, ErrorTable, Grid};
 use proptest::prelude::*;
 
 use super::export_dialects::{
-    TRUTH_D2, export_session, grid, hidden_reversal_um, lerp, measured, truth_x, truth_x_down,
+    TRUTH_D2, export_session, grid, hidden_reversal_um, measured, truth_x, truth_x_down,
 };
 
 // ---------------------------------------------------------------------------------------
@@ -159,7 +159,7 @@ fn parse_siemens(text: &str, axis: &str) -> SiemensTable {
 }
 
 /// A controller's table lookup: linear between entries, the end values held beyond.
-fn table_at(xs: &[f64], vs: &[f64], x: f64) -> f64 {
+pub(crate) fn table_at(xs: &[f64], vs: &[f64], x: f64) -> f64 {
     if x <= xs[0] {
         return vs[0];
     }
@@ -915,7 +915,7 @@ fn siemens_direction_dependent_tables_round_trip_both_directions() {
         let bound = h * h / 8.0 * TRUTH_D2 + 0.001;
         let mut x = 0.0;
         while x <= 400.0 {
-            let r = truth(x) + lerp(&tx, &c.values_mm, x) * 1e3;
+            let r = truth(x) + table_at(&tx, &c.values_mm, x) * 1e3;
             assert!(
                 r.abs() <= bound,
                 "table {t} at {x}: residual {r} µm > {bound}"

@@ -17,6 +17,8 @@ use errmap::export::{
 use errmap::interp::Method;
 use errmap::table::{Axis, Grid};
 
+use super::export::table_at as lerp;
+
 pub(crate) const AT: [f64; 3] = [0.0, 200.0, 350.0];
 
 /// The axis' error e = indicated − reference along x, µm: a pitch error and a scale error.
@@ -46,17 +48,16 @@ pub(crate) fn grid(lo: f64, hi: f64, h: f64) -> Vec<f64> {
     (0..=n).map(|i| lo + i as f64 * h).collect()
 }
 
-/// Linear interpolation in a table, the end values held beyond.
-pub(crate) fn lerp(xs: &[f64], vs: &[f64], x: f64) -> f64 {
-    if x <= xs[0] {
-        return vs[0];
-    }
-    if x >= xs[xs.len() - 1] {
-        return vs[vs.len() - 1];
-    }
-    let i = xs.partition_point(|&p| p <= x) - 1;
-    let u = (x - xs[i]) / (xs[i + 1] - xs[i]);
-    vs[i] + u * (vs[i + 1] - vs[i])
+/// A spline through [`truth_x`] mapped every 25 mm over 0–800 mm (and on a 3 × 3 grid
+/// in y, z around [`AT`]).
+fn spline_of_truth() -> Box<dyn errmap::interp::Interpolator> {
+    let g = Grid::from_fn(
+        grid(0.0, 800.0, 25.0),
+        vec![0.0, 200.0, 400.0],
+        vec![200.0, 350.0, 500.0],
+        |p| truth_x(p[0]),
+    );
+    Method::Spline.fit(&g).expect("fits")
 }
 
 fn limit_problem(e: ExportError, controller: Controller) -> String {
@@ -621,13 +622,7 @@ kw.ssfk.table[2].neg                80
 fn isg_round_trip_with_any_step_both_directions() {
     // A model of the truth, sampled every 7 mm over 0–798.7576 mm (the last interval
     // shorter): LSEC lists every setpoint, so no step is refused.
-    let g = Grid::from_fn(
-        grid(0.0, 800.0, 25.0),
-        vec![0.0, 200.0, 400.0],
-        vec![200.0, 350.0, 500.0],
-        |p| truth_x(p[0]),
-    );
-    let model = Method::Spline.fit(&g).expect("fits");
+    let model = spline_of_truth();
     let line = LineSpec {
         axis: Axis::X,
         at_mm: AT,
@@ -722,13 +717,7 @@ fn isg_refuses_what_the_control_cannot_hold() {
 fn fanuc_grid_through_the_reference_from_a_model() {
     // The export path for FANUC: a round step on the grid through the reference position
     // (here 100 mm, not a range end), the range ends clamped.
-    let g = Grid::from_fn(
-        grid(0.0, 800.0, 25.0),
-        vec![0.0, 200.0, 400.0],
-        vec![200.0, 350.0, 500.0],
-        |p| truth_x(p[0]),
-    );
-    let model = Method::Spline.fit(&g).expect("fits");
+    let model = spline_of_truth();
     let line = LineSpec {
         axis: Axis::X,
         at_mm: AT,

@@ -56,25 +56,11 @@ fn read_lines_program(text: &str, dialect: Dialect) -> (Vec<[f64; 3]>, Vec<[f64;
 
 #[test]
 fn volumetric_plan_program_visits_every_line_target_in_order() {
-    use errmap::sim::program::lines::{LinesProgram, ProgramLine, render_lines};
+    use errmap::sim::program::lines::{LinesProgram, render_lines};
     use errmap::volumetric::PlanFile;
     let path = root().join("datasets/volumetric/plan.toml");
     let plan = PlanFile::read(&path).expect("the dataset's plan");
-    let program = LinesProgram {
-        title: "plan.toml".into(),
-        lines: plan
-            .lines
-            .iter()
-            .map(|l| ProgramLine {
-                name: l.name.clone(),
-                targets_mm: l.target_positions(),
-                runs: l.runs,
-                probe_mm: l.probe_mm,
-            })
-            .collect(),
-        feed_mm_s: plan.feed_mm_s,
-        dwell_s: plan.dwell_s,
-    };
+    let program = plan.lines_program("plan.toml");
     // The plan file's own extra line, computed here from its TOML: 17 targets from
     // (0, 300, 200) to (800, 300, 200), the plan's 2 runs.
     let extra = program.lines.last().expect("lines");
