@@ -23,8 +23,11 @@ pub struct ExportArgs {
     #[arg(long, value_parser = method_name(), required_unless_present = "bidirectional")]
     pub method: Option<MethodName>,
     /// Direction-dependent table from a session's per-direction means (ISO 230-2's
-    /// x̄↑ and x̄↓ at each target; LinuxCNC's forward and reverse columns), no model.
-    #[arg(long, conflicts_with_all = ["method", "order", "step", "ends"])]
+    /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
+    /// Siemens' two direction-dependent CEC tables, FANUC's bidirectional lists, ISG's
+    /// bilateral pos/neg. With --step (FANUC: a fixed interval)
+    /// the means are interpolated linearly onto the grid through --reference.
+    #[arg(long, conflicts_with_all = ["method", "order"])]
     pub bidirectional: bool,
     /// Lagrange degrees MxNxQ (or auto).
     #[arg(long)]
@@ -60,9 +63,44 @@ pub struct ExportArgs {
     /// Siemens machine-axis name, e.g. X1.
     #[arg(long, default_value = "X1")]
     pub siemens_axis: String,
-    /// Siemens MD38000 MM_ENC_COMP_MAX_POINTS of the control.
-    #[arg(long, default_value_t = errmap::export::SIEMENS_808D_MAX_POINTS, value_parser = at_least_two)]
-    pub max_points: usize,
+    /// Siemens --bidirectional: the first of the two CEC tables (positive direction; the
+    /// next one is the negative direction). The machine axis is AX<--axis-number>.
+    #[arg(long, default_value_t = 0)]
+    pub siemens_table: usize,
+    /// The control's table size: Siemens MD38000 MM_ENC_COMP_MAX_POINTS (default 200, the
+    /// 808D), HEIDENHAIN entries per .COM (256), ISG P-COMP-00059 kw.ssfk.max_points (1500).
+    #[arg(long, value_parser = at_least_two)]
+    pub max_points: Option<usize>,
+    /// The axis' name in the controller: HEIDENHAIN column (axis key) and ISG
+    /// kopf.log_achs_name (default: the axis letter, upper case).
+    #[arg(long)]
+    pub axis_name: Option<String>,
+    /// The axis' number in the controller: FANUC axis of parameters 3620–3627 and ISG
+    /// kopf.log_achs_nr (default: x 1, y 2, z 3).
+    #[arg(long)]
+    pub axis_number: Option<u32>,
+    /// HEIDENHAIN table name (default: <axis name>.COM).
+    #[arg(long)]
+    pub table_name: Option<String>,
+    /// FANUC 3620, the compensation point number of the reference position --reference
+    /// (default: the smallest that fits, so the most negative point is 0).
+    #[arg(long)]
+    pub fanuc_reference_number: Option<u32>,
+    /// FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C).
+    #[arg(long, default_value_t = 1.0, value_parser = positive)]
+    pub detection_unit_um: f64,
+    /// FANUC 3623, the pitch error compensation magnification.
+    #[arg(long, default_value_t = 1)]
+    pub magnification: u32,
+    /// FANUC: the largest |value| per compensation point the series accepts.
+    #[arg(long, default_value_t = errmap::export::fanuc::FANUC_DEFAULT_MAX_VALUE)]
+    pub fanuc_max_value: u32,
+    /// FANUC: the highest compensation point number of the control.
+    #[arg(long, default_value_t = errmap::export::FANUC_MAX_POINT_NUMBER)]
+    pub fanuc_max_point: u32,
+    /// FANUC 3626 of a bidirectional table (default: right after 3622).
+    #[arg(long)]
+    pub fanuc_negative_start: Option<u32>,
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]
     pub forbid_extrapolation: bool,

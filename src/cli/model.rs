@@ -310,8 +310,59 @@ pub fn print_summary(c: &compare::Comparison, dir: &Path) {
     eprintln!("report: {}", dir.join("report.md").display());
 }
 
+/// The library's format for `--format` and its flags.
+fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
+    use errmap::export::{
+        ExportFormat, FanucSpec, HEIDENHAIN_MAX_POINTS, ISG_DEFAULT_MAX_POINTS, IsgAxis,
+        SIEMENS_808D_MAX_POINTS,
+    };
+    let axis_name = a
+        .axis_name
+        .clone()
+        .unwrap_or_else(|| a.axis.to_string().to_uppercase());
+    let axis_number = a.axis_number.unwrap_or(a.axis.index() as u32 + 1);
+    match a.format {
+        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
+            comp_type: a.comp_type.into(),
+        },
+        ExportFormatArg::Siemens => ExportFormat::Siemens {
+            axis_name: a.siemens_axis.clone(),
+            max_points: a.max_points.unwrap_or(SIEMENS_808D_MAX_POINTS),
+        },
+        ExportFormatArg::Fanuc => ExportFormat::Fanuc {
+            spec: FanucSpec {
+                axis_number,
+                reference_number: a.fanuc_reference_number,
+                reference_mm: a.reference,
+                detection_unit_um: a.detection_unit_um,
+                magnification: a.magnification,
+                max_value: a.fanuc_max_value,
+                max_point_number: a.fanuc_max_point,
+                negative_start: a.fanuc_negative_start,
+            },
+        },
+        ExportFormatArg::Heidenhain => ExportFormat::Heidenhain {
+            table_name: a
+                .table_name
+                .clone()
+                .unwrap_or_else(|| format!("{axis_name}.COM")),
+            axis_key: axis_name,
+            max_points: a.max_points.unwrap_or(HEIDENHAIN_MAX_POINTS),
+        },
+        ExportFormatArg::Isg => ExportFormat::Isg {
+            axis: IsgAxis {
+                number: axis_number,
+                name: axis_name,
+                max_points: a.max_points.unwrap_or(ISG_DEFAULT_MAX_POINTS),
+            },
+        },
+        ExportFormatArg::Csv => ExportFormat::Csv,
+        ExportFormatArg::Grid => ExportFormat::Grid,
+    }
+}
+
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
-    use errmap::export::{ExportFormat, Extrapolation, LineSpec, VolumeSpec, write_grid};
+    use errmap::export::{Extrapolation, LineSpec, VolumeSpec, write_grid};
     if a.bidirectional {
         return export_bidirectional(&a);
     }
@@ -326,17 +377,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     } else {
         Extrapolation::Allow
     };
-    let format = match a.format {
-        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
-            comp_type: a.comp_type.into(),
-        },
-        ExportFormatArg::Siemens => ExportFormat::Siemens {
-            axis_name: a.siemens_axis.clone(),
-            max_points: a.max_points,
-        },
-        ExportFormatArg::Csv => ExportFormat::Csv,
-        ExportFormatArg::Grid => ExportFormat::Grid,
-    };
+    let format = export_format(&a);
     let lo = extent.bounds.map(|b| b[0]);
     let hi = extent.bounds.map(|b| b[1]);
     if !format.is_line() {
@@ -441,24 +482,31 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
     Ok(())
 }
 
-/// `export SESSION --bidirectional`: LinuxCNC's forward and reverse columns from the
-/// session's per-direction means at each target (ISO 230-2's x̄↑ and x̄↓, with the sign
-/// turned back to errmap's e = −x), on one line of the session. No model: the controller
-/// interpolates linearly between the measured targets.
+/// `export SESSION --bidirectional`: a direction-dependent table from the session's
+/// per-direction means at each target (ISO 230-2's x̄↑ and x̄↓, with the sign turned back
+/// to errmap's e = −x), on one line of the session: LinuxCNC's forward and reverse
+/// columns, FANUC's bidirectional lists, ISG's bilateral pos/neg. No model: the
+/// controller interpolates linearly between the measured targets; with --step the means
+/// are put on the step's points by that same linear rule (`export::regrid_measured`).
 fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     use errmap::base::Axis;
-    use errmap::export::{ExportFormat, Sampled};
-    let format = match a.format {
-        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
-            comp_type: a.comp_type.into(),
+    use errmap::export::{ExportFormat, Sampled, regrid_measured};
+    // Siemens' direction-dependent compensation is a pair of CEC tables (K3 §4.4.4).
+    let format = match export_format(a) {
+        ExportFormat::Siemens { max_points, .. } => ExportFormat::SiemensCec {
+            axis_number: a.axis_number.unwrap_or(a.axis.index() as u32 + 1),
+            first_table: a.siemens_table,
+            max_points,
         },
-        other => bail!(
-            "--bidirectional: only LinuxCNC's COMP_FILE has direction-dependent columns \
-             (forward/reverse); {} takes one table per axis — export the bidirectional \
-             mean from the error table instead",
-            format!("{other:?}").to_lowercase()
-        ),
+        other => other,
     };
+    if !format.bidirectional() {
+        bail!(
+            "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
+             siemens, fanuc, isg); export the bidirectional mean from the error table instead",
+            format.name()
+        );
+    }
     let path = super::acquisition::session_file(&a.table)?;
     let rows = errmap::session::read_session(&path)?;
     let Some(first) = rows.first() else {
@@ -518,13 +566,21 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     // ISO 230-2 deviations are x = −e.
     let up: Vec<f64> = targets.iter().map(|t| -t.mean_up_um).collect();
     let down: Vec<f64> = targets.iter().map(|t| -t.mean_down_um).collect();
-    let forward = Sampled::measured(axis, at_mm, positions.clone(), up);
-    let reverse = Sampled::measured(axis, at_mm, positions, down);
-    let text = format.render_line(&forward, Some(&reverse))?;
+    let mut forward = Sampled::measured(axis, at_mm, positions.clone(), up);
+    let mut reverse = Sampled::measured(axis, at_mm, positions, down);
+    if let Some(step) = a.step {
+        let fit = super::step::step_fit(&format, a.ends, a.reference);
+        forward = regrid_measured(&forward, step, fit)?;
+        reverse = regrid_measured(&reverse, step, fit)?;
+    }
+    let text = format
+        .render_line(&forward, Some(&reverse))
+        .with_context(|| format!("{}: {} table", path.display(), format.name()))?;
     std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
     eprintln!(
-        "export: linuxcnc {} targets along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
+        "export: {} {} points along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
          (mean reversal {:.4} µm) → {}; compensation = −error",
+        format.name(),
         forward.len(),
         at_mm[0],
         at_mm[1],

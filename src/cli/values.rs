@@ -244,6 +244,12 @@ pub enum ExportFormatArg {
     Linuxcnc,
     /// Siemens 840D encoder/leadscrew compensation (a line).
     Siemens,
+    /// FANUC pitch error compensation: parameters and N/P data (a line).
+    Fanuc,
+    /// HEIDENHAIN TNC nonlinear axis error compensation table, .COM (a line).
+    Heidenhain,
+    /// Beckhoff TwinCAT CNC (ISG) leadscrew error compensation list, kw.ssfk (a line).
+    Isg,
     /// CSV of a line.
     Csv,
     /// A volumetric grid table (CSV or Parquet).

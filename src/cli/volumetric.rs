@@ -26,6 +26,22 @@ pub enum VolumetricCommand {
     /// Export an identified model for controllers: TwinCAT 3 CNC (TF5280) volumetric
     /// component tables, and each axis' positioning error as a 1-D table.
     Export(ExportArgs),
+    /// The plan's lines as a part program: each line's targets in order, a dwell at
+    /// each, a programmed stop before each line for the laser alignment.
+    Program(ProgramArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ProgramArgs {
+    /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
+    #[arg(long)]
+    pub plan: PathBuf,
+    /// linuxcnc | fanuc | siemens | heidenhain
+    #[arg(long, default_value = "linuxcnc", value_parser = super::values::dialect())]
+    pub dialect: errmap::sim::program::Dialect,
+    /// The part program to write.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -155,6 +171,7 @@ pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
         VolumetricCommand::Identify(a) => identify_cmd(a),
         VolumetricCommand::Predict(a) => predict_cmd(a),
         VolumetricCommand::Export(a) => export_cmd(a),
+        VolumetricCommand::Program(a) => program_cmd(a),
     }
 }
 
@@ -210,6 +227,21 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
             }
         );
     }
+    Ok(())
+}
+
+fn program_cmd(a: ProgramArgs) -> Result<()> {
+    use errmap::sim::program::lines::render_lines;
+    let plan = PlanFile::read(&a.plan)?;
+    let program = plan.lines_program(&a.plan.display().to_string());
+    let text = render_lines(&program, a.dialect)?;
+    write_text(&a.out, &text)?;
+    eprintln!(
+        "volumetric program: {} lines in the {} dialect → {}",
+        program.lines.len(),
+        a.dialect,
+        a.out.display()
+    );
     Ok(())
 }
 

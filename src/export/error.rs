@@ -13,6 +13,9 @@ use crate::table::{Axis, TableError};
 pub enum Controller {
     LinuxCnc,
     Siemens,
+    Fanuc,
+    Heidenhain,
+    Isg,
 }
 
 impl fmt::Display for Controller {
@@ -20,6 +23,11 @@ impl fmt::Display for Controller {
         f.write_str(match self {
             Controller::LinuxCnc => "LinuxCNC (COMP_FILE triplets per joint, EMCMOT_COMP_SIZE)",
             Controller::Siemens => "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)",
+            Controller::Fanuc => "FANUC pitch error compensation",
+            Controller::Heidenhain => "a HEIDENHAIN TNC compensation table (.COM)",
+            Controller::Isg => {
+                "the TwinCAT CNC (ISG) leadscrew error compensation table (P-COMP-00059 kw.ssfk.max_points)"
+            }
         })
     }
 }
@@ -177,7 +185,7 @@ pub enum ExportError {
         position_mm: f64,
     },
     #[error(
-        "sample {index}: gap {gap_mm} mm differs from the table step {step_mm} mm; Siemens tables are equidistant"
+        "sample {index}: gap {gap_mm} mm differs from the table step {step_mm} mm; this format's tables are equidistant (Siemens, FANUC, HEIDENHAIN)"
     )]
     NotEquidistant {
         index: usize,
@@ -193,13 +201,19 @@ pub enum ExportError {
     ReverseMismatch { problem: String },
     #[error(
         "the {format} format has no direction-dependent table; export the forward errors \
-         and configure backlash separately, or use the linuxcnc format"
+         and configure backlash separately, or use a format that has one (linuxcnc, fanuc, isg; \
+         siemens through its direction-dependent CEC tables)"
     )]
     ReverseUnsupported { format: &'static str },
     #[error(
         "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
     )]
     BadAxisName { name: String },
+    #[error("{controller}: {problem}")]
+    ControllerLimit {
+        controller: Controller,
+        problem: String,
+    },
     #[error("the grid format samples a volume: call write_grid, not render_line")]
     GridNeedsVolume,
     #[error(transparent)]

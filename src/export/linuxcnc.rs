@@ -64,29 +64,7 @@ pub fn render(
     comp_type: LinuxCncCompType,
     reverse: Option<&Sampled>,
 ) -> Result<String, ExportError> {
-    forward.check()?;
-    let rev = match reverse {
-        Some(r) => {
-            r.check()?;
-            if r.len() != forward.len() {
-                return Err(ExportError::ReverseMismatch {
-                    problem: format!("{} reverse samples for {} forward", r.len(), forward.len()),
-                });
-            }
-            if let Some(i) =
-                (0..r.len()).find(|&i| (r.positions_mm[i] - forward.positions_mm[i]).abs() > 1e-9)
-            {
-                return Err(ExportError::ReverseMismatch {
-                    problem: format!(
-                        "sample {i} is at {} mm forward but {} mm reverse",
-                        forward.positions_mm[i], r.positions_mm[i]
-                    ),
-                });
-            }
-            r
-        }
-        None => forward,
-    };
+    let rev = super::paired(forward, reverse)?;
     let n = forward.len();
     if n > LINUXCNC_MAX_ENTRIES {
         return Err(ExportError::TooManyEntries {

@@ -9,7 +9,10 @@
 //! |---|---|---|---|
 //! | [`sample_line`] | a [`Sampled`] line: positions, e, extrapolation flags | [`MAX_SAMPLES`] | n predictions + n `outside` tests |
 //! | [`linuxcnc`](mod@linuxcnc) | a LinuxCNC `COMP_FILE` (type 0 or 1) | [`LINUXCNC_MAX_ENTRIES`] = 256 | O(n) text |
-//! | [`siemens`](mod@siemens) | a SINUMERIK 840D sl LEC/MSEC part program (`%_N_AX_EEC_INI`) | the axis' MD38000, a parameter | O(n) text |
+//! | [`siemens`](mod@siemens) | a SINUMERIK 840D sl LEC/MSEC part program (`%_N_AX_EEC_INI`); direction-dependent: two CEC tables (`%_N_NC_CEC_INI`, K3 §4.4.4) | the axis' MD38000 (CEC: MD18342), a parameter | O(n) text |
+//! | [`fanuc`](mod@fanuc) | FANUC pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 bidirectional) and increments per point | point numbers ≤ [`FANUC_MAX_POINT_NUMBER`], \|value\| ≤ a parameter | O(n) text |
+//! | [`heidenhain`](mod@heidenhain) | a HEIDENHAIN TNC `.COM` nonlinear axis error compensation table | [`HEIDENHAIN_MAX_POINTS`] = 256, a parameter | O(n) text |
+//! | [`isg`](mod@isg) | a TwinCAT CNC (ISG) `kw.ssfk` leadscrew error compensation list, unilateral or bilateral | < P-COMP-00059 ([`ISG_DEFAULT_MAX_POINTS`] = 1500) | O(n) text |
 //! | [`csv`](mod@csv) | `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated` for one line | — | O(n) text |
 //! | [`grid`] | the same columns over a box ([`GridRows`]; CSV or Parquet via polars by [`write_grid`]) | [`MAX_SAMPLES`] | N predictions |
 //!
@@ -23,6 +26,12 @@
 //!
 //! * **Siemens LEC/MSEC corrects the actual (feedback) value**, so the table holds c, in
 //!   mm (the controller's documentation is cited in [`siemens`](mod@siemens)).
+//! * **TwinCAT CNC (ISG) LSEC holds the position error actual − setpoint**, which is c,
+//!   in 0.1 µm ([`isg`](mod@isg)).
+//! * **FANUC pitch error compensation outputs pulses added to the motion**, so its
+//!   increments are those of e, relative to the reference position ([`fanuc`](mod@fanuc)).
+//! * **HEIDENHAIN**: the sign is not stated in the sources consulted; errmap writes c,
+//!   ISO 230-2's deviation ([`heidenhain`](mod@heidenhain)).
 //! * **LinuxCNC adds its trim to the position command**, so the trim is −c = e; a type-0
 //!   file lists the actual position N + c instead, which LinuxCNC turns into the same
 //!   trim (the controller's source is cited in [`linuxcnc`](mod@linuxcnc)).
@@ -40,7 +49,10 @@
 
 pub mod csv;
 mod error;
+pub mod fanuc;
 pub mod grid;
+pub mod heidenhain;
+pub mod isg;
 pub mod linuxcnc;
 pub mod siemens;
 pub mod step;
@@ -54,10 +66,13 @@ use crate::table::{Axis, TableError, write_frame};
 
 pub use csv::render as csv;
 pub use error::{Controller, ExportError, MappedBox};
+pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
 pub use grid::GridRows;
+pub use heidenhain::HEIDENHAIN_MAX_POINTS;
+pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
 pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType, render as linuxcnc};
 pub use siemens::{SIEMENS_808D_MAX_POINTS, render as siemens};
-pub use step::{Ends, StepFit, sample_line_fit};
+pub use step::{Ends, StepFit, regrid_measured, sample_line_fit};
 
 /// errmap's own cap on sampled points per line or volume, so that a mistyped step cannot
 /// exhaust memory (a 2 000 000-point volume is about 100 MB in flight).
@@ -74,7 +89,7 @@ pub fn compensation_um(e_um: f64) -> f64 {
 }
 
 /// What to export.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ExportFormat {
     /// A LinuxCNC `COMP_FILE` for one joint.
     LinuxCnc { comp_type: LinuxCncCompType },
@@ -84,6 +99,25 @@ pub enum ExportFormat {
         axis_name: String,
         max_points: usize,
     },
+    /// SINUMERIK 840D sl direction-dependent leadscrew error compensation: two CEC tables
+    /// from `first_table` on machine axis `AX<axis_number>`, each of at most
+    /// `max_points` (MD18342); needs a reverse line.
+    SiemensCec {
+        axis_number: u32,
+        first_table: usize,
+        max_points: usize,
+    },
+    /// FANUC pitch error compensation (bidirectional with a reverse line).
+    Fanuc { spec: FanucSpec },
+    /// A HEIDENHAIN `.COM` table: the axis key (column name), the table's name and the
+    /// entry limit.
+    Heidenhain {
+        axis_key: String,
+        table_name: String,
+        max_points: usize,
+    },
+    /// A TwinCAT CNC (ISG) `kw.ssfk` list (bilateral with a reverse line).
+    Isg { axis: IsgAxis },
     /// One line as `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
     Csv,
     /// A volumetric grid (CSV or Parquet by extension), see [`write_grid`].
@@ -96,16 +130,34 @@ impl ExportFormat {
         match self {
             ExportFormat::LinuxCnc { .. } => "linuxcnc",
             ExportFormat::Siemens { .. } => "siemens",
+            ExportFormat::SiemensCec { .. } => "siemens (direction-dependent, CEC)",
+            ExportFormat::Fanuc { .. } => "fanuc",
+            ExportFormat::Heidenhain { .. } => "heidenhain",
+            ExportFormat::Isg { .. } => "isg",
             ExportFormat::Csv => "csv",
             ExportFormat::Grid => "grid",
         }
     }
 
     /// Whether the format lists every position, so that the intervals may differ
-    /// (LinuxCNC, CSV: [`StepFit::LastShorter`] fits any step); Siemens' table has one
-    /// STEP.
+    /// (LinuxCNC, ISG, CSV: [`StepFit::LastShorter`] fits any step); Siemens', FANUC's
+    /// and HEIDENHAIN's tables have one interval.
     pub fn allows_uneven(&self) -> bool {
-        matches!(self, ExportFormat::LinuxCnc { .. } | ExportFormat::Csv)
+        matches!(
+            self,
+            ExportFormat::LinuxCnc { .. } | ExportFormat::Isg { .. } | ExportFormat::Csv
+        )
+    }
+
+    /// Whether the format has direction-dependent tables (a reverse line).
+    pub fn bidirectional(&self) -> bool {
+        matches!(
+            self,
+            ExportFormat::LinuxCnc { .. }
+                | ExportFormat::SiemensCec { .. }
+                | ExportFormat::Fanuc { .. }
+                | ExportFormat::Isg { .. }
+        )
     }
 
     /// Whether the format is written from one sampled line (all but [`ExportFormat::Grid`]).
@@ -114,7 +166,8 @@ impl ExportFormat {
     }
 
     /// Renders a sampled line. `reverse` (direction-dependent errors, same positions)
-    /// is used by LinuxCNC only; the other line formats refuse it.
+    /// is used by the formats with direction-dependent tables ([`Self::bidirectional`]);
+    /// the other line formats refuse it.
     pub fn render_line(
         &self,
         forward: &Sampled,
@@ -133,6 +186,39 @@ impl ExportFormat {
                 }
                 siemens(forward, axis_name, *max_points)
             }
+            ExportFormat::SiemensCec {
+                axis_number,
+                first_table,
+                max_points,
+            } => {
+                let Some(reverse) = reverse else {
+                    return Err(ExportError::ReverseMismatch {
+                        problem: "the direction-dependent Siemens tables need the reverse line"
+                            .into(),
+                    });
+                };
+                siemens::render_bidirectional(
+                    forward,
+                    reverse,
+                    *axis_number,
+                    *first_table,
+                    *max_points,
+                )
+            }
+            ExportFormat::Fanuc { spec } => fanuc::render(forward, reverse, spec),
+            ExportFormat::Heidenhain {
+                axis_key,
+                table_name,
+                max_points,
+            } => {
+                if reverse.is_some() {
+                    return Err(ExportError::ReverseUnsupported {
+                        format: self.name(),
+                    });
+                }
+                heidenhain::render(forward, axis_key, table_name, *max_points)
+            }
+            ExportFormat::Isg { axis } => isg::render(forward, reverse, axis),
             ExportFormat::Csv => {
                 if reverse.is_some() {
                     return Err(ExportError::ReverseUnsupported {
@@ -315,6 +401,35 @@ impl Sampled {
         self.positions_mm.last().copied().unwrap_or(0.0)
             - self.positions_mm.first().copied().unwrap_or(0.0)
     }
+}
+
+/// Checks `forward` and, when given, `reverse` (the same positions, direction-dependent
+/// errors); returns the line the reverse column comes from (`forward` without one).
+fn paired<'a>(
+    forward: &'a Sampled,
+    reverse: Option<&'a Sampled>,
+) -> Result<&'a Sampled, ExportError> {
+    forward.check()?;
+    let Some(r) = reverse else {
+        return Ok(forward);
+    };
+    r.check()?;
+    if r.len() != forward.len() {
+        return Err(ExportError::ReverseMismatch {
+            problem: format!("{} reverse samples for {} forward", r.len(), forward.len()),
+        });
+    }
+    if let Some(i) =
+        (0..r.len()).find(|&i| (r.positions_mm[i] - forward.positions_mm[i]).abs() > 1e-9)
+    {
+        return Err(ExportError::ReverseMismatch {
+            problem: format!(
+                "sample {i} is at {} mm forward but {} mm reverse",
+                forward.positions_mm[i], r.positions_mm[i]
+            ),
+        });
+    }
+    Ok(r)
 }
 
 /// `v` with `decimals` decimals, trailing zeros trimmed (one kept), and no `-0.0`.

@@ -112,6 +112,64 @@ fn last_shorter(start_mm: f64, end_mm: f64, step_mm: f64) -> Vec<f64> {
     positions
 }
 
+/// The positions `fit` places over `start..end` every `step`, and for each where the
+/// value is taken (a grid point beyond the range is valued at the range end with
+/// [`Ends::Clamp`]).
+fn place(
+    axis: Axis,
+    start_mm: f64,
+    end_mm: f64,
+    step_mm: f64,
+    fit: StepFit,
+) -> Result<(Vec<f64>, Vec<f64>), ExportError> {
+    // The range and step checks of `axis_positions` come first for every fit.
+    let exact = super::axis_positions(axis, start_mm, end_mm, step_mm, false);
+    Ok(match (fit, exact) {
+        (_, Err(e)) if !matches!(e, ExportError::StepDoesNotDivide { .. }) => return Err(e),
+        (StepFit::Divide, exact) => {
+            let p = exact?;
+            (p.clone(), p)
+        }
+        (StepFit::LastShorter, _) => {
+            let p = last_shorter(start_mm, end_mm, step_mm);
+            (p.clone(), p)
+        }
+        (StepFit::Grid { reference_mm, ends }, _) => {
+            grid_points(axis, start_mm, end_mm, step_mm, reference_mm, ends)?
+        }
+    })
+}
+
+/// A measured line (e.g. a session's per-direction means at its targets) moved onto the
+/// points `fit` places every `step_mm` over its range: the values interpolated linearly
+/// between the measured positions (the rule of the controllers that interpolate), and
+/// beyond them held ([`Ends::Clamp`]) or continued along the end interval
+/// ([`Ends::Extrapolate`], flagged as extrapolated). Cost: O(n + m).
+pub fn regrid_measured(s: &Sampled, step_mm: f64, fit: StepFit) -> Result<Sampled, ExportError> {
+    s.check()?;
+    let n = s.len();
+    let (start, end) = (s.positions_mm[0], s.positions_mm[n - 1]);
+    let (positions_mm, at_mm) = place(s.axis, start, end, step_mm, fit)?;
+    let xs = &s.positions_mm;
+    let value = |x: f64| {
+        let i = xs.partition_point(|&p| p <= x).clamp(1, n - 1) - 1;
+        let u = (x - xs[i]) / (xs[i + 1] - xs[i]);
+        s.error_um[i] + u * (s.error_um[i + 1] - s.error_um[i])
+    };
+    let error_um = at_mm.iter().map(|&x| value(x)).collect();
+    let extrapolated = at_mm
+        .iter()
+        .map(|&x| x < start - 1e-9 || x > end + 1e-9)
+        .collect();
+    Ok(Sampled {
+        axis: s.axis,
+        at_mm: s.at_mm,
+        positions_mm,
+        error_um,
+        extrapolated,
+    })
+}
+
 /// Samples the model along a line with the points placed by `fit`. With
 /// [`StepFit::Divide`] this is [`sample_line`](super::sample_line).
 pub fn sample_line_fit(
@@ -126,27 +184,7 @@ pub fn sample_line_fit(
             return Err(ExportError::NonFiniteCoordinate { axis, value });
         }
     }
-    // The range and step checks of `axis_positions` come first for every fit.
-    let exact = super::axis_positions(line.axis, line.start_mm, line.end_mm, line.step_mm, false);
-    let (positions_mm, at_mm) = match (fit, exact) {
-        (_, Err(e)) if !matches!(e, ExportError::StepDoesNotDivide { .. }) => return Err(e),
-        (StepFit::Divide, exact) => {
-            let p = exact?;
-            (p.clone(), p)
-        }
-        (StepFit::LastShorter, _) => {
-            let p = last_shorter(line.start_mm, line.end_mm, line.step_mm);
-            (p.clone(), p)
-        }
-        (StepFit::Grid { reference_mm, ends }, _) => grid_points(
-            line.axis,
-            line.start_mm,
-            line.end_mm,
-            line.step_mm,
-            reference_mm,
-            ends,
-        )?,
-    };
+    let (positions_mm, at_mm) = place(line.axis, line.start_mm, line.end_mm, line.step_mm, fit)?;
     let points: Vec<[f64; 3]> = at_mm.iter().map(|&x| line.point(x)).collect();
     let (error_um, extrapolated) = evaluate(model, &points, extrapolation)?;
     Ok(Sampled {

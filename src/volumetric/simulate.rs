@@ -166,6 +166,43 @@ pub struct Plan {
     pub thermal: Option<ThermalHistory>,
 }
 
+impl Plan {
+    /// The plan's lines as a part program's campaign ([`crate::sim::program::lines`]):
+    /// each line's targets in order, its runs, the plan's feed and dwell.
+    pub fn lines_program(&self, title: &str) -> crate::sim::program::lines::LinesProgram {
+        use crate::sim::program::lines::{LinesProgram, ProgramLine};
+        LinesProgram {
+            title: title.to_string(),
+            lines: self
+                .lines
+                .iter()
+                .map(|l| ProgramLine {
+                    name: l.name.clone(),
+                    targets_mm: l.target_positions(),
+                    runs: l.runs,
+                    probe_mm: l.probe_mm,
+                })
+                .collect(),
+            feed_mm_s: self.feed_mm_s,
+            dwell_s: self.dwell_s,
+        }
+    }
+}
+
+impl PlannedLine {
+    /// The targets in the order they are visited: `targets` points evenly from the start
+    /// over the length.
+    pub fn target_positions(&self) -> Vec<[f64; 3]> {
+        let n = self.targets;
+        (0..n)
+            .map(|i| {
+                let s = self.length_mm * i as f64 / (n - 1) as f64;
+                [0, 1, 2].map(|k| self.start_mm[k] + s * self.u[k])
+            })
+            .collect()
+    }
+}
+
 fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
@@ -494,12 +531,7 @@ pub fn simulate(machine: &Machine, plan: &Plan) -> LineTable {
         t += plan.setup_s;
         let zero = plan.laser_zero_um * gaussian(&mut rng);
         let n = pl.targets;
-        let pos: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let s = pl.length_mm * i as f64 / (n - 1) as f64;
-                [0, 1, 2].map(|k| pl.start_mm[k] + s * pl.u[k])
-            })
-            .collect();
+        let pos = pl.target_positions();
         let step_s = pl.length_mm / (n - 1) as f64 / plan.feed_mm_s;
         let mut sum_e = vec![0.0; n];
         let mut sum_t = vec![0.0; n];

@@ -14,6 +14,10 @@ use errmap::interp::{Interpolator, Method, Order};
 use errmap::table::{Axis, ErrorTable, Grid};
 use proptest::prelude::*;
 
+use super::export_dialects::{
+    TRUTH_D2, export_session, grid, hidden_reversal_um, measured, truth_x, truth_x_down,
+};
+
 // ---------------------------------------------------------------------------------------
 // A known machine and its map
 // ---------------------------------------------------------------------------------------
@@ -155,7 +159,7 @@ fn parse_siemens(text: &str, axis: &str) -> SiemensTable {
 }
 
 /// A controller's table lookup: linear between entries, the end values held beyond.
-fn table_at(xs: &[f64], vs: &[f64], x: f64) -> f64 {
+pub(crate) fn table_at(xs: &[f64], vs: &[f64], x: f64) -> f64 {
     if x <= xs[0] {
         return vs[0];
     }
@@ -824,7 +828,7 @@ fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
             );
         }
     }
-    let (o, _) = run("reversal", &["--format", "siemens", "--at", "y=1,z=200"]);
+    let (o, _) = run("reversal", &["--format", "heidenhain", "--at", "y=1,z=200"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("direction-dependent"));
     let (o, _) = run("reversal", &["--format", "linuxcnc"]);
@@ -832,4 +836,135 @@ fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("4 lines match"));
     let (o, _) = run("reversal", &["--format", "linuxcnc", "--method", "spline"]);
     assert_eq!(o.status.code(), Some(2), "--bidirectional takes no model");
+}
+
+// ---------------------------------------------------------------------------------------
+// SINUMERIK direction-dependent compensation (two CEC tables, K3 §4.4.4); the helpers
+// (an analytic error curve, the concealed sessions) are those of `export_dialects`
+// ---------------------------------------------------------------------------------------
+
+/// One CEC table read back from a `%_N_NC_CEC_INI` program.
+#[derive(Debug, Default)]
+struct CecTable {
+    values_mm: Vec<f64>,
+    input: String,
+    output: String,
+    step_mm: f64,
+    min_mm: f64,
+    max_mm: f64,
+    direction: i32,
+}
+
+fn parse_cec(text: &str) -> std::collections::BTreeMap<usize, CecTable> {
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "%_N_NC_CEC_INI");
+    assert_eq!(*lines.last().expect("lines"), "M17");
+    let mut tables: std::collections::BTreeMap<usize, CecTable> = Default::default();
+    let mut points: std::collections::BTreeMap<(usize, usize), f64> = Default::default();
+    for line in lines.iter().filter(|l| l.starts_with('$')) {
+        let (lhs, v) = line.split_once('=').expect("assignment");
+        let (name, idx) = lhs.trim_end_matches(']').split_once('[').expect("index");
+        let ix: Vec<usize> = idx.split(',').map(|t| t.parse().expect("index")).collect();
+        let t = tables.entry(ix[0]).or_default();
+        match name {
+            "$AN_CEC" => {
+                points.insert((ix[0], ix[1]), v.parse().expect("mm"));
+            }
+            "$AN_CEC_INPUT_AXIS" => t.input = v.into(),
+            "$AN_CEC_OUTPUT_AXIS" => t.output = v.into(),
+            "$AN_CEC_STEP" => t.step_mm = v.parse().expect("mm"),
+            "$AN_CEC_MIN" => t.min_mm = v.parse().expect("mm"),
+            "$AN_CEC_MAX" => t.max_mm = v.parse().expect("mm"),
+            "$AN_CEC_DIRECTION" => t.direction = v.parse().expect("±1"),
+            "$AN_CEC_MULT_BY_TABLE" | "$AN_CEC_IS_MODULO" => assert_eq!(v, "0"),
+            other => panic!("unexpected {other}"),
+        }
+    }
+    for ((t, n), v) in points {
+        let table = tables.get_mut(&t).expect("table");
+        assert_eq!(table.values_mm.len(), n, "points in order from 0");
+        table.values_mm.push(v);
+    }
+    tables
+}
+
+#[test]
+fn siemens_direction_dependent_tables_round_trip_both_directions() {
+    let h = 10.0;
+    let xs = grid(0.0, 400.0, h);
+    let up = measured(&xs, truth_x);
+    let down = measured(&xs, truth_x_down);
+    let format = ExportFormat::SiemensCec {
+        axis_number: 2,
+        first_table: 4,
+        max_points: 200,
+    };
+    let tables = parse_cec(&format.render_line(&up, Some(&down)).expect("renders"));
+    assert_eq!(tables.keys().copied().collect::<Vec<_>>(), [4, 5]);
+    for (t, truth, direction) in [(4, truth_x as fn(f64) -> f64, 1), (5, truth_x_down, -1)] {
+        let c = &tables[&t];
+        assert_eq!((c.input.as_str(), c.output.as_str()), ("(AX2)", "(AX2)"));
+        assert_eq!(c.direction, direction);
+        // MIN + (points − 1)·STEP = MAX, padded with 0 one step beyond each end.
+        let n = c.values_mm.len();
+        assert_eq!((c.min_mm, c.max_mm, c.step_mm, n), (-10.0, 410.0, 10.0, 43));
+        assert_eq!((c.values_mm[0], c.values_mm[n - 1]), (0.0, 0.0));
+        let tx: Vec<f64> = (0..n).map(|i| c.min_mm + i as f64 * c.step_mm).collect();
+        // LEC sign: the table corrects the actual value, residual e + c; linear between
+        // points, so ≤ h²/8·max|e''| plus the file's 1 nm.
+        let bound = h * h / 8.0 * TRUTH_D2 + 0.001;
+        let mut x = 0.0;
+        while x <= 400.0 {
+            let r = truth(x) + table_at(&tx, &c.values_mm, x) * 1e3;
+            assert!(
+                r.abs() <= bound,
+                "table {t} at {x}: residual {r} µm > {bound}"
+            );
+            x += 0.5;
+        }
+    }
+    // The reversal survives: c↑ − c↓ = e↓ − e↑ = 3 + 0.002·x µm.
+    for (i, &x) in xs.iter().enumerate() {
+        let d = (tables[&4].values_mm[i + 1] - tables[&5].values_mm[i + 1]) * 1e3;
+        assert!((d - (3.0 + 0.002 * x)).abs() < 0.002, "at {x}: {d} µm");
+    }
+    // MD18342 too small: 41 samples + 2 zero points > 42.
+    let small = ExportFormat::SiemensCec {
+        axis_number: 2,
+        first_table: 0,
+        max_points: 42,
+    };
+    match small.render_line(&up, Some(&down)).expect_err("refused") {
+        ExportError::TooManyEntries {
+            controller: Controller::Siemens,
+            samples: 41,
+            padding: 2,
+            limit: 42,
+            ..
+        } => {}
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        format.render_line(&up, None),
+        Err(ExportError::ReverseMismatch { .. })
+    ));
+}
+
+#[test]
+fn bidirectional_siemens_program_carries_the_reversal_of_the_session() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let b = hidden_reversal_um();
+    for (case, b_um) in [("reversal", b), ("clean", 0.0)] {
+        let (code, err, text) = export_session(case, &["--format", "siemens"], dir.path());
+        assert_eq!(code, Some(0), "{err}");
+        let tables = parse_cec(&text);
+        let (up, down) = (&tables[&0], &tables[&1]);
+        assert_eq!((up.direction, down.direction), (1, -1));
+        assert_eq!(up.values_mm.len(), 11, "9 targets + 2 zero points");
+        for i in 1..=9 {
+            // c↑ − c↓ = e↓ − e↑ = −b.
+            let d_um = (up.values_mm[i] - down.values_mm[i]) * 1e3;
+            assert!((d_um + b_um).abs() < 0.05, "{case}, target {i}: {d_um} µm");
+        }
+    }
 }

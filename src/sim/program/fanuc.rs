@@ -69,7 +69,7 @@ pub fn render(plan: &TestPlan) -> Result<String, ProgramError> {
 }
 
 /// Upper case, ASCII letters, digits, spaces and `.,-+=:/` only (no parentheses).
-fn fanuc_comment(text: &str) -> String {
+pub(crate) fn fanuc_comment(text: &str) -> String {
     text.to_ascii_uppercase()
         .chars()
         .map(|c| {

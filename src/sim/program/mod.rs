@@ -17,9 +17,14 @@
 //! near it first — then runs the cycle with moves along the tested axis only, and ends at
 //! P_1 − o. Positions are written to 0.001 mm (the plan's targets are rounded to it).
 //! No dialect changes tool, spindle or coolant.
+//!
+//! [`lines`] writes the same dialects for a campaign of lines in space (the volumetric
+//! plans): three-axis moves to each target in order, a dwell there, and a programmed stop
+//! before each line for the laser alignment.
 
 pub mod fanuc;
 pub mod heidenhain;
+pub mod lines;
 pub mod linuxcnc;
 pub mod siemens;
 
@@ -127,6 +132,11 @@ pub enum ProgramError {
          the largest the programs write"
     )]
     CoordinateTooLarge { value_mm: f64 },
+    #[error(
+        "a lines program needs at least one line, every line targets and at least one run, \
+         a positive feed and a non-negative dwell"
+    )]
+    EmptyCampaign,
 }
 
 /// The program for `plan` in `dialect`.

@@ -1,0 +1,419 @@
+//! The FANUC pitch error compensation renderer ([`table`], [`render`]).
+//!
+//! # FANUC pitch error compensation
+//!
+//! Sources: FANUC Series 0i-PB Parameter Manual (B-63980EN/01), description of
+//! parameters 3620–3624 (p. 100, the linear-axis and rotary-axis examples), and the FANUC
+//! technical report "Series 16i/18i-MA/TA bidirectional pitch error compensation function"
+//! (A-77810E, 2000), table (a).
+//!
+//! Per axis the compensation is a list of *compensation point numbers* shared by all
+//! axes; the axis' parameters say which numbers it uses:
+//!
+//! | parameter | meaning |
+//! |---|---|
+//! | 3620 | number of the compensation point of the reference position |
+//! | 3621 | number of the most negative compensation point (for travel in the + direction) |
+//! | 3622 | number of the most positive compensation point (for travel in the + direction) |
+//! | 3623 | magnification: each value counts `magnification` detection units |
+//! | 3624 | interval between compensation points |
+//! | 3605#0 | bidirectional pitch error compensation (1: enabled; 16i/18i and later) |
+//! | 3626 | number of the most negative compensation point for travel in the − direction |
+//! | 3627 | the compensation (absolute value) at the reference position when the machine moves to it from the direction opposite to the reference return |
+//!
+//! The points lie every interval h from the reference position r. The value of number N
+//! is an **increment**: the compensation output over the section that ends at point
+//! r + (N − 3620)·h, so that the section (r − h, r] has number 3620 and the most
+//! negative section, starting at r − k·h, has 3620 − k + 1 (the manual's example:
+//! reference number 40, interval 50 mm, stroke from −400 mm: 3621 = 40 − 400/50 + 1 =
+//! 33). The absolute compensation at a point is the sum of the increments from the
+//! reference position, where it is 0 (the example's "pitch error compensation amount
+//! (absolute value)" curve passes through 0 at the reference position; its values for
+//! numbers 33–40 sum to 0). Values are integers in detection units × 3623.
+//!
+//! What this module writes, and what it derives:
+//!
+//! * **The reference offset.** Because the compensation is 0 at the reference position,
+//!   the table corrects e(x) − e(r); a constant e(r) is a datum offset that the pitch
+//!   error table cannot hold (errmap names it in the file's header).
+//! * **Rounding.** The absolute values are rounded to the unit and then differenced, so
+//!   the rounding does not accumulate: at every point the table's absolute value is within
+//!   half a unit of e − e(r).
+//! * **Sign.** The compensation pulses are added to the axis' motion. To place the axis
+//!   at x when its scale over-reads by e(x) (errmap's e = indicated − reference), the
+//!   motion must go e(x) further, so the absolute compensation is +e(x) − e(r) = −c + c(r)
+//!   and the increments are those of e. The manuals consulted do not state the sign in
+//!   words: check it on the machine with one point before trusting the whole table.
+//! * **Between points.** The parameter manual says the value "is output at the
+//!   compensation position corresponding to each section"; whether the pulses are spread
+//!   over the section or output at once is not stated in the sources consulted, so the
+//!   tests check the table at the points, where both readings agree.
+//! * **Bidirectional.** With 3605#0 = 1 a second list (from 3626, as many numbers as the
+//!   first) holds the increments for travel in the negative direction, and 3627 the
+//!   negative-travel compensation at the reference position. errmap assumes the
+//!   reference return is made in the positive direction (parameter 1006#5 ZMI = 0), so
+//!   the positive-travel curve is the one that is 0 at the reference position; the
+//!   negative-travel curve is written relative to it (3627 = e↓(r) − e↑(r) in units).
+//!
+//! Limits that are parameters here because they depend on the series and were not found
+//! in the sources consulted: the highest compensation point number
+//! ([`FANUC_MAX_POINT_NUMBER`] = 1023, the 0i range), the largest value per point
+//! ([`FANUC_DEFAULT_MAX_VALUE`] = 7, the range of the older series; newer series accept
+//! more) and the magnification range (1–[`FANUC_MAX_MAGNIFICATION`]).
+//!
+//! # The file
+//!
+//! The pitch error data in the N/P form of a FANUC data file, one `N<10000 + point
+//! number>P<value>` per point between `%` lines, with the parameters as a comment block
+//! to enter on the parameter screen. This framing (data number 10000 + point number) is
+//! the one FANUC controls commonly punch for pitch error data, but it was not confirmed
+//! in the sources consulted: compare it with a file punched from the target control
+//! before loading.
+
+use super::{Controller, ExportError, Sampled};
+
+/// The highest compensation point number of the FANUC 0i (points 0–1023).
+pub const FANUC_MAX_POINT_NUMBER: u32 = 1023;
+/// The largest increment per point (in units of detection unit × magnification) accepted
+/// by default: ±7, the range of the older series. A parameter.
+pub const FANUC_DEFAULT_MAX_VALUE: u32 = 7;
+/// The largest magnification (parameter 3623) errmap writes.
+pub const FANUC_MAX_MAGNIFICATION: u32 = 100;
+
+/// The axis and the control's settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FanucSpec {
+    /// The axis number the parameters belong to (1 = first axis), for the header.
+    pub axis_number: u32,
+    /// Parameter 3620; `None`: the smallest number that fits (the most negative point 0).
+    pub reference_number: Option<u32>,
+    /// The machine coordinate of the reference position, mm; it must be a table point.
+    pub reference_mm: f64,
+    /// The detection unit, µm (1 for IS-B, 0.1 for IS-C).
+    pub detection_unit_um: f64,
+    /// Parameter 3623.
+    pub magnification: u32,
+    /// The largest |value| per point.
+    pub max_value: u32,
+    /// The highest compensation point number of the control.
+    pub max_point_number: u32,
+    /// Parameter 3626 for a bidirectional table; `None`: right after 3622.
+    pub negative_start: Option<u32>,
+}
+
+impl Default for FanucSpec {
+    fn default() -> Self {
+        FanucSpec {
+            axis_number: 1,
+            reference_number: None,
+            reference_mm: 0.0,
+            detection_unit_um: 1.0,
+            magnification: 1,
+            max_value: FANUC_DEFAULT_MAX_VALUE,
+            max_point_number: FANUC_MAX_POINT_NUMBER,
+            negative_start: None,
+        }
+    }
+}
+
+/// The negative-direction list of a bidirectional table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FanucReverse {
+    /// Parameter 3626.
+    pub negative_number: u32,
+    /// Parameter 3627, in units (detection unit × 3623).
+    pub reference_value: i64,
+    /// The increments of numbers 3626, 3626 + 1, ….
+    pub values: Vec<i64>,
+}
+
+/// A pitch error compensation table for one axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FanucTable {
+    /// 3620, 3621, 3622, 3623.
+    pub reference_number: u32,
+    pub negative_number: u32,
+    pub positive_number: u32,
+    pub magnification: u32,
+    /// 3624, mm.
+    pub interval_mm: f64,
+    /// One unit of a value, µm (detection unit × 3623).
+    pub unit_um: f64,
+    /// The increments of numbers 3621..=3622.
+    pub values: Vec<i64>,
+    pub reverse: Option<FanucReverse>,
+    /// e at the reference position (forward), µm: the offset the table cannot hold.
+    pub reference_error_um: f64,
+}
+
+fn limit(problem: String) -> ExportError {
+    ExportError::ControllerLimit {
+        controller: Controller::Fanuc,
+        problem,
+    }
+}
+
+/// Absolute values in units, relative to `zero_um`, rounded; then the increments of the
+/// numbered sections (index 0: the section before the first point, 0).
+fn increments(error_um: &[f64], zero_um: f64, unit_um: f64) -> Result<Vec<i64>, ExportError> {
+    let mut q = Vec::with_capacity(error_um.len());
+    for &e in error_um {
+        let v = ((e - zero_um) / unit_um).round();
+        if v.abs() >= i32::MAX as f64 {
+            return Err(limit(format!(
+                "a compensation of {e} µm is {v} units of {unit_um} µm, beyond any table"
+            )));
+        }
+        q.push(v as i64);
+    }
+    Ok(q)
+}
+
+/// The table for `forward` (and `reverse`, direction-dependent errors at the same
+/// positions, for a bidirectional table). The samples must be equidistant and include
+/// the reference position.
+pub fn table(
+    forward: &Sampled,
+    reverse: Option<&Sampled>,
+    spec: &FanucSpec,
+) -> Result<FanucTable, ExportError> {
+    let rev = super::paired(forward, reverse)?;
+    let h = forward.uniform_step()?;
+    if !(spec.detection_unit_um.is_finite() && spec.detection_unit_um > 0.0) {
+        return Err(limit(format!(
+            "the detection unit {} µm must be a positive length",
+            spec.detection_unit_um
+        )));
+    }
+    if !(1..=FANUC_MAX_MAGNIFICATION).contains(&spec.magnification) {
+        return Err(limit(format!(
+            "magnification (3623) {} is outside 1–{FANUC_MAX_MAGNIFICATION}",
+            spec.magnification
+        )));
+    }
+    if spec.max_value == 0 || spec.axis_number == 0 {
+        return Err(limit(
+            "the largest value per point and the axis number must be at least 1".into(),
+        ));
+    }
+    let n = forward.len();
+    let (first_mm, last_mm) = (forward.positions_mm[0], forward.positions_mm[n - 1]);
+    let r = spec.reference_mm;
+    let tol = 1e-9 * (1.0 + r.abs().max(last_mm.abs()).max(first_mm.abs()));
+    let Some(k0) = forward
+        .positions_mm
+        .iter()
+        .position(|&x| (x - r).abs() <= tol.max(1e-7))
+    else {
+        let where_ = if r < first_mm || r > last_mm {
+            "lies outside the table"
+        } else {
+            "is not one of its points"
+        };
+        return Err(limit(format!(
+            "the reference position {r} mm {where_} ({first_mm} to {last_mm} mm every {h} mm); \
+             FANUC counts the compensation points from the reference position: keep the step on \
+             the grid through it (--ends clamp|extrapolate --reference {r}) and a range that \
+             contains it"
+        )));
+    };
+    let e_ref = forward.error_um[k0];
+    // Section i (1 ≤ i < n) ends at point i and has number R + i − k0; with the reference
+    // at the first point, number R is the (empty) section before it.
+    let k0_u = k0 as u32;
+    let reference_number = match spec.reference_number {
+        Some(rn) => {
+            if rn + 1 < k0_u {
+                return Err(limit(format!(
+                    "with the reference position at point {k0} of the table, 3620 = {rn} puts the \
+                     most negative point at number {}; set 3620 to at least {}",
+                    rn as i64 + 1 - k0 as i64,
+                    k0 - 1
+                )));
+            }
+            rn
+        }
+        None => k0_u.saturating_sub(1),
+    };
+    let first = (reference_number + 1)
+        .saturating_sub(k0_u)
+        .min(reference_number);
+    let last = reference_number + (n as u32 - 1 - k0_u);
+    let span = last - first;
+    let negative_start = spec.negative_start.unwrap_or(last + 1);
+    if reverse.is_some() && negative_start <= last && negative_start + span >= first {
+        return Err(limit(format!(
+            "the negative-direction numbers {negative_start}–{} (3626) overlap the \
+             positive-direction numbers {first}–{last}",
+            negative_start + span
+        )));
+    }
+    let top = if reverse.is_some() {
+        last.max(negative_start + span)
+    } else {
+        last
+    };
+    if top > spec.max_point_number {
+        return Err(limit(format!(
+            "the table needs compensation point numbers up to {top}, beyond the control's \
+             {}: {n} points from {first_mm} to {last_mm} mm every {h} mm{}; use a coarser \
+             interval or a smaller 3620",
+            spec.max_point_number,
+            if reverse.is_some() {
+                " in each direction"
+            } else {
+                ""
+            }
+        )));
+    }
+    let section = |number: u32| number as i64 - reference_number as i64 + k0 as i64;
+    let values_of = |q: &[i64]| -> Vec<i64> {
+        (first..=last)
+            .map(|number| {
+                let i = section(number);
+                if i <= 0 {
+                    0
+                } else {
+                    q[i as usize] - q[i as usize - 1]
+                }
+            })
+            .collect()
+    };
+    // The lists at a magnification; both relative to the positive-travel curve, which is
+    // 0 at the reference position.
+    let lists = |magnification: u32| -> Result<(Vec<i64>, Option<FanucReverse>), ExportError> {
+        let unit_um = spec.detection_unit_um * magnification as f64;
+        let values = values_of(&increments(&forward.error_um, e_ref, unit_um)?);
+        let reverse_table = match reverse {
+            Some(_) => {
+                let qd = increments(&rev.error_um, e_ref, unit_um)?;
+                Some(FanucReverse {
+                    negative_number: negative_start,
+                    reference_value: qd[k0],
+                    values: values_of(&qd),
+                })
+            }
+            None => None,
+        };
+        Ok((values, reverse_table))
+    };
+    let worst = |l: &(Vec<i64>, Option<FanucReverse>)| {
+        l.0.iter()
+            .chain(l.1.iter().flat_map(|r| r.values.iter()))
+            .map(|v| v.unsigned_abs())
+            .max()
+            .unwrap_or(0)
+    };
+    let (values, reverse_table) = lists(spec.magnification)?;
+    let too_big = worst(&(values.clone(), reverse_table.clone()));
+    if too_big > spec.max_value as u64 {
+        let unit_um = spec.detection_unit_um * spec.magnification as f64;
+        let (which, j) = values
+            .iter()
+            .position(|v| v.unsigned_abs() == too_big)
+            .map(|j| ("", first as usize + j))
+            .or_else(|| {
+                reverse_table.as_ref().and_then(|r| {
+                    r.values
+                        .iter()
+                        .position(|v| v.unsigned_abs() == too_big)
+                        .map(|j| (" (negative direction)", negative_start as usize + j))
+                })
+            })
+            .unwrap_or(("", first as usize));
+        // The smallest magnification that fits, tried in turn (rounding decides it).
+        let fits = (spec.magnification + 1..=FANUC_MAX_MAGNIFICATION)
+            .find(|&m| lists(m).is_ok_and(|l| worst(&l) <= spec.max_value as u64));
+        let advice = match fits {
+            Some(m) => {
+                format!("raise the magnification (3623) to at least {m} or use a finer interval")
+            }
+            None => format!(
+                "no magnification up to {FANUC_MAX_MAGNIFICATION} fits: use a finer interval"
+            ),
+        };
+        return Err(limit(format!(
+            "point {j}{which} needs an increment of ±{too_big} units of {unit_um} µm over {h} mm, \
+             beyond ±{}; {advice}",
+            spec.max_value
+        )));
+    }
+    let unit_um = spec.detection_unit_um * spec.magnification as f64;
+    Ok(FanucTable {
+        reference_number,
+        negative_number: first,
+        positive_number: last,
+        magnification: spec.magnification,
+        interval_mm: h,
+        unit_um,
+        values,
+        reverse: reverse_table,
+        reference_error_um: e_ref,
+    })
+}
+
+/// The table as a FANUC data file (module docs): parameters in a comment block, then
+/// `N<10000 + number>P<value>` for every point, positive direction first.
+pub fn render(
+    forward: &Sampled,
+    reverse: Option<&Sampled>,
+    spec: &FanucSpec,
+) -> Result<String, ExportError> {
+    let t = table(forward, reverse, spec)?;
+    let axis = forward.axis.to_string().to_uppercase();
+    let fixed: Vec<String> = crate::table::Axis::ALL
+        .iter()
+        .filter(|&&a| a != forward.axis)
+        .map(|a| {
+            format!(
+                "{} {}",
+                a.to_string().to_uppercase(),
+                super::fmt_fixed(forward.at_mm[a.index()], 4)
+            )
+        })
+        .collect();
+    let mut out = String::with_capacity((t.values.len() * 2 + 12) * 14);
+    out.push_str("%\n");
+    out.push_str("(FANUC PITCH ERROR COMPENSATION FROM ERRMAP)\n");
+    out.push_str(&format!(
+        "(AXIS {} = {axis}, LINE AT {} MM, {} POINTS, {} EXTRAPOLATED)\n",
+        spec.axis_number,
+        fixed.join(" "),
+        forward.len(),
+        forward.extrapolated_count()
+    ));
+    let (bdp, negative) = match &t.reverse {
+        Some(r) => (
+            1,
+            format!(" 3626={} 3627={}", r.negative_number, r.reference_value),
+        ),
+        None => (0, String::new()),
+    };
+    out.push_str(&format!(
+        "(PARAMETERS OF AXIS {}: 3605#0={bdp} 3620={} 3621={} 3622={} 3623={} 3624={} MM{negative})\n",
+        spec.axis_number,
+        t.reference_number,
+        t.negative_number,
+        t.positive_number,
+        t.magnification,
+        super::fmt_mm(t.interval_mm)
+    ));
+    out.push_str(&format!(
+        "(REFERENCE POSITION {} MM; VALUES ARE INCREMENTS IN UNITS OF {} UM)\n",
+        super::fmt_mm(spec.reference_mm),
+        super::fmt_fixed(t.unit_um, 4)
+    ));
+    out.push_str(&format!(
+        "(NOT IN THE TABLE: THE ERROR AT THE REFERENCE POSITION, {} UM)\n",
+        super::fmt_fixed(t.reference_error_um, 4)
+    ));
+    let lists = std::iter::once((t.negative_number, &t.values))
+        .chain(t.reverse.as_ref().map(|r| (r.negative_number, &r.values)));
+    for (start, vals) in lists {
+        for (j, v) in vals.iter().enumerate() {
+            out.push_str(&format!("N{}P{v}\n", 10000 + start as usize + j));
+        }
+    }
+    out.push_str("%\n");
+    Ok(out)
+}
