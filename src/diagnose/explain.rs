@@ -218,6 +218,14 @@ fn found_effect(
         uncertainty.insert(p.name.to_string(), if p.fitted { p.sigma } else { 0.0 });
     }
     let mut text = where_text(f, obs, out);
+    for z in zero_statements(f) {
+        text.push_str("; ");
+        text.push_str(&z);
+    }
+    for n in &f.notes {
+        text.push_str("; ");
+        text.push_str(n);
+    }
     if let Some(a) = amb {
         for s in a {
             text.push_str("; ");
@@ -231,6 +239,41 @@ fn found_effect(
         where_: text,
         explains_um: centred_rms(&f.contribution),
     }
+}
+
+/// A fitted parameter within two of its sigmas of zero, in words, with what zero means for
+/// the set-up (e.g. "ppm_per_hpa = −0.002 ± 0.010 ppm/hPa, consistent with zero: the
+/// pressure is compensated correctly"). A period, phase or time constant has no
+/// meaningful zero and is not tested.
+fn zero_statements(f: &FittedTerm) -> Vec<String> {
+    f.params
+        .iter()
+        .filter(|p| p.fitted && p.sigma.is_finite() && p.sigma > 0.0)
+        .filter(|p| p.value.abs() <= 2.0 * p.sigma)
+        .filter_map(|p| {
+            let (unit, meaning) = match p.name {
+                P::PpmPerHpa => ("ppm/hPa", "the pressure is compensated correctly"),
+                P::PpmPerK => ("ppm/K", "the air temperature is compensated correctly"),
+                P::X0Mm => ("mm", "the scale's fixed point is at the axis zero"),
+                P::Theta0Urad => ("µrad", "no angular error at the axis zero"),
+                P::Theta1UradPerMm => ("µrad/mm", "the angle does not change along the axis"),
+                P::AlphaPpmPerK => ("ppm/K", "no expansion with the scale temperature"),
+                _ => return None,
+            };
+            let d = decimals(p.sigma);
+            Some(format!(
+                "{} = {} ± {} {unit}, consistent with zero: {meaning}",
+                p.name,
+                fixed(p.value, d),
+                fixed(p.sigma, d)
+            ))
+        })
+        .collect()
+}
+
+/// Decimals that show two significant digits of `sigma`.
+fn decimals(sigma: f64) -> usize {
+    (1 - sigma.abs().log10().floor() as i32).clamp(0, 8) as usize
 }
 
 fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {

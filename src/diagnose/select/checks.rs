@@ -294,9 +294,106 @@ impl Selector<'_> {
                 term: t.clone(),
                 params,
                 contribution,
+                notes: Vec::new(),
             });
         }
         out
+    }
+}
+
+impl Selector<'_> {
+    /// Every vocabulary parameter of the selected effects, fitted jointly: a term chosen
+    /// in a reduced variant (x0 = 0, θ0 or θ1 alone, one air column of refraction) is
+    /// refitted in its full variant with all the others, and the parameters the selection
+    /// left out come back with their one-sigma (not subject to the determinedness rule:
+    /// "consistent with zero" is an answer). The reduced variant stays, with the reason
+    /// in the term's notes, when the full one is not independent of the other terms or
+    /// would leave a selected parameter undetermined. Selection and ΔBIC are unchanged.
+    pub(super) fn complete(&mut self, terms: &[Term]) -> (Vec<Term>, Vec<FittedTerm>) {
+        let mut terms = terms.to_vec();
+        let mut notes: Vec<Vec<String>> = vec![Vec::new(); terms.len()];
+        let mut added: Vec<Vec<P>> = vec![Vec::new(); terms.len()];
+        for i in 0..terms.len() {
+            let (kind, variant) = (terms[i].kind, terms[i].variant.clone());
+            let Some(full) = full_variant(kind, &variant) else {
+                continue;
+            };
+            let selected = effects::coef_names(kind, &variant);
+            let missing: Vec<P> = effects::coef_names(kind, &full)
+                .into_iter()
+                .filter(|p| !selected.contains(p))
+                .collect();
+            let names = missing
+                .iter()
+                .map(|p| p.as_str())
+                .collect::<Vec<_>>()
+                .join(", ");
+            let Some((_, cols)) = effects::static_variants(kind, &self.cols)
+                .into_iter()
+                .find(|(v, _)| *v == full)
+            else {
+                notes[i].push(format!(
+                    "{names} not fitted: {}",
+                    match kind {
+                        Kind::ScaleThermal =>
+                            "the scale temperature did not change, so x0 acts like a constant",
+                        Kind::Refraction =>
+                            "the other air column did not change during the session",
+                        _ => "its column is not available on these data",
+                    }
+                ));
+                continue;
+            };
+            let mut trial = terms.clone();
+            trial[i] = Term {
+                kind,
+                variant: full,
+                cols,
+            };
+            let fit = self.engine.fit(&ids_of(&trial));
+            if !fit.independent.iter().all(|&b| b) {
+                notes[i].push(format!(
+                    "{names} not fitted: its signature is not independent of the other terms on these data"
+                ));
+                continue;
+            }
+            let fitted = self.final_fit(&trial);
+            let kept: Vec<_> = fitted[i]
+                .params
+                .iter()
+                .filter(|p| selected.contains(&p.name))
+                .cloned()
+                .collect();
+            if let Some(p) = effects::undetermined(&kept, self.cfg.max_relative_uncertainty) {
+                notes[i].push(format!(
+                    "{names} not fitted: fitted jointly it would leave {} undetermined ({:.4} ± {:.4})",
+                    p.name, p.value, p.sigma
+                ));
+                continue;
+            }
+            terms = trial;
+            added[i] = missing;
+        }
+        let mut fitted = self.final_fit(&terms);
+        for ((f, n), a) in fitted.iter_mut().zip(notes).zip(added) {
+            for p in &mut f.params {
+                if a.contains(&p.name) {
+                    p.key = false;
+                }
+            }
+            f.notes = n;
+        }
+        (terms, fitted)
+    }
+}
+
+/// The variant of a kind that fits every vocabulary parameter, when `v` is a reduced one.
+fn full_variant(kind: Kind, v: &Variant) -> Option<Variant> {
+    match (kind, v) {
+        (Kind::ScaleThermal, Variant::X0Fixed) => Some(Variant::X0Free),
+        (Kind::Abbe(_), Variant::AbbeTheta0 | Variant::AbbeTheta1) => Some(Variant::AbbeFull),
+        (Kind::Refraction, Variant::RefrT | Variant::RefrP) => Some(Variant::RefrBoth),
+        _ => None,
     }
 }
 

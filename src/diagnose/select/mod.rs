@@ -27,6 +27,11 @@
 //! 5. **Ambiguity.** Every found effect is replaced in turn by every other testable effect;
 //!    a determined replacement within `ambiguity_delta_bic` of the chosen model is an
 //!    ambiguity, stated with the measurement that would separate the two.
+//! 6. **Every parameter.** A term selected in a reduced variant (x0 = 0, θ0 or θ1 alone,
+//!    one air column of refraction) is refitted jointly with the others in its full
+//!    variant, so every vocabulary parameter is reported with its one-sigma; the added
+//!    ones are not held to the determinedness rule ("consistent with zero" is an answer,
+//!    said in `where`). Selection, ΔBIC and ambiguities are those of the selected variants.
 //!
 //! **Files**, in call order (each calls only the ones below it; all share the types and
 //! the small accessors of this file):
@@ -131,6 +136,8 @@ pub(crate) struct FittedTerm {
     pub term: Term,
     pub params: Vec<Param>,
     pub contribution: Vec<f64>,
+    /// Why a vocabulary parameter was not fitted (for `where`).
+    pub notes: Vec<String>,
 }
 
 /// What a selection pass returns.
@@ -483,7 +490,6 @@ impl<'a> Selector<'a> {
                 }
             }
             if small.is_empty() {
-                fitted = keep;
                 break;
             }
             self.refused.extend(small);
@@ -491,10 +497,13 @@ impl<'a> Selector<'a> {
             fitted = self.final_fit(&terms);
         }
 
-        // 6. Ambiguities, design notes, scores.
+        // 6. Ambiguities, design notes, scores (on the selected variants).
         let ambiguities = self.ambiguities(&terms);
         let design = self.design_notes();
         let scores = self.scores(&terms);
+
+        // 7. Every parameter of each found effect, fitted jointly.
+        let (terms, fitted) = self.complete(&terms);
 
         let ids = ids_of(&terms);
         let fit = self.engine.fit(&ids);
