@@ -634,8 +634,10 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
     if pair(Refraction, ScaleThermal) {
         return "the air and scale temperatures changed together; record a session where they change independently (e.g. the scale warmed while the room is steady)".into();
     }
-    if pair(DeadPath, ThermalDrift)
-        || pair(Refraction, ThermalDrift)
+    if pair(DeadPath, ThermalDrift) {
+        return "dwell at the laser's zero point with the retroreflector at the interferometer (dead path about 0) for as long as the session: a residual that still follows time is a drift; or repeat with the air cycling instead of drifting".into();
+    }
+    if pair(Refraction, ThermalDrift)
         || pair(ScaleThermal, ThermalDrift)
     {
         return "the temperature and the time trend move together; repeat with the machine warmed up (drift gone) or with the air/scale temperature changing at another pace".into();
@@ -650,4 +652,46 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
         b.id(),
         b.follows(obs)
     )
+}
+
+/// The measurement that separates two effects, as a plan file (TOML in the form of
+/// `sim::PlanSpec`, which the simulator and `errmap plan` read), when there is one.
+/// Dead path against thermal drift: a dwell at the laser's zero point (where the first
+/// row was taken) for as long as the session, with the retroreflector moved up to the
+/// interferometer so that the dead path is about zero: a residual that still follows
+/// time is a drift of the machine, one that is gone was the dead path.
+pub(crate) fn separation_plan(obs: &Obs, a: Kind, b: Kind) -> Option<String> {
+    let pair = |p: Kind, q: Kind| (a == p && b == q) || (a == q && b == p);
+    if !pair(Kind::DeadPath, Kind::ThermalDrift) {
+        return None;
+    }
+    let first = (0..obs.len()).min_by(|&i, &j| obs.t[i].total_cmp(&obs.t[j]))?;
+    let x_ref = obs.x[first].max(0.0);
+    let line = obs.lines.get(obs.line[first]).copied().unwrap_or([0.0, 0.0]);
+    let (tlo, thi) = range(&obs.t);
+    let duration = (thi - tlo).max(600.0).ceil();
+    let feed = obs
+        .v_feed
+        .iter()
+        .copied()
+        .find(|v| *v > 0.0)
+        .unwrap_or(50.0);
+    Some(format!(
+        "# errmap diagnose: the measurement that separates dead_path from thermal_drift.\n\
+         # Move the retroreflector up to the interferometer (dead path about 0), zero the\n\
+         # laser there at {axis} = {x_ref} mm, and dwell for as long as the diagnosed session\n\
+         # ({duration} s) while the air is recorded as before. A residual that still follows\n\
+         # time is a drift of the machine; one that is gone was the dead path. (A repeat of\n\
+         # the session with the air cycling, not drifting, separates them too.)\n\
+         axis = \"{axis}\"\n\
+         lines_mm = [[{y}, {z}]]\n\
+         targets_mm = [{x_ref}]\n\
+         runs = 1\n\
+         feed_mm_s = {feed}\n\
+         dwell_s = {duration}\n\
+         sample_hz = 2.0\n",
+        axis = super::data::axis_label(obs.axis),
+        y = line[0],
+        z = line[1],
+    ))
 }

@@ -10,7 +10,8 @@ use super::data::{self, Matching};
 use super::effects::{self, Kind, Variant, separation_advice};
 use super::locate::{self, SpectralPeak};
 use super::outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries,
+    SeparatingPlan, Verdict,
 };
 use super::select::{self, FittedTerm, Outcome, centred_rms};
 use super::words::{fixed, fmt_sig, list, range};
@@ -76,7 +77,16 @@ pub(super) fn assemble(
     let mut ambiguities: Vec<String> = Vec::new();
     let mut amb_by_kind: BTreeMap<Kind, Vec<String>> = BTreeMap::new();
     for a in &out.ambiguities {
-        let why = if a.delta_bic > select::TIE_BIC {
+        let decided = out
+            .decisions
+            .iter()
+            .find(|d| d.chosen == a.found && d.other == a.alt);
+        let why = if let Some(d) = decided {
+            format!(
+                "of physics, not of the fit: {}; the separating measurement is written as a plan (separating-plan.toml)",
+                d.basis
+            )
+        } else if a.delta_bic > select::TIE_BIC {
             format!(
                 "it fits better (the alternative raises BIC by {:.1})",
                 a.delta_bic
@@ -194,6 +204,16 @@ pub(super) fn assemble(
         design_notes,
         locate: loc,
         candidates,
+        separating_plans: out
+            .decisions
+            .iter()
+            .map(|d| SeparatingPlan {
+                chosen: d.chosen.id(),
+                other: d.other.id(),
+                basis: d.basis.clone(),
+                plan_toml: d.plan_toml.clone(),
+            })
+            .collect(),
         selection_log: out.log.clone(),
         series,
     }

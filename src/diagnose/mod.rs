@@ -85,7 +85,8 @@ pub use data::Matching;
 pub use error::DiagnoseError;
 pub use locate::{Correlation, GroupStat, Locate, SpectralPeak};
 pub use outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries,
+    SeparatingPlan, Verdict,
 };
 
 use select::Selector;

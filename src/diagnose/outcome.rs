@@ -133,9 +133,27 @@ pub struct Diagnosis {
     pub candidates: Vec<CandidateScore>,
     /// The selection steps.
     pub selection_log: Vec<String>,
+    /// Choices between effects these data cannot tell apart, made on physical grounds,
+    /// each with the measurement that separates them as a ready plan.
+    pub separating_plans: Vec<SeparatingPlan>,
     /// Series for the report's charts (not serialised).
     #[serde(skip)]
     pub series: ReportSeries,
+}
+
+/// A choice between two effects made on physical grounds, and the measurement that
+/// would separate them.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeparatingPlan {
+    /// The effect reported.
+    pub chosen: EffectId,
+    /// The effect it could not be told apart from.
+    pub other: EffectId,
+    /// The basis of the choice, in words.
+    pub basis: String,
+    /// The separating measurement as a plan file (TOML: `errmap simulate --plan`,
+    /// `errmap plan`); the report writes it as `separating-plan.toml`.
+    pub plan_toml: String,
 }
 
 /// Per-row series behind the report's charts.

@@ -166,6 +166,22 @@ pub fn write_report(
     }
 
     let mut md = markdown(d, &figs);
+    // The measurement that separates effects these data could not tell apart, ready for
+    // `errmap simulate --plan` (one plan file; the first when there are several).
+    if let Some(sp) = d.separating_plans.first() {
+        let path = dir.join("separating-plan.toml");
+        std::fs::write(&path, &sp.plan_toml).map_err(|source| ReportError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        md.push_str(&format!(
+            "\n## Decided by physics: {} rather than {}\n\n{}.\n\nThe measurement that separates them is in `separating-plan.toml`.\n",
+            sp.chosen.as_str(),
+            sp.other.as_str(),
+            sp.basis
+        ));
+        files.push(path);
+    }
     if let Some(env) = environment {
         md.push('\n');
         md.push_str(env);

@@ -106,3 +106,77 @@ fn abbe_and_scale_expansion_report_every_parameter() {
     assert!(sx > 0.0 && x0.abs() <= 3.0 * sx, "x0 {x0} ± {sx}\n{text}");
 }
 
+/// The air drifting monotonically (no cycle, steady pressure): the dead-path column is a
+/// smooth function of time, so a drift fits it as well.
+fn monotone_air(hidden: &[Hidden]) -> Synth {
+    let mut s = with(hidden);
+    s.env.air_temp_cycle = (0.0, 900.0);
+    s.env.air_temp_drift_k = 0.6;
+    s.env.pressure_cycle = (0.0, 5000.0);
+    s
+}
+
+/// The separating plan is a plan file the simulator reads and the board accepts.
+fn check_plan(d: &Diagnosis) -> String {
+    let text = diagnosis_text(d);
+    assert_eq!(d.separating_plans.len(), 1, "{text}");
+    let sp = &d.separating_plans[0];
+    let plan: errmap::sim::PlanSpec = toml::from_str(&sp.plan_toml)
+        .unwrap_or_else(|e| panic!("plan does not parse: {e}\n{}", sp.plan_toml));
+    plan.plan(std::path::Path::new("separating-plan.toml"))
+        .unwrap_or_else(|e| panic!("plan refused: {e}\n{}", sp.plan_toml));
+    assert_eq!(plan.targets_mm.len(), 1, "{}", sp.plan_toml);
+    assert!(plan.dwell_s >= 600.0, "{}", sp.plan_toml);
+    sp.basis.clone()
+}
+
+/// A 300 mm dead path under monotone air: a length the optics can have, so `dead_path`
+/// is reported, the basis is stated, and the separating dwell is a ready plan.
+#[test]
+fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
+    let d = run(&monotone_air(&[Hidden::DeadPath {
+        dead_path_mm: 300.0,
+    }]));
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let e = &d.effects[0];
+    assert_eq!(e.id, "dead_path", "{text}");
+    let (dp, sd) = param(e, "dead_path_mm");
+    assert!((dp - 300.0).abs() <= 3.0 * sd.max(10.0), "{text}");
+    let basis = check_plan(&d);
+    assert!(basis.contains("possible for the optics"), "{basis}");
+    assert!(e.where_.contains("of physics"), "{text}");
+    assert_eq!(d.separating_plans[0].chosen.as_str(), "dead_path");
+
+    // The same data with the set-up's optics known to be 150 mm long: no dead path of
+    // 300 mm is possible, so the drift is reported.
+    let out = generate(&monotone_air(&[Hidden::DeadPath {
+        dead_path_mm: 300.0,
+    }]));
+    let short = DiagnoseConfig {
+        max_dead_path_mm: Some(150.0),
+        ..config()
+    };
+    let d = diagnose(&out.recorded, &out.simulated, &short).expect("diagnoses");
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    assert_eq!(d.effects[0].id, "thermal_drift", "{text}");
+    assert!(check_plan(&d).contains("150 mm"), "{text}");
+}
+
+/// A machine drift of 1.2 µm under the same air would need a dead path of about 2.2 m,
+/// longer than the 800 mm axis: `thermal_drift` is reported, with the basis and the plan.
+#[test]
+fn an_impossible_dead_path_decides_for_the_drift() {
+    let d = run(&monotone_air(&[Hidden::DriftLinear {
+        rate_um_per_s: 6e-4,
+    }]));
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let e = &d.effects[0];
+    assert_eq!(e.id, "thermal_drift", "{text}");
+    let basis = check_plan(&d);
+    assert!(basis.contains("longer than"), "{basis}");
+    assert!(e.where_.contains("dead_path"), "{text}");
+    assert_eq!(d.separating_plans[0].chosen.as_str(), "thermal_drift");
+}

@@ -51,6 +51,7 @@
 mod backward;
 mod candidates;
 mod checks;
+mod decide;
 mod nonlinear;
 mod summary;
 
@@ -62,6 +63,7 @@ use super::spectral;
 pub(crate) use crate::base::stats::centred_rms;
 
 use checks::lattice_alias;
+pub(crate) use decide::Decision;
 use nonlinear::MIN_MOVING_FOR_SCAN;
 
 /// Candidates whose BIC is within this of the best are a tie (numerically or
@@ -163,6 +165,8 @@ pub(crate) struct Outcome {
     /// ΔBIC of every testable kind against the final model (adding it, or for a found
     /// one, removing it).
     pub scores: Vec<(Kind, f64)>,
+    /// Choices between inseparable effects made on physical grounds.
+    pub decisions: Vec<Decision>,
 }
 
 /// The selection over one weighting of the data.
@@ -498,7 +502,15 @@ impl<'a> Selector<'a> {
         }
 
         // 6. Ambiguities, design notes, scores (on the selected variants).
-        let ambiguities = self.ambiguities(&terms);
+        let mut ambiguities = self.ambiguities(&terms);
+        let mut decisions = Vec::new();
+        if let Some(d) = self.decide_dead_path(&mut terms, &ambiguities) {
+            // Swapped by physics: the ambiguities are the new term's.
+            if ambiguities.iter().all(|a| a.found != d.chosen) {
+                ambiguities = self.ambiguities(&terms);
+            }
+            decisions.push(d);
+        }
         let design = self.design_notes();
         let scores = self.scores(&terms);
 
@@ -532,6 +544,7 @@ impl<'a> Selector<'a> {
             broad: self.broad.clone(),
             searched_rms: self.searched_rms.unwrap_or(f64::INFINITY),
             scores,
+            decisions,
         }
     }
 }
