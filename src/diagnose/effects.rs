@@ -10,7 +10,7 @@
 //! | `scale_thermal_expansion` | x0 = 0 / x0 free | −ΔT_s·x·1e−3, ΔT_s·1e−3 | α, α·x0 |
 //! | `scale_factor` | — | x·1e−3 | k |
 //! | `abbe` | θ0, θ1 / θ0 only / θ1 only | c·1e−3, c·x·1e−3 | θ0, θ1 |
-//! | `reversal` | — | d/2 | b |
+//! | `reversal` | constant / linear in x | d/2, d/2·(x − x_mid)·1e−3 | b (at the travel's middle), b1 (µm/m) |
 //! | `latch_delay` | v = feed / v measured | d·v·1e−3 | τ |
 //! | `periodic_scale` | period P | sin(2πx/P), cos(2πx/P) | a·cos φ, a·sin φ |
 //! | `thermal_drift` | exponential τ / linear | 1 − e^(−(t−t0)/τ), t − t0 | A, ρ |
@@ -105,6 +105,8 @@ impl Kind {
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Variant {
     Single,
+    /// Reversal linear in position about the middle of the travel.
+    ReversalLinear,
     X0Fixed,
     X0Free,
     AbbeFull,
@@ -139,6 +141,8 @@ pub(crate) struct Columns {
     pub c: [Option<usize>; 2],
     pub cx: [Option<usize>; 2],
     pub d: Option<usize>,
+    /// d/2·(x − x_mid)·1e−3: a reversal that changes along the axis.
+    pub d_x: Option<usize>,
     pub dv_feed: Option<usize>,
     pub dv_meas: Option<usize>,
     pub t_lin: Option<usize>,
@@ -224,6 +228,16 @@ pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Column
     if d.is_none() {
         untestable.push("reversal, latch_delay: no row has a direction of travel".into());
     }
+    let x_mid = reversal_centre_mm(obs);
+    let d_x = d.and_then(|_| {
+        varies(&obs.x, 1e-6).then(|| {
+            engine.add(
+                (0..n)
+                    .map(|k| obs.d[k] / 2.0 * (obs.x[k] - x_mid) * 1e-3)
+                    .collect(),
+            )
+        })
+    });
     let any_moving = obs
         .v_feed
         .iter()
@@ -272,6 +286,7 @@ pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Column
         c,
         cx,
         d,
+        d_x,
         dv_feed,
         dv_meas,
         t_lin,
@@ -321,6 +336,9 @@ pub(crate) fn static_variants(kind: Kind, cols: &Columns) -> Vec<(Variant, Vec<u
         Kind::Reversal => {
             if let Some(d) = cols.d {
                 v.push((Variant::Single, vec![d]));
+                if let Some(dx) = cols.d_x {
+                    v.push((Variant::ReversalLinear, vec![d, dx]));
+                }
             }
         }
         Kind::Abbe(a) => {
@@ -370,6 +388,13 @@ pub(crate) fn static_variants(kind: Kind, cols: &Columns) -> Vec<(Variant, Vec<u
         Kind::Periodic => {}
     }
     v
+}
+
+/// The position about which a position-dependent reversal is expanded: the middle of the
+/// recorded travel, mm (so `b_um` is the reversal there, the mean over the axis).
+pub(crate) fn reversal_centre_mm(obs: &Obs) -> f64 {
+    let (lo, hi) = range(&obs.x);
+    if hi >= lo { 0.5 * (lo + hi) } else { 0.0 }
 }
 
 /// sin and cos columns of a period (µm) over x (mm).
@@ -470,6 +495,10 @@ pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]
     let sd = |i: usize| cov[i][i].max(0.0).sqrt();
     match (kind, variant) {
         (Kind::ScaleFactor, _) => vec![p(P::Ppm, th[0], sd(0), true)],
+        (Kind::Reversal, Variant::ReversalLinear) => vec![
+            p(P::BUm, th[0], sd(0), true),
+            p(P::B1UmPerM, th[1], sd(1), true),
+        ],
         (Kind::Reversal, _) => vec![p(P::BUm, th[0], sd(0), true)],
         (Kind::Abbe(_), Variant::AbbeFull) => vec![
             p(P::Theta0Urad, th[0], sd(0), true),
@@ -568,6 +597,7 @@ pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<Str
 pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<ParamName> {
     match (kind, variant) {
         (Kind::ScaleFactor, _) => vec![P::Ppm],
+        (Kind::Reversal, Variant::ReversalLinear) => vec![P::BUm, P::B1UmPerM],
         (Kind::Reversal, _) => vec![P::BUm],
         (Kind::Abbe(_), Variant::AbbeFull) => vec![P::Theta0Urad, P::Theta1UradPerMm],
         (Kind::Abbe(_), Variant::AbbeTheta0) => vec![P::Theta0Urad],

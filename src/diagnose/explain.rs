@@ -370,7 +370,22 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 obs.c[*i as usize].as_ref().map_or(f64::NAN, |v| v[kmax])
             )
         }
-        (Kind::Reversal, _) => {
+        (Kind::Reversal, v) => {
+            let along = if matches!(v, Variant::ReversalLinear) {
+                let xm = effects::reversal_centre_mm(obs);
+                let b = |x: f64| pv(P::BUm) + pv(P::B1UmPerM) * (x - xm) * 1e-3;
+                format!(
+                    "; the reversal changes along the axis (position-dependent backlash, linear fits better than a constant by BIC): b = {:.3} µm at {axl} = {} mm, {:.3} µm at {} mm, {:.3} µm at {} mm (b_um is its value at the middle of the travel, b1_um_per_m its change per metre)",
+                    b(xlo),
+                    fixed(xlo, 0),
+                    b(xm),
+                    fixed(xm, 0),
+                    b(xhi),
+                    fixed(xhi, 0)
+                )
+            } else {
+                String::new()
+            };
             let dwell = obs.moving.iter().any(|m| !m);
             let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
             feeds.sort_by(f64::total_cmp);
@@ -386,7 +401,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 _ => ", the same at every feed".to_string(),
             };
             format!(
-                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel",
+                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel{along}",
                 pv(P::BUm) / 2.0
             )
         }

@@ -180,3 +180,35 @@ fn an_impossible_dead_path_decides_for_the_drift() {
     assert!(e.where_.contains("dead_path"), "{text}");
     assert_eq!(d.separating_plans[0].chosen.as_str(), "thermal_drift");
 }
+
+/// Backlash growing along the axis (0.4 µm at x = 0 to 1.2 µm at 800 mm) is found as
+/// position-dependent, with both parameters within their σ; a constant backlash is
+/// still reported as one constant.
+#[test]
+fn position_dependent_reversal_is_found_and_constant_stays_constant() {
+    let h = Hidden::ReversalLinear {
+        b_um: 0.8,
+        b1_um_per_m: 1.0,
+    };
+    let d = run(&with(&[h]));
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let e = &d.effects[0];
+    assert_eq!(e.id, "reversal", "{text}");
+    let (b, sb) = param(e, "b_um");
+    let (b1, sb1) = param(e, "b1_um_per_m");
+    assert!((b - 0.8).abs() <= 3.0 * sb, "b {b} ± {sb}\n{text}");
+    assert!((b1 - 1.0).abs() <= 3.0 * sb1 && sb1 < 0.25, "b1 {b1} ± {sb1}\n{text}");
+    assert!(e.where_.contains("changes along the axis"), "{text}");
+    assert!(d.rms_after_um <= 1.3 * 0.05, "{text}");
+
+    let d = run(&with(&[Hidden::Reversal { b_um: 0.8 }]));
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let e = &d.effects[0];
+    assert_eq!(e.id, "reversal", "{text}");
+    assert!(!e.params.contains_key("b1_um_per_m"), "{text}");
+    assert!(!e.where_.contains("changes along the axis"), "{text}");
+    let (b, sb) = param(e, "b_um");
+    assert!((b - 0.8).abs() <= 3.0 * sb, "{text}");
+}

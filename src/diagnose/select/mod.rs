@@ -553,6 +553,7 @@ impl<'a> Selector<'a> {
 fn variant_words(v: &Variant) -> String {
     match v {
         Variant::Single => "as fitted".into(),
+        Variant::ReversalLinear => "reversal linear in position".into(),
         Variant::X0Fixed => "x0 = 0".into(),
         Variant::X0Free => "x0 free".into(),
         Variant::AbbeFull => "θ0 and θ1".into(),
