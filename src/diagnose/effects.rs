@@ -117,9 +117,13 @@ pub(crate) enum Variant {
     RefrBoth,
     RefrT,
     RefrP,
-    DriftExp { tau_s: f64 },
+    DriftExp {
+        tau_s: f64,
+    },
     DriftLinear,
-    Periodic { period_um: f64 },
+    Periodic {
+        period_um: f64,
+    },
 }
 
 impl Variant {
@@ -667,9 +671,7 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
     if pair(DeadPath, ThermalDrift) {
         return "dwell at the laser's zero point with the retroreflector at the interferometer (dead path about 0) for as long as the session: a residual that still follows time is a drift; or repeat with the air cycling instead of drifting".into();
     }
-    if pair(Refraction, ThermalDrift)
-        || pair(ScaleThermal, ThermalDrift)
-    {
+    if pair(Refraction, ThermalDrift) || pair(ScaleThermal, ThermalDrift) {
         return "the temperature and the time trend move together; repeat with the machine warmed up (drift gone) or with the air/scale temperature changing at another pace".into();
     }
     if pair(DeadPath, Refraction) || pair(Refraction, ScaleFactor) || pair(DeadPath, Reversal) {
@@ -697,7 +699,11 @@ pub(crate) fn separation_plan(obs: &Obs, a: Kind, b: Kind) -> Option<String> {
     }
     let first = (0..obs.len()).min_by(|&i, &j| obs.t[i].total_cmp(&obs.t[j]))?;
     let x_ref = obs.x[first].max(0.0);
-    let line = obs.lines.get(obs.line[first]).copied().unwrap_or([0.0, 0.0]);
+    let line = obs
+        .lines
+        .get(obs.line[first])
+        .copied()
+        .unwrap_or([0.0, 0.0]);
     let (tlo, thi) = range(&obs.t);
     let duration = (thi - tlo).max(600.0).ceil();
     let feed = obs

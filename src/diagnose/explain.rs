@@ -10,8 +10,8 @@ use super::data::{self, Matching};
 use super::effects::{self, Kind, Variant, separation_advice};
 use super::locate::{self, SpectralPeak};
 use super::outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries,
-    SeparatingPlan, Verdict,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, SeparatingPlan,
+    Verdict,
 };
 use super::select::{self, FittedTerm, Outcome, centred_rms};
 use super::words::{fixed, fmt_sig, list, range};
@@ -204,6 +204,7 @@ pub(super) fn assemble(
         design_notes,
         locate: loc,
         candidates,
+        static_map: None,
         separating_plans: out
             .decisions
             .iter()
@@ -546,6 +547,12 @@ fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) 
         });
     }
     ReportSeries {
+        keys: obs
+            .run
+            .iter()
+            .copied()
+            .zip(obs.sample.iter().copied())
+            .collect(),
         x_mm: obs.x.clone(),
         t_s: obs.t.clone(),
         before_um: before.to_vec(),

@@ -175,10 +175,9 @@ impl Hidden {
                 (P::Theta1UradPerMm.as_str(), theta1_urad_per_mm),
             ],
             Hidden::Reversal { b_um } => vec![(P::BUm.as_str(), b_um)],
-            Hidden::ReversalLinear { b_um, b1_um_per_m } => vec![
-                (P::BUm.as_str(), b_um),
-                (P::B1UmPerM.as_str(), b1_um_per_m),
-            ],
+            Hidden::ReversalLinear { b_um, b1_um_per_m } => {
+                vec![(P::BUm.as_str(), b_um), (P::B1UmPerM.as_str(), b1_um_per_m)]
+            }
             Hidden::LatchDelay { tau_us } => vec![(P::TauUs.as_str(), tau_us)],
             Hidden::Periodic {
                 amplitude_um,

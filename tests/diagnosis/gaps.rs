@@ -198,7 +198,10 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     let (b, sb) = param(e, "b_um");
     let (b1, sb1) = param(e, "b1_um_per_m");
     assert!((b - 0.8).abs() <= 3.0 * sb, "b {b} ± {sb}\n{text}");
-    assert!((b1 - 1.0).abs() <= 3.0 * sb1 && sb1 < 0.25, "b1 {b1} ± {sb1}\n{text}");
+    assert!(
+        (b1 - 1.0).abs() <= 3.0 * sb1 && sb1 < 0.25,
+        "b1 {b1} ± {sb1}\n{text}"
+    );
     assert!(e.where_.contains("changes along the axis"), "{text}");
     assert!(d.rms_after_um <= 1.3 * 0.05, "{text}");
 
@@ -211,4 +214,167 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     assert!(!e.where_.contains("changes along the axis"), "{text}");
     let (b, sb) = param(e, "b_um");
     assert!((b - 0.8).abs() <= 3.0 * sb, "{text}");
+}
+
+/// A recording alone (no simulation): the static part — here a geometric map, a scale
+/// factor and a reversal — is the recording's own, and a concealed linear drift is found
+/// in what is left, within its σ.
+#[test]
+fn recorded_only_finds_a_concealed_drift() {
+    let s = with(&[
+        Hidden::Reversal { b_um: 0.8 },
+        Hidden::ScaleFactor { ppm: 4.0 },
+        Hidden::DriftLinear {
+            rate_um_per_s: 4e-4,
+        },
+    ]);
+    let out = generate(&s);
+    let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
+    let text = diagnosis_text(&d);
+    let ids: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+    assert_eq!(ids, ["thermal_drift"], "{text}");
+    let e = &d.effects[0];
+    let (rate, sr) = if e.params.contains_key("rate_um_per_s") {
+        param(e, "rate_um_per_s")
+    } else {
+        // An exponential: its mean slope over the session.
+        let (a, _) = param(e, "amplitude_um");
+        let (tau, _) = param(e, "tau_s");
+        let span = out.recorded.last().map_or(1.0, |r| r.t_s);
+        (a * (1.0 - (-span / tau).exp()) / span, f64::NAN)
+    };
+    assert!(
+        (rate - 4e-4).abs() <= 3.0 * sr.max(0.1 * 4e-4),
+        "rate {rate} ± {sr}\n{text}"
+    );
+    let map = d.static_map.as_ref().expect("static map");
+    // The reversal of the map is the concealed one (ē↑ − ē↓ = b).
+    assert!((map.mean_reversal_um - 0.8).abs() < 0.05, "{map:?}");
+    assert!(d.rms_after_um <= 1.3 * s.noise.sigma_um, "{text}");
+}
+
+/// A recording with static effects only (map, scale factor, reversal, Abbe): nothing is
+/// left beyond the map, so no effect is reported.
+#[test]
+fn recorded_only_clean_recording_gives_no_effect() {
+    let s = with(&[
+        Hidden::Reversal { b_um: 0.8 },
+        Hidden::ScaleFactor { ppm: 4.0 },
+        Hidden::Abbe {
+            along_z: true,
+            theta0_urad: 5.0,
+            theta1_urad_per_mm: 0.01,
+        },
+    ]);
+    let out = generate(&s);
+    let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
+    let text = diagnosis_text(&d);
+    assert_eq!(d.verdict, "consistent", "{text}");
+    assert!(d.effects.is_empty(), "{text}");
+}
+
+/// The real ISO 230-2 record b02-x-log (41 min, real time stamps, dwell rows only): the
+/// drift left beyond the map and the reversal is checked against an independent
+/// computation — the plain least-squares slope of (error − its mean per target and
+/// direction) on (t − its mean per target and direction), with a cluster-robust σ over
+/// the 90 dwells — and removing it lowers the ISO 230-2 repeatability.
+#[test]
+fn recorded_only_on_the_real_b02_record() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/real_iso230/converted/b02-x-log.csv");
+    if !path.is_file() {
+        eprintln!("skipped: {} is not here", path.display());
+        return;
+    }
+    let rows = errmap::session::read_session(&path).expect("reads b02-x-log.csv");
+    let d =
+        errmap::diagnose::diagnose_recorded(&rows, &DiagnoseConfig::default()).expect("diagnoses");
+    let text = diagnosis_text(&d);
+
+    // Independent: within transform by (target, direction), plain least squares.
+    use std::collections::BTreeMap;
+    let key = |r: &errmap_drivers::SessionRow| (r.target, r.direction);
+    let mut sums: BTreeMap<(i32, i8), (f64, f64, f64)> = BTreeMap::new();
+    for r in &rows {
+        let s = sums.entry(key(r)).or_insert((0.0, 0.0, 0.0));
+        s.0 += r.error_um;
+        s.1 += r.t_s;
+        s.2 += 1.0;
+    }
+    let within: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| {
+            let s = sums[&key(r)];
+            (r.error_um - s.0 / s.2, r.t_s - s.1 / s.2)
+        })
+        .collect();
+    let stt: f64 = within.iter().map(|(_, t)| t * t).sum();
+    let slope = within.iter().map(|(e, t)| e * t).sum::<f64>() / stt;
+    let mut score: BTreeMap<(u32, i32, i8), f64> = BTreeMap::new();
+    for (r, (e, t)) in rows.iter().zip(&within) {
+        *score.entry((r.run, r.target, r.direction)).or_insert(0.0) += t * (e - slope * t);
+    }
+    let robust = score.values().map(|u| u * u).sum::<f64>().sqrt() / stt;
+
+    let e = d
+        .effects
+        .iter()
+        .find(|e| e.id == "thermal_drift")
+        .unwrap_or_else(|| panic!("no drift found\n{text}"));
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let (rate, sr) = param(e, "rate_um_per_s");
+    assert!(
+        (rate - slope).abs() <= 0.2 * robust,
+        "rate {rate} ± {sr} against the plain slope {slope} ± {robust}\n{text}"
+    );
+    assert!(
+        sr > 0.7 * robust && sr < 1.5 * robust,
+        "σ {sr} against the cluster-robust {robust}\n{text}"
+    );
+
+    let iso = errmap::report::diagnosis::iso_effect(&rows, &d);
+    let (before, after) = (&iso.measured[0], &iso.effects_removed[0]);
+    assert!(after.r_um < before.r_um - 5.0, "{iso:?}");
+    assert!((after.b_um - before.b_um).abs() < 1.0, "{iso:?}");
+}
+
+/// `errmap diagnose --recorded REC --report DIR --json` with nothing to compare against:
+/// exit 0, the static map and the ISO 230-2 figures with the drift removed in the JSON,
+/// the table in the report.
+#[test]
+fn recorded_only_from_the_command_line() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/real_iso230/converted/b02-x-log.csv");
+    if !path.is_file() {
+        eprintln!("skipped: {} is not here", path.display());
+        return;
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = dir.path().join("report");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .args(["diagnose", "--recorded"])
+        .arg(&path)
+        .arg("--report")
+        .arg(&report)
+        .arg("--json")
+        .output()
+        .expect("runs errmap");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    assert_eq!(v["effects"][0]["id"], "thermal_drift", "{v}");
+    assert!(v["static_map"]["dwell_groups"].as_u64() == Some(18), "{v}");
+    let r0 = v["iso230"]["measured"][0]["r_um"]
+        .as_f64()
+        .expect("R measured");
+    let r1 = v["iso230"]["effects_removed"][0]["r_um"]
+        .as_f64()
+        .expect("R removed");
+    assert!(r1 < r0, "{v}");
+    let md = std::fs::read_to_string(report.join("report.md")).expect("report.md");
+    assert!(
+        md.contains("ISO 230-2 figures with the found effects removed"),
+        "{md}"
+    );
+    assert!(md.contains("Static part taken from the recording"), "{md}");
 }

@@ -198,6 +198,55 @@ impl Selector<'_> {
         None
     }
 
+    /// Per parameter, the factor (≥ 1) by which the cluster-robust standard error exceeds
+    /// the model-based one. Rows of one dwell share the dwell's own positioning offset,
+    /// and rows of one move share its counter-quantisation offset, so they are not
+    /// independent; the sandwich (JᵀWJ)⁻¹·Σ_c u_c u_cᵀ·(JᵀWJ)⁻¹, u_c = Σ_{k∈c} w_k·J_k·e_k
+    /// over these clusters, counts each as one draw (used with a static map, where the
+    /// dwell-to-dwell scatter is left in the residual).
+    fn cluster_inflation(
+        &self,
+        ids: &[usize],
+        fit: &Fit,
+        jac: &[Vec<f64>],
+        inv: &[Vec<f64>],
+        s2: f64,
+    ) -> Vec<f64> {
+        let p = jac.len();
+        let e = self.residual(ids, fit);
+        let w = self.engine.w();
+        let cluster = crate::diagnose::data::clusters(self.obs);
+        let nc = cluster.iter().copied().max().map_or(0, |m| m + 1);
+        let mut u = vec![vec![0.0; p]; nc];
+        for (k, &c) in cluster.iter().enumerate() {
+            let we = w[k] * e[k];
+            for a in 0..p {
+                u[c][a] += we * jac[a][k];
+            }
+        }
+        // Small-sample factor of the cluster sandwich: C/(C − 1).
+        let scale = nc as f64 / (nc as f64 - 1.0).max(1.0);
+        (0..p)
+            .map(|a| {
+                // (inv·M·inv)_aa = Σ_c (Σ_b inv_ab u_cb)².
+                let robust: f64 = u
+                    .iter()
+                    .map(|uc| {
+                        let v: f64 = (0..p).map(|b| inv[a][b] * uc[b]).sum();
+                        v * v
+                    })
+                    .sum::<f64>()
+                    * scale;
+                let model = inv[a][a] * s2;
+                if model > 0.0 && robust > model {
+                    (robust / model).sqrt()
+                } else {
+                    1.0
+                }
+            })
+            .collect()
+    }
+
     /// Joint fit with the covariance of every term's parameters at the optimum.
     pub(super) fn final_fit(&mut self, terms: &[Term]) -> Vec<FittedTerm> {
         let ids = ids_of(terms);
@@ -213,7 +262,7 @@ impl Selector<'_> {
             match effects::nonlinear_derivative(&t.variant, coef, self.obs) {
                 Some(dcol) => {
                     nl_index.push(Some(jac.len()));
-                    jac.push(dcol);
+                    jac.push(self.engine.project(dcol));
                 }
                 None => nl_index.push(None),
             }
@@ -233,8 +282,13 @@ impl Selector<'_> {
             }
         }
         let inv = pinv_sym(&jtj);
-        let dof = (n as f64 - p as f64).max(1.0);
+        let dof = (n as f64 - p as f64 - self.engine.absorbed() as f64).max(1.0);
         let s2 = fit.chi2 / dof;
+        let inflate = if self.engine.absorbed() > 0 {
+            self.cluster_inflation(&ids, &fit, &jac, &inv, s2)
+        } else {
+            vec![1.0; p]
+        };
         // Parameters of different effects that the data hardly separate.
         let mut owner: Vec<Option<(usize, &'static str)>> = vec![None; p];
         let mut offset = 1;
@@ -285,7 +339,11 @@ impl Selector<'_> {
             }
             let cov: Vec<Vec<f64>> = idx
                 .iter()
-                .map(|&a| idx.iter().map(|&b| inv[a][b] * s2).collect())
+                .map(|&a| {
+                    idx.iter()
+                        .map(|&b| inv[a][b] * s2 * inflate[a] * inflate[b])
+                        .collect()
+                })
                 .collect();
             let params = effects::params(t.kind, &t.variant, &th, &cov);
             let coef: Vec<f64> = lin.iter().map(|&i| fit.coef[i]).collect();

@@ -77,7 +77,10 @@ impl Selector<'_> {
         let (bound, bound_words) = match self.cfg.max_dead_path_mm {
             Some(b) => (
                 b,
-                format!("the set-up's {} mm from the interferometer to the zero point", fixed(b, 0)),
+                format!(
+                    "the set-up's {} mm from the interferometer to the zero point",
+                    fixed(b, 0)
+                ),
             ),
             None => (
                 travel,
@@ -88,7 +91,11 @@ impl Selector<'_> {
             ),
         };
         let model_words = match self.cfg.model_dead_path_mm {
-            Some(m) => format!("the model's {} mm + the fitted {}", fixed(m, 0), fixed(d, 0)),
+            Some(m) => format!(
+                "the model's {} mm + the fitted {}",
+                fixed(m, 0),
+                fixed(d, 0)
+            ),
             None => "the simulation is taken to have none".to_string(),
         };
         let head = format!(

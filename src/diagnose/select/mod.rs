@@ -217,10 +217,20 @@ impl<'a> Selector<'a> {
         fold: Vec<usize>,
         nfolds: usize,
         spectrum: Option<(Vec<PeriodCand>, Broad, f64)>,
+        static_map: Option<crate::diagnose::engine::MapGroups>,
     ) -> Self {
-        let mut engine = Engine::new(y, w, fold, nfolds);
-        let cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
-        let kinds = effects::kinds(&cols);
+        let mapped = static_map.is_some();
+        let mut engine = Engine::new(y, w, fold, nfolds, static_map);
+        let mut cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
+        let mut kinds = effects::kinds(&cols);
+        if mapped {
+            // Functions of line, target and direction are the static map itself.
+            kinds.retain(|k| !matches!(k, Kind::ScaleFactor | Kind::Reversal | Kind::Abbe(_)));
+            cols.untestable.push(
+                "scale_factor, reversal, abbe: part of the static map taken from the recording itself (the mean error per line, target and direction), so not tested"
+                    .into(),
+            );
+        }
         // Rows for the period search: the moving ones when there are enough (see
         // `spectral_search`), an evenly spaced subset of them.
         let moving: Vec<usize> = (0..obs.len()).filter(|&k| obs.moving[k]).collect();
@@ -448,7 +458,7 @@ impl<'a> Selector<'a> {
         loop {
             let ids = ids_of(&terms);
             let fit = self.engine.fit(&ids);
-            let dof = (n as f64 - fit.rank as f64).max(1.0);
+            let dof = (n as f64 - fit.rank as f64 - self.engine.absorbed() as f64).max(1.0);
             let sigma_w = (fit.chi2 / dof).sqrt();
             let mean_w = self.engine.w().iter().sum::<f64>() / n as f64;
             let noise_rms = sigma_w / mean_w.sqrt();
