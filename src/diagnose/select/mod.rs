@@ -209,6 +209,7 @@ fn nonlinear(terms: &[Term]) -> usize {
 }
 
 impl<'a> Selector<'a> {
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         obs: &'a Obs,
         cfg: &'a DiagnoseConfig,
