@@ -4,28 +4,21 @@
 //! `errmap::diagnose::synth` (seeded).
 
 use crate::common::diagnosis_text;
+use crate::effects::{config, with};
 use errmap::diagnose::synth::{Hidden, Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
-
-fn config() -> DiagnoseConfig {
-    DiagnoseConfig {
-        grating_period_um: Some(20.0),
-        ..DiagnoseConfig::default()
-    }
-}
-
-fn with(hidden: &[Hidden]) -> Synth {
-    Synth {
-        hidden: hidden.to_vec(),
-        seed: 7,
-        geometric_um: 8.0,
-        ..Synth::default()
-    }
-}
 
 fn run(s: &Synth) -> Diagnosis {
     let out = generate(s);
     diagnose(&out.recorded, &out.simulated, &config()).expect("diagnoses")
+}
+
+/// The found effect `id` (the test fails, with the diagnosis, without it).
+fn found<'a>(d: &'a Diagnosis, id: &str) -> &'a FoundEffect {
+    d.effects
+        .iter()
+        .find(|e| e.id == id)
+        .unwrap_or_else(|| panic!("no {id}\n{}", diagnosis_text(d)))
 }
 
 fn param(e: &FoundEffect, name: &str) -> (f64, f64) {
@@ -50,11 +43,7 @@ fn refraction_reports_both_parameters_when_pressure_is_compensated() {
     };
     let d = run(&with(&[h]));
     let text = diagnosis_text(&d);
-    let e = d
-        .effects
-        .iter()
-        .find(|e| e.id == "refraction")
-        .unwrap_or_else(|| panic!("no refraction\n{text}"));
+    let e = found(&d, "refraction");
     let (a, sa) = param(e, "ppm_per_k");
     assert!((a - 0.93).abs() <= 3.0 * sa && sa < 0.2, "{text}");
     let (b, sb) = param(e, "ppm_per_hpa");
@@ -78,11 +67,7 @@ fn abbe_and_scale_expansion_report_every_parameter() {
     };
     let d = run(&with(&[h]));
     let text = diagnosis_text(&d);
-    let e = d
-        .effects
-        .iter()
-        .find(|e| e.id == "abbe")
-        .unwrap_or_else(|| panic!("no abbe\n{text}"));
+    let e = found(&d, "abbe");
     let (t0, s0) = param(e, "theta0_urad");
     assert!((t0 - 6.0).abs() <= 3.0 * s0, "{text}");
     let (t1, s1) = param(e, "theta1_urad_per_mm");
@@ -95,11 +80,7 @@ fn abbe_and_scale_expansion_report_every_parameter() {
     };
     let d = run(&with(&[h]));
     let text = diagnosis_text(&d);
-    let e = d
-        .effects
-        .iter()
-        .find(|e| e.id == "scale_thermal_expansion")
-        .unwrap_or_else(|| panic!("no scale_thermal_expansion\n{text}"));
+    let e = found(&d, "scale_thermal_expansion");
     let (a, sa) = param(e, "alpha_ppm_per_k");
     assert!((a - 10.5).abs() <= 3.0 * sa, "{text}");
     let (x0, sx) = param(e, "x0_mm");
@@ -316,11 +297,7 @@ fn recorded_only_on_the_real_b02_record() {
     }
     let robust = score.values().map(|u| u * u).sum::<f64>().sqrt() / stt;
 
-    let e = d
-        .effects
-        .iter()
-        .find(|e| e.id == "thermal_drift")
-        .unwrap_or_else(|| panic!("no drift found\n{text}"));
+    let e = found(&d, "thermal_drift");
     assert_eq!(d.effects.len(), 1, "{text}");
     let (rate, sr) = param(e, "rate_um_per_s");
     assert!(
