@@ -9,7 +9,7 @@
 //! | `scale_thermal_expansion` | `alpha_ppm_per_k`, `x0_mm` |
 //! | `scale_factor` | `ppm` |
 //! | `abbe` | `offset_axis`, `theta0_urad`, `theta1_urad_per_mm` |
-//! | `reversal` | `b_um` |
+//! | `reversal` | `b_um`; `b1_um_per_m` when it varies along the axis (b at the travel's middle + b1 per metre) |
 //! | `latch_delay` | `tau_us` |
 //! | `periodic_scale` | `amplitude_um`, `period_um`, `phase_rad` |
 //! | `thermal_drift` | `amplitude_um`, `tau_s` (exponential) or `rate_um_per_s` (linear) |
@@ -152,6 +152,8 @@ pub enum ParamName {
     Theta0Urad,
     Theta1UradPerMm,
     BUm,
+    /// Change of the reversal along the axis, µm per metre (position-dependent backlash).
+    B1UmPerM,
     TauUs,
     AmplitudeUm,
     PeriodUm,
@@ -167,7 +169,7 @@ pub enum ParamName {
 
 impl ParamName {
     /// Every parameter name.
-    pub const ALL: [ParamName; 17] = [
+    pub const ALL: [ParamName; 18] = [
         ParamName::AlphaPpmPerK,
         ParamName::X0Mm,
         ParamName::Ppm,
@@ -175,6 +177,7 @@ impl ParamName {
         ParamName::Theta0Urad,
         ParamName::Theta1UradPerMm,
         ParamName::BUm,
+        ParamName::B1UmPerM,
         ParamName::TauUs,
         ParamName::AmplitudeUm,
         ParamName::PeriodUm,
@@ -197,6 +200,7 @@ impl ParamName {
             ParamName::Theta0Urad => "theta0_urad",
             ParamName::Theta1UradPerMm => "theta1_urad_per_mm",
             ParamName::BUm => "b_um",
+            ParamName::B1UmPerM => "b1_um_per_m",
             ParamName::TauUs => "tau_us",
             ParamName::AmplitudeUm => "amplitude_um",
             ParamName::PeriodUm => "period_um",

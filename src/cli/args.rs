@@ -115,12 +115,17 @@ pub struct DiagnoseArgs {
     /// The recorded session (table, or a capture directory).
     #[arg(long)]
     pub recorded: PathBuf,
-    /// The simulated session of the same plan.
-    #[arg(long, conflicts_with = "model", required_unless_present = "model")]
+    /// The simulated session of the same plan. Without it and without --model, the
+    /// static part (map and reversal) is taken from the recording itself.
+    #[arg(long, conflicts_with = "model")]
     pub simulated: Option<PathBuf>,
     /// A machine model to simulate the recording with (instead of --simulated).
     #[arg(long)]
     pub model: Option<PathBuf>,
+    /// The longest dead path the set-up's optics allow (interferometer to the
+    /// measurement's zero point), mm; decides dead path against drift when the data cannot.
+    #[arg(long, value_parser = length)]
+    pub max_dead_path_mm: Option<f64>,
     /// Report directory.
     #[arg(long)]
     pub report: PathBuf,

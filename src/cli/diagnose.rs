@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
-use errmap::report::diagnosis::write_report;
+use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose, diagnose_recorded};
+use errmap::report::diagnosis::{IsoEffect, append_iso_effect, iso_effect, write_report};
 use errmap::session;
 use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
 
@@ -30,11 +30,21 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     let against = match (&a.simulated, &a.model) {
         (Some(s), _) => Against::Simulated(s.clone()),
         (None, Some(m)) => Against::Model(m.clone()),
-        (None, None) => bail!("give --simulated SESSION or --model MODEL.toml"),
+        (None, None) => Against::Nothing,
     };
-    let d = run_diagnosis(&a.recorded, &against, &a.report, a.grating_period_um)?;
+    let (d, iso) = run_diagnosis_with(
+        &a.recorded,
+        &against,
+        &a.report,
+        a.grating_period_um,
+        a.max_dead_path_mm,
+    )?;
     if a.json {
-        super::guard::print_stdout(&serde_json::to_string(&d)?)?;
+        let mut v = serde_json::to_value(&d)?;
+        if let (Some(iso), Some(obj)) = (iso, v.as_object_mut()) {
+            obj.insert("iso230".into(), serde_json::to_value(iso)?);
+        }
+        super::guard::print_stdout(&serde_json::to_string(&v)?)?;
     } else {
         print_summary(&d, &a.report)?;
     }
@@ -48,6 +58,8 @@ pub enum Against {
     Simulated(PathBuf),
     /// A machine model that simulates the recording's own moves.
     Model(PathBuf),
+    /// Nothing: the static part is taken from the recording itself.
+    Nothing,
 }
 
 /// Diagnoses a recorded session (table or capture directory) against a simulation and
@@ -59,14 +71,27 @@ pub fn run_diagnosis(
     report: &Path,
     grating_period_um: Option<f64>,
 ) -> Result<Diagnosis> {
+    Ok(run_diagnosis_with(recorded, against, report, grating_period_um, None)?.0)
+}
+
+/// [`run_diagnosis`] with the set-up's dead-path bound; with nothing to diagnose against,
+/// also the ISO 230-2 figures with the found effects removed (written into the report).
+pub fn run_diagnosis_with(
+    recorded: &Path,
+    against: &Against,
+    report: &Path,
+    grating_period_um: Option<f64>,
+    max_dead_path_mm: Option<f64>,
+) -> Result<(Diagnosis, Option<IsoEffect>)> {
     let rec_path = session_file(recorded)?;
     let recorded_rows = session::read_session(&rec_path)?;
     let (simulated, model) = match against {
-        Against::Simulated(s) => (session::read_session(&session_file(s)?)?, None),
+        Against::Simulated(s) => (Some(session::read_session(&session_file(s)?)?), None),
         Against::Model(m) => {
             let model = MachineModel::read(m)?;
-            (simulate_rows(&model, m, &recorded_rows)?, Some(model))
+            (Some(simulate_rows(&model, m, &recorded_rows)?), Some(model))
         }
+        Against::Nothing => (None, None),
     };
     let grating = grating_period_um
         .or_else(|| {
@@ -78,10 +103,15 @@ pub fn run_diagnosis(
     let config = DiagnoseConfig {
         grating_period_um: grating,
         model_dead_path_mm: model.as_ref().map(|m| m.laser.dead_path_mm.max(0.0)),
+        max_dead_path_mm,
         ..DiagnoseConfig::default()
     };
-    let d = diagnose(&recorded_rows, &simulated, &config)
-        .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
+    let d = match &simulated {
+        Some(sim) => diagnose(&recorded_rows, sim, &config),
+        None => diagnose_recorded(&recorded_rows, &config),
+    }
+    .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
+    let iso = simulated.is_none().then(|| iso_effect(&recorded_rows, &d));
     // The inputs are finite and in range: a non-finite figure is a bug, reported, and
     // neither the report nor the JSON (where it would read `null`) is written.
     let figures = [
@@ -111,6 +141,9 @@ pub fn run_diagnosis(
     // temporary one is a sibling, so the model's relative table path is the same.
     let notes = super::guard::into_new_dir(report, |dir| {
         write_report(&d, dir, Some(&environment))?;
+        if let Some(iso) = &iso {
+            append_iso_effect(dir, iso)?;
+        }
         let Some(mut m) = model else {
             return Ok(None);
         };
@@ -128,7 +161,7 @@ pub fn run_diagnosis(
             report.join("updated-model.toml").display()
         );
     }
-    Ok(d)
+    Ok((d, iso))
 }
 
 /// The diagnosis in a few lines on stderr.

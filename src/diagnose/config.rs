@@ -55,6 +55,12 @@ pub struct DiagnoseConfig {
     /// by more than two of its sigmas would make the beam's dead path negative, which is
     /// not a length, so it is refused. `None` (default): no such bound. Range ≥ 0.
     pub model_dead_path_mm: Option<f64>,
+    /// The longest dead path the set-up's optics allow, mm: the beam length from the
+    /// interferometer to the measurement's zero point (e.g. the laser-to-first-target
+    /// distance). When `dead_path` and `thermal_drift` cannot be told apart, a fitted dead
+    /// path beyond it (or below zero) decides for the drift. `None` (default): the axis
+    /// travel, stated as an assumption. Range ≥ 0.
+    pub max_dead_path_mm: Option<f64>,
 }
 
 impl Default for DiagnoseConfig {
@@ -73,6 +79,7 @@ impl Default for DiagnoseConfig {
             spectral_budget: 1.2e6,
             laser_wavelength_um: HENE_WAVELENGTH_UM,
             model_dead_path_mm: None,
+            max_dead_path_mm: None,
         }
     }
 }
@@ -85,6 +92,11 @@ impl DiagnoseConfig {
             && !(d.is_finite() && d >= 0.0)
         {
             return bad(format!("model_dead_path_mm = {d} must be a length ≥ 0"));
+        }
+        if let Some(d) = self.max_dead_path_mm
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return bad(format!("max_dead_path_mm = {d} must be a length ≥ 0"));
         }
         if let Some(p) = self.grating_period_um
             && !(p.is_finite() && p > 0.0)

@@ -13,6 +13,8 @@ use errmap_drivers::{Axis, SessionRow};
 use serde::Serialize;
 
 use super::DiagnoseError;
+use super::engine::MapGroups;
+use super::outcome::StaticMapSummary;
 
 /// Fewest usable matched rows the diagnosis works on.
 pub(crate) const MIN_ROWS: usize = 20;
@@ -66,6 +68,8 @@ pub(crate) struct Obs {
     /// First row of the recorded session, s.
     pub t0: f64,
     pub run: Vec<u32>,
+    /// `sample` of every row (with `run`, its key in the recording).
+    pub sample: Vec<i64>,
     /// Target index (−1 while moving).
     pub target: Vec<i32>,
     /// The two other coordinates (for X: y, z), when every used row has them.
@@ -96,6 +100,118 @@ fn axis_name(a: Axis) -> &'static str {
         Axis::Y => "Y",
         Axis::Z => "Z",
     }
+}
+
+/// Rows that share one random offset: a dwell's samples (run, line, target, direction)
+/// and a move's samples; every other row alone. One id per row.
+pub(crate) fn clusters(obs: &Obs) -> Vec<usize> {
+    let n = obs.len();
+    let mut id = vec![usize::MAX; n];
+    let mut next = 0;
+    for seg in &obs.moves {
+        for &k in seg {
+            id[k] = next;
+        }
+        next += 1;
+    }
+    let mut dwell: BTreeMap<(u32, usize, i32, i8), usize> = BTreeMap::new();
+    for k in 0..n {
+        if id[k] != usize::MAX {
+            continue;
+        }
+        id[k] = if obs.target[k] >= 0 {
+            *dwell
+                .entry((obs.run[k], obs.line[k], obs.target[k], obs.d[k] as i8))
+                .or_insert_with(|| {
+                    next += 1;
+                    next - 1
+                })
+        } else {
+            next += 1;
+            next - 1
+        };
+    }
+    id
+}
+
+/// Moving rows are grouped by this fraction of the travel (with line and direction).
+const MOVING_BIN_FRACTION: f64 = 1.0 / 40.0;
+
+/// Groups of the static map: (line, target, direction) for dwell rows, a constant each;
+/// (line, direction, 1/40 of the travel) for moving rows, a straight line in x each; and
+/// the map's summary from the plain means of the dwell groups (its span, and the reversal
+/// ē↑ − ē↓ per target).
+pub(crate) fn static_map(obs: &Obs) -> (MapGroups, StaticMapSummary) {
+    let n = obs.len();
+    let (lo, hi) = obs
+        .x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let bin = ((hi - lo) * MOVING_BIN_FRACTION).max(1e-6);
+    let mut ids: BTreeMap<(usize, i64, i8), usize> = BTreeMap::new();
+    let group: Vec<usize> = (0..n)
+        .map(|k| {
+            let place = if obs.moving[k] {
+                -1 - ((obs.x[k] - lo) / bin).floor() as i64
+            } else {
+                i64::from(obs.target[k])
+            };
+            let key = (obs.line[k], place, obs.d[k] as i8);
+            let next = ids.len();
+            *ids.entry(key).or_insert(next)
+        })
+        .collect();
+    let ng = ids.len();
+    let mut sum = vec![0.0; ng];
+    let mut count = vec![0usize; ng];
+    for k in 0..n {
+        sum[group[k]] += obs.r[k];
+        count[group[k]] += 1;
+    }
+    let means: Vec<f64> = (0..ng).map(|g| sum[g] / count[g].max(1) as f64).collect();
+    let mut reversal = Vec::new();
+    for (&(line, place, d), &g) in &ids {
+        if place >= 0
+            && d > 0
+            && let Some(&h) = ids.get(&(line, place, -d))
+        {
+            reversal.push(means[g] - means[h]);
+        }
+    }
+    let dwell: Vec<f64> = ids
+        .iter()
+        .filter(|(k, _)| k.1 >= 0)
+        .map(|(_, &g)| means[g])
+        .collect();
+    let span = |v: &[f64]| {
+        let (a, b) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        if b >= a { b - a } else { 0.0 }
+    };
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let summary = StaticMapSummary {
+        groups: ng,
+        dwell_groups: dwell.len(),
+        map_span_um: span(&dwell),
+        mean_reversal_um: mean(&reversal),
+        reversal_span_um: span(&reversal),
+        targets_with_reversal: reversal.len(),
+    };
+    let mut linear = vec![false; ng];
+    for (&(_, place, _), &g) in &ids {
+        linear[g] = place < 0;
+    }
+    let groups = MapGroups {
+        group,
+        x: obs.x.clone(),
+        linear,
+    };
+    (groups, summary)
 }
 
 pub(crate) fn axis_label(a: Axis) -> &'static str {
@@ -320,6 +436,7 @@ pub(crate) fn build(
         t,
         t0: if t0.is_finite() { t0 } else { 0.0 },
         run,
+        sample,
         target: rows.iter().map(|row| row.target).collect(),
         c,
         c_names,

@@ -10,7 +10,7 @@
 //! | `scale_thermal_expansion` | x0 = 0 / x0 free | −ΔT_s·x·1e−3, ΔT_s·1e−3 | α, α·x0 |
 //! | `scale_factor` | — | x·1e−3 | k |
 //! | `abbe` | θ0, θ1 / θ0 only / θ1 only | c·1e−3, c·x·1e−3 | θ0, θ1 |
-//! | `reversal` | — | d/2 | b |
+//! | `reversal` | constant / linear in x | d/2, d/2·(x − x_mid)·1e−3 | b (at the travel's middle), b1 (µm/m) |
 //! | `latch_delay` | v = feed / v measured | d·v·1e−3 | τ |
 //! | `periodic_scale` | period P | sin(2πx/P), cos(2πx/P) | a·cos φ, a·sin φ |
 //! | `thermal_drift` | exponential τ / linear | 1 − e^(−(t−t0)/τ), t − t0 | A, ρ |
@@ -105,6 +105,8 @@ impl Kind {
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Variant {
     Single,
+    /// Reversal linear in position about the middle of the travel.
+    ReversalLinear,
     X0Fixed,
     X0Free,
     AbbeFull,
@@ -115,9 +117,13 @@ pub(crate) enum Variant {
     RefrBoth,
     RefrT,
     RefrP,
-    DriftExp { tau_s: f64 },
+    DriftExp {
+        tau_s: f64,
+    },
     DriftLinear,
-    Periodic { period_um: f64 },
+    Periodic {
+        period_um: f64,
+    },
 }
 
 impl Variant {
@@ -139,6 +145,8 @@ pub(crate) struct Columns {
     pub c: [Option<usize>; 2],
     pub cx: [Option<usize>; 2],
     pub d: Option<usize>,
+    /// d/2·(x − x_mid)·1e−3: a reversal that changes along the axis.
+    pub d_x: Option<usize>,
     pub dv_feed: Option<usize>,
     pub dv_meas: Option<usize>,
     pub t_lin: Option<usize>,
@@ -224,6 +232,16 @@ pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Column
     if d.is_none() {
         untestable.push("reversal, latch_delay: no row has a direction of travel".into());
     }
+    let x_mid = reversal_centre_mm(obs);
+    let d_x = d.and_then(|_| {
+        varies(&obs.x, 1e-6).then(|| {
+            engine.add(
+                (0..n)
+                    .map(|k| obs.d[k] / 2.0 * (obs.x[k] - x_mid) * 1e-3)
+                    .collect(),
+            )
+        })
+    });
     let any_moving = obs
         .v_feed
         .iter()
@@ -272,6 +290,7 @@ pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Column
         c,
         cx,
         d,
+        d_x,
         dv_feed,
         dv_meas,
         t_lin,
@@ -321,6 +340,9 @@ pub(crate) fn static_variants(kind: Kind, cols: &Columns) -> Vec<(Variant, Vec<u
         Kind::Reversal => {
             if let Some(d) = cols.d {
                 v.push((Variant::Single, vec![d]));
+                if let Some(dx) = cols.d_x {
+                    v.push((Variant::ReversalLinear, vec![d, dx]));
+                }
             }
         }
         Kind::Abbe(a) => {
@@ -370,6 +392,13 @@ pub(crate) fn static_variants(kind: Kind, cols: &Columns) -> Vec<(Variant, Vec<u
         Kind::Periodic => {}
     }
     v
+}
+
+/// The position about which a position-dependent reversal is expanded: the middle of the
+/// recorded travel, mm (so `b_um` is the reversal there, the mean over the axis).
+pub(crate) fn reversal_centre_mm(obs: &Obs) -> f64 {
+    let (lo, hi) = range(&obs.x);
+    if hi >= lo { 0.5 * (lo + hi) } else { 0.0 }
 }
 
 /// sin and cos columns of a period (µm) over x (mm).
@@ -470,6 +499,10 @@ pub(crate) fn params(kind: Kind, variant: &Variant, th: &[f64], cov: &[Vec<f64>]
     let sd = |i: usize| cov[i][i].max(0.0).sqrt();
     match (kind, variant) {
         (Kind::ScaleFactor, _) => vec![p(P::Ppm, th[0], sd(0), true)],
+        (Kind::Reversal, Variant::ReversalLinear) => vec![
+            p(P::BUm, th[0], sd(0), true),
+            p(P::B1UmPerM, th[1], sd(1), true),
+        ],
         (Kind::Reversal, _) => vec![p(P::BUm, th[0], sd(0), true)],
         (Kind::Abbe(_), Variant::AbbeFull) => vec![
             p(P::Theta0Urad, th[0], sd(0), true),
@@ -568,6 +601,7 @@ pub(crate) fn implausible(kind: Kind, params: &[Param], obs: &Obs) -> Option<Str
 pub(crate) fn coef_names(kind: Kind, variant: &Variant) -> Vec<ParamName> {
     match (kind, variant) {
         (Kind::ScaleFactor, _) => vec![P::Ppm],
+        (Kind::Reversal, Variant::ReversalLinear) => vec![P::BUm, P::B1UmPerM],
         (Kind::Reversal, _) => vec![P::BUm],
         (Kind::Abbe(_), Variant::AbbeFull) => vec![P::Theta0Urad, P::Theta1UradPerMm],
         (Kind::Abbe(_), Variant::AbbeTheta0) => vec![P::Theta0Urad],
@@ -634,10 +668,10 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
     if pair(Refraction, ScaleThermal) {
         return "the air and scale temperatures changed together; record a session where they change independently (e.g. the scale warmed while the room is steady)".into();
     }
-    if pair(DeadPath, ThermalDrift)
-        || pair(Refraction, ThermalDrift)
-        || pair(ScaleThermal, ThermalDrift)
-    {
+    if pair(DeadPath, ThermalDrift) {
+        return "dwell at the laser's zero point with the retroreflector at the interferometer (dead path about 0) for as long as the session: a residual that still follows time is a drift; or repeat with the air cycling instead of drifting".into();
+    }
+    if pair(Refraction, ThermalDrift) || pair(ScaleThermal, ThermalDrift) {
         return "the temperature and the time trend move together; repeat with the machine warmed up (drift gone) or with the air/scale temperature changing at another pace".into();
     }
     if pair(DeadPath, Refraction) || pair(Refraction, ScaleFactor) || pair(DeadPath, Reversal) {
@@ -650,4 +684,50 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
         b.id(),
         b.follows(obs)
     )
+}
+
+/// The measurement that separates two effects, as a plan file (TOML in the form of
+/// `sim::PlanSpec`, which the simulator and `errmap plan` read), when there is one.
+/// Dead path against thermal drift: a dwell at the laser's zero point (where the first
+/// row was taken) for as long as the session, with the retroreflector moved up to the
+/// interferometer so that the dead path is about zero: a residual that still follows
+/// time is a drift of the machine, one that is gone was the dead path.
+pub(crate) fn separation_plan(obs: &Obs, a: Kind, b: Kind) -> Option<String> {
+    let pair = |p: Kind, q: Kind| (a == p && b == q) || (a == q && b == p);
+    if !pair(Kind::DeadPath, Kind::ThermalDrift) {
+        return None;
+    }
+    let first = (0..obs.len()).min_by(|&i, &j| obs.t[i].total_cmp(&obs.t[j]))?;
+    let x_ref = obs.x[first].max(0.0);
+    let line = obs
+        .lines
+        .get(obs.line[first])
+        .copied()
+        .unwrap_or([0.0, 0.0]);
+    let (tlo, thi) = range(&obs.t);
+    let duration = (thi - tlo).max(600.0).ceil();
+    let feed = obs
+        .v_feed
+        .iter()
+        .copied()
+        .find(|v| *v > 0.0)
+        .unwrap_or(50.0);
+    Some(format!(
+        "# errmap diagnose: the measurement that separates dead_path from thermal_drift.\n\
+         # Move the retroreflector up to the interferometer (dead path about 0), zero the\n\
+         # laser there at {axis} = {x_ref} mm, and dwell for as long as the diagnosed session\n\
+         # ({duration} s) while the air is recorded as before. A residual that still follows\n\
+         # time is a drift of the machine; one that is gone was the dead path. (A repeat of\n\
+         # the session with the air cycling, not drifting, separates them too.)\n\
+         axis = \"{axis}\"\n\
+         lines_mm = [[{y}, {z}]]\n\
+         targets_mm = [{x_ref}]\n\
+         runs = 1\n\
+         feed_mm_s = {feed}\n\
+         dwell_s = {duration}\n\
+         sample_hz = 2.0\n",
+        axis = super::data::axis_label(obs.axis),
+        y = line[0],
+        z = line[1],
+    ))
 }

@@ -7,6 +7,14 @@
 //! O(folds · k³), without another pass over the rows. Trial columns (a candidate period or
 //! time constant) are not registered: [`Engine::fit_with`] takes them for one fit, O(n·k).
 //!
+//! **Static map (recorded-only diagnosis).** With a `group` per row given to [`Engine::new`] every row
+//! belongs to a group of the static map (one mean per line, target and direction) whose
+//! levels are nuisance parameters: y and every column are replaced by their deviations
+//! from their weighted group means (the within transform), so by Frisch–Waugh–Lovell a
+//! fit on them gives the same effect coefficients as a joint fit with one free constant
+//! per group. A column that the map absorbs (its deviations below 1e−10 of its weighted
+//! norm) is stored as zeros and set aside as dependent.
+//!
 //! The normal equations are solved in normalised form (unit diagonal) by a Cholesky
 //! factorisation that walks the columns in the order given and sets aside every column
 //! whose part not explained by the columns before it is below [`DEPENDENT_TOL`] of its
@@ -39,6 +47,8 @@ pub(crate) struct Engine {
     memo: HashMap<(usize, usize), Sums>,
     memo_y: HashMap<usize, Sums>,
     yy: Sums,
+    /// The static map's groups (None: no map).
+    map: Option<MapGroups>,
 }
 
 /// One weighted least-squares solution.
@@ -66,8 +76,20 @@ pub(crate) struct Cv {
 }
 
 impl Engine {
-    /// A registry for the data `y` with weights `w` and folds; `y` is used as given.
-    pub fn new(y: Vec<f64>, w: Vec<f64>, fold: Vec<usize>, nfolds: usize) -> Self {
+    /// A registry for the data `y` with weights `w` and folds; `y` is used as given, or
+    /// relative to a static map when `group` gives every row's group (see the module
+    /// docs).
+    pub fn new(
+        mut y: Vec<f64>,
+        w: Vec<f64>,
+        fold: Vec<usize>,
+        nfolds: usize,
+        group: Option<MapGroups>,
+    ) -> Self {
+        let map = group;
+        if let Some(m) = &map {
+            m.apply(&mut y, &w);
+        }
         let n = y.len();
         let mut yy = Sums {
             total: 0.0,
@@ -88,6 +110,7 @@ impl Engine {
             memo: HashMap::new(),
             memo_y: HashMap::new(),
             yy,
+            map,
         };
         e.add(vec![1.0; n]);
         e
@@ -109,9 +132,29 @@ impl Engine {
         &self.cols[id]
     }
 
+    /// Number of static-map groups beyond the constant (0 without a map): parameters
+    /// the within transform has absorbed, for the degrees of freedom.
+    pub fn absorbed(&self) -> usize {
+        self.map.as_ref().map_or(0, MapGroups::absorbed)
+    }
+
+    /// `v` relative to the static map (unchanged without one).
+    pub fn project(&self, mut v: Vec<f64>) -> Vec<f64> {
+        if let Some(m) = &self.map {
+            let before: f64 = v.iter().zip(&self.w).map(|(a, w)| w * a * a).sum();
+            m.apply(&mut v, &self.w);
+            let after: f64 = v.iter().zip(&self.w).map(|(a, w)| w * a * a).sum();
+            if after <= 1e-10 * before {
+                v.iter_mut().for_each(|a| *a = 0.0);
+            }
+        }
+        v
+    }
+
     /// Registers a column (length n) and returns its id.
     pub fn add(&mut self, v: Vec<f64>) -> usize {
         debug_assert_eq!(v.len(), self.n);
+        let v = self.project(v);
         self.cols.push(v);
         self.cols.len() - 1
     }
@@ -157,6 +200,14 @@ impl Engine {
     /// Weighted least squares on the registered columns `ids` followed by the unregistered
     /// trial columns `extra` (each of length n).
     pub fn fit_with(&mut self, ids: &[usize], extra: &[&[f64]]) -> Fit {
+        let projected: Vec<Vec<f64>>;
+        let extra: Vec<&[f64]> = if self.map.is_some() {
+            projected = extra.iter().map(|c| self.project(c.to_vec())).collect();
+            projected.iter().map(Vec::as_slice).collect()
+        } else {
+            extra.to_vec()
+        };
+        let extra = extra.as_slice();
         let k0 = ids.len();
         let k = k0 + extra.len();
         let mut g = vec![vec![0.0; k]; k];
@@ -296,6 +347,56 @@ impl Engine {
             }
         }
         out
+    }
+}
+
+/// The groups of a static map: every row's group, and for each group whether its level is
+/// a straight line in x (moving rows, binned along the travel) or a constant (a dwell).
+#[derive(Debug, Clone)]
+pub(crate) struct MapGroups {
+    pub group: Vec<usize>,
+    pub x: Vec<f64>,
+    pub linear: Vec<bool>,
+}
+
+impl MapGroups {
+    /// Parameters the map takes beyond the constant.
+    pub fn absorbed(&self) -> usize {
+        let used: std::collections::BTreeSet<usize> = self.group.iter().copied().collect();
+        let lin = used.iter().filter(|&&g| self.linear[g]).count();
+        (used.len() + lin).saturating_sub(1)
+    }
+
+    /// `v` minus its weighted fit by the map (the within transform): per group its mean,
+    /// or its straight line in x for a linear group.
+    pub fn apply(&self, v: &mut [f64], w: &[f64]) {
+        let ng = self.linear.len();
+        let (mut s0, mut sx) = (vec![0.0; ng], vec![0.0; ng]);
+        for (k, &g) in self.group.iter().enumerate() {
+            s0[g] += w[k];
+            sx[g] += w[k] * self.x[k];
+        }
+        let xm: Vec<f64> = (0..ng)
+            .map(|g| if s0[g] > 0.0 { sx[g] / s0[g] } else { 0.0 })
+            .collect();
+        let (mut sv, mut sxx, mut sxv) = (vec![0.0; ng], vec![0.0; ng], vec![0.0; ng]);
+        for (k, &g) in self.group.iter().enumerate() {
+            let dx = self.x[k] - xm[g];
+            sv[g] += w[k] * v[k];
+            sxx[g] += w[k] * dx * dx;
+            sxv[g] += w[k] * dx * v[k];
+        }
+        for (k, &g) in self.group.iter().enumerate() {
+            if s0[g] <= 0.0 {
+                continue;
+            }
+            let slope = if self.linear[g] && sxx[g] > 0.0 {
+                sxv[g] / sxx[g]
+            } else {
+                0.0
+            };
+            v[k] -= sv[g] / s0[g] + slope * (self.x[k] - xm[g]);
+        }
     }
 }
 

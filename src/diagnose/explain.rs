@@ -10,7 +10,8 @@ use super::data::{self, Matching};
 use super::effects::{self, Kind, Variant, separation_advice};
 use super::locate::{self, SpectralPeak};
 use super::outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, SeparatingPlan,
+    Verdict,
 };
 use super::select::{self, FittedTerm, Outcome, centred_rms};
 use super::words::{fixed, fmt_sig, list, range};
@@ -76,7 +77,16 @@ pub(super) fn assemble(
     let mut ambiguities: Vec<String> = Vec::new();
     let mut amb_by_kind: BTreeMap<Kind, Vec<String>> = BTreeMap::new();
     for a in &out.ambiguities {
-        let why = if a.delta_bic > select::TIE_BIC {
+        let decided = out
+            .decisions
+            .iter()
+            .find(|d| d.chosen == a.found && d.other == a.alt);
+        let why = if let Some(d) = decided {
+            format!(
+                "of physics, not of the fit: {}; the separating measurement is written as a plan (separating-plan.toml)",
+                d.basis
+            )
+        } else if a.delta_bic > select::TIE_BIC {
             format!(
                 "it fits better (the alternative raises BIC by {:.1})",
                 a.delta_bic
@@ -194,6 +204,17 @@ pub(super) fn assemble(
         design_notes,
         locate: loc,
         candidates,
+        static_map: None,
+        separating_plans: out
+            .decisions
+            .iter()
+            .map(|d| SeparatingPlan {
+                chosen: d.chosen.id(),
+                other: d.other.id(),
+                basis: d.basis.clone(),
+                plan_toml: d.plan_toml.clone(),
+            })
+            .collect(),
         selection_log: out.log.clone(),
         series,
     }
@@ -218,6 +239,14 @@ fn found_effect(
         uncertainty.insert(p.name.to_string(), if p.fitted { p.sigma } else { 0.0 });
     }
     let mut text = where_text(f, obs, out);
+    for z in zero_statements(f) {
+        text.push_str("; ");
+        text.push_str(&z);
+    }
+    for n in &f.notes {
+        text.push_str("; ");
+        text.push_str(n);
+    }
     if let Some(a) = amb {
         for s in a {
             text.push_str("; ");
@@ -231,6 +260,41 @@ fn found_effect(
         where_: text,
         explains_um: centred_rms(&f.contribution),
     }
+}
+
+/// A fitted parameter within two of its sigmas of zero, in words, with what zero means for
+/// the set-up (e.g. "ppm_per_hpa = −0.002 ± 0.010 ppm/hPa, consistent with zero: the
+/// pressure is compensated correctly"). A period, phase or time constant has no
+/// meaningful zero and is not tested.
+fn zero_statements(f: &FittedTerm) -> Vec<String> {
+    f.params
+        .iter()
+        .filter(|p| p.fitted && p.sigma.is_finite() && p.sigma > 0.0)
+        .filter(|p| p.value.abs() <= 2.0 * p.sigma)
+        .filter_map(|p| {
+            let (unit, meaning) = match p.name {
+                P::PpmPerHpa => ("ppm/hPa", "the pressure is compensated correctly"),
+                P::PpmPerK => ("ppm/K", "the air temperature is compensated correctly"),
+                P::X0Mm => ("mm", "the scale's fixed point is at the axis zero"),
+                P::Theta0Urad => ("µrad", "no angular error at the axis zero"),
+                P::Theta1UradPerMm => ("µrad/mm", "the angle does not change along the axis"),
+                P::AlphaPpmPerK => ("ppm/K", "no expansion with the scale temperature"),
+                _ => return None,
+            };
+            let d = decimals(p.sigma);
+            Some(format!(
+                "{} = {} ± {} {unit}, consistent with zero: {meaning}",
+                p.name,
+                fixed(p.value, d),
+                fixed(p.sigma, d)
+            ))
+        })
+        .collect()
+}
+
+/// Decimals that show two significant digits of `sigma`.
+fn decimals(sigma: f64) -> usize {
+    (1 - sigma.abs().log10().floor() as i32).clamp(0, 8) as usize
 }
 
 fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
@@ -307,7 +371,22 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 obs.c[*i as usize].as_ref().map_or(f64::NAN, |v| v[kmax])
             )
         }
-        (Kind::Reversal, _) => {
+        (Kind::Reversal, v) => {
+            let along = if matches!(v, Variant::ReversalLinear) {
+                let xm = effects::reversal_centre_mm(obs);
+                let b = |x: f64| pv(P::BUm) + pv(P::B1UmPerM) * (x - xm) * 1e-3;
+                format!(
+                    "; the reversal changes along the axis (position-dependent backlash, linear fits better than a constant by BIC): b = {:.3} µm at {axl} = {} mm, {:.3} µm at {} mm, {:.3} µm at {} mm (b_um is its value at the middle of the travel, b1_um_per_m its change per metre)",
+                    b(xlo),
+                    fixed(xlo, 0),
+                    b(xm),
+                    fixed(xm, 0),
+                    b(xhi),
+                    fixed(xhi, 0)
+                )
+            } else {
+                String::new()
+            };
             let dwell = obs.moving.iter().any(|m| !m);
             let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
             feeds.sort_by(f64::total_cmp);
@@ -323,7 +402,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 _ => ", the same at every feed".to_string(),
             };
             format!(
-                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel",
+                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel{along}",
                 pv(P::BUm) / 2.0
             )
         }
@@ -468,6 +547,12 @@ fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) 
         });
     }
     ReportSeries {
+        keys: obs
+            .run
+            .iter()
+            .copied()
+            .zip(obs.sample.iter().copied())
+            .collect(),
         x_mm: obs.x.clone(),
         t_s: obs.t.clone(),
         before_um: before.to_vec(),

@@ -42,6 +42,15 @@
 //! seeded random draws the standardised errors (estimate − truth)/σ have an RMS of
 //! 0.9–1.2 for every parameter (see `tests/diagnose_random.rs`).
 //!
+//! **Without a simulation** ([`diagnose_recorded`]) the static part is the recording's
+//! own: a level per line, target and direction on dwell rows and a straight line per line,
+//! direction and 1/40 of the travel on moving rows, absorbed by the within transform of
+//! `engine` (joint with the effects, Frisch–Waugh–Lovell); `scale_factor`, `reversal` and
+//! `abbe` are that map and are not tested, and the one-sigma values are cluster-robust
+//! over dwells and moves (a dwell's samples share its positioning offset, which the map
+//! leaves in the residual). [`remove_found`] takes the found effects out of a recording,
+//! e.g. for its ISO 230-2 figures without the drift.
+//!
 //! A 100 000-row session takes about 1 s in release (`tests/diagnose_perf.rs`).
 //!
 //! **Submodules**, one line each:
@@ -85,10 +94,35 @@ pub use data::Matching;
 pub use error::DiagnoseError;
 pub use locate::{Correlation, GroupStat, Locate, SpectralPeak};
 pub use outcome::{
-    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, Verdict,
+    CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, SeparatingPlan,
+    StaticMapSummary, Verdict,
 };
 
 use select::Selector;
+
+/// The recording with the found effects' fitted contributions taken out of `error_um`
+/// (and `laser_mm` moved to match), matched by (run, sample); rows the diagnosis did not
+/// use are returned unchanged. After [`diagnose_recorded`] this is the recording without
+/// its drift (and the other effects found), e.g. for the ISO 230-2 figures.
+pub fn remove_found(recorded: &[SessionRow], d: &Diagnosis) -> Vec<SessionRow> {
+    let s = &d.series;
+    let mut total: std::collections::HashMap<(u32, i64), f64> = std::collections::HashMap::new();
+    for (k, key) in s.keys.iter().enumerate() {
+        let c: f64 = s.effects.iter().map(|e| e.fitted_um[k]).sum();
+        total.insert(*key, c);
+    }
+    recorded
+        .iter()
+        .map(|r| match total.get(&(r.run, r.sample)) {
+            Some(c) => SessionRow {
+                error_um: r.error_um - c,
+                laser_mm: r.laser_mm + c * 1e-3,
+                ..r.clone()
+            },
+            None => r.clone(),
+        })
+        .collect()
+}
 // Keeps `super::fixed` working in `locate` and `effects`.
 use words::fixed;
 
@@ -103,6 +137,47 @@ pub fn diagnose(
 ) -> Result<Diagnosis, DiagnoseError> {
     config.validate()?;
     let (obs, matching) = data::build(recorded, simulated)?;
+    run(obs, matching, config, None)
+}
+
+/// Diagnoses a recording without a simulation or a model: the static part is taken from
+/// the recording itself — the mean error per line, target and direction on dwell rows, and
+/// a straight line per line, direction and 1/40 of the travel on moving rows (the error map and the
+/// reversal) — and the effects that change with time, air, material temperature, feed or
+/// short periods are sought in what is left. The map's levels are nuisance parameters
+/// fitted jointly with the effects (the within transform of `engine`), so an effect's
+/// parameters and σ are those of a joint fit. Effects that are functions of line,
+/// target and direction alone (`scale_factor`, `reversal`, `abbe`) are the map itself and
+/// are not tested; [`Diagnosis::static_map`] describes the map. `rms_before_um` is the
+/// RMS about the map.
+pub fn diagnose_recorded(
+    recorded: &[SessionRow],
+    config: &DiagnoseConfig,
+) -> Result<Diagnosis, DiagnoseError> {
+    config.validate()?;
+    let zero: Vec<SessionRow> = recorded
+        .iter()
+        .map(|r| SessionRow {
+            error_um: 0.0,
+            laser_mm: r.scale_mm,
+            ..r.clone()
+        })
+        .collect();
+    let (mut obs, matching) = data::build(recorded, &zero)?;
+    let (groups, summary) = data::static_map(&obs);
+    let ones = vec![1.0; obs.len()];
+    groups.apply(&mut obs.r, &ones);
+    let mut d = run(obs, matching, config, Some(groups))?;
+    d.static_map = Some(summary);
+    Ok(d)
+}
+
+fn run(
+    obs: data::Obs,
+    matching: Matching,
+    config: &DiagnoseConfig,
+    static_map: Option<engine::MapGroups>,
+) -> Result<Diagnosis, DiagnoseError> {
     let groups = data::groups(&obs);
     let (fold, nfolds, fold_kind) = data::folds(&obs);
     let mut sigma = data::noise_from_differences(&obs, &groups);
@@ -112,7 +187,16 @@ pub fn diagnose(
     let w = weights(&sigma);
     let sw: f64 = w.iter().sum();
     let wmean = obs.r.iter().zip(&w).map(|(r, w)| r * w).sum::<f64>() / sw;
-    let y: Vec<f64> = obs.r.iter().map(|r| r - wmean).collect();
+    // Relative to the static map, when there is one (see `engine`).
+    let centred = |w: &[f64]| -> Vec<f64> {
+        let y: Vec<f64> = obs.r.iter().map(|r| r - wmean).collect();
+        let mut y = y;
+        if let Some(m) = &static_map {
+            m.apply(&mut y, w);
+        }
+        y
+    };
+    let mut y = centred(&w);
 
     let first = Selector::new(
         &obs,
@@ -122,6 +206,7 @@ pub fn diagnose(
         fold.clone(),
         nfolds,
         None,
+        static_map.clone(),
     );
     let mut untestable = first.untestable().to_vec();
     let mut out = first.run();
@@ -147,8 +232,18 @@ pub fn diagnose(
     if changed {
         sigma = sigma2;
         w = weights(&sigma);
+        y = centred(&w);
         let spectrum = Some((out.periods.clone(), out.broad.clone(), out.searched_rms));
-        let sel = Selector::new(&obs, config, y.clone(), w.clone(), fold, nfolds, spectrum);
+        let sel = Selector::new(
+            &obs,
+            config,
+            y.clone(),
+            w.clone(),
+            fold,
+            nfolds,
+            spectrum,
+            static_map,
+        );
         untestable = sel.untestable().to_vec();
         out = sel.run();
         out.log.insert(

@@ -133,14 +133,56 @@ pub struct Diagnosis {
     pub candidates: Vec<CandidateScore>,
     /// The selection steps.
     pub selection_log: Vec<String>,
+    /// The static part taken from the recording itself (`diagnose_recorded`; None when
+    /// diagnosed against a simulation).
+    pub static_map: Option<StaticMapSummary>,
+    /// Choices between effects these data cannot tell apart, made on physical grounds,
+    /// each with the measurement that separates them as a ready plan.
+    pub separating_plans: Vec<SeparatingPlan>,
     /// Series for the report's charts (not serialised).
     #[serde(skip)]
     pub series: ReportSeries,
 }
 
+/// The static map a recording-only diagnosis takes from the recording: the mean error per
+/// line, target and direction (dwell rows) and per line, direction and 1/40 of the travel
+/// (moving rows).
+#[derive(Debug, Clone, Serialize)]
+pub struct StaticMapSummary {
+    /// Groups (map levels) in all.
+    pub groups: usize,
+    /// Groups of dwell rows (line × target × direction).
+    pub dwell_groups: usize,
+    /// Peak to peak of the dwell groups' mean errors, µm.
+    pub map_span_um: f64,
+    /// Mean over targets of the reversal ē↑ − ē↓ (the vocabulary's b), µm.
+    pub mean_reversal_um: f64,
+    /// Peak to peak of the reversal over the targets, µm.
+    pub reversal_span_um: f64,
+    /// Targets approached in both directions.
+    pub targets_with_reversal: usize,
+}
+
+/// A choice between two effects made on physical grounds, and the measurement that
+/// would separate them.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeparatingPlan {
+    /// The effect reported.
+    pub chosen: EffectId,
+    /// The effect it could not be told apart from.
+    pub other: EffectId,
+    /// The basis of the choice, in words.
+    pub basis: String,
+    /// The separating measurement as a plan file (TOML: `errmap simulate --plan`,
+    /// `errmap plan`); the report writes it as `separating-plan.toml`.
+    pub plan_toml: String,
+}
+
 /// Per-row series behind the report's charts.
 #[derive(Debug, Clone, Default)]
 pub struct ReportSeries {
+    /// (run, sample) of every row: its key in the recording.
+    pub keys: Vec<(u32, i64)>,
     /// Position along the measured axis, mm.
     pub x_mm: Vec<f64>,
     /// Time, s.

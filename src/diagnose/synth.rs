@@ -111,6 +111,9 @@ pub enum Hidden {
     },
     /// d·b/2.
     Reversal { b_um: f64 },
+    /// d·(b + b1·(x − x_mid)·1e−3)/2: backlash that changes along the axis (x_mid: the
+    /// middle of the targets).
+    ReversalLinear { b_um: f64, b1_um_per_m: f64 },
     /// d·v·τ·1e−3 (v = the feed on moving rows, 0 dwelling).
     LatchDelay { tau_us: f64 },
     /// a·sin(2πx/P + φ).
@@ -141,7 +144,7 @@ impl Hidden {
             Hidden::ScaleThermal { .. } => EffectId::ScaleThermalExpansion,
             Hidden::ScaleFactor { .. } => EffectId::ScaleFactor,
             Hidden::Abbe { .. } => EffectId::Abbe,
-            Hidden::Reversal { .. } => EffectId::Reversal,
+            Hidden::Reversal { .. } | Hidden::ReversalLinear { .. } => EffectId::Reversal,
             Hidden::LatchDelay { .. } => EffectId::LatchDelay,
             Hidden::Periodic { .. } => EffectId::PeriodicScale,
             Hidden::DriftExp { .. } | Hidden::DriftLinear { .. } => EffectId::ThermalDrift,
@@ -172,6 +175,9 @@ impl Hidden {
                 (P::Theta1UradPerMm.as_str(), theta1_urad_per_mm),
             ],
             Hidden::Reversal { b_um } => vec![(P::BUm.as_str(), b_um)],
+            Hidden::ReversalLinear { b_um, b1_um_per_m } => {
+                vec![(P::BUm.as_str(), b_um), (P::B1UmPerM.as_str(), b1_um_per_m)]
+            }
             Hidden::LatchDelay { tau_us } => vec![(P::TauUs.as_str(), tau_us)],
             Hidden::Periodic {
                 amplitude_um,
@@ -437,6 +443,9 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
                     c * (theta0_urad + theta1_urad_per_mm * s.x) * 1e-3
                 }
                 Hidden::Reversal { b_um } => d * b_um / 2.0,
+                Hidden::ReversalLinear { b_um, b1_um_per_m } => {
+                    d * (b_um + b1_um_per_m * (s.x - 0.5 * (xlo + xhi)) * 1e-3) / 2.0
+                }
                 Hidden::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
                 Hidden::Periodic {
                     amplitude_um,

@@ -166,6 +166,34 @@ pub fn write_report(
     }
 
     let mut md = markdown(d, &figs);
+    // The measurement that separates effects these data could not tell apart, ready for
+    // `errmap simulate --plan` (one plan file; the first when there are several).
+    if let Some(sp) = d.separating_plans.first() {
+        let path = dir.join("separating-plan.toml");
+        std::fs::write(&path, &sp.plan_toml).map_err(|source| ReportError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        md.push_str(&format!(
+            "\n## Decided by physics: {} rather than {}\n\n{}.\n\nThe measurement that separates them is in `separating-plan.toml`.\n",
+            sp.chosen.as_str(),
+            sp.other.as_str(),
+            sp.basis
+        ));
+        files.push(path);
+    }
+    if let Some(m) = &d.static_map {
+        let _ = write!(
+            md,
+            "\n## Static part taken from the recording\n\nNo simulation: the map and the reversal are the recording's own ({} levels, {} of them dwell means per line, target and direction; the dwell map spans {:.3} µm; reversal ē↑ − ē↓ {:.3} µm on average over {} targets, spanning {:.3} µm). The effects above are what is left.\n",
+            m.groups,
+            m.dwell_groups,
+            m.map_span_um,
+            m.mean_reversal_um,
+            m.targets_with_reversal,
+            m.reversal_span_um
+        );
+    }
     if let Some(env) = environment {
         md.push('\n');
         md.push_str(env);
@@ -177,6 +205,92 @@ pub fn write_report(
     })?;
     files.insert(0, path);
     Ok(files)
+}
+
+/// ISO 230-2 figures of one line, µm.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct IsoFigures {
+    /// The line's two other coordinates, mm.
+    pub line_mm: [f64; 2],
+    /// Reversal B and mean reversal B̄.
+    pub b_um: f64,
+    pub mean_reversal_um: f64,
+    /// Repeatability R, R↑, R↓.
+    pub r_um: f64,
+    pub r_up_um: f64,
+    pub r_down_um: f64,
+    /// Systematic positional deviation E, mean bidirectional deviation M, accuracy A.
+    pub e_um: f64,
+    pub m_um: f64,
+    pub a_um: f64,
+}
+
+/// The ISO 230-2 figures of a recording as measured and with the found effects taken out
+/// of it (`diagnose::remove_found`): what the effects beyond the map and the reversal do
+/// to the figures (e.g. the repeatability without the drift).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct IsoEffect {
+    pub measured: Vec<IsoFigures>,
+    pub effects_removed: Vec<IsoFigures>,
+}
+
+fn iso_figures(rows: &[errmap_drivers::SessionRow]) -> Vec<IsoFigures> {
+    let (ok, _) = crate::session::Reducer::of(rows).iso_by_line();
+    ok.into_iter()
+        .map(|((a, b), s)| IsoFigures {
+            line_mm: [a, b],
+            b_um: s.b_um,
+            mean_reversal_um: s.mean_reversal_um,
+            r_um: s.r_um,
+            r_up_um: s.r_up_um,
+            r_down_um: s.r_down_um,
+            e_um: s.e_um,
+            m_um: s.m_um,
+            a_um: s.a_um,
+        })
+        .collect()
+}
+
+/// [`IsoEffect`] of a recording and its diagnosis.
+pub fn iso_effect(recorded: &[errmap_drivers::SessionRow], d: &Diagnosis) -> IsoEffect {
+    IsoEffect {
+        measured: iso_figures(recorded),
+        effects_removed: iso_figures(&crate::diagnose::remove_found(recorded, d)),
+    }
+}
+
+/// Appends the [`IsoEffect`] table to `dir/report.md`.
+pub fn append_iso_effect(dir: &Path, e: &IsoEffect) -> Result<(), ReportError> {
+    let path = dir.join("report.md");
+    let mut md = std::fs::read_to_string(&path).map_err(|source| ReportError::Io {
+        path: path.clone(),
+        source,
+    })?;
+    md.push_str("\n## ISO 230-2 figures with the found effects removed\n\n");
+    md.push_str("The static part (map and reversal) is the recording's own; the found effects (drift, air, feed, periodic terms) are taken out of every row and the figures computed again.\n\n");
+    md.push_str("| line (mm) | | B | B̄ | R | R↑ | R↓ | E | M | A |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    for (label, set) in [
+        ("measured", &e.measured),
+        ("effects removed", &e.effects_removed),
+    ] {
+        for f in set {
+            let _ = writeln!(
+                md,
+                "| {}, {} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+                f.line_mm[0],
+                f.line_mm[1],
+                f.b_um,
+                f.mean_reversal_um,
+                f.r_um,
+                f.r_up_um,
+                f.r_down_um,
+                f.e_um,
+                f.m_um,
+                f.a_um
+            );
+        }
+    }
+    std::fs::write(&path, md).map_err(|source| ReportError::Io { path, source })
 }
 
 fn table(out: &mut String, title: &str, rows: &[GroupStat]) {

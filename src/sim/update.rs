@@ -64,6 +64,11 @@ pub fn apply_found_effects(
                     enabled: true,
                     b_um: old + need(P::BUm),
                 });
+                if let Some(b1) = num(P::B1UmPerM) {
+                    notes.push(format!(
+                        "reversal: the model's backlash is one constant, so its change along the axis ({b1:.3} µm/m) is not written (b_um is its value at the middle of the travel)"
+                    ));
+                }
             }
             EffectId::LatchDelay => {
                 let old = model

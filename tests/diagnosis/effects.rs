@@ -6,7 +6,7 @@ use crate::common::diagnosis_text;
 use errmap::diagnose::synth::{Hidden, Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 
-fn config() -> DiagnoseConfig {
+pub(crate) fn config() -> DiagnoseConfig {
     DiagnoseConfig {
         grating_period_um: Some(20.0),
         ..DiagnoseConfig::default()
@@ -71,7 +71,7 @@ fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
     );
 }
 
-fn with(hidden: &[Hidden]) -> Synth {
+pub(crate) fn with(hidden: &[Hidden]) -> Synth {
     Synth {
         hidden: hidden.to_vec(),
         seed: 7,

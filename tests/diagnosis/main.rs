@@ -4,6 +4,7 @@
 mod common;
 mod concealed;
 mod effects;
+mod gaps;
 mod perf;
 mod random;
 mod robust;

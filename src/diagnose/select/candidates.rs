@@ -95,6 +95,7 @@ impl Selector<'_> {
                         }
                     };
                     let [s, c] = effects::periodic_cols(&self.obs.x, p);
+                    let (s, c) = (self.engine.project(s), self.engine.project(c));
                     let fit = self.engine.fit_with(&ids, &[&s, &c]);
                     let mut e = self.make_eval(
                         kind,
@@ -168,7 +169,8 @@ impl Selector<'_> {
         let rank_new = fit.rank.saturating_sub(base_rank);
         let full = (k0..fit.coef.len()).all(|i| fit.independent[i]);
         let bic = bic(fit.chi2, self.n(), fit.rank + nl + variant.nonlinear());
-        let dof = (self.n() as f64 - fit.rank as f64 - 1.0).max(1.0);
+        let dof =
+            (self.n() as f64 - fit.rank as f64 - 1.0 - self.engine.absorbed() as f64).max(1.0);
         let s2 = fit.chi2 / dof;
         let mut th: Vec<f64> = (k0..k0 + k).map(|i| fit.coef[i]).collect();
         let mut cov: Vec<Vec<f64>> = (k0..k0 + k)

@@ -198,6 +198,55 @@ impl Selector<'_> {
         None
     }
 
+    /// Per parameter, the factor (≥ 1) by which the cluster-robust standard error exceeds
+    /// the model-based one. Rows of one dwell share the dwell's own positioning offset,
+    /// and rows of one move share its counter-quantisation offset, so they are not
+    /// independent; the sandwich (JᵀWJ)⁻¹·Σ_c u_c u_cᵀ·(JᵀWJ)⁻¹, u_c = Σ_{k∈c} w_k·J_k·e_k
+    /// over these clusters, counts each as one draw (used with a static map, where the
+    /// dwell-to-dwell scatter is left in the residual).
+    fn cluster_inflation(
+        &self,
+        ids: &[usize],
+        fit: &Fit,
+        jac: &[Vec<f64>],
+        inv: &[Vec<f64>],
+        s2: f64,
+    ) -> Vec<f64> {
+        let p = jac.len();
+        let e = self.residual(ids, fit);
+        let w = self.engine.w();
+        let cluster = crate::diagnose::data::clusters(self.obs);
+        let nc = cluster.iter().copied().max().map_or(0, |m| m + 1);
+        let mut u = vec![vec![0.0; p]; nc];
+        for (k, &c) in cluster.iter().enumerate() {
+            let we = w[k] * e[k];
+            for a in 0..p {
+                u[c][a] += we * jac[a][k];
+            }
+        }
+        // Small-sample factor of the cluster sandwich: C/(C − 1).
+        let scale = nc as f64 / (nc as f64 - 1.0).max(1.0);
+        (0..p)
+            .map(|a| {
+                // (inv·M·inv)_aa = Σ_c (Σ_b inv_ab u_cb)².
+                let robust: f64 = u
+                    .iter()
+                    .map(|uc| {
+                        let v: f64 = (0..p).map(|b| inv[a][b] * uc[b]).sum();
+                        v * v
+                    })
+                    .sum::<f64>()
+                    * scale;
+                let model = inv[a][a] * s2;
+                if model > 0.0 && robust > model {
+                    (robust / model).sqrt()
+                } else {
+                    1.0
+                }
+            })
+            .collect()
+    }
+
     /// Joint fit with the covariance of every term's parameters at the optimum.
     pub(super) fn final_fit(&mut self, terms: &[Term]) -> Vec<FittedTerm> {
         let ids = ids_of(terms);
@@ -213,7 +262,7 @@ impl Selector<'_> {
             match effects::nonlinear_derivative(&t.variant, coef, self.obs) {
                 Some(dcol) => {
                     nl_index.push(Some(jac.len()));
-                    jac.push(dcol);
+                    jac.push(self.engine.project(dcol));
                 }
                 None => nl_index.push(None),
             }
@@ -233,8 +282,13 @@ impl Selector<'_> {
             }
         }
         let inv = pinv_sym(&jtj);
-        let dof = (n as f64 - p as f64).max(1.0);
+        let dof = (n as f64 - p as f64 - self.engine.absorbed() as f64).max(1.0);
         let s2 = fit.chi2 / dof;
+        let inflate = if self.engine.absorbed() > 0 {
+            self.cluster_inflation(&ids, &fit, &jac, &inv, s2)
+        } else {
+            vec![1.0; p]
+        };
         // Parameters of different effects that the data hardly separate.
         let mut owner: Vec<Option<(usize, &'static str)>> = vec![None; p];
         let mut offset = 1;
@@ -285,7 +339,11 @@ impl Selector<'_> {
             }
             let cov: Vec<Vec<f64>> = idx
                 .iter()
-                .map(|&a| idx.iter().map(|&b| inv[a][b] * s2).collect())
+                .map(|&a| {
+                    idx.iter()
+                        .map(|&b| inv[a][b] * s2 * inflate[a] * inflate[b])
+                        .collect()
+                })
                 .collect();
             let params = effects::params(t.kind, &t.variant, &th, &cov);
             let coef: Vec<f64> = lin.iter().map(|&i| fit.coef[i]).collect();
@@ -294,9 +352,106 @@ impl Selector<'_> {
                 term: t.clone(),
                 params,
                 contribution,
+                notes: Vec::new(),
             });
         }
         out
+    }
+}
+
+impl Selector<'_> {
+    /// Every vocabulary parameter of the selected effects, fitted jointly: a term chosen
+    /// in a reduced variant (x0 = 0, θ0 or θ1 alone, one air column of refraction) is
+    /// refitted in its full variant with all the others, and the parameters the selection
+    /// left out come back with their one-sigma (not subject to the determinedness rule:
+    /// "consistent with zero" is an answer). The reduced variant stays, with the reason
+    /// in the term's notes, when the full one is not independent of the other terms or
+    /// would leave a selected parameter undetermined. Selection and ΔBIC are unchanged.
+    pub(super) fn complete(&mut self, terms: &[Term]) -> (Vec<Term>, Vec<FittedTerm>) {
+        let mut terms = terms.to_vec();
+        let mut notes: Vec<Vec<String>> = vec![Vec::new(); terms.len()];
+        let mut added: Vec<Vec<P>> = vec![Vec::new(); terms.len()];
+        for i in 0..terms.len() {
+            let (kind, variant) = (terms[i].kind, terms[i].variant.clone());
+            let Some(full) = full_variant(kind, &variant) else {
+                continue;
+            };
+            let selected = effects::coef_names(kind, &variant);
+            let missing: Vec<P> = effects::coef_names(kind, &full)
+                .into_iter()
+                .filter(|p| !selected.contains(p))
+                .collect();
+            let names = missing
+                .iter()
+                .map(|p| p.as_str())
+                .collect::<Vec<_>>()
+                .join(", ");
+            let Some((_, cols)) = effects::static_variants(kind, &self.cols)
+                .into_iter()
+                .find(|(v, _)| *v == full)
+            else {
+                notes[i].push(format!(
+                    "{names} not fitted: {}",
+                    match kind {
+                        Kind::ScaleThermal =>
+                            "the scale temperature did not change, so x0 acts like a constant",
+                        Kind::Refraction =>
+                            "the other air column did not change during the session",
+                        _ => "its column is not available on these data",
+                    }
+                ));
+                continue;
+            };
+            let mut trial = terms.clone();
+            trial[i] = Term {
+                kind,
+                variant: full,
+                cols,
+            };
+            let fit = self.engine.fit(&ids_of(&trial));
+            if !fit.independent.iter().all(|&b| b) {
+                notes[i].push(format!(
+                    "{names} not fitted: its signature is not independent of the other terms on these data"
+                ));
+                continue;
+            }
+            let fitted = self.final_fit(&trial);
+            let kept: Vec<_> = fitted[i]
+                .params
+                .iter()
+                .filter(|p| selected.contains(&p.name))
+                .cloned()
+                .collect();
+            if let Some(p) = effects::undetermined(&kept, self.cfg.max_relative_uncertainty) {
+                notes[i].push(format!(
+                    "{names} not fitted: fitted jointly it would leave {} undetermined ({:.4} ± {:.4})",
+                    p.name, p.value, p.sigma
+                ));
+                continue;
+            }
+            terms = trial;
+            added[i] = missing;
+        }
+        let mut fitted = self.final_fit(&terms);
+        for ((f, n), a) in fitted.iter_mut().zip(notes).zip(added) {
+            for p in &mut f.params {
+                if a.contains(&p.name) {
+                    p.key = false;
+                }
+            }
+            f.notes = n;
+        }
+        (terms, fitted)
+    }
+}
+
+/// The variant of a kind that fits every vocabulary parameter, when `v` is a reduced one.
+fn full_variant(kind: Kind, v: &Variant) -> Option<Variant> {
+    match (kind, v) {
+        (Kind::ScaleThermal, Variant::X0Fixed) => Some(Variant::X0Free),
+        (Kind::Abbe(_), Variant::AbbeTheta0 | Variant::AbbeTheta1) => Some(Variant::AbbeFull),
+        (Kind::Refraction, Variant::RefrT | Variant::RefrP) => Some(Variant::RefrBoth),
+        _ => None,
     }
 }
 

@@ -27,6 +27,11 @@
 //! 5. **Ambiguity.** Every found effect is replaced in turn by every other testable effect;
 //!    a determined replacement within `ambiguity_delta_bic` of the chosen model is an
 //!    ambiguity, stated with the measurement that would separate the two.
+//! 6. **Every parameter.** A term selected in a reduced variant (x0 = 0, θ0 or θ1 alone,
+//!    one air column of refraction) is refitted jointly with the others in its full
+//!    variant, so every vocabulary parameter is reported with its one-sigma; the added
+//!    ones are not held to the determinedness rule ("consistent with zero" is an answer,
+//!    said in `where`). Selection, ΔBIC and ambiguities are those of the selected variants.
 //!
 //! **Files**, in call order (each calls only the ones below it; all share the types and
 //! the small accessors of this file):
@@ -46,6 +51,7 @@
 mod backward;
 mod candidates;
 mod checks;
+mod decide;
 mod nonlinear;
 mod summary;
 
@@ -57,6 +63,7 @@ use super::spectral;
 pub(crate) use crate::base::stats::centred_rms;
 
 use checks::lattice_alias;
+pub(crate) use decide::Decision;
 use nonlinear::MIN_MOVING_FOR_SCAN;
 
 /// Candidates whose BIC is within this of the best are a tie (numerically or
@@ -131,6 +138,8 @@ pub(crate) struct FittedTerm {
     pub term: Term,
     pub params: Vec<Param>,
     pub contribution: Vec<f64>,
+    /// Why a vocabulary parameter was not fitted (for `where`).
+    pub notes: Vec<String>,
 }
 
 /// What a selection pass returns.
@@ -156,6 +165,8 @@ pub(crate) struct Outcome {
     /// ΔBIC of every testable kind against the final model (adding it, or for a found
     /// one, removing it).
     pub scores: Vec<(Kind, f64)>,
+    /// Choices between inseparable effects made on physical grounds.
+    pub decisions: Vec<Decision>,
 }
 
 /// The selection over one weighting of the data.
@@ -198,6 +209,7 @@ fn nonlinear(terms: &[Term]) -> usize {
 }
 
 impl<'a> Selector<'a> {
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         obs: &'a Obs,
         cfg: &'a DiagnoseConfig,
@@ -206,10 +218,20 @@ impl<'a> Selector<'a> {
         fold: Vec<usize>,
         nfolds: usize,
         spectrum: Option<(Vec<PeriodCand>, Broad, f64)>,
+        static_map: Option<crate::diagnose::engine::MapGroups>,
     ) -> Self {
-        let mut engine = Engine::new(y, w, fold, nfolds);
-        let cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
-        let kinds = effects::kinds(&cols);
+        let mapped = static_map.is_some();
+        let mut engine = Engine::new(y, w, fold, nfolds, static_map);
+        let mut cols = effects::register(&mut engine, obs, cfg.laser_wavelength_um);
+        let mut kinds = effects::kinds(&cols);
+        if mapped {
+            // Functions of line, target and direction are the static map itself.
+            kinds.retain(|k| !matches!(k, Kind::ScaleFactor | Kind::Reversal | Kind::Abbe(_)));
+            cols.untestable.push(
+                "scale_factor, reversal, abbe: part of the static map taken from the recording itself (the mean error per line, target and direction), so not tested"
+                    .into(),
+            );
+        }
         // Rows for the period search: the moving ones when there are enough (see
         // `spectral_search`), an evenly spaced subset of them.
         let moving: Vec<usize> = (0..obs.len()).filter(|&k| obs.moving[k]).collect();
@@ -437,7 +459,7 @@ impl<'a> Selector<'a> {
         loop {
             let ids = ids_of(&terms);
             let fit = self.engine.fit(&ids);
-            let dof = (n as f64 - fit.rank as f64).max(1.0);
+            let dof = (n as f64 - fit.rank as f64 - self.engine.absorbed() as f64).max(1.0);
             let sigma_w = (fit.chi2 / dof).sqrt();
             let mean_w = self.engine.w().iter().sum::<f64>() / n as f64;
             let noise_rms = sigma_w / mean_w.sqrt();
@@ -483,7 +505,6 @@ impl<'a> Selector<'a> {
                 }
             }
             if small.is_empty() {
-                fitted = keep;
                 break;
             }
             self.refused.extend(small);
@@ -491,10 +512,21 @@ impl<'a> Selector<'a> {
             fitted = self.final_fit(&terms);
         }
 
-        // 6. Ambiguities, design notes, scores.
-        let ambiguities = self.ambiguities(&terms);
+        // 6. Ambiguities, design notes, scores (on the selected variants).
+        let mut ambiguities = self.ambiguities(&terms);
+        let mut decisions = Vec::new();
+        if let Some(d) = self.decide_dead_path(&mut terms, &ambiguities) {
+            // Swapped by physics: the ambiguities are the new term's.
+            if ambiguities.iter().all(|a| a.found != d.chosen) {
+                ambiguities = self.ambiguities(&terms);
+            }
+            decisions.push(d);
+        }
         let design = self.design_notes();
         let scores = self.scores(&terms);
+
+        // 7. Every parameter of each found effect, fitted jointly.
+        let (terms, fitted) = self.complete(&terms);
 
         let ids = ids_of(&terms);
         let fit = self.engine.fit(&ids);
@@ -523,6 +555,7 @@ impl<'a> Selector<'a> {
             broad: self.broad.clone(),
             searched_rms: self.searched_rms.unwrap_or(f64::INFINITY),
             scores,
+            decisions,
         }
     }
 }
@@ -531,6 +564,7 @@ impl<'a> Selector<'a> {
 fn variant_words(v: &Variant) -> String {
     match v {
         Variant::Single => "as fitted".into(),
+        Variant::ReversalLinear => "reversal linear in position".into(),
         Variant::X0Fixed => "x0 = 0".into(),
         Variant::X0Free => "x0 free".into(),
         Variant::AbbeFull => "θ0 and θ1".into(),
