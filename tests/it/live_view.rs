@@ -1,6 +1,7 @@
 //! The live view in a real terminal: `capture` runs inside tmux, fed by the simulated
 //! board (with bit flips, so the health counters move) on a pty; the screen read with
-//! `capture-pane` shows the chart and the counters; `q` stops the capture cleanly, and the
+//! `capture-pane` shows the chart and the counters; `p` pauses the chart; a resized
+//! terminal is drawn again; `q` stops the capture cleanly, and the
 //! session table it wrote equals `replay` of its raw file. Skips (saying so) without tmux;
 //! `.ci/run` installs it.
 
@@ -139,6 +140,24 @@ fn capture_in_a_terminal_shows_the_live_view_and_q_writes_the_session() {
         assert!(screen.contains(what), "{what} missing:\n{screen}");
     }
     let crc_on_screen = count(&screen, "CRC failures").unwrap_or(0);
+    // `p` pauses the chart, and says so.
+    tmux.cmd()
+        .args(["send-keys", "-t", "view", "p"])
+        .status()
+        .expect("send-keys");
+    tmux.wait_for(10, "the paused chart", |s| s.contains("PAUSED"));
+    // A terminal shrunk to almost nothing and grown again: the view draws on, the capture
+    // loses nothing (checked below against replay).
+    for (w, h) in [("30", "8"), ("130", "40")] {
+        tmux.cmd()
+            .args(["resize-window", "-t", "view", "-x", w, "-y", h])
+            .status()
+            .expect("resize-window");
+        std::thread::sleep(Duration::from_millis(400));
+    }
+    tmux.wait_for(10, "the view after the resizes", |s| {
+        s.contains("Decoder health") && s.lines().count() >= 36
+    });
     tmux.cmd()
         .args(["send-keys", "-t", "view", "q"])
         .status()
