@@ -276,13 +276,13 @@ fn draw_chart(f: &mut Frame, chart: &state::Chart, paused: bool, area: Rect) {
         .series
         .iter()
         .enumerate()
-        .map(|(k, (label, _, pts))| {
+        .map(|(k, s)| {
             Dataset::default()
-                .name(label.clone())
+                .name(s.label.clone())
                 .marker(Marker::Braille)
                 .graph_type(GraphType::Line)
                 .style(Style::new().fg(PALETTE[k % PALETTE.len()]))
-                .data(pts)
+                .data(&s.points)
         })
         .collect();
     let w = Chart::new(datasets)

@@ -268,8 +268,11 @@ impl ViewState {
             series: self
                 .traces
                 .iter()
-                .map(|t| (t.label(), t.direction, t.points()))
-                .filter(|(_, _, p)| !p.is_empty())
+                .map(|t| Series {
+                    label: t.label(),
+                    points: t.points(),
+                })
+                .filter(|s| !s.points.is_empty())
                 .collect(),
         }
     }
@@ -279,15 +282,23 @@ impl ViewState {
 /// go on.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Chart {
-    /// (label, direction, points (position mm, error µm)).
-    pub series: Vec<(String, i8, Vec<(f64, f64)>)>,
+    pub series: Vec<Series>,
+}
+
+/// One pass on the chart.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Series {
+    /// "run 2 −".
+    pub label: String,
+    /// (mean position mm, mean error µm) per target, in target order.
+    pub points: Vec<(f64, f64)>,
 }
 
 impl Chart {
     /// ((x min, x max), (y min, y max)) over every point, padded so single points and
     /// flat lines still get an axis; None when there is no point.
     pub fn bounds(&self) -> Option<((f64, f64), (f64, f64))> {
-        let mut pts = self.series.iter().flat_map(|s| s.2.iter());
+        let mut pts = self.series.iter().flat_map(|s| s.points.iter());
         let first = pts.next()?;
         let (mut x, mut y) = ((first.0, first.0), (first.1, first.1));
         for p in pts {

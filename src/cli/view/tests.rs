@@ -142,7 +142,9 @@ fn health_counters_equal_the_decoder_statistics() {
 fn target_means_equal_the_means_of_the_rows() {
     let (view, rows, _) = feed(&stream(&Faults::default()));
     // Straight from the rows: clean samples dwelling at a target, per pass, in order.
-    let mut passes: Vec<((u32, i8), BTreeMap<i32, (f64, f64, u64)>)> = Vec::new();
+    // ((run, direction), target → (Σ position, Σ error, n)).
+    type Sums = BTreeMap<i32, (f64, f64, u64)>;
+    let mut passes: Vec<((u32, i8), Sums)> = Vec::new();
     let mut lines = 0;
     for r in rows.iter().filter(|r| r.run > 0 && r.direction != 0) {
         if passes.last().is_none_or(|p| p.0 != (r.run, r.direction)) {
