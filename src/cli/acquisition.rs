@@ -126,7 +126,10 @@ pub fn capture_from_port(
 ) -> Result<errmap::drivers::capture::Captured> {
     let mut source = SerialSource::open(port, baud, Duration::from_millis(100))?;
     if display == Display::LiveView {
-        return super::view::capture(&mut source, paths, config, &STOP);
+        match super::view::open() {
+            Ok(live) => return super::view::capture(live, &mut source, paths, config, &STOP),
+            Err(e) => eprintln!("capture: no live view ({e:#}); the progress line instead"),
+        }
     }
     let show_progress = display == Display::Progress;
     let bar = (show_progress && std::io::stderr().is_terminal()).then(|| {

@@ -66,16 +66,37 @@ type Term = Terminal<CrosstermBackend<Stderr>>;
 
 /// Raw mode and the alternate screen on stderr; left again on drop (also when the drawing
 /// thread fails).
+#[derive(Debug)]
 struct Screen;
 
-impl Screen {
-    fn enter() -> Result<(Screen, Term)> {
-        enable_raw_mode().context("cannot put the terminal in raw mode")?;
-        let screen = Screen;
-        execute!(stderr(), EnterAlternateScreen).context("cannot open the alternate screen")?;
-        let term =
-            Terminal::new(CrosstermBackend::new(stderr())).context("cannot draw on stderr")?;
-        Ok((screen, term))
+/// The terminal, ready for the live view ([`open`]).
+pub struct Live {
+    screen: Screen,
+    term: Term,
+}
+
+impl std::fmt::Debug for Live {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Live").finish_non_exhaustive()
+    }
+}
+
+/// Takes the terminal (raw mode, alternate screen on stderr) for [`capture`]; an error
+/// leaves it as it was, and the caller captures without the view.
+pub fn open() -> Result<Live> {
+    enable_raw_mode().context("cannot put the terminal in raw mode")?;
+    let screen = Screen;
+    execute!(stderr(), EnterAlternateScreen).context("cannot open the alternate screen")?;
+    let term = Terminal::new(CrosstermBackend::new(stderr())).context("cannot draw on stderr")?;
+    Ok(Live { screen, term })
+}
+
+/// Sets its flag when dropped: the drawing thread ends even if the capture panics.
+struct SetOnDrop<'a>(&'a AtomicBool);
+
+impl Drop for SetOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::SeqCst);
     }
 }
 
@@ -89,12 +110,13 @@ impl Drop for Screen {
 /// Captures from `source` into `paths` with the live view on the terminal (see the module
 /// docs). `stop` is the capture's stop flag (Ctrl-C's too); `q` sets it.
 pub fn capture(
+    live: Live,
     source: &mut dyn ByteSource,
     paths: &SessionPaths,
     config: &CaptureConfig,
     stop: &AtomicBool,
 ) -> Result<Captured> {
-    let (screen, term) = Screen::enter()?;
+    let Live { screen, term } = live;
     let config = CaptureConfig {
         progress_every: FRAME,
         ..*config
@@ -107,6 +129,7 @@ pub fn capture(
             let _screen = screen;
             ui_loop(term, &slot, &done, stop)
         });
+        let finished = SetOnDrop(&done);
         let captured = acquire::capture_session_watched(
             source,
             paths,
@@ -119,7 +142,7 @@ pub fn capture(
             },
             &mut |e| state.borrow_mut().event(e),
         );
-        done.store(true, Ordering::SeqCst);
+        drop(finished);
         (captured, ui.join())
     });
     match drawn {
