@@ -15,8 +15,8 @@
 //! power-up and after a `?` byte from the host"); the rows held back are converted when
 //! the HELLO comes. A source that cannot be written (a file) ignores the request.
 //!
-//! [`capture_to`] hands each row to a [`RowSink`] as it is decoded and asks the sink to
-//! flush with every fsync of the raw file, so a capture's memory does not grow with its
+//! [`capture_to`] hands each decoder event (rows, and the problems a live view shows) to a
+//! [`RowSink`] as it is decoded and asks the sink to flush with every fsync of the raw file, so a capture's memory does not grow with its
 //! length; [`capture`] collects the rows in a vector (tests, short captures).
 
 use std::fs::File;
@@ -105,6 +105,15 @@ pub struct Capture {
 pub trait RowSink {
     /// One decoded row.
     fn row(&mut self, row: SessionRow) -> Result<(), SinkError>;
+    /// Every decoder event in stream order: rows, problems, HELLOs, TEXT lines. The
+    /// default hands the rows to [`RowSink::row`] and drops the rest; a sink that also
+    /// watches the decoder's health (the live view) overrides it.
+    fn event(&mut self, event: SessionEvent) -> Result<(), SinkError> {
+        match event {
+            SessionEvent::Row(r) => self.row(r),
+            _ => Ok(()),
+        }
+    }
     /// Called with every fsync of the raw file (at least every
     /// [`CaptureConfig::fsync_every`] while bytes arrive, at every run end, at the end).
     fn flush(&mut self) -> Result<(), SinkError> {
@@ -232,17 +241,17 @@ pub fn capture_to(
             bytes += n as u64;
             let mut run_ended = false;
             decoder.push_with(&buf[..n], &mut |e| {
-                if let SessionEvent::Row(r) = e {
+                if let SessionEvent::Row(r) = &e {
                     if r.run < max_run || (r.run == 0 && max_run > 0) {
                         run_ended = true;
                     }
                     max_run = max_run.max(r.run);
                     n_rows += 1;
-                    if failed.is_none()
-                        && let Err(e) = sink.row(r)
-                    {
-                        failed = Some(e);
-                    }
+                }
+                if failed.is_none()
+                    && let Err(e) = sink.event(e)
+                {
+                    failed = Some(e);
                 }
             });
             if let Some(e) = failed.take() {
@@ -277,13 +286,13 @@ pub fn capture_to(
         }
     };
     decoder.finish_with(&mut |e| {
-        if let SessionEvent::Row(r) = e {
+        if matches!(e, SessionEvent::Row(_)) {
             n_rows += 1;
-            if failed.is_none()
-                && let Err(e) = sink.row(r)
-            {
-                failed = Some(e);
-            }
+        }
+        if failed.is_none()
+            && let Err(e) = sink.event(e)
+        {
+            failed = Some(e);
         }
     });
     sync(raw, sink, &mut fsyncs)?;

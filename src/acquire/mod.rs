@@ -190,6 +190,20 @@ pub fn capture_session(
     stop: &AtomicBool,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Captured, AcquireError> {
+    capture_session_watched(source, paths, config, stop, progress, &mut |_| {})
+}
+
+/// [`capture_session`], showing `watch` every decoder event (rows, problems, HELLOs) just
+/// before the session table gets the row: the live view is fed by the events the writer
+/// consumes. `watch` runs on the reading thread and must not block.
+pub fn capture_session_watched(
+    source: &mut dyn ByteSource,
+    paths: &SessionPaths,
+    config: &CaptureConfig,
+    stop: &AtomicBool,
+    progress: &mut dyn FnMut(&Progress),
+    watch: &mut dyn FnMut(&SessionEvent),
+) -> Result<Captured, AcquireError> {
     std::fs::create_dir_all(&paths.dir).map_err(io_err(&paths.dir))?;
     let mut raw: File = OpenOptions::new()
         .write(true)
@@ -208,8 +222,12 @@ pub fn capture_session(
             }
         })?;
     let mut table = SessionWriter::create(&paths.table)?;
+    let mut sink = Watched {
+        writer: &mut table,
+        watch,
+    };
     let cap =
-        capture_to(source, &mut raw, &mut table, config, stop, progress).map_err(|source| {
+        capture_to(source, &mut raw, &mut sink, config, stop, progress).map_err(|source| {
             AcquireError::Capture {
                 path: paths.raw.clone(),
                 source,
@@ -238,6 +256,31 @@ impl RowSink for SessionWriter {
 
     fn flush(&mut self) -> Result<(), SinkError> {
         SessionWriter::flush(self).map_err(Into::into)
+    }
+}
+
+/// The session writer with an onlooker: every event is shown to `watch`, the rows then go
+/// to the writer.
+struct Watched<'a> {
+    writer: &'a mut SessionWriter,
+    watch: &'a mut dyn FnMut(&SessionEvent),
+}
+
+impl RowSink for Watched<'_> {
+    fn row(&mut self, row: errmap_drivers::SessionRow) -> Result<(), SinkError> {
+        self.writer.push(row).map_err(Into::into)
+    }
+
+    fn event(&mut self, event: SessionEvent) -> Result<(), SinkError> {
+        (self.watch)(&event);
+        match event {
+            SessionEvent::Row(r) => self.row(r),
+            _ => Ok(()),
+        }
+    }
+
+    fn flush(&mut self) -> Result<(), SinkError> {
+        self.writer.flush().map_err(Into::into)
     }
 }
 

@@ -107,15 +107,31 @@ fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
     super::guard::write_file(path, s.as_bytes())
 }
 
+/// How a capture shows itself while it runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Display {
+    /// A progress line on stderr when it is a terminal.
+    Progress,
+    /// The live view (`super::view`) on the terminal.
+    LiveView,
+}
+
 /// Captures from a serial port into `out`; returns the capture's end.
 pub fn capture_from_port(
     port: &str,
     baud: u32,
     paths: &SessionPaths,
     config: &CaptureConfig,
-    show_progress: bool,
+    display: Display,
 ) -> Result<errmap::drivers::capture::Captured> {
     let mut source = SerialSource::open(port, baud, Duration::from_millis(100))?;
+    if display == Display::LiveView {
+        match super::view::open() {
+            Ok(live) => return super::view::capture(live, &mut source, paths, config, &STOP),
+            Err(e) => eprintln!("capture: no live view ({e:#}); the progress line instead"),
+        }
+    }
+    let show_progress = display == Display::Progress;
     let bar = (show_progress && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new_spinner();
         b.enable_steady_tick(Duration::from_millis(120));
@@ -148,7 +164,13 @@ pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
         max_duration: a.duration.map(Duration::from_secs_f64),
         ..CaptureConfig::default()
     };
-    let cap = capture_from_port(&a.port, a.baud, &paths, &config, true)?;
+    // The live view needs a terminal to draw on (stderr: stdout stays free for --json).
+    let display = if a.no_view || !std::io::stderr().is_terminal() {
+        Display::Progress
+    } else {
+        Display::LiveView
+    };
+    let cap = capture_from_port(&a.port, a.baud, &paths, &config, display)?;
     let s = &cap.stats;
     eprintln!(
         "capture: {} bytes, {} rows, {} frames; CRC failures {}, resyncs {} ({} bytes skipped), seq gaps {} ({} frames lost), wraps {}/{}, flagged samples {}, truncated tail {} bytes",

@@ -252,6 +252,10 @@ pub struct CaptureArgs {
     /// Print the session description as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// No live view on a terminal: the plain progress line (as when stderr is not a
+    /// terminal).
+    #[arg(long)]
+    pub no_view: bool,
 }
 
 #[derive(Debug, Args)]

@@ -101,7 +101,13 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         idle_timeout: Some(std::time::Duration::from_millis(800)),
         ..Default::default()
     };
-    let cap = acquisition::capture_from_port(&port, baud, &paths, &config, true)?;
+    let cap = acquisition::capture_from_port(
+        &port,
+        baud,
+        &paths,
+        &config,
+        acquisition::Display::Progress,
+    )?;
     match server.join() {
         Ok(r) => {
             r?;

@@ -31,6 +31,7 @@ pub mod plan;
 pub mod step;
 pub mod stream;
 pub mod values;
+pub mod view;
 pub mod volumetric;
 
 use args::*;

@@ -13,6 +13,7 @@ mod gp;
 mod interp;
 mod iso230;
 mod layers;
+mod live_view;
 mod physics;
 mod robustness;
 mod soak;
