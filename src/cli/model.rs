@@ -411,17 +411,34 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
     let text = format.render_line(&sampled, None)?;
     super::guard::write_file(&a.out, text.as_bytes())?;
+    let fixed: Vec<String> = errmap::base::Axis::ALL
+        .iter()
+        .filter(|&&k| k != axis)
+        .map(|k| format!("{k}={}", at[k.index()]))
+        .collect();
     eprintln!(
-        "export: {} {} entries along {} at ({}, {}, {}) mm ({} extrapolated) → {}; compensation = −error",
+        "export: {} {} entries along {} from {} to {} mm at {} mm ({} extrapolated) → {}; \
+         compensation = −error",
         format.name(),
         sampled.positions_mm.len(),
         a.axis,
-        at[0],
-        at[1],
-        at[2],
+        sampled.positions_mm[0],
+        sampled.positions_mm[sampled.len() - 1],
+        fixed.join(","),
         sampled.extrapolated_count(),
         a.out.display()
     );
+    if let errmap::export::ExportFormat::Heidenhain {
+        axis_key,
+        table_name,
+        ..
+    } = &format
+    {
+        eprintln!(
+            "export: {}",
+            errmap::export::heidenhain::assignment_note(&sampled, axis_key, table_name)
+        );
+    }
     Ok(())
 }
 

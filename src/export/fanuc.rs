@@ -220,8 +220,10 @@ pub fn table(
     let e_ref = forward.error_um[k0];
     // Section i (1 ≤ i < n) ends at point i and has number R + i − k0; with the reference
     // at the first point, number R is the (empty) section before it.
-    let k0_u = k0 as u32;
-    let reference_number = match spec.reference_number {
+    // Point numbers are worked in u64 so that no flag value can overflow; the control's
+    // limit (a u32) is checked below.
+    let k0_u = k0 as u64;
+    let reference_number = match spec.reference_number.map(u64::from) {
         Some(rn) => {
             if rn + 1 < k0_u {
                 return Err(limit(format!(
@@ -238,9 +240,9 @@ pub fn table(
     let first = (reference_number + 1)
         .saturating_sub(k0_u)
         .min(reference_number);
-    let last = reference_number + (n as u32 - 1 - k0_u);
+    let last = reference_number + (n as u64 - 1 - k0_u);
     let span = last - first;
-    let negative_start = spec.negative_start.unwrap_or(last + 1);
+    let negative_start = spec.negative_start.map_or(last + 1, u64::from);
     if reverse.is_some() && negative_start <= last && negative_start + span >= first {
         return Err(limit(format!(
             "the negative-direction numbers {negative_start}–{} (3626) overlap the \
@@ -253,7 +255,7 @@ pub fn table(
     } else {
         last
     };
-    if top > spec.max_point_number {
+    if top > u64::from(spec.max_point_number) {
         return Err(limit(format!(
             "the table needs compensation point numbers up to {top}, beyond the control's \
              {}: {n} points from {first_mm} to {last_mm} mm every {h} mm{}; use a coarser \
@@ -266,6 +268,13 @@ pub fn table(
             }
         )));
     }
+    // All numbers now fit the control's u32 range.
+    let (reference_number, first, last, negative_start) = (
+        reference_number as u32,
+        first as u32,
+        last as u32,
+        negative_start as u32,
+    );
     let section = |number: u32| number as i64 - reference_number as i64 + k0 as i64;
     let values_of = |q: &[i64]| -> Vec<i64> {
         (first..=last)

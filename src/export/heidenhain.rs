@@ -36,7 +36,7 @@
 //! continues the compensation beyond the first and last points was not found either:
 //! errmap adds no points.
 
-use super::{Controller, ExportError, Sampled, compensation_um, fmt_mm, fmt_point};
+use super::{Controller, ExportError, Sampled, compensation_um, fmt_mm};
 
 /// The TNC 407/415/425 limit on entries per `.COM` table.
 pub const HEIDENHAIN_MAX_POINTS: usize = 256;
@@ -107,10 +107,15 @@ fn signed(v: f64) -> String {
 
 /// One sentence for the export report: where the table goes.
 pub fn assignment_note(s: &Sampled, axis_key: &str, table_name: &str) -> String {
+    let fixed: Vec<String> = crate::table::Axis::ALL
+        .iter()
+        .filter(|&&a| a != s.axis)
+        .map(|a| format!("{a} = {}", super::fmt_fixed(s.at_mm[a.index()], 4)))
+        .collect();
     format!(
         "enter {table_name} in the {axis_key} column of the active line of the .CMA table \
-         ({axis_key} = F({axis_key}), line along {} at {})",
+         ({axis_key} = F({axis_key}), measured along {} at {} mm)",
         s.axis,
-        fmt_point(s.at_mm)
+        fixed.join(", ")
     )
 }

@@ -126,6 +126,12 @@ pub fn render_bidirectional(
     if axis_number == 0 {
         return Err(ExportError::BadAxisName { name: "AX0".into() });
     }
+    let Some(second_table) = first_table.checked_add(1) else {
+        return Err(ExportError::ControllerLimit {
+            controller: Controller::Siemens,
+            problem: format!("CEC table index {first_table} leaves no room for its second table"),
+        });
+    };
     let n = forward.len();
     let ax = format!("AX{axis_number}");
     let mut out = String::with_capacity((2 * n + 40) * 32);
@@ -137,18 +143,18 @@ pub fn render_bidirectional(
     out.push_str(&format!(
         "; table {first_table}: positive direction (mean up), table {}: negative direction (mean down); \
          {n} samples from {} to {} mm plus a zero point one step beyond each end\n",
-        first_table + 1,
+        second_table,
         fmt_mm(forward.positions_mm[0]),
         fmt_mm(forward.positions_mm[n - 1]),
     ));
     out.push_str(&format!(
         "; needs MD18342 MM_CEC_MAX_POINTS[{first_table}] and [{}] >= {}; load with MD32710 CEC_ENABLE = 0; \
          leave the axis' LEC/MSEC table off (MD32700 = 0)\n",
-        first_table + 1,
+        second_table,
         n + 2
     ));
     out.push_str("CHANDATA(1)\n");
-    for (t, s, direction) in [(first_table, forward, 1), (first_table + 1, rev, -1)] {
+    for (t, s, direction) in [(first_table, forward, 1), (second_table, rev, -1)] {
         out.push_str(&format!("$AN_CEC[{t},0]=0.0\n"));
         for (i, &e) in s.error_um.iter().enumerate() {
             out.push_str(&format!(

@@ -948,6 +948,18 @@ fn siemens_direction_dependent_tables_round_trip_both_directions() {
         format.render_line(&up, None),
         Err(ExportError::ReverseMismatch { .. })
     ));
+    let last = ExportFormat::SiemensCec {
+        axis_number: 2,
+        first_table: usize::MAX,
+        max_points: 200,
+    };
+    assert!(matches!(
+        last.render_line(&up, Some(&down)),
+        Err(ExportError::ControllerLimit {
+            controller: Controller::Siemens,
+            ..
+        })
+    ));
 }
 
 #[test]

@@ -907,3 +907,27 @@ fn regridding_a_measured_line_interpolates_linearly_and_flags_the_ends() {
     assert_eq!((g.error_um[0], g.error_um[6]), (1.0, -1.0));
     assert!(g.extrapolated.iter().all(|&x| !x));
 }
+
+#[test]
+fn fanuc_point_numbers_near_the_u32_limit_are_refused_not_overflowed() {
+    let s = measured(&grid(0.0, 100.0, 10.0), truth_x);
+    for spec in [
+        FanucSpec {
+            reference_number: Some(u32::MAX),
+            max_value: 100,
+            ..FanucSpec::default()
+        },
+        FanucSpec {
+            negative_start: Some(u32::MAX),
+            max_value: 100,
+            max_point_number: u32::MAX,
+            ..FanucSpec::default()
+        },
+    ] {
+        let p = limit_problem(
+            fanuc::table(&s, Some(&s), &spec).expect_err("refused"),
+            Controller::Fanuc,
+        );
+        assert!(p.contains("compensation point numbers up to"), "{p}");
+    }
+}
