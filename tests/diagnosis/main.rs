@@ -7,3 +7,4 @@ mod effects;
 mod perf;
 mod random;
 mod robust;
+mod untidy;

@@ -20,6 +20,7 @@ mod table2;
 mod tables;
 mod testplan;
 mod uncertainty;
+mod untidy;
 mod volumetric;
 mod volumetric_degree;
 mod volumetric_export;
