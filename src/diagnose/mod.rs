@@ -11,7 +11,7 @@
 //! | match (`data`) | hash join on (run, sample); flagged, duplicate, non-finite, other-axis rows counted and left out | O(n) |
 //! | noise | σ per run × moving/dwell group from first differences (1.4826·MAD/√2), then from the first model's residuals; weights 1/σ², selection repeated when a σ moves by > 15 % | O(n log n) |
 //! | outliers | a first-model residual more than 6 σ from the median of its neighbours in the same dwell or move gets weight 0, and the selection is repeated | O(n log n) |
-//! | spectrum (`spectral`) | weighted Lomb–Scargle with a floating mean over the exact x of the moving rows: narrow windows around P, P/2, P/4 and a broad scan of periods 0.5 mm – L/10 | ≤ 2·[`DiagnoseConfig::spectral_budget`] row·frequencies |
+//! | spectrum (`spectral`) | weighted Lomb–Scargle with a floating mean over the exact x of the moving rows: narrow windows around P, P/2, P/4 and broad scans of periods 0.5 mm – L/10 and 4 P – 0.5 mm; a periodic term needs Δχ² ≥ max(25, 2·ln(N/0.01)) on the moving rows, N the independent frequencies searched | ≤ 2·[`DiagnoseConfig::spectral_budget`] row·frequencies |
 //! | fit (`engine`) | weighted least squares on memoised cross products; an ordered Cholesky gives the rank and the dependent columns | O(n·k) per new column, then O(k³) per fit |
 //! | select (`select`) | forward BIC with variants, τ profiled jointly, backward BIC, swap moves, leave-one-run-out CV, determinedness and plausibility with restart, ambiguity | O(effects² · k³) fits + O(n·k) per nonlinear trial |
 //! | locate ([`locate`]) | weighted group means along x, per line, run, direction, feed, over time; correlations; periodogram peaks; structure left after the model | O(n) |

@@ -1,5 +1,7 @@
-//! Sessions as untidy as real ones (issue 16): outliers get no weight and raise no
-//! alarm.
+//! Sessions as untidy as real ones, and periodic errors between 4 grating periods and
+//! 0.5 mm (issue 16): outliers get no weight and raise no alarm; a concealed periodic
+//! term at 0.2 mm is found with its amplitude within its σ band; with no periodic term
+//! the wider search stays quiet on untidy sessions.
 
 use crate::common::diagnosis_text;
 use errmap::diagnose::synth::{Hidden, Synth, SynthNoise, generate};
@@ -58,5 +60,64 @@ fn outliers_get_no_weight_and_raise_no_alarm() {
         let b = e.params["b_um"].as_f64().expect("b_um");
         let sd = e.uncertainty["b_um"];
         assert!((b - 0.4).abs() <= 3.0 * sd, "b {b} ± {sd}: {text}");
+    }
+}
+
+/// A periodic error of 0.2 mm (10 grating periods: between 4 P and 0.5 mm, searched by
+/// neither the grating windows nor the long-period scan before) of 0.08 µm, below the
+/// noise and concealed by the geometric error, on an untidy session.
+#[test]
+fn a_periodic_error_of_0_2_mm_is_found_with_its_amplitude() {
+    let truth = Hidden::Periodic {
+        amplitude_um: 0.08,
+        period_um: 200.0,
+        phase_rad: 0.9,
+    };
+    let d = run(&untidy(21, vec![truth]));
+    let text = diagnosis_text(&d);
+    assert_eq!(d.effects.len(), 1, "{text}");
+    let e = &d.effects[0];
+    assert_eq!(e.id, "periodic_scale", "{text}");
+    let p = e.params["period_um"].as_f64().expect("period");
+    let a = e.params["amplitude_um"].as_f64().expect("amplitude");
+    let (sp, sa) = (e.uncertainty["period_um"], e.uncertainty["amplitude_um"]);
+    println!("period {p} ± {sp} µm, amplitude {a} ± {sa} µm");
+    assert!((p - 200.0).abs() <= 3.0 * sp, "period {p} ± {sp}: {text}");
+    assert!((a - 0.08).abs() <= 2.0 * sa, "amplitude {a} ± {sa}: {text}");
+    assert!(sa < 0.25 * a, "amplitude not determined: {text}");
+}
+
+/// No periodic term, untidy noise: the search from 4 grating periods up finds nothing
+/// (its support threshold grows with the frequencies it looked at), on sessions with
+/// the grating known and unknown.
+#[test]
+fn no_periodic_term_gives_no_detection_in_the_wider_band() {
+    for seed in 30u64..36 {
+        let s = untidy(seed, Vec::new());
+        let out = generate(&s);
+        let cfg = if seed % 2 == 0 {
+            config()
+        } else {
+            DiagnoseConfig::default()
+        };
+        let d = diagnose(&out.recorded, &out.simulated, &cfg).expect("diagnoses");
+        let text = diagnosis_text(&d);
+        assert!(
+            d.effects.iter().all(|e| e.id != "periodic_scale"),
+            "seed {seed}: {text}"
+        );
+        assert_eq!(d.verdict, "consistent", "seed {seed}: {text}");
+        // The search did reach below 0.5 mm.
+        let shortest = d
+            .series
+            .broad_period_mm
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let floor = if seed % 2 == 0 { 0.08 } else { 0.16 };
+        assert!(
+            shortest < 1.01 * floor + 1e-3,
+            "seed {seed}: shortest period searched {shortest} mm"
+        );
     }
 }
