@@ -12,6 +12,7 @@ mod gp;
 mod interp;
 mod iso230;
 mod layers;
+mod node_noise;
 mod physics;
 mod robustness;
 mod soak;
