@@ -96,8 +96,14 @@ pub struct Device {
     /// Latch-timing jitter, µs: each timer tick latches both counters after a random
     /// interrupt latency, uniform on [0, `latch_jitter_us`), and the SAMPLE carries the
     /// latch's own time. 0 (the default): the board latches on the exact timer lattice.
-    /// At most a quarter of the sample period.
+    /// At most a quarter of the sample period. Not written when 0, so that a model
+    /// written before the term existed reads and writes the same.
+    #[serde(skip_serializing_if = "is_zero")]
     pub latch_jitter_us: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for Device {
