@@ -93,6 +93,17 @@ pub struct Device {
     pub fifo_bytes: usize,
     /// Period of ENV and MATERIAL frames, s.
     pub env_period_s: f64,
+    /// Latch-timing jitter, µs: each timer tick latches both counters after a random
+    /// interrupt latency, uniform on [0, `latch_jitter_us`), and the SAMPLE carries the
+    /// latch's own time. 0 (the default): the board latches on the exact timer lattice.
+    /// At most a quarter of the sample period. Not written when 0, so that a model
+    /// written before the term existed reads and writes the same.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub latch_jitter_us: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for Device {
@@ -107,6 +118,7 @@ impl Default for Device {
             baud: 115_200,
             fifo_bytes: 512,
             env_period_s: 1.0,
+            latch_jitter_us: 0.0,
         }
     }
 }
@@ -357,6 +369,16 @@ fn validate(plan: &Plan, device: &Device) -> Result<(), SimError> {
             device.laser_wavelength_fm
         )));
     }
+    let quarter_us = 0.25e6 / plan.sample_hz;
+    if !(device.latch_jitter_us.is_finite()
+        && device.latch_jitter_us >= 0.0
+        && device.latch_jitter_us <= quarter_us)
+    {
+        return Err(SimError::Device(format!(
+            "latch_jitter_us = {}: must be within 0 … {quarter_us} µs (a quarter of the sample period)",
+            device.latch_jitter_us
+        )));
+    }
     if device.count_resolution_pm > 1_000_000_000 {
         return Err(SimError::Device(format!(
             "count_resolution_pm = {} is more than 1 mm per count",
@@ -588,6 +610,10 @@ pub fn simulate(
         .map_or(0i64, |d| i64::from(i32::MAX) - i64::from(d));
     let dt = 1.0 / plan.sample_hz;
     let mut motion_rng = StdRng::seed_from_u64(plan.seed);
+    // Drawn only when the board jitters, so that a board without jitter gives the same
+    // stream as before the term existed.
+    let mut jitter_rng = StdRng::seed_from_u64(plan.seed ^ 0x6a09_e667_f3bc_c908);
+    let jitter_s = device.latch_jitter_us * 1e-6;
     let env_period = device.env_period_s.max(dt);
 
     b.send(&Frame::Hello(hello), 0.0, false);
@@ -625,8 +651,8 @@ pub fn simulate(
             if next >= until {
                 break;
             }
-            let tt = next;
-            let t_us = tt * 1e6;
+            let mut tt = next;
+            let mut t_us = tt * 1e6;
             if next_env <= next_sample {
                 let env = truth.environment(tt);
                 b.send(
@@ -652,6 +678,14 @@ pub fn simulate(
                 );
                 next_env += env_period;
                 continue;
+            }
+            if jitter_s > 0.0 {
+                // Interrupt latency, inside this step of the plan.
+                let late = jitter_rng
+                    .random_range(0.0..jitter_s)
+                    .min((until - tt) * 0.999);
+                tt += late.max(0.0);
+                t_us = tt * 1e6;
             }
             let (s, speed) = motion(tt - t);
             let p = position(plan.axis, s, plan.lines_mm[line]);

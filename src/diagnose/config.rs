@@ -39,7 +39,9 @@ pub struct DiagnoseConfig {
     /// Default 0.0005 (the interpolation error of a scale is locked to its grating).
     /// Range (0, 0.1].
     pub period_window_rel: f64,
-    /// Shortest period of the broad periodogram, mm. Default 0.5. Range > 0.
+    /// Shortest period of the long-period broad periodogram, mm; below it a second scan
+    /// goes down to 4 grating periods (4 × the largest of [`COMMON_GRATINGS_UM`] when
+    /// the grating is unknown). Default 0.5. Range > 0.
     pub broad_min_period_mm: f64,
     /// Rows used by the periodograms and the nonlinear searches (an evenly spaced subset
     /// when there are more; the final fit uses all rows). Default 2500. Range ≥ 50.

@@ -10,7 +10,8 @@
 //! |---|---|---|
 //! | match (`data`) | hash join on (run, sample); flagged, duplicate, non-finite, other-axis rows counted and left out | O(n) |
 //! | noise | σ per run × moving/dwell group from first differences (1.4826·MAD/√2), then from the first model's residuals; weights 1/σ², selection repeated when a σ moves by > 15 % | O(n log n) |
-//! | spectrum (`spectral`) | weighted Lomb–Scargle with a floating mean over the exact x of the moving rows: narrow windows around P, P/2, P/4 and a broad scan of periods 0.5 mm – L/10 | ≤ 2·[`DiagnoseConfig::spectral_budget`] row·frequencies |
+//! | outliers | a first-model residual more than 6 σ from the median of its neighbours in the same dwell or move gets weight 0, and the selection is repeated | O(n log n) |
+//! | spectrum (`spectral`) | weighted Lomb–Scargle with a floating mean over the exact x of the moving rows: narrow windows around P, P/2, P/4 and broad scans of periods 0.5 mm – L/10 and 4 P – 0.5 mm; a periodic term needs Δχ² ≥ max(25, 2·ln(N/0.01)) on the moving rows, N the independent frequencies searched | ≤ 2·[`DiagnoseConfig::spectral_budget`] row·frequencies |
 //! | fit (`engine`) | weighted least squares on memoised cross products; an ordered Cholesky gives the rank and the dependent columns | O(n·k) per new column, then O(k³) per fit |
 //! | select (`select`) | forward BIC with variants, τ profiled jointly, backward BIC, swap moves, leave-one-run-out CV, determinedness and plausibility with restart, ambiguity | O(effects² · k³) fits + O(n·k) per nonlinear trial |
 //! | locate ([`locate`]) | weighted group means along x, per line, run, direction, feed, over time; correlations; periodogram peaks; structure left after the model | O(n) |
@@ -228,10 +229,22 @@ fn run(
         .iter()
         .zip(&sigma2)
         .any(|(a, b)| (b / a - 1.0).abs() > 0.15);
+    // Outliers (single samples far from their neighbours after the first model) get no
+    // weight: least squares would otherwise bend the model, or invent an effect, to
+    // reach them.
+    let spikes = data::outliers(&obs, &groups, &resid, &sigma2);
+    let n_spikes = spikes.iter().filter(|&&o| o).count();
     let mut w = w;
-    if changed {
-        sigma = sigma2;
+    if changed || n_spikes > 0 {
+        if changed {
+            sigma = sigma2;
+        }
         w = weights(&sigma);
+        for (wk, &o) in w.iter_mut().zip(&spikes) {
+            if o {
+                *wk = 0.0;
+            }
+        }
         y = centred(&w);
         let spectrum = Some((out.periods.clone(), out.broad.clone(), out.searched_rms));
         let sel = Selector::new(
@@ -246,10 +259,21 @@ fn run(
         );
         untestable = sel.untestable().to_vec();
         out = sel.run();
-        out.log.insert(
-            0,
-            "noise re-estimated from the first model's residuals (some group changed by > 15 %); selection repeated".into(),
-        );
+        if changed {
+            out.log.insert(
+                0,
+                "noise re-estimated from the first model's residuals (some group changed by > 15 %); selection repeated".into(),
+            );
+        }
+        if n_spikes > 0 {
+            out.log.insert(
+                0,
+                format!(
+                    "{n_spikes} sample(s) more than {} σ from their neighbours after the first model (outliers) given no weight; selection repeated",
+                    data::OUTLIER_SIGMAS
+                ),
+            );
+        }
     }
     untestable.sort();
     untestable.dedup();

@@ -8,7 +8,9 @@
 //! realistic histories: the scale warming (exponential approach), the air temperature
 //! cycling and drifting, the pressure changing slowly. `simulated` is a smooth geometric
 //! error (a few µm polynomial in x, y, z, noiseless); `recorded` adds the hidden effects,
-//! Gaussian noise and a constant (the counters' origin).
+//! Gaussian noise and a constant (the counters' origin), and, when switched on in
+//! [`SynthNoise`], what makes real sessions untidy: latch-timing jitter, coloured
+//! (time-correlated) noise and occasional outliers ([`SynthNoise::untidy`]).
 
 use crate::base::stats::gaussian;
 use crate::base::vocabulary::{EffectId, ParamName as P};
@@ -223,6 +225,34 @@ pub struct SynthNoise {
     pub noisy_runs: Vec<u32>,
     /// Factor on σ for `noisy_runs`.
     pub noisy_factor: f64,
+    /// Latch-timing jitter, µs: each sample is latched up to this much after its tick
+    /// (uniform), at the position the carriage has then. 0: none.
+    pub jitter_us: f64,
+    /// Coloured noise: stationary σ, µm, of an Ornstein–Uhlenbeck process in time
+    /// (a random walk that forgets over `coloured_tau_s`). 0: none.
+    pub coloured_um: f64,
+    /// Correlation time of the coloured noise, s.
+    pub coloured_tau_s: f64,
+    /// Chance per sample of an outlier. 0: none.
+    pub outlier_prob: f64,
+    /// One-sigma of an outlier's size, µm.
+    pub outlier_um: f64,
+}
+
+impl SynthNoise {
+    /// The untidy terms of a real session on top of this noise: latch jitter of 20 µs,
+    /// coloured noise of 0.05 σ with a 120 s correlation time (below the floor of a named
+    /// effect, a tenth of σ), and one sample in 500 an outlier of 20 σ.
+    pub fn untidy(self) -> Self {
+        SynthNoise {
+            jitter_us: 20.0,
+            coloured_um: 0.05 * self.sigma_um,
+            coloured_tau_s: 120.0,
+            outlier_prob: 0.002,
+            outlier_um: 20.0 * self.sigma_um,
+            ..self
+        }
+    }
 }
 
 impl Default for SynthNoise {
@@ -232,6 +262,11 @@ impl Default for SynthNoise {
             moving_factor: 1.0,
             noisy_runs: Vec::new(),
             noisy_factor: 1.0,
+            jitter_us: 0.0,
+            coloured_um: 0.0,
+            coloured_tau_s: 60.0,
+            outlier_prob: 0.0,
+            outlier_um: 0.0,
         }
     }
 }
@@ -364,7 +399,20 @@ fn schedule(p: &SynthPlan, rng: &mut StdRng) -> Vec<Slot> {
 /// Generates the pair.
 pub fn generate(cfg: &Synth) -> SynthOutput {
     let mut rng = StdRng::seed_from_u64(cfg.seed);
-    let slots = schedule(&cfg.plan, &mut rng);
+    let mut slots = schedule(&cfg.plan, &mut rng);
+    // The untidy terms draw from their own generator: without them a seed gives the
+    // same pair as before they existed.
+    let mut untidy = StdRng::seed_from_u64(cfg.seed ^ 0x3c6e_f372_fe94_f82b);
+    let nz = &cfg.noise;
+    if nz.jitter_us > 0.0 {
+        for s in &mut slots {
+            let late = untidy.random_range(0.0..nz.jitter_us) * 1e-6;
+            s.t += late;
+            if s.target < 0 {
+                s.x += f64::from(s.d) * s.feed.unwrap_or(0.0) * late;
+            }
+        }
+    }
     let n = slots.len();
     let total = slots.last().map_or(1.0, |s| s.t).max(1.0);
     let e = &cfg.env;
@@ -417,6 +465,7 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
     let mut simulated = Vec::with_capacity(n);
     let gauss = |rng: &mut StdRng| -> f64 { gaussian(rng) };
     let (mut glo, mut ghi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut coloured: Option<(f64, f64)> = None;
     for (k, s) in slots.iter().enumerate() {
         let [y, z] = cfg.plan.lines_mm[s.line];
         let d = f64::from(s.d);
@@ -479,7 +528,21 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
         let e_geo = geo(s.x, y, z);
         glo = glo.min(e_geo);
         ghi = ghi.max(e_geo);
-        let e_rec = e_geo + h_total + cfg.offset_um + sigma * gauss(&mut rng);
+        let mut e_rec = e_geo + h_total + cfg.offset_um + sigma * gauss(&mut rng);
+        if nz.coloured_um > 0.0 {
+            let g = gauss(&mut untidy);
+            coloured = match coloured {
+                None => Some((s.t, nz.coloured_um * g)),
+                Some((t0, w0)) => {
+                    let a = (-(s.t - t0).max(0.0) / nz.coloured_tau_s.max(1e-9)).exp();
+                    Some((s.t, a * w0 + nz.coloured_um * (1.0 - a * a).sqrt() * g))
+                }
+            };
+            e_rec += coloured.map_or(0.0, |c| c.1);
+        }
+        if nz.outlier_prob > 0.0 && untidy.random_bool(nz.outlier_prob.min(1.0)) {
+            e_rec += nz.outlier_um * gauss(&mut untidy);
+        }
         let row = |err: f64| SessionRow {
             run: s.run,
             sample: k as i64,

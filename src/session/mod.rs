@@ -12,7 +12,16 @@
 //! **Session → error table.** For each line (the two fixed coordinates) and target, the
 //! error is the mean over runs and both directions of the samples dwelling at the target
 //! (target ≥ 0, run ≥ 1), as in ISO 230-2 and the paper's Table 1; `n` counts them and
-//! `s_um` is their sample standard deviation. Rows with flags ≠ 0 are left out and counted.
+//! `s_um` is their sample standard deviation. Successive samples of a dwell are
+//! correlated (coloured noise, vibration, positioning shared by a dwell), so `n_eff` is
+//! the effective sample count, with s/√n_eff the node's standard uncertainty: s²/u² with
+//! u² = D·mean(s_j²/m_j)/J over the node's J dwells, D the session's design effect of a
+//! dwell mean by batch means (the scatter of the means of repeated dwells at one line,
+//! target and direction against their samples' own s²/m, pooled over the session). A
+//! session of one run has no repeats: each dwell of m samples then counts
+//! m / (1 + 2 Σ (1 − k/m) ρ_k) with ρ_k the session's autocorrelation of dwell samples
+//! (pooled, lags up to 32, corrected for the removal of each dwell's mean, the sum stopped
+//! before the first ρ_k ≤ 0). Rows with flags ≠ 0 are left out and counted.
 //! So are rows without air values in a session that has them elsewhere: the spec's mark of
 //! a sample latched before the first ENV frame, whose laser length was not compensated for
 //! the air (n = 1, about 270 ppm of the length too long in a normal room). A session with

@@ -24,6 +24,9 @@
 //! | dead path | −D·(n(t) − n(t0))·1e3 | `[laser].dead_path_mm` |
 //! | refraction (compensation error) | −x·Δn·1e3, Δn·1e6 = a·(T_air − T̄) + b·(p − p̄) | `[refraction]` |
 //! | white noise | N(0, σ²) | `noise_um` |
+//! | coloured noise | w(t): Ornstein–Uhlenbeck, stationary σ_c, correlation time τ_c (a random walk that forgets over τ_c) | `[coloured_noise]` |
+//! | outliers | with probability p per latch, N(0, σ_o²) more | `[outliers]` |
+//! | latch-timing jitter | the board latches up to `latch_jitter_us` after its timer tick | `[device].latch_jitter_us` |
 //!
 //! T̄ and p̄ are the means of the air histories over the session; n(t) is the modified
 //! Edlén index at the air of time t. Every section has `enabled` (default true), so a term
@@ -37,8 +40,8 @@ use errmap_drivers::sim::{
     Device, Environment, Faults, Plan, SimStream, Truth, TruthQuery, simulate,
 };
 use errmap_drivers::{SessionRow, decode_all};
-use rand::SeedableRng;
 use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
@@ -314,6 +317,34 @@ pub struct Refraction {
     pub ppm_per_hpa: f64,
 }
 
+/// Coloured noise: an Ornstein–Uhlenbeck process w with w(t + Δt) = a·w(t) +
+/// σ·√(1 − a²)·N(0, 1), a = exp(−Δt/τ), started from its stationary N(0, σ²). Over
+/// times well below τ it is a random walk of σ·√(2Δt/τ); it never grows beyond σ, so a
+/// small σ stays below the floor of a named effect such as a drift.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ColouredNoise {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Stationary one-sigma, µm.
+    pub sigma_um: f64,
+    /// Correlation time, s (> 0).
+    pub tau_s: f64,
+}
+
+/// Occasional outliers (a spike on the line, a vibration): each latched error gets,
+/// with probability `probability`, an extra N(0, σ²).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outliers {
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// Chance per latch, 0 … 0.1.
+    pub probability: f64,
+    /// One-sigma of an outlier's size, µm.
+    pub sigma_um: f64,
+}
+
 /// The machine model file.
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -326,6 +357,12 @@ pub struct MachineModel {
     pub noise_moving_um: Option<f64>,
     #[serde(default)]
     pub seed: u64,
+    /// Coloured (time-correlated) noise on top of the white noise.
+    #[serde(default)]
+    pub coloured_noise: Option<ColouredNoise>,
+    /// Occasional outliers.
+    #[serde(default)]
+    pub outliers: Option<Outliers>,
     #[serde(default)]
     pub error_map: Option<ErrorMapSpec>,
     #[serde(default)]
@@ -397,6 +434,31 @@ impl MachineModel {
             ("environment.part_temp_c", &h.part_temp_c),
         ] {
             hist.check(name)?;
+        }
+        if let Some(c) = &self.coloured_noise {
+            if !(c.sigma_um.is_finite() && c.sigma_um >= 0.0) {
+                return Err(format!(
+                    "coloured_noise.sigma_um = {} must be ≥ 0",
+                    c.sigma_um
+                ));
+            }
+            if !(c.tau_s.is_finite() && c.tau_s > 0.0) {
+                return Err(format!(
+                    "coloured_noise.tau_s = {} must be positive",
+                    c.tau_s
+                ));
+            }
+        }
+        if let Some(o) = &self.outliers {
+            if !(0.0..=0.1).contains(&o.probability) {
+                return Err(format!(
+                    "outliers.probability = {} must be within 0 … 0.1",
+                    o.probability
+                ));
+            }
+            if !(o.sigma_um.is_finite() && o.sigma_um >= 0.0) {
+                return Err(format!("outliers.sigma_um = {} must be ≥ 0", o.sigma_um));
+            }
         }
         if let Some(p) = &self.periodic_scale
             && p.enabled
@@ -480,6 +542,8 @@ impl MachineModel {
             n0,
             lambda_um,
             rng: StdRng::seed_from_u64(self.seed),
+            untidy_rng: StdRng::seed_from_u64(self.seed ^ 0xbb67_ae85_84ca_a73b),
+            coloured: None,
             noise: true,
         })
     }
@@ -496,7 +560,12 @@ pub struct PhysicsTruth {
     n0: f64,
     lambda_um: f64,
     rng: StdRng,
-    /// Add the model's white noise (false: the noiseless expectation).
+    /// The coloured noise and the outliers draw from their own generator, so that a
+    /// model without them gives the same white noise as before they existed.
+    untidy_rng: StdRng,
+    /// The coloured noise's last (time, value).
+    coloured: Option<(f64, f64)>,
+    /// Add the model's noise terms (false: the noiseless expectation).
     pub noise: bool,
 }
 
@@ -583,11 +652,32 @@ impl Truth for PhysicsTruth {
             Some(s) if q.target < 0 && q.feed_mm_s > 0.0 => s,
             _ => self.model.noise_um,
         };
-        if self.noise && sigma > 0.0 {
-            e + sigma * gaussian(&mut self.rng)
-        } else {
-            e
+        if !self.noise {
+            return e;
         }
+        let mut e = e;
+        if sigma > 0.0 {
+            e += sigma * gaussian(&mut self.rng);
+        }
+        if let Some(c) = self.model.coloured_noise.as_ref().filter(|c| c.enabled) {
+            let g = gaussian(&mut self.untidy_rng);
+            let w = match self.coloured {
+                None => c.sigma_um * g,
+                Some((t0, w0)) => {
+                    let a = (-(q.t_s - t0).max(0.0) / c.tau_s).exp();
+                    a * w0 + c.sigma_um * (1.0 - a * a).sqrt() * g
+                }
+            };
+            self.coloured = Some((q.t_s, w));
+            e += w;
+        }
+        if let Some(o) = self.model.outliers.as_ref().filter(|o| o.enabled)
+            && o.probability > 0.0
+            && self.untidy_rng.random_bool(o.probability)
+        {
+            e += o.sigma_um * gaussian(&mut self.untidy_rng);
+        }
+        e
     }
 
     fn environment(&mut self, t_s: f64) -> Environment {

@@ -1,4 +1,6 @@
-//! Error tables: one row per node, `x_mm,y_mm,z_mm,e_um[,n,s_um]` (spec `session-table.md`).
+//! Error tables: one row per node, `x_mm,y_mm,z_mm,e_um[,n,s_um,n_eff]` (spec
+//! `session-table.md`; `n_eff`, the effective sample count of correlated dwell samples,
+//! is errmap's own optional column: tables without it read as before).
 //!
 //! Tables are read and written as CSV or Parquet with polars, chosen by the file extension.
 //! Every cell is validated once, here, so that the interpolators can trust their input:
@@ -27,6 +29,9 @@ pub struct ErrorPoint {
     pub n: Option<u32>,
     /// Standard deviation of those samples, micrometres, when known.
     pub s_um: Option<f64>,
+    /// Effective sample count of `e_um` (1 ≤ n_eff ≤ n): the n samples are correlated in
+    /// time, so the standard uncertainty of the mean is s/√n_eff, not s/√n. When known.
+    pub n_eff: Option<f64>,
 }
 
 impl ErrorPoint {
@@ -38,7 +43,16 @@ impl ErrorPoint {
             e_um,
             n: None,
             s_um: None,
+            n_eff: None,
         }
+    }
+
+    /// Standard uncertainty of `e_um` from its samples, µm: s/√n_eff, or s/√n when the
+    /// effective count is unknown; None without s or n.
+    pub fn u_um(&self) -> Option<f64> {
+        let s = self.s_um?;
+        let n = self.n_eff.or(self.n.map(f64::from))?;
+        (n >= 1.0).then(|| s / n.sqrt())
     }
 
     pub fn position(&self) -> [f64; 3] {
@@ -136,6 +150,7 @@ impl ErrorTable {
         }
         let n_cells = optional_column_cells(path, df, "n")?;
         let s_cells = optional_column_cells(path, df, "s_um")?;
+        let neff_cells = optional_column_cells(path, df, "n_eff")?;
         let mut points = Vec::with_capacity(rows);
         for r in 0..rows {
             let mut v = [0.0, 0.0, 0.0, f64::NAN];
@@ -177,6 +192,18 @@ impl ErrorTable {
                 );
                 return Err(out_of_range(path, r, "s_um", problem));
             }
+            let n_eff = match &neff_cells {
+                Some(c) => parse_cell(path, c, r, "n_eff")?,
+                None => None,
+            };
+            if let Some(ne) = n_eff {
+                let most = n.map_or(f64::from(u32::MAX), f64::from);
+                if !(1.0..=most).contains(&ne) {
+                    let problem =
+                        format!("{ne} is not an effective sample count within 1 … n ({most})");
+                    return Err(out_of_range(path, r, "n_eff", problem));
+                }
+            }
             points.push(ErrorPoint {
                 x_mm: v[0],
                 y_mm: v[1],
@@ -184,13 +211,14 @@ impl ErrorTable {
                 e_um: v[3],
                 n,
                 s_um,
+                n_eff,
             });
         }
         // Extra numeric columns: kept, never fatal.
         let mut extra = Vec::new();
         for name in df.get_column_names() {
             let name = name.as_str();
-            if REQUIRED.contains(&name) || name == "n" || name == "s_um" {
+            if REQUIRED.contains(&name) || ["n", "s_um", "n_eff"].contains(&name) {
                 continue;
             }
             if let Ok(cells) = column_cells(path, df, name) {
@@ -329,7 +357,7 @@ impl ErrorTable {
         self.extra.iter().find(|c| c.name == name)
     }
 
-    /// Writes the table (required columns, then `n`/`s_um` when any row has them).
+    /// Writes the table (required columns, then `n`/`s_um`/`n_eff` when any row has them).
     pub fn write(&self, path: &Path) -> Result<(), TableError> {
         let mut df = self.to_frame().map_err(|e| format_err(path, e))?;
         write_frame(path, &mut df)
@@ -360,6 +388,15 @@ impl ErrorTable {
                 self.points
                     .iter()
                     .map(|p| p.s_um)
+                    .collect::<Vec<Option<f64>>>(),
+            ));
+        }
+        if self.points.iter().any(|p| p.n_eff.is_some()) {
+            cols.push(Column::new(
+                "n_eff".into(),
+                self.points
+                    .iter()
+                    .map(|p| p.n_eff)
                     .collect::<Vec<Option<f64>>>(),
             ));
         }

@@ -8,3 +8,4 @@ mod gaps;
 mod perf;
 mod random;
 mod robust;
+mod untidy;

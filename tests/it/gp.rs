@@ -79,6 +79,7 @@ fn noiseless_smooth_field_is_recovered_within_its_sigma() {
         kernel: Kernel::SquaredExponential,
         restarts: 2,
         seed: 1,
+        ..GpConfig::default()
     };
     let start = Instant::now();
     let gp = Gp::fit(&points, &config).expect("fits");

@@ -26,8 +26,8 @@ pub(super) fn lattice_alias(period_mm: f64, lattices: &[f64]) -> Option<f64> {
 }
 
 /// Δχ² a periodic term must reach on the moving rows alone (independent phases), about
-/// 5σ for two parameters.
-const MOVING_SUPPORT_CHI2: f64 = 25.0;
+/// 5σ for two parameters; raised for wide searches by [`Selector::moving_support_chi2`].
+pub(super) const MOVING_SUPPORT_CHI2: f64 = 25.0;
 
 /// Parameters of two effects correlated beyond this (|ρ|) are reported as hard to
 /// separate.
@@ -87,7 +87,7 @@ impl Selector<'_> {
     /// periodic scale error is, on `resid` (the residual without it):
     /// - on the moving rows alone, whose positions are independent draws of the phase
     ///   (rows of one dwell share their phase, so unmodelled structure at a few dwell
-    ///   positions can mimic a short period): Δχ² ≥ [`MOVING_SUPPORT_CHI2`];
+    ///   positions can mimic a short period): Δχ² ≥ [`Selector::moving_support_chi2`];
     /// - along the axis: its amplitude in each third of the x range agrees with the
     ///   whole (within 3σ or a factor of 2), as a scale's interpolation error does and a
     ///   local bump does not.
@@ -108,9 +108,10 @@ impl Selector<'_> {
             let dof = (moving.len() as f64 - 3.0).max(1.0);
             let s2 = (with.chi2 / dof).max(1e-300);
             let gain = (base - with.chi2) / s2;
-            if gain < MOVING_SUPPORT_CHI2 {
+            let need = self.moving_support_chi2();
+            if gain < need {
                 return Err(format!(
-                    "not supported by the moving samples alone (Δχ² = {gain:.1} < {MOVING_SUPPORT_CHI2})"
+                    "not supported by the moving samples alone (Δχ² = {gain:.1} < {need:.1})"
                 ));
             }
         }

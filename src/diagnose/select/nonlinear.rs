@@ -10,11 +10,24 @@ use crate::diagnose::effects::{self, Variant};
 use crate::diagnose::engine::{CONST, solve};
 use crate::diagnose::spectral;
 
+use super::checks::MOVING_SUPPORT_CHI2;
 use super::{Broad, PeriodCand, Selector, Term, ids_of};
 
 /// Longest period of the broad periodogram, as a fraction of the x range: a "period"
 /// with fewer than 10 cycles over the axis is a smooth shape, not a periodic error.
 const MAX_BROAD_FRACTION: f64 = 0.1;
+
+/// Most frequencies of one broad scan (beyond, the grid coarsens).
+const MAX_BROAD_FREQUENCIES: usize = 20_000;
+
+/// The shortest period of the broad search, in grating periods: shorter periods are the
+/// grating-tied windows' (P, P/2, P/4), or beyond what a scale's errors hold.
+pub(super) const SHORT_BAND_GRATINGS: f64 = 4.0;
+
+/// Family-wise false-alarm probability of the periodogram search per session: the
+/// support a periodic term needs on the moving rows grows with the number of independent
+/// frequencies searched (a Bonferroni bound), so a wider search does not find more noise.
+const SEARCH_FALSE_ALARM: f64 = 0.01;
 
 /// Moving rows needed for the periodograms to use them alone.
 pub(super) const MIN_MOVING_FOR_SCAN: usize = 200;
@@ -31,7 +44,8 @@ const TAU_GRID: usize = 16;
 
 impl Selector<'_> {
     /// Periodogram candidates on the current residual: narrow windows around the
-    /// grating-tied periods and a broad scan of long periods (detrended by a cubic in x).
+    /// grating-tied periods and broad scans of long and short periods (detrended by a
+    /// cubic in x; see [`Selector::broad_bands`]).
     pub(super) fn spectral_search(&mut self, resid: &[f64], keep: &[f64]) {
         let cfg = self.cfg;
         let (lo, hi) = self
@@ -119,17 +133,18 @@ impl Selector<'_> {
         window_peaks.sort_by(|a, b| b.power.total_cmp(&a.power));
         cands.extend(window_peaks.into_iter().take(3));
 
-        // Broad scan of long periods on the residual minus a cubic in x.
-        let fmin = 1.0 / (MAX_BROAD_FRACTION * span);
-        let fmax = 1.0 / cfg.broad_min_period_mm.max(1e-3);
-        if fmax > fmin {
-            // One point per resolution element; the golden-section refinement of a
-            // candidate recovers the peak between two grid points.
-            let mut df = 1.0 / span;
+        // Broad scans on the residual minus a cubic in x: long periods (0.5 mm – L/10),
+        // then short ones (4 grating periods – 0.5 mm), each within its own row budget.
+        let mut broad = Broad::default();
+        for (fmin, fmax, oversample) in self.broad_bands(span) {
+            // One point per resolution element (two in the short band, where a peak is
+            // narrow against the band); the golden-section refinement of a candidate
+            // recovers the peak between two grid points.
+            let mut df = 1.0 / (oversample * span);
             let mut nf = ((fmax - fmin) / df).ceil() as usize + 1;
-            if nf > 8000 {
-                df = (fmax - fmin) / 7999.0;
-                nf = 8000;
+            if nf > MAX_BROAD_FREQUENCIES {
+                df = (fmax - fmin) / (MAX_BROAD_FREQUENCIES - 1) as f64;
+                nf = MAX_BROAD_FREQUENCIES;
             }
             let idx = rows_for(nf);
             let (x, w, r) = (
@@ -150,10 +165,13 @@ impl Selector<'_> {
                     refined_um: None,
                 });
             }
-            self.broad = Broad {
-                period_mm: (0..nf).map(|k| 1.0 / (fmin + k as f64 * df)).collect(),
-                power: pw,
-            };
+            broad
+                .period_mm
+                .extend((0..nf).map(|k| 1.0 / (fmin + k as f64 * df)));
+            broad.power.extend(pw);
+        }
+        if !broad.power.is_empty() {
+            self.broad = broad;
         }
         // The new search replaces the old candidates (it ran on a cleaner residual), except
         // those of the periodic terms already in the model (`keep`): their peaks are gone
@@ -172,6 +190,56 @@ impl Selector<'_> {
         }
         merged.truncate(MAX_PERIOD_CANDIDATES);
         self.periods = merged;
+    }
+
+    /// The broad scans' frequency bands, cycles/mm, with their oversampling: long periods
+    /// from [`DiagnoseConfig::broad_min_period_mm`] to a tenth of the x range, and short
+    /// ones from [`SHORT_BAND_GRATINGS`] grating periods (the largest of
+    /// [`crate::diagnose::COMMON_GRATINGS_UM`] when the grating is unknown) up to it.
+    ///
+    /// [`DiagnoseConfig::broad_min_period_mm`]: crate::diagnose::DiagnoseConfig::broad_min_period_mm
+    pub(super) fn broad_bands(&self, span_mm: f64) -> Vec<(f64, f64, f64)> {
+        let cfg = self.cfg;
+        let fmin = 1.0 / (MAX_BROAD_FRACTION * span_mm);
+        let fmid = 1.0 / cfg.broad_min_period_mm.max(1e-3);
+        let grating_um = cfg.grating_period_um.unwrap_or_else(|| {
+            crate::diagnose::COMMON_GRATINGS_UM
+                .iter()
+                .copied()
+                .fold(0.0, f64::max)
+        });
+        let fmax = 1000.0 / (SHORT_BAND_GRATINGS * grating_um);
+        let mut bands = Vec::new();
+        if fmid > fmin {
+            bands.push((fmin, fmid, 1.0));
+        }
+        if fmax > fmid.max(fmin) {
+            bands.push((fmid.max(fmin), fmax, 2.0));
+        }
+        bands
+    }
+
+    /// Δχ² a periodic term must reach on the moving rows alone: about 5σ for two
+    /// parameters (25), and more when the search looked at so many independent
+    /// frequencies N that noise would reach 25 somewhere: 2·ln(N/α) with α =
+    /// [`SEARCH_FALSE_ALARM`] (the χ² with two degrees of freedom exceeds c with
+    /// probability e^(−c/2)).
+    pub(super) fn moving_support_chi2(&self) -> f64 {
+        let (lo, hi) = self
+            .obs
+            .x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let span = (hi - lo).max(1e-3);
+        let independent: f64 = self
+            .broad_bands(span)
+            .iter()
+            .map(|&(a, b, _)| (b - a) * span)
+            .sum::<f64>()
+            .max(1.0);
+        (2.0 * (independent / SEARCH_FALSE_ALARM).ln()).max(MOVING_SUPPORT_CHI2)
     }
 
     /// Refines a period on `resid`: on the search subset, or on all rows (`full`).

@@ -22,6 +22,7 @@ pub(super) fn maximise<'a>(
     config: &GpConfig,
     positions: &[[f64; 3]],
     y: &'a [f64],
+    node_var: Vec<f64>,
     lo: [f64; 3],
     hi: [f64; 3],
 ) -> (Objective<'a>, Vec<f64>) {
@@ -62,7 +63,8 @@ pub(super) fn maximise<'a>(
     bounds.push(((1e-3 * scale).ln(), (1e2 * scale).ln()));
     bounds.push(((1e-6 * scale).ln(), (10.0 * scale).ln()));
 
-    let objective = Objective::new(config.kernel, positions, y, free.clone(), fixed_ls);
+    let objective =
+        Objective::new(config.kernel, positions, y, free.clone(), fixed_ls).with_node_var(node_var);
 
     // Starts: one data-driven, then `restarts` log-uniform random ones.
     let mut starts = Vec::with_capacity(config.restarts + 1);
@@ -199,9 +201,17 @@ pub(super) struct Objective<'a> {
     d2: [Vec<f64>; 3],
     free: Vec<usize>,
     fixed_ls: [f64; 3],
+    /// Each node's own noise variance, µm² (heteroscedastic, known), added to σₙ².
+    node_var: Vec<f64>,
 }
 
 impl<'a> Objective<'a> {
+    /// With each node's own noise variance (empty: none).
+    pub(super) fn with_node_var(mut self, node_var: Vec<f64>) -> Self {
+        self.node_var = node_var;
+        self
+    }
+
     pub(super) fn new(
         kernel: Kernel,
         positions: &[[f64; 3]],
@@ -225,6 +235,7 @@ impl<'a> Objective<'a> {
             d2,
             free,
             fixed_ls,
+            node_var: Vec::new(),
         }
     }
 
@@ -257,7 +268,7 @@ impl<'a> Objective<'a> {
         {
             let s = k.as_mut_slice();
             for i in 0..n {
-                s[i + i * n] = diag;
+                s[i + i * n] = diag + self.node_var.get(i).copied().unwrap_or(0.0);
                 for j in 0..i {
                     let v = sf2 * self.kernel.corr(r2[packed(i, j)]);
                     s[i + j * n] = v;

@@ -52,8 +52,14 @@
 //!   noise and included in [`GpHyper::noise_sd_um`]. If the final factorisation still
 //!   fails, the nugget is raised tenfold up to 10⁻⁴ σ_f² before [`GpError::Cholesky`].
 //!
-//! The per-node `n` and `s_um` of [`ErrorPoint`] are ignored: the noise is one
-//! homoscedastic σₙ fitted to the data.
+//! **Node uncertainty.** A node with `s_um` and `n` (and, from a session's reduction,
+//! `n_eff`) carries its own standard uncertainty uᵢ = s/√n_eff ([`ErrorPoint::u_um`]):
+//! the noise is heteroscedastic, K + diag(σₙ² + uᵢ²), with σₙ fitted for what the nodes'
+//! own scatter does not hold (run-to-run variation, an unmodelled fine structure). The
+//! likelihood's gradient in ln σₙ is unchanged (the uᵢ² are known constants). Nodes
+//! without `s_um` have uᵢ = 0: a table without the columns fits as before. A predicted
+//! measurement ([`Gp::predict_with_sigma_noisy`]) adds σₙ² only: a new node's own
+//! uncertainty is not known. [`GpConfig::homoscedastic`] ignores the uᵢ.
 //!
 //! # Cost
 //!
@@ -112,6 +118,10 @@ pub struct GpConfig {
     pub restarts: usize,
     /// Seed of the random starts; the same seed and data give the same fit. Default 0.
     pub seed: u64,
+    /// Ignore the nodes' own uncertainty (`s_um`, `n`, `n_eff`): one homoscedastic σₙ,
+    /// as before issue 16. Default false.
+    #[serde(default)]
+    pub homoscedastic: bool,
 }
 
 impl Default for GpConfig {
@@ -120,6 +130,7 @@ impl Default for GpConfig {
             kernel: Kernel::Matern52,
             restarts: 8,
             seed: 0,
+            homoscedastic: false,
         }
     }
 }
@@ -223,7 +234,12 @@ impl Gp {
         let positions = validate(points)?;
         let y: Vec<f64> = points.iter().map(|p| p.e_um).collect();
         let (lo, hi) = bounding_box(&positions);
-        let (objective, theta) = likelihood::maximise(config, &positions, &y, lo, hi);
+        let node_var = if config.homoscedastic {
+            Vec::new()
+        } else {
+            node_variances(points)
+        };
+        let (objective, theta) = likelihood::maximise(config, &positions, &y, node_var, lo, hi);
 
         let (ls, sf2, sn2) = objective.unpack(&theta);
         Self::condition(config.kernel, positions, &objective, ls, sf2, sn2, lo, hi)
@@ -242,7 +258,8 @@ impl Gp {
         let y: Vec<f64> = points.iter().map(|p| p.e_um).collect();
         let (lo, hi) = bounding_box(&positions);
         let ls = hyper.length_scales_mm;
-        let objective = Objective::new(kernel, &positions, &y, Vec::new(), ls);
+        let objective = Objective::new(kernel, &positions, &y, Vec::new(), ls)
+            .with_node_var(node_variances(points));
         let sf2 = hyper.signal_sd_um.powi(2);
         // The fitted noise includes the nugget, which factoring adds again.
         let sn2 = (hyper.noise_sd_um.powi(2) - NUGGET * sf2).max(0.0);
@@ -471,6 +488,19 @@ impl Interpolator for Gp {
 }
 
 /// The smallest and largest coordinate per axis.
+/// Each node's own noise variance uᵢ², µm² (0 without `s_um`); empty when no node has one.
+fn node_variances(points: &[ErrorPoint]) -> Vec<f64> {
+    let v: Vec<f64> = points
+        .iter()
+        .map(|p| p.u_um().map_or(0.0, |u| u * u))
+        .collect();
+    if v.iter().any(|&u| u > 0.0) {
+        v
+    } else {
+        Vec::new()
+    }
+}
+
 fn bounding_box(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
