@@ -34,7 +34,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     };
     let d = run_diagnosis(&a.recorded, &against, &a.report, a.grating_period_um)?;
     if a.json {
-        super::guard::print_stdout(&serde_json::to_string(&d)?)?;
+        super::guard::print_json(&d)?;
     } else {
         print_summary(&d, &a.report)?;
     }

@@ -171,10 +171,7 @@ pub fn write_report(
         md.push_str(env);
     }
     let path = dir.join("report.md");
-    std::fs::write(&path, md).map_err(|source| ReportError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    super::write_text(&path, &md)?;
     files.insert(0, path);
     Ok(files)
 }
