@@ -13,6 +13,7 @@ mod interp;
 mod iso230;
 mod layers;
 mod physics;
+mod robust_io;
 mod robustness;
 mod soak;
 mod stream;
