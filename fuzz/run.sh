@@ -27,17 +27,18 @@ fi
 # Builds AFL++ once per toolchain; refuses (and we go on) when it is built already.
 cargo afl config --build >/dev/null 2>&1 || true
 
+tdir=${CARGO_TARGET_DIR:-target}
 export AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1
 export AFL_BENCH_UNTIL_CRASH=1 AFL_NO_AFFINITY=1
 if [ "${targets[*]}" = decoder ]; then
     echo "== cargo afl build (decoder only, no polars)"
     cargo afl build --quiet --no-default-features --features afl --bin afl_decoder
-    bins=(target/debug/afl_decoder)
+    bins=("$tdir/debug/afl_decoder")
 else
     echo "== cargo afl build (every target)"
     cargo afl build --quiet --features afl --bin afl
     bins=()
-    for t in "${targets[@]}"; do bins+=("target/debug/afl $t"); done
+    for t in "${targets[@]}"; do bins+=("$tdir/debug/afl $t"); done
 fi
 
 crashes=0
