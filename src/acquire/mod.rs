@@ -295,7 +295,11 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), AcquireError> 
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    std::fs::write(path, text + "\n").map_err(io_err(path))
+    // Whole or not at all: a temporary file beside it, renamed into place.
+    crate::table::write_atomically::<AcquireError>(path, |f| {
+        use std::io::Write;
+        f.write_all((text + "\n").as_bytes()).map_err(io_err(path))
+    })
 }
 
 /// Bytes read from a raw capture per decoder push, in [`replay`].

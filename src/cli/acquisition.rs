@@ -377,14 +377,19 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
         let environment = errmap::report::environment::environment_text(&environment);
-        let p = errmap::report::iso230::write_session_report(
-            &path.display().to_string(),
-            &axis,
-            &environment,
-            &iso,
-            &budgets,
-            dir,
-        )?;
+        // A new report directory appears whole or not at all.
+        let p = super::guard::into_new_dir(dir, |d| {
+            errmap::report::iso230::write_session_report(
+                &path.display().to_string(),
+                &axis,
+                &environment,
+                &iso,
+                &budgets,
+                d,
+            )
+            .map(|_| dir.join("report.md"))
+            .map_err(Into::into)
+        })?;
         eprintln!("table: ISO 230-2 report in {}", p.display());
     }
     Ok(Reduced {

@@ -15,7 +15,7 @@ use super::model::print_summary;
 
 fn write_input(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
     let p = dir.join(name);
-    std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+    super::guard::write_file(&p, text.as_bytes())?;
     Ok(p)
 }
 

@@ -44,7 +44,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         if let (Some(iso), Some(obj)) = (iso, v.as_object_mut()) {
             obj.insert("iso230".into(), serde_json::to_value(iso)?);
         }
-        super::guard::print_stdout(&serde_json::to_string(&v)?)?;
+        super::guard::print_json(&v)?;
     } else {
         print_summary(&d, &a.report)?;
     }

@@ -2,7 +2,8 @@
 //! would overwrite inputs.
 //!
 //! - **stdout.** Every document the binary prints on stdout (the `--json` documents, the
-//!   pseudo-terminal path of `serve-sim`) goes through [`print_stdout`]. A reader that went
+//!   pseudo-terminal path of `serve-sim`) goes through [`print_stdout`] (the `--json`
+//!   documents through [`print_json`], which refuses a NaN or inf in them first). A reader that went
 //!   away (`errmap … --json | head`) is normal use: the command ends quietly with status
 //!   141 = 128 + SIGPIPE, what a shell reports for a program that the signal ended, and
 //!   prints nothing. Any other write error (a full disk: `> /dev/full`) is an error naming
@@ -48,6 +49,14 @@ fn write_line(out: &mut impl Write, text: &str) -> Result<()> {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
         Err(e) => Err(anyhow::Error::new(e).context("cannot write to stdout")),
     }
+}
+
+/// Prints `value` as one line of JSON on stdout, like [`print_stdout`], after
+/// `errmap::report::json_text` has checked that it holds no NaN or ±inf (which
+/// serde_json would print as `null`: a bug reported, not a document printed).
+pub fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> {
+    let text = errmap::report::json_text(Path::new("stdout"), value, false)?;
+    print_stdout(&text)
 }
 
 /// Writes `bytes` to `path` whole or not at all (a temporary file beside it, renamed into

@@ -125,7 +125,7 @@ fn run(cli: Cli) -> Result<()> {
                 ..Default::default()
             });
             if a.json {
-                guard::print_stdout(&serde_json::to_string(&r)?)?;
+                guard::print_json(&r)?;
             } else {
                 eprint!("{}", errmap::bench::markdown(&r));
             }
@@ -133,7 +133,10 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::ReportConcealed(a) => diagnose::report_concealed(&a.cases, &a.out),
         Command::GenConcealed(a) => {
-            let dirs = errmap::sim::concealed::write_all(&a.out, &a.table1)?;
+            // A new output directory appears whole or not at all.
+            let dirs = guard::into_new_dir(&a.out, |d| {
+                Ok(errmap::sim::concealed::write_all(d, &a.table1)?)
+            })?;
             eprintln!(
                 "gen-concealed: {} cases under {}",
                 dirs.len(),

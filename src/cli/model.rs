@@ -126,15 +126,39 @@ pub fn fit(a: FitArgs) -> Result<()> {
     }
     let n_out = preds.iter().filter(|p| p.1).count();
     if a.json {
-        let json = serde_json::json!({
-            "method": method.name(),
-            "order": method.order().map(|o| o.0),
-            "predictions": preds.iter().zip(&sigmas).map(|((p, e), s)| serde_json::json!({
-                "x_mm": p.x_mm, "y_mm": p.y_mm, "z_mm": p.z_mm, "e_um": p.e_um, "extrapolated": e,
-                "sigma_um": s
-            })).collect::<Vec<_>>(),
-        });
-        super::guard::print_stdout(&json.to_string())?;
+        // A struct, not `json!`: a NaN must reach the check, not become `null` first.
+        // Keys in the order `json!` printed them (sorted).
+        #[derive(serde::Serialize)]
+        struct Prediction {
+            e_um: f64,
+            extrapolated: bool,
+            sigma_um: Option<f64>,
+            x_mm: f64,
+            y_mm: f64,
+            z_mm: f64,
+        }
+        #[derive(serde::Serialize)]
+        struct Fit<'a> {
+            method: &'a str,
+            order: Option<[usize; 3]>,
+            predictions: Vec<Prediction>,
+        }
+        super::guard::print_json(&Fit {
+            method: method.name(),
+            order: method.order().map(|o| o.0),
+            predictions: preds
+                .iter()
+                .zip(&sigmas)
+                .map(|((p, e), s)| Prediction {
+                    e_um: p.e_um,
+                    extrapolated: *e,
+                    sigma_um: *s,
+                    x_mm: p.x_mm,
+                    y_mm: p.y_mm,
+                    z_mm: p.z_mm,
+                })
+                .collect(),
+        })?;
     } else {
         eprintln!(
             "{}: {} predictions ({} extrapolated){}",
@@ -284,9 +308,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         Ok(report::write_report(&comparison, dir, &command)?)
     })?;
     if a.json {
-        super::guard::print_stdout(&serde_json::to_string(
-            &comparison.to_json(Some(&a.report)),
-        )?)?;
+        super::guard::print_json(&comparison.to_json(Some(&a.report)))?;
     } else {
         print_summary(&comparison, &a.report);
     }
@@ -487,12 +509,12 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
     let result = experiment::run(&config)?;
     let md = errmap::report::experiment::markdown(&result);
     if let Some(dir) = &a.report {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let path = dir.join("report.md");
-        std::fs::write(&path, &md).with_context(|| format!("cannot write {}", path.display()))?;
+        super::guard::into_new_dir(dir, |d| {
+            Ok(errmap::report::write_text(&d.join("report.md"), &md)?)
+        })?;
     }
     if a.json {
-        super::guard::print_stdout(&serde_json::to_string(&result)?)?;
+        super::guard::print_json(&result)?;
     } else {
         eprint!("{md}");
     }
@@ -593,7 +615,7 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     let text = format
         .render_line(&forward, Some(&reverse))
         .with_context(|| format!("{}: {} table", path.display(), format.name()))?;
-    std::fs::write(&a.out, text).with_context(|| format!("cannot write {}", a.out.display()))?;
+    super::guard::write_file(&a.out, text.as_bytes())?;
     eprintln!(
         "export: {} {} points along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
          (mean reversal {:.4} µm) → {}; compensation = −error",

@@ -121,8 +121,7 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
         None if a.mark_output.is_some() => bail!("--mark-output needs --program"),
         None => None,
     };
-    std::fs::write(&a.out, plan.toml())
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    super::guard::write_file(&a.out, plan.toml().as_bytes())?;
     eprintln!(
         "plan: {} targets along {axis}, interval {:.3} mm, {} runs → {}",
         plan.targets_mm.len(),
@@ -131,7 +130,7 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
         a.out.display()
     );
     if let (Some(path), Some(text)) = (&a.program, text) {
-        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        super::guard::write_file(path, text.as_bytes())?;
         eprintln!("plan: {dialect} program → {}", path.display());
     }
     Ok(())

@@ -306,13 +306,16 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         write_json(out, &id.to_json(config.positions, true))?;
     }
     if let Some(dir) = &a.report {
-        errmap::report::volumetric::write_report(&id, config.positions, dir)?;
+        super::guard::into_new_dir(dir, |d| {
+            Ok(errmap::report::volumetric::write_report(
+                &id,
+                config.positions,
+                d,
+            )?)
+        })?;
     }
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string(&id.to_json(config.positions, false))?
-        );
+        super::guard::print_json(&id.to_json(config.positions, false))?;
     } else {
         print_summary(&id);
     }
@@ -364,7 +367,7 @@ pub fn demo_step(out: &Path) -> Result<Identification> {
         (&model, include_str!("../../datasets/volumetric/model.toml")),
         (&plan, include_str!("../../datasets/volumetric/plan.toml")),
     ] {
-        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        super::guard::write_file(path, text.as_bytes())?;
     }
     let machine = Machine::read(&model)?;
     let plan = PlanFile::read(&plan)?;
@@ -398,12 +401,9 @@ pub fn demo_step(out: &Path) -> Result<Identification> {
     Ok(id)
 }
 
-fn write_json(path: &PathBuf, v: &serde_json::Value) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
-    }
-    std::fs::write(path, serde_json::to_string_pretty(v)?)
-        .with_context(|| format!("{}: cannot write", path.display()))
+fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
+    let text = errmap::report::json_text(path, v, true)?;
+    super::guard::write_file(path, text.as_bytes())
 }
 
 fn parse_probe(s: &str) -> Result<[f64; 3]> {
@@ -435,7 +435,7 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
             );
         }
         if a.json {
-            println!("{}", serde_json::json!({ "predictions": preds }));
+            super::guard::print_json(&std::collections::BTreeMap::from([("predictions", &preds)]))?;
         } else if a.out.is_none() {
             eprintln!(
                 "volumetric predict: {} rows (use --out FILE or --json)",
@@ -461,6 +461,8 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
     predict::write_grid(out, &points, &errors)?;
     if a.json {
+        // The numbers are checked before `json!` would turn a NaN into null.
+        errmap::report::finite::check_json(Path::new("stdout"), &(&points, &errors))?;
         let rows: Vec<serde_json::Value> = points
             .iter()
             .zip(&errors)
@@ -470,7 +472,7 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
                     "sx_um": s[0], "sy_um": s[1], "sz_um": s[2]})
             })
             .collect();
-        println!("{}", serde_json::json!({ "grid": rows }));
+        super::guard::print_json(&serde_json::json!({ "grid": rows }))?;
     }
     eprintln!(
         "volumetric predict: error vector at {} points → {}",
@@ -557,11 +559,9 @@ fn format_name(f: AxisTableFormat) -> &'static str {
     }
 }
 
+/// Whole or not at all (`guard::write_file` creates the parent directory).
 fn write_text(path: &Path, text: &str) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
-    }
-    std::fs::write(path, text).with_context(|| format!("{}: cannot write", path.display()))
+    super::guard::write_file(path, text.as_bytes())
 }
 
 #[cfg(test)]

@@ -576,9 +576,16 @@ pub fn render(data: &CertificateData) -> Result<Vec<u8>, CertificateError> {
 /// Writes the certificate to `path`.
 pub fn write(path: &Path, data: &CertificateData) -> Result<(), CertificateError> {
     let bytes = render(data)?;
-    std::fs::write(path, bytes).map_err(|source| CertificateError::Io {
-        path: path.to_path_buf(),
-        source,
+    // Whole or not at all: a temporary file beside `path`, renamed into place.
+    super::write_bytes(path, &bytes).map_err(|e| match e {
+        super::ReportError::Io { path, source }
+        | super::ReportError::Table(crate::table::TableError::Io { path, source }) => {
+            CertificateError::Io { path, source }
+        }
+        other => CertificateError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })
 }
 

@@ -257,10 +257,7 @@ pub fn write_report(
 
     let md = markdown(c, command, &feat, &by_cv);
     let path = dir.join("report.md");
-    std::fs::write(&path, md).map_err(|source| ReportError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    super::write_text(&path, &md)?;
     written.push(path);
     Ok(written)
 }

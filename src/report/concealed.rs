@@ -68,11 +68,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         let report = out.join(name);
         write_report(&d, &report, None)?;
         let json_path = report.join("diagnosis.json");
-        let json = serde_json::to_string_pretty(&d).map_err(|e| ReportError::Json {
-            path: json_path.clone(),
-            message: e.to_string(),
-        })?;
-        std::fs::write(&json_path, json + "\n").map_err(io(&json_path))?;
+        super::write_json(&json_path, &d)?;
         let found: Vec<String> = d.effects.iter().map(|e| format!("`{}`", e.id)).collect();
         let params: Vec<String> = d
             .effects
@@ -125,6 +121,6 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         });
     }
     let index_path = out.join("README.md");
-    std::fs::write(&index_path, index).map_err(io(&index_path))?;
+    super::write_text(&index_path, &index)?;
     Ok(outcomes)
 }

@@ -170,10 +170,7 @@ pub fn write_report(
     // `errmap simulate --plan` (one plan file; the first when there are several).
     if let Some(sp) = d.separating_plans.first() {
         let path = dir.join("separating-plan.toml");
-        std::fs::write(&path, &sp.plan_toml).map_err(|source| ReportError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        super::write_bytes(&path, sp.plan_toml.as_bytes())?;
         md.push_str(&format!(
             "\n## Decided by physics: {} rather than {}\n\n{}.\n\nThe measurement that separates them is in `separating-plan.toml`.\n",
             sp.chosen.as_str(),
@@ -199,10 +196,7 @@ pub fn write_report(
         md.push_str(env);
     }
     let path = dir.join("report.md");
-    std::fs::write(&path, md).map_err(|source| ReportError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    super::write_text(&path, &md)?;
     files.insert(0, path);
     Ok(files)
 }
@@ -290,7 +284,7 @@ pub fn append_iso_effect(dir: &Path, e: &IsoEffect) -> Result<(), ReportError> {
             );
         }
     }
-    std::fs::write(&path, md).map_err(|source| ReportError::Io { path, source })
+    super::write_text(&path, &md)
 }
 
 fn table(out: &mut String, title: &str, rows: &[GroupStat]) {

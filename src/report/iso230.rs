@@ -293,9 +293,6 @@ pub fn write_session_report(
         let _ = write!(md, "\n![line {}](line{}.png)\n\n", k + 1, k + 1);
     }
     let p = dir.join("report.md");
-    std::fs::write(&p, md).map_err(|source| ReportError::Io {
-        path: p.clone(),
-        source,
-    })?;
+    super::write_text(&p, &md)?;
     Ok(p)
 }

@@ -14,8 +14,12 @@
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
 //! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
+//! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
+//!
+//! Every file is written through [`write_text`] or [`write_json`]: checked by [`finite`],
+//! then written whole or not at all (`table::write_atomically`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::plot::PlotError;
 use crate::table::TableError;
@@ -27,6 +31,7 @@ pub mod diagnosis;
 pub mod environment;
 pub mod experiment;
 pub mod findings;
+pub mod finite;
 pub mod iso230;
 pub mod json;
 pub mod uncertainty;
@@ -67,4 +72,96 @@ pub enum ReportError {
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// A NaN or ±inf reached a writer ([`finite`]): a bug in errmap, not in the input.
+    #[error(
+        "{path}: {value} at {at}: a non-finite number reached the output, which is a bug in \
+         errmap (the readers refuse such values); nothing was written, please report it"
+    )]
+    NonFinite {
+        path: PathBuf,
+        at: String,
+        value: f64,
+    },
+}
+
+/// Writes a Markdown (or other text) file: refused when it holds a formatted NaN or inf
+/// ([`finite::check_markdown`]), else written whole or not at all.
+pub fn write_text(path: &Path, text: &str) -> Result<(), ReportError> {
+    finite::check_markdown(path, text)?;
+    write_bytes(path, text.as_bytes())
+}
+
+/// The pretty JSON text of `value`, refused when a number in it is NaN or ±inf
+/// ([`finite::check_json`]; serde_json would write `null`). `path` names the output in
+/// the messages (`stdout` for a printed document).
+pub fn json_text<T: serde::Serialize + ?Sized>(
+    path: &Path,
+    value: &T,
+    pretty: bool,
+) -> Result<String, ReportError> {
+    finite::check_json(path, value)?;
+    let text = if pretty {
+        serde_json::to_string_pretty(value)
+    } else {
+        serde_json::to_string(value)
+    };
+    text.map_err(|e| ReportError::Json {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// Writes `value` as pretty JSON (and a newline), checked like [`json_text`], whole or
+/// not at all.
+pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), ReportError> {
+    let text = json_text(path, value, true)? + "\n";
+    write_bytes(path, text.as_bytes())
+}
+
+/// Writes bytes whole or not at all (`table::write_atomically`).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
+    use std::io::Write;
+    crate::table::write_atomically::<ReportError>(path, |f| {
+        f.write_all(bytes).map_err(|source| ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_document_leaves_the_old_file_and_no_temporary() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let md = dir.path().join("report.md");
+        let json = dir.path().join("model.json");
+        std::fs::write(&md, "old").expect("write");
+        let e = write_text(&md, &format!("| rms | {:.3} |\n", f64::NAN)).expect_err("refused");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("report.md") && msg.contains("line 1") && msg.contains("bug"),
+            "{msg}"
+        );
+        let e = write_json(&json, &[1.0, f64::INFINITY]).expect_err("refused");
+        assert!(e.to_string().contains("model.json"), "{e}");
+        assert_eq!(std::fs::read_to_string(&md).expect("read"), "old");
+        let mut left: Vec<_> = std::fs::read_dir(dir.path())
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["report.md"], "nothing else written");
+        write_text(&md, "| rms | 0.125 |\n").expect("finite");
+        write_json(&json, &[0.5, -1.0]).expect("finite");
+        assert_eq!(
+            std::fs::read_to_string(&md).expect("read"),
+            "| rms | 0.125 |\n"
+        );
+        let back: Vec<f64> =
+            serde_json::from_str(&std::fs::read_to_string(&json).expect("read")).expect("json");
+        assert_eq!(back, [0.5, -1.0]);
+    }
 }

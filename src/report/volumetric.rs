@@ -22,13 +22,7 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
 pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result<(), ReportError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let model = dir.join("model.json");
-    let text = serde_json::to_string_pretty(&id.to_json(positions, true)).map_err(|e| {
-        ReportError::Json {
-            path: model.clone(),
-            message: e.to_string(),
-        }
-    })?;
-    std::fs::write(&model, text).map_err(io(&model))?;
+    super::write_json(&model, &id.to_json(positions, true))?;
 
     let mut md = String::new();
     let n_id = id.fit.identified.iter().filter(|f| **f).count();
@@ -283,6 +277,6 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
         );
     }
     let path = dir.join("report.md");
-    std::fs::write(&path, md).map_err(io(&path))?;
+    super::write_text(&path, &md)?;
     Ok(())
 }

@@ -404,7 +404,7 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
             path: dir.join("truth.json"),
             message: e.to_string(),
         })?;
-        std::fs::write(dir.join("truth.json"), text + "\n").map_err(io(&dir.join("truth.json")))?;
+        write_whole(&dir.join("truth.json"), &(text + "\n"))?;
         let s = &g.sizes;
         let readme = format!(
             "# Concealed case `{name}`\n\nHidden in the recording: {what}.\n\n\
@@ -433,7 +433,7 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
             },
             rows = s.rows
         );
-        std::fs::write(dir.join("README.md"), readme).map_err(io(&dir.join("README.md")))?;
+        write_whole(&dir.join("README.md"), &readme)?;
         index.push_str(&format!(
             "| [{n}]({n}/README.md) | {what} | {epp:.3} | {gpp:.2} | {noise} |\n",
             n = case.name,
@@ -444,6 +444,17 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
         ));
         dirs.push(dir);
     }
-    std::fs::write(out.join("README.md"), index).map_err(io(&out.join("README.md")))?;
+    write_whole(&out.join("README.md"), &index)?;
     Ok(dirs)
+}
+
+/// Writes a text file whole or not at all (`table::write_atomically`).
+pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), SimError> {
+    crate::table::write_atomically::<SimError>(path, |f| {
+        use std::io::Write;
+        f.write_all(text.as_bytes()).map_err(|source| SimError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
 }

@@ -415,10 +415,7 @@ impl MachineModel {
     /// Writes the model as TOML.
     pub fn write(&self, path: &Path) -> Result<(), SimError> {
         let text = toml::to_string_pretty(self).map_err(|e| config_err(path, e.to_string()))?;
-        std::fs::write(path, text).map_err(|source| SimError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        super::concealed::write_whole(path, &text)
     }
 
     fn check(&self) -> Result<(), String> {

@@ -16,6 +16,7 @@ mod layers;
 mod live_view;
 mod node_noise;
 mod physics;
+mod robust_io;
 mod robustness;
 mod soak;
 mod stream;
