@@ -627,6 +627,17 @@ pub(crate) fn mad_sigma(v: &[f64]) -> f64 {
     1.4826 * median(&dev)
 }
 
+/// Row indices in time order within each run (run, then t).
+fn time_order(obs: &Obs, n: usize) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| {
+        (obs.run[a], obs.t[a])
+            .partial_cmp(&(obs.run[b], obs.t[b]))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    order
+}
+
 /// Per-group noise σ from first differences of successive samples of the same dwell or
 /// the same move (σ = 1.4826·MAD/√2): smooth effects cancel, so this sees the noise
 /// before any model is fitted. Groups with fewer than 10 differences take the pooled
@@ -634,12 +645,7 @@ pub(crate) fn mad_sigma(v: &[f64]) -> f64 {
 pub(crate) fn noise_from_differences(obs: &Obs, g: &Groups) -> Vec<f64> {
     let target_of = &obs.target;
     let n = obs.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| {
-        (obs.run[a], obs.t[a])
-            .partial_cmp(&(obs.run[b], obs.t[b]))
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    let order = time_order(obs, n);
     let ng = g.labels.len();
     let mut diffs: Vec<Vec<f64>> = vec![Vec::new(); ng];
     let mut pooled: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
@@ -689,12 +695,7 @@ pub(crate) const OUTLIER_SIGMAS: f64 = 6.0;
 /// than one sample. Segments with fewer than 5 rows are not screened.
 pub(crate) fn outliers(obs: &Obs, g: &Groups, resid: &[f64], sigma: &[f64]) -> Vec<bool> {
     let n = obs.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| {
-        (obs.run[a], obs.t[a])
-            .partial_cmp(&(obs.run[b], obs.t[b]))
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
+    let order = time_order(obs, n);
     let same = |a: usize, b: usize| {
         obs.run[a] == obs.run[b]
             && obs.moving[a] == obs.moving[b]

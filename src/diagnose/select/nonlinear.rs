@@ -48,14 +48,7 @@ impl Selector<'_> {
     /// cubic in x; see [`Selector::broad_bands`]).
     pub(super) fn spectral_search(&mut self, resid: &[f64], keep: &[f64]) {
         let cfg = self.cfg;
-        let (lo, hi) = self
-            .obs
-            .x
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-        let span = (hi - lo).max(1e-3);
+        let (lo, span) = self.x_span();
         let mut cands: Vec<PeriodCand> = Vec::new();
         let n = self.obs.len();
         // Rows for a scan of `nf` frequencies: within the row·frequency budget.
@@ -219,12 +212,8 @@ impl Selector<'_> {
         bands
     }
 
-    /// Δχ² a periodic term must reach on the moving rows alone: about 5σ for two
-    /// parameters (25), and more when the search looked at so many independent
-    /// frequencies N that noise would reach 25 somewhere: 2·ln(N/α) with α =
-    /// [`SEARCH_FALSE_ALARM`] (the χ² with two degrees of freedom exceeds c with
-    /// probability e^(−c/2)).
-    pub(super) fn moving_support_chi2(&self) -> f64 {
+    /// The lowest position and the positions' span, mm (at least 1 µm).
+    fn x_span(&self) -> (f64, f64) {
         let (lo, hi) = self
             .obs
             .x
@@ -232,7 +221,16 @@ impl Selector<'_> {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
                 (l.min(v), h.max(v))
             });
-        let span = (hi - lo).max(1e-3);
+        (lo, (hi - lo).max(1e-3))
+    }
+
+    /// Δχ² a periodic term must reach on the moving rows alone: about 5σ for two
+    /// parameters (25), and more when the search looked at so many independent
+    /// frequencies N that noise would reach 25 somewhere: 2·ln(N/α) with α =
+    /// [`SEARCH_FALSE_ALARM`] (the χ² with two degrees of freedom exceeds c with
+    /// probability e^(−c/2)).
+    pub(super) fn moving_support_chi2(&self) -> f64 {
+        let (_, span) = self.x_span();
         let independent: f64 = self
             .broad_bands(span)
             .iter()
