@@ -46,6 +46,7 @@ for i in "${!targets[@]}"; do
     t=${targets[$i]}
     out=out/$t
     rm -rf "$out"
+    mkdir -p out   # absent on a fresh clone (git ignores it)
     echo "== afl-fuzz $t for $secs s"
     # shellcheck disable=SC2086 # the binary and its argument
     cargo afl fuzz -V "$secs" -i "corpus/$t" -o "$out" -- ${bins[$i]} >"$out.log" 2>&1 || {

@@ -341,7 +341,45 @@ pub fn replay_with_hello(
         })?,
     };
     let mut file = File::open(raw).map_err(io_err(raw))?;
-    let mut writer = SessionWriter::create(out)?;
+    // The table goes to a hidden file beside `out` (same extension, so the same format)
+    // and is renamed into place only when whole: a failed replay leaves no partial table
+    // and an existing one untouched.
+    let partial = partial_path(out);
+    let result = replay_into(&mut decoder, &mut file, raw, &partial);
+    match result {
+        Ok(r) => {
+            std::fs::rename(&partial, out).map_err(io_err(out))?;
+            Ok(r)
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&partial);
+            Err(e)
+        }
+    }
+}
+
+/// `.NAME.PID.partial.EXT` beside `out`.
+fn partial_path(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "session".into());
+    let ext = out
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    out.with_file_name(format!(".{stem}.{}.partial{ext}", std::process::id()))
+}
+
+/// Decodes `file` into the table at `partial` (an error names that file, beside the
+/// intended output).
+fn replay_into(
+    decoder: &mut SessionDecoder,
+    file: &mut File,
+    raw: &Path,
+    partial: &Path,
+) -> Result<Replayed, AcquireError> {
+    let mut writer = SessionWriter::create(partial)?;
     let mut buf = vec![0u8; REPLAY_CHUNK_BYTES];
     let mut failed: Option<TableError> = None;
     let mut bytes = 0usize;
@@ -370,7 +408,6 @@ pub fn replay_with_hello(
     let stats = decoder.stats();
     if stats.frames.total() == 0 {
         drop(writer);
-        let _ = std::fs::remove_file(out);
         return Err(AcquireError::NoFrames {
             path: raw.to_path_buf(),
             bytes,

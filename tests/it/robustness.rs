@@ -982,3 +982,64 @@ mod never_panics {
         }
     }
 }
+
+/// `replay --out` writes beside the output and renames into place: a replay that fails
+/// (here: bytes with no frame in them) leaves an existing table as it was and no partial
+/// file; one that succeeds replaces it whole.
+#[test]
+fn a_failed_replay_leaves_the_old_table_and_no_partial_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("session.parquet");
+    std::fs::write(&out, b"the table of yesterday").expect("write");
+    let junk = dir.path().join("junk.bin");
+    std::fs::write(&junk, vec![0x55u8; 4096]).expect("write");
+    let o = errmap(&[
+        "replay",
+        junk.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(
+        std::fs::read(&out).expect("read"),
+        b"the table of yesterday"
+    );
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    // A good capture replaces it whole: the simulated device's bytes.
+    let raw = dir.path().join("raw.bin");
+    let o = errmap(&[
+        "simulate",
+        "--model",
+        "datasets/sim/model.toml",
+        "--plan",
+        "datasets/sim/plan.toml",
+        "--out",
+        dir.path().join("sim.csv").to_str().expect("utf-8"),
+        "--raw",
+        raw.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = errmap(&[
+        "replay",
+        raw.to_str().expect("utf-8"),
+        "--out",
+        out.to_str().expect("utf-8"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        errmap::session::read_session(&out)
+            .expect("a whole table")
+            .len()
+            > 100
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).expect("dir").count(), 4);
+}
