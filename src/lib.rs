@@ -14,7 +14,7 @@
 //! | [`diagnose`] | 7 diagnosis | what a simulation left out of a recording: locate, name, fit |
 //! | [`export`] | 8 export | compensation tables for controllers, CSV lines, volumetric grids |
 //! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
-//! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, identification, identifiability, prediction |
+//! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, line tables (simulated or from captured sessions), identification, identifiability, the campaign's own faults (scale expansion, drift, a bad line), prediction |
 //! | [`base`] | shared leaf | the one `Axis`, the diagnosis vocabulary, statistics, optimisers, constants |
 //! | [`plot`] | shared leaf | PNG/SVG charts with a bundled font |
 //! | [`bench`](mod@bench) | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
