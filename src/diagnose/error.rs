@@ -32,4 +32,18 @@ pub enum DiagnoseError {
     /// A setting is outside its range.
     #[error("invalid diagnose setting: {0}")]
     Config(String),
+    /// A fitted parameter came out NaN or infinite: a bug of the fit, not of the input
+    /// (which is validated at the door). Reported instead of written, since JSON would
+    /// turn it into `null`.
+    #[error(
+        "bug in errmap: the fitted {param} of {effect} is {value} (not finite); nothing was written"
+    )]
+    NonFinite {
+        /// Effect id.
+        effect: String,
+        /// Parameter name.
+        param: String,
+        /// The value or its σ.
+        value: f64,
+    },
 }

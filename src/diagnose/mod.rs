@@ -277,8 +277,69 @@ fn run(
     }
     untestable.sort();
     untestable.dedup();
+    if let Some(e) = non_finite(&out.terms) {
+        return Err(e);
+    }
 
     Ok(explain::assemble(
         &obs, &matching, &groups, &sigma, &w, &y, out, untestable, fold_kind, config,
     ))
+}
+
+/// The first fitted parameter (or σ of a fitted one) that is not finite, as the error.
+fn non_finite(terms: &[select::FittedTerm]) -> Option<DiagnoseError> {
+    terms.iter().find_map(|f| {
+        f.params.iter().find_map(|p| {
+            let bad = [p.value, if p.fitted { p.sigma } else { 0.0 }]
+                .into_iter()
+                .find(|v| !v.is_finite())?;
+            Some(DiagnoseError::NonFinite {
+                effect: f.term.kind.id().as_str().to_string(),
+                param: p.name.as_str().to_string(),
+                value: bad,
+            })
+        })
+    })
+}
+
+#[cfg(test)]
+mod non_finite_tests {
+    use super::effects::{Kind, Param, Variant};
+    use super::select::{FittedTerm, Term};
+    use super::*;
+    use crate::base::vocabulary::ParamName;
+
+    fn term(value: f64, sigma: f64, fitted: bool) -> FittedTerm {
+        FittedTerm {
+            term: Term {
+                kind: Kind::ScaleFactor,
+                variant: Variant::Single,
+                cols: vec![0],
+            },
+            params: vec![Param {
+                name: ParamName::Ppm,
+                value,
+                sigma,
+                fitted,
+                key: true,
+            }],
+            contribution: Vec::new(),
+            notes: Vec::new(),
+        }
+    }
+
+    /// A NaN value or σ of a fitted parameter is an error naming the effect and the
+    /// parameter; a finite one, or the σ of a fixed parameter, is not.
+    #[test]
+    fn a_non_finite_parameter_is_a_bug_reported_not_written() {
+        assert!(non_finite(&[term(3.0, 0.1, true)]).is_none());
+        assert!(non_finite(&[term(3.0, f64::NAN, false)]).is_none());
+        for t in [term(f64::NAN, 0.1, true), term(3.0, f64::INFINITY, true)] {
+            let e = non_finite(&[t]).expect("refused").to_string();
+            assert!(
+                e.contains("scale_factor") && e.contains("ppm") && e.contains("bug"),
+                "{e}"
+            );
+        }
+    }
 }
