@@ -341,10 +341,10 @@ pub fn replay_with_hello(
         })?,
     };
     let mut file = File::open(raw).map_err(io_err(raw))?;
-    // The table goes to a hidden file beside `out` (same extension, so the same format)
-    // and is renamed into place only when whole: a failed replay leaves no partial table
-    // and an existing one untouched.
-    let partial = partial_path(out);
+    // The table goes to the temporary sibling of `out` (same extension, so the same
+    // format) and is renamed into place only when whole: a failed replay leaves no
+    // partial table and an existing one untouched.
+    let partial = crate::table::temporary(out);
     let result = replay_into(&mut decoder, &mut file, raw, &partial);
     match result {
         Ok(r) => {
@@ -356,19 +356,6 @@ pub fn replay_with_hello(
             Err(e)
         }
     }
-}
-
-/// `.NAME.PID.partial.EXT` beside `out`.
-fn partial_path(out: &Path) -> PathBuf {
-    let stem = out
-        .file_stem()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "session".into());
-    let ext = out
-        .extension()
-        .map(|e| format!(".{}", e.to_string_lossy()))
-        .unwrap_or_default();
-    out.with_file_name(format!(".{stem}.{}.partial{ext}", std::process::id()))
 }
 
 /// Decodes `file` into the table at `partial` (an error names that file, beside the

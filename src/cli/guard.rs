@@ -80,11 +80,7 @@ pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Res
     if dir.exists() {
         return fill(dir);
     }
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "report".into());
-    let tmp = dir.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp = errmap::table::temporary(dir);
     let _ = std::fs::remove_dir_all(&tmp);
     match fill(&tmp) {
         Ok(v) => {

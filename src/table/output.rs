@@ -1,7 +1,7 @@
 //! How every output file is written: whole or not at all, and never with a NaN.
 //!
 //! - **Atomic.** [`write_atomically`] writes into a temporary file beside the target
-//!   (`.NAME.PID.tmp`, same directory and so the same file system) and renames it onto
+//!   (`.STEM.PID.tmp.EXT`, [`temporary`], same directory and so the same file system) and renames it onto
 //!   the target only when everything was written and flushed; on any error the temporary
 //!   file is removed. An existing file is replaced whole (POSIX `rename` is atomic) or
 //!   left as it was; an interrupted run never leaves a truncated file under the final
@@ -25,13 +25,20 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
     }
 }
 
-/// The temporary sibling of `path` that [`write_atomically`] writes first.
-fn temporary(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
+/// The temporary sibling of `path` that an output is written to first and renamed from
+/// (`.STEM.PID.tmp.EXT`): hidden, in the same directory (so the same file system), unique
+/// per process, and with `path`'s extension last, so a writer that picks its format by
+/// extension (CSV or Parquet) writes the temporary in the target's format.
+pub fn temporary(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| "output".into());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    let ext = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    path.with_file_name(format!(".{stem}.{}.tmp{ext}", std::process::id()))
 }
 
 /// Writes `path` through `fill` (see the module docs), creating its parent directory.
