@@ -38,7 +38,8 @@ pub mod stream;
 pub mod uncertainty;
 
 pub use reduce::{
-    Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations, lines,
+    LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
+    line_key, lines,
 };
 pub use stream::{BATCH_ROWS, SessionWriter, for_each_batch};
 

@@ -84,9 +84,11 @@ impl Welford {
 }
 
 /// Line key: the two fixed coordinates in whole micrometres (MARK frames carry them so).
-type LineKey = (i64, i64);
+pub type LineKey = (i64, i64);
 
-fn line_key(r: &SessionRow, axis_index: usize) -> Option<LineKey> {
+/// The line of a row along `axis_index`: its two other coordinates in whole
+/// micrometres, `None` when either is missing.
+pub fn line_key(r: &SessionRow, axis_index: usize) -> Option<LineKey> {
     let coords = [r.x_mm, r.y_mm, r.z_mm];
     let mut o = (0..3).filter(|&b| b != axis_index).map(|b| coords[b]);
     let (c1, c2) = (o.next()??, o.next()??);

@@ -38,7 +38,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::DVector;
 
-use super::identify::{Design, augment, decompose};
+use super::identify::{Design, augment, centre_per_line, decompose};
 use super::lines::LineTable;
 use crate::base::vocabulary::{EffectId, ParamName};
 use crate::diagnose::FoundEffect;
@@ -82,20 +82,6 @@ fn normal_upper_quantile(q: f64) -> f64 {
         / (1.0 + 1.432788 * t + 0.189269 * t * t + 0.001308 * t * t * t)
 }
 
-/// `v` centred per line with the row weights `w`.
-fn centred(table: &LineTable, w: &[f64], v: &[f64]) -> Vec<f64> {
-    let mut out = Vec::with_capacity(v.len());
-    let mut r = 0;
-    for line in &table.lines {
-        let n = line.targets.len();
-        let (vs, ws) = (&v[r..r + n], &w[r..r + n]);
-        let mean = vs.iter().zip(ws).map(|(a, b)| a * b).sum::<f64>() / ws.iter().sum::<f64>();
-        out.extend(vs.iter().map(|x| x - mean));
-        r += n;
-    }
-    out
-}
-
 fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
     let mut out = Vec::new();
     let times: Option<Vec<f64>> = table
@@ -107,7 +93,7 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
     if let Some(t) = times {
         out.push(Candidate {
             term: Term::Drift,
-            col: centred(table, w, &t),
+            col: centre_per_line(table, w, &t),
         });
     }
     let rows = table.targets();
@@ -117,7 +103,7 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
         for (k, t) in line.targets.iter().enumerate() {
             v[r + k] = 1e-3 * line.s_mm(t);
         }
-        let c = centred(table, w, &v);
+        let c = centre_per_line(table, w, &v);
         // Rows of other lines are 0 − 0: the centring leaves them 0.
         out.push(Candidate {
             term: Term::Line(i),

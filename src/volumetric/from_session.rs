@@ -32,6 +32,7 @@ use std::collections::BTreeMap;
 
 use super::lines::{Line, LineTable, MIN_TARGETS, Target};
 use crate::base::Axis;
+use crate::session::{LineKey, line_key};
 use errmap_drivers::SessionRow;
 
 /// The sums of one dwell (line, run, direction, target).
@@ -41,7 +42,6 @@ struct Dwell {
     /// First error, µm: sums are of deviations from it (no cancellation).
     e0: f64,
     de: f64,
-    de2: f64,
     scale_mm: f64,
     t_s: f64,
     /// Σ and count of each temperature: scale, air, part.
@@ -49,10 +49,10 @@ struct Dwell {
 }
 
 /// (line position µm, µm; run; direction; target).
-type Key = ((i64, i64), u32, i8, i32);
+type Key = (LineKey, u32, i8, i32);
 
 /// One pass: (axis, line position µm, run, direction).
-type Pass = (Axis, (i64, i64), u32, i8);
+type Pass = (Axis, LineKey, u32, i8);
 
 /// What the conversion left out, for the summary.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
@@ -91,13 +91,10 @@ impl SessionLines {
             return;
         }
         let axis = Axis::from(r.axis);
-        let coords = [r.x_mm, r.y_mm, r.z_mm];
-        let mut others = (0..3).filter(|&k| k != axis.index()).map(|k| coords[k]);
-        let (Some(Some(c1)), Some(Some(c2))) = (others.next(), others.next()) else {
+        let Some(line) = line_key(r, axis.index()) else {
             self.conv.no_line += 1;
             return;
         };
-        let line = ((c1 * 1e3).round() as i64, (c2 * 1e3).round() as i64);
         let d = self
             .dwells
             .entry((axis, (line, r.run, r.direction, r.target)))
@@ -106,9 +103,7 @@ impl SessionLines {
             d.e0 = r.error_um;
         }
         d.n += 1;
-        let x = r.error_um - d.e0;
-        d.de += x;
-        d.de2 += x * x;
+        d.de += r.error_um - d.e0;
         d.scale_mm += r.scale_mm;
         d.t_s += r.t_s;
         for (acc, v) in d

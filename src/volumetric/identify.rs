@@ -418,6 +418,21 @@ fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
     })
 }
 
+/// `v` (one value per row, in the table's row order) with each line's weighted mean
+/// removed, `w` the row weights: what a column must be before [`augment`].
+pub(crate) fn centre_per_line(table: &LineTable, w: &[f64], v: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(v.len());
+    let mut r = 0;
+    for line in &table.lines {
+        let n = line.targets.len();
+        let (vs, ws) = (&v[r..r + n], &w[r..r + n]);
+        let mean = vs.iter().zip(ws).map(|(a, b)| a * b).sum::<f64>() / ws.iter().sum::<f64>();
+        out.extend(vs.iter().map(|x| x - mean));
+        r += n;
+    }
+    out
+}
+
 /// The design with one more column (unweighted, centred per line), equilibrated; `None`
 /// when the column is zero.
 pub(crate) fn augment(d: &Design, col: &[f64]) -> Option<Design> {

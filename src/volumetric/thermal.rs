@@ -74,20 +74,14 @@ pub(crate) fn column(table: &LineTable, w: &[f64]) -> Option<ThermalColumn> {
     let all = table.lines.iter().flat_map(|l| &l.targets);
     let temps: Vec<f64> = all.clone().map(|t| t.scale_temp_c).collect::<Option<_>>()?;
     let times: Option<Vec<f64>> = all.map(|t| t.t_s).collect();
-    let mut centred = Vec::with_capacity(temps.len());
-    let mut r = 0;
-    for line in &table.lines {
-        let g: Vec<f64> = line
-            .targets
-            .iter()
-            .zip(&temps[r..])
-            .map(|(t, temp)| -1e-3 * (temp - 20.0) * dot(line.u, t.pos_mm))
-            .collect();
-        let ws = &w[r..r + g.len()];
-        let mean = g.iter().zip(ws).map(|(a, b)| a * b).sum::<f64>() / ws.iter().sum::<f64>();
-        centred.extend(g.iter().map(|v| v - mean));
-        r += g.len();
-    }
+    let g: Vec<f64> = table
+        .lines
+        .iter()
+        .flat_map(|line| line.targets.iter().map(move |t| (line.u, t.pos_mm)))
+        .zip(&temps)
+        .map(|((u, p), temp)| -1e-3 * (temp - 20.0) * dot(u, p))
+        .collect();
+    let centred = super::identify::centre_per_line(table, w, &g);
     let range = |v: &[f64]| {
         [
             v.iter().copied().fold(f64::INFINITY, f64::min),
