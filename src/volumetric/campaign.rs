@@ -114,42 +114,45 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
     out
 }
 
-/// The t of each candidate against the fit of design `d` (with `n_lines` constants).
-fn scores(d: &Design, n_lines: usize, cands: &[Candidate]) -> Vec<Option<f64>> {
+/// The t of each candidate column against the fit of design `d` (with `n_lines`
+/// constants).
+fn scores<'a>(
+    d: &Design,
+    n_lines: usize,
+    cols: impl ExactSizeIterator<Item = &'a [f64]>,
+) -> Vec<Option<f64>> {
     let dec = decompose(&d.a);
     let rank = dec.sv_range.len();
     let rows = d.a.nrows();
     if rows <= rank + n_lines + 1 {
-        return vec![None; cands.len()];
+        return vec![None; cols.len()];
     }
     let ut_e = dec.u_range.transpose() * &d.e;
     let r = &d.e - &dec.u_range * ut_e;
     let chi2 = r.norm_squared();
     let dof1 = (rows - rank - n_lines - 1) as f64;
-    cands
-        .iter()
-        .map(|c| {
-            let g = DVector::from_iterator(rows, c.col.iter().zip(&d.sqrt_w).map(|(a, b)| a * b));
-            let gn = g.norm();
-            if !(gn > 0.0 && gn.is_finite()) {
-                return None;
-            }
-            let gp = &g - &dec.u_range * (dec.u_range.transpose() * &g);
-            let gg = gp.norm_squared();
-            if gg.sqrt() < SEPARABLE * gn {
-                return None;
-            }
-            let gr = gp.dot(&r);
-            let theta = gr / gg;
-            let s1 = ((chi2 - gr * gr / gg).max(0.0) / dof1).sqrt();
-            let sigma = s1 / gg.sqrt();
-            Some(if sigma > 0.0 {
-                theta.abs() / sigma
-            } else {
-                f64::INFINITY
-            })
+    cols.map(|col| {
+        let g = DVector::from_iterator(rows, col.iter().zip(&d.sqrt_w).map(|(a, b)| a * b));
+        let gn = g.norm();
+        if !(gn > 0.0 && gn.is_finite()) {
+            return None;
+        }
+        let gp = &g - &dec.u_range * (dec.u_range.transpose() * &g);
+        let gg = gp.norm_squared();
+        if gg.sqrt() < SEPARABLE * gn {
+            return None;
+        }
+        let gr = gp.dot(&r);
+        let theta = gr / gg;
+        let s1 = ((chi2 - gr * gr / gg).max(0.0) / dof1).sqrt();
+        let sigma = s1 / gg.sqrt();
+        Some(if sigma > 0.0 {
+            theta.abs() / sigma
+        } else {
+            f64::INFINITY
         })
-        .collect()
+    })
+    .collect()
 }
 
 /// A chosen term: its column (to augment the design with) and its t at selection.
@@ -160,7 +163,9 @@ pub(crate) struct Chosen {
 }
 
 /// Forward selection of campaign terms on top of design `d`; `w` the row weights.
-pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> Vec<Chosen> {
+/// Returns the chosen terms and, when there are any, the design augmented with their
+/// columns in that order (for the joint fit).
+pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, Option<Design>) {
     let n_lines = table.lines.len();
     let mut cands = candidates(table, w);
     let line_t = line_threshold(n_lines);
@@ -168,7 +173,7 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> Vec<Chosen> {
     let mut cur: Option<Design> = None;
     while chosen.len() < MAX_TERMS && !cands.is_empty() {
         let base = cur.as_ref().unwrap_or(d);
-        let t = scores(base, n_lines, &cands);
+        let t = scores(base, n_lines, cands.iter().map(|c| c.col.as_slice()));
         let best = t
             .iter()
             .enumerate()
@@ -190,15 +195,12 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> Vec<Chosen> {
             // A single bad line: with it fitted, no other line may still stand out.
             // Several that do are not one bad line but something every line shares (a
             // scale changing through the campaign, say), left to the residual's test.
-            let others: Vec<Candidate> = cands
+            let others: Vec<&[f64]> = cands
                 .iter()
                 .filter(|o| matches!(o.term, Term::Line(_)))
-                .map(|o| Candidate {
-                    term: o.term.clone(),
-                    col: o.col.clone(),
-                })
+                .map(|o| o.col.as_slice())
                 .collect();
-            let still = scores(&next, n_lines, &others)
+            let still = scores(&next, n_lines, others.into_iter())
                 .iter()
                 .any(|t| t.is_some_and(|t| t > line_t));
             cands.retain(|o| !matches!(o.term, Term::Line(_)));
@@ -213,7 +215,7 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> Vec<Chosen> {
         });
         cur = Some(next);
     }
-    chosen
+    (chosen, cur)
 }
 
 /// The effect of a chosen term, from its fitted value and σ (joint fit).

@@ -198,7 +198,6 @@ pub struct Identification {
 }
 
 /// The centred, weighted design of a line table under a basis.
-#[derive(Clone)]
 pub(crate) struct Design {
     /// Equilibrated, centred, weighted rows (rows × params).
     pub a: DMatrix<f64>,
@@ -575,22 +574,12 @@ pub fn identify(
         .filter(|t| t.kept)
         .and(thermal_col.as_ref())
         .and_then(|c| augment(&d, &c.centred));
-    let chosen = campaign::select(table, &row_w, thermal_kept.as_ref().unwrap_or(&d));
-    let mut extra = None;
-    if !chosen.is_empty() {
-        let mut dd = thermal_kept.unwrap_or_else(|| d.clone());
-        let first = dd.a.ncols();
-        for c in &chosen {
-            if let Some(next) = augment(&dd, &c.col) {
-                dd = next;
-            }
-        }
-        if dd.a.ncols() == first + chosen.len()
-            && let Ok(s) = solve(&dd, n_lines)
-        {
-            extra = Some((first, s));
-        }
-    }
+    let (chosen, joint_campaign) =
+        campaign::select(table, &row_w, thermal_kept.as_ref().unwrap_or(&d));
+    let extra = joint_campaign.and_then(|dd| {
+        let first = dd.a.ncols() - chosen.len();
+        solve(&dd, n_lines).ok().map(|s| (first, s))
+    });
     let (solved, campaign_effects) = match extra {
         Some((first, s)) => {
             let effects: Vec<_> = chosen
