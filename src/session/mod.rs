@@ -31,18 +31,23 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
+pub mod columns;
 pub mod environment;
 pub mod iso230;
 mod reduce;
 pub mod stream;
 pub mod uncertainty;
 
+pub use columns::{Columns, ParquetSink};
 pub use reduce::{
     LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
     line_key, lines,
 };
-pub use stream::{BATCH_ROWS, SessionWriter, for_each_batch};
+pub use stream::{
+    BATCH_ROWS, SessionWriter, Thinned, for_each_batch, read_session_every, read_session_thinned,
+};
 
+use std::io::Write;
 use std::path::Path;
 
 use errmap_drivers::SessionRow;
@@ -55,54 +60,35 @@ use crate::table::{
     write_frame,
 };
 
-/// Writes a session table (CSV or Parquet by extension) with the spec's columns.
+/// Writes a session table (CSV or Parquet by extension) with the spec's columns, whole or
+/// not at all. A Parquet table is cut in row groups of [`BATCH_ROWS`] rows, as
+/// [`SessionWriter`] cuts it, so the two give the same file for the same rows.
 pub fn write_session(path: &Path, rows: &[SessionRow]) -> Result<(), TableError> {
-    let mut df = session_frame(rows).map_err(|e| TableError::Format {
+    let format = |e: PolarsError| TableError::Format {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })?;
-    write_frame(path, &mut df)
+    };
+    if !crate::table::is_parquet(path)? {
+        let mut df = session_frame(rows).map_err(format)?;
+        return write_frame(path, &mut df);
+    }
+    crate::table::check_finite(path, &session_frame(rows).map_err(format)?)?;
+    crate::table::write_atomically::<TableError>(path, |file| {
+        let mut sink = ParquetSink::new(std::io::BufWriter::new(file)).map_err(format)?;
+        for chunk in rows.chunks(BATCH_ROWS) {
+            sink.write(&mut Columns::from_rows(chunk)).map_err(format)?;
+        }
+        let mut out = sink.finish().map_err(format)?;
+        out.flush().map_err(|source| TableError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
 }
 
 /// The session rows as a DataFrame with the spec's columns, in the spec's order.
 pub fn session_frame(rows: &[SessionRow]) -> PolarsResult<DataFrame> {
-    fn f(rows: &[SessionRow], name: &str, g: impl Fn(&SessionRow) -> f64) -> Column {
-        Column::new(name.into(), rows.iter().map(g).collect::<Vec<f64>>())
-    }
-    fn o(rows: &[SessionRow], name: &str, g: impl Fn(&SessionRow) -> Option<f64>) -> Column {
-        Column::new(
-            name.into(),
-            rows.iter().map(g).collect::<Vec<Option<f64>>>(),
-        )
-    }
-    fn i(rows: &[SessionRow], name: &str, g: impl Fn(&SessionRow) -> i64) -> Column {
-        Column::new(name.into(), rows.iter().map(g).collect::<Vec<i64>>())
-    }
-    let cols = vec![
-        i(rows, "run", |r| i64::from(r.run)),
-        i(rows, "sample", |r| r.sample),
-        f(rows, "t_s", |r| r.t_s),
-        Column::new(
-            "axis".into(),
-            rows.iter().map(|r| r.axis.as_str()).collect::<Vec<&str>>(),
-        ),
-        i(rows, "direction", |r| i64::from(r.direction)),
-        o(rows, "feed_mm_s", |r| r.feed_mm_s),
-        i(rows, "target", |r| i64::from(r.target)),
-        o(rows, "x_mm", |r| r.x_mm),
-        o(rows, "y_mm", |r| r.y_mm),
-        o(rows, "z_mm", |r| r.z_mm),
-        f(rows, "scale_mm", |r| r.scale_mm),
-        f(rows, "laser_mm", |r| r.laser_mm),
-        f(rows, "error_um", |r| r.error_um),
-        o(rows, "air_temp_c", |r| r.air_temp_c),
-        o(rows, "air_pressure_hpa", |r| r.air_pressure_hpa),
-        o(rows, "air_rh_pct", |r| r.air_rh_pct),
-        o(rows, "scale_temp_c", |r| r.scale_temp_c),
-        o(rows, "part_temp_c", |r| r.part_temp_c),
-        i(rows, "flags", |r| i64::from(r.flags)),
-    ];
-    DataFrame::new(rows.len(), cols)
+    Columns::from_rows(rows).take_frame()
 }
 
 /// The spec's required columns (the first 13 of [`SessionRow::COLUMNS`]) and the optional

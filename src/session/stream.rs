@@ -2,43 +2,43 @@
 //! them in batches, and a reader that hands a table back batch by batch. Capture, replay
 //! and `table` use these, so their memory does not grow with the length of a session.
 //!
-//! **Writer.** Rows are buffered up to [`BATCH_ROWS`] and then written: CSV through
-//! polars' batched CSV writer (a header, then the rows of each batch), Parquet through its
-//! batched writer, one row group per batch. The CSV bytes of a row do not depend on the
+//! **Writer.** Rows go straight into one vector per column ([`Columns`]) and are written
+//! every [`BATCH_ROWS`] rows: CSV through polars' CSV writer (a header, then the rows of
+//! each batch), Parquet one row group per batch through [`ParquetSink`] (its encodings,
+//! compression and speed are in `columns.rs`). The CSV bytes of a row do not depend on the
 //! batch it is in, so a streamed CSV table is byte for byte what [`super::write_session`]
 //! writes for the same rows, whatever the batching. A Parquet file's bytes depend on its
-//! row groups: a streamed Parquet table equals `write_session`'s for sessions of up to
-//! [`BATCH_ROWS`] rows (one row group in both); longer ones are cut in row groups of
-//! exactly [`BATCH_ROWS`] rows (`write_session` cuts ≥ 262 144 rows into equal parts).
-//! Since the row groups depend only on the row count, capture and replay of the same bytes
-//! still give identical files. Each CSV batch is rendered in memory and written with one
-//! `write`, so a killed process leaves whole lines. [`SessionWriter::flush`] writes the rows buffered so far
-//! to a CSV table at any time (capture calls it with every fsync of the raw file, at
-//! least once a second); a Parquet table is readable only once its footer is written by
-//! [`SessionWriter::finish`] — after a killed capture, `replay` of the raw file rebuilds
-//! it exactly.
+//! row groups, which depend only on the row count: `write_session` cuts them as the
+//! streaming writer does, so the two give identical files, and so do capture and replay
+//! of the same bytes. Each CSV batch is rendered in memory and written with one
+//! `write`, so a killed process leaves whole lines. [`SessionWriter::flush`] writes the
+//! rows buffered so far to a CSV table at any time (capture calls it with every fsync of
+//! the raw file, at least once a second); a Parquet table is readable only once its footer
+//! is written by [`SessionWriter::finish`] — after a killed capture, `replay` of the raw
+//! file rebuilds it exactly.
 //!
 //! **Reader.** [`for_each_batch`] reads a CSV table [`BATCH_ROWS`] lines at a time, a
 //! Parquet table [`BATCH_ROWS`] rows at a time (one row group of a streamed table), and
 //! validates every batch as [`super::read_session`] does, with row numbers counted from
 //! the start of the file.
 //!
-//! **Memory bound.** One batch of rows (`SessionRow` is 168 bytes) plus its DataFrame
-//! (19 columns × 8 bytes, plus validity) plus polars' encoding buffers for one row group:
-//! about 65 536 × (168 + 160) B ≈ 21 MB, twice that while a row group is encoded —
+//! **Memory bound.** Writing: one batch of columns (18 of 8 bytes and the axis's 16-byte
+//! view, ≈ 160 B a row, reused from batch to batch) plus the encoded and compressed pages
+//! of one row group: about 65 536 × 160 B ≈ 10 MB, twice that while a row group is
+//! encoded. Reading: one batch of `SessionRow`s (168 B) and its DataFrame, ≈ 21 MB. Both
 //! independent of the number of rows.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, BufWriter};
 use std::path::{Path, PathBuf};
 
 use errmap_drivers::SessionRow;
 use std::io::Write;
 
-use polars::io::parquet::write::BatchedWriter as ParquetBatched;
 use polars::prelude::*;
 
-use super::{SampleSet, frame_rows, session_frame};
+use super::columns::{Columns, ParquetSink};
+use super::{SampleSet, frame_rows};
 use crate::table::{TableError, format_err, is_parquet};
 
 /// Rows per batch (and per Parquet row group) of the streaming writer and reader.
@@ -47,13 +47,13 @@ pub const BATCH_ROWS: usize = 65_536;
 enum Sink {
     /// The file, a reused buffer for one batch's text, and whether the header is written.
     Csv(File, Vec<u8>, bool),
-    Parquet(Box<ParquetBatched<File>>),
+    Parquet(Box<ParquetSink<BufWriter<File>>>),
 }
 
 /// A session table written row by row (see the module docs).
 pub struct SessionWriter {
     path: PathBuf,
-    batch: Vec<SessionRow>,
+    batch: Columns,
     batch_rows: usize,
     rows: u64,
     sink: Sink,
@@ -89,10 +89,8 @@ impl SessionWriter {
             source,
         })?;
         let sink = if parquet {
-            let empty = session_frame(&[]).map_err(|e| format_err(path, e))?;
             Sink::Parquet(Box::new(
-                ParquetWriter::new(file)
-                    .batched(empty.schema())
+                ParquetSink::new(BufWriter::with_capacity(1 << 20, file))
                     .map_err(|e| format_err(path, e))?,
             ))
         } else {
@@ -101,7 +99,7 @@ impl SessionWriter {
         let batch_rows = batch_rows.max(1);
         Ok(SessionWriter {
             path: path.to_path_buf(),
-            batch: Vec::with_capacity(batch_rows.min(BATCH_ROWS)),
+            batch: Columns::default(),
             batch_rows,
             rows: 0,
             sink,
@@ -110,7 +108,7 @@ impl SessionWriter {
 
     /// Adds a row; writes the batch when it is full.
     pub fn push(&mut self, row: SessionRow) -> Result<(), TableError> {
-        self.batch.push(row);
+        self.batch.push(&row);
         self.rows += 1;
         if self.batch.len() >= self.batch_rows {
             self.write_batch()?;
@@ -136,9 +134,18 @@ impl SessionWriter {
         if self.batch.is_empty() {
             return Ok(());
         }
-        let mut df = session_frame(&self.batch).map_err(|e| format_err(&self.path, e))?;
-        write_df(&self.path, &mut self.sink, &mut df)?;
-        self.batch.clear();
+        match &mut self.sink {
+            Sink::Parquet(w) => w
+                .write(&mut self.batch)
+                .map_err(|e| format_err(&self.path, e))?,
+            Sink::Csv(file, text, header) => {
+                let mut df = self
+                    .batch
+                    .take_frame()
+                    .map_err(|e| format_err(&self.path, e))?;
+                write_csv(&self.path, (file, text, header), &mut df)?;
+            }
+        }
         Ok(())
     }
 
@@ -146,38 +153,44 @@ impl SessionWriter {
     /// the footer). Returns the number of rows.
     pub fn finish(mut self) -> Result<u64, TableError> {
         self.write_batch()?;
-        match &mut self.sink {
+        match self.sink {
             Sink::Csv(_, _, true) => {}
-            Sink::Csv(..) => {
-                let mut empty = session_frame(&[]).map_err(|e| format_err(&self.path, e))?;
-                write_df(&self.path, &mut self.sink, &mut empty)?;
+            Sink::Csv(mut file, mut text, mut header) => {
+                let mut empty = Columns::default()
+                    .take_frame()
+                    .map_err(|e| format_err(&self.path, e))?;
+                write_csv(&self.path, (&mut file, &mut text, &mut header), &mut empty)?;
             }
             Sink::Parquet(w) => {
-                w.finish().map_err(|e| format_err(&self.path, e))?;
+                let mut out = w.finish().map_err(|e| format_err(&self.path, e))?;
+                out.flush().map_err(|source| TableError::Io {
+                    path: self.path.clone(),
+                    source,
+                })?;
             }
         }
         Ok(self.rows)
     }
 }
 
-/// Writes one batch. CSV: rendered whole, then handed to the file in one `write` (a killed
-/// process leaves whole lines; a regular file's write is not cut by a signal).
-fn write_df(path: &Path, sink: &mut Sink, df: &mut DataFrame) -> Result<(), TableError> {
-    match sink {
-        Sink::Csv(file, text, header) => {
-            text.clear();
-            CsvWriter::new(&mut *text)
-                .include_header(!*header)
-                .finish(df)
-                .map_err(|e| format_err(path, e))?;
-            *header = true;
-            file.write_all(text).map_err(|source| TableError::Io {
-                path: path.to_path_buf(),
-                source,
-            })
-        }
-        Sink::Parquet(w) => w.write_batch(df).map_err(|e| format_err(path, e)),
-    }
+/// Writes one CSV batch: rendered whole, then handed to the file in one `write` (a killed
+/// process leaves whole lines; a regular file's write is not cut by a signal). `header`:
+/// whether the header is written already (it is, after this).
+fn write_csv(
+    path: &Path,
+    (file, text, header): (&mut File, &mut Vec<u8>, &mut bool),
+    df: &mut DataFrame,
+) -> Result<(), TableError> {
+    text.clear();
+    CsvWriter::new(&mut *text)
+        .include_header(!*header)
+        .finish(df)
+        .map_err(|e| format_err(path, e))?;
+    *header = true;
+    file.write_all(text).map_err(|source| TableError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Reads the session table at `path` in batches of at most `batch_rows` rows, validated
@@ -275,4 +288,66 @@ pub fn for_each_batch(
         frame_rows(path, &df, 0, &mut SampleSet::default())?;
     }
     Ok(total)
+}
+
+/// A session table read in bounded memory ([`read_session_thinned`]).
+#[derive(Debug, Clone)]
+pub struct Thinned {
+    /// The rows kept, in table order.
+    pub rows: Vec<SessionRow>,
+    /// Rows are kept when their device `sample` index is a multiple of this (1: all).
+    pub stride: i64,
+    /// Rows in the table.
+    pub total: u64,
+}
+
+/// Reads the session table at `path` as [`for_each_batch`] does, keeping at most
+/// `max_rows` rows: when the table has more, every `stride`-th device sample (those whose
+/// `sample` is a multiple of `stride`), with `stride` the smallest power of two that keeps
+/// the rows within `max_rows`. One pass: the stride doubles (and the kept rows are thinned
+/// to it) whenever they would exceed the bound. Thinning by the sample index is uniform in
+/// time and picks the same samples from every table of one capture (a recording and its
+/// simulation), so their rows still match on `(run, sample)`.
+pub fn read_session_thinned(path: &Path, max_rows: usize) -> Result<Thinned, TableError> {
+    let max_rows = max_rows.max(1);
+    let mut stride = 1i64;
+    let mut rows: Vec<SessionRow> = Vec::new();
+    let total = for_each_batch(path, BATCH_ROWS, &mut |batch| {
+        rows.extend(
+            batch
+                .iter()
+                .filter(|r| r.sample.rem_euclid(stride) == 0)
+                .cloned(),
+        );
+        // Rows sharing one sample index (one per run) cannot be thinned apart: stop
+        // doubling when the stride is past every index.
+        while rows.len() > max_rows && stride < (1 << 62) {
+            stride *= 2;
+            rows.retain(|r| r.sample.rem_euclid(stride) == 0);
+        }
+        Ok(())
+    })?;
+    Ok(Thinned {
+        rows,
+        stride,
+        total,
+    })
+}
+
+/// Reads the rows of the session table at `path` whose `sample` is a multiple of `stride`
+/// (all of them when it is 1), as [`for_each_batch`] does. Returns them and the table's
+/// row count.
+pub fn read_session_every(path: &Path, stride: i64) -> Result<(Vec<SessionRow>, u64), TableError> {
+    let stride = stride.max(1);
+    let mut rows = Vec::new();
+    let total = for_each_batch(path, BATCH_ROWS, &mut |batch| {
+        rows.extend(
+            batch
+                .iter()
+                .filter(|r| r.sample.rem_euclid(stride) == 0)
+                .cloned(),
+        );
+        Ok(())
+    })?;
+    Ok((rows, total))
 }

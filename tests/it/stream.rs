@@ -7,7 +7,10 @@ use std::path::Path;
 use errmap::acquire::replay;
 use errmap::drivers::decode_all;
 use errmap::drivers::longrun::write_long_capture;
-use errmap::session::{BATCH_ROWS, SessionWriter, for_each_batch, read_session, write_session};
+use errmap::session::{
+    BATCH_ROWS, SessionWriter, for_each_batch, read_session, read_session_every,
+    read_session_thinned, write_session,
+};
 use errmap::table::TableError;
 use errmap_drivers::SessionRow;
 
@@ -38,7 +41,7 @@ fn streamed_tables_are_byte_identical_to_the_whole_table_writer() {
         let whole = dir.path().join(format!("whole.{ext}"));
         write_session(&whole, &rows).expect("write");
         let whole = std::fs::read(&whole).expect("read");
-        // CSV: any batching; Parquet: one row group when the batch holds the session.
+        // CSV: any batching; Parquet: the writers' own row groups of BATCH_ROWS rows.
         let batches: &[usize] = if ext == "csv" {
             &[1, 777, 1 << 16]
         } else {
@@ -417,4 +420,41 @@ fn replay_memory_does_not_grow_with_the_capture() {
         large_mb < small_mb + 30.0,
         "peak RSS {large_mb:.0} MB for {large_rows} rows vs {small_mb:.0} MB for {small_rows}"
     );
+}
+
+/// A session thinned to a row budget keeps every 2ᵏ-th device sample, the smallest such
+/// stride within the budget, and the same samples as a read of every stride-th sample.
+#[test]
+fn a_session_thinned_to_a_budget_keeps_every_power_of_two_th_sample() {
+    let (rows, _, _) = decode_all(&capture(1));
+    let n = rows.len();
+    assert!(n > 10_000, "{n} rows");
+    let dir = tempfile::tempdir().expect("tempdir");
+    for ext in ["csv", "parquet"] {
+        let path = dir.path().join(format!("s.{ext}"));
+        write_session(&path, &rows).expect("write");
+        // Within the budget: everything.
+        let all = read_session_thinned(&path, n).expect("read");
+        assert_eq!((all.stride, all.total, all.rows.len()), (1, n as u64, n));
+        // A third of it: the stride is the first power of two that fits.
+        let budget = n / 3;
+        let t = read_session_thinned(&path, budget).expect("read");
+        let expect_kept = |s: i64| rows.iter().filter(|r| r.sample % s == 0).count();
+        let mut stride = 1;
+        while expect_kept(stride) > budget {
+            stride *= 2;
+        }
+        assert_eq!(t.stride, stride, "{ext}");
+        assert_eq!(t.stride, 4, "{ext}: {n} rows in thirds");
+        assert_eq!(t.total, n as u64);
+        assert!(t.rows.len() <= budget && t.rows.len() == expect_kept(stride));
+        let expected: Vec<SessionRow> = rows
+            .iter()
+            .filter(|r| r.sample % stride == 0)
+            .cloned()
+            .collect();
+        assert!(t.rows == expected, "{ext}: thinned rows differ");
+        let (every, total) = read_session_every(&path, stride).expect("read");
+        assert!(every == expected && total == n as u64);
+    }
 }
