@@ -132,6 +132,11 @@ pub struct DiagnoseArgs {
     /// The scale's grating period, µm (default: the model's, or the capture's HELLO).
     #[arg(long, value_parser = length)]
     pub grating_period_um: Option<f64>,
+    /// Most rows of the recording to hold: a longer one is thinned uniformly in time to
+    /// every 2ᵏ-th device sample, which bounds diagnose's memory (about 1 kB a row).
+    #[arg(long, default_value_t = errmap::diagnose::MAX_ROWS as u64,
+          value_parser = clap::value_parser!(u64).range(1000..=100_000_000))]
+    pub max_rows: u64,
     #[arg(long)]
     pub json: bool,
 }

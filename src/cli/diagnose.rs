@@ -38,6 +38,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         &a.report,
         a.grating_period_um,
         a.max_dead_path_mm,
+        usize::try_from(a.max_rows).unwrap_or(usize::MAX),
     )?;
     if a.json {
         let mut v = serde_json::to_value(&d)?;
@@ -71,10 +72,19 @@ pub fn run_diagnosis(
     report: &Path,
     grating_period_um: Option<f64>,
 ) -> Result<Diagnosis> {
-    Ok(run_diagnosis_with(recorded, against, report, grating_period_um, None)?.0)
+    Ok(run_diagnosis_with(
+        recorded,
+        against,
+        report,
+        grating_period_um,
+        None,
+        errmap::diagnose::MAX_ROWS,
+    )?
+    .0)
 }
 
-/// [`run_diagnosis`] with the set-up's dead-path bound; with nothing to diagnose against,
+/// [`run_diagnosis`] with the set-up's dead-path bound and the most rows to hold (longer
+/// recordings are thinned to it uniformly in time); with nothing to diagnose against,
 /// also the ISO 230-2 figures with the found effects removed (written into the report).
 pub fn run_diagnosis_with(
     recorded: &Path,
@@ -82,11 +92,19 @@ pub fn run_diagnosis_with(
     report: &Path,
     grating_period_um: Option<f64>,
     max_dead_path_mm: Option<f64>,
+    max_rows: usize,
 ) -> Result<(Diagnosis, Option<IsoEffect>)> {
     let rec_path = session_file(recorded)?;
-    let recorded_rows = session::read_session(&rec_path)?;
+    // Bounded memory whatever the session's length: at most MAX_ROWS rows, thinned
+    // uniformly in time, and the same samples of the simulation.
+    let thinned = session::read_session_thinned(&rec_path, max_rows)?;
+    let stride = thinned.stride;
+    let recorded_rows = thinned.rows;
     let (simulated, model) = match against {
-        Against::Simulated(s) => (Some(session::read_session(&session_file(s)?)?), None),
+        Against::Simulated(s) => (
+            Some(session::read_session_every(&session_file(s)?, stride)?.0),
+            None,
+        ),
         Against::Model(m) => {
             let model = MachineModel::read(m)?;
             (Some(simulate_rows(&model, m, &recorded_rows)?), Some(model))
@@ -106,11 +124,21 @@ pub fn run_diagnosis_with(
         max_dead_path_mm,
         ..DiagnoseConfig::default()
     };
-    let d = match &simulated {
+    let mut d = match &simulated {
         Some(sim) => diagnose(&recorded_rows, sim, &config),
         None => diagnose_recorded(&recorded_rows, &config),
     }
     .with_context(|| format!("{}: diagnosis failed", rec_path.display()))?;
+    if stride > 1 {
+        let note = format!(
+            "{}: {} rows, more than --max-rows {max_rows}: diagnosed on the device samples whose index is a multiple of {stride} ({} rows, uniformly in time)",
+            rec_path.display(),
+            thinned.total,
+            recorded_rows.len()
+        );
+        eprintln!("diagnose: {note}");
+        d.design_notes.push(note);
+    }
     let iso = simulated.is_none().then(|| iso_effect(&recorded_rows, &d));
     // The inputs are finite and in range: a non-finite figure is a bug, reported, and
     // neither the report nor the JSON (where it would read `null`) is written.

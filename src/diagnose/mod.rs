@@ -130,6 +130,19 @@ use words::fixed;
 /// HeNe vacuum wavelength, µm (the one constant of `base::consts`).
 pub use crate::base::consts::HENE_WAVELENGTH_UM;
 
+/// Most rows of a recording `errmap diagnose` holds by default (`--max-rows`): longer
+/// sessions are thinned uniformly in time to every 2ᵏ-th device sample
+/// (`session::read_session_thinned`), which bounds its memory whatever the capture's
+/// length. A diagnosis holds about 1.15 kB per row (the recorded and simulated rows, the
+/// matched residual and covariates, the candidate effects' columns): measured on a
+/// generated 43 MB capture (1 435 944 rows) thinned to 179 493 rows, 226 MB peak RSS
+/// recorded-only and 212 MB against a simulated table; so 150 000 rows stay near 200 MB,
+/// under the 256 MB of issue #13. That is 12.5 minutes of samples at 200 Hz: an ISO 230-2
+/// session is not thinned, an overnight drift test is. The effects diagnose seeks change
+/// over minutes (drift, air, temperatures) or with position, and keep their signatures in a
+/// thinned session; only the noise estimate uses fewer samples.
+pub const MAX_ROWS: usize = 150_000;
+
 /// Diagnoses a recording against its simulation; see the module docs.
 pub fn diagnose(
     recorded: &[SessionRow],

@@ -355,3 +355,43 @@ fn recorded_only_from_the_command_line() {
     );
     assert!(md.contains("Static part taken from the recording"), "{md}");
 }
+
+/// `diagnose --max-rows` below the recording's length thins it uniformly in time (and the
+/// simulation with it), says so, and still finds the concealed drift: the 13 145-row case
+/// on a 4 000-row budget is diagnosed on every 4th sample.
+#[test]
+fn a_recording_longer_than_the_row_budget_is_thinned_and_still_diagnosed() {
+    let case =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed/thermal_drift");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = dir.path().join("report");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .arg("diagnose")
+        .arg("--recorded")
+        .arg(case.join("recorded.parquet"))
+        .arg("--simulated")
+        .arg(case.join("simulated.parquet"))
+        .args(["--max-rows", "4000", "--json", "--report"])
+        .arg(&report)
+        .output()
+        .expect("runs errmap");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON document");
+    let rows = v["matching"]["recorded_rows"].as_u64().expect("rows");
+    assert!((3000..=4000).contains(&rows), "{rows} rows kept of 13 145");
+    let notes = v["design_notes"].to_string();
+    assert!(notes.contains("multiple of 4"), "{notes}");
+    assert!(err.contains("13145 rows"), "{err}");
+    let e = &v["effects"][0];
+    assert_eq!(e["id"], "thermal_drift", "{v}");
+    // truth.json: amplitude 1.5 µm, τ 400 s; within 4σ of the thinned fit's own σ.
+    for (name, truth) in [("amplitude_um", 1.5), ("tau_s", 400.0)] {
+        let (p, s) = (e["params"][name].as_f64(), e["uncertainty"][name].as_f64());
+        let (p, s) = (p.expect("param"), s.expect("σ"));
+        assert!(
+            (p - truth).abs() < 4.0 * s,
+            "{name} {p} ± {s}, truth {truth}"
+        );
+    }
+}
