@@ -12,6 +12,8 @@
 //! `p` or space pause the chart (the readings and counters go on).
 
 pub mod draw;
+#[cfg(test)]
+pub mod snapshot;
 pub mod state;
 
 use std::cell::RefCell;

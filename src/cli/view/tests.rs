@@ -2,7 +2,7 @@
 //! decoder's statistics and with target means computed straight from the rows; the
 //! drawing (ratatui's `TestBackend`) shows the readings, the counters and a chart whose
 //! lines go where the data go. `ERRMAP_WRITE_SCREENSHOT=1 cargo test --bin errmap view::`
-//! also writes the README's screenshot, `reports/live-view/screen.txt`.
+//! also writes the README's screenshot, `reports/live-view/screen.txt` and `screen.png`.
 
 #![allow(clippy::unwrap_used)]
 
@@ -16,7 +16,7 @@ use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 
 use super::state::{Chart, MAX_TRACES, ViewState};
-use super::{Latest, draw};
+use super::{Latest, draw, snapshot};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -375,6 +375,12 @@ fn the_mailbox_keeps_the_newest_value_and_never_waits() {
     assert_eq!(slot.take(), None);
 }
 
+fn buffer(state: &ViewState, w: u16, h: u16) -> ratatui::buffer::Buffer {
+    let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+    t.draw(|f| draw::draw(f, state, None)).unwrap();
+    t.backend().buffer().clone()
+}
+
 #[test]
 fn screenshot_for_the_readme() {
     // Mid-plan: the last line's second run, on its way back.
@@ -387,5 +393,106 @@ fn screenshot_for_the_readme() {
         let dir = root().join("reports/live-view");
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join("screen.txt"), body + "\n").unwrap();
+        snapshot::write_png(&buffer(&view, 120, 36), &dir.join("screen.png")).unwrap();
     }
+}
+
+/// The picture shows each cell in its colours: a red counter's box has red pixels, a
+/// green one's green, every Braille dot of the chart sits where its bit says, and cells
+/// drawn as blanks stay background.
+#[test]
+fn the_screenshot_picture_shows_each_cells_colours_and_dots() {
+    use plotters::prelude::*;
+    let (view, _, _) = feed_part(&stream(&faulty()), 0.95);
+    let buf = buffer(&view, 120, 36);
+    let (w, h) = snapshot::size(&buf);
+    let mut pixels = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        snapshot::paint(&root, &buf).unwrap();
+        root.present().unwrap();
+    }
+    let at = |x: i32, y: i32| {
+        let k = ((y as u32 * w + x as u32) * 3) as usize;
+        (pixels[k], pixels[k + 1], pixels[k + 2])
+    };
+    let cell_has = |cx: u16, cy: u16, want: RGBColor| {
+        let (px, py) = (
+            i32::from(cx) * snapshot::CELL_W as i32,
+            i32::from(cy) * snapshot::CELL_H as i32,
+        );
+        // A glyph's pixels blend its colour into the background, p = bg + a·(fg − bg):
+        // some pixel of the cell must be at least half the colour, in every channel alike.
+        let bg = [28.0_f64, 28.0, 28.0];
+        let fg = [f64::from(want.0), f64::from(want.1), f64::from(want.2)];
+        (0..snapshot::CELL_H as i32).any(|dy| {
+            (0..snapshot::CELL_W as i32).any(|dx| {
+                let (r, g, b) = at(px + dx, py + dy);
+                let p = [f64::from(r), f64::from(g), f64::from(b)];
+                let k = (0..3)
+                    .max_by(|&i, &j| (fg[i] - bg[i]).abs().total_cmp(&(fg[j] - bg[j]).abs()))
+                    .unwrap();
+                let a = (p[k] - bg[k]) / (fg[k] - bg[k]);
+                a >= 0.5 && (0..3).all(|i| (p[i] - bg[i] - a * (fg[i] - bg[i])).abs() < 16.0)
+            })
+        })
+    };
+    let (mut red, mut green, mut dots) = (0, 0, 0);
+    for y in 0..buf.area.height {
+        for x in 0..buf.area.width {
+            let cell = &buf[(x, y)];
+            let ch = cell.symbol().chars().next().unwrap_or(' ');
+            if let Some(bits) = snapshot::braille_dots(ch) {
+                let fg = snapshot::rgb(cell.fg).unwrap();
+                let (px, py) = (
+                    i32::from(x) * snapshot::CELL_W as i32,
+                    i32::from(y) * snapshot::CELL_H as i32,
+                );
+                for cx in 0..2 {
+                    for cy in 0..4 {
+                        let (dx, dy) = snapshot::dot_origin(px, py, cx, cy);
+                        let lit = at(dx, dy) == (fg.0, fg.1, fg.2);
+                        assert_eq!(
+                            lit,
+                            bits.contains(&(cx, cy)),
+                            "dot ({cx},{cy}) of {ch:?} at ({x},{y})"
+                        );
+                    }
+                }
+                dots += 1;
+                continue;
+            }
+            // Letters and digits fill their box; punctuation may be a hairline.
+            if !ch.is_alphanumeric() || cell.modifier.contains(ratatui::style::Modifier::REVERSED) {
+                continue;
+            }
+            match cell.fg {
+                ratatui::style::Color::Red => {
+                    assert!(
+                        cell_has(x, y, snapshot::rgb(cell.fg).unwrap()),
+                        "red {ch:?} at ({x},{y})"
+                    );
+                    red += 1;
+                }
+                ratatui::style::Color::Green => {
+                    assert!(
+                        cell_has(x, y, snapshot::rgb(cell.fg).unwrap()),
+                        "green {ch:?} at ({x},{y})"
+                    );
+                    green += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    // The faulty stream's counters: some red (faults seen), some green (none of a kind).
+    assert!(
+        red > 0 && green > 0 && dots > 50,
+        "red {red}, green {green}, dots {dots}"
+    );
+    assert_eq!(
+        at(w as i32 - 1, h as i32 - 1),
+        (0x1c, 0x1c, 0x1c),
+        "background"
+    );
 }
