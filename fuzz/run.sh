@@ -24,8 +24,11 @@
 # add the file to fuzz/regressions/TARGET/ (tests/it/robust_io.rs replays that folder on
 # every `cargo test`).
 set -euo pipefail
-cd "$(dirname "$0")"
-[ $# -ge 2 ] || { sed -n '3,4p' "$0" | sed 's/^# *//'; exit 2; }
+# The target dir: $CARGO_TARGET_DIR (relative to where run.sh was called) or the root's.
+tdir=$(realpath -m "${CARGO_TARGET_DIR:-$(dirname "$0")/../target}")
+self=$(realpath "$0")
+cd "$(dirname "$self")"
+[ $# -ge 2 ] || { sed -n '4,8p' "$self" | sed 's/^# *//'; exit 2; }
 secs=$1
 shift
 all=(decoder error_table session_table machine_model plan vol_model vol_plan line_table)
@@ -47,7 +50,6 @@ afl_version=$(cargo afl --version | awk '{print $2}')
 export AFL_RT="${XDG_DATA_HOME:-$HOME/.local/share}/afl.rs/$rustc_dir/afl.rs-$afl_version/afl-llvm/afl-compiler-rt.o"
 [ -f "$AFL_RT" ] || { echo "fuzz/run.sh: no AFL++ runtime at $AFL_RT (cargo afl config --build)"; exit 1; }
 
-tdir=$(realpath -m "${CARGO_TARGET_DIR:-../target}")
 ours=()
 for p in errmap errmap-drivers errmap-fuzz; do
     ours+=(--config "profile.dev.package.$p.codegen-units=1" --config "profile.dev.package.$p.opt-level=1")
