@@ -1,6 +1,5 @@
-//! The decoder target, on its own (it needs `errmap-drivers` only, so the cheap AFL++
-//! build of CI's bounded run does not build polars): the rows of a raw capture must not
-//! depend on how the bytes are split, and must be finite.
+//! The decoder target, on its own (it needs `errmap-drivers` only): the rows of a raw
+//! capture must not depend on how the bytes are split, and must be finite.
 
 use errmap_drivers::frame::DeviceId;
 use errmap_drivers::{Hello, SessionDecoder, SessionRow};
