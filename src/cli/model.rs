@@ -185,6 +185,18 @@ pub fn fit(a: FitArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--methods` with each method once, in the order given: `spline,spline` compares
+/// spline once (twice made two result columns of one name, a polars error).
+fn listed(names: &[MethodName]) -> Vec<MethodName> {
+    let mut out: Vec<MethodName> = Vec::new();
+    for &n in names {
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    out
+}
+
 /// The model list of `compare` from `--methods` and `--orders`.
 fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
     let settings = a.model.settings();
@@ -198,7 +210,7 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
         return Ok(out);
     };
     let mut out = Vec::new();
-    for &name in names {
+    for name in listed(names) {
         if name.takes_order() {
             out.extend(lagrange_orders(a, grid)?);
         } else {
@@ -247,7 +259,7 @@ fn scattered_methods(
     match &a.methods {
         Some(names) => {
             let mut methods = Vec::new();
-            for &name in names {
+            for name in listed(names) {
                 if !name.accepts_scattered() {
                     bail!(
                         "{name} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
@@ -412,7 +424,8 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
             },
             extrapolation,
             &a.out,
-        )?;
+        )
+        .with_context(|| format!("{}: the grid of --step {step} mm", a.table.display()))?;
         eprintln!("export: {n} grid points → {}", a.out.display());
         return Ok(());
     }
@@ -430,8 +443,15 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         step_mm: step,
     };
     let fit = super::step::step_fit(&format, a.ends, a.reference);
-    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
-    let text = format.render_line(&sampled, None)?;
+    let what = || {
+        format!(
+            "{}: the line along {axis} (--at, --start, --end, --step)",
+            a.table.display()
+        )
+    };
+    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)
+        .with_context(what)?;
+    let text = format.render_line(&sampled, None).with_context(what)?;
     super::guard::write_file(&a.out, text.as_bytes())?;
     let fixed: Vec<String> = errmap::base::Axis::ALL
         .iter()

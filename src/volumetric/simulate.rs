@@ -208,6 +208,9 @@ fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
 }
 
+/// The slowest feed of a plan, mm/s.
+pub const MIN_FEED_MM_S: f64 = 1e-3;
+
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
         let f: PlanFile = read_toml(path)?;
@@ -233,6 +236,18 @@ impl PlanFile {
                     ),
                 ));
             }
+        }
+        // A move of 10⁶ mm (the position bound) then takes at most 10⁹ s (the time
+        // bound); a feed of 5e-324 mm/s made every time stamp infinite.
+        if self.feed_mm_s < MIN_FEED_MM_S {
+            return Err(config_err(
+                path,
+                "feed_mm_s",
+                format!(
+                    "{:e} mm/s is below the slowest feed, {MIN_FEED_MM_S} mm/s",
+                    self.feed_mm_s
+                ),
+            ));
         }
         if self.runs == 0 {
             return Err(config_err(path, "runs", "at least 1 run"));
