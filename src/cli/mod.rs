@@ -93,6 +93,10 @@ pub fn main() -> ExitCode {
         Err(e) if e.downcast_ref::<guard::StdoutClosed>().is_some() => {
             ExitCode::from(guard::STDOUT_CLOSED_STATUS)
         }
+        Err(e) if e.downcast_ref::<guard::Usage>().is_some() => {
+            eprintln!("error: {e:#}\n\nFor more information, try '--help'.");
+            ExitCode::from(2)
+        }
         Err(e) => {
             eprintln!("errmap: error: {e:#}");
             ExitCode::from(1)

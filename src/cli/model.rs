@@ -28,14 +28,18 @@ fn method_of(
             let grid = grid.context("--order auto needs a grid table")?;
             Some(compare::auto_order(grid, model.max_degree)?.0)
         }
-        Some(OrderArg::Auto) => bail!("--order applies to lagrange only, not to {name}"),
+        Some(OrderArg::Auto) => {
+            return Err(super::guard::usage(format!(
+                "--order applies to lagrange only, not to {name}"
+            )));
+        }
     };
     Method::from_name(name, degrees, &model.settings()).map_err(|e| match e {
-        MethodError::NeedsOrder => anyhow::anyhow!(
-            "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
+        MethodError::NeedsOrder => super::guard::usage(
+            "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto",
         ),
         MethodError::OrderNotApplicable(n) => {
-            anyhow::anyhow!("--order applies to lagrange only, not to {n}")
+            super::guard::usage(format!("--order applies to lagrange only, not to {n}"))
         }
     })
 }
@@ -402,7 +406,9 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     }
     // clap requires both without --bidirectional.
     let (Some(method), Some(step)) = (a.method, a.step) else {
-        bail!("--method and --step are needed (or --bidirectional with a session)");
+        return Err(super::guard::usage(
+            "--method and --step are needed (or --bidirectional with a session)",
+        ));
     };
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
@@ -560,11 +566,11 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
         other => other,
     };
     if !format.bidirectional() {
-        bail!(
+        return Err(super::guard::usage(format!(
             "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
              siemens, fanuc, isg); export the bidirectional mean from the error table instead",
             format.name()
-        );
+        )));
     }
     let path = super::acquisition::session_file(&a.table)?;
     let rows = errmap::session::read_session(&path)?;

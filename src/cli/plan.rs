@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Args;
 use errmap::base::Axis;
 use errmap::sim::program::{self, Dialect, ProgramOptions};
@@ -71,7 +71,9 @@ fn line_coordinates(axis: Axis, at: &values::LineAt) -> Result<[f64; 2]> {
     let mut p = [0.0; 3];
     for &(a, v) in &at.0 {
         if a == axis {
-            bail!("--at: {a} is the tested axis; give the other two");
+            return Err(super::guard::usage(format!(
+                "--at: {a} is the tested axis; give the other two"
+            )));
         }
         p[a.index()] = v;
     }
@@ -88,7 +90,7 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
     let spacing = match (a.targets, a.interval) {
         (Some(m), None) => Spacing::Targets(m),
         (None, Some(q)) => Spacing::Interval(q),
-        _ => bail!("give one of --targets and --interval"),
+        _ => return Err(super::guard::usage("give one of --targets and --interval")),
     };
     let plan = TestPlan::generate(TestPlanConfig {
         axis,
@@ -111,7 +113,9 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
                 mark_output: a.mark_output,
             },
         )?),
-        None if a.mark_output.is_some() => bail!("--mark-output needs --program"),
+        None if a.mark_output.is_some() => {
+            return Err(super::guard::usage("--mark-output needs --program"));
+        }
         None => None,
     };
     super::guard::write_file(&a.out, plan.toml().as_bytes())?;

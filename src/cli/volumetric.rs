@@ -435,7 +435,9 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         bail!("give --lines TABLE or --grid GRID");
     };
     let Some(out) = &a.out else {
-        bail!("--grid writes a table: give --out FILE");
+        return Err(super::guard::usage(
+            "--grid writes a table: give --out FILE",
+        ));
     };
     let probe = a.probe;
     let points: Vec<[f64; 3]> = errmap::table::ErrorTable::read_points(grid)?

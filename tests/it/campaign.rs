@@ -25,7 +25,9 @@
 //! `ERRMAP_CAMPAIGN_RUNS` (default 240) and `ERRMAP_CAMPAIGN_SEED` (default 17) set the
 //! size and the seed; case `i` of a seed is the same on every machine, so a failure is
 //! replayed with `ERRMAP_CAMPAIGN_SEED=S ERRMAP_CAMPAIGN_ONLY=i`.
-//! `ERRMAP_CAMPAIGN_TIMEOUT` is the per-run limit in seconds (default 60).
+//! `ERRMAP_CAMPAIGN_TIMEOUT` is the per-run limit in seconds (default 60);
+//! `ERRMAP_CAMPAIGN_BIN` runs the campaign against another binary (a release build, or an
+//! older one for a before/after count).
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -40,6 +42,14 @@ use cases::{Case, Expect, Rng, make_case};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The binary under test: `ERRMAP_CAMPAIGN_BIN`, else the one this build made.
+fn bin() -> PathBuf {
+    std::env::var_os("ERRMAP_CAMPAIGN_BIN").map_or_else(
+        || PathBuf::from(env!("CARGO_BIN_EXE_errmap")),
+        PathBuf::from,
+    )
 }
 
 fn env_num(name: &str, default: u64) -> u64 {
@@ -67,7 +77,7 @@ pub struct Fixtures {
 }
 
 fn errmap_ok(args: &[&str]) {
-    let o = Command::new(env!("CARGO_BIN_EXE_errmap"))
+    let o = Command::new(bin())
         .args(args)
         .output()
         .expect("runs errmap");
@@ -194,7 +204,7 @@ fn run(case: &Case, dir: &Path, limit: Duration) -> Ran {
     let mut cmd = Command::new("sh");
     cmd.arg("-c")
         .arg("ulimit -v 6000000 2>/dev/null; exec \"$0\" \"$@\"")
-        .arg(env!("CARGO_BIN_EXE_errmap"))
+        .arg(bin())
         .args(&case.args)
         .current_dir(dir)
         .stdin(Stdio::null())
@@ -629,6 +639,19 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         1,
         &["--out", "--model"],
     ),
+    // Flags that do not go together were reported as data errors: exit 1.
+    (
+        "export {s} --bidirectional --format csv --out {out}",
+        2,
+        &["--bidirectional"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --targets 5 --out {out} --at x=5",
+        2,
+        &["--at"],
+    ),
+    ("fit {t1} --method lagrange --predict {t2}", 2, &["--order"]),
+    ("volumetric predict --model {vj} --grid {t2}", 2, &["--out"]),
     // An export error that named no file.
     (
         "export {one} --method trilinear --format linuxcnc --at y=1,z=200 --step 50 --out {out}",
