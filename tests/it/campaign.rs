@@ -340,12 +340,12 @@ fn bad_output(path: &Path, bytes: &[u8]) -> Option<String> {
     if let Some(t) = non_finite_token(text) {
         return Some(format!("{} holds `{t}`", path.display()));
     }
-    if ext == "json" || (ext.is_empty() && text.trim_start().starts_with('{')) {
-        if let Ok(v) = serde_json::from_str::<serde_json::Value>(text)
-            && let Some(p) = json_null(&v, "")
-        {
-            return Some(format!("{} has null at {p}", path.display()));
-        }
+    let json = ext == "json" || (ext.is_empty() && text.trim_start().starts_with('{'));
+    if json
+        && let Ok(v) = serde_json::from_str::<serde_json::Value>(text)
+        && let Some(p) = json_null(&v, "")
+    {
+        return Some(format!("{} has null at {p}", path.display()));
     }
     None
 }
