@@ -306,6 +306,7 @@ const NULLABLE: &[&str] = &[
     "cv_each",
     "thermal",
     "values",
+    "value",
     "sigma",
 ];
 
@@ -698,6 +699,17 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         1,
         &["slow-plan.toml", "feed_mm_s"],
     ),
+    (
+        "volumetric simulate --model {vm} --plan {flat} --out {out}",
+        1,
+        &["flat-plan.toml", "volume_mm"],
+    ),
+    // A model whose error table is missing named only the table.
+    (
+        "simulate --model {lost} --plan {plan} --out {out}",
+        1,
+        &["lost-table.toml", "error_map.table", "no-such-table.csv"],
+    ),
 ];
 
 #[test]
@@ -743,6 +755,11 @@ fn what_the_campaign_found_stays_fixed() {
     let slow = plan.replace("feed_mm_s = 20.0", "feed_mm_s = 5e-324");
     assert_ne!(slow, plan);
     std::fs::write(d.join("slow-plan.toml"), slow).expect("write");
+    let flat = plan.replace("[800.0, 600.0, 400.0]", "[800.0, 5e-324, 400.0]");
+    assert_ne!(flat, plan);
+    std::fs::write(d.join("flat-plan.toml"), flat).expect("write");
+    let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
+    std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
         ("t1", f.table1.clone()),
         ("t2", f.table2.clone()),
@@ -756,6 +773,9 @@ fn what_the_campaign_found_stays_fixed() {
         ("huge", d.join("huge-coefficient.toml")),
         ("tiny", d.join("tiny-scale.toml")),
         ("slow", d.join("slow-plan.toml")),
+        ("flat", d.join("flat-plan.toml")),
+        ("lost", d.join("lost-table.toml")),
+        ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
         ("rep", d.join("rep")),
         ("out", d.join("out.txt")),
