@@ -320,11 +320,20 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
             format!(" --orders {}", a.orders)
         }
     );
+    // The JSON document checked before the report is written: a failure leaves nothing.
+    let json = match a.json {
+        true => Some(errmap::report::json_text(
+            Path::new("stdout"),
+            &comparison.to_json(Some(&a.report)),
+            false,
+        )?),
+        false => None,
+    };
     super::guard::into_new_dir(&a.report, |dir| {
         Ok(report::write_report(&comparison, dir, &command)?)
     })?;
-    if a.json {
-        super::guard::print_json(&comparison.to_json(Some(&a.report)))?;
+    if let Some(text) = json {
+        super::guard::print_stdout(&text)?;
     } else {
         print_summary(&comparison, &a.report);
     }

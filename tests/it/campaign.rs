@@ -704,6 +704,13 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         1,
         &["flat-plan.toml", "volume_mm"],
     ),
+    // Table 1 with every error 0: σ = 0 gave z = inf in compare's JSON (a bug message,
+    // and the report directory was left behind).
+    (
+        "compare {zero} --test {t2} --methods trilinear,spline --report {rep2} --json",
+        0,
+        &[],
+    ),
     // A model whose error table is missing named only the table.
     (
         "simulate --model {lost} --plan {plan} --out {out}",
@@ -755,6 +762,15 @@ fn what_the_campaign_found_stays_fixed() {
     let slow = plan.replace("feed_mm_s = 20.0", "feed_mm_s = 5e-324");
     assert_ne!(slow, plan);
     std::fs::write(d.join("slow-plan.toml"), slow).expect("write");
+    let zero: Vec<String> = t1
+        .lines()
+        .enumerate()
+        .map(|(i, l)| match (i, l.rsplit_once(',')) {
+            (1.., Some((head, _))) => format!("{head},0"),
+            _ => l.to_string(),
+        })
+        .collect();
+    std::fs::write(d.join("zero.csv"), zero.join("\n") + "\n").expect("write");
     let flat = plan.replace("[800.0, 600.0, 400.0]", "[800.0, 5e-324, 400.0]");
     assert_ne!(flat, plan);
     std::fs::write(d.join("flat-plan.toml"), flat).expect("write");
@@ -774,10 +790,12 @@ fn what_the_campaign_found_stays_fixed() {
         ("tiny", d.join("tiny-scale.toml")),
         ("slow", d.join("slow-plan.toml")),
         ("flat", d.join("flat-plan.toml")),
+        ("zero", d.join("zero.csv")),
         ("lost", d.join("lost-table.toml")),
         ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
         ("rep", d.join("rep")),
+        ("rep2", d.join("rep2")),
         ("out", d.join("out.txt")),
     ];
     let before: Vec<Vec<u8>> = [&session, &lines, &vj, &vp]
