@@ -10,8 +10,8 @@ use errmap::interp::{MethodName, fuzzy};
 
 use super::values::{
     CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
-    at_least_two, axis, baud, fuzzy_width, kernel, length, method_name, positive, probability,
-    seconds,
+    at_least_two, axis, baud, coordinate, fuzzy_width, kernel, length, method_name, positive,
+    probability, seconds, siemens_axis,
 };
 
 #[derive(Debug, Args)]
@@ -42,9 +42,9 @@ pub struct ExportArgs {
     #[arg(long, value_parser = length, required_unless_present = "bidirectional")]
     pub step: Option<f64>,
     /// Line start and end, mm (default: the table's range on the axis).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
     pub start: Option<f64>,
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
     pub end: Option<f64>,
     /// A round grid of --step through --reference covering the range, the points beyond
     /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC and
@@ -52,7 +52,7 @@ pub struct ExportArgs {
     #[arg(long, value_enum)]
     pub ends: Option<EndsArg>,
     /// The grid's reference position for --ends, mm (e.g. the machine's reference point).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = coordinate)]
     pub reference: f64,
     /// The table's format.
     #[arg(long, value_enum)]
@@ -61,7 +61,7 @@ pub struct ExportArgs {
     #[arg(long, value_enum, default_value = "actual")]
     pub comp_type: CompTypeArg,
     /// Siemens machine-axis name, e.g. X1.
-    #[arg(long, default_value = "X1")]
+    #[arg(long, default_value = "X1", value_parser = siemens_axis)]
     pub siemens_axis: String,
     /// Siemens --bidirectional: the first of the two CEC tables (positive direction; the
     /// next one is the negative direction). The machine axis is AX<--axis-number>.

@@ -26,11 +26,14 @@ pub struct CertificateArgs {
 }
 
 pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
+    let path = session_file(&a.session)?;
+    let mut inputs = vec![("SESSION", path.as_path())];
+    inputs.extend(a.info.as_deref().map(|p| ("--info", p)));
+    super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
     let info = match &a.info {
         Some(p) => CertificateInfo::read(p)?,
         None => CertificateInfo::default(),
     };
-    let path = session_file(&a.session)?;
     let rows = session::read_session(&path)?;
     let source = path.display().to_string();
     let (_, summary) = session::error_table(&source, &rows)?;

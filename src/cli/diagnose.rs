@@ -41,6 +41,8 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         usize::try_from(a.max_rows).unwrap_or(usize::MAX),
     )?;
     if a.json {
+        // Checked as typed numbers: in the `Value` below a NaN would already be `null`.
+        errmap::report::finite::check_json(std::path::Path::new("stdout"), &d)?;
         let mut v = serde_json::to_value(&d)?;
         if let (Some(iso), Some(obj)) = (iso, v.as_object_mut()) {
             obj.insert("iso230".into(), serde_json::to_value(iso)?);

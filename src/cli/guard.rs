@@ -29,6 +29,18 @@ use anyhow::{Context, Result, bail};
 #[error("stdout was closed by its reader")]
 pub struct StdoutClosed;
 
+/// A usage error found after clap: flags that do not go together, or one that another
+/// needs. `main` prints it as clap prints its own and exits 2, as `cli-contract.md`
+/// asks of every usage error.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Usage(pub String);
+
+/// A [`Usage`] error, for `return Err(usage(…))` and `ok_or_else`.
+pub fn usage(message: impl Into<String>) -> anyhow::Error {
+    Usage(message.into()).into()
+}
+
 /// Exit status for a closed stdout: 128 + SIGPIPE (13), the shell's status of a program
 /// ended by the signal.
 pub const STDOUT_CLOSED_STATUS: u8 = 141;

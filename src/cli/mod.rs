@@ -93,11 +93,31 @@ pub fn main() -> ExitCode {
         Err(e) if e.downcast_ref::<guard::StdoutClosed>().is_some() => {
             ExitCode::from(guard::STDOUT_CLOSED_STATUS)
         }
+        Err(e) if e.downcast_ref::<guard::Usage>().is_some() => {
+            eprintln!("error: {e:#}\n\nFor more information, try '--help'.");
+            ExitCode::from(2)
+        }
         Err(e) => {
-            eprintln!("errmap: error: {e:#}");
+            eprintln!("errmap: error: {}", message(&e));
             ExitCode::from(1)
         }
     }
+}
+
+/// The error and its causes, `: `-separated, each cause left out when the text before
+/// already holds it (errors that print their source, such as an I/O error's OS reason,
+/// gave `No such file or directory (os error 2): No such file or directory (os error 2)`).
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if text.is_empty() {
+            text = c;
+        } else if !text.contains(&c) {
+            text = format!("{text}: {c}");
+        }
+    }
+    text
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -144,5 +164,21 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Issue 17: OS errors were printed twice, by the error and again as its cause.
+    #[test]
+    fn a_cause_already_in_the_message_is_not_repeated() {
+        #[derive(Debug, thiserror::Error)]
+        #[error("t.csv: cannot read: {0}")]
+        struct Io(#[source] std::io::Error);
+        let e = anyhow::Error::from(Io(std::io::Error::from(std::io::ErrorKind::NotFound)));
+        let m = super::message(&e);
+        assert_eq!(m, "t.csv: cannot read: entity not found");
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(super::message(&e), "outer: inner");
     }
 }

@@ -28,14 +28,18 @@ fn method_of(
             let grid = grid.context("--order auto needs a grid table")?;
             Some(compare::auto_order(grid, model.max_degree)?.0)
         }
-        Some(OrderArg::Auto) => bail!("--order applies to lagrange only, not to {name}"),
+        Some(OrderArg::Auto) => {
+            return Err(super::guard::usage(format!(
+                "--order applies to lagrange only, not to {name}"
+            )));
+        }
     };
     Method::from_name(name, degrees, &model.settings()).map_err(|e| match e {
-        MethodError::NeedsOrder => anyhow::anyhow!(
-            "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto"
+        MethodError::NeedsOrder => super::guard::usage(
+            "--method lagrange needs --order MxNxQ (degrees along x, y, z) or --order auto",
         ),
         MethodError::OrderNotApplicable(n) => {
-            anyhow::anyhow!("--order applies to lagrange only, not to {n}")
+            super::guard::usage(format!("--order applies to lagrange only, not to {n}"))
         }
     })
 }
@@ -185,6 +189,18 @@ pub fn fit(a: FitArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--methods` with each method once, in the order given: `spline,spline` compares
+/// spline once (twice made two result columns of one name, a polars error).
+fn listed(names: &[MethodName]) -> Vec<MethodName> {
+    let mut out: Vec<MethodName> = Vec::new();
+    for &n in names {
+        if !out.contains(&n) {
+            out.push(n);
+        }
+    }
+    out
+}
+
 /// The model list of `compare` from `--methods` and `--orders`.
 fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
     let settings = a.model.settings();
@@ -198,7 +214,7 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
         return Ok(out);
     };
     let mut out = Vec::new();
-    for &name in names {
+    for name in listed(names) {
         if name.takes_order() {
             out.extend(lagrange_orders(a, grid)?);
         } else {
@@ -247,7 +263,7 @@ fn scattered_methods(
     match &a.methods {
         Some(names) => {
             let mut methods = Vec::new();
-            for &name in names {
+            for name in listed(names) {
                 if !name.accepts_scattered() {
                     bail!(
                         "{name} cannot be fitted to {}: {why}. Only gp and gp-se accept scattered nodes.",
@@ -304,11 +320,20 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
             format!(" --orders {}", a.orders)
         }
     );
+    // The JSON document checked before the report is written: a failure leaves nothing.
+    let json = match a.json {
+        true => Some(errmap::report::json_text(
+            Path::new("stdout"),
+            &comparison.to_json(Some(&a.report)),
+            false,
+        )?),
+        false => None,
+    };
     super::guard::into_new_dir(&a.report, |dir| {
         Ok(report::write_report(&comparison, dir, &command)?)
     })?;
-    if a.json {
-        super::guard::print_json(&comparison.to_json(Some(&a.report)))?;
+    if let Some(text) = json {
+        super::guard::print_stdout(&text)?;
     } else {
         print_summary(&comparison, &a.report);
     }
@@ -390,7 +415,9 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     }
     // clap requires both without --bidirectional.
     let (Some(method), Some(step)) = (a.method, a.step) else {
-        bail!("--method and --step are needed (or --bidirectional with a session)");
+        return Err(super::guard::usage(
+            "--method and --step are needed (or --bidirectional with a session)",
+        ));
     };
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
@@ -412,7 +439,8 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
             },
             extrapolation,
             &a.out,
-        )?;
+        )
+        .with_context(|| format!("{}: the grid of --step {step} mm", a.table.display()))?;
         eprintln!("export: {n} grid points → {}", a.out.display());
         return Ok(());
     }
@@ -430,8 +458,15 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
         step_mm: step,
     };
     let fit = super::step::step_fit(&format, a.ends, a.reference);
-    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)?;
-    let text = format.render_line(&sampled, None)?;
+    let what = || {
+        format!(
+            "{}: the line along {axis} (--at, --start, --end, --step)",
+            a.table.display()
+        )
+    };
+    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)
+        .with_context(what)?;
+    let text = format.render_line(&sampled, None).with_context(what)?;
     super::guard::write_file(&a.out, text.as_bytes())?;
     let fixed: Vec<String> = errmap::base::Axis::ALL
         .iter()
@@ -540,11 +575,11 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
         other => other,
     };
     if !format.bidirectional() {
-        bail!(
+        return Err(super::guard::usage(format!(
             "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
              siemens, fanuc, isg); export the bidirectional mean from the error table instead",
             format.name()
-        );
+        )));
     }
     let path = super::acquisition::session_file(&a.table)?;
     let rows = errmap::session::read_session(&path)?;

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::Result;
 use clap::Args;
 use errmap::base::Axis;
 use errmap::sim::program::{self, Dialect, ProgramOptions};
@@ -16,10 +16,10 @@ pub struct PlanArgs {
     #[arg(long, value_parser = values::axis())]
     pub axis: Axis,
     /// First target, mm.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = values::coordinate)]
     pub from: f64,
     /// Last target, mm.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = values::coordinate)]
     pub to: f64,
     /// Number of targets, ends included (ISO 230-2: at least 5 per metre, 5 in all).
     #[arg(
@@ -29,25 +29,25 @@ pub struct PlanArgs {
     )]
     pub targets: Option<usize>,
     /// Largest interval between targets, mm (the range is split into equal intervals).
-    #[arg(long)]
+    #[arg(long, value_parser = values::length)]
     pub interval: Option<f64>,
     /// Runs, each up and down (ISO 230-2: 5).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
     /// Travel past the end targets before each reversal, mm.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = values::non_negative_length)]
     pub overrun: f64,
     /// Stop at each target, s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = values::seconds)]
     pub dwell_s: f64,
     /// Feed of every move, mm/s.
-    #[arg(long, default_value_t = 25.0)]
+    #[arg(long, default_value_t = 25.0, value_parser = values::feed)]
     pub feed_mm_s: f64,
     /// The line's fixed coordinates, e.g. `y=1,z=200` (mm; a missing one is 0).
     #[arg(long, default_value = "", allow_hyphen_values = true)]
-    pub at: String,
+    pub at: values::LineAt,
     /// Random offset of the inner targets, as a fraction of the interval, in [0, 0.5).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = values::offset_fraction)]
     pub random_offset: f64,
     /// Seed of the random offsets.
     #[arg(long, default_value_t = 0)]
@@ -67,20 +67,15 @@ pub struct PlanArgs {
 }
 
 /// The line's two fixed coordinates from `--at`.
-fn line_coordinates(axis: Axis, at: &str) -> Result<[f64; 2]> {
+fn line_coordinates(axis: Axis, at: &values::LineAt) -> Result<[f64; 2]> {
     let mut p = [0.0; 3];
-    for part in at.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (k, v) = part
-            .split_once('=')
-            .with_context(|| format!("--at takes axis=value pairs like y=1,z=200, not `{part}`"))?;
-        let a: Axis = k.trim().parse().context("--at")?;
+    for &(a, v) in &at.0 {
         if a == axis {
-            bail!("--at: {a} is the tested axis; give the other two");
+            return Err(super::guard::usage(format!(
+                "--at: {a} is the tested axis; give the other two"
+            )));
         }
-        p[a.index()] = v
-            .trim()
-            .parse()
-            .with_context(|| format!("--at: `{v}` is not a number"))?;
+        p[a.index()] = v;
     }
     let others: Vec<f64> = Axis::ALL
         .iter()
@@ -95,7 +90,7 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
     let spacing = match (a.targets, a.interval) {
         (Some(m), None) => Spacing::Targets(m),
         (None, Some(q)) => Spacing::Interval(q),
-        _ => bail!("give one of --targets and --interval"),
+        _ => return Err(super::guard::usage("give one of --targets and --interval")),
     };
     let plan = TestPlan::generate(TestPlanConfig {
         axis,
@@ -118,7 +113,9 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
                 mark_output: a.mark_output,
             },
         )?),
-        None if a.mark_output.is_some() => bail!("--mark-output needs --program"),
+        None if a.mark_output.is_some() => {
+            return Err(super::guard::usage("--mark-output needs --program"));
+        }
         None => None,
     };
     super::guard::write_file(&a.out, plan.toml().as_bytes())?;

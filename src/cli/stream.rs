@@ -4,7 +4,7 @@
 use std::io::BufWriter;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
 use errmap::drivers::longrun::write_long_capture;
 
@@ -27,10 +27,16 @@ pub struct GenCaptureArgs {
 
 pub fn gen_capture(a: GenCaptureArgs) -> Result<()> {
     if !(a.mb.is_finite() && a.mb > 0.0 && a.mb <= 1e6) {
-        bail!("--mb is a size in MB in (0, 10⁶], not {}", a.mb);
+        return Err(super::guard::usage(format!(
+            "--mb is a size in MB in (0, 10⁶], not {}",
+            a.mb
+        )));
     }
     if !(a.sample_hz.is_finite() && a.sample_hz > 0.0 && a.sample_hz <= 1e5) {
-        bail!("--sample-hz is a rate in (0, 10⁵] Hz, not {}", a.sample_hz);
+        return Err(super::guard::usage(format!(
+            "--sample-hz is a rate in (0, 10⁵] Hz, not {}",
+            a.sample_hz
+        )));
     }
     let file = std::fs::OpenOptions::new()
         .write(true)

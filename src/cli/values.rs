@@ -6,6 +6,7 @@
 //! library's own registries (`MethodName::ALL`, `Axis::ALL`, `Kernel`'s `FromStr`), so
 //! the command line never spells them a second time.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::str::FromStr;
 
@@ -16,6 +17,8 @@ use errmap::export::{Ends, LinuxCncCompType};
 use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, Order};
 use errmap::sim::program::Dialect;
+use errmap::volumetric::identify::MAX_DEGREE;
+use errmap::volumetric::{Component, Topology};
 
 /// `--method`: a name from the method registry.
 pub fn method_name() -> impl TypedValueParser<Value = MethodName> {
@@ -84,6 +87,123 @@ pub fn length(s: &str) -> Result<f64, String> {
         return Err(format!("`{s}` must be a finite length > 0 and ≤ 10⁶"));
     }
     Ok(v)
+}
+
+/// The largest coordinate a flag takes, mm (issue 17's physical bound on positions).
+pub const MAX_COORDINATE_MM: f64 = 1e6;
+
+/// A coordinate, mm: finite, within ±10⁶ (`--start`, `--end`, `--reference`, `--from`).
+pub fn coordinate(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM) {
+        return Err(format!("`{s}` must be a finite coordinate within ±10⁶ mm"));
+    }
+    Ok(v)
+}
+
+/// A length that may be 0, mm: finite, 0 … 10⁶ (`--overrun`).
+pub fn non_negative_length(s: &str) -> Result<f64, String> {
+    let v = coordinate(s)?;
+    if v < 0.0 {
+        return Err(format!("`{s}` must be ≥ 0"));
+    }
+    Ok(v)
+}
+
+/// A feed, mm/s: finite, > 0, ≤ 10⁶.
+pub fn feed(s: &str) -> Result<f64, String> {
+    let v = coordinate(s)?;
+    if v <= 0.0 {
+        return Err(format!("`{s}`: a feed must be > 0 mm/s"));
+    }
+    Ok(v)
+}
+
+/// A fraction of an interval in [0, 0.5) (plan's `--random-offset`: the inner targets
+/// then stay in order).
+pub fn offset_fraction(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !(0.0..0.5).contains(&v) {
+        return Err(format!("`{s}` is not a fraction in [0, 0.5)"));
+    }
+    Ok(v)
+}
+
+/// A point PX,PY,PZ, mm: three coordinates (`--probe`, volumetric export's `--at`).
+pub fn point3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(coordinate)
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("`{s}`: three coordinates PX,PY,PZ in mm ({e})"))?;
+    match v[..] {
+        [x, y, z] => Ok([x, y, z]),
+        _ => Err(format!(
+            "`{s}`: three coordinates PX,PY,PZ in mm, not {}",
+            v.len()
+        )),
+    }
+}
+
+/// `--siemens-axis`: a SINUMERIK machine-axis name (checked by the exporter's rule, so
+/// that a bad name is a usage error before any table is read).
+pub fn siemens_axis(s: &str) -> Result<String, String> {
+    errmap::export::siemens::check_axis_name(s).map_err(|e| e.to_string())?;
+    Ok(s.to_string())
+}
+
+/// volumetric `--topology`: a permutation of XYZ.
+pub fn topology(s: &str) -> Result<Topology, String> {
+    s.parse::<Topology>().map_err(|e| e.to_string())
+}
+
+/// volumetric `--degree`: `auto`, `auto-each` or a whole number 1 … [`MAX_DEGREE`]
+/// (kept as written; `volumetric.rs` maps it).
+pub fn degree(s: &str) -> Result<String, String> {
+    match s.trim() {
+        "auto" | "auto-each" => Ok(s.trim().to_string()),
+        d => {
+            component_degree_value(d)?;
+            Ok(d.to_string())
+        }
+    }
+}
+
+/// volumetric `--max-degree`: 1 … [`MAX_DEGREE`].
+pub fn max_degree(s: &str) -> Result<usize, String> {
+    component_degree_value(s)
+}
+
+fn component_degree_value(d: &str) -> Result<usize, String> {
+    let v: usize = d
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{d}` is neither `auto`, `auto-each` nor a whole number"))?;
+    if !(1..=MAX_DEGREE).contains(&v) {
+        return Err(format!("degree `{d}` is outside 1 … {MAX_DEGREE}"));
+    }
+    Ok(v)
+}
+
+/// volumetric `--component-degree E_XX=5,E_CX=2` → {component index: degree}.
+pub fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, String> {
+    let mut out = BTreeMap::new();
+    for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (name, d) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}` is not NAME=DEGREE (e.g. E_XX=3)"))?;
+        let c: Component = name.trim().parse()?;
+        if out.insert(c.index(), component_degree_value(d)?).is_some() {
+            return Err(format!("{} is given twice", c.name()));
+        }
+    }
+    Ok(out)
 }
 
 /// A probability: finite, within 0 … 1 (`--garbage`, `--bit-flips`, `--drop-frames`).
@@ -228,8 +348,13 @@ impl FromStr for LineAt {
                 .trim()
                 .parse()
                 .map_err(|_| format!("`{}` is not a number", v.trim()))?;
-            if !v.is_finite() {
-                return Err(format!("`{part}`: the coordinate must be finite"));
+            if !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM) {
+                return Err(format!(
+                    "`{part}`: the coordinate must be finite, within ±10⁶ mm"
+                ));
+            }
+            if out.iter().any(|&(a, _)| a == axis) {
+                return Err(format!("`{s}`: {axis} is given twice"));
             }
             out.push((axis, v));
         }
@@ -308,5 +433,65 @@ impl From<EndsArg> for Ends {
             EndsArg::Clamp => Ends::Clamp,
             EndsArg::Extrapolate => Ends::Extrapolate,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 17's campaign: these flag values were taken as numbers (`nan`, `1e308`) or
+    /// strings checked after clap, so a bad one exited 1, or ran on (`--start -1e308`
+    /// overflowed the point count). Each parser now refuses them, a usage error.
+    #[test]
+    fn the_campaigns_bad_flag_values_are_refused_by_their_parsers() {
+        for bad in ["nan", "inf", "-inf", "1e308", "-1e7", "abc", ""] {
+            assert!(coordinate(bad).is_err(), "coordinate {bad:?}");
+        }
+        assert_eq!(coordinate(" -1e6 "), Ok(-1e6));
+        assert_eq!(coordinate("-0"), Ok(0.0));
+        assert!(non_negative_length("-1").is_err());
+        assert_eq!(non_negative_length("0"), Ok(0.0));
+        assert!(feed("0").is_err() && feed("nan").is_err());
+        for bad in ["0.5", "-0.1", "nan", "inf"] {
+            assert!(offset_fraction(bad).is_err(), "offset {bad:?}");
+        }
+        assert_eq!(offset_fraction("0.49"), Ok(0.49));
+        for bad in ["1,2", "nan,0,0", "a,b,c", "1,2,3,4", "inf,0,0", "1e308,0,0"] {
+            assert!(point3(bad).is_err(), "point {bad:?}");
+        }
+        assert_eq!(point3("1, -2.5,3"), Ok([1.0, -2.5, 3.0]));
+        for bad in ["XXZ", "ABC", "", "XY", "XYZX"] {
+            assert!(topology(bad).is_err(), "topology {bad:?}");
+        }
+        assert_eq!(topology("yxz"), Ok(Topology([1, 0, 2])));
+        for bad in ["-1", "abc", "", "0", "1000"] {
+            assert!(degree(bad).is_err(), "degree {bad:?}");
+        }
+        assert_eq!(degree("auto-each").as_deref(), Ok("auto-each"));
+        assert!(max_degree(&(MAX_DEGREE + 1).to_string()).is_err());
+        assert_eq!(max_degree("5"), Ok(5));
+        for bad in [
+            "E_QQ=2",
+            "E_XX=",
+            "E_XX=-1",
+            "E_XX=abc",
+            "==",
+            "E_XX=1,E_XX=2",
+        ] {
+            assert!(component_degrees(bad).is_err(), "component degree {bad:?}");
+        }
+        let ok = component_degrees("E_XX=5, E_CX=2").expect("valid");
+        assert_eq!(ok.len(), 2);
+        assert_eq!(ok.values().copied().max(), Some(5));
+    }
+
+    #[test]
+    fn a_line_position_gives_each_axis_once_within_the_bound() {
+        for bad in ["y=1,y=2", "y=nan", "y=inf", "y=1e308", "q=1", "y", "=1"] {
+            assert!(bad.parse::<LineAt>().is_err(), "--at {bad:?}");
+        }
+        let at: LineAt = "y=1, z=-200".parse().expect("valid");
+        assert_eq!(at.0, vec![(Axis::Y, 1.0), (Axis::Z, -200.0)]);
     }
 }

@@ -7,9 +7,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, Subcommand};
+
+use super::values;
 use errmap::volumetric::{
-    Component, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor,
-    Topology, identify, predict, simulate,
+    Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor, Topology,
+    identify, predict, simulate,
 };
 
 #[derive(Debug, Subcommand)]
@@ -73,8 +75,8 @@ pub struct LinesArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Probe (retroreflector) offset of every line, mm: PX,PY,PZ.
-    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
-    pub probe: String,
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true, value_parser = values::point3)]
+    pub probe: [f64; 3],
 }
 
 #[derive(Debug, Args)]
@@ -83,18 +85,18 @@ pub struct IdentifyArgs {
     pub lines: PathBuf,
     /// Kinematic chain from the workpiece to the probe, a permutation of XYZ (YXZ: a
     /// moving-bridge CMM).
-    #[arg(long)]
-    pub topology: String,
+    #[arg(long, value_parser = values::topology)]
+    pub topology: Topology,
     /// Polynomial degree of every component, `auto` (one degree by leave-one-line-out
     /// CV) or `auto-each` (then each component's own degree by the same CV).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value = "auto", value_parser = values::degree)]
     pub degree: String,
     /// Highest degree `auto` tries.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = values::max_degree)]
     pub max_degree: usize,
     /// Per-component degrees overriding --degree, e.g. `E_XX=5,E_CX=2`.
-    #[arg(long, default_value = "")]
-    pub component_degree: String,
+    #[arg(long, default_value = "", value_parser = values::component_degrees)]
+    pub component_degree: BTreeMap<usize, usize>,
     /// Positions per component in the output (0 is added).
     #[arg(long, default_value_t = 21)]
     pub positions: usize,
@@ -122,8 +124,8 @@ pub struct PredictArgs {
     #[arg(long)]
     pub grid: Option<PathBuf>,
     /// Probe offset for --grid, mm: PX,PY,PZ.
-    #[arg(long, default_value = "0,0,0")]
-    pub probe: String,
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true, value_parser = values::point3)]
+    pub probe: [f64; 3],
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[arg(long)]
@@ -146,10 +148,10 @@ pub struct ExportArgs {
     #[arg(long, value_enum, default_value = "csv")]
     pub format: AxisTableFormat,
     /// The line the 1-D tables run along, through this point (mm): X,Y,Z.
-    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
-    pub at: String,
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true, value_parser = values::point3)]
+    pub at: [f64; 3],
     /// Positions per axis, evenly spaced over the identified range.
-    #[arg(long, default_value_t = 21)]
+    #[arg(long, default_value_t = 21, value_parser = values::at_least_two)]
     pub points: usize,
 }
 
@@ -176,7 +178,7 @@ pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
 }
 
 fn lines_cmd(a: LinesArgs) -> Result<()> {
-    let probe = parse_probe(&a.probe)?;
+    let probe = a.probe;
     let files: Vec<PathBuf> = a
         .sessions
         .iter()
@@ -232,6 +234,7 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
 
 fn program_cmd(a: ProgramArgs) -> Result<()> {
     use errmap::sim::program::lines::render_lines;
+    super::guard::refuse_aliases(&[("--out", &a.out)], &[("--plan", &a.plan)])?;
     let plan = PlanFile::read(&a.plan)?;
     let program = plan.lines_program(&a.plan.display().to_string());
     let text = render_lines(&program, a.dialect)?;
@@ -246,6 +249,10 @@ fn program_cmd(a: ProgramArgs) -> Result<()> {
 }
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    super::guard::refuse_aliases(
+        &[("--out", &a.out)],
+        &[("--model", &a.model), ("--plan", &a.plan)],
+    )?;
     let machine = Machine::read(&a.model)?;
     let plan = PlanFile::read(&a.plan)?;
     let table = simulate(&machine, &plan);
@@ -266,27 +273,8 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// `--component-degree E_XX=5,E_CX=2` → {index: degree}.
-fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>> {
-    let mut out = BTreeMap::new();
-    for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let Some((name, d)) = part.split_once('=') else {
-            bail!("--component-degree: `{part}` is not NAME=DEGREE (e.g. E_XX=3)");
-        };
-        let c: Component = name
-            .parse()
-            .map_err(|e: String| anyhow::anyhow!("--component-degree: {e}"))?;
-        let d: usize = d
-            .trim()
-            .parse()
-            .with_context(|| format!("--component-degree: `{d}` is not a whole number"))?;
-        out.insert(c.index(), d);
-    }
-    Ok(out)
-}
-
 fn identify_cmd(a: IdentifyArgs) -> Result<()> {
-    let topology: Topology = a.topology.parse()?;
+    let topology = a.topology;
     let degree = match a.degree.trim() {
         "auto" => Degree::Auto { max: a.max_degree },
         "auto-each" => Degree::AutoEach { max: a.max_degree },
@@ -297,9 +285,14 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     let config = IdentifyConfig {
         topology,
         degree,
-        component_degrees: component_degrees(&a.component_degree)?,
+        component_degrees: a.component_degree.clone(),
         positions: a.positions,
     };
+    let outputs: Vec<(&str, &Path)> = [("--out", &a.out), ("--report", &a.report)]
+        .into_iter()
+        .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
+        .collect();
+    super::guard::refuse_aliases(&outputs, &[("LINES", &a.lines)])?;
     let table = LineTable::read(&a.lines, true)?;
     let id = identify(&table, &config)?;
     if let Some(out) = &a.out {
@@ -406,19 +399,13 @@ fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
     super::guard::write_file(path, text.as_bytes())
 }
 
-fn parse_probe(s: &str) -> Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .with_context(|| format!("--probe `{s}`: three numbers PX,PY,PZ in mm"))?;
-    match v[..] {
-        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        _ => bail!("--probe `{s}`: three finite numbers PX,PY,PZ in mm"),
-    }
-}
-
 fn predict_cmd(a: PredictArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        let mut inputs: Vec<(&str, &Path)> = vec![("--model", &a.model)];
+        inputs.extend(a.lines.as_deref().map(|p| ("--lines", p)));
+        inputs.extend(a.grid.as_deref().map(|p| ("--grid", p)));
+        super::guard::refuse_aliases(&[("--out", out)], &inputs)?;
+    }
     let model = Predictor::read(&a.model)?;
     if let Some(lines) = &a.lines {
         let table = LineTable::read(lines, false)?;
@@ -448,9 +435,11 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         bail!("give --lines TABLE or --grid GRID");
     };
     let Some(out) = &a.out else {
-        bail!("--grid writes a table: give --out FILE");
+        return Err(super::guard::usage(
+            "--grid writes a table: give --out FILE",
+        ));
     };
-    let probe = parse_probe(&a.probe)?;
+    let probe = a.probe;
     let points: Vec<[f64; 3]> = errmap::table::ErrorTable::read_points(grid)?
         .points
         .iter()
@@ -492,8 +481,8 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
             a.model.display()
         ),
     };
-    if a.points < 2 {
-        bail!("--points {}: at least 2 positions per axis", a.points);
+    if let Some(out) = &a.twincat {
+        super::guard::refuse_aliases(&[("--twincat", out)], &[("--model", &a.model)])?;
     }
     if let Some(out) = &a.twincat {
         let tables = compensation::component_tables(&fit, a.points)
@@ -507,7 +496,7 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         );
     }
     if let Some(dir) = &a.axis_tables {
-        let at = parse_probe(&a.at).context("--at")?;
+        let at = a.at;
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for axis in errmap::base::Axis::ALL {
             let k = axis.index();

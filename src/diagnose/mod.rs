@@ -294,9 +294,28 @@ fn run(
         return Err(e);
     }
 
-    Ok(explain::assemble(
+    let d = explain::assemble(
         &obs, &matching, &groups, &sigma, &w, &y, out, untestable, fold_kind, config,
-    ))
+    );
+    // Parameters computed while assembling (the `unexplained` RMS) are checked too: as
+    // JSON values a NaN would already be `null`, which no writer could tell from a number.
+    match null_param(&d.effects) {
+        Some(e) => Err(e),
+        None => Ok(d),
+    }
+}
+
+/// The first parameter of `effects` that is not a number, a string or finite: `json!`
+/// makes a NaN `null`.
+fn null_param(effects: &[FoundEffect]) -> Option<DiagnoseError> {
+    effects.iter().find_map(|e| {
+        let (name, _) = e.params.iter().find(|(_, v)| v.is_null())?;
+        Some(DiagnoseError::NonFinite {
+            effect: e.id.as_str().to_string(),
+            param: name.clone(),
+            value: f64::NAN,
+        })
+    })
 }
 
 /// The first fitted parameter (or σ of a fitted one) that is not finite, as the error.
@@ -320,7 +339,8 @@ mod non_finite_tests {
     use super::effects::{Kind, Param, Variant};
     use super::select::{FittedTerm, Term};
     use super::*;
-    use crate::base::vocabulary::ParamName;
+    use crate::base::vocabulary::{EffectId, ParamName};
+    use std::collections::BTreeMap;
 
     fn term(value: f64, sigma: f64, fitted: bool) -> FittedTerm {
         FittedTerm {
@@ -354,5 +374,23 @@ mod non_finite_tests {
                 "{e}"
             );
         }
+    }
+
+    /// A parameter assembled after the fit (the `unexplained` RMS) is a JSON value: a
+    /// NaN there is `null` already, and is refused the same way.
+    #[test]
+    fn a_parameter_that_became_null_is_a_bug_reported_not_written() {
+        let effect = |v: f64| FoundEffect {
+            id: EffectId::Unexplained,
+            params: [("rms_um".to_string(), serde_json::json!(v))].into(),
+            uncertainty: BTreeMap::new(),
+            where_: String::new(),
+            explains_um: 1.0,
+        };
+        assert!(null_param(&[effect(2.0)]).is_none());
+        let e = null_param(&[effect(2.0), effect(f64::NAN)])
+            .expect("refused")
+            .to_string();
+        assert!(e.contains("unexplained") && e.contains("rms_um"), "{e}");
     }
 }

@@ -296,11 +296,13 @@ impl ModelRow {
                 .then(|| hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64)
         };
         let (within_1s, within_2s) = (within(1.0), within(2.0));
+        // A σ of 0 (a table of exact zeros cross-validates to 0) gives no z: 0/0 or
+        // r/0 would be NaN or inf in the report.
         let max_abs_z = sigmas
             .iter()
             .zip(&predictions)
             .zip(&test.points)
-            .filter_map(|((s, p), t)| s.map(|s| (p - t.e_um).abs() / s))
+            .filter_map(|((s, p), t)| s.filter(|s| *s > 0.0).map(|s| (p - t.e_um).abs() / s))
             .reduce(f64::max);
         let resid: Vec<f64> = predictions
             .iter()

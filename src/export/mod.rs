@@ -503,7 +503,7 @@ fn axis_positions(
     let k = length_mm / step_mm;
     if k + 1.0 > MAX_SAMPLES as f64 {
         return Err(ExportError::TooManyPoints {
-            points: k as u128 + 1,
+            points: (k as u128).saturating_add(1),
             limit: MAX_SAMPLES,
         });
     }
@@ -619,4 +619,29 @@ pub fn write_grid(
     })?;
     write_frame(out, &mut df)?;
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 17's campaign: `export --start -1e308` overflowed the point count (a
+    /// panic in a debug build) instead of refusing the line as too long.
+    #[test]
+    fn a_line_of_astronomically_many_points_is_refused_not_overflowed() {
+        let spec = LineSpec {
+            axis: Axis::X,
+            at_mm: [0.0; 3],
+            start_mm: -1e308,
+            end_mm: 800.0,
+            step_mm: 50.0,
+        };
+        match spec.positions() {
+            Err(ExportError::TooManyPoints { points, limit }) => {
+                assert_eq!(points, u128::MAX);
+                assert_eq!(limit, MAX_SAMPLES);
+            }
+            other => panic!("expected TooManyPoints, got {other:?}"),
+        }
+    }
 }

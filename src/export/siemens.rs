@@ -64,7 +64,8 @@ use super::{Controller, ExportError, Sampled, compensation_um, fmt_mm, fmt_point
 /// axis' MD38000 `MM_ENC_COMP_MAX_POINTS`, which must be read from the machine.
 pub const SIEMENS_808D_MAX_POINTS: usize = 200;
 
-fn check_axis_name(name: &str) -> Result<(), ExportError> {
+/// A SINUMERIK machine-axis name: a letter, then letters, digits or `_`, at most 32.
+pub fn check_axis_name(name: &str) -> Result<(), ExportError> {
     let ok = !name.is_empty()
         && name.len() <= 32
         && name.starts_with(|c: char| c.is_ascii_alphabetic())

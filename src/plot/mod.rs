@@ -1056,6 +1056,38 @@ mod tests {
         Ok(())
     }
 
+    /// Issue 17: figures are written whole. A figure that cannot be put in place (its
+    /// name taken by a directory) is an error naming it and leaves no temporary file; an
+    /// existing figure is replaced, again with nothing left beside it.
+    #[test]
+    fn a_figure_appears_whole_or_not_at_all() -> TestResult {
+        let dir = temp_dir("whole")?;
+        let stem = dir.path().join("fig");
+        let s = [xy_series(
+            "s",
+            vec![1.0, 2.0],
+            vec![2.0, 1.0],
+            XyStyle::Line,
+        )];
+        let first = xy(&stem, "First", "x", "y", &s)?;
+        let again = xy(&stem, "Again", "x", "y", &s)?;
+        assert_eq!(first, again);
+        check_outputs(&again, &stem, "Again")?;
+        let blocked = dir.path().join("blocked");
+        std::fs::create_dir_all(with_suffix(&blocked, ".png"))?;
+        let r = xy(&blocked, "Blocked", "x", "y", &s);
+        assert!(
+            matches!(&r, Err(PlotError::Draw { path, .. }) if path.ends_with("blocked.png")),
+            "{r:?}"
+        );
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())?
+            .map(|e| e.map(|e| e.file_name().to_string_lossy().into_owned()))
+            .collect::<Result<_, _>>()?;
+        names.sort();
+        assert_eq!(names, ["blocked.png", "fig.png", "fig.svg"]);
+        Ok(())
+    }
+
     #[test]
     fn invalid_input_is_an_error_and_writes_nothing() -> TestResult {
         let dir = temp_dir("errors")?;

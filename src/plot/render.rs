@@ -44,15 +44,30 @@ pub(super) fn write_both(
             source,
         })?;
     }
-    write_png(&png, frame, prims).map_err(|message| PlotError::Draw {
-        path: png.clone(),
-        message,
-    })?;
-    write_svg(&svg, frame, prims).map_err(|message| PlotError::Draw {
-        path: svg.clone(),
-        message,
-    })?;
+    whole(&png, |p| write_png(p, frame, prims))?;
+    whole(&svg, |p| write_svg(p, frame, prims))?;
     Ok(vec![png, svg])
+}
+
+/// Writes `path` whole or not at all: `draw` writes a temporary sibling, which is renamed
+/// into place when it succeeded and removed when it failed, so an error (or a kill)
+/// never leaves a half-drawn figure in a report directory, nor destroys the old one.
+/// The sibling is named like `table::temporary`'s (`.STEM.PID.tmp.EXT`, the extension
+/// kept for the backend); `plot` imports nothing of the crate, so it builds the name.
+fn whole(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), PlotError> {
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    let ext = path.extension().unwrap_or_default().to_string_lossy();
+    let tmp = path.with_file_name(format!(".{stem}.{}.tmp.{ext}", std::process::id()));
+    let result = draw(&tmp)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()))
+        .map_err(|message| PlotError::Draw {
+            path: path.to_path_buf(),
+            message,
+        });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
 }
 
 fn write_png(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), String> {

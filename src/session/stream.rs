@@ -225,10 +225,8 @@ pub fn for_each_batch(
         while offset < n {
             let len = batch_rows.min(n - offset);
             let file = File::open(path).map_err(io)?;
-            let df = ParquetReader::new(file)
-                .with_slice(Some((offset, len)))
-                .finish()
-                .map_err(|e| format_err(path, e))?;
+            let reader = ParquetReader::new(file).with_slice(Some((offset, len)));
+            let df = crate::table::finish_parquet(path, reader)?;
             let rows = frame_rows(path, &df, offset, &mut seen)?;
             each(&rows)?;
             total += rows.len() as u64;

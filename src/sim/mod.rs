@@ -13,7 +13,7 @@
 //! | [`error`] | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
 
-mod bounds;
+pub(crate) mod bounds;
 pub mod concealed;
 pub mod error;
 pub mod physics;

@@ -477,7 +477,9 @@ impl MachineModel {
         let Some(spec) = self.error_map.as_ref().filter(|m| m.enabled) else {
             return Ok(None);
         };
-        let table = ErrorTable::read(&spec.table)?;
+        // The model names the table: a bad path is the model's mistake, so both are named.
+        let table = ErrorTable::read(&spec.table)
+            .map_err(|e| config_err(path, format!("error_map.table: {e}")))?;
         let grid = table.grid()?;
         let name: MethodName = spec
             .method

@@ -37,9 +37,7 @@ pub(crate) fn is_parquet(path: &Path) -> Result<bool, TableError> {
 /// and column here rather than silently turning a whole column into text.
 pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
     if is_parquet(path)? {
-        super::structure::parquet_reader(path)?
-            .finish()
-            .map_err(|e| format_err(path, e))
+        super::structure::finish_parquet(path, super::structure::parquet_reader(path)?)
     } else {
         // Open first so that a missing file is an I/O error with the OS's words; then the
         // header names and field counts (polars accepts repeated names and short rows).

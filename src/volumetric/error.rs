@@ -66,5 +66,16 @@ pub(crate) fn read_toml<T: for<'de> serde::Deserialize<'de>>(
     path: &Path,
 ) -> Result<T, VolumetricError> {
     let text = std::fs::read_to_string(path).map_err(io_err(path))?;
-    toml::from_str(&text).map_err(|e| config_err(path, "file", e.to_string().trim_end()))
+    let value =
+        toml::from_str(&text).map_err(|e| config_err(path, "file", e.to_string().trim_end()))?;
+    // Every number within its key's physical range, as the simulator's files (issue 17:
+    // a component coefficient of 1e308 came out as an inf error vector).
+    crate::sim::bounds::check_numbers(path, &text).map_err(|e| match e {
+        crate::sim::SimError::Config { message, .. } => match message.split_once(": ") {
+            Some((key, problem)) => config_err(path, key, problem),
+            None => config_err(path, "file", message),
+        },
+        other => config_err(path, "file", other.to_string()),
+    })?;
+    Ok(value)
 }

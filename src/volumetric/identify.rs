@@ -25,6 +25,12 @@ pub const RANK_TOL: f64 = 1e-8;
 /// this (rows of an orthonormal null-space basis, equilibrated coordinates).
 pub const NULL_TOL: f64 = 1e-6;
 
+/// The highest polynomial degree of a component (a fixed degree, `auto`'s maximum, a
+/// per-component degree). Beyond it a line of the usual 11–21 targets determines nothing
+/// more, and the catalogue search for lines that would grows steeply with the degree
+/// (issue 17: degree 40 ran for minutes).
+pub const MAX_DEGREE: usize = 12;
+
 /// Degree of the component polynomials.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Degree {
@@ -519,6 +525,21 @@ pub fn identify(
             Component::from_index(c).name()
         )));
     }
+    let asked = match config.degree {
+        Degree::Fixed(d) | Degree::Auto { max: d } | Degree::AutoEach { max: d } => d,
+    };
+    if let Some(d) = config
+        .component_degrees
+        .values()
+        .copied()
+        .chain([asked])
+        .max()
+        && d > MAX_DEGREE
+    {
+        return Err(fit_err(format!(
+            "degree {d} is above {MAX_DEGREE}, the highest component degree errmap fits"
+        )));
+    }
     let row_w: Vec<f64> = sqrt_w.iter().map(|s| s * s).collect();
     let thermal_col = thermal::column(table, &row_w);
     let (degree, cv) = match config.degree {
@@ -862,5 +883,52 @@ impl Identification {
             doc["fit"] = serde_json::to_value(&self.fit).unwrap_or(Value::Null);
         }
         doc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volumetric::simulate::{Plan, preset};
+    use crate::volumetric::{Machine, simulate};
+
+    /// Issue 17's campaign: `--degree 40` ran for minutes. A degree above the bound is
+    /// refused at once, naming the bound; the bound itself is still fitted.
+    #[test]
+    fn a_degree_above_the_bound_is_refused_at_once() {
+        let topo = Topology([1, 0, 2]);
+        let plan = Plan {
+            seed: 1,
+            noise_um: 0.1,
+            laser_zero_um: 0.0,
+            feed_mm_s: 20.0,
+            dwell_s: 1.0,
+            setup_s: 1.0,
+            lines: preset("rich", [[0.0; 3], [400.0, 300.0, 200.0]], 7, 50.0, 1).expect("preset"),
+            thermal: None,
+        };
+        let table = simulate(&Machine::perfect(topo), &plan);
+        for degree in [
+            Degree::Fixed(MAX_DEGREE + 1),
+            Degree::Fixed(40),
+            Degree::Auto { max: 1000 },
+            Degree::AutoEach {
+                max: MAX_DEGREE + 1,
+            },
+        ] {
+            let mut cfg = IdentifyConfig::new(topo);
+            cfg.degree = degree;
+            let e = identify(&table, &cfg).expect_err("refused").to_string();
+            assert!(
+                e.contains(&format!("above {MAX_DEGREE}")),
+                "{degree:?}: {e}"
+            );
+        }
+        let mut cfg = IdentifyConfig::new(topo);
+        cfg.degree = Degree::Fixed(2);
+        cfg.component_degrees.insert(0, MAX_DEGREE + 1);
+        assert!(identify(&table, &cfg).is_err());
+        cfg.component_degrees.clear();
+        assert!(identify(&table, &cfg).is_ok());
     }
 }

@@ -17,6 +17,7 @@ use polars::prelude::*;
 
 use super::error::VolumetricError;
 use super::model::dot;
+use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S};
 use crate::table::{
     Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
     required_cell, write_frame,
@@ -86,6 +87,16 @@ pub struct LineTable {
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// The physical range of a line-table column, by its unit suffix.
+fn bound_of(column: &str) -> Bound {
+    match column.rsplit('_').next() {
+        Some("um") => ERROR_UM,
+        Some("s") => TIME_S,
+        Some("c") => TEMPERATURE_C,
+        _ => POSITION_MM,
+    }
 }
 
 fn bad(path: &Path, row: usize, column: &str, problem: String) -> VolumetricError {
@@ -162,6 +173,23 @@ impl LineTable {
             for (k, cells) in opt.iter().enumerate() {
                 if let Some(c) = cells {
                     o[k] = parse_cell(path, c, r0, OPTIONAL[k])?;
+                }
+            }
+            // Physical bounds at the door (`base::limits`): a position of 1e308 mm
+            // passed the finiteness check and came out as NaN predictions.
+            let values = [
+                ("x_mm", Some(v[0])),
+                ("y_mm", Some(v[1])),
+                ("z_mm", Some(v[2])),
+            ]
+            .into_iter()
+            .chain([("e_um", e_um)])
+            .chain(OPTIONAL.iter().copied().zip(o));
+            for (name, value) in values {
+                if let Some(x) = value
+                    && let Err(problem) = bound_of(name).check(x)
+                {
+                    return Err(bad(path, row, name, problem));
                 }
             }
             if let Some(s) = o[3]

@@ -505,11 +505,12 @@ impl MachineFile {
                     }
                     finite_all(path, &format!("{k}.poly"), poly)?;
                     let scale_mm = spec.scale_mm.unwrap_or(1.0);
-                    if !(scale_mm.is_finite() && scale_mm > 0.0) {
+                    // Positions are divided by it: 5e-324 made every error vector NaN.
+                    if !(scale_mm.is_finite() && scale_mm >= 1e-3) {
                         return Err(config_err(
                             path,
                             format!("{k}.scale_mm"),
-                            format!("{scale_mm} must be a positive length"),
+                            format!("{scale_mm:e} must be a length of at least 0.001 mm"),
                         ));
                     }
                     ComponentFn::Poly {

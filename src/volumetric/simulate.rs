@@ -208,6 +208,12 @@ fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     (n > 0.0 && n.is_finite()).then(|| v.map(|c| c / n))
 }
 
+/// The smallest extent of a preset's volume along an axis, mm.
+pub const MIN_EXTENT_MM: f64 = 1e-3;
+
+/// The slowest feed of a plan, mm/s.
+pub const MIN_FEED_MM_S: f64 = 1e-3;
+
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
         let f: PlanFile = read_toml(path)?;
@@ -233,6 +239,18 @@ impl PlanFile {
                     ),
                 ));
             }
+        }
+        // A move of 10⁶ mm (the position bound) then takes at most 10⁹ s (the time
+        // bound); a feed of 5e-324 mm/s made every time stamp infinite.
+        if self.feed_mm_s < MIN_FEED_MM_S {
+            return Err(config_err(
+                path,
+                "feed_mm_s",
+                format!(
+                    "{:e} mm/s is below the slowest feed, {MIN_FEED_MM_S} mm/s",
+                    self.feed_mm_s
+                ),
+            ));
         }
         if self.runs == 0 {
             return Err(config_err(path, "runs", "at least 1 run"));
@@ -264,13 +282,16 @@ impl PlanFile {
                     "a preset needs volume_mm = [[x0, y0, z0], [x1, y1, z1]]",
                 ));
             };
+            // At least a micrometre along each axis: a box 5e-324 mm wide made NaN
+            // line directions.
             if vol.iter().flatten().any(|v| !v.is_finite())
-                || (0..3).any(|k| vol[1][k] <= vol[0][k])
+                || (0..3).any(|k| vol[1][k] - vol[0][k] < MIN_EXTENT_MM)
             {
                 return Err(config_err(
                     path,
                     "volume_mm",
-                    "corners must be finite with x1 > x0, y1 > y0, z1 > z0",
+                    "corners must be finite with x1 > x0, y1 > y0, z1 > z0, each at least \
+                     0.001 mm apart",
                 ));
             }
             if self.targets < 3 {

@@ -828,8 +828,9 @@ fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
             );
         }
     }
+    // A format without direction tables with --bidirectional: a usage error (issue 17).
     let (o, _) = run("reversal", &["--format", "heidenhain", "--at", "y=1,z=200"]);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("direction-dependent"));
     let (o, _) = run("reversal", &["--format", "linuxcnc"]);
     assert_eq!(o.status.code(), Some(1));

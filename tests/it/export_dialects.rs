@@ -861,9 +861,10 @@ fn bidirectional_isg_and_fanuc_tables_carry_the_reversal_of_the_session() {
             );
         }
     }
-    // HEIDENHAIN has no direction-dependent table here; refused, naming those that do.
+    // HEIDENHAIN has no direction-dependent table here; refused, naming those that do
+    // (flags that do not go together: a usage error, exit 2).
     let (code, err, _) = export_session("reversal", &["--format", "heidenhain"], dir.path());
-    assert_eq!(code, Some(1));
+    assert_eq!(code, Some(2));
     assert!(
         err.contains("direction-dependent") && err.contains("fanuc"),
         "{err}"

@@ -3,6 +3,7 @@
 //! binary in `tests/diagnosis/`.
 
 mod acquisition;
+mod campaign;
 mod certificate;
 mod cli;
 mod experiment;

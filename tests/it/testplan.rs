@@ -898,7 +898,8 @@ fn errmap_plan_as_the_outside_checks_call_it() {
             "bad.toml",
         ],
     );
-    assert_eq!(o.status.code(), Some(1));
+    // A bad flag value is a usage error (issue 17).
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--random-offset"));
     assert!(!dir.path().join("bad.toml").exists());
 }

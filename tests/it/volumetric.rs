@@ -738,7 +738,8 @@ fn cli_bad_input_exits_1_and_usage_errors_exit_2() {
         "--topology",
         "XQZ",
     ]);
-    assert_eq!(o.status.code(), Some(1));
+    // A bad flag value is a usage error (issue 17), named by clap with the reason.
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("topology `XQZ`"));
     let o = errmap(&[
         "volumetric",
