@@ -20,7 +20,9 @@
 //!   rows, which the page compression folds to almost nothing anyway.
 //!
 //! Pages are compressed with zstd at level 1 (the fastest of zstd's standard levels;
-//! polars' default is 3), and carry null counts, with min and max for the key columns
+//! polars' default is 3) through one zstd context kept for the whole file ([`Zstd`]):
+//! polars' `Compressor` makes a new context for every page, a few hundred kB allocated and
+//! cleared 19 times a row group. Pages carry null counts, with min and max for the key columns
 //! (run, sample, time, axis, direction, target, flags; see [`MIN_MAX`]). The file is standard Parquet with polars' own Arrow
 //! schema key, read back by polars (and by any Parquet reader) like the ones
 //! `ParquetWriter` writes; the encodings are the Parquet format's own.
@@ -36,11 +38,14 @@ use polars::prelude::*;
 use polars_arrow::array::{Array, MutableBinaryViewArray, PrimitiveArray};
 use polars_arrow::bitmap::{Bitmap, MutableBitmap};
 use polars_arrow::datatypes::ArrowDataType;
-use polars_parquet::read::ParquetError;
+use polars_parquet::parquet::CowBuffer;
+use polars_parquet::parquet::compression::Compression;
+use polars_parquet::parquet::page::{
+    CompressedDataPage, CompressedDictPage, CompressedPage, DataPageHeader, Page,
+};
 use polars_parquet::write::{
-    CompressionOptions, Compressor, DynIter, DynStreamingIterator, Encoding,
-    FallibleStreamingIterator, FileWriter, StatisticsOptions, Version, WriteOptions, ZstdLevel,
-    array_to_columns,
+    CompressionOptions, DynIter, DynStreamingIterator, Encoding, FallibleStreamingIterator,
+    FileWriter, StatisticsOptions, Version, WriteOptions, ZstdLevel, array_to_columns,
 };
 
 /// An optional float column: values (0 where missing) and the rows where one is missing
@@ -311,6 +316,84 @@ impl Columns {
 pub struct ParquetSink<W: Write> {
     writer: FileWriter<W>,
     options: WriteOptions,
+    zstd: Zstd,
+}
+
+/// The zstd level of the session table's pages.
+const ZSTD_LEVEL: i32 = 1;
+
+/// Compresses pages with one zstd context, reused from page to page and row group to row
+/// group. The pages are the standard Parquet zstd pages polars' own `Compressor` makes
+/// (the whole buffer of a V1 data page, or of a dictionary page, is one zstd frame).
+struct Zstd(zstd::bulk::Compressor<'static>);
+
+impl Zstd {
+    fn new() -> std::io::Result<Self> {
+        zstd::bulk::Compressor::new(ZSTD_LEVEL).map(Zstd)
+    }
+
+    fn frame(&mut self, input: &[u8]) -> PolarsResult<Vec<u8>> {
+        let mut out = Vec::with_capacity(zstd::zstd_safe::compress_bound(input.len()));
+        self.0
+            .compress_to_buffer(input, &mut out)
+            .map_err(|e| polars_err!(ComputeError: "zstd: {e}"))?;
+        Ok(out)
+    }
+
+    fn page(&mut self, page: Page) -> PolarsResult<CompressedPage> {
+        Ok(match page {
+            Page::Data(page) => {
+                if !matches!(page.header(), DataPageHeader::V1(_)) {
+                    // Not written by this module (its pages are V1); kept correct anyway.
+                    return Ok(polars_parquet::parquet::write::compress(
+                        Page::Data(page),
+                        Vec::new(),
+                        CompressionOptions::Zstd(Some(ZstdLevel::try_new(ZSTD_LEVEL)?)),
+                    )?);
+                }
+                let rows = page.num_rows().unwrap_or_else(|| page.num_values());
+                let buffer = self.frame(page.buffer())?;
+                CompressedPage::Data(CompressedDataPage::new(
+                    page.header().clone(),
+                    CowBuffer::Owned(buffer),
+                    Compression::Zstd,
+                    page.buffer().len(),
+                    page.descriptor.clone(),
+                    rows,
+                ))
+            }
+            Page::Dict(page) => {
+                let buffer = self.frame(&page.buffer)?;
+                CompressedPage::Dict(CompressedDictPage::new(
+                    CowBuffer::Owned(buffer),
+                    Compression::Zstd,
+                    page.buffer.len(),
+                    page.num_values,
+                    page.is_sorted,
+                ))
+            }
+        })
+    }
+}
+
+/// One column chunk's compressed pages, handed to the file writer one at a time.
+struct Pages {
+    pages: std::vec::IntoIter<CompressedPage>,
+    current: Option<CompressedPage>,
+}
+
+impl FallibleStreamingIterator for Pages {
+    type Item = CompressedPage;
+    type Error = PolarsError;
+
+    fn advance(&mut self) -> PolarsResult<()> {
+        self.current = self.pages.next();
+        Ok(())
+    }
+
+    fn get(&self) -> Option<&CompressedPage> {
+        self.current.as_ref()
+    }
 }
 
 impl<W: Write> std::fmt::Debug for ParquetSink<W> {
@@ -329,12 +412,13 @@ impl<W: Write> ParquetSink<W> {
         let options = WriteOptions {
             statistics: StatisticsOptions::default(),
             version: Version::V1,
-            compression: CompressionOptions::Zstd(Some(ZstdLevel::try_new(1)?)),
+            compression: CompressionOptions::Zstd(Some(ZstdLevel::try_new(ZSTD_LEVEL)?)),
             data_page_size: None,
         };
         Ok(ParquetSink {
             writer: FileWriter::try_new(out, schema, options)?,
             options,
+            zstd: Zstd::new().map_err(|e| polars_err!(ComputeError: "zstd: {e}"))?,
         })
     }
 
@@ -364,11 +448,13 @@ impl<W: Write> ParquetSink<W> {
                 }
             };
             for encoded in array_to_columns(array, field, options, &[encoding])? {
-                let encoded = encoded
-                    .map(|page| page.map_err(|e| ParquetError::FeatureNotSupported(e.to_string())));
-                let compressed = Compressor::new_from_vec(encoded, options.compression, Vec::new())
-                    .map_err(PolarsError::from);
-                pages.push(Ok(DynStreamingIterator::new(compressed)));
+                let compressed = encoded
+                    .map(|page| self.zstd.page(page?))
+                    .collect::<PolarsResult<Vec<_>>>()?;
+                pages.push(Ok(DynStreamingIterator::new(Pages {
+                    pages: compressed.into_iter(),
+                    current: None,
+                })));
             }
         }
         self.writer
