@@ -104,6 +104,16 @@ pub const TIME_S: Bound = Bound {
     what: "a time",
 };
 
+/// Standard (one-sigma) uncertainties of a measured error, µm: from 1 pm (a thousandth of
+/// a laser interferometer's 1 nm resolution; below it a weight 1/σ² is no longer a
+/// number a fit can use) to a metre.
+pub const UNCERTAINTY_UM: Bound = Bound {
+    lo: 1e-6,
+    hi: 1e6,
+    unit: "µm",
+    what: "a standard uncertainty",
+};
+
 /// Feeds, mm/s.
 pub const FEED_MM_S: Bound = Bound {
     lo: 0.0,

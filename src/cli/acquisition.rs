@@ -288,6 +288,12 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 pub fn table_cmd(a: TableArgs) -> Result<()> {
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
     if a.json {
+        // The numbers are checked before `json!` would turn a NaN into null.
+        let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
+        errmap::report::finite::check_json(
+            Path::new("stdout"),
+            &(&reduced.summary, &reduced.iso, &reduced.budgets, &expanded),
+        )?;
         let lines: Vec<_> = reduced
             .iso
             .iter()

@@ -311,12 +311,7 @@ pub fn read_session_thinned(path: &Path, max_rows: usize) -> Result<Thinned, Tab
     let mut stride = 1i64;
     let mut rows: Vec<SessionRow> = Vec::new();
     let total = for_each_batch(path, BATCH_ROWS, &mut |batch| {
-        rows.extend(
-            batch
-                .iter()
-                .filter(|r| r.sample.rem_euclid(stride) == 0)
-                .cloned(),
-        );
+        keep_every(batch, stride, &mut rows);
         // Rows sharing one sample index (one per run) cannot be thinned apart: stop
         // doubling when the stride is past every index.
         while rows.len() > max_rows && stride < (1 << 62) {
@@ -339,13 +334,19 @@ pub fn read_session_every(path: &Path, stride: i64) -> Result<(Vec<SessionRow>, 
     let stride = stride.max(1);
     let mut rows = Vec::new();
     let total = for_each_batch(path, BATCH_ROWS, &mut |batch| {
-        rows.extend(
-            batch
-                .iter()
-                .filter(|r| r.sample.rem_euclid(stride) == 0)
-                .cloned(),
-        );
+        keep_every(batch, stride, &mut rows);
         Ok(())
     })?;
     Ok((rows, total))
+}
+
+/// Appends to `rows` the rows of `batch` whose device sample index is a multiple of
+/// `stride`.
+fn keep_every(batch: &[SessionRow], stride: i64, rows: &mut Vec<SessionRow>) {
+    rows.extend(
+        batch
+            .iter()
+            .filter(|r| r.sample.rem_euclid(stride) == 0)
+            .cloned(),
+    );
 }

@@ -203,6 +203,20 @@ pub struct Identification {
     pub cv_each: Option<super::degree::EachScore>,
 }
 
+/// What [`Identification::json_numbers`] hands over for a finiteness check.
+#[derive(Debug, Serialize)]
+pub struct JsonNumbers<'a> {
+    pub rms_residual_um: f64,
+    /// (value, one-sigma) of each component at each written position, then of each
+    /// squareness; `None` where not identified.
+    pub components: Vec<Option<(f64, f64)>>,
+    pub residual: &'a ResidualVerdict,
+    pub cv: &'a [CvScore],
+    pub thermal: &'a Option<ThermalTest>,
+    pub cv_each: &'a Option<super::degree::EachScore>,
+    pub fit: &'a FitState,
+}
+
 /// The centred, weighted design of a line table under a basis.
 pub(crate) struct Design {
     /// Equilibrated, centred, weighted rows (rows × params).
@@ -833,6 +847,30 @@ impl Identification {
     }
 
     /// The spec's `identify --json` document; with `fit`, the state `predict` needs.
+    /// The numbers [`Self::to_json`] writes that a computation could leave NaN or ±inf:
+    /// the fit, every component and squareness value with its one-sigma, the residual
+    /// verdict and the cross-validation scores. For a check before writing: inside a
+    /// `serde_json::Value` a NaN has already become `null`, indistinguishable from the
+    /// nulls the document means (an unidentified component).
+    pub fn json_numbers(&self, positions: usize) -> JsonNumbers<'_> {
+        JsonNumbers {
+            rms_residual_um: self.rms_residual_um,
+            components: Component::all()
+                .flat_map(|c| {
+                    self.positions(c.axis, positions)
+                        .into_iter()
+                        .map(move |a| self.fit.component(c.index(), a))
+                })
+                .chain((0..SQUARENESS.len()).map(|i| self.fit.squareness(i)))
+                .collect(),
+            residual: &self.residual,
+            cv: &self.cv,
+            thermal: &self.thermal,
+            cv_each: &self.cv_each,
+            fit: &self.fit,
+        }
+    }
+
     pub fn to_json(&self, positions: usize, with_fit: bool) -> serde_json::Value {
         use serde_json::{Value, json};
         let mut comps = serde_json::Map::new();

@@ -8,7 +8,7 @@
 //! line disagreeing on u (by more than 1e−6) or on the probe offset (by more than
 //! 1e−6 mm); a target more than 1 µm off the line through the line's first target along
 //! u; a line with fewer than 3 distinct targets (positions along the line 1 µm apart);
-//! `s_um` not positive. Rows of a line need not be contiguous; lines keep the order of
+//! `s_um` outside 1e−6 … 1e6 µm (a one-sigma, so positive; see [`UNCERTAINTY_UM`]). Rows of a line need not be contiguous; lines keep the order of
 //! their first row and targets the order of the file.
 
 use std::path::Path;
@@ -17,7 +17,7 @@ use polars::prelude::*;
 
 use super::error::VolumetricError;
 use super::model::dot;
-use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S};
+use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
 use crate::table::{
     Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
     required_cell, write_frame,
@@ -92,6 +92,7 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 /// The physical range of a line-table column, by its unit suffix.
 fn bound_of(column: &str) -> Bound {
     match column.rsplit('_').next() {
+        _ if column == "s_um" => UNCERTAINTY_UM,
         Some("um") => ERROR_UM,
         Some("s") => TIME_S,
         Some("c") => TEMPERATURE_C,
@@ -191,16 +192,6 @@ impl LineTable {
                 {
                     return Err(bad(path, row, name, problem));
                 }
-            }
-            if let Some(s) = o[3]
-                && s <= 0.0
-            {
-                return Err(bad(
-                    path,
-                    row,
-                    "s_um",
-                    format!("one-sigma {s} must be positive"),
-                ));
             }
             let u = [v[3], v[4], v[5]];
             let norm = dot(u, u).sqrt();

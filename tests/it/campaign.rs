@@ -36,7 +36,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-mod cases;
+pub mod cases;
 
 use cases::{Case, Expect, Rng, make_case};
 
@@ -684,6 +684,13 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         1,
         &["far-lines.csv", "y_mm", "physical range"],
     ),
+    // Seed 13: a one-sigma of 1e-320 µm made the weights inf and the identification's
+    // JSON (stdout and --out) carry nulls where NaNs had been.
+    (
+        "volumetric identify {tinys} --topology YXZ --degree 2 --out {out} --json",
+        1,
+        &["tiny-s-lines.csv", "s_um", "physical range"],
+    ),
     (
         "volumetric predict --model {huge} --grid {t2} --out {out}",
         1,
@@ -751,6 +758,20 @@ fn what_the_campaign_found_stays_fixed() {
     cells[2] = "1.7976931348623157e308".into();
     far[2] = cells.join(",");
     std::fs::write(d.join("far-lines.csv"), far.join("\n") + "\n").expect("write");
+    // A one-sigma of 1e-320 µm: its weight 1/σ is inf.
+    let mut tiny_s: Vec<String> = std::fs::read_to_string(&f.lines)
+        .expect("lines")
+        .lines()
+        .map(str::to_string)
+        .collect();
+    let s_col = tiny_s[0]
+        .split(',')
+        .position(|c| c == "s_um")
+        .expect("the line table has s_um");
+    let mut cells: Vec<String> = tiny_s[3].split(',').map(str::to_string).collect();
+    cells[s_col] = "1e-320".into();
+    tiny_s[3] = cells.join(",");
+    std::fs::write(d.join("tiny-s-lines.csv"), tiny_s.join("\n") + "\n").expect("write");
     let model = |poly: &str| format!("topology = \"YXZ\"\n[components]\nE_XX = {{ {poly} }}\n");
     std::fs::write(d.join("huge-coefficient.toml"), model("poly = [1e308]")).expect("write");
     std::fs::write(
@@ -786,6 +807,7 @@ fn what_the_campaign_found_stays_fixed() {
         ("vp", vp.clone()),
         ("one", d.join("one-x.csv")),
         ("far", d.join("far-lines.csv")),
+        ("tinys", d.join("tiny-s-lines.csv")),
         ("huge", d.join("huge-coefficient.toml")),
         ("tiny", d.join("tiny-scale.toml")),
         ("slow", d.join("slow-plan.toml")),

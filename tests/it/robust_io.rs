@@ -21,6 +21,9 @@ use std::path::{Path, PathBuf};
 
 use targets::Target;
 
+// xorshift64*, the campaign's generator: a small reproducible source for the mutations.
+use super::campaign::cases::Rng;
+
 fn fuzz_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fuzz")
 }
@@ -110,21 +113,6 @@ fn every_input_that_once_broke_a_reader_replays_without_a_panic() {
     }
     assert!(n > 0, "fuzz/regressions/ holds no input");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-}
-
-/// xorshift64*: a small reproducible generator for the mutations.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
 }
 
 /// Text a table or TOML mutation splices in: the values and tokens that broke readers
@@ -223,7 +211,7 @@ fn seeded_mutations_of_the_corpus_do_not_panic() {
     for t in Target::ALL {
         let seeds = corpus(t);
         assert!(!seeds.is_empty(), "fuzz/corpus/{} is empty", t.name());
-        let mut rng = Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
+        let mut rng = Rng::from_state(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         for i in 0..per_target {
             let (_, data) = &seeds[rng.below(seeds.len())];
             let (_, other) = &seeds[rng.below(seeds.len())];
