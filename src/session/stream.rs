@@ -220,7 +220,10 @@ pub fn for_each_batch(
     let mut total = 0u64;
     if parquet {
         let mut reader = ParquetReader::new(file);
-        let n = reader.num_rows().map_err(|e| format_err(path, e))?;
+        let n =
+            crate::table::guarded(path, "the footer (file metadata) cannot be decoded", || {
+                reader.num_rows()
+            })?;
         let mut offset = 0;
         while offset < n {
             let len = batch_rows.min(n - offset);

@@ -165,25 +165,34 @@ pub(crate) fn check_csv(path: &Path) -> Result<(), TableError> {
     Ok(())
 }
 
-/// Reads the data of a Parquet file whose schema [`parquet_reader`] checked. polars'
-/// page decoder asserts on some damaged pages (issue 17's campaign: four flipped bits
-/// gave `assertion failed: start + length <= self.bytes.len()` in a polars worker) where
-/// it should return an error; that panic is caught here and becomes the error naming the
-/// file, and its message is kept off stderr (see [`quiet_decoder_panics`]).
+/// Reads the data of a Parquet file whose schema [`parquet_reader`] checked, through
+/// [`guarded`]: polars' page decoder asserts on some damaged pages (issue 17's campaign:
+/// four flipped bits gave `assertion failed: start + length <= self.bytes.len()` in a
+/// polars worker) where it should return an error.
 pub(crate) fn finish_parquet(
     path: &Path,
     reader: ParquetReader<File>,
 ) -> Result<DataFrame, TableError> {
+    guarded(path, "a page cannot be decoded", || reader.finish())
+}
+
+/// Runs a polars Parquet call, turning a panic inside polars into the error naming the
+/// file (`damaged Parquet data: {what}`), its message kept off stderr (see
+/// [`quiet_decoder_panics`]). polars panics on some damaged files where it should return
+/// an error: in the page decoder, and in the footer's Thrift decoder (`thrift bool field`
+/// on three flipped bits, found by the campaign's seed 19).
+pub(crate) fn guarded<T>(
+    path: &Path,
+    what: &str,
+    call: impl FnOnce() -> polars::prelude::PolarsResult<T>,
+) -> Result<T, TableError> {
     quiet_decoder_panics();
     DECODING.fetch_add(1, Ordering::SeqCst);
-    let result = std::panic::catch_unwind(AssertUnwindSafe(|| reader.finish()));
+    let result = std::panic::catch_unwind(AssertUnwindSafe(call));
     DECODING.fetch_sub(1, Ordering::SeqCst);
     match result {
         Ok(r) => r.map_err(|e| format_err(path, e)),
-        Err(_) => Err(format_err(
-            path,
-            "damaged Parquet data: a page cannot be decoded",
-        )),
+        Err(_) => Err(format_err(path, format!("damaged Parquet data: {what}"))),
     }
 }
 
@@ -210,7 +219,9 @@ fn quiet_decoder_panics() {
 pub(crate) fn parquet_reader(path: &Path) -> Result<ParquetReader<File>, TableError> {
     let file = File::open(path).map_err(io(path))?;
     let mut reader = ParquetReader::new(file);
-    let schema = reader.schema().map_err(|e| format_err(path, e))?;
+    let schema = guarded(path, "the footer (file metadata) cannot be decoded", || {
+        reader.schema()
+    })?;
     unique_names(path, schema.iter_values().map(|f| f.name.as_str()))?;
     for f in schema.iter_values() {
         use ArrowDataType as T;

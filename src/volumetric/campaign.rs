@@ -146,10 +146,15 @@ fn scores<'a>(
         let theta = gr / gg;
         let s1 = ((chi2 - gr * gr / gg).max(0.0) / dof1).sqrt();
         let sigma = s1 / gg.sqrt();
+        // σ = 0: the column takes up the whole residual. It is significant beyond any
+        // bound when it explains something (θ ≠ 0, data without noise), and not at all
+        // when there is nothing left to explain (a residual of exact zeros: θ = 0).
         Some(if sigma > 0.0 {
             theta.abs() / sigma
-        } else {
+        } else if theta != 0.0 {
             f64::INFINITY
+        } else {
+            0.0
         })
     })
     .collect()
@@ -218,6 +223,16 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, 
     (chosen, cur)
 }
 
+/// A term's t in words: one decimal, or what an infinite one means (data without noise
+/// that the term explains exactly).
+fn t_words(t: f64) -> String {
+    if t.is_finite() {
+        format!("{t:.1}")
+    } else {
+        "unbounded (the term leaves no residual)".to_string()
+    }
+}
+
 /// The effect of a chosen term, from its fitted value and σ (joint fit).
 pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> FoundEffect {
     let contribution: Vec<f64> = c.col.iter().map(|g| value * g).collect();
@@ -233,11 +248,11 @@ pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> F
                 format!(
                     "every line: the readings drift by {:.3} ± {:.3} µm/h during the campaign \
                      (t_s within each line; each line's constant absorbs the hours between \
-                     lines), |ρ|/σ = {:.1} > {DRIFT_T}; fitted jointly with the 21 errors, \
+                     lines), |ρ|/σ = {} > {DRIFT_T}; fitted jointly with the 21 errors, \
                      which are reported without it",
                     value * 3600.0,
                     sigma * 3600.0,
-                    c.t
+                    t_words(c.t)
                 ),
             )
         }
@@ -257,13 +272,13 @@ pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> F
                 EffectId::ScaleFactor,
                 format!(
                     "line {} alone: its readings scale by {:.2} ± {:.2} ppm against the other \
-                     lines ({cosine}a wrong air compensation on that line); |k|/σ = {:.1} > \
+                     lines ({cosine}a wrong air compensation on that line); |k|/σ = {} > \
                      {:.2} (Bonferroni over {} lines); fitted jointly with the 21 errors, which \
                      are reported without it; remeasure the line",
                     line.id,
                     value,
                     sigma,
-                    c.t,
+                    t_words(c.t),
                     line_threshold(table.lines.len()),
                     table.lines.len()
                 ),

@@ -503,15 +503,19 @@ fn thermal_fit(
     }
     let alpha = solved.theta[n];
     let sigma = solved.cov[(n, n)].max(0.0).sqrt();
+    // σ = 0 (an exact fit): significant beyond any bound when α explains something, not
+    // at all when α = 0; the unbounded t is not a number a document can carry (`None`).
     let t = if sigma > 0.0 {
-        alpha.abs() / sigma
+        Some(alpha.abs() / sigma)
+    } else if alpha != 0.0 {
+        None
     } else {
-        f64::INFINITY
+        Some(0.0)
     };
     test.alpha_ppm_per_k = Some(alpha);
     test.sigma_ppm_per_k = Some(sigma);
-    test.t = Some(t);
-    test.kept = t > thermal::THERMAL_T;
+    test.t = t;
+    test.kept = t.is_none_or(|t| t > thermal::THERMAL_T);
     if !test.kept {
         return (test, None);
     }

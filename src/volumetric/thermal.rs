@@ -57,7 +57,8 @@ pub struct ThermalTest {
     /// α̂, ppm/K, `None` when the temperatures do not determine it.
     pub alpha_ppm_per_k: Option<f64>,
     pub sigma_ppm_per_k: Option<f64>,
-    /// |α̂|/σ_α.
+    /// |α̂|/σ_α; `None` when not tested, or when σ_α = 0 and α̂ ≠ 0 (an exact fit:
+    /// significant beyond any bound, kept).
     pub t: Option<f64>,
     /// Whether the term is in the reported fit (components at 20 °C).
     pub kept: bool,
@@ -117,11 +118,14 @@ pub(crate) fn effect(test: &ThermalTest) -> Option<FoundEffect> {
         where_: format!(
             "the scales of X, Y and Z (positioning E_XX, E_YY, E_ZZ gain α·ΔT·a·1e−3 µm), \
              scale_temp_c {:.2}–{:.2} °C{time}; one α for the three axes, x0_mm fixed at each \
-             axis' reference position 0 (not fitted); |α|/σ = {:.1} > {THERMAL_T}; the \
+             axis' reference position 0 (not fitted); |α|/σ = {} > {THERMAL_T}; the \
              components are reported at 20 °C",
             test.temp_c[0],
             test.temp_c[1],
-            test.t.unwrap_or(0.0)
+            test.t.map_or_else(
+                || "unbounded (α leaves no residual)".to_string(),
+                |t| format!("{t:.1}")
+            )
         ),
         explains_um: test.explains_um,
     })

@@ -718,6 +718,13 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         0,
         &[],
     ),
+    // Seeds 17 and 19: a Parquet footer with flipped bits panicked in polars' Thrift
+    // decoder (`thrift bool field`).
+    (
+        "fit {footer} --method trilinear --predict {t2} --out {out}",
+        1,
+        &["damaged-footer.parquet", "damaged Parquet"],
+    ),
     // A model whose error table is missing named only the table.
     (
         "simulate --model {lost} --plan {plan} --out {out}",
@@ -816,6 +823,10 @@ fn what_the_campaign_found_stays_fixed() {
         ("lost", d.join("lost-table.toml")),
         ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
+        (
+            "footer",
+            root().join("tests/it/data/damaged-footer.parquet"),
+        ),
         ("rep", d.join("rep")),
         ("rep2", d.join("rep2")),
         ("out", d.join("out.txt")),
@@ -854,4 +865,58 @@ fn what_the_campaign_found_stays_fixed() {
         }
     }
     assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// Seed 19: a line table whose errors are all exactly 0 left no residual, so every
+/// campaign term had σ = 0 and t = inf — a drift "found" with |ρ|/σ = inf, written into
+/// the identification's JSON. Nothing is left to explain: no effect, no `inf`.
+#[test]
+fn a_line_table_of_exact_zeros_identifies_no_campaign_term() {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let f = fixtures(tmp.path());
+    let text = std::fs::read_to_string(&f.lines).expect("lines");
+    let mut rows = text.lines();
+    let header = rows.next().expect("header");
+    let e_col = header
+        .split(',')
+        .position(|c| c == "e_um")
+        .expect("the line table has e_um");
+    let zeros: Vec<String> = std::iter::once(header.to_string())
+        .chain(rows.map(|r| {
+            let mut cells: Vec<&str> = r.split(',').collect();
+            cells[e_col] = "0";
+            cells.join(",")
+        }))
+        .collect();
+    let lines = tmp.path().join("zero-lines.csv");
+    std::fs::write(&lines, zeros.join("\n") + "\n").expect("write");
+    let out = tmp.path().join("model.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_errmap"))
+        .args(["volumetric", "identify"])
+        .arg(&lines)
+        .args(["--topology", "YXZ", "--degree", "2", "--json", "--out"])
+        .arg(&out)
+        .output()
+        .expect("runs errmap");
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let written = std::fs::read_to_string(&out).expect("model written");
+    for (what, text) in [
+        ("stdout", stdout.as_ref()),
+        ("model.json", written.as_str()),
+    ] {
+        assert!(!text.contains("inf"), "{what} holds `inf`: {text}");
+    }
+    let doc: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let effects = doc["residual"]["effects"].as_array().map_or(0, Vec::len);
+    assert_eq!(
+        effects, 0,
+        "effects found in exact zeros: {}",
+        doc["residual"]
+    );
 }
