@@ -108,6 +108,19 @@ pub(crate) fn column_cells(path: &Path, df: &DataFrame, name: &str) -> Result<Ce
                 .join(", "),
         })?
         .as_materialized_series();
+    // polars can hand over a frame of a damaged Parquet file whose column holds fewer
+    // values than the frame has rows (campaign seed 29: two flipped bits in a session
+    // table); every cell access below relies on the lengths agreeing.
+    if col.len() != df.height() {
+        return Err(format_err(
+            path,
+            format!(
+                "damaged data: column `{name}` holds {} values where the table has {} rows",
+                col.len(),
+                df.height()
+            ),
+        ));
+    }
     if let Ok(ca) = col.str() {
         return Ok(Cells::Text(
             ca.iter().map(|v| v.map(str::to_string)).collect(),

@@ -7,8 +7,9 @@ use std::f64::consts::TAU;
 use std::path::PathBuf;
 
 use errmap::export::{
-    Controller, ExportError, ExportFormat, Extrapolation, LINUXCNC_MAX_ENTRIES, LineSpec,
-    LinuxCncCompType, Sampled, VolumeSpec, csv, linuxcnc, sample_line, siemens, write_grid,
+    Controller, ExportError, ExportFormat, Extrapolation, FILE_RESOLUTION_MM, LINUXCNC_MAX_ENTRIES,
+    LineSpec, LinuxCncCompType, Sampled, VolumeSpec, csv, linuxcnc, sample_line, siemens,
+    write_grid,
 };
 use errmap::interp::{Interpolator, Method, Order};
 use errmap::table::{Axis, ErrorTable, Grid};
@@ -756,8 +757,17 @@ proptest! {
         let end = start + length;
         match sample_line(&*model, &line_x(start, end, step), Extrapolation::Allow) {
             Ok(s) => {
-                prop_assert_eq!(s.positions_mm[0], start);
-                prop_assert_eq!(*s.positions_mm.last().expect("non-empty"), end);
+                // Positions are snapped to the nanometre (`snap`).
+                prop_assert!((s.positions_mm[0] - start).abs() <= 1e-9,
+                    "first {} for start {}", s.positions_mm[0], start);
+                // The step divides the range, or is the range over k rounded to the file
+                // resolution (the suggestion given back): then the end moves by at most
+                // k · 0.5e-6 mm (found by this test after that rule came in: step 0.01 mm
+                // over 131.39324 mm ends at 131.39).
+                let last = *s.positions_mm.last().expect("non-empty");
+                let k = (s.len() - 1) as f64;
+                prop_assert!((last - end).abs() <= k * 0.5 * FILE_RESOLUTION_MM + 1e-9,
+                    "last {} for end {}", last, end);
                 prop_assert!(s.positions_mm.windows(2).all(|w| w[1] > w[0]));
                 prop_assert_eq!(s.len(), (length / step).round() as usize + 1);
             }
