@@ -185,9 +185,13 @@ pub fn run_diagnosis_with(
         Ok(Some(notes))
     })?;
     if let Some(notes) = notes {
+        let what = if notes.is_empty() {
+            "nothing found to add: the model as given".to_string()
+        } else {
+            notes.join("; ")
+        };
         eprintln!(
-            "diagnose: updated model ({}) → {}",
-            notes.join("; "),
+            "diagnose: updated model ({what}) → {}",
             report.join("updated-model.toml").display()
         );
     }

@@ -186,10 +186,20 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
         by_line[obs.line[k]].push(k);
     }
     for (l, idx) in by_line.iter().enumerate() {
+        // A coordinate no row carries (a session without MARKs giving it) is NaN in
+        // `obs.lines`: said in words, not printed as a number.
+        let coordinate = |name: &str, v: f64| {
+            if v.is_finite() {
+                format!("{name} = {v} mm")
+            } else {
+                format!("{name} not recorded")
+            }
+        };
         let [a, b] = obs.lines[l];
         let label = format!(
-            "line {} = {a} mm, {} = {b} mm",
-            obs.c_names[0], obs.c_names[1]
+            "line {}, {}",
+            coordinate(obs.c_names[0], a),
+            coordinate(obs.c_names[1], b)
         );
         if let Some(s) = stat(label, idx, inp, false) {
             loc.per_line.push(s);

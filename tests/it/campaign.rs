@@ -733,6 +733,13 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         1,
         &["damaged-column.parquet", "damaged"],
     ),
+    // Seed 47: a session whose rows are all outside any run has lines without
+    // coordinates; the diagnosis report printed them as `y = NaN mm` (refused as a bug).
+    (
+        "diagnose --recorded {outside} --model {model} --report {rep3} --json",
+        0,
+        &[],
+    ),
     // A model whose error table is missing named only the table.
     (
         "simulate --model {lost} --plan {plan} --out {out}",
@@ -810,6 +817,17 @@ fn what_the_campaign_found_stays_fixed() {
     let flat = plan.replace("[800.0, 600.0, 400.0]", "[800.0, 5e-324, 400.0]");
     assert_ne!(flat, plan);
     std::fs::write(d.join("flat-plan.toml"), flat).expect("write");
+    // Every row outside any run (run = 0): no MARK gives the line's coordinates.
+    let outside: Vec<String> = std::fs::read_to_string(&f.sessions[0])
+        .expect("session")
+        .lines()
+        .enumerate()
+        .map(|(i, l)| match (i, l.split_once(',')) {
+            (1.., Some((_, rest))) => format!("0,{rest}"),
+            _ => l.to_string(),
+        })
+        .collect();
+    std::fs::write(d.join("outside-runs.csv"), outside.join("\n") + "\n").expect("write");
     let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
     std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
@@ -835,6 +853,9 @@ fn what_the_campaign_found_stays_fixed() {
             "column",
             root().join("tests/it/data/damaged-column.parquet"),
         ),
+        ("outside", d.join("outside-runs.csv")),
+        ("model", f.models[0].clone()),
+        ("rep3", d.join("rep3")),
         (
             "footer",
             root().join("tests/it/data/damaged-footer.parquet"),
