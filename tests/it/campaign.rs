@@ -748,6 +748,15 @@ const FIXED: &[(&str, i32, &[&str])] = &[
     ),
 ];
 
+/// A CSV text with `edit` applied to every line after the header.
+fn data_rows(text: &str, edit: impl Fn(&str) -> String) -> String {
+    let mut out: Vec<String> = Vec::new();
+    for (i, l) in text.lines().enumerate() {
+        out.push(if i == 0 { l.to_string() } else { edit(l) });
+    }
+    out.join("\n") + "\n"
+}
+
 #[test]
 fn what_the_campaign_found_stays_fixed() {
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -805,29 +814,21 @@ fn what_the_campaign_found_stays_fixed() {
     let slow = plan.replace("feed_mm_s = 20.0", "feed_mm_s = 5e-324");
     assert_ne!(slow, plan);
     std::fs::write(d.join("slow-plan.toml"), slow).expect("write");
-    let zero: Vec<String> = t1
-        .lines()
-        .enumerate()
-        .map(|(i, l)| match (i, l.rsplit_once(',')) {
-            (1.., Some((head, _))) => format!("{head},0"),
-            _ => l.to_string(),
-        })
-        .collect();
-    std::fs::write(d.join("zero.csv"), zero.join("\n") + "\n").expect("write");
+    let zero = data_rows(&t1, |l| match l.rsplit_once(',') {
+        Some((head, _)) => format!("{head},0"),
+        None => l.to_string(),
+    });
+    std::fs::write(d.join("zero.csv"), zero).expect("write");
     let flat = plan.replace("[800.0, 600.0, 400.0]", "[800.0, 5e-324, 400.0]");
     assert_ne!(flat, plan);
     std::fs::write(d.join("flat-plan.toml"), flat).expect("write");
     // Every row outside any run (run = 0): no MARK gives the line's coordinates.
-    let outside: Vec<String> = std::fs::read_to_string(&f.sessions[0])
-        .expect("session")
-        .lines()
-        .enumerate()
-        .map(|(i, l)| match (i, l.split_once(',')) {
-            (1.., Some((_, rest))) => format!("0,{rest}"),
-            _ => l.to_string(),
-        })
-        .collect();
-    std::fs::write(d.join("outside-runs.csv"), outside.join("\n") + "\n").expect("write");
+    let session_text = std::fs::read_to_string(&f.sessions[0]).expect("session");
+    let outside = data_rows(&session_text, |l| match l.split_once(',') {
+        Some((_, rest)) => format!("0,{rest}"),
+        None => l.to_string(),
+    });
+    std::fs::write(d.join("outside-runs.csv"), outside).expect("write");
     let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
     std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
