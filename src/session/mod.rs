@@ -209,7 +209,22 @@ fn frame_rows(
     first: usize,
     seen: &mut SampleSet,
 ) -> Result<Vec<SessionRow>, TableError> {
-    frame_rows_at(path, df, first, seen).map_err(|e| shifted(e, first))
+    let mut rows = Vec::new();
+    frame_rows_into(path, df, first, seen, &mut rows)?;
+    Ok(rows)
+}
+
+/// [`frame_rows`] into `rows` (emptied first), whose memory a streamed read keeps from
+/// batch to batch.
+fn frame_rows_into(
+    path: &Path,
+    df: &DataFrame,
+    first: usize,
+    seen: &mut SampleSet,
+    rows: &mut Vec<SessionRow>,
+) -> Result<(), TableError> {
+    rows.clear();
+    frame_rows_at(path, df, first, seen, rows).map_err(|e| shifted(e, first))
 }
 
 fn frame_rows_at(
@@ -217,7 +232,8 @@ fn frame_rows_at(
     df: &DataFrame,
     first: usize,
     seen: &mut SampleSet,
-) -> Result<Vec<SessionRow>, TableError> {
+    rows: &mut Vec<SessionRow>,
+) -> Result<(), TableError> {
     let cells = REQUIRED
         .iter()
         .map(|c| column_cells(path, df, c))
@@ -226,7 +242,7 @@ fn frame_rows_at(
         .iter()
         .map(|c| optional_column_cells(path, df, c))
         .collect::<Result<_, _>>()?;
-    let mut rows = Vec::with_capacity(df.height());
+    rows.reserve(df.height());
     for r in 0..df.height() {
         let req = |k: usize| required_cell(path, &cells[k], r, REQUIRED[k]);
         let opt = |k: usize| parse_cell(path, &cells[k], r, REQUIRED[k]);
@@ -299,7 +315,7 @@ fn frame_rows_at(
         check_ranges(path, r, &row)?;
         rows.push(row);
     }
-    Ok(rows)
+    Ok(())
 }
 
 /// Every number of a session row inside its physical range ([`crate::base::limits`]).

@@ -38,7 +38,7 @@ use std::io::Write;
 use polars::prelude::*;
 
 use super::columns::{Columns, ParquetSink};
-use super::{SampleSet, frame_rows};
+use super::{SampleSet, frame_rows, frame_rows_into};
 use crate::table::{TableError, format_err, is_parquet};
 
 /// Rows per batch (and per Parquet row group) of the streaming writer and reader.
@@ -216,6 +216,8 @@ pub fn for_each_batch(
     // (run, sample) unique across batches too, in memory bounded by the holes in the
     // sample counters rather than by the rows.
     let mut seen = SampleSet::default();
+    // One row buffer for every batch: its memory is reused, not freed and faulted in again.
+    let mut rows: Vec<SessionRow> = Vec::new();
     let file = File::open(path).map_err(io)?;
     let mut total = 0u64;
     if parquet {
@@ -230,7 +232,7 @@ pub fn for_each_batch(
             let file = File::open(path).map_err(io)?;
             let reader = ParquetReader::new(file).with_slice(Some((offset, len)));
             let df = crate::table::finish_parquet(path, reader)?;
-            let rows = frame_rows(path, &df, offset, &mut seen)?;
+            frame_rows_into(path, &df, offset, &mut seen, &mut rows)?;
             each(&rows)?;
             total += rows.len() as u64;
             offset += len;
@@ -266,7 +268,7 @@ pub fn for_each_batch(
                 .into_reader_with_file_handle(std::io::Cursor::new(std::mem::take(&mut chunk)))
                 .finish()
                 .map_err(|e| format_err(path, e))?;
-            let rows = frame_rows(path, &df, offset, &mut seen)?;
+            frame_rows_into(path, &df, offset, &mut seen, &mut rows)?;
             each(&rows)?;
             total += rows.len() as u64;
             offset += in_chunk;
