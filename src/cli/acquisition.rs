@@ -298,11 +298,12 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             .iso
             .iter()
             .zip(&reduced.budgets)
-            .map(|((l, s), b)| {
+            .zip(&expanded)
+            .map(|(((l, s), b), expanded)| {
                 serde_json::json!({
                     "line_mm": [l.0, l.1],
                     "iso230": s,
-                    "uncertainty": {"budget": b, "expanded": b.expanded()},
+                    "uncertainty": {"budget": b, "expanded": expanded},
                     "gb_t_17421_2": "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)",
                 })
             })

@@ -46,12 +46,14 @@ pub fn kernel() -> impl TypedValueParser<Value = Kernel> {
     .try_map(|s| s.parse::<Kernel>())
 }
 
+/// `s` (trimmed) parsed, or the message "`s` is not {kind}".
+fn parsed<T: FromStr>(s: &str, kind: &str) -> Result<T, String> {
+    s.trim().parse().map_err(|_| format!("`{s}` is not {kind}"))
+}
+
 /// Seconds: finite and not negative (a `Duration` is built from it).
 pub fn seconds(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    let v: f64 = parsed(s, "a number of seconds")?;
     if !v.is_finite() || v < 0.0 {
         return Err(format!("`{s}`: seconds must be finite and ≥ 0"));
     }
@@ -64,10 +66,7 @@ pub fn seconds(s: &str) -> Result<f64, String> {
 /// A speed factor: finite, within 10⁻³…10⁶ (playback intervals divided by it become
 /// `Duration`s, which a speed of 10⁻³⁰⁰ would overflow).
 pub fn positive(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !v.is_finite() || v <= 0.0 {
         return Err(format!("`{s}` must be finite and > 0"));
     }
@@ -79,10 +78,7 @@ pub fn positive(s: &str) -> Result<f64, String> {
 
 /// A length, mm or µm: finite, > 0, at most 10⁶ (`--step`, `--grating-period-um`).
 pub fn length(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v > 0.0 && v <= 1e6) {
         return Err(format!("`{s}` must be a finite length > 0 and ≤ 10⁶"));
     }
@@ -94,10 +90,7 @@ pub const MAX_COORDINATE_MM: f64 = 1e6;
 
 /// A coordinate, mm: finite, within ±10⁶ (`--start`, `--end`, `--reference`, `--from`).
 pub fn coordinate(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM) {
         return Err(format!("`{s}` must be a finite coordinate within ±10⁶ mm"));
     }
@@ -125,10 +118,7 @@ pub fn feed(s: &str) -> Result<f64, String> {
 /// A fraction of an interval in [0, 0.5) (plan's `--random-offset`: the inner targets
 /// then stay in order).
 pub fn offset_fraction(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !(0.0..0.5).contains(&v) {
         return Err(format!("`{s}` is not a fraction in [0, 0.5)"));
     }
@@ -208,10 +198,7 @@ pub fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, String> {
 
 /// A probability: finite, within 0 … 1 (`--garbage`, `--bit-flips`, `--drop-frames`).
 pub fn probability(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !(0.0..=1.0).contains(&v) {
         return Err(format!("`{s}` is not a probability in [0, 1]"));
     }
@@ -220,10 +207,7 @@ pub fn probability(s: &str) -> Result<f64, String> {
 
 /// The fuzzy membership width σ, a fraction of the cell: finite, > 0, ≤ 100.
 pub fn fuzzy_width(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v > 0.0 && v <= 100.0) {
         return Err(format!("`{s}`: σ must be finite, > 0 and ≤ 100 cells"));
     }
@@ -232,10 +216,7 @@ pub fn fuzzy_width(s: &str) -> Result<f64, String> {
 
 /// A count of at least 2 (`--max-points`: a compensation table needs two points).
 pub fn at_least_two(s: &str) -> Result<usize, String> {
-    let v: usize = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    let v: usize = parsed(s, "a whole number")?;
     if v < 2 {
         return Err(format!("`{s}`: at least 2"));
     }
@@ -244,10 +225,7 @@ pub fn at_least_two(s: &str) -> Result<usize, String> {
 
 /// A baud rate of a serial line: 50 … 10 000 000.
 pub fn baud(s: &str) -> Result<u32, String> {
-    let v: u32 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    let v: u32 = parsed(s, "a whole number")?;
     if !(50..=10_000_000).contains(&v) {
         return Err(format!("`{s}` is not a baud rate (50 … 10 000 000)"));
     }
@@ -344,10 +322,7 @@ impl FromStr for LineAt {
                 .split_once('=')
                 .ok_or_else(|| format!("axis=value pairs like y=1,z=200, not `{part}`"))?;
             let axis: Axis = k.trim().parse().map_err(|e| format!("{e}"))?;
-            let v: f64 = v
-                .trim()
-                .parse()
-                .map_err(|_| format!("`{}` is not a number", v.trim()))?;
+            let v: f64 = parsed(v.trim(), "a number")?;
             if !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM) {
                 return Err(format!(
                     "`{part}`: the coordinate must be finite, within ±10⁶ mm"

@@ -295,14 +295,15 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     super::guard::refuse_aliases(&outputs, &[("LINES", &a.lines)])?;
     let table = LineTable::read(&a.lines, true)?;
     let id = identify(&table, &config)?;
-    // The inputs are finite and in range: a non-finite figure is a bug, reported for each
-    // output before anything is written.
-    let numbers = id.json_numbers(config.positions);
-    for out in a.out.iter().chain(a.report.iter()) {
-        errmap::report::finite::check_json(out, &numbers)?;
-    }
-    if a.json {
-        errmap::report::finite::check_json(Path::new("stdout"), &numbers)?;
+    // The inputs are finite and in range: a non-finite figure is a bug, reported (naming
+    // the first output it would reach) before anything is written.
+    let first_output = a
+        .out
+        .as_deref()
+        .or(a.report.as_deref())
+        .or(a.json.then_some(Path::new("stdout")));
+    if let Some(path) = first_output {
+        errmap::report::finite::check_json(path, &id.json_numbers(config.positions))?;
     }
     if let Some(out) = &a.out {
         write_json(out, &id.to_json(config.positions, true))?;

@@ -224,8 +224,8 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, 
 }
 
 /// A term's t in words: one decimal, or what an infinite one means (data without noise
-/// that the term explains exactly).
-fn t_words(t: f64) -> String {
+/// that the term explains exactly). Also the thermal test's.
+pub(crate) fn t_words(t: f64) -> String {
     if t.is_finite() {
         format!("{t:.1}")
     } else {

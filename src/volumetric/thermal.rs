@@ -122,10 +122,8 @@ pub(crate) fn effect(test: &ThermalTest) -> Option<FoundEffect> {
              components are reported at 20 °C",
             test.temp_c[0],
             test.temp_c[1],
-            test.t.map_or_else(
-                || "unbounded (α leaves no residual)".to_string(),
-                |t| format!("{t:.1}")
-            )
+            // A kept test without a t is an exact fit (see `ThermalTest::t`).
+            super::campaign::t_words(test.t.unwrap_or(f64::INFINITY))
         ),
         explains_um: test.explains_um,
     })
