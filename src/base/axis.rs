@@ -117,3 +117,42 @@ impl From<Axis> for WireAxis {
         }
     }
 }
+
+/// Direction of approach along an axis: up (+1, towards larger positions) or down (−1).
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub enum Direction {
+    /// `↑`: the axis moved in its positive direction to reach the target.
+    Up,
+    /// `↓`: the axis moved in its negative direction to reach the target.
+    Down,
+}
+
+impl Direction {
+    /// +1 or −1, as the session table's `direction`.
+    pub fn sign(self) -> i8 {
+        match self {
+            Direction::Up => 1,
+            Direction::Down => -1,
+        }
+    }
+
+    /// The arrow ISO 230-2 uses: `↑` or `↓`.
+    pub fn arrow(self) -> &'static str {
+        match self {
+            Direction::Up => "↑",
+            Direction::Down => "↓",
+        }
+    }
+}
+
+impl fmt::Display for Direction {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let word = match self {
+            Direction::Up => "up (↑)",
+            Direction::Down => "down (↓)",
+        };
+        f.write_str(word)
+    }
+}

@@ -16,6 +16,12 @@
 //! | `dead_path` | `dead_path_mm` |
 //! | `refraction` | `ppm_per_k`, `ppm_per_hpa` |
 //! | `unexplained` | `rms_um`: structure no vocabulary effect explains |
+//!
+//! The circular test (ISO 230-4) adds `backlash` (`b_um`), `reversal_spike` (`h_um`,
+//! `tau_ms`), `lateral_play` (`p_um`), `cyclic_error` (`amplitude_um`, `period_mm`,
+//! `phase_rad`), `straightness` (`bow_um`), `servo_mismatch` (`dt_ms`), `scale_mismatch`
+//! (`ppm`) and `squareness` (`urad`). The typed payload is [`Effect`](super::effect::Effect);
+//! a result's verdict is [`Verdict`].
 
 use std::fmt;
 use std::str::FromStr;
@@ -37,11 +43,54 @@ pub enum EffectId {
     /// Structure in the residual that no vocabulary effect explains (the contract allows
     /// a diagnosis its own ids beyond the list).
     Unexplained,
+    // The circular test's (ISO 230-4) effects.
+    Backlash,
+    ReversalSpike,
+    LateralPlay,
+    CyclicError,
+    Straightness,
+    ServoMismatch,
+    ScaleMismatch,
+    Squareness,
 }
 
 impl EffectId {
-    /// Every id, in the contract's order.
-    pub const ALL: [EffectId; 10] = [
+    /// Every id: the positioning vocabulary, then the circular test's.
+    pub const ALL: [EffectId; 18] = [
+        EffectId::ScaleThermalExpansion,
+        EffectId::ScaleFactor,
+        EffectId::Abbe,
+        EffectId::Reversal,
+        EffectId::LatchDelay,
+        EffectId::PeriodicScale,
+        EffectId::ThermalDrift,
+        EffectId::DeadPath,
+        EffectId::Refraction,
+        EffectId::Unexplained,
+        EffectId::Backlash,
+        EffectId::ReversalSpike,
+        EffectId::LateralPlay,
+        EffectId::CyclicError,
+        EffectId::Straightness,
+        EffectId::ServoMismatch,
+        EffectId::ScaleMismatch,
+        EffectId::Squareness,
+    ];
+
+    /// The circular test's ids (ISO 230-4 ballbar).
+    pub const CIRCULAR: [EffectId; 8] = [
+        EffectId::Backlash,
+        EffectId::ReversalSpike,
+        EffectId::LateralPlay,
+        EffectId::CyclicError,
+        EffectId::Straightness,
+        EffectId::ServoMismatch,
+        EffectId::ScaleMismatch,
+        EffectId::Squareness,
+    ];
+
+    /// The positioning diagnosis' ids, in the contract's order.
+    pub const POSITIONING: [EffectId; 10] = [
         EffectId::ScaleThermalExpansion,
         EffectId::ScaleFactor,
         EffectId::Abbe,
@@ -67,24 +116,40 @@ impl EffectId {
             EffectId::DeadPath => "dead_path",
             EffectId::Refraction => "refraction",
             EffectId::Unexplained => "unexplained",
+            EffectId::Backlash => "backlash",
+            EffectId::ReversalSpike => "reversal_spike",
+            EffectId::LateralPlay => "lateral_play",
+            EffectId::CyclicError => "cyclic_error",
+            EffectId::Straightness => "straightness",
+            EffectId::ServoMismatch => "servo_mismatch",
+            EffectId::ScaleMismatch => "scale_mismatch",
+            EffectId::Squareness => "squareness",
         }
     }
 
     /// The effect's parameters, by the contract's names (every variant's: a fit reports
     /// those of the variant it chose).
-    pub fn params(self) -> &'static [ParamName] {
+    pub fn param_names(self) -> &'static [ParamName] {
         use ParamName as P;
         match self {
             EffectId::ScaleThermalExpansion => &[P::AlphaPpmPerK, P::X0Mm],
             EffectId::ScaleFactor => &[P::Ppm],
             EffectId::Abbe => &[P::OffsetAxis, P::Theta0Urad, P::Theta1UradPerMm],
-            EffectId::Reversal => &[P::BUm],
+            EffectId::Reversal => &[P::BUm, P::B1UmPerM],
             EffectId::LatchDelay => &[P::TauUs],
             EffectId::PeriodicScale => &[P::AmplitudeUm, P::PeriodUm, P::PhaseRad],
             EffectId::ThermalDrift => &[P::AmplitudeUm, P::TauS, P::RateUmPerS],
             EffectId::DeadPath => &[P::DeadPathMm],
             EffectId::Refraction => &[P::PpmPerK, P::PpmPerHpa],
             EffectId::Unexplained => &[P::RmsUm],
+            EffectId::Backlash => &[P::BUm],
+            EffectId::ReversalSpike => &[P::HUm, P::TauMs],
+            EffectId::LateralPlay => &[P::PUm],
+            EffectId::CyclicError => &[P::AmplitudeUm, P::PeriodMm, P::PhaseRad],
+            EffectId::Straightness => &[P::BowUm],
+            EffectId::ServoMismatch => &[P::DtMs],
+            EffectId::ScaleMismatch => &[P::Ppm],
+            EffectId::Squareness => &[P::Urad],
         }
     }
 }
@@ -111,24 +176,6 @@ impl FromStr for EffectId {
     }
 }
 
-impl PartialEq<&str> for EffectId {
-    fn eq(&self, other: &&str) -> bool {
-        self.as_str() == *other
-    }
-}
-
-impl PartialEq<str> for EffectId {
-    fn eq(&self, other: &str) -> bool {
-        self.as_str() == other
-    }
-}
-
-impl PartialEq<String> for EffectId {
-    fn eq(&self, other: &String) -> bool {
-        self.as_str() == other
-    }
-}
-
 impl Serialize for EffectId {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(self.as_str())
@@ -139,6 +186,46 @@ impl<'de> Deserialize<'de> for EffectId {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let s = String::deserialize(d)?;
         s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+/// What a model's residual says: the model explains it (noise alone), or something is
+/// missing. One verdict for every result that tests a residual (the positioning diagnosis,
+/// volumetric identification, the circular test).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Verdict {
+    /// The residual is explained by noise alone: no effect is reported.
+    #[serde(rename = "consistent")]
+    Consistent,
+    /// The model left something out: at least one effect is reported (a vocabulary
+    /// effect, or `unexplained`).
+    #[serde(rename = "missing_physics")]
+    MissingPhysics,
+}
+
+impl Verdict {
+    /// The contract's spelling: `consistent` or `missing_physics` (also the JSON value and
+    /// the [`Display`](fmt::Display) text).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::MissingPhysics => "missing_physics",
+        }
+    }
+
+    /// `MissingPhysics` when anything was found, else `Consistent`.
+    pub const fn from_found(found: bool) -> Self {
+        if found {
+            Verdict::MissingPhysics
+        } else {
+            Verdict::Consistent
+        }
+    }
+}
+
+impl fmt::Display for Verdict {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
     }
 }
 
@@ -165,11 +252,25 @@ pub enum ParamName {
     PpmPerHpa,
     /// The RMS of structure no vocabulary effect explains (`unexplained`'s one number).
     RmsUm,
+    /// Height of a reversal spike, µm (circular test).
+    HUm,
+    /// Decay time of a reversal spike, ms.
+    TauMs,
+    /// Lateral play, µm.
+    PUm,
+    /// Period of a cyclic error, mm.
+    PeriodMm,
+    /// Bow of a straightness error at the centre, µm.
+    BowUm,
+    /// Servo lag difference, ms.
+    DtMs,
+    /// Squareness, µrad.
+    Urad,
 }
 
 impl ParamName {
     /// Every parameter name.
-    pub const ALL: [ParamName; 18] = [
+    pub const ALL: [ParamName; 25] = [
         ParamName::AlphaPpmPerK,
         ParamName::X0Mm,
         ParamName::Ppm,
@@ -188,6 +289,13 @@ impl ParamName {
         ParamName::PpmPerK,
         ParamName::PpmPerHpa,
         ParamName::RmsUm,
+        ParamName::HUm,
+        ParamName::TauMs,
+        ParamName::PUm,
+        ParamName::PeriodMm,
+        ParamName::BowUm,
+        ParamName::DtMs,
+        ParamName::Urad,
     ];
 
     /// The contract's name.
@@ -211,6 +319,13 @@ impl ParamName {
             ParamName::PpmPerK => "ppm_per_k",
             ParamName::PpmPerHpa => "ppm_per_hpa",
             ParamName::RmsUm => "rms_um",
+            ParamName::HUm => "h_um",
+            ParamName::TauMs => "tau_ms",
+            ParamName::PUm => "p_um",
+            ParamName::PeriodMm => "period_mm",
+            ParamName::BowUm => "bow_um",
+            ParamName::DtMs => "dt_ms",
+            ParamName::Urad => "urad",
         }
     }
 }
@@ -238,5 +353,26 @@ mod tests {
         names.dedup();
         assert_eq!(names.len(), ParamName::ALL.len());
         assert!("scale_facter".parse::<EffectId>().is_err());
+    }
+
+    #[test]
+    fn verdict_is_spelled_as_in_the_contract() {
+        for (v, s) in [
+            (Verdict::Consistent, "consistent"),
+            (Verdict::MissingPhysics, "missing_physics"),
+        ] {
+            assert_eq!(
+                serde_json::to_string(&v).expect("a unit variant serialises"),
+                format!("\"{s}\"")
+            );
+            assert_eq!(
+                serde_json::from_str::<Verdict>(&format!("\"{s}\""))
+                    .expect("the contract's spelling parses"),
+                v
+            );
+            assert_eq!(v.to_string(), s);
+        }
+        assert_eq!(Verdict::from_found(true), Verdict::MissingPhysics);
+        assert_eq!(Verdict::from_found(false), Verdict::Consistent);
     }
 }

@@ -211,8 +211,8 @@ pub fn print_summary(d: &Diagnosis, report: &Path) -> Result<()> {
     for e in &d.effects {
         eprintln!(
             "  {}: {} — {}",
-            e.id,
-            serde_json::to_string(&e.params)?,
+            e.id(),
+            serde_json::to_string(&errmap::base::effect::ParamsMap(&e.effect))?,
             e.where_
         );
     }

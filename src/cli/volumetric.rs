@@ -335,7 +335,8 @@ fn print_summary(id: &Identification) {
     );
     for e in &id.residual.effects {
         let params: Vec<String> = e
-            .params
+            .effect
+            .params_by_name()
             .iter()
             .map(|(k, v)| match (v.as_f64(), e.uncertainty.get(k)) {
                 (Some(x), Some(s)) => format!("{k} = {x:.4} ± {s:.4}"),
@@ -344,7 +345,7 @@ fn print_summary(id: &Identification) {
             .collect();
         eprintln!(
             "  {}: {} (explains {:.3} µm)",
-            e.id,
+            e.id(),
             params.join(", "),
             e.explains_um
         );

@@ -74,8 +74,8 @@ pub(crate) struct Obs {
     pub target: Vec<i32>,
     /// The two other coordinates (for X: y, z), when every used row has them.
     pub c: [Option<Vec<f64>>; 2],
-    /// Names of the two other axes.
-    pub c_names: [&'static str; 2],
+    /// The two other axes, in the order of `c`.
+    pub c_axes: [crate::base::Axis; 2],
     /// Line index of every row, and the lines' two other coordinates.
     pub line: Vec<usize>,
     pub lines: Vec<[f64; 2]>,
@@ -218,20 +218,22 @@ pub(crate) fn axis_label(a: Axis) -> &'static str {
     axis_name(a)
 }
 
-/// The two other axes of `a`, lower case, and the coordinate picker for a row.
-fn others(a: Axis) -> [&'static str; 2] {
+/// The two other axes of `a`, and the coordinate picker for a row.
+fn others(a: Axis) -> [crate::base::Axis; 2] {
+    use crate::base::Axis as A;
     match a {
-        Axis::X => ["y", "z"],
-        Axis::Y => ["x", "z"],
-        Axis::Z => ["x", "y"],
+        Axis::X => [A::Y, A::Z],
+        Axis::Y => [A::X, A::Z],
+        Axis::Z => [A::X, A::Y],
     }
 }
 
-fn coord(row: &SessionRow, name: &str) -> Option<f64> {
-    match name {
-        "x" => row.x_mm,
-        "y" => row.y_mm,
-        _ => row.z_mm,
+fn coord(row: &SessionRow, a: crate::base::Axis) -> Option<f64> {
+    use crate::base::Axis as A;
+    match a {
+        A::X => row.x_mm,
+        A::Y => row.y_mm,
+        A::Z => row.z_mm,
     }
 }
 
@@ -380,14 +382,14 @@ pub(crate) fn build(
     let moves = move_segments(&run, &sample, &moving, &d);
     let v_meas = measured_speed(&x, &t, &moves, &v_feed);
 
-    let c_names = others(axis);
+    let c_axes = others(axis);
     // The line coordinates: rows without them (before the first MARK) take the value of
     // the nearest earlier row in time, or of the first row that has one.
-    let c_filled: [Option<Vec<f64>>; 2] = c_names.map(|name| {
+    let c_filled: [Option<Vec<f64>>; 2] = c_axes.map(|a| {
         step_fill(
             &t,
             rows.iter()
-                .map(|row| coord(row, name).filter(|v| v.is_finite())),
+                .map(|row| coord(row, a).filter(|v| v.is_finite())),
         )
     });
     let c = c_filled.clone();
@@ -439,7 +441,7 @@ pub(crate) fn build(
         sample,
         target: rows.iter().map(|row| row.target).collect(),
         c,
-        c_names,
+        c_axes,
         line,
         lines,
         scale_t,

@@ -60,7 +60,7 @@ impl Kind {
     /// The id with the Abbe offset axis, for messages.
     pub fn label(self, obs: &Obs) -> String {
         match self {
-            Kind::Abbe(k) => format!("abbe (offset along {})", obs.c_names[k as usize]),
+            Kind::Abbe(k) => format!("abbe (offset along {})", obs.c_axes[k as usize].lower()),
             _ => self.id().as_str().to_string(),
         }
     }
@@ -88,7 +88,10 @@ impl Kind {
         match self {
             Kind::ScaleFactor => "x (proportional to position)".into(),
             Kind::Reversal => "the direction of travel".into(),
-            Kind::Abbe(k) => format!("the line offset {c} and {c}·x", c = obs.c_names[k as usize]),
+            Kind::Abbe(k) => format!(
+                "the line offset {c} and {c}·x",
+                c = obs.c_axes[k as usize].lower()
+            ),
             Kind::ScaleThermal => "the scale temperature times position, ΔT_scale·x".into(),
             Kind::Refraction => "position times the air temperature and pressure changes".into(),
             Kind::DeadPath => {
@@ -215,11 +218,13 @@ pub(crate) fn register(engine: &mut Engine, obs: &Obs, lambda_um: f64) -> Column
             }
             Some(_) => untestable.push(format!(
                 "abbe along {}: every line is at {} = 0, so no offset acts",
-                obs.c_names[k], obs.c_names[k]
+                obs.c_axes[k].lower(),
+                obs.c_axes[k].lower()
             )),
             None => untestable.push(format!(
                 "abbe along {}: the {} coordinate is missing on more than 5 % of the rows",
-                obs.c_names[k], obs.c_names[k]
+                obs.c_axes[k].lower(),
+                obs.c_axes[k].lower()
             )),
         }
     }
@@ -646,7 +651,7 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
         );
     }
     if let (Abbe(i), ScaleFactor) | (ScaleFactor, Abbe(i)) = (a, b) {
-        let c = obs.c_names[i as usize];
+        let c = obs.c_axes[i as usize].lower();
         let vals: Vec<f64> = obs.lines.iter().map(|l| l[i as usize]).collect();
         return format!(
             "the lines lie at {c} = {}, so c·θ(x) is a constant plus a term in x alone; measure a second line at another {c}",
@@ -656,11 +661,14 @@ pub(crate) fn separation_advice(a: Kind, b: Kind, obs: &Obs) -> String {
     if let (Abbe(_), Abbe(_)) = (a, b) {
         return format!(
             "the lines' {} and {} offsets change together; measure lines that differ in {} only and in {} only",
-            obs.c_names[0], obs.c_names[1], obs.c_names[0], obs.c_names[1]
+            obs.c_axes[0].lower(),
+            obs.c_axes[1].lower(),
+            obs.c_axes[0].lower(),
+            obs.c_axes[1].lower()
         );
     }
     if let (Abbe(i), _) | (_, Abbe(i)) = (a, b) {
-        let c = obs.c_names[i as usize];
+        let c = obs.c_axes[i as usize].lower();
         return format!(
             "measure more lines at other {c} offsets, so the line-to-line pattern is unique"
         );

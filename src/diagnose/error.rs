@@ -46,4 +46,7 @@ pub enum DiagnoseError {
         /// The value or its σ.
         value: f64,
     },
+    /// A fit's parameters do not make the effect its variant names: a bug of the fit.
+    #[error("bug in errmap: {0}; nothing was written")]
+    Effect(#[from] crate::base::effect::EffectParamError),
 }

@@ -3,7 +3,8 @@
 //! scores), each found effect's parameters and `where` text, and the per-row series behind
 //! the report's charts.
 
-use crate::base::vocabulary::{EffectId, ParamName as P};
+use crate::base::effect::Effect;
+use crate::base::vocabulary::ParamName as P;
 use std::collections::BTreeMap;
 
 use super::data::{self, Matching};
@@ -15,7 +16,7 @@ use super::outcome::{
 };
 use super::select::{self, FittedTerm, Outcome, centred_rms};
 use super::words::{fixed, fmt_sig, list, range};
-use super::{DiagnoseConfig, HENE_WAVELENGTH_UM};
+use super::{DiagnoseConfig, DiagnoseError, HENE_WAVELENGTH_UM};
 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn assemble(
@@ -29,7 +30,7 @@ pub(super) fn assemble(
     untestable: Vec<String>,
     fold_kind: &str,
     config: &DiagnoseConfig,
-) -> Diagnosis {
+) -> Result<Diagnosis, DiagnoseError> {
     let n = obs.len();
     let rms = |v: &mut dyn Iterator<Item = f64>| {
         let (s, c) = v.fold((0.0, 0usize), |(s, c), x| (s + x * x, c + 1));
@@ -134,19 +135,15 @@ pub(super) fn assemble(
         .terms
         .iter()
         .map(|f| found_effect(f, obs, &out, amb_by_kind.get(&f.term.kind)))
-        .collect();
+        .collect::<Result<_, _>>()?;
     effects.sort_by(|a, b| b.explains_um.total_cmp(&a.explains_um));
     if effects.is_empty()
         && let Some(text) = &loc.unexplained
     {
-        let mut params = BTreeMap::new();
-        params.insert(
-            P::RmsUm.as_str().to_string(),
-            serde_json::json!(centred_rms(&after)),
-        );
         effects.push(FoundEffect {
-            id: EffectId::Unexplained,
-            params,
+            effect: Effect::Unexplained {
+                rms_um: centred_rms(&after),
+            },
             uncertainty: BTreeMap::new(),
             where_: format!(
                 "{} axis: {text}; no effect of the vocabulary explains it (see the report's localisation)",
@@ -170,7 +167,7 @@ pub(super) fn assemble(
     design_notes.extend(out.design.iter().cloned());
 
     let series = report_series(obs, &before, &after, &out);
-    Diagnosis {
+    Ok(Diagnosis {
         verdict: if effects.is_empty() {
             Verdict::Consistent
         } else {
@@ -217,7 +214,7 @@ pub(super) fn assemble(
             .collect(),
         selection_log: out.log.clone(),
         series,
-    }
+    })
 }
 
 fn found_effect(
@@ -225,19 +222,17 @@ fn found_effect(
     obs: &data::Obs,
     out: &Outcome,
     amb: Option<&Vec<String>>,
-) -> FoundEffect {
-    let mut params = BTreeMap::new();
-    let mut uncertainty = BTreeMap::new();
-    if let Kind::Abbe(i) = f.term.kind {
-        params.insert(
-            P::OffsetAxis.as_str().to_string(),
-            serde_json::Value::String(obs.c_names[i as usize].to_string()),
-        );
-    }
-    for p in &f.params {
-        params.insert(p.name.to_string(), serde_json::json!(p.value));
-        uncertainty.insert(p.name.to_string(), if p.fitted { p.sigma } else { 0.0 });
-    }
+) -> Result<FoundEffect, DiagnoseError> {
+    let offset_axis = match f.term.kind {
+        Kind::Abbe(i) => Some(obs.c_axes[i as usize]),
+        _ => None,
+    };
+    let numbers: Vec<(P, f64)> = f.params.iter().map(|p| (p.name, p.value)).collect();
+    let uncertainty = f
+        .params
+        .iter()
+        .map(|p| (p.name, if p.fitted { p.sigma } else { 0.0 }))
+        .collect();
     let mut text = where_text(f, obs, out);
     for z in zero_statements(f) {
         text.push_str("; ");
@@ -253,13 +248,12 @@ fn found_effect(
             text.push_str(s);
         }
     }
-    FoundEffect {
-        id: f.term.kind.id(),
-        params,
+    Ok(FoundEffect {
+        effect: Effect::from_numbers(f.term.kind.id(), &numbers, offset_axis)?,
         uncertainty,
         where_: text,
         explains_um: centred_rms(&f.contribution),
-    }
+    })
 }
 
 /// A fitted parameter within two of its sigmas of zero, in words, with what zero means for
@@ -357,7 +351,7 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
             )
         }
         (Kind::Abbe(i), v) => {
-            let cn = obs.c_names[*i as usize];
+            let cn = obs.c_axes[*i as usize].lower();
             let vals: Vec<f64> = obs.lines.iter().map(|l| l[*i as usize]).collect();
             let fixed = match v {
                 Variant::AbbeTheta0 => "; θ1 fixed at 0 (not supported by the data)",
@@ -499,7 +493,10 @@ fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) 
                     groups.push((
                         format!(
                             "{} = {}, {} = {}",
-                            obs.c_names[0], line[0], obs.c_names[1], line[1]
+                            obs.c_axes[0].lower(),
+                            line[0],
+                            obs.c_axes[1].lower(),
+                            line[1]
                         ),
                         idx,
                     ));

@@ -198,8 +198,8 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
         let [a, b] = obs.lines[l];
         let label = format!(
             "line {}, {}",
-            coordinate(obs.c_names[0], a),
-            coordinate(obs.c_names[1], b)
+            coordinate(obs.c_axes[0].lower(), a),
+            coordinate(obs.c_axes[1].lower(), b)
         );
         if let Some(s) = stat(label, idx, inp, false) {
             loc.per_line.push(s);
@@ -291,7 +291,7 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
     }
     for c in 0..2 {
         if let Some(cv) = &obs.c[c] {
-            let name = obs.c_names[c];
+            let name = obs.c_axes[c].lower();
             covs.push((format!("{name} (line offset)"), cv.clone()));
             covs.push((
                 format!("{name}·{ax}"),

@@ -296,24 +296,22 @@ fn run(
 
     let d = explain::assemble(
         &obs, &matching, &groups, &sigma, &w, &y, out, untestable, fold_kind, config,
-    );
-    // Parameters computed while assembling (the `unexplained` RMS) are checked too: as
-    // JSON values a NaN would already be `null`, which no writer could tell from a number.
-    match null_param(&d.effects) {
+    )?;
+    // Parameters computed while assembling (the `unexplained` RMS) are checked too.
+    match non_finite_param(&d.effects) {
         Some(e) => Err(e),
         None => Ok(d),
     }
 }
 
-/// The first parameter of `effects` that is not a number, a string or finite: `json!`
-/// makes a NaN `null`.
-fn null_param(effects: &[FoundEffect]) -> Option<DiagnoseError> {
+/// The first parameter of `effects` that is not finite.
+fn non_finite_param(effects: &[FoundEffect]) -> Option<DiagnoseError> {
     effects.iter().find_map(|e| {
-        let (name, _) = e.params.iter().find(|(_, v)| v.is_null())?;
+        let (name, value) = e.effect.non_finite()?;
         Some(DiagnoseError::NonFinite {
-            effect: e.id.as_str().to_string(),
-            param: name.clone(),
-            value: f64::NAN,
+            effect: e.id().as_str().to_string(),
+            param: name.as_str().to_string(),
+            value,
         })
     })
 }
@@ -339,7 +337,7 @@ mod non_finite_tests {
     use super::effects::{Kind, Param, Variant};
     use super::select::{FittedTerm, Term};
     use super::*;
-    use crate::base::vocabulary::{EffectId, ParamName};
+    use crate::base::vocabulary::ParamName;
     use std::collections::BTreeMap;
 
     fn term(value: f64, sigma: f64, fitted: bool) -> FittedTerm {
@@ -376,19 +374,18 @@ mod non_finite_tests {
         }
     }
 
-    /// A parameter assembled after the fit (the `unexplained` RMS) is a JSON value: a
-    /// NaN there is `null` already, and is refused the same way.
+    /// A parameter assembled after the fit (the `unexplained` RMS) is refused the same
+    /// way when it is not finite.
     #[test]
-    fn a_parameter_that_became_null_is_a_bug_reported_not_written() {
+    fn a_non_finite_parameter_assembled_after_the_fit_is_a_bug_reported_not_written() {
         let effect = |v: f64| FoundEffect {
-            id: EffectId::Unexplained,
-            params: [("rms_um".to_string(), serde_json::json!(v))].into(),
+            effect: crate::base::Effect::Unexplained { rms_um: v },
             uncertainty: BTreeMap::new(),
             where_: String::new(),
             explains_um: 1.0,
         };
-        assert!(null_param(&[effect(2.0)]).is_none());
-        let e = null_param(&[effect(2.0), effect(f64::NAN)])
+        assert!(non_finite_param(&[effect(2.0)]).is_none());
+        let e = non_finite_param(&[effect(2.0), effect(f64::NAN)])
             .expect("refused")
             .to_string();
         assert!(e.contains("unexplained") && e.contains("rms_um"), "{e}");

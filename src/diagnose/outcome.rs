@@ -1,66 +1,95 @@
 //! What a diagnosis returns: [`Diagnosis`] (the contract's keys first, then the extras),
 //! its [`Verdict`], the [`FoundEffect`]s, and the per-row series behind the report's charts.
 
-use crate::base::vocabulary::EffectId;
+use crate::base::effect::{Effect, ParamValue, ParamsMap};
+use crate::base::vocabulary::{EffectId, ParamName};
 use std::collections::BTreeMap;
-use std::fmt;
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::data::Matching;
 use super::locate::Locate;
 
-/// The contract's `verdict` (`shared/spec/cli-contract.md`, `diagnose --json`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Verdict {
-    /// The residual is explained by noise alone: no effect is reported.
-    #[serde(rename = "consistent")]
-    Consistent,
-    /// The simulation left something out: at least one effect is reported (a vocabulary
-    /// effect, or `unexplained`).
-    #[serde(rename = "missing_physics")]
-    MissingPhysics,
-}
+pub use crate::base::Verdict;
 
-impl Verdict {
-    /// The contract's spelling: `consistent` or `missing_physics` (also the JSON value and
-    /// the [`Display`](fmt::Display) text).
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            Verdict::Consistent => "consistent",
-            Verdict::MissingPhysics => "missing_physics",
-        }
-    }
-}
-
-impl fmt::Display for Verdict {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.pad(self.as_str())
-    }
-}
-
-/// Compares with the contract's spelling, as when `verdict` was a string.
-impl PartialEq<&str> for Verdict {
-    fn eq(&self, other: &&str) -> bool {
-        self.as_str() == *other
-    }
-}
-
-/// One found effect (contract shape).
-#[derive(Debug, Clone, Serialize)]
+/// One found effect: the typed effect, the one-sigma of each numeric parameter, where the
+/// mismatch is and how much it explains. Written in the contract's shape,
+/// `{"id", "params", "uncertainty", "where", "explains_um"}`.
+#[derive(Debug, Clone, PartialEq)]
 pub struct FoundEffect {
-    /// Vocabulary id (or `unexplained` for structure no vocabulary effect explains).
-    pub id: EffectId,
-    /// Parameters by the contract's names: numbers, and `offset_axis` ("y"/"z") for abbe.
-    pub params: BTreeMap<String, serde_json::Value>,
+    /// The effect with its fitted parameters.
+    pub effect: Effect,
     /// One-sigma uncertainty per numeric parameter (0 for a parameter fixed by the
     /// chosen variant, which `where` then says).
-    pub uncertainty: BTreeMap<String, f64>,
+    pub uncertainty: BTreeMap<ParamName, f64>,
     /// Where the mismatch is, in words; also any ambiguity.
-    #[serde(rename = "where")]
     pub where_: String,
     /// RMS (about its mean) of the effect's fitted contribution, µm.
     pub explains_um: f64,
+}
+
+impl FoundEffect {
+    /// The vocabulary id.
+    pub fn id(&self) -> EffectId {
+        self.effect.id()
+    }
+
+    /// The numeric parameter `name`, if the effect carries it.
+    pub fn number(&self, name: ParamName) -> Option<f64> {
+        self.effect.number(name)
+    }
+
+    /// The one-sigma of `name`, if given.
+    pub fn sigma(&self, name: ParamName) -> Option<f64> {
+        self.uncertainty.get(&name).copied()
+    }
+
+    /// A parameter by the contract's spelling (for a name read from a file or a test).
+    pub fn param_named(&self, name: &str) -> Option<ParamValue> {
+        self.effect
+            .params()
+            .into_iter()
+            .find(|(n, _)| n.as_str() == name)
+            .map(|(_, v)| v)
+    }
+
+    /// A numeric parameter by the contract's spelling.
+    pub fn number_named(&self, name: &str) -> Option<f64> {
+        self.param_named(name).and_then(ParamValue::as_f64)
+    }
+
+    /// A one-sigma by the contract's spelling.
+    pub fn sigma_named(&self, name: &str) -> Option<f64> {
+        self.uncertainty
+            .iter()
+            .find(|(n, _)| n.as_str() == name)
+            .map(|(_, v)| *v)
+    }
+
+    /// The one-sigmas in the order of their names, as written.
+    pub fn uncertainty_by_name(&self) -> Vec<(ParamName, f64)> {
+        let mut u: Vec<(ParamName, f64)> = self.uncertainty.iter().map(|(k, v)| (*k, *v)).collect();
+        u.sort_by_key(|(n, _)| n.as_str());
+        u
+    }
+}
+
+impl Serialize for FoundEffect {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let uncertainty: BTreeMap<&str, f64> = self
+            .uncertainty
+            .iter()
+            .map(|(k, v)| (k.as_str(), *v))
+            .collect();
+        let mut st = s.serialize_struct("FoundEffect", 5)?;
+        st.serialize_field("id", &self.effect.id())?;
+        st.serialize_field("params", &ParamsMap(&self.effect))?;
+        st.serialize_field("uncertainty", &uncertainty)?;
+        st.serialize_field("where", &self.where_)?;
+        st.serialize_field("explains_um", &self.explains_um)?;
+        st.end()
+    }
 }
 
 /// Noise σ of one group of rows.
@@ -214,30 +243,4 @@ pub struct EffectSeries {
     pub fitted_um: Vec<f64>,
     /// Row groups drawn as separate series (label, rows); empty: one series.
     pub groups: Vec<(String, Vec<usize>)>,
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Verdict;
-
-    #[test]
-    fn verdict_is_spelled_as_in_the_contract() {
-        for (v, s) in [
-            (Verdict::Consistent, "consistent"),
-            (Verdict::MissingPhysics, "missing_physics"),
-        ] {
-            assert_eq!(
-                serde_json::to_string(&v).expect("a unit variant serialises"),
-                format!("\"{s}\"")
-            );
-            assert_eq!(
-                serde_json::from_str::<Verdict>(&format!("\"{s}\""))
-                    .expect("the contract's spelling parses"),
-                v
-            );
-            assert_eq!(v.to_string(), s);
-            assert_eq!(v, s);
-        }
-        assert_ne!(Verdict::Consistent, "missing_physics");
-    }
 }

@@ -135,9 +135,9 @@ pub enum Hidden {
 }
 
 impl Hidden {
-    /// The contract's id.
-    pub fn id(&self) -> &'static str {
-        self.effect().as_str()
+    /// The vocabulary id.
+    pub fn id(&self) -> EffectId {
+        self.effect()
     }
 
     /// The vocabulary effect this is.

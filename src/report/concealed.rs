@@ -69,12 +69,13 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         write_report(&d, &report, None)?;
         let json_path = report.join("diagnosis.json");
         super::write_json(&json_path, &d)?;
-        let found: Vec<String> = d.effects.iter().map(|e| format!("`{}`", e.id)).collect();
+        let found: Vec<String> = d.effects.iter().map(|e| format!("`{}`", e.id())).collect();
         let params: Vec<String> = d
             .effects
             .iter()
             .map(|e| {
-                e.params
+                e.effect
+                    .params_by_name()
                     .iter()
                     .map(|(k, v)| match (v.as_f64(), e.uncertainty.get(k)) {
                         (Some(x), Some(u)) => format!("{k} {x:.4} ± {u:.4}"),
@@ -117,7 +118,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         outcomes.push(CaseOutcome {
             name: name.clone(),
             verdict: d.verdict,
-            effects: d.effects.iter().map(|e| e.id).collect(),
+            effects: d.effects.iter().map(|e| e.id()).collect(),
         });
     }
     let index_path = out.join("README.md");

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
-use crate::diagnose::{Diagnosis, GroupStat};
+use crate::diagnose::{Diagnosis, GroupStat, Verdict};
 
 /// Most points drawn per series.
 pub const MAX_POINTS: usize = 4000;
@@ -310,7 +310,7 @@ fn table(out: &mut String, title: &str, rows: &[GroupStat]) {
 fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     let mut o = String::new();
     let _ = writeln!(o, "# Missing-physics diagnosis\n");
-    let verdict = if d.verdict == "consistent" {
+    let verdict = if d.verdict == Verdict::Consistent {
         "**consistent** — the residual is explained by noise alone"
     } else {
         "**missing physics** — the simulation leaves out what follows"
@@ -365,10 +365,10 @@ fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             o,
             "### {}. `{}` — explains {:.4} µm RMS\n",
             k + 1,
-            e.id,
+            e.id(),
             e.explains_um
         );
-        for (name, v) in &e.params {
+        for (name, v) in &e.effect.params_by_name() {
             match (v.as_f64(), e.uncertainty.get(name)) {
                 (Some(x), Some(s)) if *s > 0.0 => {
                     let _ = writeln!(o, "- {name} = {x:.6} ± {s:.6}");

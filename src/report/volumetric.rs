@@ -96,16 +96,21 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
             "| effect | parameters | one-sigma | explains (µm) | where |\n|---|---|---|---|---|"
         );
         for e in &id.residual.effects {
-            let params: Vec<String> = e.params.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+            let params: Vec<String> = e
+                .effect
+                .params_by_name()
+                .iter()
+                .map(|(k, v)| format!("{k} = {v}"))
+                .collect();
             let sig: Vec<String> = e
-                .uncertainty
+                .uncertainty_by_name()
                 .iter()
                 .map(|(k, v)| format!("{k}: {v:.3}"))
                 .collect();
             let _ = writeln!(
                 md,
                 "| {} | {} | {} | {:.3} | {} |",
-                e.id,
+                e.id(),
                 params.join(", "),
                 sig.join(", "),
                 e.explains_um,

@@ -99,7 +99,6 @@
 //! `O(N log N)` for `N` observations (one sort), `O(m)` memory for `m` targets.
 
 use std::collections::BTreeMap;
-use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
@@ -107,34 +106,7 @@ use serde::{Deserialize, Serialize};
 /// this (1 nm); anything further apart is [`IsoError::InconsistentPosition`].
 pub const POSITION_TOL_MM: f64 = 1e-6;
 
-/// Direction of approach to a target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-pub enum Direction {
-    /// `↑`: the axis moved in its positive direction to reach the target.
-    Up,
-    /// `↓`: the axis moved in its negative direction to reach the target.
-    Down,
-}
-
-impl Direction {
-    /// The arrow ISO 230-2 uses: `↑` or `↓`.
-    pub fn arrow(self) -> &'static str {
-        match self {
-            Direction::Up => "↑",
-            Direction::Down => "↓",
-        }
-    }
-}
-
-impl fmt::Display for Direction {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let word = match self {
-            Direction::Up => "up (↑)",
-            Direction::Down => "down (↓)",
-        };
-        f.write_str(word)
-    }
-}
+pub use crate::base::Direction;
 
 /// One approach to one target: errmap's error there, as measured.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -112,22 +112,7 @@ fn bad(flag: &'static str, message: impl Into<String>) -> TestPlanError {
     }
 }
 
-/// Up (+1, towards larger positions) or down (−1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Direction {
-    Up,
-    Down,
-}
-
-impl Direction {
-    /// +1 or −1, as the session table's `direction`.
-    pub fn sign(self) -> i8 {
-        match self {
-            Direction::Up => 1,
-            Direction::Down => -1,
-        }
-    }
-}
+pub use crate::base::Direction;
 
 /// One step of the standard test cycle, after the move to [`TestPlan::start_point_mm`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,8 +1,7 @@
 //! Writing what a diagnosis found back into a machine model, so that `simulate`
 //! reproduces the recording (`diagnose --model … --out DIR` writes `updated-model.toml`).
 
-use crate::base::Axis;
-use crate::base::vocabulary::{EffectId, ParamName as P};
+use crate::base::effect::{Drift, Effect};
 
 use super::physics::{
     Abbe, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale, ScaleFactor,
@@ -11,24 +10,32 @@ use super::physics::{
 
 /// Adds the effects a diagnosis found to a model, so that `simulate` reproduces the
 /// recording. Returns a note per effect (what was set, or why it could not be).
+///
+/// Every effect is matched by its typed parameters: nothing is read by name, so nothing
+/// can go missing and become 0. A diagnosis measures against the model's own simulation,
+/// so a scale factor, reversal, latch delay or dead path found is added to what the model
+/// had; the other terms replace the model's (the diagnosis fits them whole). A refraction
+/// coefficient the diagnosis did not determine keeps the model's value.
 pub fn apply_found_effects(
     model: &mut MachineModel,
     effects: &[crate::diagnose::FoundEffect],
 ) -> Vec<String> {
     let mut notes = Vec::new();
-    for e in effects {
-        let num = |k: P| e.params.get(k.as_str()).and_then(serde_json::Value::as_f64);
-        let need = |k: P| num(k).unwrap_or(0.0);
-        match e.id {
-            EffectId::ScaleThermalExpansion => {
+    for found in effects {
+        let id = found.id();
+        match found.effect {
+            Effect::ScaleThermalExpansion {
+                alpha_ppm_per_k,
+                x0_mm,
+            } => {
                 model.scale = Some(Scale {
                     enabled: true,
                     material: "from diagnosis".into(),
-                    cte_ppm_per_k: need(P::AlphaPpmPerK),
-                    x0_mm: need(P::X0Mm),
+                    cte_ppm_per_k: alpha_ppm_per_k,
+                    x0_mm,
                 });
             }
-            EffectId::ScaleFactor => {
+            Effect::ScaleFactor { ppm } => {
                 let old = model
                     .scale_factor
                     .as_ref()
@@ -36,25 +43,22 @@ pub fn apply_found_effects(
                     .map_or(0.0, |s| s.ppm);
                 model.scale_factor = Some(ScaleFactor {
                     enabled: true,
-                    ppm: old + need(P::Ppm),
+                    ppm: old + ppm,
                 });
             }
-            EffectId::Abbe => {
-                // The diagnosis writes the offset axis as text ("y" or "z").
-                let axis = e
-                    .params
-                    .get(P::OffsetAxis.as_str())
-                    .and_then(serde_json::Value::as_str)
-                    .and_then(|a| a.parse::<Axis>().ok())
-                    .unwrap_or(Axis::Z);
+            Effect::Abbe {
+                offset_axis,
+                theta0_urad,
+                theta1_urad_per_mm,
+            } => {
                 model.abbe = Some(Abbe {
                     enabled: true,
-                    offset_axis: axis,
-                    theta0_urad: need(P::Theta0Urad),
-                    theta1_urad_per_mm: need(P::Theta1UradPerMm),
+                    offset_axis,
+                    theta0_urad,
+                    theta1_urad_per_mm,
                 });
             }
-            EffectId::Reversal => {
+            Effect::Reversal { b_um, b1_um_per_m } => {
                 let old = model
                     .reversal
                     .as_ref()
@@ -62,15 +66,15 @@ pub fn apply_found_effects(
                     .map_or(0.0, |r| r.b_um);
                 model.reversal = Some(Reversal {
                     enabled: true,
-                    b_um: old + need(P::BUm),
+                    b_um: old + b_um,
                 });
-                if let Some(b1) = num(P::B1UmPerM) {
+                if let Some(b1) = b1_um_per_m {
                     notes.push(format!(
                         "reversal: the model's backlash is one constant, so its change along the axis ({b1:.3} µm/m) is not written (b_um is its value at the middle of the travel)"
                     ));
                 }
             }
-            EffectId::LatchDelay => {
+            Effect::LatchDelay { tau_us } => {
                 let old = model
                     .latch_delay
                     .as_ref()
@@ -78,39 +82,71 @@ pub fn apply_found_effects(
                     .map_or(0.0, |l| l.tau_us);
                 model.latch_delay = Some(LatchDelay {
                     enabled: true,
-                    tau_us: old + need(P::TauUs),
+                    tau_us: old + tau_us,
                 });
             }
-            EffectId::PeriodicScale => {
+            Effect::PeriodicScale {
+                amplitude_um,
+                period_um,
+                phase_rad,
+            } => {
                 model.periodic_scale = Some(PeriodicScale {
                     enabled: true,
-                    amplitude_um: need(P::AmplitudeUm),
-                    period_um: need(P::PeriodUm),
-                    phase_rad: need(P::PhaseRad),
+                    amplitude_um,
+                    period_um,
+                    phase_rad,
                 });
             }
-            EffectId::ThermalDrift => {
-                model.thermal_drift = Some(ThermalDrift {
-                    enabled: true,
-                    amplitude_um: need(P::AmplitudeUm),
-                    tau_s: num(P::TauS),
-                    rate_um_per_s: need(P::RateUmPerS),
+            Effect::ThermalDrift(drift) => {
+                model.thermal_drift = Some(match drift {
+                    Drift::Exponential {
+                        amplitude_um,
+                        tau_s,
+                    } => ThermalDrift {
+                        enabled: true,
+                        amplitude_um,
+                        tau_s: Some(tau_s),
+                        rate_um_per_s: 0.0,
+                    },
+                    Drift::Linear { rate_um_per_s } => ThermalDrift {
+                        enabled: true,
+                        amplitude_um: 0.0,
+                        tau_s: None,
+                        rate_um_per_s,
+                    },
                 });
             }
-            EffectId::DeadPath => model.laser.dead_path_mm += need(P::DeadPathMm),
-            EffectId::Refraction => {
+            Effect::DeadPath { dead_path_mm } => model.laser.dead_path_mm += dead_path_mm,
+            Effect::Refraction {
+                ppm_per_k,
+                ppm_per_hpa,
+            } => {
+                let old = model.refraction.as_ref().filter(|r| r.enabled);
                 model.refraction = Some(Refraction {
                     enabled: true,
-                    ppm_per_k: need(P::PpmPerK),
-                    ppm_per_hpa: need(P::PpmPerHpa),
+                    ppm_per_k: ppm_per_k.or(old.map(|r| r.ppm_per_k)).unwrap_or(0.0),
+                    ppm_per_hpa: ppm_per_hpa.or(old.map(|r| r.ppm_per_hpa)).unwrap_or(0.0),
                 });
             }
-            EffectId::Unexplained => {
-                notes.push(format!("{}: no model term for it; not added", e.id));
+            Effect::Unexplained { .. } => {
+                notes.push(format!("{id}: no model term for it; not added"));
+                continue;
+            }
+            Effect::Backlash { .. }
+            | Effect::ReversalSpike { .. }
+            | Effect::LateralPlay { .. }
+            | Effect::CyclicError { .. }
+            | Effect::Straightness { .. }
+            | Effect::ServoMismatch { .. }
+            | Effect::ScaleMismatch { .. }
+            | Effect::Squareness { .. } => {
+                notes.push(format!(
+                    "{id}: a circular-test effect, not a term of the positioning model; not added"
+                ));
                 continue;
             }
         }
-        notes.push(format!("{}: added", e.id));
+        notes.push(format!("{id}: added"));
     }
     notes
 }

@@ -40,7 +40,8 @@ use nalgebra::DVector;
 
 use super::identify::{Design, augment, centre_per_line, decompose};
 use super::lines::LineTable;
-use crate::base::vocabulary::{EffectId, ParamName};
+use crate::base::effect::{Drift, Effect};
+use crate::base::vocabulary::ParamName;
 use crate::diagnose::FoundEffect;
 
 /// The t above which a common drift is kept (two-sided p ≈ 0.001).
@@ -237,14 +238,14 @@ pub(crate) fn t_words(t: f64) -> String {
 pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> FoundEffect {
     let contribution: Vec<f64> = c.col.iter().map(|g| value * g).collect();
     let explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
-    let mut params = BTreeMap::new();
     let mut uncertainty = BTreeMap::new();
-    let (id, where_) = match c.term {
+    let (effect, where_) = match c.term {
         Term::Drift => {
-            params.insert(ParamName::RateUmPerS.as_str().to_string(), value.into());
-            uncertainty.insert(ParamName::RateUmPerS.as_str().to_string(), sigma);
+            uncertainty.insert(ParamName::RateUmPerS, sigma);
             (
-                EffectId::ThermalDrift,
+                Effect::ThermalDrift(Drift::Linear {
+                    rate_um_per_s: value,
+                }),
                 format!(
                     "every line: the readings drift by {:.3} ± {:.3} µm/h during the campaign \
                      (t_s within each line; each line's constant absorbs the hours between \
@@ -258,8 +259,7 @@ pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> F
         }
         Term::Line(i) => {
             let line = &table.lines[i];
-            params.insert(ParamName::Ppm.as_str().to_string(), value.into());
-            uncertainty.insert(ParamName::Ppm.as_str().to_string(), sigma);
+            uncertainty.insert(ParamName::Ppm, sigma);
             let cosine = if value < 0.0 {
                 format!(
                     "a beam misaligned by about {:.2} mrad (cosine error), or ",
@@ -269,7 +269,7 @@ pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> F
                 String::new()
             };
             (
-                EffectId::ScaleFactor,
+                Effect::ScaleFactor { ppm: value },
                 format!(
                     "line {} alone: its readings scale by {:.2} ± {:.2} ppm against the other \
                      lines ({cosine}a wrong air compensation on that line); |k|/σ = {} > \
@@ -286,8 +286,7 @@ pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> F
         }
     };
     FoundEffect {
-        id,
-        params,
+        effect,
         uncertainty,
         where_,
         explains_um,

@@ -15,7 +15,7 @@ use super::identifiability::suggest;
 use super::lines::LineTable;
 use super::model::{Component, SQUARENESS, Topology};
 use super::thermal::{self, ThermalTest};
-use crate::base::vocabulary::{EffectId, ParamName};
+use crate::base::effect::Effect;
 use crate::diagnose::FoundEffect;
 
 /// Relative tolerance on singular values (after column equilibration) below which a
@@ -805,11 +805,8 @@ fn residual_test(
         } else {
             rms_um
         };
-        let mut params = BTreeMap::new();
-        params.insert(ParamName::RmsUm.as_str().to_string(), rms_um.into());
         effects.push(FoundEffect {
-            id: EffectId::Unexplained,
-            params,
+            effect: Effect::Unexplained { rms_um },
             uncertainty: BTreeMap::new(),
             where_: format!(
                 "the residual of the rigid-body fit fails the {test} test against the noise \

@@ -35,7 +35,8 @@ use serde::Serialize;
 
 use super::lines::LineTable;
 use super::model::dot;
-use crate::base::vocabulary::{EffectId, ParamName};
+use crate::base::effect::Effect;
+use crate::base::vocabulary::ParamName;
 use crate::diagnose::FoundEffect;
 
 /// The t threshold above which the scale-expansion term is kept.
@@ -101,19 +102,16 @@ pub(crate) fn effect(test: &ThermalTest) -> Option<FoundEffect> {
     let (Some(a), Some(s)) = (test.alpha_ppm_per_k, test.sigma_ppm_per_k) else {
         return None;
     };
-    let mut params = std::collections::BTreeMap::new();
-    params.insert(ParamName::AlphaPpmPerK.as_str().to_string(), a.into());
-    params.insert(ParamName::X0Mm.as_str().to_string(), 0.0.into());
-    let mut uncertainty = std::collections::BTreeMap::new();
-    uncertainty.insert(ParamName::AlphaPpmPerK.as_str().to_string(), s);
-    uncertainty.insert(ParamName::X0Mm.as_str().to_string(), 0.0);
+    let uncertainty = [(ParamName::AlphaPpmPerK, s), (ParamName::X0Mm, 0.0)].into();
     let time = match test.t_s {
         Some([t0, t1]) => format!(" over t_s {:.2}–{:.2} h", t0 / 3600.0, t1 / 3600.0),
         None => String::new(),
     };
     Some(FoundEffect {
-        id: EffectId::ScaleThermalExpansion,
-        params,
+        effect: Effect::ScaleThermalExpansion {
+            alpha_ppm_per_k: a,
+            x0_mm: 0.0,
+        },
         uncertainty,
         where_: format!(
             "the scales of X, Y and Z (positioning E_XX, E_YY, E_ZZ gain α·ΔT·a·1e−3 µm), \

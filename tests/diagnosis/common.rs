@@ -12,7 +12,11 @@ pub fn diagnosis_text(d: &Diagnosis) -> String {
     for e in &d.effects {
         s.push_str(&format!(
             "  {} {:?} ± {:?} explains {:.4}\n    where: {}\n",
-            e.id, e.params, e.uncertainty, e.explains_um, e.where_
+            e.id(),
+            e.effect.params(),
+            e.uncertainty,
+            e.explains_um,
+            e.where_
         ));
     }
     for (tag, lines) in [

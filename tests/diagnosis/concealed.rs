@@ -53,19 +53,23 @@ mod against_truth {
         let d = &c.diagnosis;
         let noise = c.truth["sizes"]["noise_um"].as_f64().expect("noise");
         eprintln!("{name}: {}", serde_json::to_string(d).expect("json"));
-        assert_eq!(d.verdict, "missing_physics", "{name}");
+        assert_eq!(d.verdict.as_str(), "missing_physics", "{name}");
         let hidden = c.truth["params"].as_object().expect("params");
-        let mut ids: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+        let mut ids: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
         ids.sort_unstable();
         let mut want: Vec<&str> = hidden.keys().map(String::as_str).collect();
         want.sort_unstable();
         assert_eq!(ids, want, "{name}: effects named");
         for (id, params) in hidden {
-            let found = d.effects.iter().find(|e| &e.id == id).expect("found");
+            let found = d
+                .effects
+                .iter()
+                .find(|e| e.id().as_str() == id.as_str())
+                .expect("found");
             for (k, v) in params.as_object().expect("params") {
                 let truth = v.as_f64().expect("number");
-                let got = found.params.get(k).and_then(|x| x.as_f64());
-                let sigma = found.uncertainty.get(k).copied();
+                let got = found.number_named(k);
+                let sigma = found.sigma_named(k);
                 let (Some(got), Some(sigma)) = (got, sigma) else {
                     panic!("{name}: {id}.{k} missing in {found:?}");
                 };
@@ -146,7 +150,8 @@ mod against_truth {
         for name in ["clean", "clean_uneven_noise"] {
             let c = run(name);
             assert_eq!(
-                c.diagnosis.verdict, "consistent",
+                c.diagnosis.verdict.as_str(),
+                "consistent",
                 "{name}: {:?}",
                 c.diagnosis.effects
             );
@@ -229,12 +234,12 @@ mod by_name {
         println!("{name}: {t}");
         let hidden = truth["params"].as_object().cloned().unwrap_or_default();
         if hidden.is_empty() {
-            assert_eq!(d.verdict, "consistent", "{name}\n{t}");
+            assert_eq!(d.verdict.as_str(), "consistent", "{name}\n{t}");
             return;
         }
-        assert_eq!(d.verdict, "missing_physics", "{name}\n{t}");
+        assert_eq!(d.verdict.as_str(), "missing_physics", "{name}\n{t}");
         for (id, params) in &hidden {
-            let Some(e) = d.effects.iter().find(|e| &e.id == id) else {
+            let Some(e) = d.effects.iter().find(|e| e.id().as_str() == id.as_str()) else {
                 panic!("{name}: {id} not found\n{t}");
             };
             for (p, v) in params.as_object().cloned().unwrap_or_default() {
@@ -242,11 +247,7 @@ mod by_name {
                 if p == "phase_rad" || truth == 0.0 {
                     continue;
                 }
-                let got = e
-                    .params
-                    .get(&p)
-                    .and_then(|v| v.as_f64())
-                    .unwrap_or(f64::NAN);
+                let got = e.number_named(&p).unwrap_or(f64::NAN);
                 assert!(
                     (got - truth).abs() <= 0.25 * truth.abs(),
                     "{name}: {id}.{p} = {got} vs {truth}\n{t}"
@@ -336,19 +337,17 @@ mod by_name {
                     Ok(d) => d,
                     Err(e) => panic!("{}: {e}", case.name),
                 };
-                let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+                let mut got: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
                 let mut want = case.effects.clone();
                 got.sort_unstable();
                 want.sort_unstable();
                 let params_ok = case.truth.iter().all(|(id, params)| {
                     d.effects.iter().any(|e| {
-                        &e.id == id
+                        e.id().as_str() == id.as_str()
                             && params.iter().all(|(p, &truth)| {
                                 p == "phase_rad"
                                     || truth == 0.0
-                                    || e.params
-                                        .get(p)
-                                        .and_then(|v| v.as_f64())
+                                    || e.number_named(p)
                                         .is_some_and(|v| (v - truth).abs() <= 0.25 * truth.abs())
                             })
                     })

@@ -36,10 +36,7 @@ fn run(s: &Synth) -> Diagnosis {
 }
 
 fn param(e: &FoundEffect, name: &str) -> f64 {
-    e.params
-        .get(name)
-        .and_then(|v| v.as_f64())
-        .unwrap_or(f64::NAN)
+    e.number_named(name).unwrap_or(f64::NAN)
 }
 
 /// The effect is found alone with its parameters within 25 % (and one-sigma ≤ half the
@@ -47,10 +44,10 @@ fn param(e: &FoundEffect, name: &str) -> f64 {
 fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
     let d = run(s);
     let text = diagnosis_text(&d);
-    assert_eq!(d.verdict, "missing_physics", "{text}");
+    assert_eq!(d.verdict.as_str(), "missing_physics", "{text}");
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, hidden.id(), "{text}");
+    assert_eq!(e.id(), hidden.id(), "{text}");
     for (name, truth) in hidden.truth() {
         if !keys.contains(&name) {
             continue;
@@ -60,7 +57,7 @@ fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
             (v - truth).abs() <= 0.25 * truth.abs(),
             "{name}: {v} vs truth {truth}\n{text}"
         );
-        let sigma = e.uncertainty.get(name).copied().unwrap_or(f64::NAN);
+        let sigma = e.sigma_named(name).unwrap_or(f64::NAN);
         assert!(sigma <= 0.5 * v.abs(), "{name}: σ {sigma} vs {v}\n{text}");
     }
     assert!(
@@ -103,7 +100,7 @@ fn check_multi_periodic() {
     let mut periods: Vec<f64> = d
         .effects
         .iter()
-        .filter(|e| e.id == "periodic_scale")
+        .filter(|e| e.id().as_str() == "periodic_scale")
         .map(|e| param(e, "period_um"))
         .collect();
     periods.sort_by(f64::total_cmp);
@@ -149,7 +146,13 @@ fn finds_abbe_along_z() {
     let s = with(&[h]);
     check_single(&s, h, &["theta0_urad", "theta1_urad_per_mm"]);
     let d = run(&s);
-    assert_eq!(d.effects[0].params["offset_axis"], "z");
+    assert_eq!(
+        d.effects[0]
+            .param_named("offset_axis")
+            .map(|v| v.to_string())
+            .as_deref(),
+        Some("\"z\"")
+    );
 }
 
 #[test]
@@ -162,7 +165,13 @@ fn finds_abbe_along_y() {
     let s = with(&[h]);
     check_single(&s, h, &["theta0_urad", "theta1_urad_per_mm"]);
     let d = run(&s);
-    assert_eq!(d.effects[0].params["offset_axis"], "y");
+    assert_eq!(
+        d.effects[0]
+            .param_named("offset_axis")
+            .map(|v| v.to_string())
+            .as_deref(),
+        Some("\"y\"")
+    );
 }
 
 #[test]
@@ -228,7 +237,7 @@ fn finds_refraction() {
 #[test]
 fn clean_recording_is_consistent() {
     let d = run(&with(&[]));
-    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
+    assert_eq!(d.verdict.as_str(), "consistent", "{}", diagnosis_text(&d));
     assert!(d.effects.is_empty());
 }
 
@@ -244,8 +253,8 @@ fn finds_linear_thermal_drift() {
 fn check_multi(s: &Synth) -> Diagnosis {
     let d = run(s);
     let text = diagnosis_text(&d);
-    let mut want: Vec<&str> = s.hidden.iter().map(|h| h.id()).collect();
-    let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+    let mut want: Vec<&str> = s.hidden.iter().map(|h| h.id().as_str()).collect();
+    let mut got: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
     want.sort_unstable();
     got.sort_unstable();
     assert_eq!(got, want, "{text}");
@@ -253,7 +262,7 @@ fn check_multi(s: &Synth) -> Diagnosis {
         let e = d
             .effects
             .iter()
-            .find(|e| e.id == h.id())
+            .find(|e| e.id() == h.id())
             .unwrap_or_else(|| panic!("{} missing\n{text}", h.id()));
         let (name, truth) = h.truth()[0];
         let v = param(e, name);
@@ -323,7 +332,7 @@ fn uneven_noise_on_moving_rows_is_consistent() {
     let mut s = with(&[]);
     s.noise.moving_factor = 3.0;
     let d = run(&s);
-    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
+    assert_eq!(d.verdict.as_str(), "consistent", "{}", diagnosis_text(&d));
     assert!(d.effects.is_empty());
     // The noise groups see the difference.
     let moving: Vec<f64> = d
@@ -352,7 +361,7 @@ fn uneven_noise_in_two_runs_is_consistent() {
     s.noise.noisy_factor = 3.0;
     s.noise.sigma_um = 0.1;
     let d = run(&s);
-    assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
+    assert_eq!(d.verdict.as_str(), "consistent", "{}", diagnosis_text(&d));
 }
 
 #[test]
@@ -362,7 +371,7 @@ fn uneven_noise_does_not_hide_an_effect() {
     s.noise.moving_factor = 3.0;
     let d = run(&s);
     assert_eq!(d.effects.len(), 1, "{}", diagnosis_text(&d));
-    assert_eq!(d.effects[0].id, "reversal");
+    assert_eq!(d.effects[0].id().as_str(), "reversal");
 }
 
 fn all_text(d: &Diagnosis) -> String {
@@ -383,7 +392,7 @@ fn constant_scale_temperature_makes_thermal_expansion_ambiguous() {
     let d = run(&s);
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
-    let id = d.effects[0].id.as_str();
+    let id = d.effects[0].id().as_str();
     assert!(
         id == "scale_factor" || id == "scale_thermal_expansion",
         "{text}"
@@ -410,7 +419,7 @@ fn one_feed_without_dwell_makes_latch_delay_ambiguous() {
     let d = run(&s);
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
-    let id = d.effects[0].id.as_str();
+    let id = d.effects[0].id().as_str();
     assert!(id == "reversal" || id == "latch_delay", "{text}");
     let other = if id == "reversal" {
         "latch_delay"
@@ -433,7 +442,7 @@ fn single_line_makes_abbe_ambiguous() {
     let d = run(&s);
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
-    assert_eq!(d.effects[0].id, "scale_factor", "{text}");
+    assert_eq!(d.effects[0].id().as_str(), "scale_factor", "{text}");
     assert!(d.effects[0].where_.contains("abbe"), "{text}");
     assert!(all_text(&d).contains("second line"), "{text}");
     // 0.01 µrad/mm over z = 300 mm is 3 ppm.
@@ -454,7 +463,7 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
     let out = generate(&s);
     let free = diagnose(&out.recorded, &out.simulated, &config()).expect("diagnoses");
     assert_eq!(
-        free.effects.first().map(|e| e.id.as_str()),
+        free.effects.first().map(|e| e.id().as_str()),
         Some("dead_path"),
         "{}",
         diagnosis_text(&free)
@@ -465,7 +474,7 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
     };
     let d = diagnose(&out.recorded, &out.simulated, &known).expect("diagnoses");
     assert!(
-        d.effects.iter().all(|e| e.id != "dead_path"),
+        d.effects.iter().all(|e| e.id().as_str() != "dead_path"),
         "{}",
         diagnosis_text(&d)
     );
@@ -483,7 +492,7 @@ fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
     };
     let d = diagnose(&out.recorded, &out.simulated, &long).expect("diagnoses");
     assert_eq!(
-        d.effects.first().map(|e| e.id.as_str()),
+        d.effects.first().map(|e| e.id().as_str()),
         Some("dead_path"),
         "{}",
         diagnosis_text(&d)

@@ -17,17 +17,13 @@ fn run(s: &Synth) -> Diagnosis {
 fn found<'a>(d: &'a Diagnosis, id: &str) -> &'a FoundEffect {
     d.effects
         .iter()
-        .find(|e| e.id == id)
+        .find(|e| e.id().as_str() == id)
         .unwrap_or_else(|| panic!("no {id}\n{}", diagnosis_text(d)))
 }
 
 fn param(e: &FoundEffect, name: &str) -> (f64, f64) {
-    let v = e
-        .params
-        .get(name)
-        .and_then(|v| v.as_f64())
-        .unwrap_or(f64::NAN);
-    let s = e.uncertainty.get(name).copied().unwrap_or(f64::NAN);
+    let v = e.number_named(name).unwrap_or(f64::NAN);
+    let s = e.sigma_named(name).unwrap_or(f64::NAN);
     (v, s)
 }
 
@@ -121,7 +117,7 @@ fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, "dead_path", "{text}");
+    assert_eq!(e.id().as_str(), "dead_path", "{text}");
     let (dp, sd) = param(e, "dead_path_mm");
     assert!((dp - 300.0).abs() <= 3.0 * sd.max(10.0), "{text}");
     let basis = check_plan(&d);
@@ -141,7 +137,7 @@ fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
     let d = diagnose(&out.recorded, &out.simulated, &short).expect("diagnoses");
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
-    assert_eq!(d.effects[0].id, "thermal_drift", "{text}");
+    assert_eq!(d.effects[0].id().as_str(), "thermal_drift", "{text}");
     assert!(check_plan(&d).contains("150 mm"), "{text}");
 }
 
@@ -155,7 +151,7 @@ fn an_impossible_dead_path_decides_for_the_drift() {
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, "thermal_drift", "{text}");
+    assert_eq!(e.id().as_str(), "thermal_drift", "{text}");
     let basis = check_plan(&d);
     assert!(basis.contains("longer than"), "{basis}");
     assert!(e.where_.contains("dead_path"), "{text}");
@@ -175,7 +171,7 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, "reversal", "{text}");
+    assert_eq!(e.id().as_str(), "reversal", "{text}");
     let (b, sb) = param(e, "b_um");
     let (b1, sb1) = param(e, "b1_um_per_m");
     assert!((b - 0.8).abs() <= 3.0 * sb, "b {b} ± {sb}\n{text}");
@@ -190,8 +186,8 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, "reversal", "{text}");
-    assert!(!e.params.contains_key("b1_um_per_m"), "{text}");
+    assert_eq!(e.id().as_str(), "reversal", "{text}");
+    assert!(!e.param_named("b1_um_per_m").is_some(), "{text}");
     assert!(!e.where_.contains("changes along the axis"), "{text}");
     let (b, sb) = param(e, "b_um");
     assert!((b - 0.8).abs() <= 3.0 * sb, "{text}");
@@ -212,10 +208,10 @@ fn recorded_only_finds_a_concealed_drift() {
     let out = generate(&s);
     let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
     let text = diagnosis_text(&d);
-    let ids: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+    let ids: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
     assert_eq!(ids, ["thermal_drift"], "{text}");
     let e = &d.effects[0];
-    let (rate, sr) = if e.params.contains_key("rate_um_per_s") {
+    let (rate, sr) = if e.param_named("rate_um_per_s").is_some() {
         param(e, "rate_um_per_s")
     } else {
         // An exponential: its mean slope over the session.
@@ -250,7 +246,7 @@ fn recorded_only_clean_recording_gives_no_effect() {
     let out = generate(&s);
     let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
     let text = diagnosis_text(&d);
-    assert_eq!(d.verdict, "consistent", "{text}");
+    assert_eq!(d.verdict.as_str(), "consistent", "{text}");
     assert!(d.effects.is_empty(), "{text}");
 }
 

@@ -62,7 +62,7 @@ fn hundred_thousand_rows_in_under_two_seconds() {
         println!(
             "{name}: {} rows in {secs:.3} s: {:?}",
             out.recorded.len(),
-            d.effects.iter().map(|e| &e.id).collect::<Vec<_>>()
+            d.effects.iter().map(|e| e.id()).collect::<Vec<_>>()
         );
         assert_eq!(d.effects.len(), 3, "{:?}", d.effects);
         assert!(secs < 2.0, "{name}: {secs} s");

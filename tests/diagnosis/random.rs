@@ -201,14 +201,19 @@ fn describe(d: &Diagnosis) -> String {
         d.verdict, d.rms_before_um, d.rms_after_um
     );
     for e in &d.effects {
-        s.push_str(&format!(" | {} {:?} ±{:?}", e.id, e.params, e.uncertainty));
+        s.push_str(&format!(
+            " | {} {:?} ±{:?}",
+            e.id(),
+            e.effect.params(),
+            e.uncertainty
+        ));
     }
     s
 }
 
 /// Why a draw failed, or None.
 fn judge(d: &Diagnosis, h: &Hidden, keys: &[&str], noise: f64) -> Option<String> {
-    if d.effects.len() != 1 || d.effects[0].id != h.id() {
+    if d.effects.len() != 1 || d.effects[0].id() != h.id() {
         return Some(format!("wrong effects: {}", describe(d)));
     }
     let e = &d.effects[0];
@@ -216,13 +221,13 @@ fn judge(d: &Diagnosis, h: &Hidden, keys: &[&str], noise: f64) -> Option<String>
         if !keys.contains(&name) {
             continue;
         }
-        let Some(v) = e.params.get(name).and_then(|v| v.as_f64()) else {
+        let Some(v) = e.number_named(name) else {
             return Some(format!("{name} missing: {}", describe(d)));
         };
         if (v - truth).abs() > 0.25 * truth.abs() {
             return Some(format!("{name} = {v} vs {truth}: {}", describe(d)));
         }
-        let sd = e.uncertainty.get(name).copied().unwrap_or(f64::NAN);
+        let sd = e.sigma_named(name).unwrap_or(f64::NAN);
         if sd.is_nan() || sd > 0.5 * v.abs() {
             return Some(format!("{name} σ {sd} > half of {v}: {}", describe(d)));
         }
@@ -343,7 +348,7 @@ fn random_clean_sessions_stay_consistent() {
             Ok(d) => d,
             Err(e) => panic!("clean draw {k}: {e}"),
         };
-        if d.verdict != "consistent" {
+        if d.verdict.as_str() != "consistent" {
             alarms.push(format!("draw {k}: {}", describe(&d)));
         }
     }

@@ -51,8 +51,8 @@ fn matching_survives_order_gaps_and_flags() -> TestResult {
     sim.shuffle(&mut rng);
     let d = diagnose(&rec, &sim, &cfg())?;
     assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
-    assert_eq!(d.effects[0].id, "reversal");
-    let b = d.effects[0].params["b_um"].as_f64().unwrap_or(0.0);
+    assert_eq!(d.effects[0].id().as_str(), "reversal");
+    let b = d.effects[0].number_named("b_um").unwrap_or(0.0);
     assert!((b - 0.6).abs() < 0.05, "{b}");
     let m = &d.matching;
     assert_eq!(m.recorded_rows, rec.len());
@@ -130,7 +130,7 @@ fn degenerate_sessions_do_not_panic() -> TestResult {
     let out = generate(&reversal());
     // Identical tables: the residual is exactly zero.
     let d = diagnose(&out.simulated, &out.simulated, &cfg())?;
-    assert_eq!(d.verdict, "consistent");
+    assert_eq!(d.verdict.as_str(), "consistent");
     assert!(d.rms_after_um.abs() < 1e-9);
     // A few dozen rows of one dwell.
     let few: Vec<_> = out.recorded.iter().take(40).cloned().collect();
@@ -300,20 +300,16 @@ fn random_pairs_of_effects() -> TestResult {
         };
         let out = generate(&s);
         let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
-        let mut want: Vec<&str> = hidden.iter().map(|h| h.id()).collect();
-        let mut got: Vec<&str> = d.effects.iter().map(|e| e.id.as_str()).collect();
+        let mut want: Vec<&str> = hidden.iter().map(|h| h.id().as_str()).collect();
+        let mut got: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
         want.sort_unstable();
         got.sort_unstable();
         let ok_ids = want == got;
         let ok_params = hidden.iter().all(|h| {
             d.effects.iter().any(|e| {
-                e.id == h.id() && {
+                e.id() == h.id() && {
                     let (name, truth) = h.truth()[0];
-                    let v = e
-                        .params
-                        .get(name)
-                        .and_then(|v| v.as_f64())
-                        .unwrap_or(f64::NAN);
+                    let v = e.number_named(name).unwrap_or(f64::NAN);
                     (v - truth).abs() <= 0.25 * truth.abs()
                 }
             })
@@ -323,7 +319,7 @@ fn random_pairs_of_effects() -> TestResult {
                 "draw {k}: hidden {hidden:?}; found {:?}; rms after {:.4}",
                 d.effects
                     .iter()
-                    .map(|e| (&e.id, &e.params))
+                    .map(|e| (e.id(), e.effect.params()))
                     .collect::<Vec<_>>(),
                 d.rms_after_um
             ));
@@ -442,8 +438,14 @@ fn works_on_the_y_axis() -> TestResult {
     let d = diagnose(&to_y(&out.recorded), &to_y(&out.simulated), &cfg())?;
     assert_eq!(d.axis, "Y");
     assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
-    assert_eq!(d.effects[0].id, "abbe");
-    assert_eq!(d.effects[0].params["offset_axis"], "z");
+    assert_eq!(d.effects[0].id().as_str(), "abbe");
+    assert_eq!(
+        d.effects[0]
+            .param_named("offset_axis")
+            .map(|v| v.to_string())
+            .as_deref(),
+        Some("\"z\"")
+    );
     assert!(
         d.effects[0].where_.starts_with("Y axis, y "),
         "{}",
@@ -466,9 +468,9 @@ fn structure_outside_the_vocabulary_is_reported_as_unexplained() -> TestResult {
         r.error_um += 0.4 * (-((x - 400.0) / 40.0).powi(2)).exp();
     }
     let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
-    assert_eq!(d.verdict, "missing_physics");
+    assert_eq!(d.verdict.as_str(), "missing_physics");
     assert_eq!(d.effects.len(), 1, "{:?}", d.effects);
-    assert_eq!(d.effects[0].id, "unexplained");
+    assert_eq!(d.effects[0].id().as_str(), "unexplained");
     assert!(
         d.effects[0].where_.contains("x 3") || d.effects[0].where_.contains("x 4"),
         "{}",

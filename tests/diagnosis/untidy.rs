@@ -45,7 +45,7 @@ fn outliers_get_no_weight_and_raise_no_alarm() {
         s.noise.outlier_prob = 0.01;
         s.noise.outlier_um = 30.0 * s.noise.sigma_um;
         let d = run(&s);
-        assert_eq!(d.verdict, "consistent", "{}", diagnosis_text(&d));
+        assert_eq!(d.verdict.as_str(), "consistent", "{}", diagnosis_text(&d));
         assert!(
             d.selection_log.iter().any(|l| l.contains("outliers")),
             "the outliers are not stated: {:?}",
@@ -56,9 +56,9 @@ fn outliers_get_no_weight_and_raise_no_alarm() {
         let text = diagnosis_text(&d);
         assert_eq!(d.effects.len(), 1, "{text}");
         let e = &d.effects[0];
-        assert_eq!(e.id, "reversal", "{text}");
-        let b = e.params["b_um"].as_f64().expect("b_um");
-        let sd = e.uncertainty["b_um"];
+        assert_eq!(e.id().as_str(), "reversal", "{text}");
+        let b = e.number_named("b_um").expect("b_um");
+        let sd = e.sigma_named("b_um").expect("a one-sigma");
         assert!((b - 0.4).abs() <= 3.0 * sd, "b {b} ± {sd}: {text}");
     }
 }
@@ -77,10 +77,13 @@ fn a_periodic_error_of_0_2_mm_is_found_with_its_amplitude() {
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
-    assert_eq!(e.id, "periodic_scale", "{text}");
-    let p = e.params["period_um"].as_f64().expect("period");
-    let a = e.params["amplitude_um"].as_f64().expect("amplitude");
-    let (sp, sa) = (e.uncertainty["period_um"], e.uncertainty["amplitude_um"]);
+    assert_eq!(e.id().as_str(), "periodic_scale", "{text}");
+    let p = e.number_named("period_um").expect("period");
+    let a = e.number_named("amplitude_um").expect("amplitude");
+    let (sp, sa) = (
+        e.sigma_named("period_um").expect("a one-sigma"),
+        e.sigma_named("amplitude_um").expect("a one-sigma"),
+    );
     println!("period {p} ± {sp} µm, amplitude {a} ± {sa} µm");
     assert!((p - 200.0).abs() <= 3.0 * sp, "period {p} ± {sp}: {text}");
     assert!((a - 0.08).abs() <= 2.0 * sa, "amplitude {a} ± {sa}: {text}");
@@ -103,10 +106,12 @@ fn no_periodic_term_gives_no_detection_in_the_wider_band() {
         let d = diagnose(&out.recorded, &out.simulated, &cfg).expect("diagnoses");
         let text = diagnosis_text(&d);
         assert!(
-            d.effects.iter().all(|e| e.id != "periodic_scale"),
+            d.effects
+                .iter()
+                .all(|e| e.id().as_str() != "periodic_scale"),
             "seed {seed}: {text}"
         );
-        assert_eq!(d.verdict, "consistent", "seed {seed}: {text}");
+        assert_eq!(d.verdict.as_str(), "consistent", "seed {seed}: {text}");
         // The search did reach below 0.5 mm.
         let shortest = d
             .series

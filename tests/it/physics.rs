@@ -378,7 +378,7 @@ fn coarse_counter_diagnosis_with(
 }
 
 fn ids(d: &errmap::diagnose::Diagnosis) -> Vec<&str> {
-    d.effects.iter().map(|e| e.id.as_str()).collect()
+    d.effects.iter().map(|e| e.id().as_str()).collect()
 }
 
 /// Clean sessions on the 0.1 µm counter are `consistent` along X and Y: the ~0.01 µm

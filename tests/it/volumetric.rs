@@ -226,7 +226,8 @@ fn random_campaigns_recover_every_component_within_its_sigma() {
             );
             assert!(id.unidentified.is_empty());
             assert_eq!(
-                id.residual.verdict, "consistent",
+                id.residual.verdict.as_str(),
+                "consistent",
                 "{t} seed {seed}: rigid campaign"
             );
             let gauge = GaugeTruth::of(&m, id.fit.basis.range_mm);
@@ -426,7 +427,7 @@ fn auto_degree_finds_the_cubic_and_a_warming_scale_is_not_consistent() {
     let id = identify(&table, &IdentifyConfig::new(topo("ZXY"))).expect("identify");
     assert!(id.degree >= 3, "auto chose {} ({:?})", id.degree, id.cv);
     assert_eq!(id.cv.len(), 4);
-    assert_eq!(id.residual.verdict, "consistent");
+    assert_eq!(id.residual.verdict.as_str(), "consistent");
     // The scale warms by 1 ppm per hour during the campaign: each line's error grows
     // with its distance and its time — a rigid model cannot absorb it.
     let mut warm = table.clone();
@@ -442,7 +443,8 @@ fn auto_degree_finds_the_cubic_and_a_warming_scale_is_not_consistent() {
     cfg.degree = Degree::Fixed(3);
     let id = identify(&warm, &cfg).expect("identify");
     assert_eq!(
-        id.residual.verdict, "missing_physics",
+        id.residual.verdict.as_str(),
+        "missing_physics",
         "z = {}",
         id.residual.z
     );

@@ -55,10 +55,10 @@ fn param(id: &Identification, effect: &str, name: &str) -> (f64, f64) {
         .residual
         .effects
         .iter()
-        .find(|e| e.id.as_str() == effect)
+        .find(|e| e.id().as_str() == effect)
         .unwrap_or_else(|| panic!("no {effect} in {:?}", id.residual.effects));
-    let v = e.params[name].as_f64().expect("number");
-    (v, e.uncertainty[name])
+    let v = e.number_named(name).expect("number");
+    (v, e.sigma_named(name).expect("a one-sigma"))
 }
 
 #[test]
@@ -73,7 +73,7 @@ fn a_drift_in_time_is_named_and_fitted_with_the_components() {
             *tg.e_um.as_mut().expect("e") += rate * tg.t_s.expect("t_s");
         }
         let id = fit(t, &table);
-        assert_eq!(id.residual.verdict, "missing_physics");
+        assert_eq!(id.residual.verdict.as_str(), "missing_physics");
         let (v, s) = param(&id, "thermal_drift", "rate_um_per_s");
         assert!((v - rate).abs() < 3.5 * s, "{t}: {v} ± {s} vs {rate}");
         assert!(s < 0.35 * rate, "{t}: σ {s} too wide to name it");
@@ -81,7 +81,7 @@ fn a_drift_in_time_is_named_and_fitted_with_the_components() {
             !id.residual
                 .effects
                 .iter()
-                .any(|e| e.id.as_str() == "unexplained"),
+                .any(|e| e.id().as_str() == "unexplained"),
             "{t}: {:?}",
             id.residual.effects
         );
@@ -98,13 +98,13 @@ fn a_drift_in_time_is_named_and_fitted_with_the_components() {
             tg.t_s = None;
         }
         let plain = fit(t, &no_time);
-        assert_eq!(plain.residual.verdict, "missing_physics", "{t}");
+        assert_eq!(plain.residual.verdict.as_str(), "missing_physics", "{t}");
         assert!(
             !plain
                 .residual
                 .effects
                 .iter()
-                .any(|e| e.id.as_str() == "thermal_drift"),
+                .any(|e| e.id().as_str() == "thermal_drift"),
             "no t_s, no drift term"
         );
     }
@@ -146,7 +146,7 @@ fn a_single_bad_line_is_named_and_its_scale_fitted() {
         .residual
         .effects
         .iter()
-        .find(|e| e.id.as_str() == "scale_factor")
+        .find(|e| e.id().as_str() == "scale_factor")
         .expect("effect");
     assert!(
         e.where_.contains(&format!("line {id_line} ")),

@@ -107,12 +107,12 @@ fn warming_campaigns_recover_alpha_within_3_sigma_and_the_components_at_20_c() {
         assert!(th.kept, "{t}: α = {a} ± {s}");
         assert!((a - 11.5).abs() < 3.0 * s, "{t}: α = {a} ± {s}");
         assert!(s < 0.5, "{t}: σ_α = {s} ppm/K");
-        assert_eq!(id.residual.verdict, "missing_physics");
+        assert_eq!(id.residual.verdict.as_str(), "missing_physics");
         assert_eq!(id.residual.effects.len(), 1, "{:?}", id.residual.effects);
         let e = &id.residual.effects[0];
-        assert_eq!(e.id, "scale_thermal_expansion");
-        assert_eq!(e.params["alpha_ppm_per_k"], serde_json::json!(a));
-        assert_eq!(e.uncertainty["alpha_ppm_per_k"], s);
+        assert_eq!(e.id().as_str(), "scale_thermal_expansion");
+        assert_eq!(e.number_named("alpha_ppm_per_k"), Some(a));
+        assert_eq!(e.sigma_named("alpha_ppm_per_k").expect("a one-sigma"), s);
         // The term is microns: ΔT up to ~2 K × 11.5 ppm/K × up to 1000 mm.
         assert!(e.explains_um > 1.0, "explains {}", e.explains_um);
         // The residual after the joint fit is noise (0.1 µm).
@@ -151,17 +151,22 @@ fn ignoring_the_temperature_would_bias_the_positioning_components() {
     cfg.degree = Degree::Fixed(3);
     let id = identify(&table, &cfg).expect("identify");
     assert!(id.thermal.is_none());
-    assert_eq!(id.residual.verdict, "missing_physics");
+    assert_eq!(id.residual.verdict.as_str(), "missing_physics");
     // What the warming leaves is not one bad line (every line scales, more as the hours
     // pass); a drift in time may take part of it, but not all: the rest stays
     // `unexplained`, and no line is blamed.
-    let ids: Vec<&str> = id.residual.effects.iter().map(|e| e.id.as_str()).collect();
+    let ids: Vec<&str> = id
+        .residual
+        .effects
+        .iter()
+        .map(|e| e.id().as_str())
+        .collect();
     assert!(!ids.contains(&"scale_factor"), "{ids:?}");
     let rest = id
         .residual
         .effects
         .iter()
-        .find(|e| e.id == "unexplained")
+        .find(|e| e.id().as_str() == "unexplained")
         .expect("unexplained");
     assert!(rest.explains_um > 0.3);
 }
@@ -180,7 +185,8 @@ fn rigid_campaigns_with_temperatures_raise_no_false_alarm() {
         assert!(!th.kept, "{t}: {th:?}");
         assert!(th.t.expect("t") < 3.0);
         assert_eq!(
-            id.residual.verdict, "consistent",
+            id.residual.verdict.as_str(),
+            "consistent",
             "{t}: z = {}",
             id.residual.z
         );
@@ -212,7 +218,7 @@ fn a_constant_temperature_leaves_alpha_undetermined() {
     let th = id.thermal.as_ref().expect("temperatures");
     assert_eq!(th.alpha_ppm_per_k, None);
     assert!(!th.kept);
-    assert_eq!(id.residual.verdict, "consistent");
+    assert_eq!(id.residual.verdict.as_str(), "consistent");
     // E_XX at 800 mm: truth at 20 °C plus 11.5·3·800·1e−3 = 27.6 µm.
     let gauge = GaugeTruth::of(&m, id.fit.basis.range_mm);
     let (v, s) = id.fit.component(0, 800.0).expect("E_XX");
