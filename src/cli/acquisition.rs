@@ -250,11 +250,12 @@ pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
         );
     }
     if a.json {
-        let mut v = serde_json::to_value(&stats)?;
-        v["rows"] = serde_json::json!(rows);
-        // The process's resident high-water mark (Linux), MB: memory stays bounded.
-        v["peak_rss_mb"] = serde_json::json!(acquire::measure::peak_rss_mb());
-        super::guard::print_stdout(&v.to_string())?;
+        super::guard::print_json(&errmap::report::json::ReplayJson {
+            stats: &stats,
+            rows,
+            // The process's resident high-water mark (Linux), MB: memory stays bounded.
+            peak_rss_mb: acquire::measure::peak_rss_mb(),
+        })?;
     } else {
         eprintln!(
             "replay: {} rows from {} frames ({} CRC failures, {} resyncs, {} seq gaps) → {}",
@@ -271,47 +272,35 @@ pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
 
 /// A session argument: a table file, or a capture directory holding one.
 pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
-    if p.is_dir() {
-        for name in ["session.parquet", "session.csv"] {
-            if p.join(name).is_file() {
-                return Ok(p.join(name));
-            }
-        }
-        bail!(
-            "{}: no session.csv or session.parquet in this directory",
-            p.display()
-        );
-    }
-    Ok(p.to_path_buf())
+    Ok(errmap::sim::job::session_file(p)?)
 }
 
 pub fn table_cmd(a: TableArgs) -> Result<()> {
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
     if a.json {
-        // The numbers are checked before `json!` would turn a NaN into null.
+        use errmap::report::json::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
         let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
-        errmap::report::finite::check_json(
-            Path::new("stdout"),
-            &(&reduced.summary, &reduced.iso, &reduced.budgets, &expanded),
-        )?;
-        let lines: Vec<_> = reduced
+        let lines = reduced
             .iso
             .iter()
             .zip(&reduced.budgets)
             .zip(&expanded)
-            .map(|(((l, s), b), expanded)| {
-                serde_json::json!({
-                    "line_mm": [l.0, l.1],
-                    "iso230": s,
-                    "uncertainty": {"budget": b, "expanded": expanded},
-                    "gb_t_17421_2": "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)",
-                })
+            .map(|(((l, s), b), expanded)| TableLineJson {
+                gb_t_17421_2: GB_T_17421_2,
+                iso230: s,
+                line_mm: [l.0, l.1],
+                uncertainty: TableUncertaintyJson {
+                    budget: b,
+                    expanded,
+                },
             })
             .collect();
-        super::guard::print_stdout(
-            &serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
-                .to_string(),
-        )?;
+        // Typed, so the guard sees every number before it is written.
+        super::guard::print_json(&TableJson {
+            lines,
+            nodes: reduced.table.points.len(),
+            summary: &reduced.summary,
+        })?;
     }
     Ok(())
 }

@@ -564,7 +564,8 @@ pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
 /// are put on the step's points by that same linear rule (`export::regrid_measured`).
 fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     use errmap::base::Axis;
-    use errmap::export::{ExportFormat, Sampled, regrid_measured};
+    use errmap::export::bidirectional::{LineMeans, choose_line, direction_tables};
+    use errmap::export::{ExportFormat, regrid_measured};
     // Siemens' direction-dependent compensation is a pair of CEC tables (K3 §4.4.4).
     let format = match export_format(a) {
         ExportFormat::Siemens { max_points, .. } => ExportFormat::SiemensCec {
@@ -588,60 +589,21 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     };
     let axis = Axis::from(first.axis);
     let (lines, failed) = errmap::session::iso_by_line(&rows);
-    let others: Vec<Axis> = Axis::ALL.into_iter().filter(|&b| b != axis).collect();
-    let wanted: Vec<(Axis, f64)> = a.at.0.clone();
-    let matches = |line: (f64, f64)| {
-        wanted.iter().all(|&(k, v)| {
-            let c = if k == others[0] {
-                line.0
-            } else if k == others[1] {
-                line.1
-            } else {
-                f64::NAN
-            };
-            (c - v).abs() <= 1e-6
+    let means: Vec<LineMeans> = lines
+        .iter()
+        .map(|(at_mm, stats)| LineMeans {
+            at_mm: *at_mm,
+            positions_mm: stats.targets.iter().map(|t| t.position_mm).collect(),
+            mean_up_um: stats.targets.iter().map(|t| t.mean_up_um).collect(),
+            mean_down_um: stats.targets.iter().map(|t| t.mean_down_um).collect(),
         })
-    };
-    let chosen: Vec<&((f64, f64), errmap::session::iso230::AxisStats)> =
-        lines.iter().filter(|(l, _)| matches(*l)).collect();
-    let ((c0, c1), stats) = match chosen.as_slice() {
-        [one] => *one,
-        [] => {
-            let known: Vec<String> = lines
-                .iter()
-                .map(|(l, _)| format!("{}={},{}={}", others[0], l.0, others[1], l.1))
-                .collect();
-            let why: Vec<String> = failed.iter().map(|(l, e)| format!("{l:?}: {e}")).collect();
-            bail!(
-                "{}: no line of the session with ISO 230-2 statistics matches --at (lines: {}{})",
-                path.display(),
-                known.join("; "),
-                if why.is_empty() {
-                    String::new()
-                } else {
-                    format!("; without statistics: {}", why.join("; "))
-                }
-            )
-        }
-        many => bail!(
-            "{}: {} lines match; choose one with --at {}=…,{}=…",
-            path.display(),
-            many.len(),
-            others[0],
-            others[1]
-        ),
-    };
-    let mut targets = stats.targets.clone();
-    targets.sort_by(|p, q| p.position_mm.total_cmp(&q.position_mm));
-    let mut at_mm = [0.0; 3];
-    at_mm[others[0].index()] = *c0;
-    at_mm[others[1].index()] = *c1;
-    let positions: Vec<f64> = targets.iter().map(|t| t.position_mm).collect();
-    // ISO 230-2 deviations are x = −e.
-    let up: Vec<f64> = targets.iter().map(|t| -t.mean_up_um).collect();
-    let down: Vec<f64> = targets.iter().map(|t| -t.mean_down_um).collect();
-    let mut forward = Sampled::measured(axis, at_mm, positions.clone(), up);
-    let mut reverse = Sampled::measured(axis, at_mm, positions, down);
+        .collect();
+    let failed: Vec<String> = failed.iter().map(|(l, e)| format!("{l:?}: {e}")).collect();
+    let i =
+        choose_line(axis, &means, &a.at.0, &failed).with_context(|| path.display().to_string())?;
+    let stats = &lines[i].1;
+    let (mut forward, mut reverse) = direction_tables(axis, &means[i]);
+    let at_mm = forward.at_mm;
     if let Some(step) = a.step {
         let fit = super::step::step_fit(&format, a.ends, a.reference);
         forward = regrid_measured(&forward, step, fit)?;

@@ -461,18 +461,7 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
     predict::write_grid(out, &points, &errors)?;
     if a.json {
-        // The numbers are checked before `json!` would turn a NaN into null.
-        errmap::report::finite::check_json(Path::new("stdout"), &(&points, &errors))?;
-        let rows: Vec<serde_json::Value> = points
-            .iter()
-            .zip(&errors)
-            .map(|(p, (e, s))| {
-                serde_json::json!({"x_mm": p[0], "y_mm": p[1], "z_mm": p[2],
-                    "ex_um": e[0], "ey_um": e[1], "ez_um": e[2],
-                    "sx_um": s[0], "sy_um": s[1], "sz_um": s[2]})
-            })
-            .collect();
-        super::guard::print_json(&serde_json::json!({ "grid": rows }))?;
+        super::guard::print_json(&errmap::report::json::GridJson::new(&points, &errors))?;
     }
     eprintln!(
         "volumetric predict: error vector at {} points → {}",

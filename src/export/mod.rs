@@ -47,6 +47,7 @@
 //! error naming the mapped range, which is found from `outside` alone by bisection
 //! ([`MappedBox::around`]), so it works for every interpolator.
 
+pub mod bidirectional;
 pub mod csv;
 mod error;
 pub mod fanuc;

@@ -107,3 +107,94 @@ impl Comparison {
         }
     }
 }
+
+/// The JSON document of `diagnose --json`: the diagnosis (contract keys first), and with
+/// nothing to diagnose against, the ISO 230-2 figures with the found effects removed.
+#[derive(Debug, Serialize)]
+pub struct DiagnoseJson<'a> {
+    #[serde(flatten)]
+    pub diagnosis: &'a crate::diagnose::Diagnosis,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iso230: Option<&'a super::diagnosis::IsoEffect>,
+}
+
+/// The JSON document of `replay --json`: the decoder's counts, the rows written and the
+/// process's resident high-water mark.
+#[derive(Debug, Serialize)]
+pub struct ReplayJson<'a> {
+    #[serde(flatten)]
+    pub stats: &'a errmap_drivers::DecoderStats,
+    pub rows: u64,
+    /// MB (Linux; None elsewhere).
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// One line of `table --json`.
+#[derive(Debug, Serialize)]
+pub struct TableLineJson<'a> {
+    pub gb_t_17421_2: &'static str,
+    pub iso230: &'a crate::session::iso230::AxisStats,
+    pub line_mm: [f64; 2],
+    pub uncertainty: TableUncertaintyJson<'a>,
+}
+
+/// A line's uncertainty budget and the expanded uncertainties of its figures.
+#[derive(Debug, Serialize)]
+pub struct TableUncertaintyJson<'a> {
+    pub budget: &'a crate::session::uncertainty::Budget,
+    pub expanded: &'a crate::session::uncertainty::StatUncertainty,
+}
+
+/// The JSON document of `table --json` (keys in the order they were always printed).
+#[derive(Debug, Serialize)]
+pub struct TableJson<'a> {
+    pub lines: Vec<TableLineJson<'a>>,
+    pub nodes: usize,
+    pub summary: &'a crate::session::ReductionSummary,
+}
+
+/// GB/T 17421.2 carries ISO 230-2: the note every `table --json` line holds.
+pub const GB_T_17421_2: &str = "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)";
+
+/// One point of `volumetric predict --json`: the error vector and its one-sigma.
+#[derive(Debug, Serialize)]
+pub struct GridPointJson {
+    pub ex_um: f64,
+    pub ey_um: f64,
+    pub ez_um: f64,
+    pub sx_um: f64,
+    pub sy_um: f64,
+    pub sz_um: f64,
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub z_mm: f64,
+}
+
+/// The JSON document of `volumetric predict --json`.
+#[derive(Debug, Serialize)]
+pub struct GridJson {
+    pub grid: Vec<GridPointJson>,
+}
+
+impl GridJson {
+    /// From the points and their (error, one-sigma) vectors.
+    pub fn new(points: &[[f64; 3]], errors: &[([f64; 3], [f64; 3])]) -> Self {
+        GridJson {
+            grid: points
+                .iter()
+                .zip(errors)
+                .map(|(p, (e, s))| GridPointJson {
+                    ex_um: e[0],
+                    ey_um: e[1],
+                    ez_um: e[2],
+                    sx_um: s[0],
+                    sy_um: s[1],
+                    sz_um: s[2],
+                    x_mm: p[0],
+                    y_mm: p[1],
+                    z_mm: p[2],
+                })
+                .collect(),
+        }
+    }
+}

@@ -9,6 +9,7 @@
 //! | [`testplan`] | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
 //! | [`program`] | part programs for a test plan (LinuxCNC, Fanuc, Siemens 840D, Heidenhain) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
+//! | [`job`] | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
 //! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
 //! | [`error`] | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
@@ -16,6 +17,7 @@
 pub(crate) mod bounds;
 pub mod concealed;
 pub mod error;
+pub mod job;
 pub mod physics;
 pub mod plan;
 pub mod program;
