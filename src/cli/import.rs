@@ -284,7 +284,7 @@ pub fn import_cmd(a: ImportArgs) -> Result<()> {
         format: match (format, csv) {
             (ImportFormatArg::ApiXd, _) => SessionFormat::ApiXd,
             (ImportFormatArg::RenishawRtl, _) => SessionFormat::RenishawRtl,
-            (ImportFormatArg::Csv, Some(o)) => SessionFormat::Csv(o),
+            (ImportFormatArg::Csv, Some(o)) => SessionFormat::Csv(Box::new(o)),
             _ => SessionFormat::Auto,
         },
         axis: a.axis,
@@ -403,12 +403,17 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
         _ => None,
     };
     let Some(existing) = &a.existing else {
+        if choice == Some(TableFormatChoice::Fagor8055)
+            && let Err(e) = length_only(a.units.as_deref(), true, "a Fagor 8055 table")
+        {
+            return Some(Err(e));
+        }
         return choice
-            .filter(|c| *c != TableFormatChoice::Linuxcnc)
+            .filter(|c| *c == TableFormatChoice::Fagor8065)
             .map(|_| {
                 Err(guard::usage(
-                    "--format fagor-8055/fagor-8065 writes an updated table: give the table in \
-                     use with --existing",
+                    "--format fagor-8065 writes an updated axis file: give the file in use with \
+                     --existing",
                 ))
             });
     };
@@ -427,4 +432,21 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
         out: &a.out,
         json: a.json,
     }))
+}
+
+/// `export --format fagor-8055` (from a model): the axis letter and the unit (`--units`,
+/// checked by [`existing_or_refuse`] before).
+pub fn fagor_8055_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
+    let inch = a.units.as_deref().is_some_and(|u| u.starts_with("in"));
+    let letter = a
+        .axis_name
+        .as_deref()
+        .and_then(|n| n.chars().next())
+        .unwrap_or_else(|| a.axis.upper().chars().next().unwrap_or('X'));
+    errmap::export::ExportFormat::Fagor8055 {
+        spec: errmap::export::Fagor8055Spec {
+            axis_letter: letter,
+            inch,
+        },
+    }
 }

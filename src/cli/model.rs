@@ -405,8 +405,9 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
         },
         ExportFormatArg::Csv => ExportFormat::Csv,
         ExportFormatArg::Grid => ExportFormat::Grid,
-        // Only with --existing (export_cmd returns before): no table from scratch.
-        ExportFormatArg::Fagor8055 | ExportFormatArg::Fagor8065 => ExportFormat::Csv,
+        ExportFormatArg::Fagor8055 => super::import::fagor_8055_format(a),
+        // Only with --existing (export_cmd returns before): no 8065 file from scratch.
+        ExportFormatArg::Fagor8065 => ExportFormat::Csv,
     }
 }
 

@@ -201,7 +201,8 @@ pub enum SessionFormat {
     Auto,
     ApiXd,
     RenishawRtl,
-    Csv(CsvOptions),
+    /// (Boxed: the column map is large beside the other variants.)
+    Csv(Box<CsvOptions>),
 }
 
 /// How to import a positioning test.

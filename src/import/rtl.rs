@@ -273,9 +273,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
         let order: Vec<usize> = raw.iter().filter(|q| q.1 == run).map(|q| q.2).collect();
         let first = positions[order[0] - 1];
         let last = positions[order[order.len() - 1] - 1];
-        let direction: i8 = if n < 2 {
-            1
-        } else if last > first {
+        let direction: i8 = if n < 2 || last > first {
             1
         } else if last < first {
             -1

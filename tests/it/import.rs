@@ -48,7 +48,9 @@ fn nums(line: &str) -> Vec<f64> {
 /// Reads, independently of the importer, an API export's readings (Position,
 /// LinearError) and the vendor's compensation table (position, mean error) and its
 /// printed "Displacement Accuracy".
-fn api_by_hand(text: &str) -> (Vec<(f64, f64)>, Vec<(f64, f64)>, f64) {
+type Pairs = Vec<(f64, f64)>;
+
+fn api_by_hand(text: &str) -> (Pairs, Pairs, f64) {
     let lines: Vec<&str> = text.lines().map(|l| l.trim_end_matches('\r')).collect();
     let start = lines
         .iter()
@@ -433,7 +435,7 @@ fn csv_import(bytes: &[u8], o: import::CsvOptions) -> Result<import::Imported, S
         Path::new("m.csv"),
         bytes,
         &ImportOptions {
-            format: SessionFormat::Csv(o),
+            format: SessionFormat::Csv(Box::new(o)),
             axis: Some(errmap::base::Axis::Y),
         },
     )
@@ -910,4 +912,96 @@ fn detection_is_by_content() {
     let e = import::detect(b"a,b\n1,2\n").expect_err("csv is not guessed");
     assert_eq!(e.line, 1);
     assert!(e.message.contains("not a recognised format"));
+}
+
+/// The Fagor 8055 dialect: the golden text of a small bidirectional inch table (the real
+/// files' widths), the compensation c = −e in the file's unit, and the round trip
+/// export → import → the same errors (to the file's rounding: 0.5e-5 in = 0.127 µm in
+/// inch, 0.05 µm in mm).
+#[test]
+fn fagor_8055_golden_text_and_round_trip() {
+    use errmap::export::{ExportFormat, Fagor8055Spec, Sampled};
+    let pos = vec![0.0, 127.0, 254.0];
+    let up = vec![0.0, -32.258, 25.4];
+    let down = vec![1.27, 0.0, -2.54];
+    let f = Sampled::measured(errmap::base::Axis::X, [0.0; 3], pos.clone(), up.clone());
+    let r = Sampled::measured(errmap::base::Axis::X, [0.0; 3], pos.clone(), down.clone());
+    let fmt = ExportFormat::Fagor8055 {
+        spec: Fagor8055Spec {
+            axis_letter: 'X',
+            inch: true,
+        },
+    };
+    let text = fmt.render_line(&f, Some(&r)).expect("render");
+    assert_eq!(
+        text,
+        "      P001          X    0.00000       EX    0.00000        EX   -0.00005\r\n\
+         \x20     P002          X    5.00000       EX    0.00127        EX    0.00000\r\n\
+         \x20     P003          X   10.00000       EX   -0.00100        EX    0.00010\r\n"
+    );
+    for (inch, tol_um) in [(true, 0.254), (false, 0.1)] {
+        let up = vec![0.3, -32.2581, 25.41];
+        let f = Sampled::measured(errmap::base::Axis::Y, [0.0; 3], pos.clone(), up.clone());
+        let fmt = ExportFormat::Fagor8055 {
+            spec: Fagor8055Spec {
+                axis_letter: 'Y',
+                inch,
+            },
+        };
+        let text = fmt.render_line(&f, None).expect("render");
+        let units = if inch {
+            LengthUnit::Inch
+        } else {
+            LengthUnit::Mm
+        };
+        let t =
+            import::tables::read(text.as_bytes(), TableFormat::Fagor8055 { units }).expect("reads");
+        assert_eq!(t.axis, Some(errmap::base::Axis::Y));
+        assert!(!t.bidirectional, "no reverse line: one table");
+        for (i, p) in t.points.iter().enumerate() {
+            assert!((p.position_mm - pos[i]).abs() < 1e-9);
+            assert!(
+                (p.e_up_um - up[i]).abs() <= tol_um / 2.0 + 1e-9,
+                "{inch} {i}: {}",
+                p.e_up_um
+            );
+            assert_eq!(p.e_down_um, p.e_up_um);
+        }
+    }
+    // The CLI: an inch machine needs --units; a model's table written and read back.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let table = dir.path().join("t.csv");
+    std::fs::write(
+        &table,
+        "x_mm,y_mm,z_mm,e_um\n0,0,0,1\n100,0,0,3\n200,0,0,-2\n",
+    )
+    .expect("write");
+    let out = dir.path().join("ALX");
+    let base = [
+        "export",
+        s(&table),
+        "--method",
+        "trilinear",
+        "--step",
+        "50",
+        "--format",
+        "fagor-8055",
+        "--out",
+        s(&out),
+    ];
+    let o = errmap(&base);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--units", "mm"]);
+    let o = errmap(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let t = import::tables::read(
+        &std::fs::read(&out).expect("ALX"),
+        TableFormat::Fagor8055 {
+            units: LengthUnit::Mm,
+        },
+    )
+    .expect("reads back");
+    let e: Vec<f64> = t.points.iter().map(|p| p.e_up_um).collect();
+    assert_eq!(e, [1.0, 2.0, 3.0, 0.5, -2.0]);
 }
