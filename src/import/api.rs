@@ -375,7 +375,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             };
             let run = if bidirectional { p / 2 + 1 } else { p + 1 } as u32;
             let target_mm = r.position * k;
-            readings.push(Reading {
+            let reading = Reading {
                 run,
                 direction,
                 target_mm,
@@ -384,7 +384,9 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
                 error_um: -r.linear_error * k * 1000.0,
                 flags: r.status,
                 env,
-            });
+            };
+            reading.check(r.line)?;
+            readings.push(reading);
         }
     }
     if !inch

@@ -463,7 +463,7 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
             })?,
             None => 0,
         };
-        readings.push(Reading {
+        let reading = Reading {
             run,
             direction,
             target_mm: t * k,
@@ -483,7 +483,9 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
                 scale_temp_c: scale_t.as_ref().map(cell).transpose()?.flatten().map(temp),
                 part_temp_c: part_t.as_ref().map(cell).transpose()?.flatten().map(temp),
             },
-        });
+        };
+        reading.check(line)?;
+        readings.push(reading);
         lines.push(line);
     }
     if readings.is_empty() {

@@ -268,6 +268,38 @@ pub struct Reading {
     pub env: Env,
 }
 
+impl Reading {
+    /// Refuses, at `line`, a value outside the session table's physical ranges
+    /// ([`crate::base::limits`]), as `read_session` would on the written file.
+    pub fn check(&self, line: usize) -> Result<(), At> {
+        use crate::base::limits::{
+            ERROR_UM, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C,
+        };
+        let checks = [
+            ("target position", POSITION_MM.check(self.target_mm)),
+            ("indicated position", POSITION_MM.check(self.scale_mm)),
+            ("reference position", POSITION_MM.check(self.laser_mm)),
+            ("error", ERROR_UM.check(self.error_um)),
+        ];
+        let env = [
+            ("air temperature", self.env.air_temp_c, TEMPERATURE_C),
+            ("air pressure", self.env.air_pressure_hpa, PRESSURE_HPA),
+            ("humidity", self.env.air_rh_pct, HUMIDITY_PCT),
+            ("scale temperature", self.env.scale_temp_c, TEMPERATURE_C),
+            ("part temperature", self.env.part_temp_c, TEMPERATURE_C),
+        ];
+        for (what, r) in checks.into_iter().chain(
+            env.into_iter()
+                .filter_map(|(w, v, b)| v.map(|v| (w, b.check(v)))),
+        ) {
+            if let Err(m) = r {
+                return Err(At::new(line, format!("{what}: {m}")));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Two target positions within this are one target (1 nm).
 pub const TARGET_TOL_MM: f64 = 1e-6;
 

@@ -290,7 +290,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
                 .sum::<f64>()
                 / mats.len() as f64
         });
-        readings.push(Reading {
+        let reading = Reading {
             run: if unidirectional {
                 run as u32
             } else {
@@ -309,7 +309,9 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
                 scale_temp_c: None,
                 part_temp_c: part,
             },
-        });
+        };
+        reading.check(line)?;
+        readings.push(reading);
     }
     let file_axis = section("USER-TEXT")
         .and_then(|s| s.get("Axis"))

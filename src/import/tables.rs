@@ -185,6 +185,21 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
     })
 }
 
+/// Refuses, at `line`, a point outside errmap's physical ranges (positions ±10⁶ mm,
+/// errors ±10⁶ µm).
+fn in_range(line: usize, position_mm: f64, e_um: &[f64]) -> Result<(), At> {
+    use crate::base::limits::{ERROR_UM, POSITION_MM};
+    POSITION_MM
+        .check(position_mm)
+        .map_err(|m| At::new(line, format!("position: {m}")))?;
+    for &e in e_um {
+        ERROR_UM
+            .check(e)
+            .map_err(|m| At::new(line, format!("error: {m}")))?;
+    }
+    Ok(())
+}
+
 fn increasing(points: &[TablePoint], line: usize, position: f64) -> Result<(), At> {
     if let Some(prev) = points.last()
         && position <= prev.position_file
@@ -225,6 +240,7 @@ fn read_8055(text: &Text, k: f64) -> Result<(Axis, Vec<TablePoint>), At> {
             _ => {}
         }
         increasing(&points, line, pos)?;
+        in_range(line, pos * k, &[up * k * 1000.0, down * k * 1000.0])?;
         let t = tokens(l, off);
         points.push(TablePoint {
             line,
@@ -346,6 +362,7 @@ fn read_8065(text: &Text, k: f64) -> Result<Read8065, At> {
         let (_, up_f, up) = fetch("POSERROR")?;
         let (_, down_f, down) = fetch("NEGERROR")?;
         increasing(&points, line, pos)?;
+        in_range(line, pos * k, &[up * k * 1000.0, down * k * 1000.0])?;
         let e_up = -up * k * 1000.0;
         points.push(TablePoint {
             line,
@@ -410,6 +427,7 @@ fn read_linuxcnc(text: &Text, k: f64, comp: LinuxCncCompType) -> Result<Vec<Tabl
             LinuxCncCompType::Trim => v * k * 1000.0,
             LinuxCncCompType::ActualPosition => (n - v) * k * 1000.0,
         };
+        in_range(line, n * k, &[e(f), e(r)])?;
         points.push(TablePoint {
             line,
             position_mm: n * k,

@@ -270,6 +270,11 @@ pub fn update_table(
                 (0.0, 0.0)
             }
         };
+        // Nothing to add: the point's text stays as it is (a zero residual gives the
+        // file back whatever the float arithmetic would round).
+        if r_up == 0.0 && r_down == 0.0 && !becomes_bidirectional {
+            continue;
+        }
         match table.format {
             TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
                 let new_up = p.up_file - r_up / (k * 1000.0);
