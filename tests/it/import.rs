@@ -518,9 +518,15 @@ fn csv_reference_columns_and_refusals() {
     let dir = tempfile::tempdir().expect("tempdir");
     let f = dir.path().join("t.csv");
     std::fs::write(&f, t).expect("write");
-    let o = errmap(&["import", s(&f)]);
+    let out = dir.path().join("never.csv");
+    let o = errmap(&["import", s(&f), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("line 1") && stderr(&o).contains("not a recognised format"));
+    assert!(
+        stderr(&o).contains(&format!("{}: line 1: not a recognised format", s(&f))),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "nothing written");
     let o = errmap(&[
         "import",
         s(&f),
