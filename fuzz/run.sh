@@ -31,7 +31,7 @@ cd "$(dirname "$self")"
 [ $# -ge 2 ] || { sed -n '4,8p' "$self" | sed 's/^# *//'; exit 2; }
 secs=$1
 shift
-all=(decoder error_table session_table machine_model plan vol_model vol_plan line_table)
+all=(decoder error_table session_table machine_model plan vol_model vol_plan line_table import_session controller_table)
 targets=("$@")
 [ "${targets[0]}" = all ] && targets=("${all[@]}")
 

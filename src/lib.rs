@@ -54,6 +54,7 @@ pub mod bench;
 pub mod diagnose;
 pub mod evaluate;
 pub mod export;
+pub mod import;
 pub mod interp;
 pub mod plot;
 pub mod report;

@@ -40,10 +40,16 @@ pub enum Target {
     VolPlan,
     /// A volumetric line table (CSV), read both with and without the error column.
     LineTable,
+    /// A positioning test for `errmap import` (API XD `.pos`, Renishaw `.rtl`, and as a
+    /// CSV through a fixed column map), read from bytes.
+    ImportSession,
+    /// A controller table (Fagor 8055/8065, LinuxCNC both types), read from bytes; a
+    /// zero residual must give the bytes back.
+    ControllerTable,
 }
 
 impl Target {
-    pub const ALL: [Target; 8] = [
+    pub const ALL: [Target; 10] = [
         Target::Decoder,
         Target::ErrorTable,
         Target::SessionTable,
@@ -52,6 +58,8 @@ impl Target {
         Target::VolModel,
         Target::VolPlan,
         Target::LineTable,
+        Target::ImportSession,
+        Target::ControllerTable,
     ];
 
     pub fn name(self) -> &'static str {
@@ -64,6 +72,8 @@ impl Target {
             Target::VolModel => "vol_model",
             Target::VolPlan => "vol_plan",
             Target::LineTable => "line_table",
+            Target::ImportSession => "import_session",
+            Target::ControllerTable => "controller_table",
         }
     }
 
@@ -73,7 +83,7 @@ impl Target {
 
     fn extension(self) -> &'static str {
         match self {
-            Target::Decoder => "bin",
+            Target::Decoder | Target::ImportSession | Target::ControllerTable => "bin",
             Target::ErrorTable | Target::SessionTable | Target::LineTable => "csv",
             Target::MachineModel | Target::Plan | Target::VolModel | Target::VolPlan => "toml",
         }
@@ -85,6 +95,8 @@ impl Target {
     pub fn run(self, data: &[u8]) -> bool {
         match self {
             Target::Decoder => decoder::run(data),
+            Target::ImportSession => import_session(data),
+            Target::ControllerTable => controller_table(data),
             _ => {
                 let path = self.scratch();
                 if std::fs::write(&path, data).is_err() {
@@ -112,7 +124,9 @@ impl Target {
 
     fn read(self, path: &std::path::Path) -> bool {
         match self {
-            Target::Decoder => unreachable!("the decoder reads bytes"),
+            Target::Decoder | Target::ImportSession | Target::ControllerTable => {
+                unreachable!("these targets read bytes")
+            }
             Target::ErrorTable => {
                 if let Ok(t) = errmap::table::ErrorTable::read_points(path) {
                     for p in &t.points {
@@ -167,3 +181,82 @@ impl Target {
 }
 
 use decoder::finite;
+
+/// `errmap import` of a positioning test: every row it gives is finite.
+fn import_session(data: &[u8]) -> bool {
+    use errmap::import::{self, CsvOptions, ImportOptions, SessionFormat};
+    let path = std::path::Path::new("fuzz.in");
+    let map = import::ColumnMap::parse("target=#1,reference=#2,direction=#3").ok();
+    let mut formats = vec![
+        SessionFormat::Auto,
+        SessionFormat::ApiXd,
+        SessionFormat::RenishawRtl,
+    ];
+    if let Some(map) = map {
+        for (delimiter, decimal_comma) in [(',', false), (';', true)] {
+            formats.push(SessionFormat::Csv(Box::new(CsvOptions {
+                map: map.clone(),
+                delimiter,
+                decimal_comma,
+                length: import::LengthUnit::Inch,
+                temperature: import::TempUnit::F,
+                pressure: import::PressureUnit::InHg,
+                error_units: import::csv::ErrorUnit::Um,
+                error_sign: None,
+            })));
+        }
+    }
+    let mut accepted = false;
+    for format in formats {
+        let options = ImportOptions { format, axis: None };
+        if let Ok(got) = import::import_session(path, data, &options) {
+            accepted = true;
+            assert_eq!(got.rows.len(), got.summary.rows, "summary counts the rows");
+            got.rows.iter().for_each(session_row_finite);
+        }
+    }
+    accepted
+}
+
+/// A controller table read back: finite errors, and a zero residual gives the bytes back.
+fn controller_table(data: &[u8]) -> bool {
+    use errmap::export::LinuxCncCompType;
+    use errmap::import::{self, LengthUnit, TableFormat};
+    let formats = [
+        TableFormat::Fagor8055 {
+            units: LengthUnit::Inch,
+        },
+        TableFormat::Fagor8065 {
+            units: LengthUnit::Mm,
+        },
+        TableFormat::LinuxCnc {
+            comp_type: LinuxCncCompType::Trim,
+            units: LengthUnit::Mm,
+        },
+        TableFormat::LinuxCnc {
+            comp_type: LinuxCncCompType::ActualPosition,
+            units: LengthUnit::Inch,
+        },
+    ];
+    let mut accepted = false;
+    for f in formats {
+        let Ok(t) = import::tables::read(data, f) else {
+            continue;
+        };
+        accepted = true;
+        for p in &t.points {
+            finite("table point", &[p.position_mm, p.e_up_um, p.e_down_um]);
+        }
+        let axis = t.axis.unwrap_or(errmap::base::Axis::X);
+        let zero = import::Residual {
+            axis,
+            positions_mm: t.points.iter().map(|p| p.position_mm).collect(),
+            up_um: vec![0.0; t.points.len()],
+            down_um: vec![0.0; t.points.len()],
+        };
+        let u = import::update_table(&t, &zero, false)
+            .expect("a zero residual updates any table it read");
+        assert!(u.bytes == data, "a zero residual changed the file");
+    }
+    accepted
+}

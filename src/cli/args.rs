@@ -20,7 +20,7 @@ pub struct ExportArgs {
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
     /// squared exponential).
-    #[arg(long, value_parser = method_name(), required_unless_present = "bidirectional")]
+    #[arg(long, value_parser = method_name(), required_unless_present_any = ["bidirectional", "existing"])]
     pub method: Option<MethodName>,
     /// Direction-dependent table from a session's per-direction means (ISO 230-2's
     /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
@@ -39,7 +39,7 @@ pub struct ExportArgs {
     #[arg(long, default_value = "")]
     pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
-    #[arg(long, value_parser = length, required_unless_present = "bidirectional")]
+    #[arg(long, value_parser = length, required_unless_present_any = ["bidirectional", "existing"])]
     pub step: Option<f64>,
     /// Line start and end, mm (default: the table's range on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
@@ -57,9 +57,21 @@ pub struct ExportArgs {
     /// The table's format.
     #[arg(long, value_enum)]
     pub format: ExportFormatArg,
-    /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached) or trim (1, the offsets).
-    #[arg(long, value_enum, default_value = "actual")]
-    pub comp_type: CompTypeArg,
+    /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached; the default) or trim (1,
+    /// the offsets). Required with --existing.
+    #[arg(long, value_enum)]
+    pub comp_type: Option<CompTypeArg>,
+    /// The controller table in use (fagor-8055, fagor-8065, linuxcnc): write it back
+    /// updated by the session's residual (the session measured with it active), in its
+    /// own layout, values only.
+    #[arg(long, conflicts_with_all = ["method", "order"])]
+    pub existing: Option<PathBuf>,
+    /// --existing: the table's length unit, mm or inch (Fagor 8055: required).
+    #[arg(long)]
+    pub units: Option<String>,
+    /// --existing: print a JSON summary on stdout.
+    #[arg(long)]
+    pub json: bool,
     /// Siemens machine-axis name, e.g. X1.
     #[arg(long, default_value = "X1", value_parser = siemens_axis)]
     pub siemens_axis: String,

@@ -14,6 +14,7 @@
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 //! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
+//! | [`import`] | import; export --existing (a controller table updated) |
 
 use std::process::ExitCode;
 
@@ -26,6 +27,7 @@ pub mod certificate;
 pub mod demo;
 pub mod diagnose;
 pub mod guard;
+pub mod import;
 pub mod model;
 pub mod plan;
 pub mod step;
@@ -44,6 +46,8 @@ pub struct Cli {
     command: Command,
 }
 
+// Parsed once per run: the size of the largest variant (export's flags) costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the whole pipeline on built-in data and write the reports.
@@ -84,6 +88,9 @@ pub enum Command {
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
     GenCapture(stream::GenCaptureArgs),
+    /// Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a
+    /// controller table (Fagor 8055/8065, LinuxCNC) into errmap's tables.
+    Import(import::ImportArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -138,6 +145,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
+        Command::Import(a) => import::import_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

@@ -11,7 +11,7 @@ use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
 
 use super::args::*;
-use super::values::{ExportFormatArg, OrderArg, OrdersArg};
+use super::values::{CompTypeArg, ExportFormatArg, OrderArg, OrdersArg};
 
 /// The method a name, an order and the model flags stand for; `--order auto` runs the
 /// cross-validation on the grid.
@@ -370,7 +370,7 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
     let axis_number = a.axis_number.unwrap_or(a.axis.index() as u32 + 1);
     match a.format {
         ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
-            comp_type: a.comp_type.into(),
+            comp_type: a.comp_type.unwrap_or(CompTypeArg::Actual).into(),
         },
         ExportFormatArg::Siemens => ExportFormat::Siemens {
             axis_name: a.siemens_axis.clone(),
@@ -405,11 +405,17 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
         },
         ExportFormatArg::Csv => ExportFormat::Csv,
         ExportFormatArg::Grid => ExportFormat::Grid,
+        ExportFormatArg::Fagor8055 => super::import::fagor_8055_format(a),
+        // Only with --existing (export_cmd returns before): no 8065 file from scratch.
+        ExportFormatArg::Fagor8065 => ExportFormat::Csv,
     }
 }
 
 pub fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{Extrapolation, LineSpec, VolumeSpec, write_grid};
+    if let Some(r) = super::import::existing_or_refuse(&a) {
+        return r;
+    }
     if a.bidirectional {
         return export_bidirectional(&a);
     }

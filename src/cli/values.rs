@@ -354,6 +354,12 @@ pub enum ExportFormatArg {
     Csv,
     /// A volumetric grid table (CSV or Parquet).
     Grid,
+    /// Fagor 8055 leadscrew table AL<axis> (with --existing).
+    #[value(name = "fagor-8055", alias = "fagor8055")]
+    Fagor8055,
+    /// Fagor 8065 axis file <axis>.mp (with --existing).
+    #[value(name = "fagor-8065", alias = "fagor8065")]
+    Fagor8065,
 }
 
 /// `--comp-type` of the LinuxCNC format.

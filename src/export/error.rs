@@ -16,6 +16,7 @@ pub enum Controller {
     Fanuc,
     Heidenhain,
     Isg,
+    Fagor,
 }
 
 impl fmt::Display for Controller {
@@ -25,6 +26,7 @@ impl fmt::Display for Controller {
             Controller::Siemens => "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)",
             Controller::Fanuc => "FANUC pitch error compensation",
             Controller::Heidenhain => "a HEIDENHAIN TNC compensation table (.COM)",
+            Controller::Fagor => "the Fagor 8055 leadscrew table (AL<axis>)",
             Controller::Isg => {
                 "the TwinCAT CNC (ISG) leadscrew error compensation table (P-COMP-00059 kw.ssfk.max_points)"
             }

@@ -13,6 +13,7 @@
 //! | [`fanuc`](mod@fanuc) | FANUC pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 bidirectional) and increments per point | point numbers ≤ [`FANUC_MAX_POINT_NUMBER`], \|value\| ≤ a parameter | O(n) text |
 //! | [`heidenhain`](mod@heidenhain) | a HEIDENHAIN TNC `.COM` nonlinear axis error compensation table | [`HEIDENHAIN_MAX_POINTS`] = 256, a parameter | O(n) text |
 //! | [`isg`](mod@isg) | a TwinCAT CNC (ISG) `kw.ssfk` leadscrew error compensation list, unilateral or bilateral | < P-COMP-00059 ([`ISG_DEFAULT_MAX_POINTS`] = 1500) | O(n) text |
+//! | [`fagor`](mod@fagor) | a Fagor 8055 leadscrew table `AL<axis>` (one table, or both directions with a reverse line) | [`FAGOR_8055_MAX_POINTS`] (unverified) | O(n) text |
 //! | [`csv`](mod@csv) | `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated` for one line | — | O(n) text |
 //! | [`grid`] | the same columns over a box ([`GridRows`]; CSV or Parquet via polars by [`write_grid`]) | [`MAX_SAMPLES`] | N predictions |
 //!
@@ -50,6 +51,7 @@
 pub mod bidirectional;
 pub mod csv;
 mod error;
+pub mod fagor;
 pub mod fanuc;
 pub mod grid;
 pub mod heidenhain;
@@ -67,6 +69,7 @@ use crate::table::{Axis, TableError, write_frame};
 
 pub use csv::render as csv;
 pub use error::{Controller, ExportError, MappedBox};
+pub use fagor::{FAGOR_8055_MAX_POINTS, Fagor8055Spec};
 pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
 pub use grid::GridRows;
 pub use heidenhain::HEIDENHAIN_MAX_POINTS;
@@ -119,6 +122,8 @@ pub enum ExportFormat {
     },
     /// A TwinCAT CNC (ISG) `kw.ssfk` list (bilateral with a reverse line).
     Isg { axis: IsgAxis },
+    /// A Fagor 8055 `AL<axis>` leadscrew table (both directions with a reverse line).
+    Fagor8055 { spec: Fagor8055Spec },
     /// One line as `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
     Csv,
     /// A volumetric grid (CSV or Parquet by extension), see [`write_grid`].
@@ -135,6 +140,7 @@ impl ExportFormat {
             ExportFormat::Fanuc { .. } => "fanuc",
             ExportFormat::Heidenhain { .. } => "heidenhain",
             ExportFormat::Isg { .. } => "isg",
+            ExportFormat::Fagor8055 { .. } => "fagor-8055",
             ExportFormat::Csv => "csv",
             ExportFormat::Grid => "grid",
         }
@@ -146,7 +152,10 @@ impl ExportFormat {
     pub fn allows_uneven(&self) -> bool {
         matches!(
             self,
-            ExportFormat::LinuxCnc { .. } | ExportFormat::Isg { .. } | ExportFormat::Csv
+            ExportFormat::LinuxCnc { .. }
+                | ExportFormat::Isg { .. }
+                | ExportFormat::Fagor8055 { .. }
+                | ExportFormat::Csv
         )
     }
 
@@ -158,6 +167,7 @@ impl ExportFormat {
                 | ExportFormat::SiemensCec { .. }
                 | ExportFormat::Fanuc { .. }
                 | ExportFormat::Isg { .. }
+                | ExportFormat::Fagor8055 { .. }
         )
     }
 
@@ -220,6 +230,7 @@ impl ExportFormat {
                 heidenhain::render(forward, axis_key, table_name, *max_points)
             }
             ExportFormat::Isg { axis } => isg::render(forward, reverse, axis),
+            ExportFormat::Fagor8055 { spec } => fagor::render_8055(forward, reverse, spec),
             ExportFormat::Csv => {
                 if reverse.is_some() {
                     return Err(ExportError::ReverseUnsupported {

@@ -16,6 +16,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("export", &["interp", "table", "base"]),
     ("session", &["table", "base"]),
     ("acquire", &["session", "table", "base"]),
+    ("import", &["export", "session", "table", "base"]),
     ("diagnose", &["base"]),
     ("sim", &["interp", "table", "session", "diagnose", "base"]),
     (
@@ -36,6 +37,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "diagnose",
             "sim",
             "volumetric",
+            "import",
         ],
     ),
     (

@@ -1,0 +1,427 @@
+//! What technicians already have, read into errmap's tables: laser vendors' exports and
+//! spreadsheets become a **session table** (`session-table.md`: one dwell row per run,
+//! direction and target reading), the compensation table already in a controller becomes
+//! an **error table**, and [`update`] writes that controller table back corrected by a
+//! new measurement, in its own layout.
+//!
+//! | reader | file | output |
+//! |---|---|---|
+//! | [`api`] | API XD laser `.pos`, "Linear Data Table" (inch or mm, uni- or bidirectional) | session rows |
+//! | [`rtl`] | Renishaw Laser10/LaserXL linear `.rtl` (text sections) | session rows |
+//! | [`csv`] | any table through a column map (delimiter, decimal comma, units, error sign) | session rows |
+//! | [`tables`] | Fagor 8055 `AL<axis>`, Fagor 8065 `<axis>.mp`, LinuxCNC `COMP_FILE` | an error table per table point |
+//! | [`update`] | a controller table + a session measured with it active | the same file, values updated |
+//!
+//! Detection ([`detect`]) is by content, never by file name; a Renishaw `.rtx` dynamic
+//! capture is recognised and refused (it has no targets). Each format's provenance and what
+//! is unverified against a genuine file is in `docs/import.md`.
+//!
+//! # Signs and units
+//!
+//! errmap's error is e = indicated − reference (µm); ISO 230-2's deviation is
+//! x = reference − indicated = −e. Lengths are converted exactly (1 in = 25.4 mm),
+//! temperatures (°C = (°F − 32)·5/9) and pressures (1 inHg = 33.8638866667 hPa,
+//! 1 mmHg = 1.33322387415 hPa, 1 kPa = 10 hPa) with the constants of [`units`].
+//!
+//! # Errors
+//!
+//! Every refusal is an [`ImportError::Bad`] naming the file, the 1-based physical line and,
+//! for CSV, the column: `FILE: line N, column C: what`. The readers return rows or an error
+//! and write nothing; the caller writes the table whole or not at all.
+
+pub mod api;
+pub mod csv;
+pub mod rtl;
+pub mod tables;
+pub mod text;
+pub mod update;
+
+use std::path::{Path, PathBuf};
+
+use errmap_drivers::SessionRow;
+use errmap_drivers::frame::Axis as WireAxis;
+use serde::Serialize;
+
+use crate::base::Axis;
+use crate::table::TableError;
+
+pub use csv::{ColumnMap, CsvOptions, ErrorSign, LengthUnit, PressureUnit, TempUnit};
+pub use tables::{ControllerTable, TableFormat, TablePoint};
+pub use update::{Residual, Updated, update_table};
+
+/// Exact unit conversions.
+pub mod units {
+    /// Millimetres per inch (exact by definition).
+    pub const MM_PER_INCH: f64 = 25.4;
+    /// Hectopascals per inch of mercury.
+    pub const HPA_PER_INHG: f64 = 33.8638866667;
+    /// Hectopascals per millimetre of mercury.
+    pub const HPA_PER_MMHG: f64 = 1.33322387415;
+    /// Hectopascals per kilopascal.
+    pub const HPA_PER_KPA: f64 = 10.0;
+
+    /// °F → °C.
+    pub fn fahrenheit_to_c(f: f64) -> f64 {
+        (f - 32.0) * 5.0 / 9.0
+    }
+}
+
+/// A refusal, naming the file, its line and (CSV) its column.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("{path}: line {line}{}: {message}", column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    Bad {
+        path: PathBuf,
+        line: usize,
+        column: Option<String>,
+        message: String,
+    },
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Table(#[from] TableError),
+}
+
+/// A reader's refusal before the path is attached.
+#[derive(Debug, Clone, PartialEq)]
+pub struct At {
+    pub line: usize,
+    pub column: Option<String>,
+    pub message: String,
+}
+
+impl At {
+    pub fn new(line: usize, message: impl Into<String>) -> At {
+        At {
+            line,
+            column: None,
+            message: message.into(),
+        }
+    }
+
+    pub fn col(line: usize, column: &str, message: impl Into<String>) -> At {
+        At {
+            line,
+            column: Some(column.to_string()),
+            message: message.into(),
+        }
+    }
+
+    pub fn at(self, path: &Path) -> ImportError {
+        ImportError::Bad {
+            path: path.to_path_buf(),
+            line: self.line,
+            column: self.column,
+            message: self.message,
+        }
+    }
+}
+
+/// The formats errmap reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Format {
+    ApiXd,
+    RenishawRtl,
+    RenishawRtx,
+    Csv,
+    Fagor8055,
+    Fagor8065,
+    Linuxcnc,
+}
+
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::ApiXd => "api-xd",
+            Format::RenishawRtl => "renishaw-rtl",
+            Format::RenishawRtx => "renishaw-rtx",
+            Format::Csv => "csv",
+            Format::Fagor8055 => "fagor-8055",
+            Format::Fagor8065 => "fagor-8065",
+            Format::Linuxcnc => "linuxcnc",
+        }
+    }
+}
+
+/// The format of `bytes` by content (`import.md` §0), or the refusal at line 1. A CSV is
+/// never guessed: it needs `--format csv --map …`.
+pub fn detect(bytes: &[u8]) -> Result<Format, At> {
+    let text = text::Text::decode(bytes).map_err(|(line, m)| At::new(line, m))?;
+    let lines = text.lines();
+    let first = lines.first().map(|l| l.1.trim()).unwrap_or("");
+    if first.starts_with("API X-D Laser Measurement Linear Data Table") {
+        return Ok(Format::ApiXd);
+    }
+    if first.starts_with("API Linear") {
+        return Err(At::new(
+            1,
+            "an API laser analysis section only (no header, no readings, so no unit); import \
+             the whole `.pos` export",
+        ));
+    }
+    if first == "HEADER::" {
+        let rtl = lines.iter().take(40).any(|(_, l)| {
+            l.split_once(':').is_some_and(|(k, v)| {
+                k.trim().eq_ignore_ascii_case("File type") && v.trim().eq_ignore_ascii_case("rtl")
+            })
+        });
+        return Ok(if rtl {
+            Format::RenishawRtl
+        } else {
+            Format::RenishawRtx
+        });
+    }
+    if bytes.starts_with(&[0xFF, 0xFE])
+        && first
+            .split(';')
+            .next()
+            .is_some_and(|h| tables::axis_heading(h).is_some())
+    {
+        return Ok(Format::Fagor8065);
+    }
+    if tables::fagor_8055_line(first).is_some() {
+        return Ok(Format::Fagor8055);
+    }
+    Err(At::new(
+        1,
+        "not a recognised format (API XD .pos, Renishaw .rtl, Fagor 8055 AL<axis>, Fagor 8065 \
+         <axis>.mp); a spreadsheet or CSV needs --format csv --map …, a LinuxCNC table \
+         --format linuxcnc",
+    ))
+}
+
+/// Which reader to use for a positioning test.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SessionFormat {
+    Auto,
+    ApiXd,
+    RenishawRtl,
+    /// (Boxed: the column map is large beside the other variants.)
+    Csv(Box<CsvOptions>),
+}
+
+/// How to import a positioning test.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImportOptions {
+    pub format: SessionFormat,
+    /// Overrides the file's axis (csv: the axis; default x).
+    pub axis: Option<Axis>,
+}
+
+/// What `import --json` prints (`import.md` §1).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ImportSummary {
+    pub format: &'static str,
+    pub rows: usize,
+    /// Distinct runs (`null` for a controller table).
+    pub runs: Option<usize>,
+    pub targets: usize,
+    /// Travel directions: 1 or 2.
+    pub directions: usize,
+    /// The file's length unit: `mm` or `inch`.
+    pub units_in: &'static str,
+    /// The axis letter, upper case.
+    pub axis: &'static str,
+    pub machine: Option<String>,
+    pub warnings: Vec<String>,
+}
+
+/// A positioning test as session rows, with its summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Imported {
+    pub rows: Vec<SessionRow>,
+    pub summary: ImportSummary,
+}
+
+/// Environment values of one reading, converted (°C, hPa, %).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Env {
+    pub air_temp_c: Option<f64>,
+    pub air_pressure_hpa: Option<f64>,
+    pub air_rh_pct: Option<f64>,
+    pub scale_temp_c: Option<f64>,
+    pub part_temp_c: Option<f64>,
+}
+
+/// One reading of a positioning test, in errmap's units and signs, before the session's
+/// bookkeeping (target rank, sample index, time) is added by [`assemble`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// ISO run j ≥ 1.
+    pub run: u32,
+    /// +1 / −1: the pass' direction of travel.
+    pub direction: i8,
+    /// Nominal target position P, mm.
+    pub target_mm: f64,
+    /// Indicated position, mm.
+    pub scale_mm: f64,
+    /// Reference position, mm.
+    pub laser_mm: f64,
+    /// e = indicated − reference, µm.
+    pub error_um: f64,
+    pub flags: u8,
+    pub env: Env,
+}
+
+impl Reading {
+    /// Refuses, at `line`, a value outside the session table's physical ranges
+    /// ([`crate::base::limits`]), as `read_session` would on the written file.
+    pub fn check(&self, line: usize) -> Result<(), At> {
+        use crate::base::limits::{
+            ERROR_UM, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C,
+        };
+        let checks = [
+            ("target position", POSITION_MM.check(self.target_mm)),
+            ("indicated position", POSITION_MM.check(self.scale_mm)),
+            ("reference position", POSITION_MM.check(self.laser_mm)),
+            ("error", ERROR_UM.check(self.error_um)),
+        ];
+        let env = [
+            ("air temperature", self.env.air_temp_c, TEMPERATURE_C),
+            ("air pressure", self.env.air_pressure_hpa, PRESSURE_HPA),
+            ("humidity", self.env.air_rh_pct, HUMIDITY_PCT),
+            ("scale temperature", self.env.scale_temp_c, TEMPERATURE_C),
+            ("part temperature", self.env.part_temp_c, TEMPERATURE_C),
+        ];
+        for (what, r) in checks.into_iter().chain(
+            env.into_iter()
+                .filter_map(|(w, v, b)| v.map(|v| (w, b.check(v)))),
+        ) {
+            if let Err(m) = r {
+                return Err(At::new(line, format!("{what}: {m}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Two target positions within this are one target (1 nm).
+pub const TARGET_TOL_MM: f64 = 1e-6;
+
+/// Session rows from readings in acquisition order: `target` = rank of the position in
+/// ascending order, `sample` = index within the run, `t_s` = k·`dt_s`, the axis coordinate
+/// = P and the other two from `at_mm`.
+pub fn assemble(readings: &[Reading], axis: Axis, at_mm: [f64; 3], dt_s: f64) -> Vec<SessionRow> {
+    let targets = distinct_targets(readings.iter().map(|r| r.target_mm));
+    let mut next_sample: std::collections::BTreeMap<u32, i64> = Default::default();
+    readings
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let rank = targets
+                .iter()
+                .position(|&p| (p - r.target_mm).abs() <= TARGET_TOL_MM)
+                .unwrap_or(0);
+            let sample = next_sample.entry(r.run).or_insert(0);
+            let s = *sample;
+            *sample += 1;
+            let mut xyz = at_mm;
+            xyz[axis.index()] = snap(targets[rank]);
+            SessionRow {
+                run: r.run,
+                sample: s,
+                t_s: k as f64 * dt_s,
+                axis: wire(axis),
+                direction: r.direction,
+                feed_mm_s: None,
+                target: rank as i32,
+                x_mm: Some(xyz[0]),
+                y_mm: Some(xyz[1]),
+                z_mm: Some(xyz[2]),
+                scale_mm: snap(r.scale_mm),
+                laser_mm: snap(r.laser_mm),
+                error_um: snap(r.error_um),
+                air_temp_c: r.env.air_temp_c.map(snap),
+                air_pressure_hpa: r.env.air_pressure_hpa.map(snap),
+                air_rh_pct: r.env.air_rh_pct.map(snap),
+                scale_temp_c: r.env.scale_temp_c.map(snap),
+                part_temp_c: r.env.part_temp_c.map(snap),
+                flags: r.flags,
+            }
+        })
+        .collect()
+}
+
+/// `v` rounded to 1e-9 (of its unit) and without `-0`: unit conversions such as
+/// 0.000047 in · 25 400 give 1.1937999999999998 µm in binary; the file meant 1.1938.
+pub fn snap(v: f64) -> f64 {
+    if v.abs() < 1e6 {
+        (v * 1e9).round() / 1e9 + 0.0
+    } else {
+        v + 0.0
+    }
+}
+
+/// The distinct positions, ascending, merged within [`TARGET_TOL_MM`].
+pub fn distinct_targets(positions: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut v: Vec<f64> = positions.collect();
+    v.sort_by(f64::total_cmp);
+    let mut out: Vec<f64> = Vec::with_capacity(v.len());
+    for p in v {
+        if out.last().is_none_or(|&q| (p - q).abs() > TARGET_TOL_MM) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// The wire protocol's axis for a session row.
+pub fn wire(axis: Axis) -> WireAxis {
+    match axis {
+        Axis::X => WireAxis::X,
+        Axis::Y => WireAxis::Y,
+        Axis::Z => WireAxis::Z,
+    }
+}
+
+/// The summary's counts from readings.
+pub(crate) fn summary_counts(readings: &[Reading]) -> (usize, usize, usize) {
+    let mut runs: Vec<u32> = readings.iter().map(|r| r.run).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    let targets = distinct_targets(readings.iter().map(|r| r.target_mm)).len();
+    let up = readings.iter().any(|r| r.direction > 0);
+    let down = readings.iter().any(|r| r.direction < 0);
+    (runs.len(), targets, usize::from(up) + usize::from(down))
+}
+
+/// Reads a positioning test from `bytes` (the contents of `path`, which only names the
+/// file in messages) into session rows.
+pub fn import_session(
+    path: &Path,
+    bytes: &[u8],
+    options: &ImportOptions,
+) -> Result<Imported, ImportError> {
+    let format = match &options.format {
+        SessionFormat::Auto => match detect(bytes).map_err(|e| e.at(path))? {
+            Format::ApiXd => Format::ApiXd,
+            Format::RenishawRtl => Format::RenishawRtl,
+            Format::RenishawRtx => Format::RenishawRtx,
+            Format::Fagor8055 | Format::Fagor8065 => {
+                return Err(At::new(
+                    1,
+                    "a Fagor compensation table, not a positioning test: read it with \
+                     --format fagor-8055 (or fagor-8065) into an error table",
+                )
+                .at(path));
+            }
+            other => return Err(At::new(1, format!("{} is not detected", other.name())).at(path)),
+        },
+        SessionFormat::ApiXd => Format::ApiXd,
+        SessionFormat::RenishawRtl => Format::RenishawRtl,
+        SessionFormat::Csv(_) => Format::Csv,
+    };
+    let result = match (format, &options.format) {
+        (Format::ApiXd, _) => api::read(bytes, options.axis),
+        (Format::RenishawRtl, _) => rtl::read(bytes, options.axis),
+        (Format::RenishawRtx, _) => Err(rtl::refuse_rtx(bytes)),
+        (Format::Csv, SessionFormat::Csv(o)) => csv::read(bytes, o, options.axis),
+        _ => Err(At::new(1, "not a recognised format")),
+    };
+    result.map_err(|e| e.at(path))
+}

@@ -1,0 +1,359 @@
+//! Renishaw Laser10 / LaserXL linear data, `.rtl` (CRLF text).
+//!
+//! The layout is taken from the project's import contract, which describes it from public
+//! descriptions of the format; **no genuine `.rtl` file has been read by this reader yet**
+//! (see `docs/import.md`). Sections start with a line `NAME::`; inside one, `Key : value`
+//! lines are split at the first `:`.
+//!
+//! | section | keys | errmap |
+//! |---|---|---|
+//! | `HEADER::` | `File type : rtl`, `Owner : Linear` (anything else is refused) | — |
+//! | `TARGET DATA::` | `Target-count` N, `Targets :` N positions (mm, may continue on the next lines), `Flags:` (second field 1 = unidirectional) | target positions |
+//! | `RUNS::` | `Run-count` R = the number of passes | — |
+//! | `DEVIATIONS::` | `run target deviation`, R·N lines, each pair once; deviation x in µm | e_um = −x, laser_mm = P + x/1000 |
+//! | `ENVIRONMENT::` (optional) | `Air temp` °C, `Air press` kPa, `Air humid` %, `Mat temp 1..3` °C: values at the first and the last reading | interpolated over the readings |
+//! | `Date Time` | "start" "end" | Δt = span / (K − 1) |
+//! | `USER-TEXT::` | `Axis` | the axis (else X, with a warning) |
+//!
+//! The ISO run is r (unidirectional) or ⌈r/2⌉ (bidirectional: passes out and back); a
+//! pass' direction is the order in which it lists its targets. Unknown sections
+//! (`EQUIPMENT::`, …) are skipped.
+
+use super::text::{Text, number};
+use super::units::HPA_PER_KPA;
+use super::{At, Env, ImportSummary, Imported, Reading, assemble, summary_counts};
+use crate::base::Axis;
+
+/// One `Key : value` line of a section.
+#[derive(Debug)]
+struct Entry<'a> {
+    line: usize,
+    key: String,
+    value: &'a str,
+}
+
+/// A section: its name, the line of its title and its lines.
+#[derive(Debug)]
+struct Section<'a> {
+    name: String,
+    line: usize,
+    lines: Vec<(usize, &'a str)>,
+}
+
+impl<'a> Section<'a> {
+    fn entries(&self) -> Vec<Entry<'a>> {
+        self.lines
+            .iter()
+            .filter_map(|&(line, l)| {
+                l.split_once(':').map(|(k, v)| Entry {
+                    line,
+                    key: k.trim().to_ascii_lowercase(),
+                    value: v.trim(),
+                })
+            })
+            .collect()
+    }
+
+    fn get(&self, key: &str) -> Option<Entry<'a>> {
+        let key = key.to_ascii_lowercase();
+        self.entries().into_iter().find(|e| e.key == key)
+    }
+}
+
+fn sections<'a>(lines: &[(usize, &'a str)]) -> Vec<Section<'a>> {
+    let mut out: Vec<Section<'a>> = Vec::new();
+    for (i, &(_, l)) in lines.iter().enumerate() {
+        let t = l.trim();
+        if let Some(name) = t.strip_suffix("::")
+            && !name.contains(':')
+        {
+            out.push(Section {
+                name: name.trim().to_ascii_uppercase(),
+                line: i + 1,
+                lines: Vec::new(),
+            });
+        } else if let Some(s) = out.last_mut()
+            && !t.is_empty()
+        {
+            s.lines.push((i + 1, t));
+        }
+    }
+    out
+}
+
+/// The refusal of a `.rtx` dynamic capture.
+pub fn refuse_rtx(_bytes: &[u8]) -> At {
+    At::new(
+        1,
+        "a Renishaw dynamic capture (.rtx: samples in time, no targets); errmap imports \
+         positioning tests only: export the linear test as .rtl",
+    )
+}
+
+fn whole(v: f64) -> Option<usize> {
+    (v.fract() == 0.0 && (1.0..=1e6).contains(&v)).then_some(v as usize)
+}
+
+/// Reads a Renishaw linear `.rtl` (see the module docs).
+pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
+    let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
+    let lines = text.lines();
+    if lines.first().map(|l| l.1.trim()) != Some("HEADER::") {
+        return Err(At::new(1, "not a Renishaw file (no `HEADER::` on line 1)"));
+    }
+    let secs = sections(&lines);
+    let section = |name: &str| secs.iter().find(|s| s.name == name);
+    let header = section("HEADER").ok_or_else(|| At::new(1, "no HEADER:: section"))?;
+    if !header
+        .get("File type")
+        .is_some_and(|e| e.value.eq_ignore_ascii_case("rtl"))
+    {
+        return Err(refuse_rtx(bytes));
+    }
+    match header.get("Owner") {
+        Some(e) if e.value.eq_ignore_ascii_case("Linear") => {}
+        Some(e) => {
+            return Err(At::new(
+                e.line,
+                format!(
+                    "Owner `{}`: errmap imports linear positioning tests only",
+                    e.value
+                ),
+            ));
+        }
+        None => return Err(At::new(header.line, "HEADER:: has no `Owner` (Linear)")),
+    }
+    let targets_sec = section("TARGET DATA")
+        .ok_or_else(|| At::new(lines.len().max(1), "no TARGET DATA:: section"))?;
+    let count = targets_sec
+        .get("Target-count")
+        .ok_or_else(|| At::new(targets_sec.line, "TARGET DATA:: has no `Target-count`"))?;
+    let n = number(count.value)
+        .and_then(whole)
+        .ok_or_else(|| At::new(count.line, format!("Target-count `{}`", count.value)))?;
+    // `Targets :` and N numbers, possibly continued on the following lines.
+    let start = targets_sec
+        .lines
+        .iter()
+        .position(|(_, l)| {
+            l.split_once(':')
+                .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case("Targets"))
+        })
+        .ok_or_else(|| At::new(targets_sec.line, "TARGET DATA:: has no `Targets :`"))?;
+    let mut positions: Vec<f64> = Vec::with_capacity(n);
+    let mut last_line = targets_sec.lines[start].0;
+    for (k, &(line, l)) in targets_sec.lines.iter().enumerate().skip(start) {
+        let body = if k == start {
+            l.split_once(':').map(|(_, v)| v).unwrap_or("")
+        } else if l.contains(':') {
+            break;
+        } else {
+            l
+        };
+        for tok in body.split_whitespace() {
+            let v = number(tok)
+                .ok_or_else(|| At::new(line, format!("target position `{tok}` is not a number")))?;
+            positions.push(v);
+        }
+        last_line = line;
+        if positions.len() >= n {
+            break;
+        }
+    }
+    if positions.len() != n {
+        return Err(At::new(
+            last_line,
+            format!(
+                "{} target positions, Target-count says {n}",
+                positions.len()
+            ),
+        ));
+    }
+    let unidirectional = targets_sec
+        .get("Flags")
+        .and_then(|e| e.value.split_whitespace().nth(1).map(|f| f == "1"))
+        .unwrap_or(false);
+    let runs_sec =
+        section("RUNS").ok_or_else(|| At::new(lines.len().max(1), "no RUNS:: section"))?;
+    let rc = runs_sec
+        .get("Run-count")
+        .ok_or_else(|| At::new(runs_sec.line, "RUNS:: has no `Run-count`"))?;
+    let r = number(rc.value)
+        .and_then(whole)
+        .ok_or_else(|| At::new(rc.line, format!("Run-count `{}`", rc.value)))?;
+    let dev = section("DEVIATIONS")
+        .ok_or_else(|| At::new(lines.len().max(1), "no DEVIATIONS:: section"))?;
+    let mut seen = vec![false; r * n];
+    let mut raw: Vec<(usize, usize, usize, f64)> = Vec::with_capacity(r * n);
+    for &(line, l) in &dev.lines {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        if f.len() != 3 {
+            return Err(At::new(
+                line,
+                format!("`{l}` is not `run target deviation`"),
+            ));
+        }
+        let run = number(f[0]).and_then(whole).filter(|&v| v <= r);
+        let target = number(f[1]).and_then(whole).filter(|&v| v <= n);
+        let (Some(run), Some(target)) = (run, target) else {
+            return Err(At::new(
+                line,
+                format!("run {} / target {} outside 1..{r} / 1..{n}", f[0], f[1]),
+            ));
+        };
+        let x = number(f[2])
+            .ok_or_else(|| At::new(line, format!("deviation `{}` is not a number", f[2])))?;
+        let slot = (run - 1) * n + (target - 1);
+        if seen[slot] {
+            return Err(At::new(
+                line,
+                format!("run {run}, target {target} appears twice"),
+            ));
+        }
+        seen[slot] = true;
+        raw.push((line, run, target, x));
+    }
+    if raw.len() != r * n {
+        return Err(At::new(
+            rc.line,
+            format!(
+                "{} deviations, Run-count {r} × Target-count {n} = {}",
+                raw.len(),
+                r * n
+            ),
+        ));
+    }
+    // Environment: first and last values, spread over the readings.
+    let mut warnings = Vec::new();
+    let k_total = raw.len();
+    let env_sec = section("ENVIRONMENT");
+    let pair = |key: &str| -> Result<Option<(f64, f64)>, At> {
+        let Some(e) = env_sec.and_then(|s| s.get(key)) else {
+            return Ok(None);
+        };
+        let v: Vec<f64> = e
+            .value
+            .split_whitespace()
+            .filter_map(number)
+            .take(2)
+            .collect();
+        match v.as_slice() {
+            [a, b] => Ok(Some((*a, *b))),
+            [a] => Ok(Some((*a, *a))),
+            _ => Err(At::new(e.line, format!("`{key}` has no numbers"))),
+        }
+    };
+    let air_t = pair("Air temp")?;
+    let air_p = pair("Air press")?;
+    let air_h = pair("Air humid")?;
+    let mats: Vec<(f64, f64)> = (1..=3)
+        .map(|i| pair(&format!("Mat temp {i}")))
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+    let at = |p: Option<(f64, f64)>, k: usize| {
+        p.map(|(a, b)| {
+            if k_total > 1 {
+                a + (b - a) * k as f64 / (k_total - 1) as f64
+            } else {
+                a
+            }
+        })
+    };
+    let dt_s = env_sec
+        .and_then(|s| s.get("Date Time"))
+        .and_then(|e| span_s(e.value))
+        .map(|span| span / (k_total.max(2) - 1) as f64)
+        .filter(|d| *d > 0.0)
+        .unwrap_or(1.0);
+    // Passes in file order: a run's lines give the order of its targets.
+    let mut readings = Vec::with_capacity(k_total);
+    for (k, &(line, run, target, x)) in raw.iter().enumerate() {
+        let order: Vec<usize> = raw.iter().filter(|q| q.1 == run).map(|q| q.2).collect();
+        let first = positions[order[0] - 1];
+        let last = positions[order[order.len() - 1] - 1];
+        let direction: i8 = if n < 2 || last > first {
+            1
+        } else if last < first {
+            -1
+        } else {
+            return Err(At::new(
+                line,
+                format!("run {run} starts and ends at the same position"),
+            ));
+        };
+        let p = positions[target - 1];
+        let part = (!mats.is_empty()).then(|| {
+            mats.iter()
+                .map(|&m| at(Some(m), k).unwrap_or(m.0))
+                .sum::<f64>()
+                / mats.len() as f64
+        });
+        let reading = Reading {
+            run: if unidirectional {
+                run as u32
+            } else {
+                run.div_ceil(2) as u32
+            },
+            direction,
+            target_mm: p,
+            scale_mm: p,
+            laser_mm: p + x / 1000.0,
+            error_um: -x,
+            flags: 0,
+            env: Env {
+                air_temp_c: at(air_t, k),
+                air_pressure_hpa: at(air_p, k).map(|v| v * HPA_PER_KPA),
+                air_rh_pct: at(air_h, k),
+                scale_temp_c: None,
+                part_temp_c: part,
+            },
+        };
+        reading.check(line)?;
+        readings.push(reading);
+    }
+    let file_axis = section("USER-TEXT")
+        .and_then(|s| s.get("Axis"))
+        .and_then(|e| e.value.trim().parse::<Axis>().ok());
+    let axis = match (axis_override, file_axis) {
+        (Some(a), _) | (None, Some(a)) => a,
+        (None, None) => {
+            warnings.push("the file states no axis (USER-TEXT:: Axis): taken as X".into());
+            Axis::X
+        }
+    };
+    let machine = section("USER-TEXT")
+        .and_then(|s| s.get("Machine"))
+        .map(|e| e.value.to_string());
+    let rows = assemble(&readings, axis, [0.0; 3], dt_s);
+    let (runs_n, targets_n, directions) = summary_counts(&readings);
+    Ok(Imported {
+        summary: ImportSummary {
+            format: "renishaw-rtl",
+            rows: rows.len(),
+            runs: Some(runs_n),
+            targets: targets_n,
+            directions,
+            units_in: "mm",
+            axis: axis.upper(),
+            machine,
+            warnings,
+        },
+        rows,
+    })
+}
+
+/// Seconds between the first and the second quoted time of day (`"… hh:mm:ss" "… hh:mm:ss"`),
+/// a day added when the second is earlier (a test past midnight). `None` when either
+/// has no time of day.
+fn span_s(value: &str) -> Option<f64> {
+    let quoted: Vec<&str> = value.split('"').skip(1).step_by(2).collect();
+    let tod = |s: &str| -> Option<f64> {
+        let t = s.split_whitespace().find(|w| w.matches(':').count() == 2)?;
+        let p: Vec<f64> = t.split(':').filter_map(number).collect();
+        (p.len() == 3).then(|| p[0] * 3600.0 + p[1] * 60.0 + p[2])
+    };
+    let (a, b) = (tod(quoted.first()?)?, tod(quoted.get(1)?)?);
+    Some(if b >= a { b - a } else { b + 86_400.0 - a })
+}
