@@ -78,11 +78,14 @@ impl SessionWriter {
     /// As [`SessionWriter::create`] with `batch_rows` rows per batch (at least 1).
     pub fn with_batch(path: &Path, batch_rows: usize) -> Result<Self, TableError> {
         let parquet = is_parquet(path)?;
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent).map_err(|source| TableError::Io {
-                path: parent.to_path_buf(),
-                source,
-            })?;
+        // Its directory must exist (errmap makes no directory tree for an output).
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty())
+            && !parent.exists()
+        {
+            return Err(TableError::MissingDirectory {
+                path: path.to_path_buf(),
+                dir: parent.to_path_buf(),
+            });
         }
         let file = File::create(path).map_err(|source| TableError::Io {
             path: path.to_path_buf(),

@@ -92,7 +92,9 @@ pub(crate) use frame::{
 };
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};
-pub use output::{check_finite, temporary, write_atomically};
+pub use output::{
+    OutputTarget, check_finite, output_target, remove_temporaries, temporary, write_atomically,
+};
 pub(crate) use structure::{check_csv, finish_parquet, guarded, parquet_reader};
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
