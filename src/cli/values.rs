@@ -214,13 +214,38 @@ pub fn fuzzy_width(s: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// A count of at least 2 (`--max-points`: a compensation table needs two points).
+/// A count of at least 2 and at most the export's sample bound (`--max-points`, volumetric
+/// export's `--points`: a compensation table needs two points).
 pub fn at_least_two(s: &str) -> Result<usize, String> {
+    count_within(s, 2, errmap::export::MAX_SAMPLES)
+}
+
+/// A whole number within `lo ..= hi`, checked before anything is allocated for it (the
+/// bounds table of `docs/robustness.md`).
+fn count_within(s: &str, lo: usize, hi: usize) -> Result<usize, String> {
     let v: usize = parsed(s, "a whole number")?;
-    if v < 2 {
-        return Err(format!("`{s}`: at least 2"));
+    if !(lo..=hi).contains(&v) {
+        return Err(format!("`{s}` is outside {lo} … {hi}"));
     }
     Ok(v)
+}
+
+/// volumetric identify `--positions`: 2 … [`MAX_REPORT_POSITIONS`] per component (issue 28:
+/// 10⁹ allocated 24 GB).
+///
+/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::identify::MAX_REPORT_POSITIONS
+pub fn report_positions(s: &str) -> Result<usize, String> {
+    count_within(s, 2, errmap::volumetric::identify::MAX_REPORT_POSITIONS)
+}
+
+/// bench `--points`: 1 … 10⁷ query points (240 MB of coordinates and results).
+pub fn bench_points(s: &str) -> Result<usize, String> {
+    count_within(s, 1, 10_000_000)
+}
+
+/// fuzzy-sim `--trials`: 1 … 10⁵.
+pub fn trials(s: &str) -> Result<usize, String> {
+    count_within(s, 1, 100_000)
 }
 
 /// A baud rate of a serial line: 50 … 10 000 000.

@@ -232,8 +232,8 @@ pub fn for_each_batch(
         let mut offset = 0;
         while offset < n {
             let len = batch_rows.min(n - offset);
-            let file = File::open(path).map_err(io)?;
-            let reader = ParquetReader::new(file).with_slice(Some((offset, len)));
+            // The schema's checks and its projection (columns polars cannot read left out).
+            let reader = crate::table::parquet_reader(path)?.with_slice(Some((offset, len)));
             let df = crate::table::finish_parquet(path, reader)?;
             frame_rows_into(path, &df, offset, &mut seen, &mut rows)?;
             each(&rows)?;

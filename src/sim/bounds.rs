@@ -17,7 +17,14 @@
 //! | `…_s` (times) | ±10⁹ s ([`TIME_S`]) |
 //! | `…_mm` (positions, lengths) | ±10⁶ mm ([`POSITION_MM`]) |
 //! | `…_um` (errors, noise, periods) | ±10⁶ µm ([`ERROR_UM`]) |
-//! | every other float (ppm, µrad, coefficients) | ±10⁶ in its unit |
+//! | every other number (ppm, µrad, coefficients) | ±10⁶ in its unit |
+//! | `runs` | 1 … 1 000 |
+//! | `targets` (a count) | 1 … 10 000 (finer rules where used: a volumetric line needs 3) |
+//! | `degree` | 0 … 31 |
+//! | `seed` | any 64-bit value |
+//!
+//! Integers and floats go through the same rules: `E_XX = 1000000000000000000` is refused
+//! like `1e18`.
 //!
 //! Signs and the finer rules (a period > 0, a dwell ≥ 0, increasing targets) are checked
 //! where the values are used ([`super::physics`], the board's plan validation); misspelt
@@ -59,6 +66,44 @@ const COEFFICIENT: Bound = Bound {
     unit: "in its unit",
     what: "a model coefficient",
 };
+
+/// Runs of a plan, each up and down: as many as `errmap plan` writes
+/// ([`crate::sim::testplan::MAX_RUNS`]).
+const RUNS: Bound = Bound {
+    lo: 1.0,
+    hi: 1000.0,
+    unit: "runs",
+    what: "a number of runs",
+};
+
+/// Targets of one measured line: as many as `errmap plan` writes
+/// ([`crate::sim::testplan::MAX_TARGETS`]); 10⁴ targets is one every 0.1 mm over a metre.
+const TARGETS: Bound = Bound {
+    lo: 1.0,
+    hi: 10_000.0,
+    unit: "targets",
+    what: "a number of targets",
+};
+
+/// The polynomial degree of a component table (the Lagrange method's own limit).
+const DEGREE: Bound = Bound {
+    lo: 0.0,
+    hi: crate::interp::lagrange::MAX_DEGREE as f64,
+    unit: "",
+    what: "a polynomial degree",
+};
+
+/// Keys whose values are counts or seeds, not measurements: their own range (`None`: any
+/// value of serde's integer type, as a seed).
+fn count_rule(name: &str) -> Option<Option<Bound>> {
+    match name {
+        "seed" => Some(None),
+        "runs" => Some(Some(RUNS)),
+        "targets" => Some(Some(TARGETS)),
+        "degree" => Some(Some(DEGREE)),
+        _ => None,
+    }
+}
 
 /// The range of the value at `keys` (table keys; array elements carry their array's key).
 fn rule(keys: &[&str]) -> Bound {
@@ -148,16 +193,19 @@ fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Resul
         }
         _ => None,
     };
-    // An integer is checked when its key names a unit (`value = -300` in a temperature
-    // history, `dwell_s = 1000000000000`); other integers are ids, counts and seeds,
-    // typed by serde and ranged where they are used.
+    // Integers and floats alike (issue 28: `E_C0Y = 1000000000000000000` written as an
+    // integer skipped the check that refuses `1e18`): counts and seeds by their own
+    // rule, everything else by its unit.
     if let Some(x) = number {
-        let bound = rule(keys);
-        if matches!(v, toml::Value::Float(_)) || bound != COEFFICIENT {
-            bound
-                .check(x)
-                .map_err(|problem| format!("{shown}: {problem}"))?;
-        }
+        let name = keys.last().copied().unwrap_or_default();
+        let bound = match count_rule(name) {
+            Some(None) => return Ok(()),
+            Some(Some(b)) => b,
+            None => rule(keys),
+        };
+        bound
+            .check(x)
+            .map_err(|problem| format!("{shown}: {problem}"))?;
     }
     Ok(())
 }

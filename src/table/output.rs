@@ -145,7 +145,11 @@ pub fn output_target(path: &Path) -> Result<OutputTarget, TableError> {
         if kind.is_file() {
             return Ok(OutputTarget::Atomic(p));
         }
-        let what = if kind.is_dir() { "a directory" } else { "a special file" };
+        let what = if kind.is_dir() {
+            "a directory"
+        } else {
+            "a special file"
+        };
         #[cfg(unix)]
         let what = {
             use std::os::unix::fs::FileTypeExt;
@@ -379,7 +383,16 @@ mod tests {
     fn a_directory_and_a_missing_directory_are_refused_by_name() {
         let dir = tempfile::tempdir().expect("tempdir");
         let e = output_target(dir.path()).expect_err("a directory");
-        assert!(matches!(e, TableError::NotAFile { kind: "a directory", .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                TableError::NotAFile {
+                    kind: "a directory",
+                    ..
+                }
+            ),
+            "{e}"
+        );
         let deep = dir.path().join("no/such/dir/out.csv");
         let e = write_atomically::<TableError>(&deep, |_| Ok(())).expect_err("refused");
         assert!(
