@@ -342,7 +342,16 @@ impl FromStr for LineAt {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let mut out = Vec::new();
-        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        if s.trim().is_empty() {
+            return Ok(LineAt(out));
+        }
+        for part in s.split(',').map(str::trim) {
+            // `,,,` is no line position (issue 28), and `y=1,` a typing slip.
+            if part.is_empty() {
+                return Err(format!(
+                    "`{s}`: an empty item between commas; axis=value pairs like y=1,z=200"
+                ));
+            }
             let (k, v) = part
                 .split_once('=')
                 .ok_or_else(|| format!("axis=value pairs like y=1,z=200, not `{part}`"))?;
@@ -488,10 +497,13 @@ mod tests {
 
     #[test]
     fn a_line_position_gives_each_axis_once_within_the_bound() {
-        for bad in ["y=1,y=2", "y=nan", "y=inf", "y=1e308", "q=1", "y", "=1"] {
+        for bad in [
+            "y=1,y=2", "y=nan", "y=inf", "y=1e308", "q=1", "y", "=1", ",,,", "y=1,", ",z=2",
+        ] {
             assert!(bad.parse::<LineAt>().is_err(), "--at {bad:?}");
         }
         let at: LineAt = "y=1, z=-200".parse().expect("valid");
+        assert_eq!("".parse::<LineAt>().expect("none").0, vec![]);
         assert_eq!(at.0, vec![(Axis::Y, 1.0), (Axis::Z, -200.0)]);
     }
 }

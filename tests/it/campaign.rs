@@ -740,6 +740,69 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         0,
         &[],
     ),
+    // Issue 28: two outputs on one path; plan's out-of-range flags exited 1; line
+    // positions on the line's own axis or empty; unbounded counts and integers that skipped
+    // the range checks; an output under a missing directory made the tree.
+    (
+        "plan --axis x --from 0 --to 100 --targets 5 --out {out} --program {out}",
+        2,
+        &["--out", "--program"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --out {out} --targets=1",
+        2,
+        &["--targets"],
+    ),
+    (
+        "plan --axis x --from 800 --to 0 --targets 5 --out {out}",
+        2,
+        &["--to"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --out {out} --interval=1e-12",
+        2,
+        &["--interval"],
+    ),
+    (
+        "export {t1} --method trilinear --format csv --step 50 --out {out} --at=x=5",
+        2,
+        &["--at", "axis of the line"],
+    ),
+    (
+        "export {t1} --method trilinear --format csv --step 50 --out {out} --at=,,,",
+        2,
+        &["--at"],
+    ),
+    (
+        "volumetric identify {l} --topology YXZ --positions=1000000000",
+        2,
+        &["--positions"],
+    ),
+    (
+        "volumetric simulate --model {vm} --plan {bigt} --out {out}",
+        1,
+        &["big-targets.toml", "targets"],
+    ),
+    (
+        "volumetric simulate --model {vm} --plan {hugeint} --out {out}",
+        1,
+        &["huge-int-targets.toml", "targets"],
+    ),
+    (
+        "volumetric simulate --model {intm} --plan {vp} --out {out}",
+        1,
+        &["int-coefficient.toml", "E_C0Y"],
+    ),
+    (
+        "volumetric predict --model {intm} --grid {t2} --out {out}",
+        1,
+        &["int-coefficient.toml", "E_C0Y"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --targets 5 --out {missing}",
+        1,
+        &["no-such-dir"],
+    ),
     // A model whose error table is missing named only the table.
     (
         "simulate --model {lost} --plan {plan} --out {out}",
@@ -829,6 +892,15 @@ fn what_the_campaign_found_stays_fixed() {
         None => l.to_string(),
     });
     std::fs::write(d.join("outside-runs.csv"), outside).expect("write");
+    let bigt = plan.replace("targets = 11", "targets = 5000");
+    assert_ne!(bigt, plan);
+    std::fs::write(d.join("big-targets.toml"), bigt).expect("write");
+    let hugeint = plan.replace("targets = 11", "targets = 9223372036854775807");
+    std::fs::write(d.join("huge-int-targets.toml"), hugeint).expect("write");
+    let vmodel = std::fs::read_to_string(&f.vol_model).expect("model");
+    let intm = vmodel.replace("E_C0Y = 8.0", "E_C0Y = 1000000000000000000");
+    assert_ne!(intm, vmodel);
+    std::fs::write(d.join("int-coefficient.toml"), intm).expect("write");
     let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
     std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
@@ -848,6 +920,10 @@ fn what_the_campaign_found_stays_fixed() {
         ("flat", d.join("flat-plan.toml")),
         ("zero", d.join("zero.csv")),
         ("lost", d.join("lost-table.toml")),
+        ("bigt", d.join("big-targets.toml")),
+        ("hugeint", d.join("huge-int-targets.toml")),
+        ("intm", d.join("int-coefficient.toml")),
+        ("missing", d.join("no-such-dir/p.toml")),
         ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
         (
