@@ -21,7 +21,9 @@
 //! | `runs` | 1 … 1 000 |
 //! | `targets` (a count) | 1 … 10 000 (finer rules where used: a volumetric line needs 3) |
 //! | `degree` | 0 … 31 |
-//! | `seed` | any 64-bit value |
+//! | `seed`, `fifo_bytes` | any value of their integer type |
+//! | `…_fm` (a laser's wavelength) | 10⁸ … 10¹⁰ fm (100 nm … 10 µm) |
+//! | `baud` | 50 … 10⁷ Bd |
 //!
 //! Integers and floats go through the same rules: `E_XX = 1000000000000000000` is refused
 //! like `1e18`.
@@ -93,6 +95,22 @@ const DEGREE: Bound = Bound {
     what: "a polynomial degree",
 };
 
+/// A serial line's rate, as `capture --baud` accepts it.
+const BAUD: Bound = Bound {
+    lo: 50.0,
+    hi: 1e7,
+    unit: "Bd",
+    what: "a baud rate",
+};
+
+/// A laser's vacuum wavelength, femtometres: 100 nm … 10 µm, ultraviolet to far infrared.
+const WAVELENGTH_FM: Bound = Bound {
+    lo: 1e8,
+    hi: 1e10,
+    unit: "fm",
+    what: "a wavelength",
+};
+
 /// Keys whose values are counts or seeds, not measurements: their own range (`None`: any
 /// value of serde's integer type, as a seed).
 fn count_rule(name: &str) -> Option<Option<Bound>> {
@@ -101,6 +119,9 @@ fn count_rule(name: &str) -> Option<Option<Bound>> {
         "runs" => Some(Some(RUNS)),
         "targets" => Some(Some(TARGETS)),
         "degree" => Some(Some(DEGREE)),
+        // The device description: a serial line's rate and a buffer size.
+        "baud" => Some(Some(BAUD)),
+        "fifo_bytes" => Some(None),
         _ => None,
     }
 }
@@ -132,7 +153,9 @@ fn rule(keys: &[&str]) -> Bound {
             _ => {}
         }
     }
-    if name.ends_with("_mm_s") {
+    if name.ends_with("_fm") {
+        WAVELENGTH_FM
+    } else if name.ends_with("_mm_s") {
         FEED_MM_S
     } else if name.ends_with("_mm_s2") {
         ACCEL_MM_S2
