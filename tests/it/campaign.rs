@@ -735,10 +735,16 @@ const FIXED: &[(&str, i32, &[&str])] = &[
     ),
     // Seed 47: a session whose rows are all outside any run has lines without
     // coordinates; the diagnosis report printed them as `y = NaN mm` (refused as a bug).
+    // Issue 28: no line was measured, so there is nothing to diagnose: refused.
     (
         "diagnose --recorded {outside} --model {model} --report {rep3} --json",
-        0,
-        &[],
+        1,
+        &["outside-runs.csv", "inside a run"],
+    ),
+    (
+        "diagnose --recorded {interleaved} --model {model} --report {rep3} --json",
+        1,
+        &["interleaved.csv", "change axis"],
     ),
     // Issue 28: two outputs on one path; plan's out-of-range flags exited 1; line
     // positions on the line's own axis or empty; unbounded counts and integers that skipped
@@ -892,6 +898,29 @@ fn what_the_campaign_found_stays_fixed() {
         None => l.to_string(),
     });
     std::fs::write(d.join("outside-runs.csv"), outside).expect("write");
+    // Rows alternating between axes X and Y.
+    let header: Vec<&str> = session_text
+        .lines()
+        .next()
+        .expect("header")
+        .split(',')
+        .collect();
+    let axis_col = header.iter().position(|c| *c == "axis").expect("axis");
+    let flip = std::cell::Cell::new(false);
+    let interleaved = data_rows(&session_text, |l| {
+        flip.set(!flip.get());
+        let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+        if flip.get() {
+            let other = if cells[axis_col].eq_ignore_ascii_case("x") {
+                "Y"
+            } else {
+                "X"
+            };
+            cells[axis_col] = other.into();
+        }
+        cells.join(",")
+    });
+    std::fs::write(d.join("interleaved.csv"), interleaved).expect("write");
     let bigt = plan.replace("targets = 11", "targets = 5000");
     assert_ne!(bigt, plan);
     std::fs::write(d.join("big-targets.toml"), bigt).expect("write");
@@ -931,6 +960,7 @@ fn what_the_campaign_found_stays_fixed() {
             root().join("tests/it/data/damaged-column.parquet"),
         ),
         ("outside", d.join("outside-runs.csv")),
+        ("interleaved", d.join("interleaved.csv")),
         ("model", f.models[0].clone()),
         ("rep3", d.join("rep3")),
         (
