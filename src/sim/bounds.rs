@@ -265,6 +265,28 @@ mod tests {
         assert!(e.contains("air_pressure_hpa.value[1]"), "{e}");
     }
 
+    /// Issue 28: an integer skipped the check its float twin fails.
+    #[test]
+    fn integers_are_checked_like_floats() {
+        for v in ["1000000000000000000", "1e18"] {
+            let e = check(&format!("[squareness_urad]\nE_C0Y = {v}\n")).expect_err(v);
+            assert!(e.contains("squareness_urad.E_C0Y"), "{e}");
+        }
+        for bad in [
+            "runs = 0\n",
+            "targets = 9223372036854775807\n",
+            "[[line]]\ntargets = 100000\n",
+        ] {
+            let e = check(bad).expect_err(bad);
+            assert!(e.contains("runs") || e.contains("targets"), "{e}");
+        }
+        let e = check("[device]\nlaser_wavelength_fm = 632991354000\n").expect_err("a metre");
+        assert!(e.contains("laser_wavelength_fm"), "{e}");
+        check("seed = 18446744073709551615\n").expect_err("beyond i64: TOML's own limit");
+        check("seed = 9223372036854775807\n[device]\nlaser_wavelength_fm = 632991354\nbaud = 115200\nfifo_bytes = 4096\n")
+            .expect("a device and a seed");
+    }
+
     #[test]
     fn ordinary_models_and_plans_pass() {
         check(
