@@ -157,7 +157,22 @@ impl Target {
             Target::MachineModel => errmap::sim::MachineModel::read(path).is_ok(),
             Target::Plan => errmap::sim::PlanSpec::read(path).is_ok_and(|s| s.plan(path).is_ok()),
             Target::VolModel => errmap::volumetric::Machine::read(path).is_ok(),
-            Target::VolPlan => errmap::volumetric::PlanFile::read(path).is_ok(),
+            Target::VolPlan => {
+                let Ok(plan) = errmap::volumetric::PlanFile::read(path) else {
+                    return false;
+                };
+                // Issue 28: `targets = 100000` was accepted, 4.3 M readings made.
+                let readings: u64 = plan
+                    .lines
+                    .iter()
+                    .map(|l| l.targets as u64 * u64::from(l.runs))
+                    .sum();
+                assert!(
+                    readings <= errmap::volumetric::simulate::MAX_READINGS,
+                    "a plan of {readings} readings accepted"
+                );
+                true
+            }
             Target::LineTable => {
                 let mut accepted = false;
                 for require_e in [true, false] {

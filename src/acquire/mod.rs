@@ -344,11 +344,18 @@ pub fn replay_with_hello(
     // The table goes to the temporary sibling of `out` (same extension, so the same
     // format) and is renamed into place only when whole: a failed replay leaves no
     // partial table and an existing one untouched.
-    let partial = crate::table::temporary(out);
+    // A device or pipe (`--out /dev/stdout`) is written through: nothing to replace.
+    let target = match crate::table::output_target(out)? {
+        crate::table::OutputTarget::Through(p) => {
+            return replay_into(&mut decoder, &mut file, raw, &p);
+        }
+        crate::table::OutputTarget::Atomic(p) => p,
+    };
+    let partial = crate::table::temporary(&target);
     let result = replay_into(&mut decoder, &mut file, raw, &partial);
     match result {
         Ok(r) => {
-            std::fs::rename(&partial, out).map_err(io_err(out))?;
+            std::fs::rename(&partial, &target).map_err(io_err(out))?;
             Ok(r)
         }
         Err(e) => {

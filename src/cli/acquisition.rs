@@ -3,7 +3,7 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -18,10 +18,10 @@ use super::args::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
-/// Ctrl-C sets the stop flag once; a second Ctrl-C is left to the default (the raw file
-/// is on disk either way).
+/// Ctrl-C (or SIGTERM) sets the stop flag once; a second one ends the run
+/// (`guard::on_signals`; the raw file is on disk either way).
 fn install_ctrlc() {
-    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::SeqCst));
+    super::guard::stop_on_interrupt(&STOP);
 }
 
 fn faults(a: &FaultArgs) -> Result<Faults> {

@@ -10,8 +10,8 @@ use errmap::interp::{MethodName, fuzzy};
 
 use super::values::{
     CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
-    at_least_two, axis, baud, coordinate, fuzzy_width, kernel, length, method_name, positive,
-    probability, seconds, siemens_axis,
+    at_least_two, axis, baud, bench_points, coordinate, fuzzy_width, kernel, length, method_name,
+    positive, probability, seconds, siemens_axis, trials,
 };
 
 #[derive(Debug, Args)]
@@ -156,7 +156,7 @@ pub struct DiagnoseArgs {
 #[derive(Debug, Args)]
 pub struct BenchArgs {
     /// Query points.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = 1_000_000, value_parser = bench_points)]
     pub points: usize,
     /// Threads for the parallel runs (0: all cores).
     #[arg(long, default_value_t = 0)]
@@ -390,7 +390,7 @@ pub struct CompareArgs {
 pub struct FuzzySimArgs {
     #[arg(long, default_value_t = 2013)]
     pub seed: u64,
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = trials)]
     pub trials: usize,
     #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,

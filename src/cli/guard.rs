@@ -16,10 +16,18 @@
 //!   or `./x` vs `x` are the same file) and refuses with both flags named, before anything
 //!   is written.
 //! - **Whole files.** [`write_file`] writes text and bytes outputs atomically, like the
-//!   library's table writers; [`into_new_dir`] does the same for a new report directory.
+//!   library's table writers (a device, pipe or link is written through or followed, never
+//!   replaced: `errmap::table::output_target`); [`into_new_dir`] does the same for a new
+//!   report directory. Two outputs on one path are refused ([`distinct_outputs`]).
+//! - **Signals.** [`on_signals`]: SIGINT/SIGTERM/SIGHUP remove the run's temporary files
+//!   and exit 130 (capture and serve-sim first stop gracefully, [`stop_on_interrupt`]).
+//! - **A closed stderr.** The binary's `eprintln!` ignores a closed stderr (`main.rs`);
+//!   [`quiet_on_closed_output`] catches what other printing code would panic on.
 
 use std::io::Write;
 use std::path::Path;
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 
@@ -44,6 +52,58 @@ pub fn usage(message: impl Into<String>) -> anyhow::Error {
 /// Exit status for a closed stdout: 128 + SIGPIPE (13), the shell's status of a program
 /// ended by the signal.
 pub const STDOUT_CLOSED_STATUS: u8 = 141;
+
+/// Exit status of a run ended by SIGINT, SIGTERM or SIGHUP after its temporary files
+/// were removed: 128 + SIGINT (2), what a shell reports for an interrupted program.
+pub const INTERRUPTED_STATUS: i32 = 130;
+
+/// The stop flag of a command that ends gracefully on an interrupt (capture, serve-sim).
+static GRACEFUL: OnceLock<&'static AtomicBool> = OnceLock::new();
+
+/// Makes the first interrupt set `flag` (the command then stops and finishes its files)
+/// instead of ending the run; a second one ends it as [`on_signals`] says.
+pub fn stop_on_interrupt(flag: &'static AtomicBool) {
+    let _ = GRACEFUL.set(flag);
+}
+
+/// Installs, once for the binary, what SIGINT, SIGTERM and SIGHUP do: set the graceful
+/// stop flag the first time when a command registered one ([`stop_on_interrupt`]);
+/// otherwise remove every temporary output file or directory still on disk
+/// (`errmap::table::remove_temporaries`) and exit with [`INTERRUPTED_STATUS`]. An
+/// interrupted run leaves what was there before, and nothing else.
+pub fn on_signals() {
+    let _ = ctrlc::set_handler(|| {
+        if let Some(flag) = GRACEFUL.get()
+            && !flag.swap(true, Ordering::SeqCst)
+        {
+            return;
+        }
+        errmap::table::remove_temporaries();
+        std::process::exit(INTERRUPTED_STATUS);
+    });
+}
+
+/// Installs the last line of defence against a closed stderr or stdout: a panic of the
+/// standard printing macros (`failed printing to stderr: Broken pipe`, from a dependency
+/// or a `println!` that escaped [`print_stdout`]) ends the run quietly with
+/// [`STDOUT_CLOSED_STATUS`] after removing temporary files, instead of exit 101. The
+/// binary's own `eprintln!` never panics (`main.rs`).
+pub fn quiet_on_closed_output() {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if payload.starts_with("failed printing to std") {
+            errmap::table::remove_temporaries();
+            std::process::exit(i32::from(STDOUT_CLOSED_STATUS));
+        }
+        previous(info);
+    }));
+}
 
 /// Prints `text` and a newline on stdout and flushes it. A closed pipe is
 /// [`StdoutClosed`]; any other failure an error naming stdout.
@@ -92,6 +152,15 @@ pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Res
     if dir.exists() {
         return fill(dir);
     }
+    // A new directory, not a tree: its parent must exist, as a new file's must.
+    if let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty())
+        && !parent.exists()
+    {
+        bail!(errmap::table::TableError::MissingDirectory {
+            path: dir.to_path_buf(),
+            dir: parent.to_path_buf(),
+        });
+    }
     let tmp = errmap::table::temporary(dir);
     let _ = std::fs::remove_dir_all(&tmp);
     match fill(&tmp) {
@@ -103,6 +172,35 @@ pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Res
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
             Err(e)
+        }
+    }
+}
+
+/// A spinner with the elapsed time on stderr while long work runs (issue 28: `compare` on
+/// a 96 000-node grid ran over a minute with nothing shown), drawn only when stderr is a
+/// terminal; cleared when dropped.
+#[derive(Debug)]
+pub struct Busy(Option<indicatif::ProgressBar>);
+
+/// Starts a [`Busy`] spinner saying `message`.
+pub fn busy(message: impl Into<String>) -> Busy {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return Busy(None);
+    }
+    let bar = indicatif::ProgressBar::new_spinner();
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})") {
+        bar.set_style(style);
+    }
+    bar.set_message(message.into());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    Busy(Some(bar))
+}
+
+impl Drop for Busy {
+    fn drop(&mut self) {
+        if let Some(b) = &self.0 {
+            b.finish_and_clear();
         }
     }
 }
@@ -127,8 +225,10 @@ pub fn threads(flag: &str, requested: usize) -> usize {
 }
 
 /// Refuses when an output (flag, path) is the same file as an input (flag, path): same
-/// device and inode. Outputs that do not exist yet cannot be inputs.
+/// device and inode. Outputs that do not exist yet cannot be inputs. Two outputs on one
+/// path are refused first, as a usage error ([`distinct_outputs`]).
 pub fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<()> {
+    distinct_outputs(outputs)?;
     for &(out_flag, out) in outputs {
         let Some(out_id) = file_id(out) else { continue };
         for &(in_flag, input) in inputs {
@@ -142,6 +242,48 @@ pub fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
         }
     }
     Ok(())
+}
+
+/// Refuses two outputs of one command on one path (issue 28: `plan --out P --program P`
+/// wrote the plan, then replaced it by the part program): a usage error (exit 2) naming
+/// both flags. Paths are compared as written after normalising `.` and `..` against the
+/// working directory and following the links of their directories (so `./p` and `p`,
+/// or `d/../p` and `p`, are one path), and by device and inode when both exist (hard
+/// links). Devices and pipes (`/dev/null` twice) are not files that one output could
+/// destroy, and are allowed.
+pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<()> {
+    for (i, &(flag_a, a)) in outputs.iter().enumerate() {
+        for &(flag_b, b) in &outputs[i + 1..] {
+            let same_path = matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y);
+            let same_file = matches!((file_id(a), file_id(b)), (Some(x), Some(y)) if x == y);
+            if (same_path || same_file) && !through(a) {
+                return Err(usage(format!(
+                    "{flag_a} and {flag_b} are the same path {}: the second output would replace the first; give each its own path",
+                    a.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether `p` is written through (a device, a pipe, a descriptor): see
+/// `errmap::table::output_target`.
+fn through(p: &Path) -> bool {
+    matches!(
+        errmap::table::output_target(p),
+        Ok(errmap::table::OutputTarget::Through(_))
+    )
+}
+
+/// `p` made absolute, its directory with links followed (when it exists) and its last
+/// component kept as written.
+fn resolved(p: &Path) -> Option<std::path::PathBuf> {
+    let abs = std::path::absolute(p).ok()?;
+    let name = abs.file_name()?.to_owned();
+    let dir = abs.parent()?;
+    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    Some(dir.join(name))
 }
 
 #[cfg(unix)]

@@ -94,6 +94,8 @@ pub enum Command {
 }
 
 pub fn main() -> ExitCode {
+    guard::quiet_on_closed_output();
+    guard::on_signals();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

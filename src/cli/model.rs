@@ -293,6 +293,11 @@ fn scattered_methods(
 pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     let table = ErrorTable::read(&a.table)?;
     let test = ErrorTable::read(&a.test)?;
+    let busy = super::guard::busy(format!(
+        "compare: fitting and cross-validating on {} nodes, {} test points",
+        table.points.len(),
+        test.points.len()
+    ));
     let comparison = match table.grid() {
         Ok(grid) => {
             let methods = compare_methods(&a, &grid)?;
@@ -309,6 +314,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
         Err(e) => return Err(e.into()),
     }
     .with_context(|| format!("{}: comparison failed", a.table.display()))?;
+    drop(busy);
     let command = format!(
         "errmap compare {} --test {} --report {}{}",
         a.table.display(),
@@ -454,6 +460,11 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     // The line's fixed coordinates: given ones, else the first node on that axis.
     let mut at = lo;
     for &(k, v) in &a.at.0 {
+        if k == axis {
+            return Err(super::guard::usage(format!(
+                "--at: {k} is the axis of the line; give the other two"
+            )));
+        }
         at[k.index()] = v;
     }
     let line = LineSpec {

@@ -87,6 +87,9 @@ fn line_coordinates(axis: Axis, at: &values::LineAt) -> Result<[f64; 2]> {
 
 pub fn plan_cmd(a: PlanArgs) -> Result<()> {
     let (axis, dialect) = (a.axis, a.dialect);
+    let mut outputs = vec![("--out", a.out.as_path())];
+    outputs.extend(a.program.as_deref().map(|p| ("--program", p)));
+    super::guard::refuse_aliases(&outputs, &[])?;
     let spacing = match (a.targets, a.interval) {
         (Some(m), None) => Spacing::Targets(m),
         (None, Some(q)) => Spacing::Interval(q),
@@ -104,7 +107,9 @@ pub fn plan_cmd(a: PlanArgs) -> Result<()> {
         line_mm: line_coordinates(axis, &a.at)?,
         random_offset: a.random_offset,
         seed: a.seed,
-    })?;
+    })
+    // Every field of the configuration is a flag, named in the error: a usage error.
+    .map_err(|e| super::guard::usage(e.to_string()))?;
     let text = match &a.program {
         Some(_) => Some(program::render(
             &plan,

@@ -214,13 +214,38 @@ pub fn fuzzy_width(s: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// A count of at least 2 (`--max-points`: a compensation table needs two points).
+/// A count of at least 2 and at most the export's sample bound (`--max-points`, volumetric
+/// export's `--points`: a compensation table needs two points).
 pub fn at_least_two(s: &str) -> Result<usize, String> {
+    count_within(s, 2, errmap::export::MAX_SAMPLES)
+}
+
+/// A whole number within `lo ..= hi`, checked before anything is allocated for it (the
+/// bounds table of `docs/robustness.md`).
+fn count_within(s: &str, lo: usize, hi: usize) -> Result<usize, String> {
     let v: usize = parsed(s, "a whole number")?;
-    if v < 2 {
-        return Err(format!("`{s}`: at least 2"));
+    if !(lo..=hi).contains(&v) {
+        return Err(format!("`{s}` is outside {lo} … {hi}"));
     }
     Ok(v)
+}
+
+/// volumetric identify `--positions`: 2 … [`MAX_REPORT_POSITIONS`] per component (issue 28:
+/// 10⁹ allocated 24 GB).
+///
+/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::identify::MAX_REPORT_POSITIONS
+pub fn report_positions(s: &str) -> Result<usize, String> {
+    count_within(s, 2, errmap::volumetric::identify::MAX_REPORT_POSITIONS)
+}
+
+/// bench `--points`: 1 … 10⁷ query points (240 MB of coordinates and results).
+pub fn bench_points(s: &str) -> Result<usize, String> {
+    count_within(s, 1, 10_000_000)
+}
+
+/// fuzzy-sim `--trials`: 1 … 10⁵.
+pub fn trials(s: &str) -> Result<usize, String> {
+    count_within(s, 1, 100_000)
 }
 
 /// A baud rate of a serial line: 50 … 10 000 000.
@@ -317,7 +342,16 @@ impl FromStr for LineAt {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let mut out = Vec::new();
-        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        if s.trim().is_empty() {
+            return Ok(LineAt(out));
+        }
+        for part in s.split(',').map(str::trim) {
+            // `,,,` is no line position (issue 28), and `y=1,` a typing slip.
+            if part.is_empty() {
+                return Err(format!(
+                    "`{s}`: an empty item between commas; axis=value pairs like y=1,z=200"
+                ));
+            }
             let (k, v) = part
                 .split_once('=')
                 .ok_or_else(|| format!("axis=value pairs like y=1,z=200, not `{part}`"))?;
@@ -469,10 +503,13 @@ mod tests {
 
     #[test]
     fn a_line_position_gives_each_axis_once_within_the_bound() {
-        for bad in ["y=1,y=2", "y=nan", "y=inf", "y=1e308", "q=1", "y", "=1"] {
+        for bad in [
+            "y=1,y=2", "y=nan", "y=inf", "y=1e308", "q=1", "y", "=1", ",,,", "y=1,", ",z=2",
+        ] {
             assert!(bad.parse::<LineAt>().is_err(), "--at {bad:?}");
         }
         let at: LineAt = "y=1, z=-200".parse().expect("valid");
+        assert_eq!("".parse::<LineAt>().expect("none").0, vec![]);
         assert_eq!(at.0, vec![(Axis::Y, 1.0), (Axis::Z, -200.0)]);
     }
 }

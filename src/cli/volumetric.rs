@@ -98,7 +98,7 @@ pub struct IdentifyArgs {
     #[arg(long, default_value = "", value_parser = values::component_degrees)]
     pub component_degree: BTreeMap<usize, usize>,
     /// Positions per component in the output (0 is added).
-    #[arg(long, default_value_t = 21)]
+    #[arg(long, default_value_t = 21, value_parser = values::report_positions)]
     pub positions: usize,
     /// Write the report (report.md, figures, model.json) into this directory.
     #[arg(long)]

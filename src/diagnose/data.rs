@@ -16,6 +16,9 @@ use super::DiagnoseError;
 use super::engine::MapGroups;
 use super::outcome::StaticMapSummary;
 
+/// At most one matched row in this many may start a new axis (see [`build`]).
+const MAX_SWITCH_SHARE: usize = 4;
+
 /// Fewest usable matched rows the diagnosis works on.
 pub(crate) const MIN_ROWS: usize = 20;
 
@@ -311,6 +314,19 @@ pub(crate) fn build(
         });
     }
 
+    // One axis per session: a line-to-line move on another axis changes it twice per
+    // line; rows that keep switching are interleaved sessions or damage.
+    let switches = pairs
+        .windows(2)
+        .filter(|w| recorded[w[0].0].axis != recorded[w[1].0].axis)
+        .count();
+    if switches * MAX_SWITCH_SHARE > pairs.len() {
+        return Err(DiagnoseError::AxesInterleaved {
+            switches,
+            rows: pairs.len(),
+        });
+    }
+
     // The session's axis: the most common one among matched rows.
     let mut counts = [0usize; 3];
     for &(i, _) in &pairs {
@@ -347,6 +363,10 @@ pub(crate) fn build(
                 m.matched_rows, m.flagged_rows, m.non_finite_rows, m.other_axis_rows
             ),
         });
+    }
+
+    if used.iter().all(|&(i, _)| recorded[i].run == 0) {
+        return Err(DiagnoseError::NoRuns { rows: used.len() });
     }
 
     let t0 = recorded

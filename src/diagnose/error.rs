@@ -29,6 +29,26 @@ pub enum DiagnoseError {
         /// What was left out.
         detail: String,
     },
+    /// Every usable recorded row lies outside any run (`run` = 0): no line was measured
+    /// (issue 28: such a session was diagnosed, its lines without coordinates).
+    #[error(
+        "none of the {rows} usable recorded rows lies inside a run (run = 0 on every row): no line was measured"
+    )]
+    NoRuns {
+        /// Usable rows.
+        rows: usize,
+    },
+    /// The recorded rows switch between axes so often that they are no single-axis
+    /// session (issue 28: rows alternating X, Y, X, Y… were diagnosed on half of them).
+    #[error(
+        "the recorded rows change axis {switches} times in {rows} rows: a session measures one axis (interleaved or damaged rows?)"
+    )]
+    AxesInterleaved {
+        /// Changes of axis between consecutive matched rows.
+        switches: usize,
+        /// Matched rows.
+        rows: usize,
+    },
     /// A setting is outside its range.
     #[error("invalid diagnose setting: {0}")]
     Config(String),

@@ -57,7 +57,7 @@ use polars::prelude::*;
 use crate::base::Axis;
 use crate::table::{
     Cells, TableError, column_cells, optional_column_cells, parse_cell, read_frame, required_cell,
-    write_frame,
+    text_or_number_cells, write_frame,
 };
 
 /// Writes a session table (CSV or Parquet by extension) with the spec's columns, whole or
@@ -236,7 +236,11 @@ fn frame_rows_at(
 ) -> Result<(), TableError> {
     let cells = REQUIRED
         .iter()
-        .map(|c| column_cells(path, df, c))
+        .map(|&c| match c {
+            // Text or a number; every other column holds numbers.
+            "axis" => text_or_number_cells(path, df, c),
+            _ => column_cells(path, df, c),
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let optional: Vec<Option<Cells>> = OPTIONAL
         .iter()

@@ -78,11 +78,14 @@ impl SessionWriter {
     /// As [`SessionWriter::create`] with `batch_rows` rows per batch (at least 1).
     pub fn with_batch(path: &Path, batch_rows: usize) -> Result<Self, TableError> {
         let parquet = is_parquet(path)?;
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent).map_err(|source| TableError::Io {
-                path: parent.to_path_buf(),
-                source,
-            })?;
+        // Its directory must exist (errmap makes no directory tree for an output).
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty())
+            && !parent.exists()
+        {
+            return Err(TableError::MissingDirectory {
+                path: path.to_path_buf(),
+                dir: parent.to_path_buf(),
+            });
         }
         let file = File::create(path).map_err(|source| TableError::Io {
             path: path.to_path_buf(),
@@ -229,8 +232,8 @@ pub fn for_each_batch(
         let mut offset = 0;
         while offset < n {
             let len = batch_rows.min(n - offset);
-            let file = File::open(path).map_err(io)?;
-            let reader = ParquetReader::new(file).with_slice(Some((offset, len)));
+            // The schema's checks and its projection (columns polars cannot read left out).
+            let reader = crate::table::parquet_reader(path)?.with_slice(Some((offset, len)));
             let df = crate::table::finish_parquet(path, reader)?;
             frame_rows_into(path, &df, offset, &mut seen, &mut rows)?;
             each(&rows)?;

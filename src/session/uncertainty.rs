@@ -171,35 +171,55 @@ pub enum UncertaintyError {
         /// What is wrong with it.
         reason: &'static str,
     },
+    /// A configuration value beyond its physical bound.
+    #[error(
+        "uncertainty.{key} = {value}: more than {max}, beyond any real instrument (a unit mistake?)"
+    )]
+    TooLarge {
+        /// The key, as spelt in the info TOML.
+        key: &'static str,
+        /// The value given.
+        value: f64,
+        /// Its bound.
+        max: f64,
+    },
     /// The travel is NaN, infinite or negative.
     #[error("travel {0} mm is not a finite length ≥ 0")]
     Travel(f64),
 }
 
 impl UncertaintyConfig {
-    /// The fields with their TOML keys, in budget order.
-    fn fields(&self) -> [(&'static str, f64); 14] {
+    /// The fields with their TOML keys and their physical upper bounds, in budget order.
+    /// The bounds are far beyond any real instrument (issue 28: `air_temp_k =
+    /// 9223372036854775807` printed `u_rel = 8819167232000000000 ppm`); each one's reason
+    /// is in `docs/robustness.md`.
+    fn fields(&self) -> [(&'static str, f64, f64); 14] {
         [
-            ("k", self.k),
-            ("wavelength_ppm", self.wavelength_ppm),
-            ("edlen_equation_ppm", self.edlen_equation_ppm),
-            ("air_temp_k", self.air_temp_k),
-            ("air_pressure_hpa", self.air_pressure_hpa),
-            ("air_rh_pct", self.air_rh_pct),
-            ("material_temp_k", self.material_temp_k),
-            ("expansion_ppm_per_k", self.expansion_ppm_per_k),
-            ("expansion_u_ppm_per_k", self.expansion_u_ppm_per_k),
-            ("misalignment_urad", self.misalignment_urad),
-            ("dead_path_mm", self.dead_path_mm),
-            ("air_temp_drift_k", self.air_temp_drift_k),
-            ("air_pressure_drift_hpa", self.air_pressure_drift_hpa),
-            ("resolution_um", self.resolution_um),
+            ("k", self.k, 10.0),
+            ("wavelength_ppm", self.wavelength_ppm, 100.0),
+            ("edlen_equation_ppm", self.edlen_equation_ppm, 100.0),
+            ("air_temp_k", self.air_temp_k, 50.0),
+            ("air_pressure_hpa", self.air_pressure_hpa, 500.0),
+            ("air_rh_pct", self.air_rh_pct, 100.0),
+            ("material_temp_k", self.material_temp_k, 50.0),
+            ("expansion_ppm_per_k", self.expansion_ppm_per_k, 1000.0),
+            ("expansion_u_ppm_per_k", self.expansion_u_ppm_per_k, 1000.0),
+            ("misalignment_urad", self.misalignment_urad, 1e5),
+            ("dead_path_mm", self.dead_path_mm, 1e6),
+            ("air_temp_drift_k", self.air_temp_drift_k, 150.0),
+            (
+                "air_pressure_drift_hpa",
+                self.air_pressure_drift_hpa,
+                1000.0,
+            ),
+            ("resolution_um", self.resolution_um, 1e6),
         ]
     }
 
-    /// Checks every value: finite and ≥ 0, `k` > 0. The error names the first bad key.
+    /// Checks every value: finite, ≥ 0 and within its physical bound, `k` > 0. The error
+    /// names the first bad key.
     pub fn validate(&self) -> Result<(), UncertaintyError> {
-        for (key, value) in self.fields() {
+        for (key, value, max) in self.fields() {
             if !value.is_finite() {
                 return Err(UncertaintyError::Invalid {
                     key,
@@ -213,6 +233,9 @@ impl UncertaintyConfig {
                     value,
                     reason: "negative",
                 });
+            }
+            if value > max {
+                return Err(UncertaintyError::TooLarge { key, value, max });
             }
         }
         if self.k <= 0.0 {

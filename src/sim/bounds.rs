@@ -17,7 +17,16 @@
 //! | `…_s` (times) | ±10⁹ s ([`TIME_S`]) |
 //! | `…_mm` (positions, lengths) | ±10⁶ mm ([`POSITION_MM`]) |
 //! | `…_um` (errors, noise, periods) | ±10⁶ µm ([`ERROR_UM`]) |
-//! | every other float (ppm, µrad, coefficients) | ±10⁶ in its unit |
+//! | every other number (ppm, µrad, coefficients) | ±10⁶ in its unit |
+//! | `runs` | 1 … 1 000 |
+//! | `targets` (a count) | 1 … 10 000 (finer rules where used: a volumetric line needs 3) |
+//! | `degree` | 0 … 31 |
+//! | `seed`, `fifo_bytes` | any value of their integer type |
+//! | `…_fm` (a laser's wavelength) | 10⁸ … 10¹⁰ fm (100 nm … 10 µm) |
+//! | `baud` | 50 … 10⁷ Bd |
+//!
+//! Integers and floats go through the same rules: `E_XX = 1000000000000000000` is refused
+//! like `1e18`.
 //!
 //! Signs and the finer rules (a period > 0, a dwell ≥ 0, increasing targets) are checked
 //! where the values are used ([`super::physics`], the board's plan validation); misspelt
@@ -60,6 +69,63 @@ const COEFFICIENT: Bound = Bound {
     what: "a model coefficient",
 };
 
+/// Runs of a plan, each up and down: as many as `errmap plan` writes
+/// ([`crate::sim::testplan::MAX_RUNS`]).
+const RUNS: Bound = Bound {
+    lo: 1.0,
+    hi: 1000.0,
+    unit: "runs",
+    what: "a number of runs",
+};
+
+/// Targets of one measured line: as many as `errmap plan` writes
+/// ([`crate::sim::testplan::MAX_TARGETS`]); 10⁴ targets is one every 0.1 mm over a metre.
+const TARGETS: Bound = Bound {
+    lo: 1.0,
+    hi: 10_000.0,
+    unit: "targets",
+    what: "a number of targets",
+};
+
+/// The polynomial degree of a component table (the Lagrange method's own limit).
+const DEGREE: Bound = Bound {
+    lo: 0.0,
+    hi: crate::interp::lagrange::MAX_DEGREE as f64,
+    unit: "",
+    what: "a polynomial degree",
+};
+
+/// A serial line's rate, as `capture --baud` accepts it.
+const BAUD: Bound = Bound {
+    lo: 50.0,
+    hi: 1e7,
+    unit: "Bd",
+    what: "a baud rate",
+};
+
+/// A laser's vacuum wavelength, femtometres: 100 nm … 10 µm, ultraviolet to far infrared.
+const WAVELENGTH_FM: Bound = Bound {
+    lo: 1e8,
+    hi: 1e10,
+    unit: "fm",
+    what: "a wavelength",
+};
+
+/// Keys whose values are counts or seeds, not measurements: their own range (`None`: any
+/// value of serde's integer type, as a seed).
+fn count_rule(name: &str) -> Option<Option<Bound>> {
+    match name {
+        "seed" => Some(None),
+        "runs" => Some(Some(RUNS)),
+        "targets" => Some(Some(TARGETS)),
+        "degree" => Some(Some(DEGREE)),
+        // The device description: a serial line's rate and a buffer size.
+        "baud" => Some(Some(BAUD)),
+        "fifo_bytes" => Some(None),
+        _ => None,
+    }
+}
+
 /// The range of the value at `keys` (table keys; array elements carry their array's key).
 fn rule(keys: &[&str]) -> Bound {
     let name = keys.last().copied().unwrap_or_default();
@@ -87,7 +153,9 @@ fn rule(keys: &[&str]) -> Bound {
             _ => {}
         }
     }
-    if name.ends_with("_mm_s") {
+    if name.ends_with("_fm") {
+        WAVELENGTH_FM
+    } else if name.ends_with("_mm_s") {
         FEED_MM_S
     } else if name.ends_with("_mm_s2") {
         ACCEL_MM_S2
@@ -148,16 +216,19 @@ fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Resul
         }
         _ => None,
     };
-    // An integer is checked when its key names a unit (`value = -300` in a temperature
-    // history, `dwell_s = 1000000000000`); other integers are ids, counts and seeds,
-    // typed by serde and ranged where they are used.
+    // Integers and floats alike (issue 28: `E_C0Y = 1000000000000000000` written as an
+    // integer skipped the check that refuses `1e18`): counts and seeds by their own
+    // rule, everything else by its unit.
     if let Some(x) = number {
-        let bound = rule(keys);
-        if matches!(v, toml::Value::Float(_)) || bound != COEFFICIENT {
-            bound
-                .check(x)
-                .map_err(|problem| format!("{shown}: {problem}"))?;
-        }
+        let name = keys.last().copied().unwrap_or_default();
+        let bound = match count_rule(name) {
+            Some(None) => return Ok(()),
+            Some(Some(b)) => b,
+            None => rule(keys),
+        };
+        bound
+            .check(x)
+            .map_err(|problem| format!("{shown}: {problem}"))?;
     }
     Ok(())
 }
@@ -192,6 +263,28 @@ mod tests {
         let e = check("[environment.air_pressure_hpa]\nkind = \"table\"\nt_s = [0.0, 1.0]\nvalue = [1013.0, 5.0]\n")
             .expect_err("pressure");
         assert!(e.contains("air_pressure_hpa.value[1]"), "{e}");
+    }
+
+    /// Issue 28: an integer skipped the check its float twin fails.
+    #[test]
+    fn integers_are_checked_like_floats() {
+        for v in ["1000000000000000000", "1e18"] {
+            let e = check(&format!("[squareness_urad]\nE_C0Y = {v}\n")).expect_err(v);
+            assert!(e.contains("squareness_urad.E_C0Y"), "{e}");
+        }
+        for bad in [
+            "runs = 0\n",
+            "targets = 9223372036854775807\n",
+            "[[line]]\ntargets = 100000\n",
+        ] {
+            let e = check(bad).expect_err(bad);
+            assert!(e.contains("runs") || e.contains("targets"), "{e}");
+        }
+        let e = check("[device]\nlaser_wavelength_fm = 632991354000\n").expect_err("a metre");
+        assert!(e.contains("laser_wavelength_fm"), "{e}");
+        check("seed = 18446744073709551615\n").expect_err("beyond i64: TOML's own limit");
+        check("seed = 9223372036854775807\n[device]\nlaser_wavelength_fm = 632991354\nbaud = 115200\nfifo_bytes = 4096\n")
+            .expect("a device and a seed");
     }
 
     #[test]

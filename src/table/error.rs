@@ -14,6 +14,14 @@ pub enum TableError {
     },
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
+    #[error(
+        "{path}: not written: the directory {dir} does not exist (create it first; errmap does not make directory trees)"
+    )]
+    MissingDirectory { path: PathBuf, dir: PathBuf },
+    #[error(
+        "{path}: not written: it is {kind}, not a file (errmap writes regular files, and writes through to character devices and pipes)"
+    )]
+    NotAFile { path: PathBuf, kind: &'static str },
     #[error("{path}: unsupported extension (use .csv or .parquet)")]
     Extension { path: PathBuf },
     #[error("{path}: required column `{column}` is missing (columns found: {found})")]

@@ -94,7 +94,40 @@ pub(crate) fn optional_column_cells(
         .transpose()
 }
 
+/// A column of numbers: a CSV column (text, parsed cell by cell) or a Parquet column of
+/// integers or floats. A Parquet column of text where numbers belong is refused naming
+/// it (issue 28: it was parsed silently), and so is a Parquet column whose type the reader
+/// cannot convert (decimal, date…), with that type.
 pub(crate) fn column_cells(path: &Path, df: &DataFrame, name: &str) -> Result<Cells, TableError> {
+    let cells = text_or_number_cells(path, df, name)?;
+    if matches!(cells, Cells::Text(_)) && is_parquet(path)? {
+        return Err(format_err(
+            path,
+            format!(
+                "column `{name}` holds text (Parquet type String) where numbers belong; store it as integers or floats"
+            ),
+        ));
+    }
+    Ok(cells)
+}
+
+/// A column whose cells may be text or numbers (a line's id, a session's axis).
+pub(crate) fn text_or_number_cells(
+    path: &Path,
+    df: &DataFrame,
+    name: &str,
+) -> Result<Cells, TableError> {
+    if df.column(name).is_err()
+        && is_parquet(path).unwrap_or(false)
+        && let Some(dtype) = super::structure::unreadable_type(path, name)
+    {
+        return Err(format_err(
+            path,
+            format!(
+                "column `{name}` has the Parquet type {dtype}; store numbers as integers or floats (32 or 64 bits)"
+            ),
+        ));
+    }
     let col = df
         .column(name)
         .map_err(|_| TableError::MissingColumn {

@@ -89,10 +89,13 @@ mod structure;
 pub use error::{MISSING_LISTED, TableError};
 pub(crate) use frame::{
     Cells, column_cells, format_err, is_parquet, optional_column_cells, parse_cell, required_cell,
+    text_or_number_cells,
 };
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};
-pub use output::{check_finite, temporary, write_atomically};
+pub use output::{
+    OutputTarget, check_finite, output_target, remove_temporaries, temporary, write_atomically,
+};
 pub(crate) use structure::{check_csv, finish_parquet, guarded, parquet_reader};
 
 const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];

@@ -13,9 +13,11 @@
 //! 4180 (a field in double quotes may hold commas and line breaks, `""` is a quote). It
 //! also names the row of invalid UTF-8, which polars reports without one.
 //!
-//! Parquet files carry a schema: a repeated name is refused from it, and so is a column
-//! type that the reader cannot convert (decimal, dates, lists…) — polars was built
-//! without those types and would panic on them.
+//! Parquet files carry a schema: a repeated name is refused from it. A column of a type
+//! the reader cannot convert (decimal, dates, narrow integers, lists…: polars was built
+//! without those types and would panic on them) is left out of the read, so a table with
+//! an unused column of any type reads; a reader that needs such a column gets an error
+//! naming it and its type.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -215,7 +217,30 @@ fn quiet_decoder_panics() {
     });
 }
 
-/// Opens a Parquet file and checks its schema (see the module docs).
+/// Whether polars, as built here, reads a Parquet column of this Arrow type into numbers or
+/// text (the narrow integer types, dates, decimals, lists and structs it does not: issue
+/// 28 found "cannot create series from UInt8").
+fn readable(dtype: &ArrowDataType) -> bool {
+    use ArrowDataType as T;
+    matches!(
+        dtype,
+        T::Boolean
+            | T::Int32
+            | T::Int64
+            | T::UInt32
+            | T::UInt64
+            | T::Float32
+            | T::Float64
+            | T::Utf8
+            | T::LargeUtf8
+            | T::Utf8View
+    )
+}
+
+/// Opens a Parquet file and checks its schema (see the module docs): repeated names are
+/// refused; columns of a type polars cannot read are left out of the read (an unused
+/// `measured_on` date or `operator_id` byte is a normal column of a lab's table), and a
+/// reader that needs one is told its type by [`unreadable_type`].
 pub(crate) fn parquet_reader(path: &Path) -> Result<ParquetReader<File>, TableError> {
     let file = File::open(path).map_err(io(path))?;
     let mut reader = ParquetReader::new(file);
@@ -223,39 +248,26 @@ pub(crate) fn parquet_reader(path: &Path) -> Result<ParquetReader<File>, TableEr
         reader.schema()
     })?;
     unique_names(path, schema.iter_values().map(|f| f.name.as_str()))?;
-    for f in schema.iter_values() {
-        use ArrowDataType as T;
-        let readable = matches!(
-            f.dtype(),
-            T::Null
-                | T::Boolean
-                | T::Int8
-                | T::Int16
-                | T::Int32
-                | T::Int64
-                | T::UInt8
-                | T::UInt16
-                | T::UInt32
-                | T::UInt64
-                | T::Float32
-                | T::Float64
-                | T::Utf8
-                | T::LargeUtf8
-                | T::Utf8View
-                | T::Dictionary(..)
-        );
-        if !readable {
-            return Err(format_err(
-                path,
-                format!(
-                    "column `{}` has the Parquet type {:?}; store numbers as integers or floats",
-                    f.name,
-                    f.dtype()
-                ),
-            ));
-        }
+    if schema.iter_values().all(|f| readable(f.dtype())) {
+        return Ok(reader);
     }
-    Ok(reader)
+    let keep: Vec<String> = schema
+        .iter_values()
+        .filter(|f| readable(f.dtype()))
+        .map(|f| f.name.to_string())
+        .collect();
+    Ok(reader.with_columns(Some(keep)))
+}
+
+/// The Arrow type of column `name` of the Parquet file at `path` when it is one that
+/// [`parquet_reader`] leaves out (for the message of a reader that needs the column).
+pub(crate) fn unreadable_type(path: &Path, name: &str) -> Option<String> {
+    let mut reader = ParquetReader::new(File::open(path).ok()?);
+    let schema = guarded(path, "the footer", || reader.schema()).ok()?;
+    schema
+        .iter_values()
+        .find(|f| f.name.as_str() == name && !readable(f.dtype()))
+        .map(|f| format!("{:?}", f.dtype()))
 }
 
 #[cfg(test)]

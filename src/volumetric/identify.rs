@@ -31,6 +31,10 @@ pub const NULL_TOL: f64 = 1e-6;
 /// (issue 17: degree 40 ran for minutes).
 pub const MAX_DEGREE: usize = 12;
 
+/// The most report positions per component (`positions`): 21 components × 10⁴ positions
+/// is a JSON document of a few MB; a billion allocated 24 GB (issue 28).
+pub const MAX_REPORT_POSITIONS: usize = 10_000;
+
 /// Degree of the component polynomials.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Degree {

@@ -20,7 +20,7 @@ use super::model::dot;
 use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
 use crate::table::{
     Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
-    required_cell, write_frame,
+    required_cell, text_or_number_cells, write_frame,
 };
 
 /// Tolerance on |u| − 1 and on the agreement of u between rows of a line.
@@ -133,7 +133,7 @@ impl LineTable {
         df: &DataFrame,
         require_e: bool,
     ) -> Result<LineTable, VolumetricError> {
-        let ids = column_cells(path, df, "line")?;
+        let ids = text_or_number_cells(path, df, "line")?;
         let req = ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
             .iter()
             .map(|c| column_cells(path, df, c))

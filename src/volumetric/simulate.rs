@@ -380,6 +380,22 @@ impl PlanFile {
                 "no lines: give a preset or [[line]] tables",
             ));
         }
+        // Before any target is made (issue 28: `targets = 100000` silently made 4.3 M).
+        let readings: u64 = lines
+            .iter()
+            .map(|l| l.targets as u64 * u64::from(l.runs))
+            .sum();
+        if readings > MAX_READINGS {
+            return Err(config_err(
+                path,
+                "targets",
+                format!(
+                    "{} lines with these targets and runs make {readings} readings, more than \
+                     the {MAX_READINGS} a campaign may have",
+                    lines.len()
+                ),
+            ));
+        }
         let mut names: Vec<&str> = lines.iter().map(|l| l.name.as_str()).collect();
         names.sort_unstable();
         if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
@@ -401,6 +417,11 @@ impl PlanFile {
         })
     }
 }
+
+/// The most readings (targets × runs, over all lines) a simulated campaign may have:
+/// checked before anything is allocated. A real laser campaign has a few thousand (43
+/// lines × 50 targets × 5 runs is 10 750); 200 000 is a line table of ~20 MB.
+pub const MAX_READINGS: u64 = 200_000;
 
 /// Names of the presets.
 pub const PRESETS: [&str; 2] = ["zhang22", "rich"];

@@ -735,10 +735,79 @@ const FIXED: &[(&str, i32, &[&str])] = &[
     ),
     // Seed 47: a session whose rows are all outside any run has lines without
     // coordinates; the diagnosis report printed them as `y = NaN mm` (refused as a bug).
+    // Issue 28: no line was measured, so there is nothing to diagnose: refused.
     (
         "diagnose --recorded {outside} --model {model} --report {rep3} --json",
-        0,
-        &[],
+        1,
+        &["outside-runs.csv", "inside a run"],
+    ),
+    (
+        "diagnose --recorded {interleaved} --model {model} --report {rep3} --json",
+        1,
+        &["interleaved.csv", "change axis"],
+    ),
+    // Issue 28: two outputs on one path; plan's out-of-range flags exited 1; line
+    // positions on the line's own axis or empty; unbounded counts and integers that skipped
+    // the range checks; an output under a missing directory made the tree.
+    (
+        "plan --axis x --from 0 --to 100 --targets 5 --out {out} --program {out}",
+        2,
+        &["--out", "--program"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --out {out} --targets=1",
+        2,
+        &["--targets"],
+    ),
+    (
+        "plan --axis x --from 800 --to 0 --targets 5 --out {out}",
+        2,
+        &["--to"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --out {out} --interval=1e-12",
+        2,
+        &["--interval"],
+    ),
+    (
+        "export {t1} --method trilinear --format csv --step 50 --out {out} --at=x=5",
+        2,
+        &["--at", "axis of the line"],
+    ),
+    (
+        "export {t1} --method trilinear --format csv --step 50 --out {out} --at=,,,",
+        2,
+        &["--at"],
+    ),
+    (
+        "volumetric identify {l} --topology YXZ --positions=1000000000",
+        2,
+        &["--positions"],
+    ),
+    (
+        "volumetric simulate --model {vm} --plan {bigt} --out {out}",
+        1,
+        &["big-targets.toml", "targets"],
+    ),
+    (
+        "volumetric simulate --model {vm} --plan {hugeint} --out {out}",
+        1,
+        &["huge-int-targets.toml", "targets"],
+    ),
+    (
+        "volumetric simulate --model {intm} --plan {vp} --out {out}",
+        1,
+        &["int-coefficient.toml", "E_C0Y"],
+    ),
+    (
+        "volumetric predict --model {intm} --grid {t2} --out {out}",
+        1,
+        &["int-coefficient.toml", "E_C0Y"],
+    ),
+    (
+        "plan --axis x --from 0 --to 100 --targets 5 --out {missing}",
+        1,
+        &["no-such-dir"],
     ),
     // A model whose error table is missing named only the table.
     (
@@ -829,6 +898,38 @@ fn what_the_campaign_found_stays_fixed() {
         None => l.to_string(),
     });
     std::fs::write(d.join("outside-runs.csv"), outside).expect("write");
+    // Rows alternating between axes X and Y.
+    let header: Vec<&str> = session_text
+        .lines()
+        .next()
+        .expect("header")
+        .split(',')
+        .collect();
+    let axis_col = header.iter().position(|c| *c == "axis").expect("axis");
+    let flip = std::cell::Cell::new(false);
+    let interleaved = data_rows(&session_text, |l| {
+        flip.set(!flip.get());
+        let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+        if flip.get() {
+            let other = if cells[axis_col].eq_ignore_ascii_case("x") {
+                "Y"
+            } else {
+                "X"
+            };
+            cells[axis_col] = other.into();
+        }
+        cells.join(",")
+    });
+    std::fs::write(d.join("interleaved.csv"), interleaved).expect("write");
+    let bigt = plan.replace("targets = 11", "targets = 5000");
+    assert_ne!(bigt, plan);
+    std::fs::write(d.join("big-targets.toml"), bigt).expect("write");
+    let hugeint = plan.replace("targets = 11", "targets = 9223372036854775807");
+    std::fs::write(d.join("huge-int-targets.toml"), hugeint).expect("write");
+    let vmodel = std::fs::read_to_string(&f.vol_model).expect("model");
+    let intm = vmodel.replace("E_C0Y = 8.0", "E_C0Y = 1000000000000000000");
+    assert_ne!(intm, vmodel);
+    std::fs::write(d.join("int-coefficient.toml"), intm).expect("write");
     let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
     std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
@@ -848,6 +949,10 @@ fn what_the_campaign_found_stays_fixed() {
         ("flat", d.join("flat-plan.toml")),
         ("zero", d.join("zero.csv")),
         ("lost", d.join("lost-table.toml")),
+        ("bigt", d.join("big-targets.toml")),
+        ("hugeint", d.join("huge-int-targets.toml")),
+        ("intm", d.join("int-coefficient.toml")),
+        ("missing", d.join("no-such-dir/p.toml")),
         ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
         (
@@ -855,6 +960,7 @@ fn what_the_campaign_found_stays_fixed() {
             root().join("tests/it/data/damaged-column.parquet"),
         ),
         ("outside", d.join("outside-runs.csv")),
+        ("interleaved", d.join("interleaved.csv")),
         ("model", f.models[0].clone()),
         ("rep3", d.join("rep3")),
         (

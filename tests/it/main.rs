@@ -19,6 +19,7 @@ mod live_view;
 mod node_noise;
 mod physics;
 mod robust_io;
+mod robust_outputs;
 mod robustness;
 mod soak;
 mod stream;

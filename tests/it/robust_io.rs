@@ -117,7 +117,7 @@ fn every_input_that_once_broke_a_reader_replays_without_a_panic() {
 
 /// Text a table or TOML mutation splices in: the values and tokens that broke readers
 /// before (issue 17's campaign), and structure characters.
-const TOKENS: [&str; 20] = [
+const TOKENS: [&str; 22] = [
     "nan",
     "inf",
     "-inf",
@@ -135,6 +135,9 @@ const TOKENS: [&str; 20] = [
     "x_mm",
     "e_um",
     "99999999999999999999",
+    // Integers that overflowed counts or skipped range checks (issue 28).
+    "9223372036854775807",
+    "1000000000000000000",
     "-1",
     "0",
     "1e-9",

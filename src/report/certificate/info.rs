@@ -178,6 +178,10 @@ impl CertificateInfo {
             UncertaintyError::Invalid { key, value, reason } => {
                 invalid(&format!("uncertainty.{key}"), format!("{value}: {reason}"))
             }
+            UncertaintyError::TooLarge { key, value, max } => invalid(
+                &format!("uncertainty.{key}"),
+                format!("{value}: more than {max}, beyond any real instrument (a unit mistake?)"),
+            ),
             other => invalid("uncertainty", other.to_string()),
         })?;
         Ok(info)
