@@ -14,6 +14,7 @@
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 //! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
+//! | [`history`] | history add, report, verify: the calibration ledger |
 
 use std::process::ExitCode;
 
@@ -26,6 +27,7 @@ pub mod certificate;
 pub mod demo;
 pub mod diagnose;
 pub mod guard;
+pub mod history;
 pub mod model;
 pub mod plan;
 pub mod step;
@@ -84,6 +86,8 @@ pub enum Command {
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
     GenCapture(stream::GenCaptureArgs),
+    /// The calibration history of a fleet in a ledger (SQLite or PostgreSQL): add, report, verify.
+    History(history::HistoryArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -138,6 +142,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
+        Command::History(a) => history::history_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),

@@ -22,9 +22,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "volumetric",
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
+    ("history", &["table", "session", "volumetric", "base"]),
     (
         "report",
         &[
+            "history",
             "base",
             "plot",
             "table",
@@ -41,6 +43,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "bench",
         &[
+            "history",
             "base",
             "table",
             "interp",
