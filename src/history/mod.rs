@@ -254,6 +254,7 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
             ledger: ledger.to_string(),
             message: "the insert returned no id".into(),
         })?;
+    stall(id);
     for s in &rec.sources {
         tx.exec(
             "INSERT INTO source (record, role, path, sha256, bytes) VALUES (?, ?, ?, ?, ?)",
@@ -297,6 +298,19 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
         }
     }
     Ok(id)
+}
+
+/// The crash tests' seam: with `ERRMAP_HISTORY_STALL_MS` set, an add says on stderr that
+/// its record row is written and waits that long before the rest of the record, so that
+/// a test can kill it inside its transaction. Unset (always, outside the tests), nothing.
+fn stall(id: i64) {
+    if let Some(ms) = std::env::var("ERRMAP_HISTORY_STALL_MS")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+    {
+        eprintln!("history add: record {id} row written, the rest pending (stall {ms} ms)");
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
 }
 
 /// A source whose file changed.
