@@ -283,22 +283,23 @@ impl Ledger {
                 if !create {
                     return Err(HistoryError::NoLedger(name));
                 }
-                let mut tx = client.transaction().map_err(|e| db_err(pg_message(&e)))?;
-                // Two first adds at once: one creates, the other waits and finds the tables.
-                tx.execute("SELECT pg_advisory_xact_lock(2705202617)", &[])
+                // Two first adds at once: one creates, the other waits and finds the
+                // tables. A session lock, so that the check after it runs in a new
+                // transaction that sees the other's commit.
+                client
+                    .execute("SELECT pg_advisory_lock(2705202617)", &[])
                     .map_err(|e| db_err(pg_message(&e)))?;
-                let row = tx
-                    .query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])
-                    .map_err(|e| db_err(pg_message(&e)))?;
-                if !row
-                    .try_get::<_, bool>(0)
-                    .map_err(|e| db_err(pg_message(&e)))?
-                {
-                    tx.batch_execute(&postgres_schema()).map_err(|e| {
-                        db_err(format!("cannot create the tables: {}", pg_message(&e)))
-                    })?;
-                }
-                tx.commit().map_err(|e| db_err(pg_message(&e)))?;
+                let created = (|| -> Result<(), postgres::Error> {
+                    let mut tx = client.transaction()?;
+                    let row = tx.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
+                    if !row.try_get::<_, bool>(0)? {
+                        tx.batch_execute(&postgres_schema())?;
+                    }
+                    tx.commit()
+                })();
+                let unlocked = client.execute("SELECT pg_advisory_unlock(2705202617)", &[]);
+                created.map_err(|e| db_err(format!("cannot create the tables: {}", pg_message(&e))))?;
+                unlocked.map_err(|e| db_err(pg_message(&e)))?;
             }
             return Ok(Ledger {
                 db: Db::Postgres(Box::new(client)),
