@@ -144,11 +144,16 @@ fn run(cli: Cli) -> Result<()> {
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::History(a) => history::history_cmd(a),
         Command::Bench(a) => {
-            let r = errmap::bench::run(&errmap::bench::BenchConfig {
-                points: a.points.max(1),
-                threads: guard::threads("--threads", a.threads),
-                ..Default::default()
-            });
+            let mut r = if a.history_only {
+                errmap::bench::BenchReport::default()
+            } else {
+                errmap::bench::run(&errmap::bench::BenchConfig {
+                    points: a.points.max(1),
+                    threads: guard::threads("--threads", a.threads),
+                    ..Default::default()
+                })
+            };
+            r.history = history::bench(&a)?;
             if a.json {
                 guard::print_json(&r)?;
             } else {

@@ -291,14 +291,16 @@ impl Ledger {
                     .map_err(|e| db_err(pg_message(&e)))?;
                 let created = (|| -> Result<(), postgres::Error> {
                     let mut tx = client.transaction()?;
-                    let row = tx.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
+                    let row =
+                        tx.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
                     if !row.try_get::<_, bool>(0)? {
                         tx.batch_execute(&postgres_schema())?;
                     }
                     tx.commit()
                 })();
                 let unlocked = client.execute("SELECT pg_advisory_unlock(2705202617)", &[]);
-                created.map_err(|e| db_err(format!("cannot create the tables: {}", pg_message(&e))))?;
+                created
+                    .map_err(|e| db_err(format!("cannot create the tables: {}", pg_message(&e))))?;
                 unlocked.map_err(|e| db_err(pg_message(&e)))?;
             }
             return Ok(Ledger {
