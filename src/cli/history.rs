@@ -322,3 +322,62 @@ fn tempfile_dir() -> Result<PathBuf> {
     std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
     Ok(d)
 }
+
+/// The demo's step (for `errmap demo`): records the demo's session directory, and its
+/// volumetric model when given, as machine `DEMO-1` in a fresh ledger
+/// `<out>/history/lab.sqlite`, writes the report to `<out>/history/report/` and prints
+/// its first lines on stderr. The ledger is the demo's own output and is made anew on
+/// every run (a real ledger is never removed).
+pub fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) -> Result<()> {
+    let dir = out.join("history");
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir)
+            .with_context(|| format!("cannot clear the previous demo ledger {}", dir.display()))?;
+    }
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let spec = dir.join("lab.sqlite").display().to_string();
+    let mut ledger = Ledger::open(&spec, true)?;
+    let machine = MachineId::parse("DEMO-1").context("the demo's machine id")?;
+    for result in std::iter::once(session_dir).chain(model) {
+        let ingested = history::ingest::ingest(result)?;
+        let added = history::add(
+            &mut ledger,
+            &NewRecord {
+                machine: machine.clone(),
+                site: Some("demo".into()),
+                state: State::AsFound,
+                at: time::now_utc(),
+                supersede: None,
+                content: ingested.content,
+                sources: ingested.sources,
+            },
+        )?;
+        eprintln!(
+            "  record {} ({}, {} lines) ← {}",
+            added.record,
+            added.kind,
+            added.lines,
+            result.display()
+        );
+    }
+    let report_dir = dir.join("report");
+    let mut run = Run::new(
+        &mut ledger,
+        ReportConfig {
+            horizon_days: DEFAULT_HORIZON_DAYS,
+            ..Default::default()
+        },
+    )?;
+    let head = run.head().clone();
+    let mut writer = errmap::report::history::ReportWriter::new(&report_dir)?;
+    while let Some(m) = run.next_machine()? {
+        writer.machine(&m)?;
+    }
+    writer.finish(&head, &run.fleet())?;
+    let md = std::fs::read_to_string(report_dir.join("report.md")).unwrap_or_default();
+    for line in md.lines().filter(|l| !l.is_empty()).take(8) {
+        eprintln!("  | {line}");
+    }
+    eprintln!("  ledger {spec}, report → {}", report_dir.join("report.md").display());
+    Ok(())
+}
