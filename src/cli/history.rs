@@ -378,6 +378,9 @@ pub fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) -> Result
     for line in md.lines().filter(|l| !l.is_empty()).take(8) {
         eprintln!("  | {line}");
     }
-    eprintln!("  ledger {spec}, report → {}", report_dir.join("report.md").display());
+    eprintln!(
+        "  ledger {spec}, report → {}",
+        report_dir.join("report.md").display()
+    );
     Ok(())
 }

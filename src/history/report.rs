@@ -301,6 +301,9 @@ struct Point {
     value: f64,
 }
 
+/// (axis rank, axis, parameter rank, parameter): the report's order.
+type SeriesKey = (usize, String, usize, String);
+
 fn axis_rank(axis: &str) -> usize {
     ["X", "Y", "Z", "XYZ"]
         .iter()
@@ -350,8 +353,7 @@ pub fn machine_report(
     as_of_s: i64,
 ) -> Result<MachineReport, HistoryError> {
     // (axis, parameter) → (unit, points)
-    let mut series: BTreeMap<(usize, String, usize, String), (String, Vec<Point>)> =
-        BTreeMap::new();
+    let mut series: BTreeMap<SeriesKey, (String, Vec<Point>)> = BTreeMap::new();
     for RawPoint {
         record,
         at,
@@ -438,31 +440,28 @@ pub fn machine_report(
             let b = starts.get(k + 1).copied().unwrap_or(pts.len());
             let values: Vec<f64> = pts[a..b].iter().map(|p| p.value).collect();
             let last_segment = k + 1 == starts.len();
-            match stats::ewma_chart(&values, sigma) {
-                Some((mu0, chart)) => {
-                    for (i, c) in chart.into_iter().enumerate() {
-                        let Some(c) = c else { continue };
-                        let j = a + i;
-                        out[j].ewma = Some(c.ewma);
-                        out[j].lcl = Some(c.lcl);
-                        out[j].ucl = Some(c.ucl);
-                        if let Some(rule) = c.alarm {
-                            alarms.push(Alarm {
-                                at: pts[j].at.clone(),
-                                record: pts[j].record,
-                                rule: rule.as_str(),
-                            });
-                            if j + 1 == pts.len() {
-                                alarm_at_last = true;
-                            }
+            if let Some((mu0, chart)) = stats::ewma_chart(&values, sigma) {
+                for (i, c) in chart.into_iter().enumerate() {
+                    let Some(c) = c else { continue };
+                    let j = a + i;
+                    out[j].ewma = Some(c.ewma);
+                    out[j].lcl = Some(c.lcl);
+                    out[j].ucl = Some(c.ucl);
+                    if let Some(rule) = c.alarm {
+                        alarms.push(Alarm {
+                            at: pts[j].at.clone(),
+                            record: pts[j].record,
+                            rule: rule.as_str(),
+                        });
+                        if j + 1 == pts.len() {
+                            alarm_at_last = true;
                         }
                     }
-                    if last_segment {
-                        center = Some(mu0);
-                        chart_sigma = Some(sigma);
-                    }
                 }
-                None => {}
+                if last_segment {
+                    center = Some(mu0);
+                    chart_sigma = Some(sigma);
+                }
             }
         }
         // Trend of the current segment.

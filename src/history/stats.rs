@@ -174,7 +174,7 @@ impl Trend {
         let t_mean = points.iter().map(|p| p.0).sum::<f64>() / nf;
         let y_mean = points.iter().map(|p| p.1).sum::<f64>() / nf;
         let sxx: f64 = points.iter().map(|p| (p.0 - t_mean).powi(2)).sum();
-        if !(sxx > 0.0) {
+        if sxx.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let sxy: f64 = points.iter().map(|p| (p.0 - t_mean) * (p.1 - y_mean)).sum();
@@ -214,7 +214,7 @@ impl Trend {
         let d = tol - self.y_mean;
         let qs2 = q * q * self.s * self.s;
         let g = self.slope * self.slope - qs2 / self.sxx;
-        if !(g > 0.0) {
+        if g.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let bd = self.slope * d;
@@ -345,10 +345,10 @@ mod tests {
     #[test]
     fn an_exact_line_has_its_slope_and_crossing() {
         let pts: Vec<(f64, f64)> = (0..6).map(|i| (i as f64, 2.0 + 3.0 * i as f64)).collect();
-        let t = Trend::fit(&pts).unwrap();
+        let t = Trend::fit(&pts).expect("a value");
         assert!((t.slope - 3.0).abs() < 1e-12 && t.s < 1e-12);
-        assert!((t.crossing(20.0).unwrap() - 6.0).abs() < 1e-12);
-        let (lo, hi) = t.crossing_interval(20.0).unwrap();
+        assert!((t.crossing(20.0).expect("a value") - 6.0).abs() < 1e-12);
+        let (lo, hi) = t.crossing_interval(20.0).expect("a value");
         assert!((lo - 6.0).abs() < 1e-9 && (hi - 6.0).abs() < 1e-9);
         assert_eq!(t.risk(20.0, 7.0), 1.0);
         assert_eq!(t.risk(20.0, 5.0), 0.0);

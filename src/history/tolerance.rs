@@ -133,7 +133,7 @@ mod tests {
             Path::new("tol.toml"),
             "[default]\nE = 40.0\nB = 20\n[machine.M07]\nB = 12.0\n[machine.M07.X]\nE = 30.0\n",
         )
-        .unwrap();
+        .expect("a value");
         assert_eq!(t.get("M07", "X", "E"), Some(30.0));
         assert_eq!(t.get("M07", "Y", "E"), Some(40.0));
         assert_eq!(t.get("M07", "Y", "B"), Some(12.0));
@@ -146,7 +146,7 @@ mod tests {
             ("[defaults]\nE = 1.0\n", "defaults"),
         ] {
             let e = Tolerances::parse(Path::new("tol.toml"), text)
-                .unwrap_err()
+                .expect_err("an error")
                 .to_string();
             assert!(e.starts_with(&format!("tol.toml: {key}:")), "{e}");
         }

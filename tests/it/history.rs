@@ -114,7 +114,7 @@ fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathB
         components.insert(
             n.to_string(),
             serde_json::json!({"identified": identified, "unit": unit,
-                "positions_mm": [0.0, 100.0, 200.0], "values": if identified { serde_json::json!([0.0, 2.0 * scale, -1.0 * scale]) } else { serde_json::json!([null, null, null]) },
+                "positions_mm": [0.0, 100.0, 200.0], "values": if identified { serde_json::json!([0.0, 2.0 * scale, -scale]) } else { serde_json::json!([null, null, null]) },
                 "sigma": [0.0, 0.1, 0.1]}),
         );
     }
@@ -759,7 +759,7 @@ fn fleet_ledger(ledger: &str, dir: &Path) {
                     ledger,
                     &f,
                     machine,
-                    &["--at", &format!("2025-06-12"), "--state", "as-left"],
+                    &["--at", "2025-06-12", "--state", "as-left"],
                 );
             }
         }
@@ -1087,7 +1087,10 @@ fn postgresql_ledger_scenarios_match_sqlite() {
 
 const MONTH_S: i64 = 30 * 86_400;
 
-fn rows_of(series: &[(&str, Vec<(i64, f64, bool)>)]) -> MachineRows {
+/// Points of one axis: (time s, value, as-left).
+type AxisSeries<'a> = (&'a str, Vec<(i64, f64, bool)>);
+
+fn rows_of(series: &[AxisSeries<'_>]) -> MachineRows {
     let mut points = Vec::new();
     let mut id = 0;
     for (axis, s) in series {
@@ -1138,7 +1141,7 @@ fn a_stable_fleet_gives_almost_no_false_alarm() {
     let mut rng = StdRng::seed_from_u64(27);
     let (mut alarms, mut charted, mut machines_alarmed) = (0usize, 0usize, 0usize);
     for m in 0..1000 {
-        let series: Vec<(&str, Vec<(i64, f64, bool)>)> = ["X", "Y", "Z"]
+        let series: Vec<AxisSeries<'_>> = ["X", "Y", "Z"]
             .iter()
             .map(|a| {
                 (
@@ -1186,7 +1189,7 @@ fn a_ten_sigma_step_alarms_within_two_tests() {
     let mut rng = StdRng::seed_from_u64(7);
     for trial in 0..50 {
         let step_at = 12 + trial % 10;
-        let series: Vec<(&str, Vec<(i64, f64, bool)>)> = ["X", "Y", "Z"]
+        let series: Vec<AxisSeries<'_>> = ["X", "Y", "Z"]
             .iter()
             .map(|a| {
                 let s = (0..30)
