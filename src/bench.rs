@@ -7,6 +7,7 @@
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
 
+pub mod history;
 pub mod volumetric;
 
 use crate::base::stats::median;
@@ -38,7 +39,7 @@ pub struct FitResult {
 }
 
 /// Everything `bench --json` prints.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct BenchReport {
     pub grid: [usize; 3],
     pub points: usize,
@@ -57,6 +58,9 @@ pub struct BenchReport {
     /// Replay and table on a generated long capture: MB/s and peak RSS (None: the
     /// measurement failed).
     pub stream: Option<crate::acquire::measure::StreamBench>,
+    /// The calibration ledger at plant scale, per backend ([`history`]; filled by the
+    /// binary, which owns the ledger's location).
+    pub history: Vec<history::HistoryBench>,
 }
 
 /// Bench settings.
@@ -216,6 +220,7 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         extra,
         volumetric,
         stream: crate::acquire::measure::stream_bench(STREAM_BENCH_MB).ok(),
+        history: Vec::new(),
     }
 }
 
@@ -372,5 +377,6 @@ pub fn markdown(r: &BenchReport) -> String {
             mb(b.table_peak_rss_mb)
         ));
     }
+    s.push_str(&history::markdown(&r.history));
     s
 }

@@ -15,6 +15,7 @@
 //! | [`export`] | 8 export | compensation tables for controllers, CSV lines, volumetric grids |
 //! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
 //! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, line tables (simulated or from captured sessions), identification, identifiability, the campaign's own faults (scale expansion, drift, a bad line), prediction |
+//! | [`history`] | 10 history | the calibration ledger of a fleet (SQLite or PostgreSQL, append-only): trends, EWMA charts, tolerance forecasts, advice |
 //! | [`base`] | shared leaf | the one `Axis`, the diagnosis vocabulary, statistics, optimisers, constants |
 //! | [`plot`] | shared leaf | PNG/SVG charts with a bundled font |
 //! | [`bench`](mod@bench) | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
@@ -55,6 +56,7 @@ pub mod diagnose;
 pub mod evaluate;
 pub mod export;
 pub mod import;
+pub mod history;
 pub mod interp;
 pub mod plot;
 pub mod report;

@@ -161,6 +161,19 @@ pub struct BenchArgs {
     /// Threads for the parallel runs (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Only the calibration ledger's benchmark (history add and report).
+    #[arg(long)]
+    pub history_only: bool,
+    /// Machines of the ledger benchmark (each with --history-tests tests of 3 axes).
+    #[arg(long, default_value_t = 2000)]
+    pub history_machines: usize,
+    /// Tests per machine of the ledger benchmark.
+    #[arg(long, default_value_t = 40)]
+    pub history_tests: usize,
+    /// An empty PostgreSQL database for the ledger benchmark (postgres://…); without
+    /// it, SQLite only.
+    #[arg(long)]
+    pub history_postgres: Option<String>,
     #[arg(long)]
     pub json: bool,
 }

@@ -159,6 +159,8 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         "errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors → TwinCAT tables"
     );
     super::volumetric::demo_step(&a.out)?;
+    eprintln!("errmap demo: the captured session in a calibration ledger (history add, report)");
+    super::history::demo_step(&a.out, &session_dir, None)?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())
 }

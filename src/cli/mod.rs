@@ -15,6 +15,7 @@
 //! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 //! | [`import`] | import; export --existing (a controller table updated) |
+//! | [`history`] | history add, report, verify: the calibration ledger |
 
 use std::process::ExitCode;
 
@@ -28,6 +29,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod guard;
 pub mod import;
+pub mod history;
 pub mod model;
 pub mod plan;
 pub mod step;
@@ -91,6 +93,8 @@ pub enum Command {
     /// Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a
     /// controller table (Fagor 8055/8065, LinuxCNC) into errmap's tables.
     Import(import::ImportArgs),
+    /// The calibration history of a fleet in a ledger (SQLite or PostgreSQL): add, report, verify.
+    History(history::HistoryArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -148,12 +152,18 @@ fn run(cli: Cli) -> Result<()> {
         Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::Import(a) => import::import_cmd(a),
+        Command::History(a) => history::history_cmd(a),
         Command::Bench(a) => {
-            let r = errmap::bench::run(&errmap::bench::BenchConfig {
-                points: a.points.max(1),
-                threads: guard::threads("--threads", a.threads),
-                ..Default::default()
-            });
+            let mut r = if a.history_only {
+                errmap::bench::BenchReport::default()
+            } else {
+                errmap::bench::run(&errmap::bench::BenchConfig {
+                    points: a.points.max(1),
+                    threads: guard::threads("--threads", a.threads),
+                    ..Default::default()
+                })
+            };
+            r.history = history::bench(&a)?;
             if a.json {
                 guard::print_json(&r)?;
             } else {

@@ -14,6 +14,7 @@
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
 //! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
 //! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
+//! | [`history`] | the calibration history report (`history report --report`) |
 //! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
 //!
 //! Every file is written through [`write_text`] or [`write_json`]: checked by [`finite`],
@@ -32,6 +33,7 @@ pub mod environment;
 pub mod experiment;
 pub mod findings;
 pub mod finite;
+pub mod history;
 pub mod iso230;
 pub mod json;
 pub mod uncertainty;

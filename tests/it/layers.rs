@@ -23,9 +23,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "volumetric",
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
+    ("history", &["table", "session", "volumetric", "base"]),
     (
         "report",
         &[
+            "history",
             "base",
             "plot",
             "table",
@@ -43,6 +45,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "bench",
         &[
+            "history",
             "base",
             "table",
             "interp",

@@ -12,6 +12,7 @@ mod export_dialects;
 mod export_step;
 mod gp;
 mod import;
+mod history;
 mod interp;
 mod iso230;
 mod layers;

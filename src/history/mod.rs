@@ -1,0 +1,364 @@
+//! Calibration history of a fleet: a ledger of every machine's results over the years,
+//! and the report that turns it into trends, control charts and recalibration dates.
+//!
+//! | module | holds |
+//! |---|---|
+//! | [`ledger`] | the database: one schema on SQLite and PostgreSQL, append-only, locked writes |
+//! | [`ingest`] | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
+//! | [`stats`] | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
+//! | [`report`] | series, segments, charts, forecasts, advice and the fleet ranking |
+//! | [`tolerance`] | the tolerance file |
+//! | [`time`] | UTC instants as stored |
+//!
+//! An add is one transaction ([`add`]); a report reads one machine at a time
+//! ([`report::Run`]), so its memory is bounded by the largest machine, not the ledger.
+//! The rules and the maths are in `docs/history.md`.
+
+pub mod ingest;
+pub mod ledger;
+pub mod report;
+pub mod stats;
+pub mod time;
+pub mod tolerance;
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+pub use ingest::{ComponentRow, Content, Ingested, LineStat, Role, SourceFile};
+pub use ledger::Ledger;
+
+/// Why a history command failed.
+#[derive(Debug, thiserror::Error)]
+pub enum HistoryError {
+    /// The database refused or failed.
+    #[error("{ledger}: {message}")]
+    Db { ledger: String, message: String },
+    /// `report` or `verify` on a ledger that does not exist.
+    #[error("{0}: no ledger there (`errmap history add` creates one)")]
+    NoLedger(String),
+    /// The result is already recorded.
+    #[error(
+        "{ledger}: this result is already in the ledger as record {record} (sha256 {sha256}); \
+         nothing was added (to amend that record: --supersede {record} --reason TEXT)"
+    )]
+    Duplicate {
+        ledger: String,
+        record: i64,
+        sha256: String,
+    },
+    /// `--supersede N` names no record.
+    #[error("{ledger}: --supersede {record}: there is no record {record}")]
+    NoSuchRecord { ledger: String, record: i64 },
+    /// `--supersede N` names a record already superseded.
+    #[error(
+        "{ledger}: --supersede {record}: record {record} is not current (record {by} supersedes it)"
+    )]
+    NotCurrent {
+        ledger: String,
+        record: i64,
+        by: i64,
+    },
+    /// A bad input file.
+    #[error("{path}: {message}")]
+    Input { path: PathBuf, message: String },
+    /// A file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// `--machine` names no machine of the current records.
+    #[error("--machine {machine}: no current record of this machine in {ledger}")]
+    UnknownMachine { ledger: String, machine: String },
+    /// The tolerance file.
+    #[error("{path}: {key}: {message}")]
+    Tolerance {
+        path: PathBuf,
+        key: String,
+        message: String,
+    },
+}
+
+/// `as-found` or `as-left`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+pub enum State {
+    /// The machine as it was found (a routine test, or before an adjustment).
+    #[default]
+    AsFound,
+    /// After an adjustment or a compensation.
+    AsLeft,
+}
+
+impl State {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            State::AsFound => "as-found",
+            State::AsLeft => "as-left",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<State> {
+        match s {
+            "as-found" => Some(State::AsFound),
+            "as-left" => Some(State::AsLeft),
+            _ => None,
+        }
+    }
+}
+
+/// A machine identifier: 1–64 characters of `[A-Za-z0-9._-]`.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct MachineId(String);
+
+impl MachineId {
+    pub fn parse(s: &str) -> Option<MachineId> {
+        let ok = (1..=64).contains(&s.len())
+            && s.bytes()
+                .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'.' | b'_' | b'-'));
+        ok.then(|| MachineId(s.to_string()))
+    }
+
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+/// An amendment: the record it replaces and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Supersede {
+    pub record: i64,
+    pub reason: String,
+}
+
+/// What an add records.
+#[derive(Debug, Clone)]
+pub struct NewRecord {
+    pub machine: MachineId,
+    pub site: Option<String>,
+    pub state: State,
+    /// When the test was made, seconds since the epoch, UTC.
+    pub at: i64,
+    pub supersede: Option<Supersede>,
+    pub content: Content,
+    pub sources: Vec<SourceFile>,
+}
+
+impl NewRecord {
+    /// The `result` file's sha256.
+    pub fn result_sha256(&self) -> &str {
+        self.sources
+            .iter()
+            .find(|s| s.role == Role::Result)
+            .map(|s| s.sha256.as_str())
+            .unwrap_or("")
+    }
+}
+
+/// What `history add --json` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct Added {
+    pub record: i64,
+    pub machine: String,
+    pub kind: &'static str,
+    pub at: String,
+    pub state: &'static str,
+    pub supersedes: Option<i64>,
+    pub sha256: String,
+    pub lines: usize,
+    pub axes: Vec<String>,
+}
+
+/// Adds one record in one transaction: the amendment or duplicate check, then the
+/// record, its sources and its numbers. Nothing is written when any step fails.
+pub fn add(ledger: &mut Ledger, rec: &NewRecord) -> Result<Added, HistoryError> {
+    let name = ledger.name().to_string();
+    let id = ledger.write(|tx| insert(tx, &name, rec))?;
+    Ok(Added {
+        record: id,
+        machine: rec.machine.as_str().to_string(),
+        kind: rec.content.kind(),
+        at: time::format_utc(rec.at),
+        state: rec.state.as_str(),
+        supersedes: rec.supersede.as_ref().map(|s| s.record),
+        sha256: rec.result_sha256().to_string(),
+        lines: rec.content.lines(),
+        axes: rec.content.axes(),
+    })
+}
+
+/// Adds many records in one transaction (the benchmark's way of filling a large ledger;
+/// each record is checked as [`add`] checks it).
+pub fn add_batch(ledger: &mut Ledger, recs: &[NewRecord]) -> Result<Vec<i64>, HistoryError> {
+    let name = ledger.name().to_string();
+    ledger.write(|tx| recs.iter().map(|r| insert(tx, &name, r)).collect())
+}
+
+fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64, HistoryError> {
+    let sha = rec.result_sha256().to_string();
+    match &rec.supersede {
+        Some(s) => {
+            let exists = tx.query_i64("SELECT id FROM record WHERE id = ?", &[&s.record])?;
+            if exists.is_none() {
+                return Err(HistoryError::NoSuchRecord {
+                    ledger: ledger.to_string(),
+                    record: s.record,
+                });
+            }
+            if let Some(by) = tx.query_i64(
+                "SELECT MIN(id) FROM record WHERE supersedes = ?",
+                &[&s.record],
+            )? {
+                return Err(HistoryError::NotCurrent {
+                    ledger: ledger.to_string(),
+                    record: s.record,
+                    by,
+                });
+            }
+        }
+        None => {
+            if let Some(record) = tx.query_i64(
+                "SELECT MIN(record) FROM source WHERE role = 'result' AND sha256 = ?",
+                &[&sha],
+            )? {
+                return Err(HistoryError::Duplicate {
+                    ledger: ledger.to_string(),
+                    record,
+                    sha256: sha,
+                });
+            }
+        }
+    }
+    let at = time::format_utc(rec.at);
+    let added_at = time::format_utc(time::now_utc());
+    let supersedes = rec.supersede.as_ref().map(|s| s.record);
+    let reason = rec.supersede.as_ref().map(|s| s.reason.clone());
+    let id = tx
+        .query_i64(
+            "INSERT INTO record (machine, site, state, at, kind, supersedes, reason, added_at, errmap_version) \
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+            &[
+                &rec.machine.as_str(),
+                &rec.site,
+                &rec.state.as_str(),
+                &at,
+                &rec.content.kind(),
+                &supersedes,
+                &reason,
+                &added_at,
+                &env!("CARGO_PKG_VERSION"),
+            ],
+        )?
+        .ok_or_else(|| HistoryError::Db {
+            ledger: ledger.to_string(),
+            message: "the insert returned no id".into(),
+        })?;
+    stall(id);
+    for s in &rec.sources {
+        tx.exec(
+            "INSERT INTO source (record, role, path, sha256, bytes) VALUES (?, ?, ?, ?, ?)",
+            &[&id, &s.role.as_str(), &s.path, &s.sha256, &s.bytes],
+        )?;
+    }
+    match &rec.content {
+        Content::Session { lines, .. } => {
+            for l in lines {
+                tx.exec(
+                    "INSERT INTO line_stat (record, axis, line_1_mm, line_2_mm, parameter, value, u_um) \
+                     VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    &[
+                        &id,
+                        &l.axis,
+                        &l.line_mm.0,
+                        &l.line_mm.1,
+                        &l.parameter,
+                        &l.value,
+                        &l.u_um,
+                    ],
+                )?;
+            }
+        }
+        Content::Volumetric { components } => {
+            for c in components {
+                tx.exec(
+                    "INSERT INTO component (record, name, unit, identified, value, sigma, \"range\") \
+                     VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    &[
+                        &id,
+                        &c.name,
+                        &c.unit,
+                        &i32::from(c.identified),
+                        &c.value,
+                        &c.sigma,
+                        &c.range,
+                    ],
+                )?;
+            }
+        }
+    }
+    Ok(id)
+}
+
+/// The crash tests' seam: with `ERRMAP_HISTORY_STALL_MS` set, an add says on stderr that
+/// its record row is written and waits that long before the rest of the record, so that
+/// a test can kill it inside its transaction. Unset (always, outside the tests), nothing.
+fn stall(id: i64) {
+    if let Some(ms) = std::env::var("ERRMAP_HISTORY_STALL_MS")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+    {
+        eprintln!("history add: record {id} row written, the rest pending (stall {ms} ms)");
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+    }
+}
+
+/// A source whose file changed.
+#[derive(Debug, Clone, Serialize)]
+pub struct Changed {
+    pub record: i64,
+    pub path: String,
+    pub role: String,
+    pub expected: String,
+    pub actual: String,
+}
+
+/// A source whose file is gone (or unreadable).
+#[derive(Debug, Clone, Serialize)]
+pub struct Missing {
+    pub record: i64,
+    pub path: String,
+    pub role: String,
+}
+
+/// What `history verify --json` prints.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Verification {
+    pub checked: u64,
+    pub changed: Vec<Changed>,
+    pub missing: Vec<Missing>,
+}
+
+/// Re-hashes every source of every record (superseded ones too).
+pub fn verify(ledger: &mut Ledger) -> Result<Verification, HistoryError> {
+    let mut v = Verification::default();
+    ledger.for_each_source(|s| {
+        v.checked += 1;
+        match ingest::sha256_file(std::path::Path::new(&s.path)) {
+            Ok((actual, _)) if actual == s.sha256 => {}
+            Ok((actual, _)) => v.changed.push(Changed {
+                record: s.record,
+                path: s.path,
+                role: s.role,
+                expected: s.sha256,
+                actual,
+            }),
+            Err(_) => v.missing.push(Missing {
+                record: s.record,
+                path: s.path,
+                role: s.role,
+            }),
+        }
+    })?;
+    Ok(v)
+}

@@ -1,0 +1,412 @@
+//! The history report on disk (`errmap history report --report DIR`): `report.md` (the
+//! fleet ranking, then per machine its advice and parameters), `fleet.png`/`.svg` (the
+//! ranking by risk) and `<ID>.png`/`.svg` per machine (its riskiest series with the EWMA
+//! chart, alarms, trend and tolerance). Machines arrive one at a time
+//! ([`ReportWriter::machine`]); their sections wait in a scratch file, so the writer
+//! holds no more than one machine.
+
+use std::fmt::Write as _;
+use std::io::{BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+use crate::history::report::{FleetEntry, Head, MachineReport, ParameterReport};
+use crate::history::time;
+use crate::plot::{self, XySeries, XyStyle};
+
+use super::ReportError;
+
+/// At most this many machines in the fleet figure (the riskiest).
+pub const FLEET_FIGURE_MAX: usize = 40;
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
+    move |source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn opt(v: Option<f64>, digits: usize) -> String {
+    v.map(|x| format!("{x:.digits$}"))
+        .unwrap_or_else(|| "—".into())
+}
+
+/// A file name for a machine id (ids are `[A-Za-z0-9._-]`; a leading dot is replaced).
+fn stem(id: &str) -> String {
+    let s: String = id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "._-".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.starts_with('.') {
+        format!("_{s}")
+    } else {
+        s
+    }
+}
+
+/// Writes the report directory machine by machine.
+#[derive(Debug)]
+pub struct ReportWriter {
+    dir: PathBuf,
+    scratch_path: PathBuf,
+    scratch: BufWriter<std::fs::File>,
+    figures: bool,
+    machines: usize,
+}
+
+impl ReportWriter {
+    /// Starts a report in `dir` (created if absent), with a figure per machine.
+    pub fn new(dir: &Path) -> Result<ReportWriter, ReportError> {
+        ReportWriter::with_figures(dir, true)
+    }
+
+    /// Like [`ReportWriter::new`]; `figures` false leaves out every figure (the
+    /// benchmark measures the figures apart).
+    pub fn with_figures(dir: &Path, figures: bool) -> Result<ReportWriter, ReportError> {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        let scratch_path = dir.join(".machines.md.partial");
+        let f = std::fs::File::create(&scratch_path).map_err(io(&scratch_path))?;
+        Ok(ReportWriter {
+            dir: dir.to_path_buf(),
+            scratch_path,
+            scratch: BufWriter::new(f),
+            figures,
+            machines: 0,
+        })
+    }
+
+    /// One machine's section and figure.
+    pub fn machine(&mut self, m: &MachineReport) -> Result<(), ReportError> {
+        let text = machine_section(m);
+        super::finite::check_markdown(&self.dir.join("report.md"), &text)?;
+        self.scratch
+            .write_all(text.as_bytes())
+            .map_err(io(&self.scratch_path))?;
+        if self.figures {
+            machine_figure(&self.dir.join(stem(&m.id)), m)?;
+        }
+        self.machines += 1;
+        Ok(())
+    }
+
+    /// Writes `report.md` (head, fleet, the machines' sections) and the fleet figure;
+    /// returns a one-line summary.
+    pub fn finish(mut self, head: &Head, fleet: &[FleetEntry]) -> Result<String, ReportError> {
+        self.scratch.flush().map_err(io(&self.scratch_path))?;
+        drop(self.scratch);
+        let mut md = head_section(head, fleet);
+        let mut rest = String::new();
+        std::fs::File::open(&self.scratch_path)
+            .and_then(|mut f| f.read_to_string(&mut rest))
+            .map_err(io(&self.scratch_path))?;
+        md += &rest;
+        let path = self.dir.join("report.md");
+        super::write_text(&path, &md)?;
+        let _ = std::fs::remove_file(&self.scratch_path);
+        if self.figures && !fleet.is_empty() {
+            fleet_figure(&self.dir.join("fleet"), fleet)?;
+        }
+        let count = |a: &str| fleet.iter().filter(|f| f.advice.as_str() == a).count();
+        Ok(format!(
+            "{} out of tolerance, {} to recalibrate, {} to investigate, {} ok",
+            count("out_of_tolerance"),
+            count("recalibrate"),
+            count("investigate"),
+            count("ok")
+        ))
+    }
+}
+
+fn head_section(head: &Head, fleet: &[FleetEntry]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Calibration history\n");
+    let _ = writeln!(
+        s,
+        "As of {}, horizon {} days. Ledger: {} records, {} current, {} superseded.\n",
+        head.as_of,
+        head.horizon_days,
+        head.ledger.records,
+        head.ledger.current,
+        head.ledger.superseded
+    );
+    let _ = writeln!(
+        s,
+        "Control chart: {} ({}), λ = {}, limits ±{}σ√v_k around the mean of the first {} points of \
+         each segment; σ from moving ranges pooled over the machine's axes. Risk: the probability \
+         that the trend line is above the tolerance at the horizon.\n",
+        head.chart.method,
+        head.chart.standard,
+        head.chart.lambda,
+        head.chart.l,
+        head.chart.baseline
+    );
+    let _ = writeln!(
+        s,
+        "## Fleet\n\n| rank | machine | risk | advice |\n|---|---|---|---|"
+    );
+    for (i, f) in fleet.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.3} | {} |",
+            i + 1,
+            f.id,
+            f.risk,
+            f.advice.as_str()
+        );
+    }
+    s.push('\n');
+    s
+}
+
+/// A machine's section of `report.md`.
+pub fn machine_section(m: &MachineReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "## {} — {}\n", m.id, m.advice.as_str());
+    let _ = writeln!(
+        s,
+        "Site: {}. Current records: {}. Recalibrate by: {}.\n",
+        m.site.as_deref().unwrap_or("—"),
+        m.records,
+        m.recalibrate_by.as_deref().unwrap_or("—")
+    );
+    let _ = writeln!(
+        s,
+        "| axis | parameter | n | last | tolerance | rate /year ± σ | EWMA centre | σ | alarms | exceeds tolerance | 95 % interval | risk |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for a in &m.axes {
+        for p in &a.parameters {
+            let rate = match (p.rate_per_year, p.rate_sigma) {
+                (Some(r), Some(u)) => format!("{r:.3} ± {u:.3}"),
+                _ => "—".into(),
+            };
+            let iv = match &p.exceeds_interval {
+                Some([lo, hi]) => format!(
+                    "{} … {}",
+                    lo.as_deref().unwrap_or("—"),
+                    hi.as_deref().unwrap_or("—")
+                ),
+                None => "—".into(),
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {} ({}) | {} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                a.axis,
+                p.name,
+                p.unit,
+                p.n,
+                p.last,
+                opt(p.tolerance, 3),
+                rate,
+                opt(p.center, 3),
+                opt(p.sigma, 3),
+                p.alarms.len(),
+                p.exceeds_tolerance_at.as_deref().unwrap_or("—"),
+                iv,
+                opt(p.risk, 3)
+            );
+        }
+    }
+    let pairs: Vec<String> = m
+        .axes
+        .iter()
+        .flat_map(|a| {
+            a.parameters.iter().flat_map(move |p| {
+                p.pairs.iter().map(move |q| {
+                    format!(
+                        "| {} | {} | {} | {} | {} | {:.3} |",
+                        a.axis,
+                        p.name,
+                        q.as_found_at.as_deref().unwrap_or("—"),
+                        opt(q.as_found, 3),
+                        q.as_left_at,
+                        q.as_left
+                    )
+                })
+            })
+        })
+        .collect();
+    if !pairs.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nAs-found / as-left:\n\n| axis | parameter | as found at | as found | as left at | as left |\n|---|---|---|---|---|---|"
+        );
+        for p in pairs {
+            let _ = writeln!(s, "{p}");
+        }
+    }
+    s.push('\n');
+    s
+}
+
+/// The machine's riskiest series (the first in axis and parameter order on ties).
+fn riskiest(m: &MachineReport) -> Option<(&str, &ParameterReport)> {
+    let mut best: Option<(&str, &ParameterReport)> = None;
+    for a in &m.axes {
+        for p in &a.parameters {
+            let r = p.risk.unwrap_or(-1.0);
+            if best.is_none_or(|(_, b)| r > b.risk.unwrap_or(-1.0)) {
+                best = Some((&a.axis, p));
+            }
+        }
+    }
+    best
+}
+
+/// `<stem>.png`/`.svg`: the riskiest series, its EWMA and limits, alarms, trend and
+/// tolerance, against years since its first point.
+pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, ReportError> {
+    let Some((axis, p)) = riskiest(m) else {
+        return Ok(Vec::new());
+    };
+    let t: Vec<i64> = p
+        .series
+        .iter()
+        .map(|s| time::parse_utc(&s.at).unwrap_or(0))
+        .collect();
+    let origin = t.first().copied().unwrap_or(0);
+    let year = 365.25 * 86_400.0;
+    let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / year).collect();
+    let col = |f: fn(&crate::history::report::SeriesPoint) -> Option<f64>| -> Vec<f64> {
+        p.series.iter().map(|s| f(s).unwrap_or(f64::NAN)).collect()
+    };
+    let mut series = vec![
+        XySeries {
+            name: format!("{axis} {}", p.name),
+            x: x.clone(),
+            y: p.series.iter().map(|s| s.value).collect(),
+            style: XyStyle::Styled {
+                colour: 0,
+                dashed: false,
+                markers: true,
+            },
+        },
+        XySeries {
+            name: "EWMA".into(),
+            x: x.clone(),
+            y: col(|s| s.ewma),
+            style: XyStyle::Styled {
+                colour: 1,
+                dashed: false,
+                markers: false,
+            },
+        },
+        XySeries {
+            name: "EWMA limits".into(),
+            x: x.clone(),
+            y: col(|s| s.ucl),
+            style: XyStyle::Styled {
+                colour: 2,
+                dashed: true,
+                markers: false,
+            },
+        },
+        XySeries {
+            name: "".into(),
+            x: x.clone(),
+            y: col(|s| s.lcl),
+            style: XyStyle::Styled {
+                colour: 2,
+                dashed: true,
+                markers: false,
+            },
+        },
+    ];
+    let alarm_x: Vec<f64> = p
+        .alarms
+        .iter()
+        .filter_map(|a| {
+            p.series
+                .iter()
+                .position(|s| s.record == a.record)
+                .map(|i| x[i])
+        })
+        .collect();
+    let alarm_y: Vec<f64> = p
+        .alarms
+        .iter()
+        .filter_map(|a| {
+            p.series
+                .iter()
+                .find(|s| s.record == a.record)
+                .map(|s| s.value)
+        })
+        .collect();
+    if !alarm_x.is_empty() {
+        series.push(XySeries {
+            name: "alarm".into(),
+            x: alarm_x,
+            y: alarm_y,
+            style: XyStyle::Points,
+        });
+    }
+    let x_end = x.last().copied().unwrap_or(0.0);
+    if let Some((o, tr)) = &p.fit {
+        let shift = (*o - origin) as f64 / year;
+        let x0 = shift;
+        let line = |xx: f64| tr.y_mean + tr.slope * (xx - shift - tr.t_mean);
+        series.push(XySeries {
+            name: format!("trend {:+.3}/year", tr.slope),
+            x: vec![x0, x_end],
+            y: vec![line(x0), line(x_end)],
+            style: XyStyle::Styled {
+                colour: 3,
+                dashed: false,
+                markers: false,
+            },
+        });
+    }
+    if let Some(tol) = p.tolerance {
+        series.push(XySeries {
+            name: "tolerance".into(),
+            x: vec![0.0, x_end.max(1e-3)],
+            y: vec![tol, tol],
+            style: XyStyle::Styled {
+                colour: 4,
+                dashed: true,
+                markers: false,
+            },
+        });
+    }
+    let first = p.series.first().map(|s| &s.at[..10]).unwrap_or("");
+    Ok(plot::xy(
+        stem,
+        &format!(
+            "{} — {axis} {} ({}), advice {}",
+            m.id,
+            p.name,
+            p.unit,
+            m.advice.as_str()
+        ),
+        &format!("years since {first}"),
+        &format!("{} ({})", p.name, p.unit),
+        &series,
+    )?)
+}
+
+/// `<stem>.png`/`.svg`: the riskiest machines' risk.
+pub fn fleet_figure(stem: &Path, fleet: &[FleetEntry]) -> Result<Vec<PathBuf>, ReportError> {
+    let top = &fleet[..fleet.len().min(FLEET_FIGURE_MAX)];
+    let labels: Vec<String> = top
+        .iter()
+        .map(|f| format!("{} ({})", f.id, f.advice.as_str()))
+        .collect();
+    let values: Vec<f64> = top.iter().map(|f| f.risk).collect();
+    Ok(plot::bars(
+        stem,
+        &format!(
+            "Fleet: risk of exceeding a tolerance by the horizon (top {} of {})",
+            top.len(),
+            fleet.len()
+        ),
+        "risk",
+        &labels,
+        &values,
+        None,
+        false,
+    )?)
+}
