@@ -23,8 +23,13 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
     (
+        "acceptance",
+        &["base", "table", "interp", "session", "volumetric"],
+    ),
+    (
         "report",
         &[
+            "acceptance",
             "base",
             "plot",
             "table",
