@@ -286,7 +286,26 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 }
 
 pub fn table_cmd(a: TableArgs) -> Result<()> {
+    let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
+    let conformity = match &tolerances {
+        Some((t, rule)) => {
+            let axis = reduced.summary.axis.clone().unwrap_or_default();
+            let lines: Vec<_> = reduced
+                .iso
+                .iter()
+                .zip(&reduced.budgets)
+                .map(|((l, s), b)| (*l, s, b.expanded()))
+                .collect();
+            let c = t.judge(&axis, &lines, rule)?;
+            eprintln!(
+                "table: conformity with {} ({}): {}",
+                c.specification, c.rule, c.verdict
+            );
+            Some(c)
+        }
+        None => None,
+    };
     if a.json {
         // The numbers are checked before `json!` would turn a NaN into null.
         let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
@@ -294,24 +313,33 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             Path::new("stdout"),
             &(&reduced.summary, &reduced.iso, &reduced.budgets, &expanded),
         )?;
+        if let Some(c) = &conformity {
+            errmap::report::finite::check_json(Path::new("stdout"), &(c, &c.lines))?;
+        }
         let lines: Vec<_> = reduced
             .iso
             .iter()
             .zip(&reduced.budgets)
             .zip(&expanded)
-            .map(|(((l, s), b), expanded)| {
-                serde_json::json!({
+            .enumerate()
+            .map(|(k, (((l, s), b), expanded))| {
+                let mut line = serde_json::json!({
                     "line_mm": [l.0, l.1],
                     "iso230": s,
                     "uncertainty": {"budget": b, "expanded": expanded},
                     "gb_t_17421_2": "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)",
-                })
+                });
+                if let Some(c) = &conformity {
+                    line["conformity"] = serde_json::json!(c.lines.get(k).and_then(|x| x.1.as_ref()));
+                }
+                line
             })
             .collect();
-        super::guard::print_stdout(
-            &serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines})
-                .to_string(),
-        )?;
+        let mut doc = serde_json::json!({"summary": reduced.summary, "nodes": reduced.table.points.len(), "lines": lines});
+        if let Some(c) = &conformity {
+            doc["conformity"] = serde_json::json!(c);
+        }
+        super::guard::print_stdout(&doc.to_string())?;
     }
     Ok(())
 }

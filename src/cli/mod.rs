@@ -14,12 +14,14 @@
 //! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 //! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
+//! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+pub mod acceptance;
 pub mod acquisition;
 pub mod args;
 pub mod certificate;
@@ -84,6 +86,8 @@ pub enum Command {
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
     GenCapture(stream::GenCaptureArgs),
+    /// Decisions of conformity; the ISO 10360-2 length measurement error test.
+    Acceptance(acceptance::AcceptanceArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -138,6 +142,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
+        Command::Acceptance(a) => acceptance::acceptance_cmd(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {
                 points: a.points.max(1),
