@@ -237,7 +237,7 @@ pub fn virtual_cmd(a: VirtualArgs) -> Result<()> {
     if let Some(dir) = &a.report {
         let source = a.model.display().to_string();
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::acceptance::write_virtual_report(d, &source, &t, &rule)
+            errmap::report::acceptance::write_virtual_report(d, &source, &t)
                 .map_err(Into::into)
         })?;
         eprintln!("volumetric iso10360: report in {}", dir.display());

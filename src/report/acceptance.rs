@@ -186,7 +186,7 @@ pub fn write_iso10360_report(
         }
         md.push('\n');
     }
-    md.push_str("## Positions\n\n| position | max |E0| / µm | verdict |\n|---|---:|---|\n");
+    md.push_str("## Positions\n\n| position | max \\|E0\\| / µm | verdict |\n|---|---:|---|\n");
     for p in &r.positions {
         let _ = writeln!(md, "| {} | {:.3} | {} |", p.position, p.max_abs_e0_um, p.verdict);
     }
@@ -229,7 +229,6 @@ pub fn write_virtual_report(
     dir: &Path,
     model: &str,
     t: &VirtualTest,
-    rule: &DecisionRule,
 ) -> Result<Vec<PathBuf>, ReportError> {
     create(dir)?;
     let mut files = vec![dir.join("report.md")];
@@ -288,14 +287,6 @@ pub fn write_virtual_report(
     if let Some(mpe) = &t.mpe {
         series.push(mpe_series(mpe, l_max, 1.0, "+MPE_E0(L)", 0, false));
         series.push(mpe_series(mpe, l_max, -1.0, "−MPE_E0(L)", 0, false));
-        if guard_applies(rule, before.iter().filter_map(|m| m.u_um)) {
-            let pts: Vec<(f64, f64, f64)> = before
-                .iter()
-                .filter_map(|m| Some((m.length_mm, m.mpe_um?, m.u_um?)))
-                .collect();
-            series.push(acceptance_series(&pts, rule, 1.0, "acceptance limit (before)"));
-            series.push(acceptance_series(&pts, rule, -1.0, "acceptance limit (before, −)"));
-        }
     }
     files.extend(plot::xy(
         &dir.join("e_vs_length"),
@@ -325,9 +316,9 @@ pub fn write_virtual_report(
     md.push_str("## Positions\n\n");
     let after_pos = t.compensated.as_ref().map(|c| &c.positions);
     if after_pos.is_some() {
-        md.push_str("| position | max |E| / µm | σ / µm | gauge | verdict | after: max |E| / µm | verdict |\n|---|---:|---:|---:|---|---:|---|\n");
+        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict | after: max \\|E\\| / µm | verdict |\n|---|---:|---:|---:|---|---:|---|\n");
     } else {
-        md.push_str("| position | max |E| / µm | σ / µm | gauge | verdict |\n|---|---:|---:|---:|---|\n");
+        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict |\n|---|---:|---:|---:|---|\n");
     }
     for (i, p) in t.positions.iter().enumerate() {
         let v = p.verdict.map_or("—", |v| v.as_str());
