@@ -7,8 +7,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::rule::{DecisionRule, Limits, Verdict, aggregate};
 use super::AcceptanceError;
+use super::rule::{DecisionRule, Limits, Verdict, aggregate};
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
 /// One judged result.

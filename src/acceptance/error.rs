@@ -31,7 +31,9 @@ pub enum AcceptanceError {
         problem: String,
     },
     /// An MPE (or U) formula that does not parse.
-    #[error("{option} `{formula}`: {problem} (expected `A+L/K`, `min(A+L/K,B)` or `B`, A and B in µm, K > 0)")]
+    #[error(
+        "{option} `{formula}`: {problem} (expected `A+L/K`, `min(A+L/K,B)` or `B`, A and B in µm, K > 0)"
+    )]
     Formula {
         option: String,
         formula: String,

@@ -18,10 +18,10 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::AcceptanceError;
 use super::decide::text_cell;
 use super::mpe::Mpe;
 use super::rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
-use super::AcceptanceError;
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
 /// The standard's name as the outputs print it.
@@ -202,7 +202,10 @@ fn read_rows(path: &Path) -> Result<Vec<Row>, AcceptanceError> {
     let df = read_frame(path)?;
     let positions = column_cells(path, &df, "position")?;
     let p1 = cells_of(path, &df, ["x1_mm", "y1_mm", "z1_mm"])?.ok_or_else(|| {
-        AcceptanceError::file(path, "columns `x1_mm, y1_mm, z1_mm` (the first end) are missing")
+        AcceptanceError::file(
+            path,
+            "columns `x1_mm, y1_mm, z1_mm` (the first end) are missing",
+        )
     })?;
     let p2 = cells_of(path, &df, ["x2_mm", "y2_mm", "z2_mm"])?;
     let dir = cells_of(path, &df, ["ux", "uy", "uz"])?;
@@ -363,7 +366,9 @@ pub fn evaluate_file(path: &Path, config: &TestConfig) -> Result<TestResult, Acc
 fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult, AcceptanceError> {
     let n = config.repetitions;
     // Positions in first-appearance order; test lengths of each, in first appearance.
-    let mut positions: Vec<(String, Vec<(f64, Vec<usize>)>)> = Vec::new();
+    // (position, [(calibrated length, indices of its rows)]).
+    type Lengths = Vec<(f64, Vec<usize>)>;
+    let mut positions: Vec<(String, Lengths)> = Vec::new();
     for (i, r) in rows.iter().enumerate() {
         let k = match positions.iter().position(|p| p.0 == r.position) {
             Some(k) => k,
@@ -453,10 +458,14 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             let r0 = hi - lo;
             let verdict_r0 = match config.mpl_r0_um {
                 Some(mpl) => Some(
-                    rule.decide(r0, config.u_r0_um, Limits {
-                        lower: None,
-                        upper: Some(mpl),
-                    })?
+                    rule.decide(
+                        r0,
+                        config.u_r0_um,
+                        Limits {
+                            lower: None,
+                            upper: Some(mpl),
+                        },
+                    )?
                     .verdict,
                 ),
                 None => None,
@@ -478,10 +487,14 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
         let mpe = config.mpe.at(r.calibrated_mm);
         let u = u_of(r).unwrap_or(0.0);
         let d = rule
-            .decide(e0, u, Limits {
-                lower: Some(-mpe),
-                upper: Some(mpe),
-            })
+            .decide(
+                e0,
+                u,
+                Limits {
+                    lower: Some(-mpe),
+                    upper: Some(mpe),
+                },
+            )
             .map_err(|e| AcceptanceError::row(path, r.row, None, e.to_string()))?;
         measurements.push(Measurement {
             row: r.row,
@@ -504,11 +517,8 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             Position {
                 position: pos.clone(),
                 max_abs_e0_um: ms.clone().map(|m| m.e0_um.abs()).fold(0.0, f64::max),
-                verdict: aggregate(
-                    ms.map(|m| m.verdict)
-                        .chain(gs.filter_map(|g| g.verdict_r0)),
-                )
-                .unwrap_or(Verdict::Pass),
+                verdict: aggregate(ms.map(|m| m.verdict).chain(gs.filter_map(|g| g.verdict_r0)))
+                    .unwrap_or(Verdict::Pass),
             }
         })
         .collect();
@@ -575,7 +585,10 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
         measurements: measurements.len(),
         positions: positions.len(),
         gauges: gauges.len(),
-        max_abs_e0_um: measurements.iter().map(|m| m.e0_um.abs()).fold(0.0, f64::max),
+        max_abs_e0_um: measurements
+            .iter()
+            .map(|m| m.e0_um.abs())
+            .fold(0.0, f64::max),
         max_r0_um: gauges.iter().map(|g| g.r0_um).fold(0.0, f64::max),
         counts: Counts::of(measurements.iter().map(|m| m.verdict)),
     };

@@ -124,8 +124,20 @@ mod tests {
         let m = Mpe::parse("4", "--mpe").expect("parses");
         assert_eq!(m.at(1e3), 4.0);
         for bad in [
-            "", "A+L/K", "1.5+L/0", "1.5+L/-3", "1.5+x/3", "min(1+L/3)", "min(1+L/3,2",
-            "1.5 µm", "nan", "inf", "-2", "1.5+L/3+1", "max(1+L/3,2)", "1,5+L/3",
+            "",
+            "A+L/K",
+            "1.5+L/0",
+            "1.5+L/-3",
+            "1.5+x/3",
+            "min(1+L/3)",
+            "min(1+L/3,2",
+            "1.5 µm",
+            "nan",
+            "inf",
+            "-2",
+            "1.5+L/3+1",
+            "max(1+L/3,2)",
+            "1,5+L/3",
         ] {
             assert!(Mpe::parse(bad, "--mpe").is_err(), "{bad} parsed");
         }

@@ -27,9 +27,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::AcceptanceError;
 use super::mpe::Mpe;
 use super::rule::{DecisionRule, Limits, Verdict, aggregate};
-use super::AcceptanceError;
 use crate::interp::Method;
 use crate::volumetric::compensation;
 use crate::volumetric::{
@@ -187,10 +187,13 @@ impl VirtualPlan {
             return Err(key("repetitions", format!("{repetitions}: 1 … 100")));
         }
         if f.fractions.is_some() && f.lengths_mm.is_some() {
-            return Err(key("fractions", "and lengths_mm both given: one of them".into()));
+            return Err(key(
+                "fractions",
+                "and lengths_mm both given: one of them".into(),
+            ));
         }
-        let lines: Vec<(String, [f64; 3], [f64; 3], Option<&PositionFile>)> = match &f.position
-        {
+        type Planned<'a> = (String, [f64; 3], [f64; 3], Option<&'a PositionFile>);
+        let lines: Vec<Planned> = match &f.position {
             Some(ps) if !ps.is_empty() => ps
                 .iter()
                 .map(|p| (p.id.clone(), p.start_mm, p.end_mm, Some(p)))
@@ -248,7 +251,10 @@ impl VirtualPlan {
             if lengths_mm.is_empty() {
                 return Err(key(&k("lengths_mm"), "no length".into()));
             }
-            let probe_mm = p.and_then(|p| p.probe_mm).or(f.probe_mm).unwrap_or([0.0; 3]);
+            let probe_mm = p
+                .and_then(|p| p.probe_mm)
+                .or(f.probe_mm)
+                .unwrap_or([0.0; 3]);
             if let Some(v) = probe_mm.iter().find(|v| !(v.is_finite() && v.abs() <= 1e4)) {
                 return Err(key(&k("probe_mm"), format!("{v} is not an offset")));
             }
@@ -257,7 +263,10 @@ impl VirtualPlan {
                 start_mm: s,
                 end_mm: e,
                 lengths_mm,
-                placement: p.and_then(|p| p.placement).or(f.placement).unwrap_or_default(),
+                placement: p
+                    .and_then(|p| p.placement)
+                    .or(f.placement)
+                    .unwrap_or_default(),
                 probe_mm,
             });
         }
@@ -375,11 +384,9 @@ impl Model {
                 predictor,
             }),
             Predictor::Fit(f) => {
-                let text = std::fs::read_to_string(path).map_err(|source| {
-                    AcceptanceError::Io {
-                        path: path.to_path_buf(),
-                        source,
-                    }
+                let text = std::fs::read_to_string(path).map_err(|source| AcceptanceError::Io {
+                    path: path.to_path_buf(),
+                    source,
                 })?;
                 let head: ModelHead =
                     serde_json::from_str(&text).map_err(|e| AcceptanceError::Model {
@@ -451,40 +458,40 @@ fn planned(plan: &VirtualPlan) -> Vec<Planned> {
 /// The compensation tables as a machine (probe offset 0, squareness folded into the
 /// straightness as the exported tables carry it).
 fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Machine, String> {
-    let (topology, positions, values): (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]) =
-        match &model.predictor {
-            Predictor::Fit(f) => {
-                let t = compensation::component_tables(f, n)?;
-                (t.topology, t.positions_mm, t.values)
-            }
-            Predictor::Machine(m) => {
-                let mut positions: [Vec<f64>; 3] = Default::default();
-                let mut values: [Vec<[f64; 6]>; 3] = Default::default();
-                let sq = m.squareness_urad;
-                for k in 0..3 {
-                    let lo = volume_mm[0][k].min(0.0);
-                    let hi = volume_mm[1][k].max(0.0);
-                    for i in 0..n.max(2) {
-                        let a = lo + (hi - lo) * i as f64 / (n.max(2) - 1) as f64;
-                        let mut row = [0.0; 6];
-                        for (kind, slot) in row.iter_mut().enumerate() {
-                            *slot = m.value(Component { axis: k, kind }, a);
-                        }
-                        match k {
-                            1 => row[0] += -1e-3 * sq[0] * a,
-                            2 => {
-                                row[0] += 1e-3 * sq[1] * a;
-                                row[1] += -1e-3 * sq[2] * a;
-                            }
-                            _ => {}
-                        }
-                        positions[k].push(a);
-                        values[k].push(row);
+    type Tables = (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]);
+    let (topology, positions, values): Tables = match &model.predictor {
+        Predictor::Fit(f) => {
+            let t = compensation::component_tables(f, n)?;
+            (t.topology, t.positions_mm, t.values)
+        }
+        Predictor::Machine(m) => {
+            let mut positions: [Vec<f64>; 3] = Default::default();
+            let mut values: [Vec<[f64; 6]>; 3] = Default::default();
+            let sq = m.squareness_urad;
+            for k in 0..3 {
+                let lo = volume_mm[0][k].min(0.0);
+                let hi = volume_mm[1][k].max(0.0);
+                for i in 0..n.max(2) {
+                    let a = lo + (hi - lo) * i as f64 / (n.max(2) - 1) as f64;
+                    let mut row = [0.0; 6];
+                    for (kind, slot) in row.iter_mut().enumerate() {
+                        *slot = m.value(Component { axis: k, kind }, a);
                     }
+                    match k {
+                        1 => row[0] += -1e-3 * sq[0] * a,
+                        2 => {
+                            row[0] += 1e-3 * sq[1] * a;
+                            row[1] += -1e-3 * sq[2] * a;
+                        }
+                        _ => {}
+                    }
+                    positions[k].push(a);
+                    values[k].push(row);
                 }
-                (m.topology, positions, values)
             }
-        };
+            (m.topology, positions, values)
+        }
+    };
     let mut machine = Machine::perfect(topology);
     for k in 0..3 {
         let mut pos = positions[k].clone();
@@ -511,10 +518,7 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
     Ok(machine)
 }
 
-fn judge(
-    ms: &mut [VirtualMeasurement],
-    config: &VirtualConfig,
-) -> Result<(), AcceptanceError> {
+fn judge(ms: &mut [VirtualMeasurement], config: &VirtualConfig) -> Result<(), AcceptanceError> {
     let Some(mpe) = &config.mpe else {
         return Ok(());
     };
@@ -522,10 +526,14 @@ fn judge(
         let limit = mpe.at(m.length_mm);
         let u_u = config.u.as_ref().map_or(0.0, |u| u.at(m.length_mm));
         let u = ((2.0 * m.sigma_um).powi(2) + u_u * u_u).sqrt();
-        let d = config.rule.decide(m.e_um, u, Limits {
-            lower: Some(-limit),
-            upper: Some(limit),
-        })?;
+        let d = config.rule.decide(
+            m.e_um,
+            u,
+            Limits {
+                lower: Some(-limit),
+                upper: Some(limit),
+            },
+        )?;
         m.mpe_um = Some(limit);
         m.u_um = Some(u);
         m.verdict = Some(d.verdict);
@@ -533,13 +541,15 @@ fn judge(
     Ok(())
 }
 
-fn summarise(plan: &VirtualPlan, ms: &[VirtualMeasurement]) -> (Vec<VirtualPosition>, f64, Option<Verdict>) {
+fn summarise(
+    plan: &VirtualPlan,
+    ms: &[VirtualMeasurement],
+) -> (Vec<VirtualPosition>, f64, Option<Verdict>) {
     let positions: Vec<VirtualPosition> = plan
         .positions
         .iter()
         .map(|p| {
-            let of: Vec<&VirtualMeasurement> =
-                ms.iter().filter(|m| m.position == p.id).collect();
+            let of: Vec<&VirtualMeasurement> = ms.iter().filter(|m| m.position == p.id).collect();
             let worst = of
                 .iter()
                 .copied()

@@ -176,7 +176,10 @@ impl DecisionRule {
             ));
         }
         if !y.is_finite() {
-            return Err(AcceptanceError::value("result", format!("{y} is not finite")));
+            return Err(AcceptanceError::value(
+                "result",
+                format!("{y} is not finite"),
+            ));
         }
         let w = self.guard_band(u);
         let acc_lo = limits.lower.map(|t| t + w);

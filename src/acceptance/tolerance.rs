@@ -23,8 +23,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
 use super::AcceptanceError;
+use super::rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
 use crate::base::Axis;
 use crate::session::iso230::AxisStats;
 use crate::session::uncertainty::StatUncertainty;
@@ -300,12 +300,7 @@ impl Tolerances {
                         lines.push(LineTolerance {
                             axis,
                             line_mm,
-                            limits: params_of(
-                                path,
-                                &format!("{key}."),
-                                t,
-                                &["axis", "line_mm"],
-                            )?,
+                            limits: params_of(path, &format!("{key}."), t, &["axis", "line_mm"])?,
                             index: i + 1,
                         });
                     }
@@ -431,16 +426,18 @@ impl Tolerances {
                     verdict: d.verdict,
                 });
             }
-            let conformity = aggregate(parameters.iter().map(|p| p.verdict)).map(|verdict| {
-                LineConformity {
+            let conformity =
+                aggregate(parameters.iter().map(|p| p.verdict)).map(|verdict| LineConformity {
                     verdict,
                     parameters,
-                }
-            });
+                });
             judged.push(((l0, l1), conformity));
         }
-        let Some(verdict) = aggregate(judged.iter().filter_map(|(_, c)| c.as_ref().map(|c| c.verdict)))
-        else {
+        let Some(verdict) = aggregate(
+            judged
+                .iter()
+                .filter_map(|(_, c)| c.as_ref().map(|c| c.verdict)),
+        ) else {
             return Err(AcceptanceError::key(
                 &self.path,
                 "axis",

@@ -36,7 +36,7 @@ impl RuleArgs {
         let base = file.unwrap_or_default();
         let rule = self.rule.unwrap_or(base.rule);
         let r = self.guard_fraction.unwrap_or(base.guard_fraction);
-        Ok(DecisionRule::new(rule, r).context("--guard-fraction")?)
+        DecisionRule::new(rule, r).context("--guard-fraction")
     }
 }
 
@@ -147,7 +147,11 @@ fn decide_cmd(a: DecideArgs) -> Result<()> {
                 x.verdict
             );
         }
-        eprintln!("acceptance decide: {} result(s): {}", r.results.len(), r.verdict);
+        eprintln!(
+            "acceptance decide: {} result(s): {}",
+            r.results.len(),
+            r.verdict
+        );
     }
     Ok(())
 }
@@ -199,7 +203,10 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
         if r.deviations.is_empty() {
             String::new()
         } else {
-            format!(" ({} deviation(s) from the 7 × 5 × 3 design)", r.deviations.len())
+            format!(
+                " ({} deviation(s) from the 7 × 5 × 3 design)",
+                r.deviations.len()
+            )
         }
     );
     Ok(())
@@ -237,8 +244,7 @@ pub fn virtual_cmd(a: VirtualArgs) -> Result<()> {
     if let Some(dir) = &a.report {
         let source = a.model.display().to_string();
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::acceptance::write_virtual_report(d, &source, &t)
-                .map_err(Into::into)
+            errmap::report::acceptance::write_virtual_report(d, &source, &t).map_err(Into::into)
         })?;
         eprintln!("volumetric iso10360: report in {}", dir.display());
     }

@@ -330,7 +330,8 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
                     "gb_t_17421_2": "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)",
                 });
                 if let Some(c) = &conformity {
-                    line["conformity"] = serde_json::json!(c.lines.get(k).and_then(|x| x.1.as_ref()));
+                    line["conformity"] =
+                        serde_json::json!(c.lines.get(k).and_then(|x| x.1.as_ref()));
                 }
                 line
             })

@@ -83,7 +83,10 @@ pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
     certificate::write_with(&a.out, &data, conformity.as_ref())
         .with_context(|| format!("certificate of {}", path.display()))?;
     if let Some(c) = &conformity {
-        eprintln!("certificate: statement of conformity with {}: {}", c.specification, c.verdict);
+        eprintln!(
+            "certificate: statement of conformity with {}: {}",
+            c.specification, c.verdict
+        );
     }
     eprintln!(
         "certificate: {} line(s) of axis {axis} → {}",

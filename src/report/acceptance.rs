@@ -22,7 +22,14 @@ fn create(dir: &Path) -> Result<(), ReportError> {
 }
 
 /// The MPE curve and its negative, sampled so that the kink of `min(A+L/K,B)` shows.
-fn mpe_series(mpe: &Mpe, l_max: f64, sign: f64, name: &str, colour: usize, dashed: bool) -> XySeries {
+fn mpe_series(
+    mpe: &Mpe,
+    l_max: f64,
+    sign: f64,
+    name: &str,
+    colour: usize,
+    dashed: bool,
+) -> XySeries {
     let n = 200;
     let x: Vec<f64> = (0..=n).map(|i| l_max * i as f64 / n as f64).collect();
     XySeries {
@@ -38,7 +45,12 @@ fn mpe_series(mpe: &Mpe, l_max: f64, sign: f64, name: &str, colour: usize, dashe
 }
 
 /// Acceptance limits ±(MPE(L) − w(L)) at the measured lengths, sorted by L.
-fn acceptance_series(points: &[(f64, f64, f64)], rule: &DecisionRule, sign: f64, name: &str) -> XySeries {
+fn acceptance_series(
+    points: &[(f64, f64, f64)],
+    rule: &DecisionRule,
+    sign: f64,
+    name: &str,
+) -> XySeries {
     let mut p: Vec<(f64, f64)> = points
         .iter()
         .map(|&(l, mpe, u)| (l, sign * (mpe - rule.guard_band(u))))
@@ -123,12 +135,18 @@ pub fn write_iso10360_report(
     let mut df = DataFrame::new(
         m.len(),
         vec![
-            Column::new("row".into(), m.iter().map(|x| x.row as u64).collect::<Vec<_>>()),
+            Column::new(
+                "row".into(),
+                m.iter().map(|x| x.row as u64).collect::<Vec<_>>(),
+            ),
             Column::new(
                 "position".into(),
                 m.iter().map(|x| x.position.clone()).collect::<Vec<_>>(),
             ),
-            Column::new("gauge".into(), m.iter().map(|x| x.gauge as u64).collect::<Vec<_>>()),
+            Column::new(
+                "gauge".into(),
+                m.iter().map(|x| x.gauge as u64).collect::<Vec<_>>(),
+            ),
             Column::new(
                 "repetition".into(),
                 m.iter().map(|x| x.repetition as u64).collect::<Vec<_>>(),
@@ -141,8 +159,14 @@ pub fn write_iso10360_report(
                 "measured_mm".into(),
                 m.iter().map(|x| x.measured_mm).collect::<Vec<_>>(),
             ),
-            Column::new("e0_um".into(), m.iter().map(|x| x.e0_um).collect::<Vec<_>>()),
-            Column::new("mpe_um".into(), m.iter().map(|x| x.mpe_um).collect::<Vec<_>>()),
+            Column::new(
+                "e0_um".into(),
+                m.iter().map(|x| x.e0_um).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "mpe_um".into(),
+                m.iter().map(|x| x.mpe_um).collect::<Vec<_>>(),
+            ),
             Column::new("u_um".into(), m.iter().map(|x| x.u_um).collect::<Vec<_>>()),
             Column::new(
                 "verdict".into(),
@@ -158,8 +182,15 @@ pub fn write_iso10360_report(
     let mut md = String::new();
     let _ = writeln!(md, "# {} — length measurement error test\n", r.standard);
     let _ = writeln!(md, "Test file: `{source}`\n");
-    let _ = writeln!(md, "**Verdict: {}** (E0: {}{})\n", r.verdict, r.verdict_e0,
-        r.verdict_r0.map(|v| format!(", R0: {v}")).unwrap_or_default());
+    let _ = writeln!(
+        md,
+        "**Verdict: {}** (E0: {}{})\n",
+        r.verdict,
+        r.verdict_e0,
+        r.verdict_r0
+            .map(|v| format!(", R0: {v}"))
+            .unwrap_or_default()
+    );
     let _ = writeln!(md, "{}\n", r.statement);
     let s = &r.summary;
     let _ = writeln!(
@@ -175,8 +206,14 @@ pub fn write_iso10360_report(
         s.counts.indeterminate,
         s.counts.fail
     );
-    let _ = writeln!(md, "MPE_E0(L) = {} µm (L in mm){}.\n", r.mpe.formula,
-        r.mpl_r0_um.map(|m| format!("; MPL_R0 = {m} µm")).unwrap_or_default());
+    let _ = writeln!(
+        md,
+        "MPE_E0(L) = {} µm (L in mm){}.\n",
+        r.mpe.formula,
+        r.mpl_r0_um
+            .map(|m| format!("; MPL_R0 = {m} µm"))
+            .unwrap_or_default()
+    );
     md.push_str("## Deviations from the standard's design\n\n");
     if r.deviations.is_empty() {
         md.push_str("None: 7 positions × 5 test lengths × 3 repetitions.\n\n");
@@ -188,16 +225,30 @@ pub fn write_iso10360_report(
     }
     md.push_str("## Positions\n\n| position | max \\|E0\\| / µm | verdict |\n|---|---:|---|\n");
     for p in &r.positions {
-        let _ = writeln!(md, "| {} | {:.3} | {} |", p.position, p.max_abs_e0_um, p.verdict);
+        let _ = writeln!(
+            md,
+            "| {} | {:.3} | {} |",
+            p.position, p.max_abs_e0_um, p.verdict
+        );
     }
     md.push_str("\n## Worst results\n\n| row | position | gauge | rep. | L / mm | E0 / µm | MPE / µm | U / µm | verdict |\n|---:|---|---:|---:|---:|---:|---:|---:|---|\n");
     let mut worst: Vec<_> = r.measurements.iter().collect();
-    worst.sort_by(|a, b| (b.e0_um.abs() / b.mpe_um.max(1e-12)).total_cmp(&(a.e0_um.abs() / a.mpe_um.max(1e-12))));
+    worst.sort_by(|a, b| {
+        (b.e0_um.abs() / b.mpe_um.max(1e-12)).total_cmp(&(a.e0_um.abs() / a.mpe_um.max(1e-12)))
+    });
     for m in worst.iter().take(10) {
         let _ = writeln!(
             md,
             "| {} | {} | {} | {} | {:.4} | {:.3} | {:.3} | {:.3} | {} |",
-            m.row, m.position, m.gauge, m.repetition, m.calibrated_mm, m.e0_um, m.mpe_um, m.u_um, m.verdict
+            m.row,
+            m.position,
+            m.gauge,
+            m.repetition,
+            m.calibrated_mm,
+            m.e0_um,
+            m.mpe_um,
+            m.u_um,
+            m.verdict
         );
     }
     md.push_str("\n## Repeatability range R0\n\n| position | gauge | L / mm | rows | R0 / µm | verdict |\n|---|---:|---:|---|---:|---|\n");
@@ -208,7 +259,11 @@ pub fn write_iso10360_report(
             g.position,
             g.gauge,
             g.calibrated_mm,
-            g.rows.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(", "),
+            g.rows
+                .iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
             g.r0_um,
             g.verdict_r0.map_or("not judged", |v| v.as_str())
         );
@@ -234,38 +289,76 @@ pub fn write_virtual_report(
     let mut files = vec![dir.join("report.md")];
     let csv = dir.join("measurements.csv");
     let before = virtual_rows(&t.measurements);
-    let after: Option<Vec<&VirtualMeasurement>> =
-        t.compensated.as_ref().map(|c| virtual_rows(&c.measurements));
+    let after: Option<Vec<&VirtualMeasurement>> = t
+        .compensated
+        .as_ref()
+        .map(|c| virtual_rows(&c.measurements));
     let mut cols = vec![
         Column::new(
             "position".into(),
-            before.iter().map(|m| m.position.clone()).collect::<Vec<_>>(),
+            before
+                .iter()
+                .map(|m| m.position.clone())
+                .collect::<Vec<_>>(),
         ),
-        Column::new("gauge".into(), before.iter().map(|m| m.gauge as u64).collect::<Vec<_>>()),
-        Column::new("length_mm".into(), before.iter().map(|m| m.length_mm).collect::<Vec<_>>()),
+        Column::new(
+            "gauge".into(),
+            before.iter().map(|m| m.gauge as u64).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "length_mm".into(),
+            before.iter().map(|m| m.length_mm).collect::<Vec<_>>(),
+        ),
     ];
     for (k, name) in ["x1_mm", "y1_mm", "z1_mm"].iter().enumerate() {
-        cols.push(Column::new((*name).into(), before.iter().map(|m| m.p1_mm[k]).collect::<Vec<_>>()));
-    }
-    for (k, name) in ["x2_mm", "y2_mm", "z2_mm"].iter().enumerate() {
-        cols.push(Column::new((*name).into(), before.iter().map(|m| m.p2_mm[k]).collect::<Vec<_>>()));
-    }
-    cols.push(Column::new("e_um".into(), before.iter().map(|m| m.e_um).collect::<Vec<_>>()));
-    cols.push(Column::new("sigma_um".into(), before.iter().map(|m| m.sigma_um).collect::<Vec<_>>()));
-    cols.push(Column::new("mpe_um".into(), before.iter().map(|m| m.mpe_um).collect::<Vec<_>>()));
-    cols.push(Column::new("u_um".into(), before.iter().map(|m| m.u_um).collect::<Vec<_>>()));
-    cols.push(Column::new(
-        "verdict".into(),
-        before.iter().map(|m| m.verdict.map(|v| v.as_str())).collect::<Vec<_>>(),
-    ));
-    if let Some(a) = &after {
-        cols.push(Column::new("e_after_um".into(), a.iter().map(|m| m.e_um).collect::<Vec<_>>()));
         cols.push(Column::new(
-            "verdict_after".into(),
-            a.iter().map(|m| m.verdict.map(|v| v.as_str())).collect::<Vec<_>>(),
+            (*name).into(),
+            before.iter().map(|m| m.p1_mm[k]).collect::<Vec<_>>(),
         ));
     }
-    let mut df = DataFrame::new(before.len(), cols).map_err(|e| crate::table::format_err(&csv, e))?;
+    for (k, name) in ["x2_mm", "y2_mm", "z2_mm"].iter().enumerate() {
+        cols.push(Column::new(
+            (*name).into(),
+            before.iter().map(|m| m.p2_mm[k]).collect::<Vec<_>>(),
+        ));
+    }
+    cols.push(Column::new(
+        "e_um".into(),
+        before.iter().map(|m| m.e_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "sigma_um".into(),
+        before.iter().map(|m| m.sigma_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "mpe_um".into(),
+        before.iter().map(|m| m.mpe_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "u_um".into(),
+        before.iter().map(|m| m.u_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "verdict".into(),
+        before
+            .iter()
+            .map(|m| m.verdict.map(|v| v.as_str()))
+            .collect::<Vec<_>>(),
+    ));
+    if let Some(a) = &after {
+        cols.push(Column::new(
+            "e_after_um".into(),
+            a.iter().map(|m| m.e_um).collect::<Vec<_>>(),
+        ));
+        cols.push(Column::new(
+            "verdict_after".into(),
+            a.iter()
+                .map(|m| m.verdict.map(|v| v.as_str()))
+                .collect::<Vec<_>>(),
+        ));
+    }
+    let mut df =
+        DataFrame::new(before.len(), cols).map_err(|e| crate::table::format_err(&csv, e))?;
     crate::table::write_frame(&csv, &mut df)?;
     files.push(csv);
 
@@ -298,21 +391,41 @@ pub fn write_virtual_report(
 
     let mut md = String::new();
     let _ = writeln!(md, "# {} predicted — the virtual test\n", t.standard);
-    let _ = writeln!(md, "Model: `{model}` (topology {}, residual `{}`); plan: {}; volume [{:?}, {:?}] mm.\n",
-        t.topology, t.model_residual, t.plan, t.volume_mm[0], t.volume_mm[1]);
+    let _ = writeln!(
+        md,
+        "Model: `{model}` (topology {}, residual `{}`); plan: {}; volume [{:?}, {:?}] mm.\n",
+        t.topology, t.model_residual, t.plan, t.volume_mm[0], t.volume_mm[1]
+    );
     for w in &t.warnings {
         let _ = writeln!(md, "> **Warning:** {w}\n");
     }
     match (t.verdict, &t.statement) {
         (Some(v), Some(s)) => {
-            let _ = writeln!(md, "**Predicted verdict: {v}**{}\n", t.compensated.as_ref().and_then(|c| c.verdict).map(|a| format!("; after compensation: **{a}**")).unwrap_or_default());
+            let _ = writeln!(
+                md,
+                "**Predicted verdict: {v}**{}\n",
+                t.compensated
+                    .as_ref()
+                    .and_then(|c| c.verdict)
+                    .map(|a| format!("; after compensation: **{a}**"))
+                    .unwrap_or_default()
+            );
             let _ = writeln!(md, "{s}\n");
         }
         _ => md.push_str("No MPE given: the errors are predicted, not judged.\n\n"),
     }
-    let _ = writeln!(md, "Largest |E| {:.3} µm{}. E is the geometric part of E0 only (no probing error, repeatability or thermal state); σ is the model's one-sigma.\n",
+    let _ = writeln!(
+        md,
+        "Largest |E| {:.3} µm{}. E is the geometric part of E0 only (no probing error, repeatability or thermal state); σ is the model's one-sigma.\n",
         t.max_abs_e_um,
-        t.compensated.as_ref().map(|c| format!(", after compensation {:.3} µm ({} table positions per axis, tool point)", c.max_abs_e_um, c.table_points)).unwrap_or_default());
+        t.compensated
+            .as_ref()
+            .map(|c| format!(
+                ", after compensation {:.3} µm ({} table positions per axis, tool point)",
+                c.max_abs_e_um, c.table_points
+            ))
+            .unwrap_or_default()
+    );
     md.push_str("## Positions\n\n");
     let after_pos = t.compensated.as_ref().map(|c| &c.positions);
     if after_pos.is_some() {
@@ -324,10 +437,24 @@ pub fn write_virtual_report(
         let v = p.verdict.map_or("—", |v| v.as_str());
         match after_pos.and_then(|a| a.get(i)) {
             Some(a) => {
-                let _ = writeln!(md, "| {} | {:.3} | {:.3} | {} | {} | {:.3} | {} |", p.position, p.max_abs_e_um, p.sigma_um, p.gauge, v, a.max_abs_e_um, a.verdict.map_or("—", |v| v.as_str()));
+                let _ = writeln!(
+                    md,
+                    "| {} | {:.3} | {:.3} | {} | {} | {:.3} | {} |",
+                    p.position,
+                    p.max_abs_e_um,
+                    p.sigma_um,
+                    p.gauge,
+                    v,
+                    a.max_abs_e_um,
+                    a.verdict.map_or("—", |v| v.as_str())
+                );
             }
             None => {
-                let _ = writeln!(md, "| {} | {:.3} | {:.3} | {} | {} |", p.position, p.max_abs_e_um, p.sigma_um, p.gauge, v);
+                let _ = writeln!(
+                    md,
+                    "| {} | {:.3} | {:.3} | {} | {} |",
+                    p.position, p.max_abs_e_um, p.sigma_um, p.gauge, v
+                );
             }
         }
     }
@@ -342,9 +469,25 @@ pub fn write_virtual_report(
     md.push('\n');
     for (i, m) in before.iter().enumerate() {
         let o = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-        let _ = write!(md, "| {} | {} | {:.3} | {:.3} | {:.3} | {} | {} | {} |", m.position, m.gauge, m.length_mm, m.e_um, m.sigma_um, o(m.mpe_um), o(m.u_um), m.verdict.map_or("—", |v| v.as_str()));
+        let _ = write!(
+            md,
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+            m.position,
+            m.gauge,
+            m.length_mm,
+            m.e_um,
+            m.sigma_um,
+            o(m.mpe_um),
+            o(m.u_um),
+            m.verdict.map_or("—", |v| v.as_str())
+        );
         if let Some(a) = after.as_ref().and_then(|a| a.get(i)) {
-            let _ = write!(md, " {:.3} | {} |", a.e_um, a.verdict.map_or("—", |v| v.as_str()));
+            let _ = write!(
+                md,
+                " {:.3} | {} |",
+                a.e_um,
+                a.verdict.map_or("—", |v| v.as_str())
+            );
         }
         md.push('\n');
     }

@@ -11,8 +11,8 @@ use std::process::{Command, Output};
 use errmap::acceptance::predicted::default_lines;
 use errmap::acceptance::{DecisionRule, Limits, Mpe, Rule, Verdict, aggregate};
 use errmap::volumetric::{IdentifyConfig, Machine, Predictor, identify, simulate};
-use rand::rngs::StdRng;
 use rand::SeedableRng;
+use rand::rngs::StdRng;
 use serde_json::Value;
 
 use super::volumetric::{VOLUME, plan_file, random_machine, topo};
@@ -195,7 +195,10 @@ fn bad_rule_inputs_are_refused_and_verdicts_aggregate_to_the_worst() {
     assert!(g.statement(true, None).starts_with(
         "Decision rule: ILAC-G8:09/2019 binary statement with guard band w = r·U (r = 0.5)"
     ));
-    assert!(r.statement(false, None).contains("No measurement uncertainty was given"));
+    assert!(
+        r.statement(false, None)
+            .contains("No measurement uncertainty was given")
+    );
 }
 
 #[test]
@@ -224,8 +227,14 @@ fn decide_prints_every_result_in_file_order_and_refuses_bad_rows() -> TestResult
         .collect();
     assert_eq!(verdicts, ["pass", "indeterminate", "fail", "pass"]);
     assert_eq!(d["results"][0]["lower"], Value::Null);
-    assert_eq!(d["results"][0]["acceptance"], serde_json::json!([null, 5.5]));
-    assert_eq!(d["results"][3]["acceptance"], serde_json::json!([-0.4, 0.4]));
+    assert_eq!(
+        d["results"][0]["acceptance"],
+        serde_json::json!([null, 5.5])
+    );
+    assert_eq!(
+        d["results"][3]["acceptance"],
+        serde_json::json!([-0.4, 0.4])
+    );
     assert_eq!(d["verdict"], "fail");
     let g = json(&errmap(&[
         "acceptance",
@@ -241,7 +250,10 @@ fn decide_prints_every_result_in_file_order_and_refuses_bad_rows() -> TestResult
     assert_eq!(g["results"][1]["verdict"], "pass"); // 5.6 ≤ 6 − 0.1
     // Bad input: exit 1 naming the file and the row.
     for (body, needle) in [
-        ("id,value,u,lower,upper\nA,1,0.1,,2\nB,1,0.1,3,2\n", "row 2 (line 3)"),
+        (
+            "id,value,u,lower,upper\nA,1,0.1,,2\nB,1,0.1,3,2\n",
+            "row 2 (line 3)",
+        ),
         ("id,value,u,lower,upper\nA,1,0.1,,\n", "row 1 (line 2)"),
         ("id,value,u,lower,upper\nA,1,-0.1,,2\n", "row 1 (line 2)"),
         ("id,value,u,lower,upper\nA,1,0.1,,2\nB,x,0.1,,2\n", "row 2"),
@@ -254,7 +266,15 @@ fn decide_prints_every_result_in_file_order_and_refuses_bad_rows() -> TestResult
         assert!(e.contains("bad.csv") && e.contains(needle), "{body}: {e}");
         assert!(o.stdout.is_empty());
     }
-    let o = errmap(&["acceptance", "decide", &s(&v), "--rule", "guard", "--guard-fraction", "-1"]);
+    let o = errmap(&[
+        "acceptance",
+        "decide",
+        &s(&v),
+        "--rule",
+        "guard",
+        "--guard-fraction",
+        "-1",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let o = errmap(&["acceptance", "decide", &s(&v), "--rule", "strict"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -268,7 +288,13 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
     let dir = tempfile::tempdir()?;
     let d = |n: &str| dir.path().join(n).display().to_string();
     // The lines' values without tolerances.
-    let plain = json(&errmap(&["table", SESSION, "--out", &d("t0.csv"), "--json"]));
+    let plain = json(&errmap(&[
+        "table",
+        SESSION,
+        "--out",
+        &d("t0.csv"),
+        "--json",
+    ]));
     assert!(plain.get("conformity").is_none());
     let tol = write(
         dir.path(),
@@ -300,8 +326,13 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
     for (k, line) in lines.iter().enumerate() {
         // Same numbers as without tolerances.
         assert_eq!(line["iso230"], plain["lines"][k]["iso230"]);
-        let params = line["conformity"]["parameters"].as_array().ok_or("params")?;
-        let names: Vec<&str> = params.iter().filter_map(|p| p["parameter"].as_str()).collect();
+        let params = line["conformity"]["parameters"]
+            .as_array()
+            .ok_or("params")?;
+        let names: Vec<&str> = params
+            .iter()
+            .filter_map(|p| p["parameter"].as_str())
+            .collect();
         assert_eq!(names, ["E", "A", "R", "B_mean"], "key order");
         let on_500 = line["line_mm"] == serde_json::json!([1.0, 500.0]);
         let mut line_worst = Verdict::Pass;
@@ -330,7 +361,12 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
             } else {
                 Verdict::Indeterminate
             };
-            assert_eq!(p["verdict"], want.as_str(), "{field} on {}", line["line_mm"]);
+            assert_eq!(
+                p["verdict"],
+                want.as_str(),
+                "{field} on {}",
+                line["line_mm"]
+            );
             line_worst = line_worst.max(want);
         }
         assert_eq!(line["conformity"]["verdict"], line_worst.as_str());
@@ -340,7 +376,12 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
     // The dataset's lines give more than one verdict, so the test can tell them apart.
     let distinct: std::collections::BTreeSet<String> = lines
         .iter()
-        .flat_map(|l| l["conformity"]["parameters"].as_array().cloned().unwrap_or_default())
+        .flat_map(|l| {
+            l["conformity"]["parameters"]
+                .as_array()
+                .cloned()
+                .unwrap_or_default()
+        })
         .filter_map(|p| p["verdict"].as_str().map(str::to_string))
         .collect();
     assert!(distinct.len() >= 2, "{distinct:?}");
@@ -351,15 +392,35 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
         ("[axis.X]\nA = 1\n", "specification"),
         ("specification = \"s\"\n[axis.X]\nQ = 1\n", "axis.X.Q"),
         ("specification = \"s\"\n[axis.W]\nA = 1\n", "axis.W"),
-        ("specification = \"s\"\n[axis.X]\nA = { lower = 2, upper = 1 }\n", "axis.X.A"),
+        (
+            "specification = \"s\"\n[axis.X]\nA = { lower = 2, upper = 1 }\n",
+            "axis.X.A",
+        ),
         ("specification = \"s\"\n[axis.X]\nA = nan\n", "axis.X.A"),
         ("specification = \"s\"\n[axis.Y]\nA = 1\n", "no tolerance"),
-        ("specification = \"s\"\n[[line]]\naxis = \"X\"\nline_mm = [9, 9]\nA = 1\n", "line[1]"),
-        ("specification = \"s\"\nrule = \"loose\"\n[axis.X]\nA = 1\n", "rule"),
-        ("specification = \"s\"\nspecfication = \"t\"\n[axis.X]\nA = 1\n", "specfication"),
+        (
+            "specification = \"s\"\n[[line]]\naxis = \"X\"\nline_mm = [9, 9]\nA = 1\n",
+            "line[1]",
+        ),
+        (
+            "specification = \"s\"\nrule = \"loose\"\n[axis.X]\nA = 1\n",
+            "rule",
+        ),
+        (
+            "specification = \"s\"\nspecfication = \"t\"\n[axis.X]\nA = 1\n",
+            "specfication",
+        ),
     ] {
         let p = write(dir.path(), "bad.toml", body);
-        let o = errmap(&["table", SESSION, "--out", &d("t2.csv"), "--tolerances", &s(&p), "--json"]);
+        let o = errmap(&[
+            "table",
+            SESSION,
+            "--out",
+            &d("t2.csv"),
+            "--tolerances",
+            &s(&p),
+            "--json",
+        ]);
         assert_eq!(o.status.code(), Some(1), "{body}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(e.contains("bad.toml") && e.contains(key), "{body}: {e}");
@@ -379,9 +440,23 @@ fn the_certificate_gains_its_statement_only_with_tolerances() -> TestResult {
     let o = errmap(&["certificate", SESSION, "--out", &d("b.pdf")]);
     assert!(o.status.success(), "{}", stderr(&o));
     let a = std::fs::read(d("a.pdf"))?;
-    assert_eq!(a, std::fs::read(d("b.pdf"))?, "the certificate is reproducible");
-    let tol = s(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("datasets/acceptance/tolerances.toml"));
-    let o = errmap(&["certificate", SESSION, "--out", &d("c.pdf"), "--tolerances", &tol, "--rule", "simple"]);
+    assert_eq!(
+        a,
+        std::fs::read(d("b.pdf"))?,
+        "the certificate is reproducible"
+    );
+    let tol =
+        s(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("datasets/acceptance/tolerances.toml"));
+    let o = errmap(&[
+        "certificate",
+        SESSION,
+        "--out",
+        &d("c.pdf"),
+        "--tolerances",
+        &tol,
+        "--rule",
+        "simple",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let c = std::fs::read(d("c.pdf"))?;
     assert!(c.len() > a.len() && c != a);
@@ -390,7 +465,10 @@ fn the_certificate_gains_its_statement_only_with_tolerances() -> TestResult {
         eprintln!("skipped: `pdftotext` (poppler-utils) is not installed");
         return Ok(());
     }
-    let t = Command::new("pdftotext").arg(d("c.pdf")).arg("-").output()?;
+    let t = Command::new("pdftotext")
+        .arg(d("c.pdf"))
+        .arg("-")
+        .output()?;
     let text = String::from_utf8(t.stdout)?;
     for needle in [
         "Statement of conformity",
@@ -401,7 +479,10 @@ fn the_certificate_gains_its_statement_only_with_tolerances() -> TestResult {
     ] {
         assert!(text.contains(needle), "{needle:?} missing");
     }
-    let t = Command::new("pdftotext").arg(d("a.pdf")).arg("-").output()?;
+    let t = Command::new("pdftotext")
+        .arg(d("a.pdf"))
+        .arg("-")
+        .output()?;
     assert!(!String::from_utf8(t.stdout)?.contains("Statement of conformity"));
     Ok(())
 }
@@ -458,7 +539,9 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     let mut rng = StdRng::seed_from_u64(25);
     let m = random_machine(topo("YXZ"), &mut rng);
     let noise: Vec<f64> = (0..105)
-        .map(|i| 0.15 * errmap::base::stats::gaussian(&mut rng) + if i % 50 == 7 { 1.0 } else { 0.0 })
+        .map(|i| {
+            0.15 * errmap::base::stats::gaussian(&mut rng) + if i % 50 == 7 { 1.0 } else { 0.0 }
+        })
         .collect();
     let (csv, truth) = simulated_test(&m, &noise);
     let dir = tempfile::tempdir()?;
@@ -498,7 +581,10 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
         "--json",
     ]));
     assert_eq!(doc["standard"], "ISO 10360-2:2009");
-    assert_eq!(doc["mpe"], serde_json::json!({"formula": "min(1.0 + L/400, 3.0)", "a_um": 1.0, "k": 400.0, "b_um": 3.0}));
+    assert_eq!(
+        doc["mpe"],
+        serde_json::json!({"formula": "min(1.0 + L/400, 3.0)", "a_um": 1.0, "k": 400.0, "b_um": 3.0})
+    );
     let ms = doc["measurements"].as_array().ok_or("measurements")?;
     assert_eq!(ms.len(), 105);
     for (k, (m, (pos, l, e0))) in ms.iter().zip(&truth).enumerate() {
@@ -506,7 +592,11 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
         assert_eq!(m["position"], pos.as_str());
         assert_eq!(m["repetition"], k % 3 + 1);
         assert_eq!(m["gauge"], (k / 3) % 5 + 1);
-        assert!((m["e0_um"].as_f64().ok_or("e0")? - e0).abs() < 1e-4, "row {}", k + 1);
+        assert!(
+            (m["e0_um"].as_f64().ok_or("e0")? - e0).abs() < 1e-4,
+            "row {}",
+            k + 1
+        );
         assert!((m["mpe_um"].as_f64().ok_or("mpe")? - mpe.at(*l)).abs() < 1e-9);
         assert_eq!(m["u_um"], 0.3);
         assert_eq!(m["verdict"], want[k].as_str(), "row {}", k + 1);
@@ -516,7 +606,8 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     let mut r0_fail = false;
     for (g, chunk) in gauges.iter().zip(truth.chunks(3)) {
         let e: Vec<f64> = chunk.iter().map(|t| t.2).collect();
-        let r0 = e.iter().copied().fold(f64::MIN, f64::max) - e.iter().copied().fold(f64::MAX, f64::min);
+        let r0 =
+            e.iter().copied().fold(f64::MIN, f64::max) - e.iter().copied().fold(f64::MAX, f64::min);
         assert!((g["r0_um"].as_f64().ok_or("r0")? - r0).abs() < 1e-4);
         assert_eq!(g["rows"].as_array().map(Vec::len), Some(3));
         let v = if r0 <= 1.0 { "pass" } else { "fail" };
@@ -532,7 +623,12 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     for v in [Verdict::Pass, Verdict::Indeterminate, Verdict::Fail] {
         assert_eq!(counts[v.as_str()], want.iter().filter(|w| **w == v).count());
     }
-    for f in ["report.md", "measurements.csv", "e0_vs_length.png", "e0_vs_length.svg"] {
+    for f in [
+        "report.md",
+        "measurements.csv",
+        "e0_vs_length.png",
+        "e0_vs_length.svg",
+    ] {
         assert!(report.join(f).is_file(), "{f}");
     }
     let md = std::fs::read_to_string(report.join("report.md"))?;
@@ -541,10 +637,25 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     // Six positions, one of them with four lengths: evaluated, the deviations named.
     let short: Vec<usize> = (91..=105).chain(4..=6).collect();
     let p = write(dir.path(), "short.csv", &csv_without_rows(&csv, &short));
-    let doc = json(&errmap(&["acceptance", "iso10360", &s(&p), "--mpe", "2+L/300", "--json"]));
+    let doc = json(&errmap(&[
+        "acceptance",
+        "iso10360",
+        &s(&p),
+        "--mpe",
+        "2+L/300",
+        "--json",
+    ]));
     let dev = doc["deviations"].to_string();
-    assert!(dev.contains("6 position(s)") && dev.contains("position `1`: 4 test length(s)"), "{dev}");
-    assert!(doc["statement"].as_str().ok_or("statement")?.contains("No measurement uncertainty"));
+    assert!(
+        dev.contains("6 position(s)") && dev.contains("position `1`: 4 test length(s)"),
+        "{dev}"
+    );
+    assert!(
+        doc["statement"]
+            .as_str()
+            .ok_or("statement")?
+            .contains("No measurement uncertainty")
+    );
     Ok(())
 }
 
@@ -562,7 +673,13 @@ fn bad_iso10360_files_exit_1_naming_file_and_rows() -> TestResult {
     // A missing repetition: the file, position, length and the rows present.
     let (c, e) = run("miss.csv", &csv_without_rows(&csv, &[3]), "2+L/300");
     assert_eq!(c, Some(1), "{e}");
-    assert!(e.contains("miss.csv") && e.contains("position `1`") && e.contains("missing 3") && e.contains("rows 1, 2"), "{e}");
+    assert!(
+        e.contains("miss.csv")
+            && e.contains("position `1`")
+            && e.contains("missing 3")
+            && e.contains("rows 1, 2"),
+        "{e}"
+    );
     // A repeated repetition: both rows.
     let dup: String = csv
         .lines()
@@ -571,7 +688,10 @@ fn bad_iso10360_files_exit_1_naming_file_and_rows() -> TestResult {
         .collect();
     let (c, e) = run("dup.csv", &dup, "2+L/300");
     assert_eq!(c, Some(1), "{e}");
-    assert!(e.contains("rows 2 and 3") && e.contains("repetition 2"), "{e}");
+    assert!(
+        e.contains("rows 2 and 3") && e.contains("repetition 2"),
+        "{e}"
+    );
     // End points that do not match the calibrated length: the row.
     let moved: String = csv
         .lines()
@@ -588,7 +708,10 @@ fn bad_iso10360_files_exit_1_naming_file_and_rows() -> TestResult {
         .collect();
     let (c, e) = run("moved.csv", &moved, "2+L/300");
     assert_eq!(c, Some(1), "{e}");
-    assert!(e.contains("moved.csv: row 5 (line 6)") && e.contains("apart"), "{e}");
+    assert!(
+        e.contains("moved.csv: row 5 (line 6)") && e.contains("apart"),
+        "{e}"
+    );
     // Measured 2 mm off the calibrated length: the row and the column.
     let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
     let mut f: Vec<String> = lines[7].split(',').map(str::to_string).collect();
@@ -596,16 +719,28 @@ fn bad_iso10360_files_exit_1_naming_file_and_rows() -> TestResult {
     lines[7] = f.join(",");
     let (c, e) = run("off.csv", &(lines.join("\n") + "\n"), "2+L/300");
     assert_eq!(c, Some(1), "{e}");
-    assert!(e.contains("row 7 (line 8)") && e.contains("measured_mm"), "{e}");
+    assert!(
+        e.contains("row 7 (line 8)") && e.contains("measured_mm"),
+        "{e}"
+    );
     // Both column sets, and neither.
     let both: String = csv
         .lines()
         .enumerate()
-        .map(|(i, l)| if i == 0 { format!("{l},ux,uy,uz\n") } else { format!("{l},1,0,0\n") })
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("{l},ux,uy,uz\n")
+            } else {
+                format!("{l},1,0,0\n")
+            }
+        })
         .collect();
     let (c, e) = run("both.csv", &both, "2+L/300");
     assert_eq!(c, Some(1), "{e}");
-    assert!(e.contains("both.csv") && e.contains("give one of them"), "{e}");
+    assert!(
+        e.contains("both.csv") && e.contains("give one of them"),
+        "{e}"
+    );
     // An unparsable MPE.
     for bad in ["2+L", "2 + L/0", "two", "max(1+L/3,2)", "2+L/300 µm"] {
         let (c, e) = run("ok.csv", &csv, bad);
@@ -683,7 +818,10 @@ fn the_virtual_test_is_the_projection_of_the_error_vector_difference() -> TestRe
         };
         assert_eq!(m["verdict"], want);
     }
-    assert!(worst_z < 5.0, "the prediction is {worst_z:.2} σ from the truth");
+    assert!(
+        worst_z < 5.0,
+        "the prediction is {worst_z:.2} σ from the truth"
+    );
     // Position 1, gauge 1: 10 % of the space diagonal centred on its midpoint.
     let diag = (VOLUME[1][0].powi(2) + VOLUME[1][1].powi(2) + VOLUME[1][2].powi(2)).sqrt();
     assert!((ms[0]["length_mm"].as_f64().ok_or("L")? - 0.1 * diag).abs() < 1e-9);
@@ -705,7 +843,9 @@ fn the_virtual_test_is_the_projection_of_the_error_vector_difference() -> TestRe
 #[test]
 fn after_compensation_only_the_probe_offsets_abbe_terms_remain() -> TestResult {
     let dir = tempfile::tempdir()?;
-    let mut toml = String::from("topology = \"YXZ\"\n[squareness_urad]\nE_C0Y = 8.0\nE_B0Z = -5.0\nE_A0Z = 3.0\n[components]\n");
+    let mut toml = String::from(
+        "topology = \"YXZ\"\n[squareness_urad]\nE_C0Y = 8.0\nE_B0Z = -5.0\nE_A0Z = 3.0\n[components]\n",
+    );
     let names = ["X", "Y", "Z", "A", "B", "C"];
     for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
         for (j, n) in names.iter().enumerate() {
@@ -734,7 +874,9 @@ fn after_compensation_only_the_probe_offsets_abbe_terms_remain() -> TestResult {
     assert_eq!(doc["model_residual"], "exact");
     assert_eq!(doc["verdict"], Value::Null);
     let before = doc["measurements"].as_array().ok_or("before")?;
-    let after = doc["compensated"]["measurements"].as_array().ok_or("after")?;
+    let after = doc["compensated"]["measurements"]
+        .as_array()
+        .ok_or("after")?;
     assert_eq!(before.len(), 105);
     let mut abbe_seen: f64 = 0.0;
     for (b, a) in before.iter().zip(after) {
@@ -743,11 +885,16 @@ fn after_compensation_only_the_probe_offsets_abbe_terms_remain() -> TestResult {
         let d = [0, 1, 2].map(|i| p2[i] - p1[i]);
         let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let u = d.map(|c| c / l);
-        let proj = |e2: [f64; 3], e1: [f64; 3]| -(0..3).map(|i| u[i] * (e2[i] - e1[i])).sum::<f64>();
+        let proj =
+            |e2: [f64; 3], e1: [f64; 3]| -(0..3).map(|i| u[i] * (e2[i] - e1[i])).sum::<f64>();
         let e_full = proj(machine.error_um(p2, probe), machine.error_um(p1, probe));
         assert!((b["e_um"].as_f64().ok_or("e")? - e_full).abs() < 1e-9);
         assert_eq!(b["sigma_um"], 0.0);
-        let abbe = e_full - proj(machine.error_um(p2, [0.0; 3]), machine.error_um(p1, [0.0; 3]));
+        let abbe = e_full
+            - proj(
+                machine.error_um(p2, [0.0; 3]),
+                machine.error_um(p1, [0.0; 3]),
+            );
         let got = a["e_um"].as_f64().ok_or("after")?;
         assert!((got - abbe).abs() < 1e-7, "{got} against {abbe}");
         abbe_seen = abbe_seen.max(abbe.abs());
@@ -762,14 +909,32 @@ fn after_compensation_only_the_probe_offsets_abbe_terms_remain() -> TestResult {
 #[test]
 fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResult {
     let dir = tempfile::tempdir()?;
-    let model = s(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("datasets/volumetric/model.toml"));
+    let model =
+        s(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("datasets/volumetric/model.toml"));
     for (body, needle) in [
-        ("volume_mm = [[0, 0, 0], [600, 500, 400]]\nfractons = [0.1]\n", "fractons"),
-        ("volume_mm = [[0, 0, 0], [600, 500, 400]]\nfractions = [0.1, 1.5]\n", "fractions"),
-        ("volume_mm = [[0, 0, 0], [600, 500, 400]]\n[[position]]\nid = \"a\"\nstart_mm = [0, 0, 0]\nend_mm = [0, 0, 0]\n", "position[1].end_mm"),
+        (
+            "volume_mm = [[0, 0, 0], [600, 500, 400]]\nfractons = [0.1]\n",
+            "fractons",
+        ),
+        (
+            "volume_mm = [[0, 0, 0], [600, 500, 400]]\nfractions = [0.1, 1.5]\n",
+            "fractions",
+        ),
+        (
+            "volume_mm = [[0, 0, 0], [600, 500, 400]]\n[[position]]\nid = \"a\"\nstart_mm = [0, 0, 0]\nend_mm = [0, 0, 0]\n",
+            "position[1].end_mm",
+        ),
     ] {
         let p = write(dir.path(), "plan.toml", body);
-        let o = errmap(&["volumetric", "iso10360", "--model", &model, "--plan", &s(&p), "--json"]);
+        let o = errmap(&[
+            "volumetric",
+            "iso10360",
+            "--model",
+            &model,
+            "--plan",
+            &s(&p),
+            "--json",
+        ]);
         assert_eq!(o.status.code(), Some(1), "{body}: {}", stderr(&o));
         let e = stderr(&o);
         assert!(e.contains("plan.toml") && e.contains(needle), "{body}: {e}");
@@ -777,7 +942,10 @@ fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResul
     // An identified model: a gauge end beyond its measured range is refused, named.
     let mut rng = StdRng::seed_from_u64(3);
     let truth = random_machine(topo("YXZ"), &mut rng);
-    let table = simulate(&truth, &plan_file(Some("rich"), 4, 0.1).validate(Path::new("test"))?);
+    let table = simulate(
+        &truth,
+        &plan_file(Some("rich"), 4, 0.1).validate(Path::new("test"))?,
+    );
     let mut cfg = IdentifyConfig::new(topo("YXZ"));
     cfg.degree = errmap::volumetric::Degree::Fixed(2);
     let id = identify(&table, &cfg)?;
@@ -788,11 +956,30 @@ fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResul
         "far.toml",
         "[[position]]\nid = \"far\"\nstart_mm = [0, 0, 0]\nend_mm = [900, 0, 0]\nlengths_mm = [100, 850]\nplacement = \"start\"\n",
     );
-    let o = errmap(&["volumetric", "iso10360", "--model", &s(&json_model), "--plan", &s(&p), "--mpe", "2"]);
+    let o = errmap(&[
+        "volumetric",
+        "iso10360",
+        "--model",
+        &s(&json_model),
+        "--plan",
+        &s(&p),
+        "--mpe",
+        "2",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let e = stderr(&o);
-    assert!(e.contains("model.json") && e.contains("position `far`, gauge 2") && e.contains("outside"), "{e}");
-    let o = errmap(&["volumetric", "iso10360", "--model", &s(&json_model), "--mpe", "1+L/"]);
+    assert!(
+        e.contains("model.json") && e.contains("position `far`, gauge 2") && e.contains("outside"),
+        "{e}"
+    );
+    let o = errmap(&[
+        "volumetric",
+        "iso10360",
+        "--model",
+        &s(&json_model),
+        "--mpe",
+        "1+L/",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("--mpe"));
     Ok(())

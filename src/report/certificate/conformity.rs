@@ -2,7 +2,7 @@
 //! it applies to, the specification, the decision rule in words, per line a table —
 //! parameter, limits, value, U, acceptance zone, verdict — and the overall verdict.
 
-use super::{Align, BODY, CertificateData, Flow, PAGE_H, MARGIN, mm};
+use super::{Align, BODY, CertificateData, Flow, MARGIN, PAGE_H, mm};
 use crate::acceptance::tolerance::Conformity;
 
 fn num(v: f64) -> String {
