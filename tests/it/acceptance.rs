@@ -984,3 +984,22 @@ fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResul
     assert!(stderr(&o).contains("--mpe"));
     Ok(())
 }
+
+proptest::proptest! {
+    /// Any text given as an MPE parses or is refused; it never panics. A well-formed
+    /// formula gives its definition's value at any length.
+    #[test]
+    fn mpe_formulas_never_panic_and_evaluate_as_written(
+        text in "\\PC{0,24}",
+        a in 0.0f64..20.0,
+        k in 1.0f64..2000.0,
+        b in 0.0f64..50.0,
+        l in 0.0f64..5000.0,
+    ) {
+        let _ = Mpe::parse(&text, "--mpe");
+        let m = Mpe::parse(&format!("{a} + L/{k}"), "--mpe").expect("A+L/K");
+        proptest::prop_assert!((m.at(l) - (a + l / k)).abs() <= 1e-9 * (1.0 + a + l / k));
+        let m = Mpe::parse(&format!("min({a}+L/{k},{b})"), "--mpe").expect("min");
+        proptest::prop_assert!((m.at(l) - (a + l / k).min(b)).abs() <= 1e-9 * (1.0 + b));
+    }
+}
