@@ -8,7 +8,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::AcceptanceError;
-use super::rule::{DecisionRule, Limits, Verdict, aggregate};
+use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
 /// One judged result.
@@ -22,7 +22,7 @@ pub struct DecidedResult {
     pub upper: Option<f64>,
     /// [T_L + w, T_U − w].
     pub acceptance: [Option<f64>; 2],
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 /// `acceptance decide --json`.
@@ -32,7 +32,7 @@ pub struct DecideReport {
     pub guard_fraction: Option<f64>,
     pub statement: String,
     pub results: Vec<DecidedResult>,
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 /// The id cell of row `r0` as text (a number column prints as it reads).
@@ -120,7 +120,7 @@ pub fn decide_file(path: &Path, rule: &DecisionRule) -> Result<DecideReport, Acc
         rule: rule.rule.name(),
         guard_fraction: rule.fraction_shown(),
         statement,
-        verdict: aggregate(results.iter().map(|r| r.verdict)).unwrap_or(Verdict::Pass),
+        verdict: aggregate(results.iter().map(|r| r.verdict)).unwrap_or(ConformityVerdict::Pass),
         results,
     })
 }

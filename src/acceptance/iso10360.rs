@@ -21,7 +21,7 @@ use serde::Serialize;
 use super::AcceptanceError;
 use super::decide::text_cell;
 use super::mpe::Mpe;
-use super::rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
+use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
 /// The standard's name as the outputs print it.
@@ -78,7 +78,7 @@ pub struct Measurement {
     pub e0_um: f64,
     pub mpe_um: f64,
     pub u_um: f64,
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 /// One test length.
@@ -92,7 +92,7 @@ pub struct Gauge {
     /// Its E0, by repetition.
     pub e0_um: Vec<f64>,
     pub r0_um: f64,
-    pub verdict_r0: Option<Verdict>,
+    pub verdict_r0: Option<ConformityVerdict>,
 }
 
 /// One position.
@@ -100,7 +100,7 @@ pub struct Gauge {
 pub struct Position {
     pub position: String,
     pub max_abs_e0_um: f64,
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -111,13 +111,13 @@ pub struct Counts {
 }
 
 impl Counts {
-    pub fn of(verdicts: impl IntoIterator<Item = Verdict>) -> Counts {
+    pub fn of(verdicts: impl IntoIterator<Item = ConformityVerdict>) -> Counts {
         let mut c = Counts::default();
         for v in verdicts {
             match v {
-                Verdict::Pass => c.pass += 1,
-                Verdict::Indeterminate => c.indeterminate += 1,
-                Verdict::Fail => c.fail += 1,
+                ConformityVerdict::Pass => c.pass += 1,
+                ConformityVerdict::Indeterminate => c.indeterminate += 1,
+                ConformityVerdict::Fail => c.fail += 1,
             }
         }
         c
@@ -149,9 +149,9 @@ pub struct TestResult {
     pub positions: Vec<Position>,
     pub summary: Summary,
     pub deviations: Vec<String>,
-    pub verdict_e0: Verdict,
-    pub verdict_r0: Option<Verdict>,
-    pub verdict: Verdict,
+    pub verdict_e0: ConformityVerdict,
+    pub verdict_r0: Option<ConformityVerdict>,
+    pub verdict: ConformityVerdict,
 }
 
 /// A row as read.
@@ -518,7 +518,7 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
                 position: pos.clone(),
                 max_abs_e0_um: ms.clone().map(|m| m.e0_um.abs()).fold(0.0, f64::max),
                 verdict: aggregate(ms.map(|m| m.verdict).chain(gs.filter_map(|g| g.verdict_r0)))
-                    .unwrap_or(Verdict::Pass),
+                    .unwrap_or(ConformityVerdict::Pass),
             }
         })
         .collect();
@@ -556,11 +556,13 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             offsets.len()
         ));
     }
-    let verdict_e0 = aggregate(measurements.iter().map(|m| m.verdict)).unwrap_or(Verdict::Pass);
-    let verdict_r0 = config
-        .mpl_r0_um
-        .map(|_| aggregate(gauges.iter().filter_map(|g| g.verdict_r0)).unwrap_or(Verdict::Pass));
-    let verdict = aggregate([verdict_e0].into_iter().chain(verdict_r0)).unwrap_or(Verdict::Pass);
+    let verdict_e0 =
+        aggregate(measurements.iter().map(|m| m.verdict)).unwrap_or(ConformityVerdict::Pass);
+    let verdict_r0 = config.mpl_r0_um.map(|_| {
+        aggregate(gauges.iter().filter_map(|g| g.verdict_r0)).unwrap_or(ConformityVerdict::Pass)
+    });
+    let verdict =
+        aggregate([verdict_e0].into_iter().chain(verdict_r0)).unwrap_or(ConformityVerdict::Pass);
     let mut statement = rule.statement(u_given, None);
     statement.push_str(&format!(
         " Each E0 is judged against ±MPE_E0(L) = ±({}) µm, L the calibrated length in mm",

@@ -42,4 +42,4 @@ pub mod tolerance;
 
 pub use error::AcceptanceError;
 pub use mpe::Mpe;
-pub use rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
+pub use rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};

@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use super::AcceptanceError;
 use super::mpe::Mpe;
-use super::rule::{DecisionRule, Limits, Verdict, aggregate};
+use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::interp::Method;
 use crate::volumetric::compensation;
 use crate::volumetric::{
@@ -304,7 +304,7 @@ pub struct VirtualMeasurement {
     pub sigma_um: f64,
     pub mpe_um: Option<f64>,
     pub u_um: Option<f64>,
-    pub verdict: Option<Verdict>,
+    pub verdict: Option<ConformityVerdict>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -313,7 +313,7 @@ pub struct VirtualPosition {
     pub max_abs_e_um: f64,
     pub sigma_um: f64,
     pub gauge: usize,
-    pub verdict: Option<Verdict>,
+    pub verdict: Option<ConformityVerdict>,
 }
 
 /// The test after compensation.
@@ -324,7 +324,7 @@ pub struct Compensated {
     pub measurements: Vec<VirtualMeasurement>,
     pub positions: Vec<VirtualPosition>,
     pub max_abs_e_um: f64,
-    pub verdict: Option<Verdict>,
+    pub verdict: Option<ConformityVerdict>,
 }
 
 /// `volumetric iso10360 --json`.
@@ -344,7 +344,7 @@ pub struct VirtualTest {
     pub measurements: Vec<VirtualMeasurement>,
     pub positions: Vec<VirtualPosition>,
     pub max_abs_e_um: f64,
-    pub verdict: Option<Verdict>,
+    pub verdict: Option<ConformityVerdict>,
     /// Said in the report too: a residual that is not `consistent`.
     pub warnings: Vec<String>,
     pub compensated: Option<Compensated>,
@@ -544,7 +544,7 @@ fn judge(ms: &mut [VirtualMeasurement], config: &VirtualConfig) -> Result<(), Ac
 fn summarise(
     plan: &VirtualPlan,
     ms: &[VirtualMeasurement],
-) -> (Vec<VirtualPosition>, f64, Option<Verdict>) {
+) -> (Vec<VirtualPosition>, f64, Option<ConformityVerdict>) {
     let positions: Vec<VirtualPosition> = plan
         .positions
         .iter()

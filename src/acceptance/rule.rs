@@ -18,27 +18,29 @@ use serde::Serialize;
 
 use super::AcceptanceError;
 
-/// A verdict of conformity. Ordered from best to worst, so the aggregate is the maximum.
+/// A verdict of conformity (`pass`, `indeterminate`, `fail`) — not `base::Verdict`, which
+/// says whether a model explains its residual. Ordered from best to worst, so the
+/// aggregate is the maximum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Verdict {
+pub enum ConformityVerdict {
     Pass,
     Indeterminate,
     Fail,
 }
 
-impl Verdict {
+impl ConformityVerdict {
     /// The word the outputs print: `pass`, `indeterminate`, `fail`.
     pub fn as_str(self) -> &'static str {
         match self {
-            Verdict::Pass => "pass",
-            Verdict::Indeterminate => "indeterminate",
-            Verdict::Fail => "fail",
+            ConformityVerdict::Pass => "pass",
+            ConformityVerdict::Indeterminate => "indeterminate",
+            ConformityVerdict::Fail => "fail",
         }
     }
 }
 
-impl fmt::Display for Verdict {
+impl fmt::Display for ConformityVerdict {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.as_str())
     }
@@ -46,7 +48,9 @@ impl fmt::Display for Verdict {
 
 /// Several verdicts as one: `fail` if any fails, else `indeterminate` if any is, else
 /// `pass`; `None` for none at all.
-pub fn aggregate(verdicts: impl IntoIterator<Item = Verdict>) -> Option<Verdict> {
+pub fn aggregate(
+    verdicts: impl IntoIterator<Item = ConformityVerdict>,
+) -> Option<ConformityVerdict> {
     verdicts.into_iter().max()
 }
 
@@ -134,7 +138,7 @@ impl Default for DecisionRule {
 pub struct Decision {
     /// [T_L + w, T_U − w], `None` on a side without a limit.
     pub acceptance: [Option<f64>; 2],
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 impl DecisionRule {
@@ -186,17 +190,17 @@ impl DecisionRule {
         let acc_hi = limits.upper.map(|t| t - w);
         let inside = acc_lo.is_none_or(|a| a <= y) && acc_hi.is_none_or(|a| y <= a);
         let verdict = if inside {
-            Verdict::Pass
+            ConformityVerdict::Pass
         } else {
             match self.rule {
-                Rule::Simple | Rule::Guard => Verdict::Fail,
+                Rule::Simple | Rule::Guard => ConformityVerdict::Fail,
                 Rule::Iso14253 => {
                     let below = limits.lower.is_some_and(|t| y < t - u);
                     let above = limits.upper.is_some_and(|t| y > t + u);
                     if below || above {
-                        Verdict::Fail
+                        ConformityVerdict::Fail
                     } else {
-                        Verdict::Indeterminate
+                        ConformityVerdict::Indeterminate
                     }
                 }
             }

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::AcceptanceError;
-use super::rule::{DecisionRule, Limits, Rule, Verdict, aggregate};
+use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::base::Axis;
 use crate::session::iso230::AxisStats;
 use crate::session::uncertainty::StatUncertainty;
@@ -107,13 +107,13 @@ pub struct ParameterVerdict {
     pub lower_um: Option<f64>,
     pub upper_um: Option<f64>,
     pub acceptance_um: [Option<f64>; 2],
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
 }
 
 /// A line's conformity.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LineConformity {
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
     pub parameters: Vec<ParameterVerdict>,
 }
 
@@ -126,7 +126,7 @@ pub struct Conformity {
     pub guard_fraction: Option<f64>,
     pub k: f64,
     pub statement: String,
-    pub verdict: Verdict,
+    pub verdict: ConformityVerdict,
     #[serde(skip)]
     pub axis: String,
     #[serde(skip)]

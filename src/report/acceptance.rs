@@ -184,7 +184,7 @@ pub fn write_iso10360_report(
     let _ = writeln!(md, "Test file: `{source}`\n");
     let _ = writeln!(
         md,
-        "**Verdict: {}** (E0: {}{})\n",
+        "**ConformityVerdict: {}** (E0: {}{})\n",
         r.verdict,
         r.verdict_e0,
         r.verdict_r0

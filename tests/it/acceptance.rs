@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use errmap::acceptance::predicted::default_lines;
-use errmap::acceptance::{DecisionRule, Limits, Mpe, Rule, Verdict, aggregate};
+use errmap::acceptance::{ConformityVerdict, DecisionRule, Limits, Mpe, Rule, aggregate};
 use errmap::volumetric::{IdentifyConfig, Machine, Predictor, identify, simulate};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -48,7 +48,13 @@ fn s(p: &Path) -> String {
 
 const E: f64 = 1e-9;
 
-fn verdict(rule: DecisionRule, y: f64, u: f64, lo: Option<f64>, hi: Option<f64>) -> Verdict {
+fn verdict(
+    rule: DecisionRule,
+    y: f64,
+    u: f64,
+    lo: Option<f64>,
+    hi: Option<f64>,
+) -> ConformityVerdict {
     rule.decide(y, u, Limits::new(lo, hi).expect("limits"))
         .expect("decides")
         .verdict
@@ -56,7 +62,7 @@ fn verdict(rule: DecisionRule, y: f64, u: f64, lo: Option<f64>, hi: Option<f64>)
 
 #[test]
 fn iso14253_default_rule_at_and_around_every_boundary() {
-    use Verdict::*;
+    use ConformityVerdict::*;
     let r = DecisionRule::default();
     let (lo, hi, u) = (Some(-6.0), Some(6.0), 0.5);
     // Acceptance limits ±5.5, fail beyond ±6.5; the limits themselves are inclusive for
@@ -100,7 +106,7 @@ fn iso14253_default_rule_at_and_around_every_boundary() {
 
 #[test]
 fn simple_and_guard_band_rules_at_and_around_every_boundary() {
-    use Verdict::*;
+    use ConformityVerdict::*;
     let simple = DecisionRule::new(Rule::Simple, 1.0).expect("rule");
     let (lo, hi, u) = (Some(-6.0), Some(6.0), 0.5);
     for (y, want) in [
@@ -138,7 +144,7 @@ fn simple_and_guard_band_rules_at_and_around_every_boundary() {
 
 #[test]
 fn one_sided_zones_and_zones_too_narrow_to_pass() {
-    use Verdict::*;
+    use ConformityVerdict::*;
     let r = DecisionRule::default();
     // Upper limit only: the other side is unbounded, not 0.
     assert_eq!(verdict(r, -1e5, 0.5, None, Some(6.0)), Pass);
@@ -175,7 +181,7 @@ fn bad_rule_inputs_are_refused_and_verdicts_aggregate_to_the_worst() {
     assert!(Limits::new(Some(1.0), Some(0.0)).is_err());
     assert!(Limits::new(None, None).is_err());
     assert!(Limits::new(Some(f64::NAN), None).is_err());
-    use Verdict::*;
+    use ConformityVerdict::*;
     assert_eq!(aggregate([Pass, Indeterminate, Pass]), Some(Indeterminate));
     assert_eq!(aggregate([Pass, Fail, Indeterminate]), Some(Fail));
     assert_eq!(aggregate([Pass, Pass]), Some(Pass));
@@ -322,7 +328,7 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
             .starts_with("Decision rule: ISO 14253-1:2017 default rule")
     );
     let lines = doc["lines"].as_array().ok_or("lines")?;
-    let mut worst = Verdict::Pass;
+    let mut worst = ConformityVerdict::Pass;
     for (k, line) in lines.iter().enumerate() {
         // Same numbers as without tolerances.
         assert_eq!(line["iso230"], plain["lines"][k]["iso230"]);
@@ -335,7 +341,7 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
             .collect();
         assert_eq!(names, ["E", "A", "R", "B_mean"], "key order");
         let on_500 = line["line_mm"] == serde_json::json!([1.0, 500.0]);
-        let mut line_worst = Verdict::Pass;
+        let mut line_worst = ConformityVerdict::Pass;
         for p in params {
             let field = p["field"].as_str().ok_or("field")?;
             let value = line["iso230"][field].as_f64().ok_or("value")?;
@@ -355,11 +361,11 @@ fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
             };
             // The verdict computed here from the definitions.
             let want = if lo.is_none_or(|l| value >= l + u) && hi.is_none_or(|h| value <= h - u) {
-                Verdict::Pass
+                ConformityVerdict::Pass
             } else if lo.is_some_and(|l| value < l - u) || hi.is_some_and(|h| value > h + u) {
-                Verdict::Fail
+                ConformityVerdict::Fail
             } else {
-                Verdict::Indeterminate
+                ConformityVerdict::Indeterminate
             };
             assert_eq!(
                 p["verdict"],
@@ -549,20 +555,20 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     let mpe = Mpe::parse("min(1.0 + L/400, 3.0)", "--mpe")?;
     let u = 0.3;
     // Independent verdicts from the truth; the data must hold all three.
-    let want: Vec<Verdict> = truth
+    let want: Vec<ConformityVerdict> = truth
         .iter()
         .map(|(_, l, e0)| {
             let limit = mpe.at(*l);
             if e0.abs() <= limit - u {
-                Verdict::Pass
+                ConformityVerdict::Pass
             } else if e0.abs() > limit + u {
-                Verdict::Fail
+                ConformityVerdict::Fail
             } else {
-                Verdict::Indeterminate
+                ConformityVerdict::Indeterminate
             }
         })
         .collect();
-    for v in [Verdict::Pass, Verdict::Fail] {
+    for v in [ConformityVerdict::Pass, ConformityVerdict::Fail] {
         assert!(want.contains(&v), "the simulated test holds no {v}");
     }
     let report = dir.path().join("report");
@@ -620,7 +626,11 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     assert_eq!(doc["deviations"], serde_json::json!([]));
     assert_eq!(doc["summary"]["positions"], 7);
     let counts = &doc["summary"]["counts"];
-    for v in [Verdict::Pass, Verdict::Indeterminate, Verdict::Fail] {
+    for v in [
+        ConformityVerdict::Pass,
+        ConformityVerdict::Indeterminate,
+        ConformityVerdict::Fail,
+    ] {
         assert_eq!(counts[v.as_str()], want.iter().filter(|w| **w == v).count());
     }
     for f in [
@@ -632,7 +642,10 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
         assert!(report.join(f).is_file(), "{f}");
     }
     let md = std::fs::read_to_string(report.join("report.md"))?;
-    assert!(md.contains("**Verdict: fail**") && md.contains("Decision rule: ISO 14253-1:2017"));
+    assert!(
+        md.contains("**ConformityVerdict: fail**")
+            && md.contains("Decision rule: ISO 14253-1:2017")
+    );
 
     // Six positions, one of them with four lengths: evaluated, the deviations named.
     let short: Vec<usize> = (91..=105).chain(4..=6).collect();
