@@ -16,6 +16,7 @@
 //! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
 //! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, line tables (simulated or from captured sessions), identification, identifiability, the campaign's own faults (scale expansion, drift, a bad line), prediction |
 //! | [`history`] | 10 history | the calibration ledger of a fleet (SQLite or PostgreSQL, append-only): trends, EWMA charts, tolerance forecasts, advice |
+//! | [`acceptance`] | 10 decisions | conformity with a decision rule (ISO 14253-1, ILAC-G8); tolerances on ISO 230-2 results; the ISO 10360-2 length test measured and predicted from the volumetric model |
 //! | [`base`] | shared leaf | the one `Axis`, the diagnosis vocabulary, statistics, optimisers, constants |
 //! | [`plot`] | shared leaf | PNG/SVG charts with a bundled font |
 //! | [`bench`](mod@bench) | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
@@ -49,6 +50,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod acceptance;
 pub mod acquire;
 pub mod base;
 pub mod bench;

@@ -276,7 +276,26 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 }
 
 pub fn table_cmd(a: TableArgs) -> Result<()> {
+    let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
+    let conformity = match &tolerances {
+        Some((t, rule)) => {
+            let axis = reduced.summary.axis.clone().unwrap_or_default();
+            let lines: Vec<_> = reduced
+                .iso
+                .iter()
+                .zip(&reduced.budgets)
+                .map(|((l, s), b)| (*l, s, b.expanded()))
+                .collect();
+            let c = t.judge(&axis, &lines, rule)?;
+            eprintln!(
+                "table: conformity with {} ({}): {}",
+                c.specification, c.rule, c.verdict
+            );
+            Some(c)
+        }
+        None => None,
+    };
     if a.json {
         use errmap::report::json::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
         let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
@@ -285,7 +304,11 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             .iter()
             .zip(&reduced.budgets)
             .zip(&expanded)
-            .map(|(((l, s), b), expanded)| TableLineJson {
+            .enumerate()
+            .map(|(k, (((l, s), b), expanded))| TableLineJson {
+                conformity: conformity
+                    .as_ref()
+                    .map(|c| c.lines.get(k).and_then(|x| x.1.as_ref())),
                 gb_t_17421_2: GB_T_17421_2,
                 iso230: s,
                 line_mm: [l.0, l.1],
@@ -300,6 +323,7 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
             lines,
             nodes: reduced.table.points.len(),
             summary: &reduced.summary,
+            conformity: conformity.as_ref(),
         })?;
     }
     Ok(())

@@ -314,6 +314,11 @@ pub struct TableArgs {
     /// Write the ISO 230-2 report (markdown and figures) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Judge every line's E, A, B, R, M against these tolerances (TOML).
+    #[arg(long)]
+    pub tolerances: Option<PathBuf>,
+    #[command(flatten)]
+    pub rule: super::acceptance::RuleArgs,
     #[arg(long)]
     pub json: bool,
 }

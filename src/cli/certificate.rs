@@ -23,13 +23,21 @@ pub struct CertificateArgs {
     /// The PDF to write.
     #[arg(long)]
     pub out: PathBuf,
+    /// Judge every line against these tolerances (TOML) and add the statement of
+    /// conformity. Without it the certificate is unchanged.
+    #[arg(long)]
+    pub tolerances: Option<PathBuf>,
+    #[command(flatten)]
+    pub rule: super::acceptance::RuleArgs,
 }
 
 pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
     let path = session_file(&a.session)?;
     let mut inputs = vec![("SESSION", path.as_path())];
     inputs.extend(a.info.as_deref().map(|p| ("--info", p)));
+    inputs.extend(a.tolerances.as_deref().map(|p| ("--tolerances", p)));
     super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
     let info = match &a.info {
         Some(p) => CertificateInfo::read(p)?,
         None => CertificateInfo::default(),
@@ -61,8 +69,25 @@ pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
             .collect(),
         info: &info,
     };
-    certificate::write(&a.out, &data)
+    let conformity = match &tolerances {
+        Some((t, rule)) => {
+            let lines: Vec<_> = data
+                .lines
+                .iter()
+                .map(|l| (l.line_mm, l.stats, l.budget.expanded()))
+                .collect();
+            Some(t.judge(&axis, &lines, rule)?)
+        }
+        None => None,
+    };
+    certificate::write_with(&a.out, &data, conformity.as_ref())
         .with_context(|| format!("certificate of {}", path.display()))?;
+    if let Some(c) = &conformity {
+        eprintln!(
+            "certificate: statement of conformity with {}: {}",
+            c.specification, c.verdict
+        );
+    }
     eprintln!(
         "certificate: {} line(s) of axis {axis} → {}",
         data.lines.len(),

@@ -139,6 +139,8 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         session: session_dir.clone(),
         info: Some(info),
         out: a.out.join("certificate.pdf"),
+        tolerances: None,
+        rule: Default::default(),
     })?;
 
     eprintln!("errmap demo [3/6]: fit every method to the captured table, compare with the truth");

@@ -16,12 +16,14 @@
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 //! | [`import`] | import; export --existing (a controller table updated) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
+//! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+pub mod acceptance;
 pub mod acquisition;
 pub mod args;
 pub mod certificate;
@@ -95,6 +97,8 @@ pub enum Command {
     Import(import::ImportArgs),
     /// The calibration history of a fleet in a ledger (SQLite or PostgreSQL): add, report, verify.
     History(history::HistoryArgs),
+    /// Decisions of conformity; the ISO 10360-2 length measurement error test.
+    Acceptance(acceptance::AcceptanceArgs),
 }
 
 pub fn main() -> ExitCode {
@@ -153,6 +157,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),
+        Command::Acceptance(a) => acceptance::acceptance_cmd(a),
         Command::Bench(a) => {
             let mut r = if a.history_only {
                 errmap::bench::BenchReport::default()

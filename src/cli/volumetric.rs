@@ -31,6 +31,9 @@ pub enum VolumetricCommand {
     /// The plan's lines as a part program: each line's targets in order, a dwell at
     /// each, a programmed stop before each line for the laser alignment.
     Program(ProgramArgs),
+    /// The ISO 10360-2 length test predicted from an identified model (a virtual CMM),
+    /// before and after compensation.
+    Iso10360(super::acceptance::VirtualArgs),
 }
 
 #[derive(Debug, Args)]
@@ -174,6 +177,7 @@ pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
         VolumetricCommand::Predict(a) => predict_cmd(a),
         VolumetricCommand::Export(a) => export_cmd(a),
         VolumetricCommand::Program(a) => program_cmd(a),
+        VolumetricCommand::Iso10360(a) => super::acceptance::virtual_cmd(a),
     }
 }
 

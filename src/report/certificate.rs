@@ -10,6 +10,7 @@
 //! in a smaller type until it fits ([`MIN_SIZE`] at the least), so no text leaves its cell.
 //! Numbers use the print precision of [`super::iso230::decimals`].
 
+pub mod conformity;
 pub mod info;
 pub mod pdf;
 
@@ -21,6 +22,7 @@ use self::info::{CertificateInfo, Instrument};
 use self::pdf::{Doc, PAGE_H, PAGE_W, PdfError, Rgb, Weight};
 use super::iso230::decimals;
 use super::uncertainty::{STANDARDS_NOTE, budget_rows};
+use crate::acceptance::tolerance::Conformity;
 use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::Budget;
 
@@ -379,6 +381,15 @@ pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
 
 /// Renders the certificate.
 pub fn render(data: &CertificateData) -> Result<Vec<u8>, CertificateError> {
+    render_with(data, None)
+}
+
+/// Renders the certificate with its statement of conformity when `conformity` is given
+/// (after the statistics, before the signatures); without, exactly as [`render`].
+pub fn render_with(
+    data: &CertificateData,
+    conformity: Option<&Conformity>,
+) -> Result<Vec<u8>, CertificateError> {
     if data.lines.is_empty() {
         return Err(CertificateError::NoLines(data.source.to_string()));
     }
@@ -544,6 +555,9 @@ pub fn render(data: &CertificateData) -> Result<Vec<u8>, CertificateError> {
         );
     }
 
+    if let Some(c) = conformity {
+        conformity::section(&mut flow, data, c);
+    }
     flow.need(90.0);
     flow.heading("Signatures", 11.0);
     flow.y -= 36.0;
@@ -575,7 +589,16 @@ pub fn render(data: &CertificateData) -> Result<Vec<u8>, CertificateError> {
 
 /// Writes the certificate to `path`.
 pub fn write(path: &Path, data: &CertificateData) -> Result<(), CertificateError> {
-    let bytes = render(data)?;
+    write_with(path, data, None)
+}
+
+/// Writes the certificate to `path`, with its statement of conformity when given.
+pub fn write_with(
+    path: &Path,
+    data: &CertificateData,
+    conformity: Option<&Conformity>,
+) -> Result<(), CertificateError> {
+    let bytes = render_with(data, conformity)?;
     // Whole or not at all: a temporary file beside `path`, renamed into place.
     super::write_bytes(path, &bytes).map_err(|e| match e {
         super::ReportError::Io { path, source }

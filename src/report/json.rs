@@ -132,6 +132,9 @@ pub struct ReplayJson<'a> {
 /// One line of `table --json`.
 #[derive(Debug, Serialize)]
 pub struct TableLineJson<'a> {
+    /// With tolerances: the line's conformity (null when no tolerance applies to it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conformity: Option<Option<&'a crate::acceptance::tolerance::LineConformity>>,
     pub gb_t_17421_2: &'static str,
     pub iso230: &'a crate::session::iso230::AxisStats,
     pub line_mm: [f64; 2],
@@ -148,6 +151,9 @@ pub struct TableUncertaintyJson<'a> {
 /// The JSON document of `table --json` (keys in the order they were always printed).
 #[derive(Debug, Serialize)]
 pub struct TableJson<'a> {
+    /// With tolerances: the statement of conformity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conformity: Option<&'a crate::acceptance::tolerance::Conformity>,
     pub lines: Vec<TableLineJson<'a>>,
     pub nodes: usize,
     pub summary: &'a crate::session::ReductionSummary,

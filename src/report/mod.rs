@@ -8,7 +8,8 @@
 //! | [`findings`] | a comparison's findings in plain words |
 //! | [`json`] | the `compare --json` document |
 //! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
-//! | [`certificate`] | the calibration certificate PDF (`errmap certificate`) |
+//! | [`certificate`] | the calibration certificate PDF (`errmap certificate`), with its statement of conformity when tolerances are given |
+//! | [`acceptance`] | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
 //! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
@@ -25,6 +26,7 @@ use std::path::{Path, PathBuf};
 use crate::plot::PlotError;
 use crate::table::TableError;
 
+pub mod acceptance;
 pub mod certificate;
 pub mod compare;
 pub mod concealed;

@@ -25,9 +25,14 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ),
     ("history", &["table", "session", "volumetric", "base"]),
     (
+        "acceptance",
+        &["base", "table", "interp", "session", "volumetric"],
+    ),
+    (
         "report",
         &[
             "history",
+            "acceptance",
             "base",
             "plot",
             "table",

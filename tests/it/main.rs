@@ -2,6 +2,7 @@
 //! instead of ten saves CI minutes). Each module is one area; the diagnosis has its own
 //! binary in `tests/diagnosis/`.
 
+mod acceptance;
 mod acquisition;
 mod campaign;
 mod certificate;

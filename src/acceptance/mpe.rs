@@ -1,0 +1,145 @@
+//! The maximum permissible error of ISO 10360-2 as a function of the length L (mm):
+//! `A+L/K`, `min(A+L/K,B)` or `B`, A and B in µm, K > 0 (mm per µm). Blanks anywhere are
+//! ignored; nothing else parses (no `±`, no units, no other letters). The same grammar
+//! gives a length-dependent expanded uncertainty (`--u-um`).
+
+use serde::Serialize;
+
+use super::AcceptanceError;
+
+/// A parsed MPE formula.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Mpe {
+    /// The formula as given (trimmed).
+    pub formula: String,
+    /// A, µm (`None` for the form `B`).
+    pub a_um: Option<f64>,
+    /// K, mm/µm (`None` for the form `B`).
+    pub k: Option<f64>,
+    /// B, µm (`None` for the form `A+L/K`).
+    pub b_um: Option<f64>,
+}
+
+fn number(s: &str, what: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("{what} `{s}` is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("{what} `{s}` is not finite"));
+    }
+    if v < 0.0 {
+        return Err(format!("{what} = {v} is negative"));
+    }
+    if v > 1e6 {
+        return Err(format!("{what} = {v} is beyond 10⁶"));
+    }
+    Ok(v)
+}
+
+/// `A+L/K` → (A, K).
+fn linear(s: &str) -> Result<(f64, f64), String> {
+    let (a, k) = s
+        .split_once("+L/")
+        .ok_or_else(|| format!("`{s}` is not of the form A+L/K"))?;
+    let a = number(a, "A")?;
+    let k = number(k, "K")?;
+    if k <= 0.0 {
+        return Err("K must be > 0".into());
+    }
+    Ok((a, k))
+}
+
+impl Mpe {
+    /// Parses `formula`; `option` names the flag or key in the error.
+    pub fn parse(formula: &str, option: &str) -> Result<Mpe, AcceptanceError> {
+        let err = |problem: String| AcceptanceError::Formula {
+            option: option.to_string(),
+            formula: formula.to_string(),
+            problem,
+        };
+        let s: String = formula.chars().filter(|c| !c.is_whitespace()).collect();
+        if s.is_empty() {
+            return Err(err("empty".into()));
+        }
+        let (a_um, k, b_um) = if let Some(inner) = s.strip_prefix("min(") {
+            let inner = inner
+                .strip_suffix(')')
+                .ok_or_else(|| err("`min(` without its closing `)`".into()))?;
+            let (lin, b) = inner
+                .split_once(',')
+                .ok_or_else(|| err("min( needs two arguments, A+L/K and B".into()))?;
+            let (a, k) = linear(lin).map_err(err)?;
+            (Some(a), Some(k), Some(number(b, "B").map_err(err)?))
+        } else if s.contains('L') {
+            let (a, k) = linear(&s).map_err(err)?;
+            (Some(a), Some(k), None)
+        } else {
+            (None, None, Some(number(&s, "B").map_err(err)?))
+        };
+        Ok(Mpe {
+            formula: formula.trim().to_string(),
+            a_um,
+            k,
+            b_um,
+        })
+    }
+
+    /// A constant (the form `B`).
+    pub fn constant(b_um: f64) -> Mpe {
+        Mpe {
+            formula: format!("{b_um}"),
+            a_um: None,
+            k: None,
+            b_um: Some(b_um),
+        }
+    }
+
+    /// The value at length `l_mm`, µm.
+    pub fn at(&self, l_mm: f64) -> f64 {
+        let lin = match (self.a_um, self.k) {
+            (Some(a), Some(k)) => Some(a + l_mm / k),
+            _ => None,
+        };
+        match (lin, self.b_um) {
+            (Some(v), Some(b)) => v.min(b),
+            (Some(v), None) => v,
+            (None, Some(b)) => b,
+            (None, None) => 0.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_three_forms_and_their_values() {
+        let m = Mpe::parse(" 1.5 + L / 333 ", "--mpe").expect("parses");
+        assert_eq!((m.a_um, m.k, m.b_um), (Some(1.5), Some(333.0), None));
+        assert!((m.at(666.0) - 3.5).abs() < 1e-12);
+        let m = Mpe::parse("min(2+L/100, 5)", "--mpe").expect("parses");
+        assert_eq!(m.at(100.0), 3.0);
+        assert_eq!(m.at(1000.0), 5.0);
+        let m = Mpe::parse("4", "--mpe").expect("parses");
+        assert_eq!(m.at(1e3), 4.0);
+        for bad in [
+            "",
+            "A+L/K",
+            "1.5+L/0",
+            "1.5+L/-3",
+            "1.5+x/3",
+            "min(1+L/3)",
+            "min(1+L/3,2",
+            "1.5 µm",
+            "nan",
+            "inf",
+            "-2",
+            "1.5+L/3+1",
+            "max(1+L/3,2)",
+            "1,5+L/3",
+        ] {
+            assert!(Mpe::parse(bad, "--mpe").is_err(), "{bad} parsed");
+        }
+    }
+}

@@ -1,0 +1,497 @@
+//! The ISO 10360-2 reports: the measured test (`acceptance iso10360 --report`) and the
+//! virtual one (`volumetric iso10360 --report`) — `report.md`, `measurements.csv` and the
+//! chart of the error against the length with the ±MPE lines as the standard draws them,
+//! plus the acceptance limits ±(MPE − w) where a guard band applies.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use polars::prelude::*;
+
+use super::ReportError;
+use crate::acceptance::iso10360::TestResult;
+use crate::acceptance::predicted::{VirtualMeasurement, VirtualTest};
+use crate::acceptance::{DecisionRule, Mpe, Rule};
+use crate::plot::{self, XySeries, XyStyle};
+
+fn create(dir: &Path) -> Result<(), ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })
+}
+
+/// The MPE curve and its negative, sampled so that the kink of `min(A+L/K,B)` shows.
+fn mpe_series(
+    mpe: &Mpe,
+    l_max: f64,
+    sign: f64,
+    name: &str,
+    colour: usize,
+    dashed: bool,
+) -> XySeries {
+    let n = 200;
+    let x: Vec<f64> = (0..=n).map(|i| l_max * i as f64 / n as f64).collect();
+    XySeries {
+        name: name.into(),
+        y: x.iter().map(|&l| sign * mpe.at(l)).collect(),
+        x,
+        style: XyStyle::Styled {
+            colour,
+            dashed,
+            markers: false,
+        },
+    }
+}
+
+/// Acceptance limits ±(MPE(L) − w(L)) at the measured lengths, sorted by L.
+fn acceptance_series(
+    points: &[(f64, f64, f64)],
+    rule: &DecisionRule,
+    sign: f64,
+    name: &str,
+) -> XySeries {
+    let mut p: Vec<(f64, f64)> = points
+        .iter()
+        .map(|&(l, mpe, u)| (l, sign * (mpe - rule.guard_band(u))))
+        .collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0));
+    p.dedup_by(|a, b| a.0 == b.0);
+    XySeries {
+        name: name.into(),
+        x: p.iter().map(|q| q.0).collect(),
+        y: p.iter().map(|q| q.1).collect(),
+        style: XyStyle::Styled {
+            colour: 3,
+            dashed: true,
+            markers: false,
+        },
+    }
+}
+
+fn guard_applies(rule: &DecisionRule, us: impl Iterator<Item = f64>) -> bool {
+    let mut us = us;
+    rule.rule != Rule::Simple && us.any(|u| rule.guard_band(u) > 0.0)
+}
+
+/// E0 against L for a measured test: one marker series per position, ±MPE, and the
+/// acceptance limits when a guard band applies.
+fn e0_chart(dir: &Path, r: &TestResult, rule: &DecisionRule) -> Result<Vec<PathBuf>, ReportError> {
+    let l_max = r
+        .measurements
+        .iter()
+        .map(|m| m.calibrated_mm)
+        .fold(0.0, f64::max)
+        * 1.05;
+    let mut series: Vec<XySeries> = r
+        .positions
+        .iter()
+        .map(|p| {
+            let ms: Vec<_> = r
+                .measurements
+                .iter()
+                .filter(|m| m.position == p.position)
+                .collect();
+            XySeries {
+                name: format!("position {}", p.position),
+                x: ms.iter().map(|m| m.calibrated_mm).collect(),
+                y: ms.iter().map(|m| m.e0_um).collect(),
+                style: XyStyle::Points,
+            }
+        })
+        .collect();
+    series.push(mpe_series(&r.mpe, l_max, 1.0, "+MPE_E0(L)", 0, false));
+    series.push(mpe_series(&r.mpe, l_max, -1.0, "−MPE_E0(L)", 0, false));
+    if guard_applies(rule, r.measurements.iter().map(|m| m.u_um)) {
+        let pts: Vec<(f64, f64, f64)> = r
+            .measurements
+            .iter()
+            .map(|m| (m.calibrated_mm, m.mpe_um, m.u_um))
+            .collect();
+        series.push(acceptance_series(&pts, rule, 1.0, "acceptance limit"));
+        series.push(acceptance_series(&pts, rule, -1.0, "acceptance limit (−)"));
+    }
+    Ok(plot::xy(
+        &dir.join("e0_vs_length"),
+        "ISO 10360-2: E0 against the calibrated length",
+        "L / mm",
+        "E0 / µm",
+        &series,
+    )?)
+}
+
+/// Writes the measured test's report into `dir`: `report.md`, `measurements.csv`,
+/// `e0_vs_length.png`/`.svg`. Returns the files, `report.md` first.
+pub fn write_iso10360_report(
+    dir: &Path,
+    source: &str,
+    r: &TestResult,
+    rule: &DecisionRule,
+) -> Result<Vec<PathBuf>, ReportError> {
+    create(dir)?;
+    let mut files = vec![dir.join("report.md")];
+    let csv = dir.join("measurements.csv");
+    let m = &r.measurements;
+    let mut df = DataFrame::new(
+        m.len(),
+        vec![
+            Column::new(
+                "row".into(),
+                m.iter().map(|x| x.row as u64).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "position".into(),
+                m.iter().map(|x| x.position.clone()).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "gauge".into(),
+                m.iter().map(|x| x.gauge as u64).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "repetition".into(),
+                m.iter().map(|x| x.repetition as u64).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "calibrated_mm".into(),
+                m.iter().map(|x| x.calibrated_mm).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "measured_mm".into(),
+                m.iter().map(|x| x.measured_mm).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "e0_um".into(),
+                m.iter().map(|x| x.e0_um).collect::<Vec<_>>(),
+            ),
+            Column::new(
+                "mpe_um".into(),
+                m.iter().map(|x| x.mpe_um).collect::<Vec<_>>(),
+            ),
+            Column::new("u_um".into(), m.iter().map(|x| x.u_um).collect::<Vec<_>>()),
+            Column::new(
+                "verdict".into(),
+                m.iter().map(|x| x.verdict.as_str()).collect::<Vec<_>>(),
+            ),
+        ],
+    )
+    .map_err(|e| crate::table::format_err(&csv, e))?;
+    crate::table::write_frame(&csv, &mut df)?;
+    files.push(csv);
+    files.extend(e0_chart(dir, r, rule)?);
+
+    let mut md = String::new();
+    let _ = writeln!(md, "# {} — length measurement error test\n", r.standard);
+    let _ = writeln!(md, "Test file: `{source}`\n");
+    let _ = writeln!(
+        md,
+        "**ConformityVerdict: {}** (E0: {}{})\n",
+        r.verdict,
+        r.verdict_e0,
+        r.verdict_r0
+            .map(|v| format!(", R0: {v}"))
+            .unwrap_or_default()
+    );
+    let _ = writeln!(md, "{}\n", r.statement);
+    let s = &r.summary;
+    let _ = writeln!(
+        md,
+        "{} measurements, {} positions, {} test lengths; largest |E0| {:.3} µm, largest R0 \
+         {:.3} µm; E0 verdicts: {} pass, {} indeterminate, {} fail.\n",
+        s.measurements,
+        s.positions,
+        s.gauges,
+        s.max_abs_e0_um,
+        s.max_r0_um,
+        s.counts.pass,
+        s.counts.indeterminate,
+        s.counts.fail
+    );
+    let _ = writeln!(
+        md,
+        "MPE_E0(L) = {} µm (L in mm){}.\n",
+        r.mpe.formula,
+        r.mpl_r0_um
+            .map(|m| format!("; MPL_R0 = {m} µm"))
+            .unwrap_or_default()
+    );
+    md.push_str("## Deviations from the standard's design\n\n");
+    if r.deviations.is_empty() {
+        md.push_str("None: 7 positions × 5 test lengths × 3 repetitions.\n\n");
+    } else {
+        for d in &r.deviations {
+            let _ = writeln!(md, "- {d}");
+        }
+        md.push('\n');
+    }
+    md.push_str("## Positions\n\n| position | max \\|E0\\| / µm | verdict |\n|---|---:|---|\n");
+    for p in &r.positions {
+        let _ = writeln!(
+            md,
+            "| {} | {:.3} | {} |",
+            p.position, p.max_abs_e0_um, p.verdict
+        );
+    }
+    md.push_str("\n## Worst results\n\n| row | position | gauge | rep. | L / mm | E0 / µm | MPE / µm | U / µm | verdict |\n|---:|---|---:|---:|---:|---:|---:|---:|---|\n");
+    let mut worst: Vec<_> = r.measurements.iter().collect();
+    worst.sort_by(|a, b| {
+        (b.e0_um.abs() / b.mpe_um.max(1e-12)).total_cmp(&(a.e0_um.abs() / a.mpe_um.max(1e-12)))
+    });
+    for m in worst.iter().take(10) {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {:.4} | {:.3} | {:.3} | {:.3} | {} |",
+            m.row,
+            m.position,
+            m.gauge,
+            m.repetition,
+            m.calibrated_mm,
+            m.e0_um,
+            m.mpe_um,
+            m.u_um,
+            m.verdict
+        );
+    }
+    md.push_str("\n## Repeatability range R0\n\n| position | gauge | L / mm | rows | R0 / µm | verdict |\n|---|---:|---:|---|---:|---|\n");
+    for g in &r.gauges {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.4} | {} | {:.3} | {} |",
+            g.position,
+            g.gauge,
+            g.calibrated_mm,
+            g.rows
+                .iter()
+                .map(|x| x.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            g.r0_um,
+            g.verdict_r0.map_or("not judged", |v| v.as_str())
+        );
+    }
+    md.push_str("\n## Chart\n\n![E0 against L](e0_vs_length.png)\n\nE0 of every measurement against its calibrated length, one marker per position; the solid lines are ±MPE_E0(L), the dashed ones (when drawn) the acceptance limits ±(MPE − w) of the decision rule.\n");
+    super::write_text(&files[0], &md)?;
+    Ok(files)
+}
+
+fn virtual_rows(ms: &[VirtualMeasurement]) -> Vec<&VirtualMeasurement> {
+    ms.iter().filter(|m| m.repetition == 1).collect()
+}
+
+/// Writes the virtual test's report into `dir`: `report.md`, `measurements.csv` (one row
+/// per test length, repetitions being identical) and `e_vs_length.png`/`.svg` (before,
+/// and after compensation when predicted).
+pub fn write_virtual_report(
+    dir: &Path,
+    model: &str,
+    t: &VirtualTest,
+) -> Result<Vec<PathBuf>, ReportError> {
+    create(dir)?;
+    let mut files = vec![dir.join("report.md")];
+    let csv = dir.join("measurements.csv");
+    let before = virtual_rows(&t.measurements);
+    let after: Option<Vec<&VirtualMeasurement>> = t
+        .compensated
+        .as_ref()
+        .map(|c| virtual_rows(&c.measurements));
+    let mut cols = vec![
+        Column::new(
+            "position".into(),
+            before
+                .iter()
+                .map(|m| m.position.clone())
+                .collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "gauge".into(),
+            before.iter().map(|m| m.gauge as u64).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "length_mm".into(),
+            before.iter().map(|m| m.length_mm).collect::<Vec<_>>(),
+        ),
+    ];
+    for (k, name) in ["x1_mm", "y1_mm", "z1_mm"].iter().enumerate() {
+        cols.push(Column::new(
+            (*name).into(),
+            before.iter().map(|m| m.p1_mm[k]).collect::<Vec<_>>(),
+        ));
+    }
+    for (k, name) in ["x2_mm", "y2_mm", "z2_mm"].iter().enumerate() {
+        cols.push(Column::new(
+            (*name).into(),
+            before.iter().map(|m| m.p2_mm[k]).collect::<Vec<_>>(),
+        ));
+    }
+    cols.push(Column::new(
+        "e_um".into(),
+        before.iter().map(|m| m.e_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "sigma_um".into(),
+        before.iter().map(|m| m.sigma_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "mpe_um".into(),
+        before.iter().map(|m| m.mpe_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "u_um".into(),
+        before.iter().map(|m| m.u_um).collect::<Vec<_>>(),
+    ));
+    cols.push(Column::new(
+        "verdict".into(),
+        before
+            .iter()
+            .map(|m| m.verdict.map(|v| v.as_str()))
+            .collect::<Vec<_>>(),
+    ));
+    if let Some(a) = &after {
+        cols.push(Column::new(
+            "e_after_um".into(),
+            a.iter().map(|m| m.e_um).collect::<Vec<_>>(),
+        ));
+        cols.push(Column::new(
+            "verdict_after".into(),
+            a.iter()
+                .map(|m| m.verdict.map(|v| v.as_str()))
+                .collect::<Vec<_>>(),
+        ));
+    }
+    let mut df =
+        DataFrame::new(before.len(), cols).map_err(|e| crate::table::format_err(&csv, e))?;
+    crate::table::write_frame(&csv, &mut df)?;
+    files.push(csv);
+
+    let l_max = before.iter().map(|m| m.length_mm).fold(0.0, f64::max) * 1.05;
+    let mut series = vec![XySeries {
+        name: "predicted E (model)".into(),
+        x: before.iter().map(|m| m.length_mm).collect(),
+        y: before.iter().map(|m| m.e_um).collect(),
+        style: XyStyle::Points,
+    }];
+    if let Some(a) = &after {
+        series.push(XySeries {
+            name: "after compensation".into(),
+            x: a.iter().map(|m| m.length_mm).collect(),
+            y: a.iter().map(|m| m.e_um).collect(),
+            style: XyStyle::Points,
+        });
+    }
+    if let Some(mpe) = &t.mpe {
+        series.push(mpe_series(mpe, l_max, 1.0, "+MPE_E0(L)", 0, false));
+        series.push(mpe_series(mpe, l_max, -1.0, "−MPE_E0(L)", 0, false));
+    }
+    files.extend(plot::xy(
+        &dir.join("e_vs_length"),
+        "ISO 10360-2 predicted from the volumetric model",
+        "L / mm",
+        "E / µm",
+        &series,
+    )?);
+
+    let mut md = String::new();
+    let _ = writeln!(md, "# {} predicted — the virtual test\n", t.standard);
+    let _ = writeln!(
+        md,
+        "Model: `{model}` (topology {}, residual `{}`); plan: {}; volume [{:?}, {:?}] mm.\n",
+        t.topology, t.model_residual, t.plan, t.volume_mm[0], t.volume_mm[1]
+    );
+    for w in &t.warnings {
+        let _ = writeln!(md, "> **Warning:** {w}\n");
+    }
+    match (t.verdict, &t.statement) {
+        (Some(v), Some(s)) => {
+            let _ = writeln!(
+                md,
+                "**Predicted verdict: {v}**{}\n",
+                t.compensated
+                    .as_ref()
+                    .and_then(|c| c.verdict)
+                    .map(|a| format!("; after compensation: **{a}**"))
+                    .unwrap_or_default()
+            );
+            let _ = writeln!(md, "{s}\n");
+        }
+        _ => md.push_str("No MPE given: the errors are predicted, not judged.\n\n"),
+    }
+    let _ = writeln!(
+        md,
+        "Largest |E| {:.3} µm{}. E is the geometric part of E0 only (no probing error, repeatability or thermal state); σ is the model's one-sigma.\n",
+        t.max_abs_e_um,
+        t.compensated
+            .as_ref()
+            .map(|c| format!(
+                ", after compensation {:.3} µm ({} table positions per axis, tool point)",
+                c.max_abs_e_um, c.table_points
+            ))
+            .unwrap_or_default()
+    );
+    md.push_str("## Positions\n\n");
+    let after_pos = t.compensated.as_ref().map(|c| &c.positions);
+    if after_pos.is_some() {
+        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict | after: max \\|E\\| / µm | verdict |\n|---|---:|---:|---:|---|---:|---|\n");
+    } else {
+        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict |\n|---|---:|---:|---:|---|\n");
+    }
+    for (i, p) in t.positions.iter().enumerate() {
+        let v = p.verdict.map_or("—", |v| v.as_str());
+        match after_pos.and_then(|a| a.get(i)) {
+            Some(a) => {
+                let _ = writeln!(
+                    md,
+                    "| {} | {:.3} | {:.3} | {} | {} | {:.3} | {} |",
+                    p.position,
+                    p.max_abs_e_um,
+                    p.sigma_um,
+                    p.gauge,
+                    v,
+                    a.max_abs_e_um,
+                    a.verdict.map_or("—", |v| v.as_str())
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    md,
+                    "| {} | {:.3} | {:.3} | {} | {} |",
+                    p.position, p.max_abs_e_um, p.sigma_um, p.gauge, v
+                );
+            }
+        }
+    }
+    md.push_str("\n## Test lengths\n\n| position | gauge | L / mm | E / µm | σ / µm | MPE / µm | U / µm | verdict |");
+    if after.is_some() {
+        md.push_str(" after: E / µm | verdict |");
+    }
+    md.push_str("\n|---|---:|---:|---:|---:|---:|---:|---|");
+    if after.is_some() {
+        md.push_str("---:|---|");
+    }
+    md.push('\n');
+    for (i, m) in before.iter().enumerate() {
+        let o = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
+        let _ = write!(
+            md,
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
+            m.position,
+            m.gauge,
+            m.length_mm,
+            m.e_um,
+            m.sigma_um,
+            o(m.mpe_um),
+            o(m.u_um),
+            m.verdict.map_or("—", |v| v.as_str())
+        );
+        if let Some(a) = after.as_ref().and_then(|a| a.get(i)) {
+            let _ = write!(
+                md,
+                " {:.3} | {} |",
+                a.e_um,
+                a.verdict.map_or("—", |v| v.as_str())
+            );
+        }
+        md.push('\n');
+    }
+    md.push_str("\n## Chart\n\n![E against L](e_vs_length.png)\n\nThe predicted error of each test length against its length (repetitions are identical), with ±MPE_E0(L) when given.\n");
+    super::write_text(&files[0], &md)?;
+    Ok(files)
+}
