@@ -51,6 +51,7 @@
 pub mod acquire;
 pub mod base;
 pub mod bench;
+pub mod circular;
 pub mod diagnose;
 pub mod evaluate;
 pub mod export;

@@ -23,8 +23,13 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
     (
+        "circular",
+        &["table", "volumetric", "base"],
+    ),
+    (
         "report",
         &[
+            "circular",
             "base",
             "plot",
             "table",
