@@ -218,7 +218,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-fn fit_columns(cols: &[Vec<f64>], y: &[f64]) -> Fit {
+fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
+    let cols: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
     let k = cols.len();
     let norms: Vec<f64> = cols
         .iter()
@@ -243,18 +244,27 @@ fn fit_columns(cols: &[Vec<f64>], y: &[f64]) -> Fit {
             g[(j, i)] = v;
         }
     }
-    let yy = dot(y, y);
     let svd = g.clone().svd(true, true);
-    let tol = 1e-11 * svd.singular_values.max().max(1e-300);
+    let tol = 1e-10 * svd.singular_values.max().max(1e-300);
     let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
     let pinv = svd
         .pseudo_inverse(tol)
         .unwrap_or_else(|_| DMatrix::zeros(k, k));
     let cs = &pinv * &b;
-    let rss = (yy - b.dot(&cs)).max(0.0);
-    let coef = (0..k)
+    let coef: Vec<f64> = (0..k)
         .map(|i| if norms[i] > 0.0 { cs[i] / norms[i] } else { 0.0 })
         .collect();
+    // The residual itself, not yᵀy − bᵀc (which cancels badly when the columns are
+    // nearly dependent).
+    let mut r = y.to_vec();
+    for (col, c) in cols.iter().zip(&coef) {
+        if *c != 0.0 {
+            for (ri, v) in r.iter_mut().zip(col.iter()) {
+                *ri -= c * v;
+            }
+        }
+    }
+    let rss = dot(&r, &r);
     let mut inv = pinv;
     for i in 0..k {
         for j in 0..k {
@@ -349,6 +359,28 @@ fn golden(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64, iters: usize) -> f64
     if fa < fb { a } else { b }
 }
 
+/// Every candidate's columns, computed once.
+fn cache(data: &Data, set: &[Cand]) -> Vec<Vec<Vec<f64>>> {
+    set.iter().map(|c| data.cand_cols(c)).collect()
+}
+
+/// The columns of setup + the cached candidates but `skip`, with `extra` appended.
+fn assemble<'a>(
+    setup: &'a [Vec<f64>],
+    cached: &'a [Vec<Vec<f64>>],
+    skip: Option<usize>,
+    extra: &'a [Vec<f64>],
+) -> Vec<&'a [f64]> {
+    let mut out: Vec<&[f64]> = setup.iter().map(|c| c.as_slice()).collect();
+    for (k, cols) in cached.iter().enumerate() {
+        if Some(k) != skip {
+            out.extend(cols.iter().map(|c| c.as_slice()));
+        }
+    }
+    out.extend(extra.iter().map(|c| c.as_slice()));
+    out
+}
+
 /// The columns of setup + `set`.
 fn design(data: &Data, set: &[Cand]) -> Vec<Vec<f64>> {
     let mut cols = data.setup_cols();
@@ -360,6 +392,13 @@ fn design(data: &Data, set: &[Cand]) -> Vec<Vec<f64>> {
 
 /// Scans then refines the nonlinear parameter of every nonlinear candidate of `set`.
 fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
+    for c in set.iter_mut().filter(|c| c.nl <= 0.0) {
+        c.nl = match c.id {
+            EffectId::ReversalSpike => (b.tau_ms.0 * b.tau_ms.1).sqrt(),
+            EffectId::CyclicError => 2.0 / (b.inv_period.0 + b.inv_period.1),
+            _ => 0.0,
+        };
+    }
     let linear: Vec<Cand> = set.iter().copied().filter(|c| !nonlinear(c.id)).collect();
     let resid = if scan {
         let cols = design(data, &linear);
@@ -392,33 +431,40 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
             EffectId::ReversalSpike => (u_hi - u_lo) / 40.0,
             _ => b.inv_period_step,
         };
+        let setup = data.setup_cols();
+        let cached = cache(data, set);
+        let joint = |u: f64| {
+            let extra = data.cand_cols(&Cand { nl: to_nl(u), ..c });
+            fit_columns(&assemble(&setup, &cached, Some(k), &extra), &data.dr).rss
+        };
         let mut u_best = if c.nl > 0.0 { from_nl(c.nl) } else { u_lo };
         if let Some(resid) = &resid {
             let count = ((u_hi - u_lo) / step).ceil().max(1.0) as usize;
             let mut best = f64::INFINITY;
             for i in 0..=count {
                 let u = u_lo + (u_hi - u_lo) * i as f64 / count as f64;
-                let rss = profile_rss(
-                    data,
-                    resid,
-                    &Cand {
-                        nl: to_nl(u),
-                        ..c
-                    },
-                );
+                let rss = if c.id == EffectId::ReversalSpike {
+                    // Few steps: scan on the joint fit (a spike and a backlash overlap).
+                    joint(u)
+                } else {
+                    profile_rss(
+                        data,
+                        resid,
+                        &Cand {
+                            nl: to_nl(u),
+                            ..c
+                        },
+                    )
+                };
                 if rss < best {
                     best = rss;
                     u_best = u;
                 }
             }
         }
-        let joint = |u: f64| {
-            let mut trial = set.to_vec();
-            trial[k].nl = to_nl(u);
-            fit_columns(&design(data, &trial), &data.dr).rss
-        };
-        let lo = (u_best - step).max(u_lo);
-        let hi = (u_best + step).min(u_hi);
+        let reach = if c.id == EffectId::ReversalSpike { 2.0 } else { 1.0 };
+        let lo = (u_best - reach * step).max(u_lo);
+        let hi = (u_best + reach * step).min(u_hi);
         let u = golden(lo, hi, joint, 18);
         set[k].nl = to_nl(u);
     }
@@ -618,12 +664,13 @@ pub fn diagnose(test: &CircularTest, cfg: &DiagnoseConfig) -> CircularDiagnosis 
         if set.is_empty() {
             break;
         }
-        let rss_now = fit_columns(&design(&data, &set), &data.dr).rss;
+        let setup = data.setup_cols();
+        let cached = cache(&data, &set);
+        let rss_now = fit_columns(&assemble(&setup, &cached, None, &[]), &data.dr).rss;
         let (k, rise) = (0..set.len())
             .map(|k| {
-                let mut less = set.clone();
-                less.remove(k);
-                (k, fit_columns(&design(&data, &less), &data.dr).rss - rss_now)
+                let less = assemble(&setup, &cached, Some(k), &[]);
+                (k, fit_columns(&less, &data.dr).rss - rss_now)
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("set is not empty");

@@ -5,6 +5,7 @@
 mod acquisition;
 mod campaign;
 mod certificate;
+mod circular;
 mod cli;
 mod experiment;
 mod export;
