@@ -156,6 +156,9 @@ pub struct CircularDiagnosis {
     /// The residual noise σ of the final fit, µm, and the samples fitted.
     pub sigma_um: f64,
     pub samples_fitted: usize,
+    /// The comparison with a volumetric model, when one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link: Option<super::link::Link>,
 }
 
 /// One candidate effect: id, slot and its nonlinear parameter (τ ms or period mm; 0 for
@@ -840,5 +843,6 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
         },
         sigma_um: sigma2.max(0.0).sqrt(),
         samples_fitted: n,
+        link: None,
     }
 }

@@ -23,6 +23,7 @@ use clap::{Parser, Subcommand};
 pub mod acquisition;
 pub mod args;
 pub mod certificate;
+pub mod circular;
 pub mod demo;
 pub mod diagnose;
 pub mod guard;
@@ -80,6 +81,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
     Volumetric(volumetric::VolumetricArgs),
+    /// Ballbar circular tests (ISO 230-4): evaluate, diagnose, simulate.
+    Circular(circular::CircularArgs),
     /// Write the calibration certificate (PDF) of a session.
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
@@ -137,6 +140,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Plan(a) => plan::plan_cmd(a),
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
+        Command::Circular(a) => circular::circular_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::Bench(a) => {
             let r = errmap::bench::run(&errmap::bench::BenchConfig {

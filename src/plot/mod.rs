@@ -63,6 +63,7 @@ mod error;
 mod render;
 mod scale;
 mod text;
+pub mod polar;
 
 pub use error::PlotError;
 pub use text::register_fonts;

@@ -25,6 +25,7 @@ use crate::plot::PlotError;
 use crate::table::TableError;
 
 pub mod certificate;
+pub mod circular;
 pub mod compare;
 pub mod concealed;
 pub mod diagnosis;
