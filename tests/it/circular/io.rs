@@ -33,7 +33,7 @@ fn refused(csv: &str, meta: &str) -> String {
 #[test]
 fn bad_traces_are_refused_by_line_and_column() {
     let cases: Vec<(String, String, &str)> = vec![
-        (trace(|i, l| if i == 1 { "run,direction,angle_deg".into() } else { l }), META.to_string(), "`dr_um` is missing"),
+        (trace(|i, l| if i == 1 { "run,direction,angle_deg".into() } else { l }), META.to_string(), "t.csv: row 1 (line 2)"),
         (trace(|i, l| if i == 5 { "1,1,3.0,inf".into() } else { l }), META.to_string(), "line 5: column dr_um: inf is not a finite number"),
         (trace(|i, l| if i == 7 { "1,1,5.0,0,5".into() } else { l }), META.to_string(), "t.csv"),
         (trace(|i, l| if i == 6 { "1,2,4.0,0.5".into() } else { l }), META.to_string(), "line 6: column direction: 2 is not +1"),
