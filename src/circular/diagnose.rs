@@ -255,7 +255,13 @@ fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
         .unwrap_or_else(|_| DMatrix::zeros(k, k));
     let cs = &pinv * &b;
     let coef: Vec<f64> = (0..k)
-        .map(|i| if norms[i] > 0.0 { cs[i] / norms[i] } else { 0.0 })
+        .map(|i| {
+            if norms[i] > 0.0 {
+                cs[i] / norms[i]
+            } else {
+                0.0
+            }
+        })
         .collect();
     // The residual itself, not yᵀy − bᵀc (which cancels badly when the columns are
     // nearly dependent).
@@ -450,14 +456,7 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
                     // Few steps: scan on the joint fit (a spike and a backlash overlap).
                     joint(u)
                 } else {
-                    profile_rss(
-                        data,
-                        resid,
-                        &Cand {
-                            nl: to_nl(u),
-                            ..c
-                        },
-                    )
+                    profile_rss(data, resid, &Cand { nl: to_nl(u), ..c })
                 };
                 if rss < best {
                     best = rss;
@@ -465,7 +464,11 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
                 }
             }
         }
-        let reach = if c.id == EffectId::ReversalSpike { 2.0 } else { 1.0 };
+        let reach = if c.id == EffectId::ReversalSpike {
+            2.0
+        } else {
+            1.0
+        };
         let lo = (u_best - reach * step).max(u_lo);
         let hi = (u_best + reach * step).min(u_hi);
         let u = golden(lo, hi, joint, 18);
@@ -508,7 +511,11 @@ fn words(test: &CircularTest, c: &Cand, effect: &Effect, both: bool) -> String {
              ({rev}), in both directions",
             b_um.abs() / 2.0,
             b_um.abs(),
-            if b_um >= 0.0 { "outward" } else { "inward (over-compensated)" }
+            if b_um >= 0.0 {
+                "outward"
+            } else {
+                "inward (over-compensated)"
+            }
         ),
         Effect::ReversalSpike { h_um, .. } => format!(
             "{} spikes of {:.2} µm as {name} reverses ({rev}), on the side the motion leaves \
@@ -533,16 +540,32 @@ fn words(test: &CircularTest, c: &Cand, effect: &Effect, both: bool) -> String {
         Effect::ServoMismatch { dt_ms } => format!(
             "{} lags {:.3} ms more than {}: an oval along 45°/135° that turns over between \
              ccw and cw",
-            if dt_ms >= 0.0 { Slot::A.label(plane) } else { Slot::B.label(plane) },
+            if dt_ms >= 0.0 {
+                Slot::A.label(plane)
+            } else {
+                Slot::B.label(plane)
+            },
             dt_ms.abs(),
-            if dt_ms >= 0.0 { Slot::B.label(plane) } else { Slot::A.label(plane) }
+            if dt_ms >= 0.0 {
+                Slot::B.label(plane)
+            } else {
+                Slot::A.label(plane)
+            }
         ),
         Effect::ScaleMismatch { ppm } => format!(
             "{} reads {:.2} ppm longer than {}: an oval along the axes, the same in both \
              directions",
-            if ppm >= 0.0 { Slot::A.label(plane) } else { Slot::B.label(plane) },
+            if ppm >= 0.0 {
+                Slot::A.label(plane)
+            } else {
+                Slot::B.label(plane)
+            },
             ppm.abs(),
-            if ppm >= 0.0 { Slot::B.label(plane) } else { Slot::A.label(plane) }
+            if ppm >= 0.0 {
+                Slot::B.label(plane)
+            } else {
+                Slot::A.label(plane)
+            }
         ),
         Effect::Squareness { urad } => {
             let base = format!(
@@ -571,7 +594,10 @@ fn words(test: &CircularTest, c: &Cand, effect: &Effect, both: bool) -> String {
 fn effect_of(c: &Cand, coef: &[f64], cov: &DMatrix<f64>) -> (Effect, Vec<(ParamName, f64)>) {
     let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
     match c.id {
-        EffectId::Backlash => (Effect::Backlash { b_um: coef[0] }, vec![(ParamName::BUm, sd(0))]),
+        EffectId::Backlash => (
+            Effect::Backlash { b_um: coef[0] },
+            vec![(ParamName::BUm, sd(0))],
+        ),
         EffectId::ReversalSpike => (
             Effect::ReversalSpike {
                 h_um: coef[0],
@@ -590,7 +616,8 @@ fn effect_of(c: &Cand, coef: &[f64], cov: &DMatrix<f64>) -> (Effect, Vec<(ParamN
             let ga = [x / a, y / a];
             let gp = [-y / (a * a), x / (a * a)];
             let q = |g: [f64; 2]| {
-                (g[0] * g[0] * cov[(0, 0)] + 2.0 * g[0] * g[1] * cov[(0, 1)]
+                (g[0] * g[0] * cov[(0, 0)]
+                    + 2.0 * g[0] * g[1] * cov[(0, 1)]
                     + g[1] * g[1] * cov[(1, 1)])
                     .max(0.0)
                     .sqrt()
@@ -711,7 +738,12 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
             };
             let (up, down) = (eval(c.nl + h), eval(c.nl - h));
             nl_index.push(Some(jac.len()));
-            jac.push(up.iter().zip(&down).map(|(u, d)| (u - d) / (2.0 * h)).collect());
+            jac.push(
+                up.iter()
+                    .zip(&down)
+                    .map(|(u, d)| (u - d) / (2.0 * h))
+                    .collect(),
+            );
         } else {
             nl_index.push(None);
         }

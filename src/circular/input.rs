@@ -130,7 +130,11 @@ impl TestMeta {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(key_err(path, key, format!("{v} must be a finite number > 0")))
+                Err(key_err(
+                    path,
+                    key,
+                    format!("{v} must be a finite number > 0"),
+                ))
             }
         };
         positive("radius_mm", self.radius_mm)?;
@@ -172,7 +176,11 @@ impl TestMeta {
         if let Some(c) = self.centre_mm
             && c.iter().any(|v| !v.is_finite())
         {
-            return Err(key_err(path, "centre_mm", "every coordinate must be finite"));
+            return Err(key_err(
+                path,
+                "centre_mm",
+                "every coordinate must be finite",
+            ));
         }
         Ok(())
     }
@@ -291,7 +299,11 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
     for row0 in 0..df.height() {
         let run_v = cell(&run_c, row0, "run")?;
         if run_v.fract() != 0.0 || run_v.abs() > 1e15 {
-            return Err(bad(row0, "run", format!("{run_v} is not an integer run id")));
+            return Err(bad(
+                row0,
+                "run",
+                format!("{run_v} is not an integer run id"),
+            ));
         }
         let run_id = run_v as i64;
         let d = cell(&dir_c, row0, "direction")?;
@@ -308,10 +320,7 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
         };
         let angle = cell(&ang_c, row0, "angle_deg")?;
         let dr = cell(&dr_c, row0, "dr_um")?;
-        let t = t_c
-            .as_ref()
-            .map(|c| cell(c, row0, "t_s"))
-            .transpose()?;
+        let t = t_c.as_ref().map(|c| cell(c, row0, "t_s")).transpose()?;
         let new_run = runs.last().is_none_or(|r| r.id != run_id);
         if new_run {
             if runs.iter().any(|r| r.id == run_id) {
@@ -362,7 +371,11 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
                 "angle_deg",
                 format!(
                     "{angle} after {prev}: the angle must strictly {} within a {} run",
-                    if sense == Sense::Ccw { "increase" } else { "decrease" },
+                    if sense == Sense::Ccw {
+                        "increase"
+                    } else {
+                        "decrease"
+                    },
                     sense.as_str()
                 ),
             ));
@@ -371,7 +384,11 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
             if let Some(&prev) = ts.last()
                 && t < prev
             {
-                return Err(bad(row0, "t_s", format!("{t} after {prev}: time decreases")));
+                return Err(bad(
+                    row0,
+                    "t_s",
+                    format!("{t} after {prev}: time decreases"),
+                ));
             }
             ts.push(t);
         }

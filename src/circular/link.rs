@@ -109,11 +109,19 @@ pub fn link(
         .map(|k| pts.iter().map(|p| setup_columns(p)[k]).collect())
         .collect();
     for (id, slot, _) in TERMS {
-        cols.push(pts.iter().map(|p| columns(id, slot, 0.0, p, &g)[0]).collect());
+        cols.push(
+            pts.iter()
+                .map(|p| columns(id, slot, 0.0, p, &g)[0])
+                .collect(),
+        );
     }
     let k = cols.len();
     let ata = nalgebra::DMatrix::from_fn(k, k, |i, j| {
-        cols[i].iter().zip(&cols[j]).map(|(a, b)| a * b).sum::<f64>()
+        cols[i]
+            .iter()
+            .zip(&cols[j])
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
     });
     let atb = nalgebra::DVector::from_fn(k, |i, _| {
         cols[i].iter().zip(&dr).map(|(a, b)| a * b).sum::<f64>()

@@ -220,7 +220,10 @@ pub fn dr_um(effect: &Effect, slot: Slot, p: &Point, g: &Geometry) -> f64 {
             phase_rad,
         } => (
             period_mm,
-            [amplitude_um * phase_rad.cos(), amplitude_um * phase_rad.sin()],
+            [
+                amplitude_um * phase_rad.cos(),
+                amplitude_um * phase_rad.sin(),
+            ],
         ),
         Effect::Straightness { bow_um } => (0.0, [bow_um, 0.0]),
         Effect::ServoMismatch { dt_ms } => (0.0, [dt_ms, 0.0]),

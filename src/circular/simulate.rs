@@ -131,10 +131,9 @@ impl MachineModel {
         let mut effects = Vec::new();
         for (k, e) in raw.effect.iter().enumerate() {
             let key = format!("effect[{k}]");
-            let id: EffectId = e
-                .id
-                .parse()
-                .map_err(|_| key_err(path, &format!("{key}.id"), format!("`{}` is unknown", e.id)))?;
+            let id: EffectId = e.id.parse().map_err(|_| {
+                key_err(path, &format!("{key}.id"), format!("`{}` is unknown", e.id))
+            })?;
             if !EffectId::CIRCULAR.contains(&id) {
                 return Err(key_err(
                     path,
@@ -216,7 +215,10 @@ pub fn simulate(model: &MachineModel) -> CircularTest {
     let omega = meta.omega_rad_per_s();
     let fs = meta.sample_rate_hz.unwrap_or(200.0);
     let (lo, hi) = meta.arc_deg_range();
-    let (lo, hi) = ((lo - meta.overshoot_deg).to_radians(), (hi + meta.overshoot_deg).to_radians());
+    let (lo, hi) = (
+        (lo - meta.overshoot_deg).to_radians(),
+        (hi + meta.overshoot_deg).to_radians(),
+    );
     let mut runs = Vec::new();
     for (k, &sense) in model.directions.iter().enumerate() {
         let s = sense.s();

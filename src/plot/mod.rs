@@ -60,10 +60,10 @@
 
 mod draw;
 mod error;
+pub mod polar;
 mod render;
 mod scale;
 mod text;
-pub mod polar;
 
 pub use error::PlotError;
 pub use text::register_fonts;

@@ -14,7 +14,7 @@ use plotters::prelude::*;
 use super::draw::{PALETTE, de};
 use super::error::PlotError;
 use super::render::{whole, with_suffix};
-use super::text::{fonts_ready, font};
+use super::text::{font, fonts_ready};
 use plotters::style::FontStyle;
 
 /// The side of the square image, pixels.
@@ -113,17 +113,28 @@ fn draw<DB: DrawingBackend>(
     root.draw(&Text::new(chart.title.clone(), (20, 12), style(20.0)))
         .map_err(de)?;
     for (i, line) in chart.notes.iter().enumerate() {
-        root.draw(&Text::new(line.clone(), (20, 40 + 18 * i as i32), style(14.0)))
-            .map_err(de)?;
+        root.draw(&Text::new(
+            line.clone(),
+            (20, 40 + 18 * i as i32),
+            style(14.0),
+        ))
+        .map_err(de)?;
     }
     // Rings every division, the nominal circle darker; spokes every 30°.
     for ring in -4i32..=4 {
         let r = r_px + 32.0 * ring as f64;
-        let colour = if ring == 0 { RGBColor(0x60, 0x60, 0x60) } else { grid };
+        let colour = if ring == 0 {
+            RGBColor(0x60, 0x60, 0x60)
+        } else {
+            grid
+        };
         let pts: Vec<(i32, i32)> = (0..=360)
             .map(|d| {
                 let t = (d as f64).to_radians();
-                ((cx + r * t.cos()).round() as i32, (cy - r * t.sin()).round() as i32)
+                (
+                    (cx + r * t.cos()).round() as i32,
+                    (cy - r * t.sin()).round() as i32,
+                )
             })
             .collect();
         root.draw(&PathElement::new(pts, colour.stroke_width(1)))
@@ -143,7 +154,10 @@ fn draw<DB: DrawingBackend>(
         let rl = r1 + 14.0;
         root.draw(&Text::new(
             format!("{d}°"),
-            ((cx + rl * t.cos()) as i32 - 12, (cy - rl * t.sin()) as i32 - 7),
+            (
+                (cx + rl * t.cos()) as i32 - 12,
+                (cy - rl * t.sin()) as i32 - 7,
+            ),
             style(13.0),
         ))
         .map_err(de)?;
@@ -182,8 +196,12 @@ fn draw<DB: DrawingBackend>(
             c.stroke_width(3),
         ))
         .map_err(de)?;
-        root.draw(&Text::new(t.name.clone(), (SIZE as i32 - 160, y), style(14.0)))
-            .map_err(de)?;
+        root.draw(&Text::new(
+            t.name.clone(),
+            (SIZE as i32 - 160, y),
+            style(14.0),
+        ))
+        .map_err(de)?;
     }
     for &m in &chart.marks {
         let (x, y) = px(m);

@@ -114,7 +114,11 @@ pub fn write_report(
 pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
     let mut md = String::new();
     let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-    let _ = writeln!(md, "# Circular test (ISO 230-4) — plane {}\n", d.plane.as_str());
+    let _ = writeln!(
+        md,
+        "# Circular test (ISO 230-4) — plane {}\n",
+        d.plane.as_str()
+    );
     let _ = writeln!(
         md,
         "Trace `{}`: radius {} mm, feed {} mm/min, arc {}° from {}°, directions {}; {} samples \
@@ -172,9 +176,8 @@ pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
                 .params()
                 .iter()
                 .filter_map(|(n, v)| {
-                    v.as_f64().map(|v| {
-                        format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0))
-                    })
+                    v.as_f64()
+                        .map(|v| format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0)))
                 })
                 .collect::<Vec<_>>()
                 .join(", ");

@@ -22,10 +22,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "volumetric",
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
-    (
-        "circular",
-        &["table", "volumetric", "base"],
-    ),
+    ("circular", &["table", "volumetric", "base"]),
     (
         "report",
         &[

@@ -19,9 +19,18 @@ fn signed(rng: &mut StdRng, lo: f64, hi: f64) -> f64 {
 }
 
 fn random_effect(rng: &mut StdRng, kind: usize) -> (Effect, Slot) {
-    let slot = if rng.random_bool(0.5) { Slot::A } else { Slot::B };
+    let slot = if rng.random_bool(0.5) {
+        Slot::A
+    } else {
+        Slot::B
+    };
     match kind {
-        0 => (Effect::Backlash { b_um: signed(rng, 2.0, 8.0) }, slot),
+        0 => (
+            Effect::Backlash {
+                b_um: signed(rng, 2.0, 8.0),
+            },
+            slot,
+        ),
         1 => (
             Effect::ReversalSpike {
                 h_um: signed(rng, 3.0, 8.0),
@@ -29,7 +38,12 @@ fn random_effect(rng: &mut StdRng, kind: usize) -> (Effect, Slot) {
             },
             slot,
         ),
-        2 => (Effect::LateralPlay { p_um: signed(rng, 2.0, 6.0) }, slot),
+        2 => (
+            Effect::LateralPlay {
+                p_um: signed(rng, 2.0, 6.0),
+            },
+            slot,
+        ),
         3 => (
             Effect::CyclicError {
                 amplitude_um: rng.random_range(0.8..2.0),
@@ -38,10 +52,30 @@ fn random_effect(rng: &mut StdRng, kind: usize) -> (Effect, Slot) {
             },
             slot,
         ),
-        4 => (Effect::Straightness { bow_um: signed(rng, 1.5, 5.0) }, slot),
-        5 => (Effect::ServoMismatch { dt_ms: signed(rng, 0.2, 1.0) }, Slot::Plane),
-        6 => (Effect::ScaleMismatch { ppm: signed(rng, 20.0, 80.0) }, Slot::Plane),
-        _ => (Effect::Squareness { urad: signed(rng, 20.0, 80.0) }, Slot::Plane),
+        4 => (
+            Effect::Straightness {
+                bow_um: signed(rng, 1.5, 5.0),
+            },
+            slot,
+        ),
+        5 => (
+            Effect::ServoMismatch {
+                dt_ms: signed(rng, 0.2, 1.0),
+            },
+            Slot::Plane,
+        ),
+        6 => (
+            Effect::ScaleMismatch {
+                ppm: signed(rng, 20.0, 80.0),
+            },
+            Slot::Plane,
+        ),
+        _ => (
+            Effect::Squareness {
+                urad: signed(rng, 20.0, 80.0),
+            },
+            Slot::Plane,
+        ),
     }
 }
 
@@ -52,7 +86,11 @@ fn random_concealed_effects_are_found_without_false_alarms() {
     let cases = 120;
     for case in 0..cases {
         let plane = Plane::ALL[rng.random_range(0..3)];
-        let count = if rng.random_bool(0.25) { 0 } else { rng.random_range(1..=3) };
+        let count = if rng.random_bool(0.25) {
+            0
+        } else {
+            rng.random_range(1..=3)
+        };
         let mut effects: Vec<(Effect, Slot)> = Vec::new();
         while effects.len() < count {
             let kind = rng.random_range(0..8);
@@ -72,7 +110,10 @@ fn random_concealed_effects_are_found_without_false_alarms() {
         for (e, slot) in &effects {
             planted += 1;
             let (name, truth) = main_param(e);
-            let found = d.effects.iter().find(|f| f.effect.id() == e.id() && f.axis.slot == *slot);
+            let found = d
+                .effects
+                .iter()
+                .find(|f| f.effect.id() == e.id() && f.axis.slot == *slot);
             if let Some(f) = found {
                 let got = f.effect.number(name).unwrap();
                 if got.signum() == truth.signum() {
@@ -81,13 +122,22 @@ fn random_concealed_effects_are_found_without_false_alarms() {
                     eprintln!("case {case}: {} {name} {got} vs {truth}", e.id());
                 }
             } else {
-                eprintln!("case {case}: missed {e:?} {slot:?} among {:?}", d.effects.iter().map(|f| f.effect).collect::<Vec<_>>());
+                eprintln!(
+                    "case {case}: missed {e:?} {slot:?} among {:?}",
+                    d.effects.iter().map(|f| f.effect).collect::<Vec<_>>()
+                );
             }
         }
         for f in &d.effects {
-            if !effects.iter().any(|(e, s)| e.id() == f.effect.id() && *s == f.axis.slot) {
+            if !effects
+                .iter()
+                .any(|(e, s)| e.id() == f.effect.id() && *s == f.axis.slot)
+            {
                 false_alarms += 1;
-                eprintln!("case {case}: false alarm {:?} {:?} (Δχ² {:.0})", f.effect, f.axis.slot, f.delta_chi2);
+                eprintln!(
+                    "case {case}: false alarm {:?} {:?} (Δχ² {:.0})",
+                    f.effect, f.axis.slot, f.delta_chi2
+                );
             }
         }
     }
@@ -99,6 +149,9 @@ fn random_concealed_effects_are_found_without_false_alarms() {
     );
     assert!(planted >= 100 && nulls >= 15);
     assert!(hit_rate >= 0.95, "hit rate {hit_rate}");
-    assert!(false_alarms as f64 <= 0.03 * cases as f64, "{false_alarms} false alarms");
+    assert!(
+        false_alarms as f64 <= 0.03 * cases as f64,
+        "{false_alarms} false alarms"
+    );
     assert!(nulls_clean == nulls, "{nulls_clean}/{nulls}");
 }

@@ -10,13 +10,20 @@ fn errmap() -> Command {
 fn simulate_then_diagnose_prints_the_contract_document() {
     let dir = tempfile::tempdir().unwrap();
     let trace = dir.path().join("t.csv");
-    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/circular/machine.toml");
+    let model = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/datasets/circular/machine.toml"
+    );
     let out = errmap()
         .args(["circular", "simulate", "--model", model, "--out"])
         .arg(&trace)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(dir.path().join("t.toml").exists());
     let report = dir.path().join("rep");
     let out = errmap()
@@ -27,7 +34,11 @@ fn simulate_then_diagnose_prints_the_contract_document() {
         .arg("--json")
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(doc["verdict"], "errors_found");
     assert_eq!(doc["plane"], "XY");
@@ -35,7 +46,12 @@ fn simulate_then_diagnose_prints_the_contract_document() {
         .as_array()
         .unwrap()
         .iter()
-        .map(|e| (e["id"].as_str().unwrap().into(), e["axis"].as_str().unwrap().into()))
+        .map(|e| {
+            (
+                e["id"].as_str().unwrap().into(),
+                e["axis"].as_str().unwrap().into(),
+            )
+        })
         .collect();
     for want in [
         ("backlash", "X"),

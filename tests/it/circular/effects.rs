@@ -14,7 +14,13 @@ pub fn every_effect() -> Vec<(Effect, Slot)> {
     let mut out = Vec::new();
     for slot in [Slot::A, Slot::B] {
         out.push((Effect::Backlash { b_um: 6.0 }, slot));
-        out.push((Effect::ReversalSpike { h_um: 5.0, tau_ms: 60.0 }, slot));
+        out.push((
+            Effect::ReversalSpike {
+                h_um: 5.0,
+                tau_ms: 60.0,
+            },
+            slot,
+        ));
         out.push((Effect::LateralPlay { p_um: -4.0 }, slot));
         out.push((
             Effect::CyclicError {
@@ -107,7 +113,10 @@ fn each_effect_alone_is_found_on_its_axis_in_every_plane() {
                 effect.id(),
                 found.effect
             );
-            assert!(sigma > 0.0 && sigma < 0.2 * truth.abs(), "σ {sigma} for {truth}");
+            assert!(
+                sigma > 0.0 && sigma < 0.2 * truth.abs(),
+                "σ {sigma} for {truth}"
+            );
             assert!(d.rms_after_um < 0.15, "rms after {}", d.rms_after_um);
         }
     }

@@ -33,18 +33,76 @@ fn refused(csv: &str, meta: &str) -> String {
 #[test]
 fn bad_traces_are_refused_by_line_and_column() {
     let cases: Vec<(String, String, &str)> = vec![
-        (trace(|i, l| if i == 1 { "run,direction,angle_deg".into() } else { l }), META.to_string(), "t.csv: row 1 (line 2)"),
-        (trace(|i, l| if i == 5 { "1,1,3.0,inf".into() } else { l }), META.to_string(), "line 5: column dr_um: inf is not a finite number"),
-        (trace(|i, l| if i == 7 { "1,1,5.0,0,5".into() } else { l }), META.to_string(), "t.csv"),
-        (trace(|i, l| if i == 6 { "1,2,4.0,0.5".into() } else { l }), META.to_string(), "line 6: column direction: 2 is not +1"),
-        (trace(|i, l| if i == 9 { "1,-1,7.0,0.5".into() } else { l }), META.to_string(), "line 9: column direction: changes from ccw to cw"),
-        (trace(|i, l| if i == 10 { "1,1,7.5,0.5".into() } else { l }), META.to_string(), "line 10: column angle_deg: 7.5 after 8"),
-        (trace(|_, l| l) + "2,1,0.0,0.1\n2,1,1.0,0.1\n", META.to_string(), "second ccw run"),
-        (trace(|_, l| l) + "2,-1,3.0,0.1\n1,1,91.0,0.1\n", META.to_string(), "column run: run 1 appears again"),
-        (trace(|i, l| if i > 60 { String::new() } else { l }).replace("\n\n", "\n").trim_end().to_string() + "\n", META.to_string(), "line 2: column angle_deg: run 1 covers"),
-        (trace(|_, l| l), META.replace("radius_mm = 100.0", "radius_mm = -1.0"), "t.toml: key radius_mm:"),
-        (trace(|_, l| l), META.replace("radius_mm", "radius_mn"), "t.toml: line 2: column 1: unknown field `radius_mn`"),
-        (trace(|_, l| l), META.replace("feed_mm_per_min = 1000.0\n", ""), "missing field `feed_mm_per_min`"),
+        (
+            trace(|i, l| {
+                if i == 1 {
+                    "run,direction,angle_deg".into()
+                } else {
+                    l
+                }
+            }),
+            META.to_string(),
+            "t.csv: row 1 (line 2)",
+        ),
+        (
+            trace(|i, l| if i == 5 { "1,1,3.0,inf".into() } else { l }),
+            META.to_string(),
+            "line 5: column dr_um: inf is not a finite number",
+        ),
+        (
+            trace(|i, l| if i == 7 { "1,1,5.0,0,5".into() } else { l }),
+            META.to_string(),
+            "t.csv",
+        ),
+        (
+            trace(|i, l| if i == 6 { "1,2,4.0,0.5".into() } else { l }),
+            META.to_string(),
+            "line 6: column direction: 2 is not +1",
+        ),
+        (
+            trace(|i, l| if i == 9 { "1,-1,7.0,0.5".into() } else { l }),
+            META.to_string(),
+            "line 9: column direction: changes from ccw to cw",
+        ),
+        (
+            trace(|i, l| if i == 10 { "1,1,7.5,0.5".into() } else { l }),
+            META.to_string(),
+            "line 10: column angle_deg: 7.5 after 8",
+        ),
+        (
+            trace(|_, l| l) + "2,1,0.0,0.1\n2,1,1.0,0.1\n",
+            META.to_string(),
+            "second ccw run",
+        ),
+        (
+            trace(|_, l| l) + "2,-1,3.0,0.1\n1,1,91.0,0.1\n",
+            META.to_string(),
+            "column run: run 1 appears again",
+        ),
+        (
+            trace(|i, l| if i > 60 { String::new() } else { l })
+                .replace("\n\n", "\n")
+                .trim_end()
+                .to_string()
+                + "\n",
+            META.to_string(),
+            "line 2: column angle_deg: run 1 covers",
+        ),
+        (
+            trace(|_, l| l),
+            META.replace("radius_mm = 100.0", "radius_mm = -1.0"),
+            "t.toml: key radius_mm:",
+        ),
+        (
+            trace(|_, l| l),
+            META.replace("radius_mm", "radius_mn"),
+            "t.toml: line 2: column 1: unknown field `radius_mn`",
+        ),
+        (
+            trace(|_, l| l),
+            META.replace("feed_mm_per_min = 1000.0\n", ""),
+            "missing field `feed_mm_per_min`",
+        ),
     ];
     for (csv, meta, want) in cases {
         let msg = refused(&csv, &meta);
@@ -78,7 +136,12 @@ fn a_simulated_test_round_trips_through_csv_and_parquet() {
         for (a, b) in back.runs.iter().zip(&test.runs) {
             assert_eq!(a.sense, b.sense);
             assert_eq!(a.angle_deg.len(), b.angle_deg.len());
-            let worst = a.dr_um.iter().zip(&b.dr_um).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            let worst = a
+                .dr_um
+                .iter()
+                .zip(&b.dr_um)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
             assert!(worst < 1e-9, "{name}: {worst}");
         }
     }

@@ -6,7 +6,13 @@ fn run(sense: Sense, f: impl Fn(f64) -> f64) -> Run {
     let n = 3600;
     let angles: Vec<f64> = (0..=n)
         .map(|k| -45.0 + 450.0 * k as f64 / n as f64)
-        .map(|a| if sense == Sense::Ccw { a } else { 405.0 - (a + 45.0) })
+        .map(|a| {
+            if sense == Sense::Ccw {
+                a
+            } else {
+                405.0 - (a + 45.0)
+            }
+        })
         .collect();
     Run {
         id: if sense == Sense::Ccw { 1 } else { 2 },
@@ -42,7 +48,11 @@ fn g_d_f_h_of_an_analytic_oval() {
     // cos θ = −3/8: 1 + 2(2·9/64 − 1) − 9/8.
     assert!((iso.f_max_um - 8.0).abs() < 1e-6);
     let fmin = 1.0 + 2.0 * (2.0 * 9.0 / 64.0 - 1.0) - 9.0 / 8.0;
-    assert!((iso.f_min_um - fmin).abs() < 1e-3, "{} vs {fmin}", iso.f_min_um);
+    assert!(
+        (iso.f_min_um - fmin).abs() < 1e-3,
+        "{} vs {fmin}",
+        iso.f_min_um
+    );
 }
 
 /// A one-direction test: the quantities needing both directions are null.

@@ -55,6 +55,9 @@ fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
         assert!(near(cw, colour(CW_COLOUR)), "{deg}°: cw pixel {cw:?}");
         // Half a division beyond each trace (away from the other) is not a trace colour.
         let off = at(pixel(th, amp + amp.signum() * div * 0.5, div));
-        assert!(!near(off, colour(CCW_COLOUR)) && !near(off, colour(CW_COLOUR)), "{off:?}");
+        assert!(
+            !near(off, colour(CCW_COLOUR)) && !near(off, colour(CW_COLOUR)),
+            "{off:?}"
+        );
     }
 }
