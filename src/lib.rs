@@ -54,6 +54,7 @@ pub mod acceptance;
 pub mod acquire;
 pub mod base;
 pub mod bench;
+pub mod circular;
 pub mod diagnose;
 pub mod evaluate;
 pub mod export;

@@ -27,6 +27,7 @@ pub mod acceptance;
 pub mod acquisition;
 pub mod args;
 pub mod certificate;
+pub mod circular;
 pub mod demo;
 pub mod diagnose;
 pub mod guard;
@@ -88,6 +89,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
     Volumetric(volumetric::VolumetricArgs),
+    /// Ballbar circular tests (ISO 230-4): evaluate, diagnose, simulate.
+    Circular(circular::CircularArgs),
     /// Write the calibration certificate (PDF) of a session.
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
@@ -154,6 +157,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Plan(a) => plan::plan_cmd(a),
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
+        Command::Circular(a) => circular::circular_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),

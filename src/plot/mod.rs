@@ -60,6 +60,7 @@
 
 mod draw;
 mod error;
+pub mod polar;
 mod render;
 mod scale;
 mod text;

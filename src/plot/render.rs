@@ -54,7 +54,10 @@ pub(super) fn write_both(
 /// never leaves a half-drawn figure in a report directory, nor destroys the old one.
 /// The sibling is named like `table::temporary`'s (`.STEM.PID.tmp.EXT`, the extension
 /// kept for the backend); `plot` imports nothing of the crate, so it builds the name.
-fn whole(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), PlotError> {
+pub(super) fn whole(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), PlotError> {
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
     let ext = path.extension().unwrap_or_default().to_string_lossy();
     let tmp = path.with_file_name(format!(".{stem}.{}.tmp.{ext}", std::process::id()));

@@ -28,6 +28,7 @@ use crate::table::TableError;
 
 pub mod acceptance;
 pub mod certificate;
+pub mod circular;
 pub mod compare;
 pub mod concealed;
 pub mod diagnosis;

@@ -28,11 +28,13 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "acceptance",
         &["base", "table", "interp", "session", "volumetric"],
     ),
+    ("circular", &["table", "volumetric", "base"]),
     (
         "report",
         &[
             "history",
             "acceptance",
+            "circular",
             "base",
             "plot",
             "table",

@@ -6,6 +6,7 @@ mod acceptance;
 mod acquisition;
 mod campaign;
 mod certificate;
+mod circular;
 mod cli;
 mod experiment;
 mod export;

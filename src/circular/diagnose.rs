@@ -1,0 +1,880 @@
+//! The machine errors behind a circular test: every effect of the circular vocabulary
+//! fitted jointly with the setup terms, kept only when significant.
+//!
+//! The method, step by step:
+//! 1. Samples: the nominal arc of every run (optionally the overshoot arcs too), each a
+//!    [`Point`] with its dr.
+//! 2. Candidates: each effect on each slot it may act on (15 with both directions). With
+//!    one direction only, servo mismatch is the same sin 2θ column as squareness (the
+//!    whole term is given to squareness) and lateral play is 97 % correlated with the
+//!    scale mismatch: both are left out and said in `unidentifiable`.
+//! 3. The two nonlinear parameters — the reversal spike's τ and the cyclic error's period —
+//!    are scanned (τ on a log grid, the period uniformly in 1/P) against the residual of
+//!    the linear effects, then refined by golden section on the joint fit's χ².
+//! 4. The joint linear least-squares fit of setup + all candidates gives the noise σ;
+//!    then backward elimination: the candidate whose removal raises χ² = RSS/σ² least is
+//!    removed while that rise is below the threshold (100, about 10σ).
+//! 5. The kept effects are refitted (their nonlinear parameters refined again); one-sigma
+//!    uncertainties come from σ²(JᵀJ)⁻¹ of the final joint fit, J holding the linear
+//!    columns and the derivatives along the nonlinear parameters, σ from its residual.
+//!
+//! Subset fits run on the Gram matrix of unit-norm columns (pseudo-inverse by SVD), so
+//! the elimination costs O(k³) per trial after one O(n·k²) product.
+
+use std::f64::consts::{PI, TAU};
+
+use nalgebra::{DMatrix, DVector};
+use serde::ser::SerializeMap;
+use serde::{Serialize, Serializer};
+
+use super::input::{CircularTest, Plane, Sense};
+use super::iso::{Iso230_4, common_lsc, evaluate};
+use super::signature::{
+    AxisOrPlane, Geometry, Point, Slot, columns, nonlinear, points, setup_columns, slots, width,
+};
+use crate::base::{Effect, EffectId, ParamName};
+
+/// How the diagnosis decides.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiagnoseConfig {
+    /// An effect is kept when removing it from the joint fit raises χ² by more than this.
+    pub chi2_threshold: f64,
+    /// Fit the overshoot arcs too (the ISO numbers always use the nominal arc only).
+    pub use_overshoot: bool,
+}
+
+impl Default for DiagnoseConfig {
+    fn default() -> Self {
+        DiagnoseConfig {
+            chi2_threshold: 100.0,
+            use_overshoot: false,
+        }
+    }
+}
+
+/// `consistent` (setup and noise explain the trace) or `errors_found`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CircularVerdict {
+    Consistent,
+    ErrorsFound,
+}
+
+/// One effect found in a circular test.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CircularEffect {
+    pub effect: Effect,
+    pub axis: AxisOrPlane,
+    /// One-sigma of each parameter, in the effect's parameter order.
+    pub uncertainty: Vec<(ParamName, f64)>,
+    pub where_: String,
+    /// rms over the nominal arc of its contribution after projecting out the setup, µm.
+    pub explains_um: f64,
+    /// The rise of χ² when it is removed from the final joint fit.
+    pub delta_chi2: f64,
+}
+
+impl CircularEffect {
+    /// The one-sigma of `name`.
+    pub fn sigma(&self, name: ParamName) -> Option<f64> {
+        self.uncertainty
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, v)| *v)
+    }
+}
+
+struct NumberMap<'a>(Vec<(&'a str, f64)>);
+
+impl Serialize for NumberMap<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut sorted = self.0.clone();
+        sorted.sort_by(|a, b| a.0.cmp(b.0));
+        let mut m = s.serialize_map(Some(sorted.len()))?;
+        for (k, v) in sorted {
+            m.serialize_entry(k, &v)?;
+        }
+        m.end()
+    }
+}
+
+impl Serialize for CircularEffect {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let params: Vec<(&str, f64)> = self
+            .effect
+            .params()
+            .into_iter()
+            .filter_map(|(n, v)| v.as_f64().map(|v| (n.as_str(), v)))
+            .collect();
+        let unc: Vec<(&str, f64)> = self
+            .uncertainty
+            .iter()
+            .map(|(n, v)| (n.as_str(), *v))
+            .collect();
+        let mut m = s.serialize_map(Some(6))?;
+        m.serialize_entry("id", self.effect.id().as_str())?;
+        m.serialize_entry("axis", &self.axis)?;
+        m.serialize_entry("params", &NumberMap(params))?;
+        m.serialize_entry("uncertainty", &NumberMap(unc))?;
+        m.serialize_entry("where", &self.where_)?;
+        m.serialize_entry("explains_um", &self.explains_um)?;
+        m.end()
+    }
+}
+
+/// What the test cannot separate, said instead of guessed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Unidentifiable {
+    pub ids: Vec<String>,
+    pub why: String,
+    pub params: std::collections::BTreeMap<String, f64>,
+    pub uncertainty: std::collections::BTreeMap<String, f64>,
+}
+
+/// The setup terms (informative): the centring offset of the table ball and the radius
+/// offset (bar length error + mean scale), µm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Setup {
+    pub centre_offset_um: [f64; 2],
+    pub radius_offset_um: f64,
+}
+
+/// The result of `circular diagnose` (the contract's JSON document).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CircularDiagnosis {
+    pub plane: Plane,
+    pub radius_mm: f64,
+    pub feed_mm_per_min: f64,
+    pub directions: Vec<Sense>,
+    pub iso230_4: Iso230_4,
+    pub verdict: CircularVerdict,
+    pub rms_before_um: f64,
+    pub rms_after_um: f64,
+    pub effects: Vec<CircularEffect>,
+    pub unidentifiable: Vec<Unidentifiable>,
+    pub setup: Setup,
+    /// The residual noise σ of the final fit, µm, and the samples fitted.
+    pub sigma_um: f64,
+    pub samples_fitted: usize,
+    /// The comparison with a volumetric model, when one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link: Option<super::link::Link>,
+}
+
+/// One candidate effect: id, slot and its nonlinear parameter (τ ms or period mm; 0 for
+/// the linear ones).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Cand {
+    id: EffectId,
+    slot: Slot,
+    nl: f64,
+}
+
+/// The fitted samples.
+struct Data {
+    pts: Vec<Point>,
+    dr: Vec<f64>,
+    nominal: Vec<bool>,
+    g: Geometry,
+}
+
+impl Data {
+    fn n(&self) -> usize {
+        self.dr.len()
+    }
+
+    fn cand_cols(&self, c: &Cand) -> Vec<Vec<f64>> {
+        let w = width(c.id);
+        let mut out = vec![Vec::with_capacity(self.n()); w];
+        for p in &self.pts {
+            let v = columns(c.id, c.slot, c.nl, p, &self.g);
+            for (k, col) in out.iter_mut().enumerate() {
+                col.push(v[k]);
+            }
+        }
+        out
+    }
+
+    fn setup_cols(&self) -> Vec<Vec<f64>> {
+        let mut out = vec![Vec::with_capacity(self.n()); 3];
+        for p in &self.pts {
+            let v = setup_columns(p);
+            for (k, col) in out.iter_mut().enumerate() {
+                col.push(v[k]);
+            }
+        }
+        out
+    }
+}
+
+/// A linear least-squares fit on a set of columns through their Gram matrix.
+struct Fit {
+    /// Coefficients in the columns' own units.
+    coef: Vec<f64>,
+    rss: f64,
+    /// (XᵀX)⁻¹ in the columns' own units (pseudo-inverse).
+    inv: DMatrix<f64>,
+    rank: usize,
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
+    let cols: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
+    let k = cols.len();
+    let norms: Vec<f64> = cols
+        .iter()
+        .map(|c| {
+            let n = dot(c, c).sqrt();
+            if n > 1e-300 { n } else { 0.0 }
+        })
+        .collect();
+    let mut g = DMatrix::zeros(k, k);
+    let mut b = DVector::zeros(k);
+    for i in 0..k {
+        if norms[i] == 0.0 {
+            continue;
+        }
+        b[i] = dot(&cols[i], y) / norms[i];
+        for j in i..k {
+            if norms[j] == 0.0 {
+                continue;
+            }
+            let v = dot(&cols[i], &cols[j]) / (norms[i] * norms[j]);
+            g[(i, j)] = v;
+            g[(j, i)] = v;
+        }
+    }
+    let svd = g.clone().svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max().max(1e-300);
+    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
+    let pinv = svd
+        .pseudo_inverse(tol)
+        .unwrap_or_else(|_| DMatrix::zeros(k, k));
+    let cs = &pinv * &b;
+    let coef: Vec<f64> = (0..k)
+        .map(|i| {
+            if norms[i] > 0.0 {
+                cs[i] / norms[i]
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    // The residual itself, not yᵀy − bᵀc (which cancels badly when the columns are
+    // nearly dependent).
+    let mut r = y.to_vec();
+    for (col, c) in cols.iter().zip(&coef) {
+        if *c != 0.0 {
+            for (ri, v) in r.iter_mut().zip(col.iter()) {
+                *ri -= c * v;
+            }
+        }
+    }
+    let rss = dot(&r, &r);
+    let mut inv = pinv;
+    for i in 0..k {
+        for j in 0..k {
+            let s = norms[i] * norms[j];
+            inv[(i, j)] = if s > 0.0 { inv[(i, j)] / s } else { 0.0 };
+        }
+    }
+    Fit {
+        coef,
+        rss,
+        inv,
+        rank,
+    }
+}
+
+/// The candidate effects for the directions present.
+fn candidates(both: bool) -> Vec<Cand> {
+    let mut out = Vec::new();
+    for id in EffectId::CIRCULAR {
+        if !both && matches!(id, EffectId::ServoMismatch | EffectId::LateralPlay) {
+            continue;
+        }
+        for &slot in slots(id) {
+            out.push(Cand { id, slot, nl: 0.0 });
+        }
+    }
+    out
+}
+
+/// Bounds of the scanned parameters for this test.
+struct Bounds {
+    tau_ms: (f64, f64),
+    inv_period: (f64, f64),
+    inv_period_step: f64,
+}
+
+fn bounds(test: &CircularTest) -> Bounds {
+    let meta = &test.meta;
+    let omega = meta.omega_rad_per_s();
+    // The median angular step of the samples, rad.
+    let mut steps: Vec<f64> = test
+        .runs
+        .iter()
+        .flat_map(|r| {
+            r.angle_deg
+                .windows(2)
+                .map(|w| (w[1] - w[0]).abs().to_radians())
+        })
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    let dtheta = steps.get(steps.len() / 2).copied().unwrap_or(1e-3);
+    let dt_ms = dtheta / omega * 1e3;
+    let quarter_ms = (PI / 2.0) / omega * 1e3;
+    let r = meta.radius_mm;
+    let p_min = (8.0 * r * dtheta).max(2.0);
+    let p_max = (r / 2.0).max(p_min * 1.5);
+    Bounds {
+        tau_ms: (2.0 * dt_ms, (quarter_ms / 4.0).max(4.0 * dt_ms)),
+        inv_period: (1.0 / p_max, 1.0 / p_min),
+        inv_period_step: 0.3 / (TAU * r),
+    }
+}
+
+/// The RSS of y on `base` plus the candidate's columns (projection on the residual of
+/// `base` for speed: `resid` = y minus its fit on base).
+fn profile_rss(data: &Data, resid: &[f64], c: &Cand) -> f64 {
+    let cols = data.cand_cols(c);
+    fit_columns(&cols, resid).rss
+}
+
+/// Golden-section minimum of f on [lo, hi].
+fn golden(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64, iters: usize) -> f64 {
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    let mut a = hi - phi * (hi - lo);
+    let mut b = lo + phi * (hi - lo);
+    let (mut fa, mut fb) = (f(a), f(b));
+    for _ in 0..iters {
+        if fa < fb {
+            hi = b;
+            b = a;
+            fb = fa;
+            a = hi - phi * (hi - lo);
+            fa = f(a);
+        } else {
+            lo = a;
+            a = b;
+            fa = fb;
+            b = lo + phi * (hi - lo);
+            fb = f(b);
+        }
+    }
+    if fa < fb { a } else { b }
+}
+
+/// Every candidate's columns, computed once.
+fn cache(data: &Data, set: &[Cand]) -> Vec<Vec<Vec<f64>>> {
+    set.iter().map(|c| data.cand_cols(c)).collect()
+}
+
+/// The columns of setup + the cached candidates but `skip`, with `extra` appended.
+fn assemble<'a>(
+    setup: &'a [Vec<f64>],
+    cached: &'a [Vec<Vec<f64>>],
+    skip: Option<usize>,
+    extra: &'a [Vec<f64>],
+) -> Vec<&'a [f64]> {
+    let mut out: Vec<&[f64]> = setup.iter().map(|c| c.as_slice()).collect();
+    for (k, cols) in cached.iter().enumerate() {
+        if Some(k) != skip {
+            out.extend(cols.iter().map(|c| c.as_slice()));
+        }
+    }
+    out.extend(extra.iter().map(|c| c.as_slice()));
+    out
+}
+
+/// The columns of setup + `set`.
+fn design(data: &Data, set: &[Cand]) -> Vec<Vec<f64>> {
+    let mut cols = data.setup_cols();
+    for c in set {
+        cols.extend(data.cand_cols(c));
+    }
+    cols
+}
+
+/// Scans then refines the nonlinear parameter of every nonlinear candidate of `set`.
+fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
+    for c in set.iter_mut().filter(|c| c.nl <= 0.0) {
+        c.nl = match c.id {
+            EffectId::ReversalSpike => (b.tau_ms.0 * b.tau_ms.1).sqrt(),
+            EffectId::CyclicError => 2.0 / (b.inv_period.0 + b.inv_period.1),
+            _ => 0.0,
+        };
+    }
+    let linear: Vec<Cand> = set.iter().copied().filter(|c| !nonlinear(c.id)).collect();
+    let resid = if scan {
+        let cols = design(data, &linear);
+        let fit = fit_columns(&cols, &data.dr);
+        let mut r = data.dr.clone();
+        for (col, coef) in cols.iter().zip(&fit.coef) {
+            for (ri, v) in r.iter_mut().zip(col) {
+                *ri -= coef * v;
+            }
+        }
+        Some(r)
+    } else {
+        None
+    };
+    for k in 0..set.len() {
+        let c = set[k];
+        if !nonlinear(c.id) {
+            continue;
+        }
+        // In a transformed coordinate u: ln τ, or 1/P.
+        let (u_lo, u_hi, to_nl): (f64, f64, fn(f64) -> f64) = match c.id {
+            EffectId::ReversalSpike => (b.tau_ms.0.ln(), b.tau_ms.1.ln(), f64::exp),
+            _ => (b.inv_period.0, b.inv_period.1, |u: f64| 1.0 / u),
+        };
+        let from_nl = |nl: f64| match c.id {
+            EffectId::ReversalSpike => nl.ln(),
+            _ => 1.0 / nl,
+        };
+        let step = match c.id {
+            EffectId::ReversalSpike => (u_hi - u_lo) / 40.0,
+            _ => b.inv_period_step,
+        };
+        let setup = data.setup_cols();
+        let cached = cache(data, set);
+        let joint = |u: f64| {
+            let extra = data.cand_cols(&Cand { nl: to_nl(u), ..c });
+            fit_columns(&assemble(&setup, &cached, Some(k), &extra), &data.dr).rss
+        };
+        let mut u_best = if c.nl > 0.0 { from_nl(c.nl) } else { u_lo };
+        if let Some(resid) = &resid {
+            let count = ((u_hi - u_lo) / step).ceil().max(1.0) as usize;
+            let mut best = f64::INFINITY;
+            for i in 0..=count {
+                let u = u_lo + (u_hi - u_lo) * i as f64 / count as f64;
+                let rss = if c.id == EffectId::ReversalSpike {
+                    // Few steps: scan on the joint fit (a spike and a backlash overlap).
+                    joint(u)
+                } else {
+                    profile_rss(data, resid, &Cand { nl: to_nl(u), ..c })
+                };
+                if rss < best {
+                    best = rss;
+                    u_best = u;
+                }
+            }
+        }
+        let reach = if c.id == EffectId::ReversalSpike {
+            2.0
+        } else {
+            1.0
+        };
+        let lo = (u_best - reach * step).max(u_lo);
+        let hi = (u_best + reach * step).min(u_hi);
+        let u = golden(lo, hi, joint, 18);
+        set[k].nl = to_nl(u);
+    }
+}
+
+fn deg_list(angles: &[f64]) -> String {
+    angles
+        .iter()
+        .map(|a| format!("{a:.0}°"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The reversal angles of a slot (A: kπ, B: π/2 + kπ) inside the nominal arc, degrees.
+fn reversals(test: &CircularTest, slot: Slot) -> Vec<f64> {
+    let (lo, hi) = test.meta.arc_deg_range();
+    let offset = if slot == Slot::A { 0.0 } else { 90.0 };
+    let mut out = Vec::new();
+    let mut k = ((lo - offset) / 180.0).ceil() as i64;
+    while offset + 180.0 * k as f64 <= hi + 1e-9 {
+        out.push(offset + 180.0 * k as f64);
+        k += 1;
+    }
+    out
+}
+
+fn words(test: &CircularTest, c: &Cand, effect: &Effect, both: bool) -> String {
+    let plane = test.meta.plane;
+    let name = c.slot.label(plane);
+    let other = match c.slot {
+        Slot::A => Slot::B.label(plane),
+        _ => Slot::A.label(plane),
+    };
+    let rev = deg_list(&reversals(test, c.slot));
+    match *effect {
+        Effect::Backlash { b_um } => format!(
+            "{name} lags {:.2} µm behind its motion: a step of {:.2} µm {} at its reversals \
+             ({rev}), in both directions",
+            b_um.abs() / 2.0,
+            b_um.abs(),
+            if b_um >= 0.0 {
+                "outward"
+            } else {
+                "inward (over-compensated)"
+            }
+        ),
+        Effect::ReversalSpike { h_um, .. } => format!(
+            "{} spikes of {:.2} µm as {name} reverses ({rev}), on the side the motion leaves \
+             each reversal (mirrored between ccw and cw)",
+            if h_um >= 0.0 { "outward" } else { "inward" },
+            h_um.abs()
+        ),
+        Effect::LateralPlay { p_um } => format!(
+            "{other} shifts by {:.2} µm when {name} reverses ({rev}); the step flips with the \
+             direction of the run",
+            p_um.abs() / 2.0
+        ),
+        Effect::CyclicError { period_mm, .. } => format!(
+            "{name} cycles with a period of {period_mm:.3} mm of its travel (screw or scale); \
+             strongest where {name} moves fastest"
+        ),
+        Effect::Straightness { bow_um } => format!(
+            "{name}'s path bows {:.2} µm towards {}{other} at mid-travel (a three-lobed trace)",
+            bow_um.abs(),
+            if bow_um >= 0.0 { "+" } else { "-" }
+        ),
+        Effect::ServoMismatch { dt_ms } => format!(
+            "{} lags {:.3} ms more than {}: an oval along 45°/135° that turns over between \
+             ccw and cw",
+            if dt_ms >= 0.0 {
+                Slot::A.label(plane)
+            } else {
+                Slot::B.label(plane)
+            },
+            dt_ms.abs(),
+            if dt_ms >= 0.0 {
+                Slot::B.label(plane)
+            } else {
+                Slot::A.label(plane)
+            }
+        ),
+        Effect::ScaleMismatch { ppm } => format!(
+            "{} reads {:.2} ppm longer than {}: an oval along the axes, the same in both \
+             directions",
+            if ppm >= 0.0 {
+                Slot::A.label(plane)
+            } else {
+                Slot::B.label(plane)
+            },
+            ppm.abs(),
+            if ppm >= 0.0 {
+                Slot::B.label(plane)
+            } else {
+                Slot::A.label(plane)
+            }
+        ),
+        Effect::Squareness { urad } => {
+            let base = format!(
+                "the angle between +{} and +{} is {} than 90° by {:.2} µrad: an oval along \
+                 45°/135°",
+                Slot::A.label(plane),
+                Slot::B.label(plane),
+                if urad >= 0.0 { "less" } else { "more" },
+                urad.abs()
+            );
+            if both {
+                format!("{base}, the same in both directions")
+            } else {
+                format!(
+                    "{base}; one direction only, so it may be servo_mismatch instead (the same \
+                     sin 2θ term)"
+                )
+            }
+        }
+        _ => String::new(),
+    }
+}
+
+/// The effect a candidate's coefficients make, and its parameters' one-sigmas from the
+/// covariance block (coefficients, then the nonlinear parameter when there is one).
+fn effect_of(c: &Cand, coef: &[f64], cov: &DMatrix<f64>) -> (Effect, Vec<(ParamName, f64)>) {
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    match c.id {
+        EffectId::Backlash => (
+            Effect::Backlash { b_um: coef[0] },
+            vec![(ParamName::BUm, sd(0))],
+        ),
+        EffectId::ReversalSpike => (
+            Effect::ReversalSpike {
+                h_um: coef[0],
+                tau_ms: c.nl,
+            },
+            vec![(ParamName::HUm, sd(0)), (ParamName::TauMs, sd(1))],
+        ),
+        EffectId::LateralPlay => (
+            Effect::LateralPlay { p_um: coef[0] },
+            vec![(ParamName::PUm, sd(0))],
+        ),
+        EffectId::CyclicError => {
+            let (x, y) = (coef[0], coef[1]);
+            let a = x.hypot(y);
+            let phase = y.atan2(x);
+            let ga = [x / a, y / a];
+            let gp = [-y / (a * a), x / (a * a)];
+            let q = |g: [f64; 2]| {
+                (g[0] * g[0] * cov[(0, 0)]
+                    + 2.0 * g[0] * g[1] * cov[(0, 1)]
+                    + g[1] * g[1] * cov[(1, 1)])
+                    .max(0.0)
+                    .sqrt()
+            };
+            (
+                Effect::CyclicError {
+                    amplitude_um: a,
+                    period_mm: c.nl,
+                    phase_rad: phase,
+                },
+                vec![
+                    (ParamName::AmplitudeUm, q(ga)),
+                    (ParamName::PeriodMm, sd(2)),
+                    (ParamName::PhaseRad, q(gp)),
+                ],
+            )
+        }
+        EffectId::Straightness => (
+            Effect::Straightness { bow_um: coef[0] },
+            vec![(ParamName::BowUm, sd(0))],
+        ),
+        EffectId::ServoMismatch => (
+            Effect::ServoMismatch { dt_ms: coef[0] },
+            vec![(ParamName::DtMs, sd(0))],
+        ),
+        EffectId::ScaleMismatch => (
+            Effect::ScaleMismatch { ppm: coef[0] },
+            vec![(ParamName::Ppm, sd(0))],
+        ),
+        _ => (
+            Effect::Squareness { urad: coef[0] },
+            vec![(ParamName::Urad, sd(0))],
+        ),
+    }
+}
+
+/// The fitted samples of a test.
+fn data_of(test: &CircularTest, cfg: &DiagnoseConfig) -> Data {
+    let g = Geometry::of(&test.meta);
+    let (lo, hi) = test.meta.arc_deg_range();
+    let mut data = Data {
+        pts: Vec::new(),
+        dr: Vec::new(),
+        nominal: Vec::new(),
+        g,
+    };
+    for run in &test.runs {
+        for (i, p) in points(run, &test.meta).into_iter().enumerate() {
+            let a = run.angle_deg[i];
+            let nominal = a >= lo - 1e-9 && a <= hi + 1e-9;
+            if nominal || cfg.use_overshoot {
+                data.pts.push(p);
+                data.dr.push(run.dr_um[i]);
+                data.nominal.push(nominal);
+            }
+        }
+    }
+    data
+}
+
+/// Diagnoses one circular test.
+pub fn diagnose(test: &CircularTest, cfg: &DiagnoseConfig) -> CircularDiagnosis {
+    let both = test.runs.len() == 2;
+    let data = data_of(test, cfg);
+    let n = data.n();
+    let b = bounds(test);
+    let mut set = candidates(both);
+    tune(&data, &mut set, &b, true);
+    let full = fit_columns(&design(&data, &set), &data.dr);
+    let dof = n.saturating_sub(full.rank).max(1) as f64;
+    let sigma2_full = (full.rss / dof).max(1e-30);
+    // Backward elimination.
+    loop {
+        if set.is_empty() {
+            break;
+        }
+        let setup = data.setup_cols();
+        let cached = cache(&data, &set);
+        let rss_now = fit_columns(&assemble(&setup, &cached, None, &[]), &data.dr).rss;
+        let (k, rise) = (0..set.len())
+            .map(|k| {
+                let less = assemble(&setup, &cached, Some(k), &[]);
+                (k, fit_columns(&less, &data.dr).rss - rss_now)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("set is not empty");
+        if rise / sigma2_full < cfg.chi2_threshold {
+            set.remove(k);
+        } else {
+            break;
+        }
+    }
+    tune(&data, &mut set, &b, false);
+    finish(test, &data, &set, both)
+}
+
+/// The final joint fit of setup + `set` and the result document.
+fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> CircularDiagnosis {
+    let n = data.n();
+    let cols = design(data, set);
+    let fit = fit_columns(&cols, &data.dr);
+    // Jacobian: the linear columns, then one derivative column per nonlinear parameter.
+    let mut jac = cols.clone();
+    let mut offsets = Vec::new();
+    let mut nl_index = Vec::new();
+    let mut at = 3;
+    for c in set {
+        offsets.push(at);
+        let w = width(c.id);
+        if nonlinear(c.id) {
+            let h = c.nl * 1e-4;
+            let coef = &fit.coef[at..at + w];
+            let eval = |nl: f64| -> Vec<f64> {
+                let cc = data.cand_cols(&Cand { nl, ..*c });
+                (0..n)
+                    .map(|i| (0..w).map(|k| cc[k][i] * coef[k]).sum())
+                    .collect()
+            };
+            let (up, down) = (eval(c.nl + h), eval(c.nl - h));
+            nl_index.push(Some(jac.len()));
+            jac.push(
+                up.iter()
+                    .zip(&down)
+                    .map(|(u, d)| (u - d) / (2.0 * h))
+                    .collect(),
+            );
+        } else {
+            nl_index.push(None);
+        }
+        at += w;
+    }
+    let jfit = fit_columns(&jac, &data.dr);
+    let dof = n.saturating_sub(jfit.rank).max(1) as f64;
+    let sigma2 = fit.rss / dof;
+    let cov = &jfit.inv * sigma2;
+    // Residual and contributions.
+    let mut model = vec![0.0; n];
+    for (col, coef) in cols.iter().zip(&fit.coef) {
+        for (m, v) in model.iter_mut().zip(col) {
+            *m += coef * v;
+        }
+    }
+    let nominal_idx: Vec<usize> = (0..n).filter(|&i| data.nominal[i]).collect();
+    let rms_after = (nominal_idx
+        .iter()
+        .map(|&i| (data.dr[i] - model[i]).powi(2))
+        .sum::<f64>()
+        / nominal_idx.len().max(1) as f64)
+        .sqrt();
+    let setup_nom: Vec<Vec<f64>> = data
+        .setup_cols()
+        .into_iter()
+        .map(|c| nominal_idx.iter().map(|&i| c[i]).collect())
+        .collect();
+    let mut effects = Vec::new();
+    for (k, c) in set.iter().enumerate() {
+        let w = width(c.id);
+        let off = offsets[k];
+        let coef = &fit.coef[off..off + w];
+        let mut idx: Vec<usize> = (off..off + w).collect();
+        idx.extend(nl_index[k]);
+        let block = DMatrix::from_fn(idx.len(), idx.len(), |i, j| cov[(idx[i], idx[j])]);
+        let (effect, uncertainty) = effect_of(c, coef, &block);
+        let contrib: Vec<f64> = nominal_idx
+            .iter()
+            .map(|&i| (0..w).map(|q| cols[off + q][i] * coef[q]).sum())
+            .collect();
+        let proj = fit_columns(&setup_nom, &contrib);
+        let explains_um = (proj.rss / contrib.len().max(1) as f64).sqrt();
+        let mut less = set.to_vec();
+        less.remove(k);
+        let delta_chi2 =
+            (fit_columns(&design(data, &less), &data.dr).rss - fit.rss) / sigma2.max(1e-30);
+        effects.push(CircularEffect {
+            effect,
+            axis: AxisOrPlane {
+                plane: test.meta.plane,
+                slot: c.slot,
+            },
+            where_: words(test, c, &effect, both),
+            uncertainty,
+            explains_um,
+            delta_chi2,
+        });
+    }
+    effects.sort_by(|a, b| b.explains_um.total_cmp(&a.explains_um));
+    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    let mut unidentifiable = vec![Unidentifiable {
+        ids: vec!["scale_mean".into(), "ballbar_length".into()],
+        why: "the mean scale of the two axes, (k_A + k_B)/2, changes the radius only, exactly \
+              like an error of the bar's own length: a circular test cannot tell them apart \
+              (both are in the radius offset, a setup term)"
+            .into(),
+        params: [("radius_offset_um".to_string(), fit.coef[0])].into(),
+        uncertainty: [("radius_offset_um".to_string(), sd(0))].into(),
+    }];
+    if !both {
+        let sq = set
+            .iter()
+            .position(|c| c.id == EffectId::Squareness)
+            .map(|k| offsets[k]);
+        let (params, uncertainty) = match sq {
+            Some(o) => (
+                [(
+                    "sin2theta_um".to_string(),
+                    fit.coef[o] * data.g.radius_mm * 1e-3 * 0.5,
+                )]
+                .into(),
+                [(
+                    "sin2theta_um".to_string(),
+                    sd(o) * data.g.radius_mm * 1e-3 * 0.5,
+                )]
+                .into(),
+            ),
+            None => Default::default(),
+        };
+        unidentifiable.push(Unidentifiable {
+            ids: vec!["squareness".into(), "servo_mismatch".into()],
+            why: "one direction only: a squareness and a servo mismatch are the same sin 2θ \
+                  term; the whole term is reported as squareness (run both directions to \
+                  separate them: half sum and half difference)"
+                .into(),
+            params,
+            uncertainty,
+        });
+        unidentifiable.push(Unidentifiable {
+            ids: vec!["lateral_play".into(), "scale_mismatch".into()],
+            why: "one direction only: a lateral play (|sin θ|, |cos θ|) is 97 % correlated with \
+                  the scale mismatch's cos 2θ once the setup terms are removed; it is not fitted \
+                  and shows as scale_mismatch"
+                .into(),
+            params: Default::default(),
+            uncertainty: Default::default(),
+        });
+    }
+    let rms_before = common_lsc(test).rms_um();
+    CircularDiagnosis {
+        plane: test.meta.plane,
+        radius_mm: test.meta.radius_mm,
+        feed_mm_per_min: test.meta.feed_mm_per_min,
+        directions: test.directions(),
+        iso230_4: evaluate(test),
+        verdict: if effects.is_empty() {
+            CircularVerdict::Consistent
+        } else {
+            CircularVerdict::ErrorsFound
+        },
+        rms_before_um: rms_before,
+        rms_after_um: rms_after,
+        effects,
+        unidentifiable,
+        setup: Setup {
+            centre_offset_um: [fit.coef[1], fit.coef[2]],
+            radius_offset_um: fit.coef[0],
+        },
+        sigma_um: sigma2.max(0.0).sqrt(),
+        samples_fitted: n,
+        link: None,
+    }
+}

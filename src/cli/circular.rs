@@ -1,0 +1,109 @@
+//! `errmap circular {diagnose, simulate}`: flags into library types, and glue. The work
+//! is in `errmap::circular`, the report in `errmap::report::circular`.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use clap::{Args, Subcommand};
+
+use errmap::circular::simulate::{MachineModel, simulate, write_test};
+use errmap::circular::{DiagnoseConfig, diagnose, link::link, read_test};
+
+#[derive(Debug, Args)]
+pub struct CircularArgs {
+    #[command(subcommand)]
+    pub command: CircularCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum CircularCommand {
+    /// ISO 230-4 numbers of a ballbar test and the machine errors behind its trace.
+    Diagnose(DiagnoseArgs),
+    /// Simulate a ballbar test (a trace and its TOML) from a machine model.
+    Simulate(SimulateArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// The trace (.csv or .parquet); its metadata TOML lies beside it.
+    pub trace: PathBuf,
+    /// Write the report (circular.json, report.md, polar.png/.svg) into this directory.
+    #[arg(long)]
+    pub report: PathBuf,
+    /// Print the JSON document on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Fit the overshoot arcs too (the ISO numbers use the nominal arc only).
+    #[arg(long)]
+    pub overshoot: bool,
+    /// MODEL.json from `volumetric identify --out` (or a machine-model TOML): compare the
+    /// circle it implies (needs `centre_mm` in the test's TOML).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// The machine model (TOML, e.g. datasets/circular/machine.toml).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// The trace to write (.csv or .parquet); its TOML is written beside it.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn circular_cmd(a: CircularArgs) -> Result<()> {
+    match a.command {
+        CircularCommand::Diagnose(a) => diagnose_cmd(a),
+        CircularCommand::Simulate(a) => simulate_cmd(a),
+    }
+}
+
+fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
+    let test = read_test(&a.trace)?;
+    let config = DiagnoseConfig {
+        use_overshoot: a.overshoot,
+        ..DiagnoseConfig::default()
+    };
+    let mut d = diagnose(&test, &config);
+    if let Some(model) = &a.model {
+        let centre = test.meta.centre_mm.ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: key centre_mm: missing; --model needs the test centre in machine \
+                 coordinates",
+                errmap::circular::input::meta_path(&a.trace).display()
+            )
+        })?;
+        d.link = Some(link(model, &test.meta, centre, &d)?);
+    }
+    errmap::report::finite::check_json(Path::new("circular.json"), &d)?;
+    super::guard::into_new_dir(&a.report, |dir| {
+        errmap::report::circular::write_report(&test, &d, dir)?;
+        Ok(())
+    })?;
+    if a.json {
+        super::guard::print_json(&d)?;
+    } else {
+        eprintln!(
+            "{}: {} effect(s); rms {:.3} → {:.3} µm; report in {}",
+            a.trace.display(),
+            d.effects.len(),
+            d.rms_before_um,
+            d.rms_after_um,
+            a.report.display()
+        );
+    }
+    Ok(())
+}
+
+fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    let model = MachineModel::read(&a.model)?;
+    let test = simulate(&model);
+    write_test(&test, &a.out)?;
+    eprintln!(
+        "wrote {} and {}",
+        a.out.display(),
+        errmap::circular::input::meta_path(&a.out).display()
+    );
+    Ok(())
+}
