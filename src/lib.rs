@@ -9,7 +9,7 @@
 //! | [`session`] | 2 session | session tables, their reduction to error tables, ISO 230-2 / VDI 3441 statistics |
 //! | [`table`] | 3 error table | error tables (CSV/Parquet via polars), cell validation, the grid |
 //! | [`interp`] | 4 models | Lagrange m×n×q, trilinear, tricubic spline, fuzzy, Gaussian process; the method registry |
-//! | [`evaluate`] | 5 evaluation | cross-validation, the order/method comparison, seed 000's experiment |
+//! | [`evaluate`] | 5 evaluation | cross-validation, the order/method comparison, the fuzzy-interpolation paper's experiment |
 //! | [`report`] | 6 report | words, tables and figures on disk for every stage |
 //! | [`diagnose`] | 7 diagnosis | what a simulation left out of a recording: locate, name, fit |
 //! | [`export`] | 8 export | compensation tables for controllers, CSV lines, volumetric grids |

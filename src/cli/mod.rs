@@ -52,7 +52,7 @@ pub enum Command {
     Fit(FitArgs),
     /// Compare methods and Lagrange orders on test points, with cross-validation.
     Compare(CompareArgs),
-    /// Seed 000's simulation: fuzzy vs trilinear vs spline on random node errors.
+    /// Simulate random node errors and compare fuzzy, trilinear and spline interpolation.
     FuzzySim(FuzzySimArgs),
     /// Run the simulated acquisition device on a pseudo-terminal and stream its frames.
     ServeSim(ServeSimArgs),

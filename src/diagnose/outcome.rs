@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use super::data::Matching;
 use super::locate::Locate;
 
-/// The contract's `verdict` (`shared/spec/cli-contract.md`, `diagnose --json`).
+/// The `verdict` of `diagnose --json` (`docs/cli.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Verdict {
     /// The residual is explained by noise alone: no effect is reported.

@@ -12,7 +12,7 @@
 //! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
-//! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
+//! | [`experiment`] | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
 //! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
 //! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
 //!

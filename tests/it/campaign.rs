@@ -29,6 +29,7 @@
 //! `ERRMAP_CAMPAIGN_BIN` runs the campaign against another binary (a release build, or an
 //! older one for a before/after count).
 
+use crate::util::root;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -39,10 +40,6 @@ use std::time::{Duration, Instant};
 pub mod cases;
 
 use cases::{Case, Expect, Rng, make_case};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The binary under test: `ERRMAP_CAMPAIGN_BIN`, else the one this build made.
 fn bin() -> PathBuf {
@@ -165,7 +162,7 @@ fn fixtures(dir: &Path) -> Fixtures {
         &s(&p("vmodel.json")),
     ]);
     let mut sessions = vec![p("session.csv")];
-    let real = root().join("../shared/data/real_iso230/converted");
+    let real = crate::util::real_records_dir();
     for name in ["b02-x.csv", "wk42-z.csv"] {
         if real.join(name).is_file() {
             sessions.push(real.join(name));

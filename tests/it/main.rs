@@ -27,6 +27,7 @@ mod testplan;
 mod testplan_lines;
 mod uncertainty;
 mod untidy;
+mod util;
 mod volumetric;
 mod volumetric_campaign;
 mod volumetric_degree;

@@ -16,6 +16,7 @@
 #[path = "../../fuzz/src/targets.rs"]
 mod targets;
 
+use crate::util::errmap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
@@ -225,14 +226,6 @@ fn seeded_mutations_of_the_corpus_do_not_panic() {
 }
 
 // ---- whole outputs ----
-
-fn errmap(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
-}
 
 /// The names in `dir`, sorted.
 fn names(dir: &Path) -> Vec<String> {

@@ -4,14 +4,11 @@
 //! debug build. The long version (10⁷ samples, hours of board time) is a command to run by
 //! hand, see `soak_plan` and the README.
 
+use crate::util::bin;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
 
 /// A plan of `runs` runs on 4 lines × 5 targets with 5 s dwells at 200 Hz: 1 000 dwells
 /// and ~10⁶ samples for 25 runs (≈ 5 300 s of board time).
