@@ -66,23 +66,31 @@ pub enum Command {
     Ports,
     /// Simulate a session from a machine model and a measurement plan.
     Simulate(SimulateArgs),
-    /// Regenerate the concealed-effect cases (recorded/simulated pairs).
+    /// Regenerate the concealed-effect cases (recorded/simulated pairs). Developer command.
+    #[command(hide = true)]
     GenConcealed(GenConcealedArgs),
-    /// Diagnose every concealed case and write its report (reports/diagnosis/).
+    /// Diagnose every concealed case and write its report (reports/diagnosis/). Developer
+    /// command.
+    #[command(hide = true)]
     ReportConcealed(ReportConcealedArgs),
-    /// Throughput of the interpolators, fit times and the decoder's speed.
+    /// Measure speed: the interpolators, fits, the decoder, streaming replay and table, and
+    /// volumetric identification.
     Bench(BenchArgs),
     /// Find and model what the simulation left out of a recording.
     Diagnose(DiagnoseArgs),
-    /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
+    /// Export compensation tables (LinuxCNC, Siemens 840D, FANUC, HEIDENHAIN, ISG/TwinCAT,
+    /// CSV) or a volumetric grid.
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),
-    /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
+    /// Volumetric error from laser line measurements: the 21 geometric errors, identified,
+    /// predicted and exported.
     Volumetric(volumetric::VolumetricArgs),
     /// Write the calibration certificate (PDF) of a session.
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
+    /// Developer command.
+    #[command(hide = true)]
     GenCapture(stream::GenCaptureArgs),
 }
 

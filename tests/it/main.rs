@@ -11,6 +11,7 @@ mod export;
 mod export_dialects;
 mod export_step;
 mod gp;
+mod help;
 mod interp;
 mod iso230;
 mod layers;
