@@ -1,4 +1,4 @@
-//! Session tables (one row per latched sample, spec `session-table.md`) and their
+//! Session tables (one row per latched sample, `docs/session-table.md`) and their
 //! reduction to an error table.
 //!
 //! Writing and reading go through polars (CSV or Parquet by extension). Capture and replay

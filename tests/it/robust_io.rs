@@ -4,7 +4,7 @@
 //! same code the AFL++ binary runs) on the committed corpus, on every input that once
 //! broke a reader (`fuzz/regressions/TARGET/`: issue 17's campaign, re-made from
 //! errmap's own data, and each crash the fuzzer found), and on a fixed number of seeded
-//! mutations of the corpus. Coverage-guided campaigns run in `fuzz/` (README, "Fuzzing"); this keeps
+//! mutations of the corpus. Coverage-guided campaigns run in `fuzz/` (`docs/robustness-log.md`, "Fuzzing"); this keeps
 //! what they found fixed on every `cargo test`.
 //!
 //! **Whole outputs**: an error part-way through a command leaves no half-written file, no

@@ -2,7 +2,7 @@
 //! pseudo-terminal into `capture`, whose resident memory is sampled while it runs and must
 //! stay flat; the session it writes equals `replay` of its raw file. About 20–40 s in a
 //! debug build. The long version (10⁷ samples, hours of board time) is a command to run by
-//! hand, see `soak_plan` and the README.
+//! hand, see `soak_plan` and `docs/performance.md`.
 
 use crate::util::bin;
 use std::io::{BufRead, BufReader};
