@@ -30,10 +30,10 @@ pub mod concealed;
 pub mod diagnosis;
 pub mod environment;
 pub mod experiment;
-pub mod findings;
+pub(crate) mod findings;
 pub mod finite;
 pub mod iso230;
-pub mod json;
+pub(crate) mod json;
 pub mod uncertainty;
 pub mod volumetric;
 

@@ -31,14 +31,14 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
-pub mod columns;
+pub(crate) mod columns;
 pub mod environment;
 pub mod iso230;
 mod reduce;
 pub mod stream;
 pub mod uncertainty;
 
-pub use columns::{Columns, ParquetSink};
+pub(crate) use columns::{Columns, ParquetSink};
 pub use reduce::{
     LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
     line_key, lines,
