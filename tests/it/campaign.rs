@@ -14,7 +14,7 @@
 //!
 //! Every run must: end within the timeout (a hang is a failure), not panic, not die of a
 //! signal (SIGPIPE only when stdout was closed on purpose), exit 0, 1 or 2 as
-//! `cli-contract.md` says (2 exactly for a bad flag value, never for a data error), name
+//! `docs/cli.md` says (2 exactly for a bad flag value, never for a data error), name
 //! the mutated file or the flag on stderr when it fails, refuse what must be refused
 //! (duplicate columns, unknown or repeated keys, non-finite TOML numbers, ragged rows,
 //! repeated session samples, an output that is an input — which must stay intact), leave

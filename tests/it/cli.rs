@@ -420,7 +420,7 @@ fn compare_by_default_skips_methods_the_table_cannot_carry() {
     assert!(stderr(&o).contains("at least 3 points"), "{}", stderr(&o));
 }
 
-/// A flag value outside its set is a usage error (exit 2, `cli-contract.md`), caught by
+/// A flag value outside its set is a usage error (exit 2, `docs/cli.md`), caught by
 /// the argument parser before any file is read — the names come from the library's
 /// registries, so the message lists the valid ones.
 #[test]

@@ -1,5 +1,5 @@
 //! The physics simulator: every effect term has exactly the vocabulary's signature
-//! (cli-contract.md), the direct evaluation at recorded rows agrees with the full
+//! (`docs/vocabulary.md`), the direct evaluation at recorded rows agrees with the full
 //! board → wire → decoder path, and the model files parse.
 
 use crate::util::root;

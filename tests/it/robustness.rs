@@ -682,7 +682,7 @@ fn replay_without_a_hello_says_so_and_converts_with_an_earlier_description() {
     let ok_csv = dir.path().join("ok.csv");
     let o = errmap(&["replay", &path(&whole), "--out", &path(&ok_csv)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    // Without a HELLO: a damaged capture (exit 0 per cli-contract.md), but never silent:
+    // Without a HELLO: a damaged capture (exit 0 per docs/cli.md), but never silent:
     // the samples are counted as unconverted and a warning says what to do.
     let out = dir.path().join("b.csv");
     let o = errmap(&["replay", &path(&headless), "--out", &path(&out), "--json"]);
