@@ -3,7 +3,7 @@
 //! test so that a rerun finds none of them again.
 //!
 //! Every run takes errmap's own inputs (`datasets/`, the real records of
-//! `../shared/data/` when present, and what `errmap` itself writes from them: a
+//! `util::real_records_dir` when present, and what `errmap` itself writes from them: a
 //! simulated session and its raw capture, a Parquet error table, a volumetric line table
 //! and its identified model), mutates one of them, or one command-line value, and runs
 //! one command on it. The mutations are those of the campaign: a cell made
