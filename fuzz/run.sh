@@ -16,7 +16,7 @@
 # get `codegen-units=1` (cargo-afl's work-around for link errors), which gives their
 # instrumented rlibs names of their own: `cargo test` at the root and this script
 # alternate without rebuilding each other's crates. (`cargo afl build` instruments and
-# optimises polars too: 73 minutes here.) Measured costs: README, "Fuzzing".
+# optimises polars too: 73 minutes here.) Measured costs: docs/robustness-log.md, "Fuzzing".
 #
 # Each target then runs for SECONDS seconds from fuzz/corpus/TARGET (AFL's findings under
 # fuzz/out/TARGET). Exits 1 when AFL saved a crash, listing the files: replay one with

@@ -11,8 +11,8 @@
 //!
 //! A capture that started after the device's power-up has no HELLO, and without one no
 //! SAMPLE can be converted. So when no usable HELLO has arrived [`HELLO_WAIT`] after the
-//! start, the capture sends the spec's `?` once (`wire-protocol.md`: HELLO is sent "at
-//! power-up and after a `?` byte from the host"); the rows held back are converted when
+//! start, the capture sends the protocol's `?` once (`docs/wire-protocol.md`: the board
+//! sends a HELLO at power-up and whenever the host sends `?`); the rows held back are converted when
 //! the HELLO comes. A source that cannot be written (a file) ignores the request.
 //!
 //! [`capture_to`] hands each decoder event (rows, and the problems a live view shows) to a
@@ -32,7 +32,7 @@ use crate::transport::{ByteSource, ReadOutcome, TransportError};
 /// How long a capture waits for a usable HELLO before asking for one with `?`.
 pub const HELLO_WAIT: Duration = Duration::from_secs(1);
 
-/// The host's request for a HELLO (`wire-protocol.md`).
+/// The host's request for a HELLO (`docs/wire-protocol.md`).
 pub const HELLO_REQUEST: &[u8] = b"?";
 
 /// Capture settings.

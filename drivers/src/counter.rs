@@ -1,7 +1,7 @@
 //! Unwrapping of the 32-bit wrapping counters of SAMPLE frames into i64
-//! (`shared/spec/wire-protocol.md`, "0x02 SAMPLE": "the host unwraps the counters into
-//! i64 assuming fewer than 2^31 counts between consecutive samples"; the u32 sample
-//! index is unwrapped the same way).
+//! (`docs/wire-protocol.md`, "SAMPLE (0x02)": the host extends the counters to
+//! i64 on the assumption that consecutive samples differ by fewer than 2^31 counts; the
+//! u32 sample index is unwrapped the same way).
 //!
 //! Each new raw value is taken as the previous one plus the signed 32-bit difference
 //! (`raw − prev` mod 2^32, read as i32), so any motion of fewer than 2^31 counts between

@@ -1,5 +1,5 @@
-//! Sans-IO stream decoder for wire protocol version 1 (`shared/spec/wire-protocol.md`,
-//! sections "Link", "Frame" and the resync rule).
+//! Sans-IO stream decoder for wire protocol version 1 (`docs/wire-protocol.md`,
+//! sections "The link", "Frames" and "Resynchronisation").
 //!
 //! Bytes go in with [`Decoder::push`] (or [`Decoder::push_with`], which hands events to
 //! a closure and allocates nothing per call); frames and typed problems come out as

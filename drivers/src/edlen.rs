@@ -1,6 +1,6 @@
 //! Refractive index of air: the modified Edlén equation of Birch and Downs (Metrologia 30,
 //! 155 (1993) and its correction, Metrologia 31, 315 (1994)), exactly as
-//! `shared/spec/wire-protocol.md` section "Air refractive index" gives it, with the water
+//! `docs/wire-protocol.md` section "The air's refractive index" writes it, with the water
 //! vapour saturation pressure from the IAPWS-IF97 saturation equation (region 4, IAPWS
 //! Revised Release on IF97, eq. 30).
 //!

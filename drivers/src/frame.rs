@@ -1,5 +1,5 @@
 //! Frame layer of the acquisition wire protocol, version 1
-//! (`shared/spec/wire-protocol.md`, sections "Frame" and "Frame types").
+//! (`docs/wire-protocol.md`, sections "Frames" and "The frame types").
 //!
 //! A frame on the wire:
 //!

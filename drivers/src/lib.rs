@@ -1,5 +1,5 @@
-//! errmap acquisition drivers: the wire protocol of `shared/spec/wire-protocol.md`
-//! (version 1), decoded sans-IO into the session table of `shared/spec/session-table.md`.
+//! errmap acquisition drivers: the wire protocol of `docs/wire-protocol.md`
+//! (version 1), decoded sans-IO into the session table of `docs/session-table.md`.
 //!
 //! | module | what | standard / method | cost |
 //! |---|---|---|---|

@@ -10,7 +10,7 @@
 //! reduction. The blocks are joined on the wire as one board running for the whole day
 //! would send them: one HELLO at the start, and after it every frame re-encoded with the
 //! sequence number, clock, sample counter and run number continuing from the block
-//! before — so `(run, sample)` stays unique in the session, as `session-table.md` requires.
+//! before — so `(run, sample)` stays unique in the session, as `docs/session-table.md` requires.
 //!
 //! The truth is a smooth, known error field (a linear scale error plus a line-dependent
 //! offset), e(x, y, z) = 1 µm/m·x + 0.02·y + 0.01·z µm (x, y, z in mm), so the error table

@@ -1,5 +1,5 @@
 //! Typed problems found in a stream, each with its position (byte offset, seq, t_us), as
-//! `shared/spec/wire-protocol.md` ("What the host guarantees") requires: damage is counted
+//! `docs/wire-protocol.md` ("What the host promises") requires: damage is counted
 //! and reported, never silently dropped and never a panic.
 //!
 //! A problem is not an error: decoding goes on. The stream decoder and the session

@@ -1,5 +1,5 @@
 //! ×4 quadrature (A-quad-B) decoding of the RAW_AB diagnostic frames
-//! (`shared/spec/wire-protocol.md`, section "0x06 RAW_AB").
+//! (`docs/wire-protocol.md`, section "RAW_AB (0x06)").
 //!
 //! Two square waves 90° apart; every edge of either line is one count:
 //!

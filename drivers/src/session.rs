@@ -1,6 +1,6 @@
-//! From frames to session-table rows, exactly per `shared/spec/wire-protocol.md` section
-//! "From frames to session-table rows" and the session table of
-//! `shared/spec/session-table.md`.
+//! From frames to session-table rows, exactly per `docs/wire-protocol.md` section
+//! "From frames to session rows" and the session table of
+//! `docs/session-table.md`.
 //!
 //! [`SessionBuilder`] turns decoded frames into [`SessionRow`]s; [`SessionDecoder`] chains
 //! the byte-level [`Decoder`] and the builder (bytes in, rows and problems out); the
@@ -46,7 +46,7 @@ use crate::problem::{Counter, HelloError, Problem, ProblemKind, StreamPos};
 use crate::quadrature::{AbState, QuadratureDecoder};
 use crate::stats::DecoderStats;
 
-/// One row of the session table (`shared/spec/session-table.md`); field names are the
+/// One row of the session table (`docs/session-table.md`); field names are the
 /// column names, `None` is an empty field.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SessionRow {

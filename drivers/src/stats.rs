@@ -1,5 +1,5 @@
-//! Decoder statistics, serialised exactly as `shared/spec/wire-protocol.md` section
-//! "Decoder statistics" shows, plus a bounded log of problem positions kept beside it.
+//! Decoder statistics, serialised exactly as `docs/wire-protocol.md` section
+//! "Decoder statistics" lists them, plus a bounded log of problem positions kept beside it.
 //!
 //! [`DecoderStats`] serialises to precisely the spec's keys, in the spec's order; the
 //! [`ProblemLog`] (count and first [`ProblemLog::FIRST_N`] positions of every problem

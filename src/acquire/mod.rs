@@ -326,7 +326,7 @@ pub fn replay(raw: &Path, out: &Path) -> Result<Replayed, AcquireError> {
 /// [`replay`], with the device description `hello` in force from the first byte when
 /// given (from [`hello_from_session_json`]). Samples that no HELLO describes are counted
 /// in `unconverted_samples` (the caller says so loudly). A capture whose samples no HELLO
-/// describes is a damaged capture, not bad input (`cli-contract.md`): its table is
+/// describes is a damaged capture, not bad input (`docs/cli.md`): its table is
 /// written with what could be converted — possibly nothing — and the count tells why.
 pub fn replay_with_hello(
     raw: &Path,

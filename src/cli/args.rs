@@ -41,14 +41,16 @@ pub struct ExportArgs {
     /// Sampling step along the line, or the grid spacing, mm.
     #[arg(long, value_parser = length, required_unless_present_any = ["bidirectional", "existing"])]
     pub step: Option<f64>,
-    /// Line start and end, mm (default: the table's range on the axis).
+    /// Line start, mm (default: the table's lowest node on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
     pub start: Option<f64>,
+    /// Line end, mm (default: the table's highest node on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
     pub end: Option<f64>,
     /// A round grid of --step through --reference covering the range, the points beyond
-    /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC and
-    /// CSV end on the range end (the last interval shorter); Siemens needs a dividing step.
+    /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC, ISG
+    /// and CSV end on the range end (the last interval shorter); Siemens, FANUC and
+    /// HEIDENHAIN need a step that divides the range.
     #[arg(long, value_enum)]
     pub ends: Option<EndsArg>,
     /// The grid's reference position for --ends, mm (e.g. the machine's reference point).
@@ -149,6 +151,7 @@ pub struct DiagnoseArgs {
     #[arg(long, default_value_t = errmap::diagnose::MAX_ROWS as u64,
           value_parser = clap::value_parser!(u64).range(1000..=100_000_000))]
     pub max_rows: u64,
+    /// Print the diagnosis as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -174,6 +177,7 @@ pub struct BenchArgs {
     /// it, SQLite only.
     #[arg(long)]
     pub history_postgres: Option<String>,
+    /// Print the measurements as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -231,6 +235,7 @@ pub struct FaultArgs {
     /// Start both counters this many counts below the 32-bit wrap.
     #[arg(long)]
     pub near_wrap: Option<i32>,
+    /// Seed of the injected faults (the same seed gives the same faults).
     #[arg(long, default_value_t = 1)]
     pub fault_seed: u64,
 }
@@ -268,6 +273,7 @@ pub struct CaptureArgs {
     /// Session directory (created; an existing capture there is never overwritten).
     #[arg(long)]
     pub out: PathBuf,
+    /// Line speed, baud (8N1).
     #[arg(long, default_value_t = 115_200, value_parser = baud)]
     pub baud: u32,
     /// Session table format.
@@ -319,6 +325,7 @@ pub struct TableArgs {
     pub tolerances: Option<PathBuf>,
     #[command(flatten)]
     pub rule: super::acceptance::RuleArgs,
+    /// Print the per-line statistics as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -406,15 +413,19 @@ pub struct CompareArgs {
 
 #[derive(Debug, Args)]
 pub struct FuzzySimArgs {
+    /// Seed of the first trial's random node and target errors.
     #[arg(long, default_value_t = 2013)]
     pub seed: u64,
+    /// Number of trials, each a fresh random grid and targets.
     #[arg(long, default_value_t = 200, value_parser = trials)]
     pub trials: usize,
+    /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
     #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Write a markdown report here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Print the result as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }

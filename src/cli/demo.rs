@@ -154,7 +154,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
     let d = diagnose::run_diagnosis(&session_dir, &Against::Model(model), &report, None)?;
     diagnose::print_summary(&d, &report)?;
 
-    eprintln!("errmap demo [5/6]: the paper's Table 1 → Table 2 (seed 001)");
+    eprintln!("errmap demo [5/6]: the Lagrange paper's Table 1 → Table 2 (Zhang Mei 2013)");
     demo_compare(&t1, &t2, &a.out.join("table2"))?;
 
     eprintln!(

@@ -38,7 +38,7 @@ use anyhow::{Context, Result, bail};
 pub struct StdoutClosed;
 
 /// A usage error found after clap: flags that do not go together, or one that another
-/// needs. `main` prints it as clap prints its own and exits 2, as `cli-contract.md`
+/// needs. `main` prints it as clap prints its own and exits 2, as `docs/cli.md`
 /// asks of every usage error.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]

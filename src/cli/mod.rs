@@ -61,7 +61,7 @@ pub enum Command {
     Fit(FitArgs),
     /// Compare methods and Lagrange orders on test points, with cross-validation.
     Compare(CompareArgs),
-    /// Seed 000's simulation: fuzzy vs trilinear vs spline on random node errors.
+    /// Simulate random node errors and compare fuzzy, trilinear and spline interpolation.
     FuzzySim(FuzzySimArgs),
     /// Run the simulated acquisition device on a pseudo-terminal and stream its frames.
     ServeSim(ServeSimArgs),
@@ -75,25 +75,33 @@ pub enum Command {
     Ports,
     /// Simulate a session from a machine model and a measurement plan.
     Simulate(SimulateArgs),
-    /// Regenerate the concealed-effect cases (recorded/simulated pairs).
+    /// Regenerate the concealed-effect cases (recorded/simulated pairs). Developer command.
+    #[command(hide = true)]
     GenConcealed(GenConcealedArgs),
-    /// Diagnose every concealed case and write its report (reports/diagnosis/).
+    /// Diagnose every concealed case and write its report (reports/diagnosis/). Developer
+    /// command.
+    #[command(hide = true)]
     ReportConcealed(ReportConcealedArgs),
-    /// Throughput of the interpolators, fit times and the decoder's speed.
+    /// Measure speed: the interpolators, fits, the decoder, streaming replay and table, and
+    /// volumetric identification.
     Bench(BenchArgs),
     /// Find and model what the simulation left out of a recording.
     Diagnose(DiagnoseArgs),
-    /// Export compensation tables (LinuxCNC, Siemens 840D, CSV) or a volumetric grid.
+    /// Export compensation tables (LinuxCNC, Siemens 840D, FANUC, HEIDENHAIN, ISG/TwinCAT,
+    /// CSV) or a volumetric grid.
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),
-    /// The 21 geometric errors from laser line measurements: simulate, identify, predict.
+    /// Volumetric error from laser line measurements: the 21 geometric errors, identified,
+    /// predicted and exported.
     Volumetric(volumetric::VolumetricArgs),
     /// Ballbar circular tests (ISO 230-4): evaluate, diagnose, simulate.
     Circular(circular::CircularArgs),
     /// Write the calibration certificate (PDF) of a session.
     Certificate(certificate::CertificateArgs),
     /// Write a long simulated raw capture (benchmarks and soak tests of replay and table).
+    /// Developer command.
+    #[command(hide = true)]
     GenCapture(stream::GenCaptureArgs),
     /// Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a
     /// controller table (Fagor 8055/8065, LinuxCNC) into errmap's tables.

@@ -1,5 +1,5 @@
 //! The value types of the command line's flags: each parsed once, by clap, into a
-//! library type. A value outside its set is a usage error (exit 2, as `cli-contract.md`
+//! library type. A value outside its set is a usage error (exit 2, as `docs/cli.md`
 //! says), listed in `--help` where the set is closed.
 //!
 //! Names that belong to the library (method names, axes, kernels) come from the

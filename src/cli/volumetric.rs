@@ -19,7 +19,7 @@ pub enum VolumetricCommand {
     /// Simulate a laser campaign: a line table from a machine model and a plan.
     Simulate(SimulateArgs),
     /// A line table from captured sessions: every (line position, run, direction) of an
-    /// axis-parallel session becomes one line (`errmap::volumetric::from_session`).
+    /// axis-parallel session becomes one line.
     Lines(LinesArgs),
     /// Identify the 21 geometric errors from a line table.
     Identify(IdentifyArgs),
@@ -129,8 +129,10 @@ pub struct PredictArgs {
     /// Probe offset for --grid, mm: PX,PY,PZ.
     #[arg(long, default_value = "0,0,0", allow_hyphen_values = true, value_parser = values::point3)]
     pub probe: [f64; 3],
+    /// Write the predictions (with --lines) or the error vector (with --grid) as a table.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Print the predictions along the lines as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }

@@ -1,4 +1,4 @@
-//! The effect vocabulary of `shared/spec/cli-contract.md` as regressors.
+//! The effect vocabulary of `docs/vocabulary.md` as regressors.
 //!
 //! Every effect is linear in its parameters once its one nonlinear parameter (the period of
 //! `periodic_scale`, the time constant of an exponential `thermal_drift`) is fixed; the

@@ -1,5 +1,5 @@
 //! Missing-physics diagnosis: find, name and model what a simulation left out of a
-//! recording (`errmap diagnose`, `shared/spec/cli-contract.md`).
+//! recording (`errmap diagnose`, `docs/cli.md` and `docs/vocabulary.md`).
 //!
 //! The residual r = recorded − simulated error is matched on (run, sample) and explained
 //! by a free constant plus effects of the contract's vocabulary, each a parametric model

@@ -1,6 +1,8 @@
-//! The seed-000 simulation: fuzzy vs trilinear vs cubic spline on random node errors.
+//! The fuzzy-interpolation paper's simulation: fuzzy vs trilinear vs cubic spline on random
+//! node errors.
 //!
-//! Seed 000 (Section IV) simulates a workspace divided into 20 mm cubic cells with
+//! Agbegha, Guo and Bai, "Compare Fuzzy Interpolation Algorithm with Other Interpolation
+//! Methods Used in Industrial Applications" (2011), Section IV, simulates a workspace divided into 20 mm cubic cells with
 //! position errors drawn from U[−0.05, 0.05] mm at the grid nodes, interpolates errors at
 //! targets in 20 cells, and reports the maximum interpolation error: fuzzy ≈ 0.026 mm,
 //! cubic spline ≈ 0.033 mm, trilinear ≈ 0.044 mm, fuzzy also best on the mean.
@@ -20,7 +22,7 @@ use serde::Serialize;
 use crate::interp::{InterpError, Method, fuzzy};
 use crate::table::Grid;
 
-/// The paper's reported maximum position errors, mm (seed 000, Section IV).
+/// The paper's reported maximum position errors, mm (Agbegha, Guo and Bai 2011, Section IV).
 pub const PAPER_MAX_MM: [(&str, f64); 3] =
     [("fuzzy", 0.026), ("spline", 0.033), ("trilinear", 0.044)];
 

@@ -1,12 +1,12 @@
 //! Numbers about models: cross-validation on the fitting table, the order/method
-//! comparison, and the seed-000 experiment. No prose and no files here; the words and
+//! comparison, and the fuzzy-interpolation paper's experiment. No prose and no files here; the words and
 //! figures are in the `report` stage.
 //!
 //! | module | computes |
 //! |---|---|
 //! | [`cv`] | leave-one-plane-out (grids) and leave-one-out (GP) cross-validation |
 //! | [`compare`] | the comparison like the paper's Table 2, the recommendation, sampling advice |
-//! | [`experiment`] | seed 000's simulation (fuzzy vs trilinear vs spline on random errors) |
+//! | [`experiment`] | the fuzzy-interpolation paper's simulation (Agbegha, Guo and Bai 2011: fuzzy vs trilinear vs spline on random errors) |
 
 pub mod compare;
 pub mod cv;

@@ -1,4 +1,5 @@
-//! The Gaussian-membership fuzzy interpolator (seed 000, Section III, Eqs. 8–13).
+//! The Gaussian-membership fuzzy interpolator (Agbegha, Guo and Bai 2011,
+//! Section III, Eqs. 8–13).
 //!
 //! Each cell has 8 rules, one per corner ("if x is W, y is N and z is U then e is P₁" …).
 //! Along each axis the input has two Gaussian-bell memberships, centred on the cell's low

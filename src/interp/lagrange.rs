@@ -1,4 +1,4 @@
-//! Tensor-product Lagrange interpolation of degrees m×n×q (seed 001, Eq. for P_{m,n,q}).
+//! Tensor-product Lagrange interpolation of degrees m×n×q (Zhang Mei 2013, Eq. for P_{m,n,q}).
 //!
 //! P(x, y, z) = Σ_h Σ_j Σ_i ℓ_h(z) ℓ_j(y) ℓ_i(x) e_ijh, where ℓ are the 1-D Lagrange basis
 //! polynomials through d + 1 consecutive nodes along each axis (d the degree on that axis).

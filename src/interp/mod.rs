@@ -3,15 +3,24 @@
 //!
 //! | method | module | fit cost | evaluation cost per point | reference |
 //! |---|---|---|---|---|
-//! | Lagrange m×n×q | [`lagrange`] | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | seed 001, Eq. P_{m,n,q} |
-//! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 1–4 |
-//! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | seed 000, Eqs. 5–7 |
-//! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | seed 000, Eqs. 8–13 |
+//! | Lagrange m×n×q | [`lagrange`] | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | Zhang Mei 2013, Eq. P_{m,n,q} |
+//! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 1–4 |
+//! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | Agbegha, Guo and Bai 2011, Eqs. 5–7 |
+//! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 8–13 |
 //! | Gaussian process (kriging) | [`gp`] | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
 //!
 //! N is the number of grid nodes. Every method evaluates outside the grid too (the rule
 //! is in each module's docs) and the caller is told by [`Interpolator::outside`], so
 //! extrapolated predictions are always flagged.
+//!
+//! References (full list in `docs/README.md`):
+//! - Zhang Mei, "CMM Measurement Error Model Based on High-order Lagrange Interpolation",
+//!   *Information Technology Journal* (2013): the tensor Lagrange interpolant and the
+//!   Table 1 / Table 2 data in `datasets/`.
+//! - G. Agbegha, N. Guo and Y. Bai, "Compare Fuzzy Interpolation Algorithm with Other
+//!   Interpolation Methods Used in Industrial Applications" (2011): trilinear, cubic
+//!   spline and fuzzy interpolation, and the random-error simulation of `errmap fuzzy-sim`.
+//! - C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for Machine Learning* (2006).
 
 mod cells;
 pub mod fuzzy;

@@ -1,7 +1,8 @@
-//! Tensor-product natural cubic spline (seed 000, Section II.B, Eqs. 5–7).
+//! Tensor-product natural cubic spline (Agbegha, Guo and Bai 2011, Section II.B,
+//! Eqs. 5–7).
 //!
 //! Along one axis the natural cubic spline through (x_i, y_i) is, on [x_i, x_{i+1}] with
-//! h = x_{i+1} − x_i, A = (x_{i+1} − x)/h, B = 1 − A (seed 000, Eq. 7):
+//! h = x_{i+1} − x_i, A = (x_{i+1} − x)/h, B = 1 − A (Agbegha, Guo and Bai 2011, Eq. 7):
 //!
 //! s(x) = A·y_i + B·y_{i+1} + (A³ − A)·h²/6·M_i + (B³ − B)·h²/6·M_{i+1},
 //!

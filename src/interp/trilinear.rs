@@ -1,4 +1,4 @@
-//! Trilinear interpolation (seed 000, Section II.A, Eqs. 1–4).
+//! Trilinear interpolation (Agbegha, Guo and Bai 2011, Section II.A, Eqs. 1–4).
 //!
 //! Inside a cell the error is the tensor product of linear interpolations along x, y and
 //! z through the cell's 8 corners. Outside the grid the end cell's linear functions are

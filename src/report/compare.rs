@@ -537,8 +537,8 @@ fn markdown(c: &Comparison, command: &str, feat: &[usize], by_cv: &[usize]) -> S
     let _ = writeln!(
         s,
         "Lagrange m×n×q: tensor Lagrange polynomials of degree m, n, q along x, y, z through m+1, n+1, q+1 \
-         consecutive nodes around the query (seed 001). Trilinear, natural tricubic spline and the \
-         Gaussian-membership fuzzy interpolator (σ = {} of the cell) follow seed 000. Cross-validation leaves \
+         consecutive nodes around the query (Zhang Mei 2013). Trilinear, natural tricubic spline and the \
+         Gaussian-membership fuzzy interpolator (σ = {} of the cell) follow Agbegha, Guo and Bai (2011). Cross-validation leaves \
          out one whole grid plane at a time along each axis, end planes included, fits on the rest and \
          predicts the removed nodes; where a fold has too few nodes for a Lagrange degree, the degree is \
          lowered for that fold and counted under \"capped folds\". A scattered table (not a full grid) \

@@ -1,4 +1,4 @@
-//! The seed-000 simulation's report: its outcome in words and a table, beside the paper's
+//! The fuzzy-interpolation paper's simulation's report (`fuzzy-sim`): its outcome in words and a table, beside the paper's
 //! figures.
 
 use crate::evaluate::experiment::{FuzzySimResult, MethodStats};
@@ -10,7 +10,7 @@ pub fn markdown(r: &FuzzySimResult) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# Seed 000's simulation: fuzzy vs trilinear vs cubic spline\n"
+        "# Fuzzy vs trilinear vs cubic spline on random node errors (Agbegha, Guo and Bai 2011)\n"
     );
     let _ = writeln!(
         s,

@@ -1,4 +1,4 @@
-//! The JSON documents of `compare --json` (spec `cli-contract.md`, with extra keys).
+//! The JSON documents of `compare --json` (`docs/cli.md`, with extra keys).
 
 use std::path::Path;
 
@@ -8,7 +8,7 @@ use crate::evaluate::compare::{Comparison, SigmaKind};
 use crate::evaluate::cv::CvScheme;
 use crate::interp::Method;
 
-/// The JSON document of `compare --json` (spec `cli-contract.md`, with extra keys).
+/// The JSON document of `compare --json` (`docs/cli.md`, with extra keys).
 #[derive(Debug, Serialize)]
 pub struct CompareJson {
     pub rows: Vec<CompareJsonRow>,

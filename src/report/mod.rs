@@ -13,7 +13,7 @@
 //! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
 //! | [`environment`] | a session's air and material temperatures in words and a table |
 //! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
-//! | [`experiment`] | the seed-000 simulation's report (`fuzzy-sim`) |
+//! | [`experiment`] | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
 //! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
 //! | [`history`] | the calibration history report (`history report --report`) |
 //! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
@@ -34,11 +34,11 @@ pub mod concealed;
 pub mod diagnosis;
 pub mod environment;
 pub mod experiment;
-pub mod findings;
+pub(crate) mod findings;
 pub mod finite;
 pub mod history;
 pub mod iso230;
-pub mod json;
+pub(crate) mod json;
 pub mod uncertainty;
 pub mod volumetric;
 

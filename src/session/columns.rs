@@ -27,8 +27,9 @@
 //! schema key, read back by polars (and by any Parquet reader) like the ones
 //! `ParquetWriter` writes; the encodings are the Parquet format's own.
 //!
-//! Measured on a generated 203 MB capture, one core of this machine (the README's "Long
-//! captures in constant memory" has the figures and the command).
+//! Measured on a generated 203 MB capture, one core of this machine
+//! (`docs/performance.md`, "Long captures in constant memory", has the figures and the
+//! command).
 
 use std::io::Write;
 

@@ -1,4 +1,4 @@
-//! Session tables (one row per latched sample, spec `session-table.md`) and their
+//! Session tables (one row per latched sample, `docs/session-table.md`) and their
 //! reduction to an error table.
 //!
 //! Writing and reading go through polars (CSV or Parquet by extension). Capture and replay
@@ -31,14 +31,14 @@
 //! index over every line and run, rounded to 0.1 µm, so that one target has one coordinate
 //! on every line and the nodes form a grid.
 
-pub mod columns;
+pub(crate) mod columns;
 pub mod environment;
 pub mod iso230;
 mod reduce;
 pub mod stream;
 pub mod uncertainty;
 
-pub use columns::{Columns, ParquetSink};
+pub(crate) use columns::{Columns, ParquetSink};
 pub use reduce::{
     LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
     line_key, lines,

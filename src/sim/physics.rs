@@ -2,7 +2,7 @@
 //!
 //! A machine model (TOML, commented example in `datasets/physics/example-model.toml`) says
 //! what the simulated CMM's error is made of: a geometric error map, and any of the effects
-//! of the vocabulary in `shared/spec/cli-contract.md`, each switchable, with temperature,
+//! of the vocabulary in `docs/vocabulary.md`, each switchable, with temperature,
 //! pressure and humidity histories over time. [`PhysicsTruth`] evaluates it at every latch
 //! of the simulated board (`errmap_drivers::sim`), so `simulate`, `serve-sim` and the demo
 //! share one code path: plan → board → wire frames → decoder → session rows.

@@ -1,5 +1,5 @@
-//! Error tables: one row per node, `x_mm,y_mm,z_mm,e_um[,n,s_um,n_eff]` (spec
-//! `session-table.md`; `n_eff`, the effective sample count of correlated dwell samples,
+//! Error tables: one row per node, `x_mm,y_mm,z_mm,e_um[,n,s_um,n_eff]` (see
+//! `docs/session-table.md`; `n_eff`, the effective sample count of correlated dwell samples,
 //! is errmap's own optional column: tables without it read as before).
 //!
 //! Tables are read and written as CSV or Parquet with polars, chosen by the file extension.

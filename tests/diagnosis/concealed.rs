@@ -14,9 +14,7 @@ mod against_truth {
     use errmap::session::read_session;
     use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
 
-    fn root() -> PathBuf {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-    }
+    use crate::util::root;
 
     struct Case {
         dir: PathBuf,

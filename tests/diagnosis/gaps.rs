@@ -257,12 +257,9 @@ fn recorded_only_clean_recording_gives_no_effect() {
 /// the 90 dwells — and removing it lowers the ISO 230-2 repeatability.
 #[test]
 fn recorded_only_on_the_real_b02_record() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real_iso230/converted/b02-x-log.csv");
-    if !path.is_file() {
-        eprintln!("skipped: {} is not here", path.display());
+    let Some(path) = crate::util::real_record("b02-x-log.csv") else {
         return;
-    }
+    };
     let rows = errmap::session::read_session(&path).expect("reads b02-x-log.csv");
     let d =
         errmap::diagnose::diagnose_recorded(&rows, &DiagnoseConfig::default()).expect("diagnoses");
@@ -316,12 +313,9 @@ fn recorded_only_on_the_real_b02_record() {
 /// the table in the report.
 #[test]
 fn recorded_only_from_the_command_line() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real_iso230/converted/b02-x-log.csv");
-    if !path.is_file() {
-        eprintln!("skipped: {} is not here", path.display());
+    let Some(path) = crate::util::real_record("b02-x-log.csv") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().expect("tempdir");
     let report = dir.path().join("report");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))

@@ -9,3 +9,5 @@ mod perf;
 mod random;
 mod robust;
 mod untidy;
+#[path = "../it/util.rs"]
+mod util;

@@ -3,22 +3,15 @@
 //! killed with SIGKILL loses nothing that was flushed; a vanishing port ends the capture
 //! with a clear error and a valid session.
 
+use crate::util::{bin, root};
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use errmap::session::{error_table, read_session};
 use errmap::sim::physics::{MachineModel, PhysicsTruth};
 use errmap::table::ErrorTable;
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Starts serve-sim and returns it with the pty path it printed.
 fn serve(plan: &Path, speed: f64, linger: f64) -> (Child, String) {

@@ -3,7 +3,7 @@
 //! test so that a rerun finds none of them again.
 //!
 //! Every run takes errmap's own inputs (`datasets/`, the real records of
-//! `../shared/data/` when present, and what `errmap` itself writes from them: a
+//! `util::real_records_dir` when present, and what `errmap` itself writes from them: a
 //! simulated session and its raw capture, a Parquet error table, a volumetric line table
 //! and its identified model), mutates one of them, or one command-line value, and runs
 //! one command on it. The mutations are those of the campaign: a cell made
@@ -14,7 +14,7 @@
 //!
 //! Every run must: end within the timeout (a hang is a failure), not panic, not die of a
 //! signal (SIGPIPE only when stdout was closed on purpose), exit 0, 1 or 2 as
-//! `cli-contract.md` says (2 exactly for a bad flag value, never for a data error), name
+//! `docs/cli.md` says (2 exactly for a bad flag value, never for a data error), name
 //! the mutated file or the flag on stderr when it fails, refuse what must be refused
 //! (duplicate columns, unknown or repeated keys, non-finite TOML numbers, ragged rows,
 //! repeated session samples, an output that is an input — which must stay intact), leave
@@ -29,6 +29,7 @@
 //! `ERRMAP_CAMPAIGN_BIN` runs the campaign against another binary (a release build, or an
 //! older one for a before/after count).
 
+use crate::util::root;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -39,10 +40,6 @@ use std::time::{Duration, Instant};
 pub mod cases;
 
 use cases::{Case, Expect, Rng, make_case};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The binary under test: `ERRMAP_CAMPAIGN_BIN`, else the one this build made.
 fn bin() -> PathBuf {
@@ -165,7 +162,7 @@ fn fixtures(dir: &Path) -> Fixtures {
         &s(&p("vmodel.json")),
     ]);
     let mut sessions = vec![p("session.csv")];
-    let real = root().join("../shared/data/real_iso230/converted");
+    let real = crate::util::real_records_dir();
     for name in ["b02-x.csv", "wk42-z.csv"] {
         if real.join(name).is_file() {
             sessions.push(real.join(name));

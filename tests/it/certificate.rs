@@ -4,7 +4,8 @@
 //! installed those tests print a skip message (`.ci/run` installs them when it can).
 //! Also the info TOML through the binary, and a real positioning record.
 
-use std::path::{Path, PathBuf};
+use crate::util::{errmap, real_record, root};
+use std::path::Path;
 use std::process::Command;
 
 use errmap::report::certificate::{
@@ -15,23 +16,6 @@ use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
 use errmap::session::{self, read_session};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A real record from `../shared` (present in CI), or `None` with a skip message.
-fn shared(name: &str) -> Option<PathBuf> {
-    let p = root()
-        .join("../shared/data/real_iso230/converted")
-        .join(name);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} is not here", p.display());
-        None
-    }
-}
 
 fn have(tool: &str) -> bool {
     let ok = Command::new(tool)
@@ -200,7 +184,7 @@ fn certificate_prints_every_statistic_as_computed() -> TestResult {
 /// A nanometre-scale record: its values keep their digits (4 decimals of µm, not 3).
 #[test]
 fn nanometre_record_keeps_its_digits_in_the_certificate() -> TestResult {
-    let Some(p) = shared("psi-fat_sat.csv") else {
+    let Some(p) = real_record("psi-fat_sat.csv") else {
         return Ok(());
     };
     let c = compute(&p)?;
@@ -210,14 +194,6 @@ fn nanometre_record_keeps_its_digits_in_the_certificate() -> TestResult {
     }
     let pdf = render(&c, &CertificateInfo::default())?;
     check_text(&pdf, &c, tempfile::tempdir()?.path())
-}
-
-fn errmap(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
 }
 
 #[test]
@@ -290,7 +266,7 @@ fn real_records_match_the_values_their_reports_print() -> TestResult {
         ("psi-fat_sat.csv", 0.0122, 0.0277, 0.08881, 0.0629, 0.00005),
     ];
     for (name, b, m, a, r_uni, tol) in cases {
-        let Some(p) = shared(name) else {
+        let Some(p) = real_record(name) else {
             continue;
         };
         let c = compute(&p)?;
@@ -349,7 +325,7 @@ fn committed_certificates_are_not_stale() -> TestResult {
             "datasets/certificate/example-info.toml".into(),
         ],
     )];
-    if let Some(p) = shared("psi-fat_sat.csv") {
+    if let Some(p) = real_record("psi-fat_sat.csv") {
         cases.push((
             "reports/certificate/psi-fat_sat.pdf",
             vec![p.to_str().ok_or("utf8")?.to_string()],

@@ -1,23 +1,11 @@
-//! The binary's contract (`cli-contract.md`): JSON on stdout, exit 1 with a message naming
+//! The binary's contract (`docs/cli.md`): JSON on stdout, exit 1 with a message naming
 //! the file for bad input, exit 2 for usage errors.
 
+use crate::util::{errmap, stderr};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn errmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
-}
 
 fn dataset(name: &str) -> String {
     format!("datasets/{name}")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// Table 1 without the node (1.2424, 400, 350), written to `dir/scattered.csv`: no longer
@@ -432,7 +420,7 @@ fn compare_by_default_skips_methods_the_table_cannot_carry() {
     assert!(stderr(&o).contains("at least 3 points"), "{}", stderr(&o));
 }
 
-/// A flag value outside its set is a usage error (exit 2, `cli-contract.md`), caught by
+/// A flag value outside its set is a usage error (exit 2, `docs/cli.md`), caught by
 /// the argument parser before any file is read — the names come from the library's
 /// registries, so the message lists the valid ones.
 #[test]

@@ -1,4 +1,5 @@
-//! Seed 000's simulation: checks which of the paper's claims hold (seeded, many trials).
+//! The fuzzy-interpolation paper's simulation (Agbegha, Guo and Bai 2011): checks which of
+//! its claims hold (seeded, many trials).
 
 use errmap::evaluate::experiment::{FuzzySimConfig, run};
 

@@ -3,8 +3,9 @@
 //! a suggested step that is accepted when given back, negative `--start`. Known answers
 //! on an affine field (trilinear reproduces it exactly) and the issue's own commands.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use crate::util::{errmap_in, root};
+use std::path::Path;
+use std::process::Output;
 
 use errmap::export::{
     Ends, ExportError, Extrapolation, LineSpec, StepFit, sample_line, sample_line_fit, siemens,
@@ -12,10 +13,6 @@ use errmap::export::{
 use errmap::interp::{Interpolator, Method};
 use errmap::table::{Axis, Grid};
 use proptest::prelude::*;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// e = 0.01·x + 0.002·y µm on x ∈ [−1000, 1000]: trilinear is exact on it.
 fn affine() -> Box<dyn Interpolator> {
@@ -212,14 +209,6 @@ proptest! {
 
 // ---- the commands ---------------------------------------------------------------
 
-fn errmap(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("runs errmap")
-}
-
 fn export(dir: &Path, extra: &[&str]) -> Output {
     let table = root().join("datasets/table1.csv");
     let mut args = vec![
@@ -235,7 +224,7 @@ fn export(dir: &Path, extra: &[&str]) -> Output {
         "y=1,z=200",
     ];
     args.extend_from_slice(extra);
-    errmap(dir, &args)
+    errmap_in(dir, &args)
 }
 
 #[test]

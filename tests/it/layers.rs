@@ -2,6 +2,7 @@
 //! way, no source file is over 1 000 lines before its unit tests, and there are at most
 //! four integration-test binaries. Read from the source text, like a reviewer would.
 
+use crate::util::root;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
@@ -69,10 +70,6 @@ const ALLOWED: &[(&str, &[&str])] = &[
 
 const MAX_LINES: usize = 1000;
 const MAX_TEST_BINARIES: usize = 4;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     let mut entries: Vec<_> = std::fs::read_dir(dir)

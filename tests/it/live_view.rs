@@ -5,18 +5,11 @@
 //! session table it wrote equals `replay` of its raw file. Skips (saying so) without tmux;
 //! `.ci/run` installs it.
 
+use crate::util::{bin, root};
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// A tmux server of this test's own (its own socket), killed on drop.
 struct Tmux {

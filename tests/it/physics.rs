@@ -1,7 +1,8 @@
 //! The physics simulator: every effect term has exactly the vocabulary's signature
-//! (cli-contract.md), the direct evaluation at recorded rows agrees with the full
+//! (`docs/vocabulary.md`), the direct evaluation at recorded rows agrees with the full
 //! board → wire → decoder path, and the model files parse.
 
+use crate::util::root;
 use std::path::{Path, PathBuf};
 
 use errmap::sim::physics::{
@@ -10,10 +11,6 @@ use errmap::sim::physics::{
 };
 use errmap_drivers::SessionRow;
 use errmap_drivers::edlen::refractive_index;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn base() -> (MachineModel, PathBuf) {
     let m = errmap::sim::concealed::nominal(&root().join("datasets/table1.csv"), 1);

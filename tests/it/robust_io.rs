@@ -4,7 +4,7 @@
 //! same code the AFL++ binary runs) on the committed corpus, on every input that once
 //! broke a reader (`fuzz/regressions/TARGET/`: issue 17's campaign, re-made from
 //! errmap's own data, and each crash the fuzzer found), and on a fixed number of seeded
-//! mutations of the corpus. Coverage-guided campaigns run in `fuzz/` (README, "Fuzzing"); this keeps
+//! mutations of the corpus. Coverage-guided campaigns run in `fuzz/` (`docs/robustness-log.md`, "Fuzzing"); this keeps
 //! what they found fixed on every `cargo test`.
 //!
 //! **Whole outputs**: an error part-way through a command leaves no half-written file, no
@@ -16,6 +16,7 @@
 #[path = "../../fuzz/src/targets.rs"]
 mod targets;
 
+use crate::util::errmap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
@@ -228,14 +229,6 @@ fn seeded_mutations_of_the_corpus_do_not_panic() {
 }
 
 // ---- whole outputs ----
-
-fn errmap(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
-}
 
 /// The names in `dir`, sorted.
 fn names(dir: &Path) -> Vec<String> {

@@ -2,32 +2,13 @@
 //! campaign found — a panic, a hang, a NaN that reached an output, a silently accepted
 //! mistake or an input destroyed by an output — and asserts the fixed behaviour.
 
+use crate::util::{self, bin, errmap, root, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn dataset(name: &str) -> String {
-    root().join("datasets").join(name).display().to_string()
-}
-
-fn errmap(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("runs errmap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
+    util::dataset(name).display().to_string()
 }
 
 /// Waits for `child` at most `limit`; kills it and fails the test when it takes longer.
@@ -701,7 +682,7 @@ fn replay_without_a_hello_says_so_and_converts_with_an_earlier_description() {
     let ok_csv = dir.path().join("ok.csv");
     let o = errmap(&["replay", &path(&whole), "--out", &path(&ok_csv)]);
     assert!(o.status.success(), "{}", stderr(&o));
-    // Without a HELLO: a damaged capture (exit 0 per cli-contract.md), but never silent:
+    // Without a HELLO: a damaged capture (exit 0 per docs/cli.md), but never silent:
     // the samples are counted as unconverted and a warning says what to do.
     let out = dir.path().join("b.csv");
     let o = errmap(&["replay", &path(&headless), "--out", &path(&out), "--json"]);

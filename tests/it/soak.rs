@@ -2,16 +2,13 @@
 //! pseudo-terminal into `capture`, whose resident memory is sampled while it runs and must
 //! stay flat; the session it writes equals `replay` of its raw file. About 20–40 s in a
 //! debug build. The long version (10⁷ samples, hours of board time) is a command to run by
-//! hand, see `soak_plan` and the README.
+//! hand, see `soak_plan` and `docs/performance.md`.
 
+use crate::util::bin;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
 
 /// A plan of `runs` runs on 4 lines × 5 targets with 5 s dwells at 200 Hz: 1 000 dwells
 /// and ~10⁶ samples for 25 runs (≈ 5 300 s of board time).

@@ -302,7 +302,7 @@ fn two_pass(rows: &[SessionRow]) -> Vec<([f64; 3], f64, usize, Option<f64>)> {
 fn sessions() -> Vec<std::path::PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut out = vec![root.join("datasets/physics/example-session.parquet")];
-    let real = root.join("../shared/data/real_iso230/converted");
+    let real = crate::util::real_records_dir();
     if let Ok(dir) = std::fs::read_dir(&real) {
         let mut csv: Vec<_> = dir
             .filter_map(|e| e.ok().map(|e| e.path()))

@@ -1,4 +1,4 @@
-//! Table 1 → Table 2 replay (seed 001): the paper's 4×1×2 column to 1e-4 µm.
+//! Table 1 → Table 2 replay (Zhang Mei 2013): the paper's 4×1×2 column to 1e-4 µm.
 
 use std::path::Path;
 

@@ -3,6 +3,7 @@
 //! G-code reader (and by LinuxCNC's own `rs274` when it is installed) that must visit the
 //! plan's targets in the standard test cycle.
 
+use crate::util::{errmap_in, root};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -10,10 +11,6 @@ use errmap::base::Axis;
 use errmap::sim::PlanSpec;
 use errmap::sim::program::{self, Dialect, ProgramError, ProgramOptions};
 use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The outside check's plan: `--axis x --from 0 --to 800 --targets 21 --runs 5
 /// --overrun 5 --dwell-s 2 --feed-mm-s 25 --at y=1,z=200 --random-offset 0.1 --seed 7`.
@@ -797,18 +794,10 @@ fn which(program: &str) -> Option<PathBuf> {
 
 // ---- the command ----------------------------------------------------------------------
 
-fn errmap(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("runs errmap")
-}
-
 #[test]
 fn errmap_plan_as_the_outside_checks_call_it() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let o = errmap(
+    let o = errmap_in(
         dir.path(),
         &[
             "plan",
@@ -851,7 +840,7 @@ fn errmap_plan_as_the_outside_checks_call_it() {
     assert_eq!(ngc, lib);
 
     // --interval instead of --targets, a negative --from, another dialect.
-    let o = errmap(
+    let o = errmap_in(
         dir.path(),
         &[
             "plan",
@@ -880,7 +869,7 @@ fn errmap_plan_as_the_outside_checks_call_it() {
     assert_eq!(spec.lines_mm, vec![[10.0, 5.0]]);
 
     // A bad value exits 1 naming the flag.
-    let o = errmap(
+    let o = errmap_in(
         dir.path(),
         &[
             "plan",

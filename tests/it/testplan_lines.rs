@@ -2,13 +2,9 @@
 //! dialect, read back by a small reader that must find every target of the plan visited
 //! in order, with its dwell, and a programmed stop before each line.
 
-use std::path::PathBuf;
+use crate::util::root;
 
 use errmap::sim::program::{Dialect, ProgramError};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// A lines program read back: the position at every dwell, the position at every
 /// programmed stop, the dwell times (s). ISO dialects: modal `G1/G01 X Y Z`, `G4 P s` /

@@ -3,15 +3,11 @@
 //! definition (the timer lattice, the Ornstein–Uhlenbeck autocorrelation exp(−Δt/τ) and
 //! variance σ², the outlier rate p), and the model file refuses bad values by key.
 
-use std::path::PathBuf;
+use crate::util::root;
 
 use errmap::sim::physics::{ColouredNoise, MachineModel, Outliers, simulate_plan};
 use errmap_drivers::frame::Axis as WireAxis;
 use errmap_drivers::sim::{Faults, Plan, Truth, TruthQuery};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn quiet() -> MachineModel {
     MachineModel {

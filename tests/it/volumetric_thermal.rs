@@ -1,5 +1,5 @@
 //! A campaign during which the scales warmed (spec `volumetric.md`, "Line table";
-//! `cli-contract.md`'s `scale_thermal_expansion`): the simulator's thermal history (sign
+//! `docs/vocabulary.md`'s `scale_thermal_expansion`): the simulator's thermal history (sign
 //! and size by hand), the joint fit of α with the 21 errors on random seeded campaigns
 //! (α within 3σ, components at 20 °C within their σ), no false alarm on rigid campaigns
 //! with temperatures, an undetermined α when the temperature never changes, bad

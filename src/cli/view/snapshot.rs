@@ -1,5 +1,5 @@
 //! A terminal screen as a picture: a ratatui buffer (what the live view drew, on the test
-//! backend) rendered cell by cell into a PNG, for the README's screenshot.
+//! backend) rendered cell by cell into a PNG, for the README's picture of the live view.
 //!
 //! Each cell is a 9 × 18 pixel box filled with its background and its symbol drawn in its
 //! foreground colour with the bundled DejaVu Sans Mono (bold when the cell is bold;
