@@ -196,7 +196,7 @@ impl Data {
     }
 
     fn setup_cols(&self) -> Vec<Vec<f64>> {
-        let mut out = vec![Vec::with_capacity(self.n()); 3];
+        let mut out: Vec<Vec<f64>> = (0..3).map(|_| Vec::with_capacity(self.n())).collect();
         for p in &self.pts {
             let v = setup_columns(p);
             for (k, col) in out.iter_mut().enumerate() {
@@ -237,12 +237,12 @@ fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
         if norms[i] == 0.0 {
             continue;
         }
-        b[i] = dot(&cols[i], y) / norms[i];
+        b[i] = dot(cols[i], y) / norms[i];
         for j in i..k {
             if norms[j] == 0.0 {
                 continue;
             }
-            let v = dot(&cols[i], &cols[j]) / (norms[i] * norms[j]);
+            let v = dot(cols[i], cols[j]) / (norms[i] * norms[j]);
             g[(i, j)] = v;
             g[(j, i)] = v;
         }

@@ -149,7 +149,7 @@ impl TestMeta {
                 format!("{} must be in (0, 360]", self.arc_deg),
             ));
         }
-        if !(self.arc_deg >= 90.0) {
+        if self.arc_deg.is_nan() || self.arc_deg < 90.0 {
             return Err(key_err(
                 path,
                 "arc_deg",

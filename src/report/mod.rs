@@ -38,7 +38,7 @@ pub(crate) mod findings;
 pub mod finite;
 pub mod history;
 pub mod iso230;
-pub(crate) mod json;
+pub mod json;
 pub mod uncertainty;
 pub mod volumetric;
 

@@ -187,7 +187,7 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
     assert_eq!(e.id().as_str(), "reversal", "{text}");
-    assert!(!e.param_named("b1_um_per_m").is_some(), "{text}");
+    assert!(e.param_named("b1_um_per_m").is_none(), "{text}");
     assert!(!e.where_.contains("changes along the axis"), "{text}");
     let (b, sb) = param(e, "b_um");
     assert!((b - 0.8).abs() <= 3.0 * sb, "{text}");

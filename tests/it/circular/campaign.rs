@@ -115,7 +115,7 @@ fn random_concealed_effects_are_found_without_false_alarms() {
                 .iter()
                 .find(|f| f.effect.id() == e.id() && f.axis.slot == *slot);
             if let Some(f) = found {
-                let got = f.effect.number(name).unwrap();
+                let got = f.effect.number(name).expect("test set-up");
                 if got.signum() == truth.signum() {
                     hits += 1;
                 } else {

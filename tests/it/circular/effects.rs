@@ -105,8 +105,8 @@ fn each_effect_alone_is_found_on_its_axis_in_every_plane() {
             assert_eq!(found.effect.id(), effect.id());
             assert_eq!(found.axis.slot.label(plane), label);
             let (name, truth) = main_param(&effect);
-            let got = found.effect.number(name).unwrap();
-            let sigma = found.sigma(name).unwrap();
+            let got = found.effect.number(name).expect("test set-up");
+            let sigma = found.sigma(name).expect("test set-up");
             assert!(
                 (got - truth).abs() < 4.0 * sigma + 0.02 * truth.abs(),
                 "{plane:?} {} {label}: {name} = {got} ± {sigma}, truth {truth}: {:?}",

@@ -23,10 +23,10 @@ fn trace(edit: impl Fn(usize, String) -> String) -> String {
 }
 
 fn refused(csv: &str, meta: &str) -> String {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("test set-up");
     let path = dir.path().join("t.csv");
-    std::fs::write(&path, csv).unwrap();
-    std::fs::write(dir.path().join("t.toml"), meta).unwrap();
+    std::fs::write(&path, csv).expect("test set-up");
+    std::fs::write(dir.path().join("t.toml"), meta).expect("test set-up");
     read_test(&path).expect_err("refused").to_string()
 }
 
@@ -126,11 +126,11 @@ fn t_s_decreasing_is_refused() {
 #[test]
 fn a_simulated_test_round_trips_through_csv_and_parquet() {
     let test = simulate(&super::model(Plane::ZX, &[], 0.1, 3));
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("test set-up");
     for name in ["t.csv", "t.parquet"] {
         let path = dir.path().join(name);
-        write_test(&test, &path).unwrap();
-        let back = read_test(&path).unwrap();
+        write_test(&test, &path).expect("test set-up");
+        let back = read_test(&path).expect("test set-up");
         assert_eq!(back.meta, test.meta);
         assert_eq!(back.runs.len(), 2);
         for (a, b) in back.runs.iter().zip(&test.runs) {

@@ -37,7 +37,7 @@ fn g_d_f_h_of_an_analytic_oval() {
         runs: vec![ccw, cw],
     };
     let iso = evaluate(&test);
-    let close = |v: Option<f64>, want: f64| (v.unwrap() - want).abs() < 0.01;
+    let close = |v: Option<f64>, want: f64| (v.expect("test set-up") - want).abs() < 0.01;
     assert!(close(iso.g_ccw_um, 4.0), "{:?}", iso.g_ccw_um);
     assert!(close(iso.g_cw_um, 4.0));
     // One circle of both: the radius offsets 1 and 3 spread it by 2 more.
@@ -66,7 +66,7 @@ fn one_direction_leaves_the_bidirectional_numbers_null() {
     let iso = evaluate(&test);
     assert!(iso.g_ccw_um.is_none() && iso.g_b_um.is_none() && iso.h_um.is_none());
     assert!(iso.d_um.is_none());
-    assert!((iso.g_cw_um.unwrap() - 2.0).abs() < 1e-3);
-    let json = serde_json::to_value(iso).unwrap();
+    assert!((iso.g_cw_um.expect("test set-up") - 2.0).abs() < 1e-3);
+    let json = serde_json::to_value(iso).expect("test set-up");
     assert!(json["G_ccw_um"].is_null() && json["G_cw_um"].is_number());
 }

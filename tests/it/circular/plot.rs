@@ -30,8 +30,8 @@ fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
         1,
     ));
     let d = diagnose(&test, &DiagnoseConfig::default());
-    let dir = tempfile::tempdir().unwrap();
-    write_report(&test, &d, dir.path()).unwrap();
+    let dir = tempfile::tempdir().expect("test set-up");
+    write_report(&test, &d, dir.path()).expect("test set-up");
     assert!(dir.path().join("polar.svg").exists());
     let (w, _, px) = read_png(&dir.path().join("polar.png"));
     let at = |(x, y): (i32, i32)| {
