@@ -89,8 +89,10 @@
 
 pub mod basis;
 pub mod campaign;
+mod choice;
 pub mod compensation;
 pub mod degree;
+pub mod doc;
 mod error;
 pub mod from_session;
 pub mod identifiability;
@@ -98,10 +100,13 @@ pub mod identify;
 pub mod lines;
 pub mod model;
 pub mod predict;
+pub mod residual;
 pub mod simulate;
+mod smooth;
+pub mod spline;
 pub mod thermal;
 
-pub use basis::{Basis, GaugeTruth};
+pub use basis::{Basis, BasisKind, GaugeTruth};
 pub use error::VolumetricError;
 pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
 pub use lines::{Line, LineTable, Target};
