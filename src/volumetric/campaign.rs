@@ -170,7 +170,7 @@ fn scores<'a>(
         }
         let gp = (fit.project)(&g);
         let gg = g.dot(&gp);
-        if !(gg > 0.0) || gg.sqrt() < SEPARABLE * gn {
+        if gg.is_nan() || gg <= 0.0 || gg.sqrt() < SEPARABLE * gn {
             return None;
         }
         let gr = g.dot(&fit.r);

@@ -24,7 +24,7 @@ pub struct Carrier {
 /// it or five lines).
 pub fn carriers(res: &[LineResidual]) -> Vec<Carrier> {
     let total: f64 = res.iter().flat_map(|l| &l.r_um).map(|r| r * r).sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return Vec::new();
     }
     let mut per: Vec<Carrier> = res

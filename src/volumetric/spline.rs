@@ -36,7 +36,7 @@
 //! zero second differences, so R sees the reported function exactly.
 
 /// At most this many intervals per axis (the thinning distance is range / this).
-pub const MAX_INTERVALS: usize = 24;
+pub const MAX_INTERVALS: usize = 16;
 
 /// Index of the knot at 0 and of the knot farthest from 0.
 fn anchors(knots: &[f64]) -> (usize, usize) {
@@ -291,10 +291,8 @@ mod tests {
                 let mut dense = Vec::new();
                 functions_into(&knots, straight, a, &mut dense);
                 let (entries, slope) = sparse(&knots, straight, a);
-                let mut rebuilt: Vec<f64> = free.iter().map(|&j| slope * -(-b[j])).collect();
-                if !straight {
-                    rebuilt.iter_mut().for_each(|v| *v = 0.0);
-                }
+                // A straightness carries −a·β_j in every function; the slope entry is −a.
+                let mut rebuilt: Vec<f64> = free.iter().map(|&j| slope * b[j]).collect();
                 for (p, v) in entries {
                     if p != usize::MAX {
                         rebuilt[p] += v;

@@ -340,7 +340,7 @@ fn axis_parallel_lines_without_probe_offsets_leave_exactly_the_expected_errors_u
         want.sort();
         assert_eq!(got, want, "{t}");
         // The identified ones are recovered; the others have no numbers in the JSON.
-        let doc = id.to_json(11, false);
+        let doc = serde_json::to_value(id.doc(11, false)).expect("json");
         for name in &want {
             let c = &doc["components"][name];
             assert_eq!(c["identified"], false, "{name}");

