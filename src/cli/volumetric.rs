@@ -10,8 +10,8 @@ use clap::{Args, Subcommand};
 
 use super::values;
 use errmap::volumetric::{
-    BasisKind, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor, Topology,
-    identify, predict, simulate,
+    BasisKind, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor,
+    Topology, identify, predict, simulate,
 };
 
 #[derive(Debug, Subcommand)]

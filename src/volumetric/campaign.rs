@@ -116,8 +116,8 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
 
 /// What the terms' scores need of a fit of a design: its weighted residual r, its residual
 /// degrees of freedom ν, and the map g ↦ (I − P)g with P the fit's hat matrix (the
-/// orthogonal projector onto the design's range for least squares, A H⁻¹Aᵀ for a
-/// penalised fit, [`super::smooth`]).
+/// orthogonal projector onto the design's range for least squares; tables at knots are
+/// scored against their unpenalised least-squares fit, [`super::identify`]).
 pub(crate) struct Residualiser<'a> {
     pub r: DVector<f64>,
     pub dof: f64,

@@ -31,12 +31,6 @@ pub(crate) enum Engine {
     },
 }
 
-fn penalised_fitter(
-    pen: &Penalty,
-) -> impl for<'a> Fn(&'a Design, usize) -> Option<campaign::Residualiser<'a>> + '_ {
-    move |d, n| pen.residualiser(d, n)
-}
-
 impl Engine {
     pub(crate) fn solve(&self, d: &Design, n_lines: usize) -> Result<Solved, String> {
         match self {
@@ -60,7 +54,11 @@ impl Engine {
     fn fitter(&self) -> Box<campaign::Fitter<'_>> {
         match self {
             Engine::LeastSquares => Box::new(campaign::least_squares),
-            Engine::Penalised { pen, .. } => Box::new(penalised_fitter(pen)),
+            // Campaign terms are scored against the unpenalised tables: a term must stand
+            // out from anything the tables could absorb, not only from what the smoothing
+            // kept (scoring against the smoothed fit named drifts that were unresolved
+            // local features).
+            Engine::Penalised { .. } => Box::new(campaign::least_squares),
         }
     }
 }
@@ -101,12 +99,8 @@ pub(crate) fn evaluate(
         .and(thermal_col)
         .and_then(|c| augment(d, &c.centred));
     let fitter = engine.fitter();
-    let (chosen, joint_campaign) = campaign::select(
-        table,
-        row_w,
-        thermal_kept.as_ref().unwrap_or(d),
-        &*fitter,
-    );
+    let (chosen, joint_campaign) =
+        campaign::select(table, row_w, thermal_kept.as_ref().unwrap_or(d), &*fitter);
     let extra = joint_campaign.and_then(|dd| {
         let first = dd.a.ncols() - chosen.len();
         engine.solve(&dd, n_lines).ok().map(|s| (first, s))
@@ -220,7 +214,11 @@ fn measured_positions(table: &LineTable) -> [Vec<f64>; 3] {
     for line in &table.lines {
         for (k, pos) in out.iter_mut().enumerate() {
             let first = line.targets[0].pos_mm[k];
-            if line.targets.iter().any(|t| (t.pos_mm[k] - first).abs() > 1e-6) {
+            if line
+                .targets
+                .iter()
+                .any(|t| (t.pos_mm[k] - first).abs() > 1e-6)
+            {
                 pos.extend(line.targets.iter().map(|t| t.pos_mm[k]));
             }
         }
@@ -247,7 +245,10 @@ pub(crate) fn spline_model(
     let mut blocks = Vec::new();
     for c in (0..18).filter(|&c| cubic.identified[c]) {
         let comp = Component::from_index(c);
-        let kn = &basis.knots_mm.as_ref().map_or(&[][..], |k| &k[comp.axis][..]);
+        let kn = &basis
+            .knots_mm
+            .as_ref()
+            .map_or(&[][..], |k| &k[comp.axis][..]);
         let raw = spline::penalty(kn, comp.is_straightness(), basis.scale_mm[comp.axis]);
         let start = basis.offset(c);
         let m = raw.len();
@@ -285,7 +286,11 @@ pub(crate) fn spline_model(
     let with_alpha = thermal_col.and_then(|c| augment(&d, &c.centred));
     pen.lambda = pen.reml(with_alpha.as_ref().unwrap_or(&d), n_lines);
     let flags = identified_flags(&basis, &pen.null);
-    let identified: Vec<bool> = flags.iter().zip(&cubic.identified).map(|(a, b)| *a && *b).collect();
+    let identified: Vec<bool> = flags
+        .iter()
+        .zip(&cubic.identified)
+        .map(|(a, b)| *a && *b)
+        .collect();
     Model {
         null_space: rows_of(&pen.null),
         basis,
@@ -327,4 +332,3 @@ pub(crate) fn relaxed(m: &Model, relax: f64) -> Option<Model> {
         relax,
     })
 }
-

@@ -232,4 +232,3 @@ pub(crate) fn choose_degree(
         .unwrap_or(2.min(max));
     (chosen, scores)
 }
-

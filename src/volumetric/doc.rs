@@ -125,10 +125,7 @@ impl<R> ModelDoc<R> {
             && fit.covariance.len() == n
             && fit.covariance.iter().all(|r| r.len() == n)
             && fit.null_space.len() == n
-            && fit
-                .null_space
-                .windows(2)
-                .all(|w| w[0].len() == w[1].len());
+            && fit.null_space.windows(2).all(|w| w[0].len() == w[1].len());
         if !ok {
             return Err(problem(
                 "fit",

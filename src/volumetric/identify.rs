@@ -15,8 +15,8 @@ use super::choice::{
 use super::error::VolumetricError;
 use super::lines::LineTable;
 use super::model::{Component, Topology};
-use super::residual::residual_test;
 pub use super::residual::Z_MISSING;
+use super::residual::residual_test;
 use super::thermal::{self, ThermalTest};
 use crate::diagnose::FoundEffect;
 
@@ -276,8 +276,7 @@ impl Smoothing {
         let ratio = birge_ratio * birge_ratio;
         Smoothing {
             criterion: "REML, one λ per component (Fellner–Schall iteration)".into(),
-            penalty: "squared second divided differences of the knot values (∫f''² in a/L)"
-                .into(),
+            penalty: "squared second divided differences of the knot values (∫f''² in a/L)".into(),
             relaxed_by,
             birge_ratio,
             covariance_scale: if known_noise { ratio.max(1.0) } else { ratio },
@@ -692,7 +691,14 @@ pub fn identify(
         }
     };
     let evaluate_model = |m: &Model| {
-        evaluate(table, &m.d, &m.engine, thermal_col.as_ref(), &row_w, weighted)
+        evaluate(
+            table,
+            &m.d,
+            &m.engine,
+            thermal_col.as_ref(),
+            &row_w,
+            weighted,
+        )
     };
     let first_outcome = evaluate_model(&first).map_err(fit_err)?;
     let mut chosen: Option<(Model, Outcome)> = None;
@@ -702,7 +708,10 @@ pub fn identify(
     };
     if first_outcome.z > Z_MISSING {
         let richer: Vec<Model> = match config.basis {
-            BasisKind::Spline => RELAX[1..].iter().filter_map(|&r| relaxed(&first, r)).collect(),
+            BasisKind::Spline => RELAX[1..]
+                .iter()
+                .filter_map(|&r| relaxed(&first, r))
+                .collect(),
             BasisKind::Poly if !matches!(config.degree, Degree::Fixed(_)) => {
                 let top = (degree + RICHER_DEGREES).min(MAX_DEGREE);
                 (degree + 1..=top)
@@ -711,7 +720,13 @@ pub fn identify(
                             first.basis.degrees.iter().map(|&x| x.max(d)).collect();
                         poly_model(table, config.topology, range, &sqrt_w, degs)
                     })
-                    .filter(|m| first.identified.iter().zip(&m.identified).all(|(a, b)| !a || *b))
+                    .filter(|m| {
+                        first
+                            .identified
+                            .iter()
+                            .zip(&m.identified)
+                            .all(|(a, b)| !a || *b)
+                    })
                     .collect()
             }
             BasisKind::Poly => Vec::new(),
@@ -823,7 +838,6 @@ impl Identification {
         }
         v
     }
-
 }
 
 #[cfg(test)]

@@ -168,7 +168,11 @@ fn grid_vectors(f: &FitState, points: &[[f64; 3]], probe_mm: [f64; 3]) -> Vec<Ve
         }
     }
     let mut theta = f.theta.clone();
-    theta.extend(t_rows.iter().map(|r| r.iter().zip(&f.theta).map(|(a, b)| a * b).sum::<f64>()));
+    theta.extend(
+        t_rows
+            .iter()
+            .map(|r| r.iter().zip(&f.theta).map(|(a, b)| a * b).sum::<f64>()),
+    );
     let mut cov = vec![0.0; m * m];
     for i in 0..n {
         cov[i * m..i * m + n].copy_from_slice(&f.covariance[i]);
@@ -367,18 +371,30 @@ mod tests {
             lines: preset("rich", vol, 7, 80.0, 1).expect("preset"),
             thermal: None,
         };
-        let mut cfg = IdentifyConfig::new(topo);
-        cfg.degree = crate::volumetric::Degree::Fixed(2);
-        cfg.basis = crate::volumetric::BasisKind::Poly;
-        let id = identify(&simulate(&m, &plan), &cfg).expect("identify");
-        let points = [[0.0, 0.0, 0.0], [500.0, 400.0, 300.0], [123.0, 321.0, 77.0]];
-        for probe in [[0.0; 3], [10.0, -20.0, 30.0]] {
-            let fast = grid_vectors(&id.fit, &points, probe);
-            for (p, (v, s)) in points.iter().zip(&fast) {
-                let rows = id.fit.basis.effect_rows(*p, probe);
-                for i in 0..3 {
-                    let (a, b) = id.fit.functional(&rows[i]).expect("determined");
-                    assert!((v[i] - a).abs() < 1e-9 && (s[i] - b).abs() < 1e-9);
+        let table = simulate(&m, &plan);
+        // Polynomials, and tables at knots (sparse hats plus the straightness slopes).
+        for basis in [
+            crate::volumetric::BasisKind::Poly,
+            crate::volumetric::BasisKind::Spline,
+        ] {
+            let mut cfg = IdentifyConfig::new(topo);
+            cfg.degree = crate::volumetric::Degree::Fixed(2);
+            cfg.basis = basis;
+            let id = identify(&table, &cfg).expect("identify");
+            let points = [[0.0, 0.0, 0.0], [500.0, 400.0, 300.0], [123.0, 321.0, 77.0]];
+            for probe in [[0.0; 3], [10.0, -20.0, 30.0]] {
+                let fast = grid_vectors(&id.fit, &points, probe);
+                for (p, (v, s)) in points.iter().zip(&fast) {
+                    let rows = id.fit.basis.effect_rows(*p, probe);
+                    for i in 0..3 {
+                        let (a, b) = id.fit.functional(&rows[i]).expect("determined");
+                        assert!(
+                            (v[i] - a).abs() < 1e-9 && (s[i] - b).abs() < 1e-9,
+                            "{basis}: {} vs {a}, {} vs {b}",
+                            v[i],
+                            s[i]
+                        );
+                    }
                 }
             }
         }

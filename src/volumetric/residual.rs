@@ -146,4 +146,3 @@ pub(crate) fn residual_test(
 
 /// One-sided p < 0.001 of the residual test.
 pub const Z_MISSING: f64 = 3.09;
-

@@ -7,7 +7,9 @@
 //! eliminated, [`super::identify`]), e the readings and S_c the roughness penalty of
 //! component c, the estimate minimises |e − Aθ|² + Σ_c λ_c·θ_cᵀS_cθ_c:
 //! θ̂ = H⁻¹Aᵀe with H = AᵀA + Σ_c λ_c S_c. Campaign terms (the scale's α, a drift, a bad
-//! line) are further columns of A, not penalised.
+//! line) are further columns of A, not penalised; they are selected against the
+//! unpenalised tables (least squares on the same design), so that a term must stand out
+//! from anything a table could absorb.
 //!
 //! # Smoothing: REML, one λ per component
 //!
@@ -106,7 +108,7 @@ impl Normal {
 }
 
 /// Orthonormal directions (columns) that neither AᵀA (`g`) nor the penalties at `lambda`
-/// determine: eigenvalues of G + Σ λ_c S_c at or below 1e−9 of the largest.
+/// determine: eigenvalues of G + Σ λ_c S_c at or below 1e−8 of the largest.
 pub(crate) fn null_directions(g: &DMatrix<f64>, blocks: &[Block], lambda: &[f64]) -> DMatrix<f64> {
     let mut h = g.clone();
     for (blk, l) in blocks.iter().zip(lambda) {
@@ -117,7 +119,7 @@ pub(crate) fn null_directions(g: &DMatrix<f64>, blocks: &[Block], lambda: &[f64]
     let eig = h.symmetric_eigen();
     let top = eig.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     let keep: Vec<usize> = (0..eig.eigenvalues.len())
-        .filter(|&i| eig.eigenvalues[i] <= 1e-9 * top)
+        .filter(|&i| eig.eigenvalues[i] <= 1e-8 * top)
         .collect();
     let n = g.nrows();
     DMatrix::from_fn(n, keep.len(), |i, k| eig.eigenvectors[(i, keep[k])])
@@ -139,6 +141,12 @@ impl Penalty {
             let nn = &self.null * self.null.transpose();
             let mut view = h.view_mut((0, 0), (n, n));
             view += nn * mu;
+        }
+        // A ridge at rounding level keeps directions that are null to within rounding
+        // (but above N's threshold) from failing the factorisation.
+        let top = h.diagonal().max().max(f64::MIN_POSITIVE);
+        for i in 0..h.nrows() {
+            h[(i, i)] += 1e-12 * top;
         }
         Cholesky::new(h)
     }
@@ -220,7 +228,13 @@ impl Penalty {
         // diag(H⁻¹G) without the product: (H⁻¹G)_ii = Σ_j H⁻¹_ij G_ji.
         let p = d.a.ncols();
         let fdiag: Vec<f64> = (0..p)
-            .map(|i| hinv.row(i).iter().zip(nm.g.column(i).iter()).map(|(a, b)| a * b).sum())
+            .map(|i| {
+                hinv.row(i)
+                    .iter()
+                    .zip(nm.g.column(i).iter())
+                    .map(|(a, b)| a * b)
+                    .sum()
+            })
             .collect();
         let edf: f64 = fdiag.iter().sum();
         let rows = d.a.nrows() as f64;
@@ -247,27 +261,6 @@ impl Penalty {
             dof,
             sigma0: ratio.sqrt(),
             edf_block,
-        })
-    }
-
-    /// The annihilator of the fit at `lambda` for the campaign terms' scores: the residual,
-    /// ν, and g ↦ (I − A H⁻¹Aᵀ)g.
-    pub fn residualiser<'a>(
-        &self,
-        d: &'a Design,
-        n_lines: usize,
-    ) -> Option<super::campaign::Residualiser<'a>> {
-        let nm = Normal::of(d);
-        let chol = self.factor(&nm.g, &self.lambda)?;
-        let theta = chol.solve(&nm.b);
-        let r = &d.e - &d.a * &theta;
-        let hinv = chol.inverse();
-        let edf = hinv.component_mul(&nm.g).sum();
-        let dof = d.a.nrows() as f64 - n_lines as f64 - edf;
-        Some(super::campaign::Residualiser {
-            r,
-            dof,
-            project: Box::new(move |g: &DVector<f64>| g - &d.a * chol.solve(&d.a.tr_mul(g))),
         })
     }
 }

@@ -36,7 +36,7 @@
 //! zero second differences, so R sees the reported function exactly.
 
 /// At most this many intervals per axis (the thinning distance is range / this).
-pub const MAX_INTERVALS: usize = 16;
+pub const MAX_INTERVALS: usize = 24;
 
 /// Index of the knot at 0 and of the knot farthest from 0.
 fn anchors(knots: &[f64]) -> (usize, usize) {
@@ -277,7 +277,10 @@ mod tests {
     fn penalty_null_space_and_sparse_form() {
         let knots = [0.0, 100.0, 250.0, 300.0, 500.0];
         let s = penalty(&knots, false, 500.0);
-        let line: Vec<f64> = free_knots(&knots, false).iter().map(|&j| knots[j]).collect();
+        let line: Vec<f64> = free_knots(&knots, false)
+            .iter()
+            .map(|&j| knots[j])
+            .collect();
         for row in &s {
             let v: f64 = row.iter().zip(&line).map(|(a, b)| a * b).sum();
             assert!(v.abs() < 1e-9);

@@ -69,7 +69,10 @@ fn each_component_gets_its_own_degree_and_stays_within_sigma() {
             "{t}: {degs:?} (global {})",
             id.degree
         );
-        assert_eq!(serde_json::to_value(id.doc(5, false)).expect("json")["component_degrees"]["E_XX"], 4);
+        assert_eq!(
+            serde_json::to_value(id.doc(5, false)).expect("json")["component_degrees"]["E_XX"],
+            4
+        );
         let gauge = GaugeTruth::of(&m, id.fit.basis.range_mm);
         for c in Component::all() {
             for a in [0.3 * VOLUME[1][c.axis], 0.8 * VOLUME[1][c.axis]] {

@@ -117,7 +117,14 @@ fn plan(set: LineSet, vol: [f64; 3], seed: u64) -> errmap::volumetric::Plan {
         feed_mm_s: 20.0,
         dwell_s: 4.0,
         setup_s: 600.0,
-        preset: Some(if set == LineSet::Poor { "zhang22" } else { "rich" }.into()),
+        preset: Some(
+            if set == LineSet::Poor {
+                "zhang22"
+            } else {
+                "rich"
+            }
+            .into(),
+        ),
         volume_mm: Some([[0.0; 3], vol]),
         targets: if set == LineSet::Poor { 9 } else { 11 },
         probe_offset_mm: Some(100.0),
@@ -243,7 +250,8 @@ fn random_rigid_campaigns_with_local_features_raise_at_most_one_false_alarm() {
         for k in 0..17u64 {
             let i = 100 * s as u64 + k;
             let (m, p, table) = campaign(i, set);
-            let id = identify(&table, &IdentifyConfig::new(m.topology)).expect("identify");
+            let id = identify(&table, &IdentifyConfig::new(m.topology))
+                .unwrap_or_else(|e| panic!("{set:?} #{i} {}: {e}", m.topology));
             runs += 1;
             if id.residual.verdict != "consistent" {
                 alarms.push(format!(
@@ -265,7 +273,12 @@ fn random_rigid_campaigns_with_local_features_raise_at_most_one_false_alarm() {
                 let vol = p
                     .lines
                     .iter()
-                    .flat_map(|l| [l.start_mm, [0, 1, 2].map(|k| l.start_mm[k] + l.length_mm * l.u[k])])
+                    .flat_map(|l| {
+                        [
+                            l.start_mm,
+                            [0, 1, 2].map(|k| l.start_mm[k] + l.length_mm * l.u[k]),
+                        ]
+                    })
                     .fold([0.0f64; 3], |acc, q| [0, 1, 2].map(|k| acc[k].max(q[k])));
                 hidden.push(hidden_rms(&m, &id, vol, 9000 + i));
             }
@@ -340,4 +353,32 @@ fn warming_drifting_and_bad_line_campaigns_with_local_features_are_named() {
         .find(|e| e.id.as_str() == "scale_factor")
         .unwrap_or_else(|| panic!("{:?}", id.residual));
     assert!(bad.where_.contains(&line.id), "{}", bad.where_);
+}
+
+/// `model.json` of tables at knots: written through the guard, read back into the same
+/// document, predicting what the identification predicts; knots that do not increase are
+/// refused naming the key.
+#[test]
+fn model_json_round_trips_the_tables_and_refuses_broken_knots() {
+    let (m, _, table) = campaign(950, LineSet::Poor);
+    let id = identify(&table, &IdentifyConfig::new(m.topology)).expect("identify");
+    let doc = id.doc(7, true);
+    assert_eq!(doc.basis, errmap::volumetric::BasisKind::Spline);
+    let sm = doc.smoothing.as_ref().expect("smoothing stated");
+    assert!(sm.components.values().all(|c| c.edf > 0.0 && c.knots >= 3));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("model.json");
+    errmap::report::write_json(&path, &doc).expect("write");
+    let read = Predictor::read(&path).expect("read back");
+    let direct = Predictor::Fit(id.fit.clone());
+    assert_eq!(read.predict_lines(&table), direct.predict_lines(&table));
+    let text = std::fs::read_to_string(&path).expect("text");
+    let mut v: serde_json::Value = serde_json::from_str(&text).expect("json");
+    let knots = &mut v["fit"]["basis"]["knots_mm"][0];
+    let first = knots[0].clone();
+    knots[0] = knots[1].clone();
+    knots[1] = first;
+    std::fs::write(&path, serde_json::to_string(&v).expect("json")).expect("write");
+    let e = Predictor::read(&path).expect_err("refused").to_string();
+    assert!(e.contains("knots_mm"), "{e}");
 }
