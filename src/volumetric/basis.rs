@@ -67,7 +67,7 @@ pub struct Basis {
     pub degrees: Vec<usize>,
     /// Knots of each axis, mm, increasing, 0 among them (tables at knots only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub knots_mm: Option<[Vec<f64>; 3]>,
+    pub knots_mm: Option<Box<[Vec<f64>; 3]>>,
 }
 
 /// L_k per axis: the largest |a| of the range, 1 mm for an axis that does not move.
@@ -114,7 +114,7 @@ impl Basis {
             range_mm,
             scale_mm: scales(range_mm),
             degrees: Vec::new(),
-            knots_mm: Some(knots_mm),
+            knots_mm: Some(Box::new(knots_mm)),
         }
     }
 

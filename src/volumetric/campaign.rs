@@ -121,8 +121,11 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
 pub(crate) struct Residualiser<'a> {
     pub r: DVector<f64>,
     pub dof: f64,
-    pub project: Box<dyn Fn(&DVector<f64>) -> DVector<f64> + 'a>,
+    pub project: Project<'a>,
 }
+
+/// g ↦ (I − P)g.
+pub(crate) type Project<'a> = Box<dyn Fn(&DVector<f64>) -> DVector<f64> + 'a>;
 
 /// How the 21 errors are fitted to a design (with `n_lines` constants).
 pub(crate) type Fitter<'f> = dyn for<'a> Fn(&'a Design, usize) -> Option<Residualiser<'a>> + 'f;

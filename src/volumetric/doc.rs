@@ -97,7 +97,7 @@ impl<R> ModelDoc<R> {
                     && knots.iter().all(|k| {
                         k.len() >= 3
                             && k.windows(2).all(|w| w[0] < w[1])
-                            && k.iter().any(|t| *t == 0.0)
+                            && k.contains(&0.0)
                             && k.iter().all(|t| t.is_finite())
                     });
                 if !ok {
