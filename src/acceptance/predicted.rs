@@ -395,7 +395,7 @@ impl Model {
                     })?;
                 let r = f.basis.range_mm;
                 Ok(Model {
-                    topology: f.basis.topology.to_string(),
+                    topology: f.basis.topology.clone(),
                     residual: head
                         .residual
                         .map(|r| r.verdict)
