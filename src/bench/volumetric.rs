@@ -170,7 +170,7 @@ mod tests {
         let id = identify(&table, &config(Some(3))).expect("identify");
         let fit_s = t.elapsed().as_secs_f64();
         assert!(id.fit.identified.iter().all(|f| *f));
-        assert_eq!(id.residual.verdict, "consistent");
+        assert_eq!(id.residual.verdict, crate::base::Verdict::Consistent);
         let points = grid_points();
         assert_eq!(points.len(), GRID * GRID * GRID);
         let t = std::time::Instant::now();

@@ -571,7 +571,7 @@ mod tests {
         // rigid campaign's residual is noise.
         assert_eq!(id.topology.to_string(), "YXZ");
         assert!(id.fit.identified.iter().all(|f| *f));
-        assert_eq!(id.residual.verdict, "consistent");
+        assert_eq!(id.residual.verdict, errmap::base::Verdict::Consistent);
         // E_XX at 800 mm is 4 − 2.5 + 1 = 2.5 µm in the dataset (positioning: no gauge).
         let (v, s) = id.fit.component(0, 800.0).expect("E_XX");
         assert!((v - 2.5).abs() < 4.0 * s, "{v} ± {s}");

@@ -169,7 +169,7 @@ pub struct LineResidual {
 /// (an `unexplained` effect when it fails). Effects in `cli-contract.md`'s shape.
 #[derive(Debug, Clone, Serialize)]
 pub struct ResidualVerdict {
-    pub verdict: String,
+    pub verdict: crate::base::Verdict,
     pub effects: Vec<FoundEffect>,
     /// `chi-square` (s_um given) or `lag-1 autocorrelation` (no s_um).
     pub test: String,
@@ -675,12 +675,12 @@ pub fn identify(
         .and_then(thermal::effect)
     {
         residual.effects.insert(0, e);
-        residual.verdict = "missing_physics".into();
+        residual.verdict = crate::base::Verdict::MissingPhysics;
     }
     if !campaign_effects.is_empty() {
         let at = usize::from(thermal.as_ref().is_some_and(|t| t.kept));
         residual.effects.splice(at..at, campaign_effects);
-        residual.verdict = "missing_physics".into();
+        residual.verdict = crate::base::Verdict::MissingPhysics;
     }
     Ok(Identification {
         topology: config.topology,
@@ -821,12 +821,7 @@ fn residual_test(
         });
     }
     ResidualVerdict {
-        verdict: if z > Z_MISSING {
-            "missing_physics"
-        } else {
-            "consistent"
-        }
-        .into(),
+        verdict: crate::base::Verdict::from_found(z > Z_MISSING),
         effects,
         test: test.into(),
         z,
