@@ -136,7 +136,8 @@ fn degenerate_sessions_do_not_panic() -> TestResult {
     let few: Vec<_> = out.recorded.iter().take(40).cloned().collect();
     let d = diagnose(&few, &out.simulated, &cfg())?;
     assert!(d.rms_after_um.is_finite());
-    // No environment columns, no line coordinates, every row outside a run.
+    // No environment columns, no line coordinates, every row outside a run: no line was
+    // measured, so it is refused by name (issue 28), never diagnosed.
     let mut rec = out.recorded.clone();
     for r in &mut rec {
         r.air_temp_c = None;
@@ -153,9 +154,12 @@ fn degenerate_sessions_do_not_panic() -> TestResult {
     for r in &mut sim {
         r.run = 0;
     }
-    let d = diagnose(&rec, &sim, &cfg())?;
-    assert!(!d.design_notes.is_empty());
-    assert!(d.cv_rms_after_um.is_finite());
+    let e = diagnose(&rec, &sim, &cfg()).expect_err("every row outside a run");
+    assert!(
+        matches!(e, errmap::diagnose::DiagnoseError::NoRuns { .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("inside a run"), "{e}");
     Ok(())
 }
 
