@@ -88,7 +88,7 @@ pub enum Command {
     /// Find and model what the simulation left out of a recording.
     Diagnose(DiagnoseArgs),
     /// Export compensation tables (LinuxCNC, Siemens 840D, FANUC, HEIDENHAIN, ISG/TwinCAT,
-    /// CSV) or a volumetric grid.
+    /// Fagor 8055, Fagor 8065 update, CSV) or a volumetric grid.
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),

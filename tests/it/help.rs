@@ -83,6 +83,8 @@ fn the_export_line_names_every_dialect_export_writes() {
         "fanuc" => Some("FANUC"),
         "heidenhain" => Some("HEIDENHAIN"),
         "isg" => Some("ISG/TwinCAT"),
+        "fagor-8055" => Some("Fagor 8055"),
+        "fagor-8065" => Some("Fagor 8065"),
         "csv" => Some("CSV"),
         "grid" => Some("volumetric grid"),
         _ => None,
