@@ -183,7 +183,10 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         "circular-machine.toml",
         include_str!("../../datasets/circular/machine.toml"),
     )?;
-    let trace = a.out.join("circular").join("xy.csv");
+    let circular_dir = a.out.join("circular");
+    std::fs::create_dir_all(&circular_dir)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", circular_dir.display()))?;
+    let trace = circular_dir.join("xy.csv");
     super::circular::circular_cmd(super::circular::CircularArgs {
         command: super::circular::CircularCommand::Simulate(super::circular::SimulateArgs {
             model: machine_circ,
