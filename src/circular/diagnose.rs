@@ -344,30 +344,6 @@ fn profile_rss(data: &Data, resid: &[f64], c: &Cand) -> f64 {
     fit_columns(&cols, resid).rss
 }
 
-/// Golden-section minimum of f on [lo, hi].
-fn golden(mut lo: f64, mut hi: f64, f: impl Fn(f64) -> f64, iters: usize) -> f64 {
-    let phi = (5f64.sqrt() - 1.0) / 2.0;
-    let mut a = hi - phi * (hi - lo);
-    let mut b = lo + phi * (hi - lo);
-    let (mut fa, mut fb) = (f(a), f(b));
-    for _ in 0..iters {
-        if fa < fb {
-            hi = b;
-            b = a;
-            fb = fa;
-            a = hi - phi * (hi - lo);
-            fa = f(a);
-        } else {
-            lo = a;
-            a = b;
-            fa = fb;
-            b = lo + phi * (hi - lo);
-            fb = f(b);
-        }
-    }
-    if fa < fb { a } else { b }
-}
-
 /// Every candidate's columns, computed once.
 fn cache(data: &Data, set: &[Cand]) -> Vec<Vec<Vec<f64>>> {
     set.iter().map(|c| data.cand_cols(c)).collect()
@@ -471,7 +447,7 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
         };
         let lo = (u_best - reach * step).max(u_lo);
         let hi = (u_best + reach * step).min(u_hi);
-        let u = golden(lo, hi, joint, 18);
+        let u = crate::base::optim::golden(lo, hi, 18, joint).0;
         set[k].nl = to_nl(u);
     }
 }
