@@ -58,10 +58,18 @@ impl Engine {
             // out from anything the tables could absorb, not only from what the smoothing
             // kept (scoring against the smoothed fit named drifts that were unresolved
             // local features).
-            Engine::Penalised { .. } => Box::new(campaign::least_squares),
+            Engine::Penalised { pen, .. } => {
+                let f: Box<campaign::Fitter<'_>> =
+                    Box::new(move |d: &Design, n: usize| pen.residualiser(d, n, NEAR_LS));
+                f
+            }
         }
     }
 }
+
+/// The factor on REML's λ of the tables campaign terms are scored against: nearly the
+/// unpenalised fit (a penalty at rounding level only keeps the factorisation defined).
+pub const NEAR_LS: f64 = 1e-6;
 
 /// One component model fitted with the campaign terms on top: what the selection compares.
 pub(crate) struct Outcome {
@@ -262,7 +270,7 @@ pub(crate) fn spline_model(
             rank: spline::penalty_rank(kn, comp.is_straightness()),
         });
     }
-    let g = d.a.tr_mul(&d.a);
+    let g = d.a.transpose() * &d.a;
     let lambda: Vec<f64> = blocks
         .iter()
         .map(|b| {

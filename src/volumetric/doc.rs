@@ -125,7 +125,11 @@ impl<R> ModelDoc<R> {
             && fit.covariance.len() == n
             && fit.covariance.iter().all(|r| r.len() == n)
             && fit.null_space.len() == n
-            && fit.null_space.windows(2).all(|w| w[0].len() == w[1].len());
+            && fit.null_space.windows(2).all(|w| w[0].len() == w[1].len())
+            && (fit.roughness.is_empty()
+                || (fit.roughness.len() == 18
+                    && b.knots_mm.is_some()
+                    && fit.roughness.iter().all(|q| *q >= 0.0)));
         if !ok {
             return Err(problem(
                 "fit",
@@ -138,6 +142,7 @@ impl<R> ModelDoc<R> {
             .chain(fit.covariance.iter().flatten())
             .chain(fit.null_space.iter().flatten())
             .chain(&fit.column_scale)
+            .chain(&fit.roughness)
             .chain(b.range_mm.iter().flatten())
             .all(|v| v.is_finite())
             && fit.column_scale.iter().all(|s| *s > 0.0)

@@ -93,6 +93,14 @@ pub struct FitState {
     pub column_scale: Vec<f64>,
     /// Per component (18) and squareness (3): determined by the lines?
     pub identified: Vec<bool>,
+    /// Tables at knots: per component (18), the intensity q_c = φ/λ_c of the roughness
+    /// prior the smoothing fitted (µm² or µrad² per cubed unit of the normalised axis;
+    /// 0 for a component not penalised). Between two knots a component's variance gains
+    /// q_c·H³·w²(1 − w)²/2 — H the interval in the normalised axis, w the fraction of it —
+    /// the prior's variance of the true function about the table's chord
+    /// ([`super::smooth`]). Empty for polynomials.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub roughness: Vec<f64>,
 }
 
 impl FitState {
@@ -128,6 +136,8 @@ impl FitState {
     }
 
     /// Component `c` (0..18) at `a_mm`: value and one-sigma, `None` if undetermined.
+    /// For tables at knots the σ includes the roughness prior's variance between knots
+    /// ([`FitState::between_knots_var`]).
     pub fn component(&self, c: usize, a_mm: f64) -> Option<(f64, f64)> {
         if !self.identified[c] {
             return None;
@@ -137,7 +147,29 @@ impl FitState {
         for (j, f) in self.basis.functions(c, a_mm).into_iter().enumerate() {
             g[o + j] = f;
         }
-        self.functional(&g)
+        let (v, s) = self.functional(&g)?;
+        let extra = self.between_knots_var(c, a_mm);
+        Some((v, (s * s + extra).sqrt()))
+    }
+
+    /// The roughness prior's variance of component `c` at `a_mm` about the chord of its
+    /// table: q_c·H³·w²(1 − w)²/2 (0 at knots, outside the knots and for polynomials).
+    /// For f′ a Brownian motion of intensity q′ (the prior whose discrete form is the
+    /// second-difference penalty, q′ = 1.5·q_c), the deviation of f from its chord over an
+    /// interval of length H, given the values at both ends, has variance
+    /// q′·t²(H − t)²/(3H) at distance t from the left knot.
+    pub fn between_knots_var(&self, c: usize, a_mm: f64) -> f64 {
+        let (Some(q), Some(knots)) = (self.roughness.get(c), self.basis.knots_mm.as_ref()) else {
+            return 0.0;
+        };
+        let axis = Component::from_index(c).axis;
+        let kn = &knots[axis];
+        if !(*q > 0.0) || kn.len() < 2 || a_mm < kn[0] || a_mm > kn[kn.len() - 1] {
+            return 0.0;
+        }
+        let (s, w) = super::spline::segment(kn, a_mm);
+        let h = (kn[s + 1] - kn[s]) / self.basis.scale_mm[axis];
+        q * h.powi(3) * (w * (1.0 - w)).powi(2) / 2.0
     }
 
     /// Squareness `i` (E_C0Y, E_B0Z, E_A0Z), µrad, with one-sigma.
@@ -788,6 +820,20 @@ pub fn identify(
         residual.verdict = crate::base::Verdict::MissingPhysics;
     }
     let n = model.basis.n_params();
+    let roughness = match &model.engine {
+        Engine::Penalised { pen, known_noise } => {
+            let ratio = solved.sigma0 * solved.sigma0;
+            let phi = if *known_noise { ratio.max(1.0) } else { ratio };
+            let mut q = vec![0.0; 18];
+            for (b, l) in pen.blocks.iter().zip(&pen.lambda) {
+                if *l > 0.0 {
+                    q[b.component] = phi / l;
+                }
+            }
+            q
+        }
+        Engine::LeastSquares => Vec::new(),
+    };
     let smoothing = match &model.engine {
         Engine::Penalised { pen, known_noise } => Some(Smoothing::of(
             &model.basis,
@@ -811,6 +857,7 @@ pub fn identify(
             null_space: model.null_space,
             column_scale: model.d.scale[..n].to_vec(),
             identified: model.identified,
+            roughness,
             basis: model.basis,
         },
         lines: n_lines,

@@ -312,9 +312,28 @@ mod tests {
     fn knots_keep_the_measured_positions_and_thin_the_dense_ones() {
         let k = knots(&[0.0, 100.0, 200.0, 300.0, 150.0], [0.0, 300.0]);
         assert_eq!(k, vec![0.0, 100.0, 150.0, 200.0, 300.0]);
+        // Dense positions: no two knots closer than the thinning distance, every measured
+        // position within it of a knot (the table is as fine as the lines resolve), at most
+        // MAX_INTERVALS intervals. Positions every 1 mm cannot be spaced by exactly 12.5 mm,
+        // so the greedy thinning keeps 13 mm steps (23 intervals); positions on a grid of half
+        // the distance give exactly MAX_INTERVALS intervals.
+        let gap = 300.0 / MAX_INTERVALS as f64;
         let dense: Vec<f64> = (0..=300).map(f64::from).collect();
         let k = knots(&dense, [0.0, 300.0]);
-        assert_eq!(k.len(), MAX_INTERVALS + 1);
+        assert!(k.windows(2).all(|w| w[1] - w[0] >= gap * (1.0 - 1e-9)), "{k:?}");
+        assert!(
+            dense
+                .iter()
+                .all(|a| k.iter().any(|t| (t - a).abs() < gap)),
+            "{k:?}"
+        );
+        assert!(k.len() <= MAX_INTERVALS + 1);
+        let half: Vec<f64> = (0..=2 * MAX_INTERVALS)
+            .map(|i| 0.5 * gap * i as f64)
+            .collect();
+        let k = knots(&half, [0.0, 300.0]);
+        assert_eq!(k.len(), MAX_INTERVALS + 1, "{k:?}");
+        assert!(k.iter().enumerate().all(|(i, t)| (t - gap * i as f64).abs() < 1e-9));
         assert_eq!(knots(&[], [-50.0, 80.0]), vec![-50.0, 0.0, 80.0]);
         assert_eq!(knots(&[], [0.0, 80.0]), vec![0.0, 40.0, 80.0]);
     }
