@@ -11,7 +11,13 @@
 //! unpenalised tables (least squares on the same design), so that a term must stand out
 //! from anything a table could absorb.
 //!
-//! # Smoothing: REML, one λ per component
+//! # Smoothing: REML, per kind, then per component capped at its kind's
+//!
+//! [`Penalty::reml`] first fits one λ per kind (positioning, straightness, rotation),
+//! then one per component with its kind's λ as upper bound (a component whose lines show
+//! no roughness is not declared smoother than its kind: uncapped, REML set λ → ∞ and a
+//! straightness reported σ → 0 beside an unresolved bump). λ's floor and ceiling are
+//! relative to Σ|A_j|²/ΣR_jj, the balance of data and penalty in physical units.
 //!
 //! Read as a Gaussian model — θ_c a priori N(0, φ/λ_c·S_c⁻) on its penalised part, flat
 //! on the straight line through 0, noise of variance φ — the λ_c maximise the restricted
@@ -53,8 +59,12 @@ use super::identify::Design;
 pub const MAX_ITER: usize = 30;
 /// Converged when no λ changes by more than this factor's log.
 const TOL_LOG: f64 = 0.1;
-/// λ_c stays within [1e−8, 1e8] × tr(AᵀA)_c / tr(S_c).
+/// λ_c stays within [1/LAMBDA_FLOOR, LAMBDA_SPAN] × tr(AᵀA)_c / tr(S_c): above, the
+/// table is a straight line to rounding; below the floor REML's likelihood is flat in the
+/// knot values the lines barely see (a rotation of the middle axis between the targets of
+/// a half-diagonal), and the Fellner–Schall step runs away to λ → 0 with σ of metres.
 const LAMBDA_SPAN: f64 = 1e8;
+const LAMBDA_FLOOR: f64 = 1e4;
 
 /// The Cholesky factor of a symmetric positive definite `h` (its lower triangle read),
 /// `None` when a pivot is not positive: the right-looking column algorithm in plain loops
@@ -223,7 +233,9 @@ impl Penalty {
         }
         // A ridge at rounding level keeps directions that are null to within rounding
         // (but above N's threshold) from failing the factorisation.
-        let top = h.diagonal().max().max(f64::MIN_POSITIVE);
+        // Relative to the data's diagonal: a penalty on a knot value the lines barely see
+        // is large in equilibrated units and must not set the ridge.
+        let top = g.diagonal().max().max(f64::MIN_POSITIVE);
         for i in 0..h.nrows() {
             h[(i, i)] += 1e-12 * top;
         }
@@ -237,14 +249,7 @@ impl Penalty {
     pub fn reml(&self, d: &Design, n_lines: usize) -> Vec<f64> {
         let nm = Normal::of(d);
         let groups: Vec<usize> = self.blocks.iter().map(|b| group(b.component)).collect();
-        let mode = std::env::var("ERRMAP_VOL_SMOOTH").unwrap_or_default();
-        if mode == "free" {
-            return self.fellner_schall(&nm, d, n_lines, &self.lambda, &(0..groups.len()).collect::<Vec<_>>(), None);
-        }
         let pooled = self.fellner_schall(&nm, d, n_lines, &self.lambda, &groups, None);
-        if mode == "pooled" {
-            return pooled;
-        }
         let own: Vec<usize> = (0..groups.len()).collect();
         self.fellner_schall(&nm, d, n_lines, &pooled, &own, Some(&pooled))
     }
@@ -268,12 +273,18 @@ impl Penalty {
             .iter()
             .enumerate()
             .map(|(k, blk)| {
+                // The balance of data and penalty in physical units, Σ|A_j|² / Σ R_jj:
+                // in equilibrated units a knot value the lines barely see (a column norm
+                // near 0) would blow the penalty's trace up and the bounds down with it.
                 let m = blk.s.nrows();
-                let tg: f64 = (0..m).map(|i| g0[(blk.start + i, blk.start + i)]).sum();
-                let ts = blk.s.trace();
+                let sc = &d.scale[blk.start..blk.start + m];
+                let tg: f64 = (0..m)
+                    .map(|i| g0[(blk.start + i, blk.start + i)] * sc[i] * sc[i])
+                    .sum();
+                let ts: f64 = (0..m).map(|i| blk.s[(i, i)] * sc[i] * sc[i]).sum();
                 let base = if ts > 0.0 && tg > 0.0 { tg / ts } else { 1.0 };
                 let hi = base * LAMBDA_SPAN;
-                (base / LAMBDA_SPAN, cap.map_or(hi, |c| c[k].min(hi)))
+                (base / LAMBDA_FLOOR, cap.map_or(hi, |c| c[k].min(hi)))
             })
             .collect();
         let n_tie = tie.iter().max().map_or(0, |m| m + 1);

@@ -320,11 +320,12 @@ mod tests {
         let gap = 300.0 / MAX_INTERVALS as f64;
         let dense: Vec<f64> = (0..=300).map(f64::from).collect();
         let k = knots(&dense, [0.0, 300.0]);
-        assert!(k.windows(2).all(|w| w[1] - w[0] >= gap * (1.0 - 1e-9)), "{k:?}");
         assert!(
-            dense
-                .iter()
-                .all(|a| k.iter().any(|t| (t - a).abs() < gap)),
+            k.windows(2).all(|w| w[1] - w[0] >= gap * (1.0 - 1e-9)),
+            "{k:?}"
+        );
+        assert!(
+            dense.iter().all(|a| k.iter().any(|t| (t - a).abs() < gap)),
             "{k:?}"
         );
         assert!(k.len() <= MAX_INTERVALS + 1);
@@ -333,7 +334,11 @@ mod tests {
             .collect();
         let k = knots(&half, [0.0, 300.0]);
         assert_eq!(k.len(), MAX_INTERVALS + 1, "{k:?}");
-        assert!(k.iter().enumerate().all(|(i, t)| (t - gap * i as f64).abs() < 1e-9));
+        assert!(
+            k.iter()
+                .enumerate()
+                .all(|(i, t)| (t - gap * i as f64).abs() < 1e-9)
+        );
         assert_eq!(knots(&[], [-50.0, 80.0]), vec![-50.0, 0.0, 80.0]);
         assert_eq!(knots(&[], [0.0, 80.0]), vec![0.0, 40.0, 80.0]);
     }
