@@ -164,7 +164,7 @@ impl FitState {
         };
         let axis = Component::from_index(c).axis;
         let kn = &knots[axis];
-        if !(*q > 0.0) || kn.len() < 2 || a_mm < kn[0] || a_mm > kn[kn.len() - 1] {
+        if q.is_nan() || *q <= 0.0 || kn.len() < 2 || a_mm < kn[0] || a_mm > kn[kn.len() - 1] {
             return 0.0;
         }
         let (s, w) = super::spline::segment(kn, a_mm);
