@@ -395,7 +395,7 @@ impl Model {
                     })?;
                 let r = f.basis.range_mm;
                 Ok(Model {
-                    topology: f.basis.topology.clone(),
+                    topology: f.basis.topology.to_string(),
                     residual: head
                         .residual
                         .map(|r| r.verdict)

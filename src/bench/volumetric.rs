@@ -120,6 +120,7 @@ pub fn config(degree: Option<usize>) -> IdentifyConfig {
     let mut c = IdentifyConfig::new(Topology([1, 0, 2]));
     if let Some(d) = degree {
         c.degree = Degree::Fixed(d);
+        c.basis = crate::volumetric::BasisKind::Poly;
     }
     c
 }

@@ -10,8 +10,8 @@ use clap::{Args, Subcommand};
 
 use super::values;
 use errmap::volumetric::{
-    Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor, Topology,
-    identify, predict, simulate,
+    BasisKind, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor,
+    Topology, identify, predict, simulate,
 };
 
 #[derive(Debug, Subcommand)]
@@ -90,16 +90,22 @@ pub struct IdentifyArgs {
     /// moving-bridge CMM).
     #[arg(long, value_parser = values::topology)]
     pub topology: Topology,
+    /// Component model: `spline` (tables at knots with a roughness penalty, smoothing by
+    /// REML; the default) or `poly` (polynomials). Giving --degree, --max-degree or
+    /// --component-degree without --basis means `poly`.
+    #[arg(long, value_parser = basis_kind)]
+    pub basis: Option<BasisKind>,
     /// Polynomial degree of every component, `auto` (one degree by leave-one-line-out
-    /// CV) or `auto-each` (then each component's own degree by the same CV).
-    #[arg(long, default_value = "auto", value_parser = values::degree)]
-    pub degree: String,
-    /// Highest degree `auto` tries.
-    #[arg(long, default_value_t = 4, value_parser = values::max_degree)]
-    pub max_degree: usize,
+    /// CV, the default for `poly`) or `auto-each` (then each component's own degree by
+    /// the same CV).
+    #[arg(long, value_parser = values::degree)]
+    pub degree: Option<String>,
+    /// Highest degree `auto` tries (default 4).
+    #[arg(long, value_parser = values::max_degree)]
+    pub max_degree: Option<usize>,
     /// Per-component degrees overriding --degree, e.g. `E_XX=5,E_CX=2`.
-    #[arg(long, default_value = "", value_parser = values::component_degrees)]
-    pub component_degree: BTreeMap<usize, usize>,
+    #[arg(long, value_parser = values::component_degrees)]
+    pub component_degree: Option<BTreeMap<usize, usize>>,
     /// Positions per component in the output (0 is added).
     #[arg(long, default_value_t = 21, value_parser = values::report_positions)]
     pub positions: usize,
@@ -279,19 +285,41 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
+/// `--basis`: `spline` or `poly`.
+fn basis_kind(s: &str) -> Result<BasisKind, String> {
+    match s.trim() {
+        "spline" => Ok(BasisKind::Spline),
+        "poly" => Ok(BasisKind::Poly),
+        other => Err(format!("`{other}` is neither `spline` nor `poly`")),
+    }
+}
+
 fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     let topology = a.topology;
-    let degree = match a.degree.trim() {
-        "auto" => Degree::Auto { max: a.max_degree },
-        "auto-each" => Degree::AutoEach { max: a.max_degree },
+    let poly_flags = a.degree.is_some() || a.max_degree.is_some() || a.component_degree.is_some();
+    let basis = match a.basis {
+        Some(BasisKind::Spline) if poly_flags => {
+            return Err(super::guard::usage(
+                "--degree, --max-degree and --component-degree apply to --basis poly",
+            ));
+        }
+        Some(b) => b,
+        None if poly_flags => BasisKind::Poly,
+        None => BasisKind::Spline,
+    };
+    let max_degree = a.max_degree.unwrap_or(4);
+    let degree = match a.degree.as_deref().map(str::trim).unwrap_or("auto") {
+        "auto" => Degree::Auto { max: max_degree },
+        "auto-each" => Degree::AutoEach { max: max_degree },
         d => Degree::Fixed(d.parse().with_context(|| {
             format!("--degree `{d}` is neither `auto`, `auto-each` nor a whole number")
         })?),
     };
     let config = IdentifyConfig {
         topology,
+        basis,
         degree,
-        component_degrees: a.component_degree.clone(),
+        component_degrees: a.component_degree.clone().unwrap_or_default(),
         positions: a.positions,
     };
     let outputs: Vec<(&str, &Path)> = [("--out", &a.out), ("--report", &a.report)]
@@ -301,6 +329,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     super::guard::refuse_aliases(&outputs, &[("LINES", &a.lines)])?;
     let table = LineTable::read(&a.lines, true)?;
     let id = identify(&table, &config)?;
+    let doc = id.doc(config.positions, true);
     // The inputs are finite and in range: a non-finite figure is a bug, reported (naming
     // the first output it would reach) before anything is written.
     let first_output = a
@@ -309,10 +338,11 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         .or(a.report.as_deref())
         .or(a.json.then_some(Path::new("stdout")));
     if let Some(path) = first_output {
-        errmap::report::finite::check_json(path, &id.json_numbers(config.positions))?;
+        errmap::report::finite::check_json(path, &doc)?;
     }
     if let Some(out) = &a.out {
-        write_json(out, &id.to_json(config.positions, true))?;
+        let text = errmap::report::json_text(out, &doc, true)?;
+        super::guard::write_file(out, text.as_bytes())?;
     }
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
@@ -324,7 +354,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         })?;
     }
     if a.json {
-        super::guard::print_json(&id.to_json(config.positions, false))?;
+        super::guard::print_json(&id.doc(config.positions, false))?;
     } else {
         print_summary(&id);
     }
@@ -334,10 +364,14 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
 /// The identification in a few lines on stderr.
 fn print_summary(id: &Identification) {
     let n_id = id.fit.identified.iter().filter(|f| **f).count();
+    let model = match id.fit.basis.kind() {
+        BasisKind::Poly => format!("polynomials of degree {}", id.degree),
+        BasisKind::Spline => "tables at knots (REML smoothing)".to_string(),
+    };
     eprintln!(
-        "volumetric identify: {} lines, {} targets, degree {}, RMS residual {:.4} µm, {} of 21 \
+        "volumetric identify: {} lines, {} targets, {model}, RMS residual {:.4} µm, {} of 21 \
          errors identified, residual {}",
-        id.lines, id.targets, id.degree, id.rms_residual_um, n_id, id.residual.verdict
+        id.lines, id.targets, id.rms_residual_um, n_id, id.residual.verdict
     );
     for e in &id.residual.effects {
         let params: Vec<String> = e
@@ -409,11 +443,6 @@ pub fn demo_step(out: &Path) -> Result<Identification> {
         twincat.display()
     );
     Ok(id)
-}
-
-fn write_json(path: &Path, v: &serde_json::Value) -> Result<()> {
-    let text = errmap::report::json_text(path, v, true)?;
-    super::guard::write_file(path, text.as_bytes())
 }
 
 fn predict_cmd(a: PredictArgs) -> Result<()> {

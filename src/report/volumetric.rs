@@ -22,23 +22,40 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
 pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result<(), ReportError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let model = dir.join("model.json");
-    super::write_json(&model, &id.to_json(positions, true))?;
+    super::write_json(&model, &id.doc(positions, true))?;
 
     let mut md = String::new();
     let n_id = id.fit.identified.iter().filter(|f| **f).count();
     let _ = writeln!(md, "# Volumetric errors — topology {}\n", id.topology);
+    let model = match &id.smoothing {
+        Some(sm) => format!(
+            "Components as tables at knots with a roughness penalty, smoothing by {}{}",
+            sm.criterion,
+            if sm.relaxed_by < 1.0 {
+                format!(
+                    ", relaxed by {:.0e} because the REML fit's residual failed the test",
+                    sm.relaxed_by
+                )
+            } else {
+                String::new()
+            }
+        ),
+        None => format!(
+            "Polynomial degree {}{}",
+            id.degree,
+            if id.cv.is_empty() {
+                ""
+            } else {
+                " (chosen by leave-one-line-out cross-validation)"
+            }
+        ),
+    };
     let _ = writeln!(
         md,
-        "{} lines, {} targets. Polynomial degree {}{}. RMS residual {:.4} µm \
-         (σ bands scaled by √(χ²/ν) = {:.3}, ν = {}; rows {}). **{} of 21 errors identified.**\n",
+        "{} lines, {} targets. {model}. RMS residual {:.4} µm \
+         (√(χ²/ν) = {:.3}, ν = {:.1}; rows {}). **{} of 21 errors identified.**\n",
         id.lines,
         id.targets,
-        id.degree,
-        if id.cv.is_empty() {
-            ""
-        } else {
-            " (chosen by leave-one-line-out cross-validation)"
-        },
         id.rms_residual_um,
         id.sigma0,
         id.dof,

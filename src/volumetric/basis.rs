@@ -1,15 +1,24 @@
 //! The linear parameterisation of the 21 errors that identification fits and prediction
-//! evaluates, with the gauge convention built in.
+//! evaluates, with the gauge convention built in. Two families ([`BasisKind`]):
 //!
-//! Each axis k is normalised, ξ = a/L_k with L_k the largest |a| of its range (the range
-//! always contains 0). A positioning or angular component of degree D is
-//! Σ_{d=1..D} θ_d·ξ^d (no constant: components are zero at 0). A straightness component
-//! of degree D is Σ_{d=2..max(D,2)} θ_d·(ξ^d − β_d·ξ), where β_d is the least-squares slope
-//! of ξ^d over the axis' range [lo, hi] (continuous, uniform weight): every straightness
-//! component has zero least-squares slope over its range — **the gauge**. The three
-//! squareness errors are one parameter each, and carry all linear trends. See
-//! [`super`] for why this makes the solution unique and how to map any other convention
-//! onto it.
+//! **Polynomials** (`poly`). Each axis k is normalised, ξ = a/L_k with L_k the largest
+//! |a| of its range (the range always contains 0). A positioning or angular component of
+//! degree D is Σ_{d=1..D} θ_d·ξ^d (no constant: components are zero at 0). A straightness
+//! component of degree D is Σ_{d=2..max(D,2)} θ_d·(ξ^d − β_d·ξ), where β_d is the
+//! least-squares slope of ξ^d over the axis' range [lo, hi] (continuous, uniform weight).
+//!
+//! **Tables at knots** (`spline`, [`super::spline`]). Each component is a piecewise-linear
+//! table over its axis' knots t_0 < … < t_{K−1} (0 among them): Σ_j v_j·φ_j(a), φ_j the
+//! hat function of knot j, v_j the value there — a controller's compensation table. The
+//! value at 0 is not a parameter (it is 0). A straightness component is
+//! Σ_j v_j·(φ_j(a) − β_j·a), β_j the least-squares slope of φ_j over the range, and its
+//! value at the knot farthest from 0 is not a parameter either (the slope removed, that
+//! direction is the zero function).
+//!
+//! Either way every straightness component has zero least-squares slope over its range —
+//! **the gauge** — and the three squareness errors are one parameter each and carry all
+//! linear trends. See [`super`] for why this makes the solution unique and how to map any
+//! other convention onto it.
 //!
 //! Parameters are laid out component by component (E_XX … E_CZ), then E_C0Y, E_B0Z,
 //! E_A0Z.
@@ -17,19 +26,56 @@
 use serde::{Deserialize, Serialize};
 
 use super::model::{Component, Machine, SQUARENESS, Topology, dot, squareness_effect};
+use super::spline;
 
-/// The basis of a fit: ranges, scales, degrees, slopes.
+/// The family of component functions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BasisKind {
+    /// Polynomials without constant term, degree chosen by cross-validation or fixed.
+    Poly,
+    /// Piecewise-linear tables at knots with a roughness penalty, smoothing by REML.
+    #[default]
+    Spline,
+}
+
+impl BasisKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            BasisKind::Poly => "poly",
+            BasisKind::Spline => "spline",
+        }
+    }
+}
+
+impl std::fmt::Display for BasisKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The basis of a fit: ranges, scales, degrees or knots, slopes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Basis {
-    pub topology: String,
+    pub topology: Topology,
     /// [lo, hi] per axis, mm (0 always inside).
     pub range_mm: [[f64; 2]; 3],
     /// L_k, mm.
     pub scale_mm: [f64; 3],
-    /// Degree of each of the 18 components.
+    /// Degree of each of the 18 components (polynomials; empty for tables at knots).
     pub degrees: Vec<usize>,
-    #[serde(skip)]
-    chain: Option<Topology>,
+    /// Knots of each axis, mm, increasing, 0 among them (tables at knots only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub knots_mm: Option<Box<[Vec<f64>; 3]>>,
+}
+
+/// L_k per axis: the largest |a| of the range, 1 mm for an axis that does not move.
+fn scales(range_mm: [[f64; 2]; 3]) -> [f64; 3] {
+    range_mm.map(|[lo, hi]| {
+        let l = lo.abs().max(hi.abs());
+        if l > 0.0 { l } else { 1.0 }
+    })
 }
 
 /// Moment E[ξ^n] of the uniform distribution on [lo, hi].
@@ -50,35 +96,48 @@ pub fn ls_slope(lo: f64, hi: f64, d: i32) -> f64 {
 }
 
 impl Basis {
+    /// Polynomials of the given degrees (one per component).
     pub fn new(topology: Topology, range_mm: [[f64; 2]; 3], degrees: Vec<usize>) -> Basis {
-        let scale_mm = range_mm.map(|[lo, hi]| {
-            let l = lo.abs().max(hi.abs());
-            if l > 0.0 { l } else { 1.0 }
-        });
         Basis {
-            topology: topology.to_string(),
+            topology,
             range_mm,
-            scale_mm,
+            scale_mm: scales(range_mm),
             degrees,
-            chain: Some(topology),
+            knots_mm: None,
+        }
+    }
+
+    /// Tables at the given knots (per axis, increasing, 0 among them, at least 3).
+    pub fn tables(topology: Topology, range_mm: [[f64; 2]; 3], knots_mm: [Vec<f64>; 3]) -> Basis {
+        Basis {
+            topology,
+            range_mm,
+            scale_mm: scales(range_mm),
+            degrees: Vec::new(),
+            knots_mm: Some(Box::new(knots_mm)),
+        }
+    }
+
+    pub fn kind(&self) -> BasisKind {
+        if self.knots_mm.is_some() {
+            BasisKind::Spline
+        } else {
+            BasisKind::Poly
         }
     }
 
     pub fn topology(&self) -> Topology {
-        self.chain
-            .unwrap_or_else(|| self.topology.parse().unwrap_or(Topology([0, 1, 2])))
-    }
-
-    /// Restores the parsed topology after deserialisation.
-    pub fn reparse(&mut self) -> Result<(), super::VolumetricError> {
-        self.chain = Some(self.topology.parse()?);
-        Ok(())
+        self.topology
     }
 
     /// Number of parameters of component `c` (0..18), or 1 for a squareness (18..21).
     pub fn count(&self, c: usize) -> usize {
         if c >= 18 {
             return 1;
+        }
+        let comp = Component::from_index(c);
+        if let Some(knots) = &self.knots_mm {
+            return spline::count(&knots[comp.axis], comp.is_straightness());
         }
         let d = self.degrees[c];
         if Component::from_index(c).is_straightness() {
@@ -107,6 +166,10 @@ impl Basis {
         out.clear();
         let comp = Component::from_index(c);
         let k = comp.axis;
+        if let Some(knots) = &self.knots_mm {
+            spline::functions_into(&knots[k], comp.is_straightness(), a_mm, out);
+            return;
+        }
         let l = self.scale_mm[k];
         let xi = a_mm / l;
         if comp.is_straightness() {
@@ -121,18 +184,9 @@ impl Basis {
 
     /// Values of component `c`'s basis functions at `a_mm`.
     pub fn functions(&self, c: usize, a_mm: f64) -> Vec<f64> {
-        let comp = Component::from_index(c);
-        let k = comp.axis;
-        let l = self.scale_mm[k];
-        let xi = a_mm / l;
-        let [lo, hi] = self.range_mm[k].map(|v| v / l);
-        if comp.is_straightness() {
-            (2..=self.degrees[c].max(2) as i32)
-                .map(|d| xi.powi(d) - ls_slope(lo, hi, d) * xi)
-                .collect()
-        } else {
-            (1..=self.degrees[c] as i32).map(|d| xi.powi(d)).collect()
-        }
+        let mut out = Vec::new();
+        self.functions_into(c, a_mm, &mut out);
+        out
     }
 
     /// ∂E/∂θ at a point: three rows (E_x, E_y, E_z), µm per parameter.
@@ -140,12 +194,14 @@ impl Basis {
         let n = self.n_params();
         let mut rows = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         let topo = self.topology();
+        let mut funcs = Vec::new();
         for c in 0..18 {
             let comp = Component::from_index(c);
             let r = topo.lever_arm(comp.axis, pos_mm, probe_mm);
             let eff = comp.unit_effect(r);
             let o = self.offset(c);
-            for (j, f) in self.functions(c, pos_mm[comp.axis]).into_iter().enumerate() {
+            self.functions_into(c, pos_mm[comp.axis], &mut funcs);
+            for (j, &f) in funcs.iter().enumerate() {
                 for i in 0..3 {
                     rows[i][o + j] += f * eff[i];
                 }

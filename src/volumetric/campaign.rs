@@ -115,35 +115,69 @@ fn candidates(table: &LineTable, w: &[f64]) -> Vec<Candidate> {
     out
 }
 
-/// The t of each candidate column against the fit of design `d` (with `n_lines`
-/// constants).
-fn scores<'a>(
-    d: &Design,
-    n_lines: usize,
-    cols: impl ExactSizeIterator<Item = &'a [f64]>,
-) -> Vec<Option<f64>> {
+/// What the terms' scores need of a fit of a design: its weighted residual r, its residual
+/// degrees of freedom ν, and the map g ↦ (I − P)g with P the fit's hat matrix (the
+/// orthogonal projector onto the design's range for least squares; tables at knots are
+/// scored against their unpenalised least-squares fit, [`super::identify`]).
+pub(crate) struct Residualiser<'a> {
+    pub r: DVector<f64>,
+    pub dof: f64,
+    pub project: Project<'a>,
+}
+
+/// g ↦ (I − P)g.
+pub(crate) type Project<'a> = Box<dyn Fn(&DVector<f64>) -> DVector<f64> + 'a>;
+
+/// How the 21 errors are fitted to a design (with `n_lines` constants).
+pub(crate) type Fitter<'f> = dyn for<'a> Fn(&'a Design, usize) -> Option<Residualiser<'a>> + 'f;
+
+/// The least-squares residualiser (polynomial bases): P = U Uᵀ from the design's SVD.
+pub(crate) fn least_squares(d: &Design, n_lines: usize) -> Option<Residualiser<'_>> {
     let dec = decompose(&d.a);
     let rank = dec.sv_range.len();
     let rows = d.a.nrows();
-    if rows <= rank + n_lines + 1 {
-        return vec![None; cols.len()];
-    }
     let ut_e = dec.u_range.transpose() * &d.e;
     let r = &d.e - &dec.u_range * ut_e;
-    let chi2 = r.norm_squared();
-    let dof1 = (rows - rank - n_lines - 1) as f64;
+    let u = dec.u_range;
+    Some(Residualiser {
+        r,
+        dof: rows as f64 - rank as f64 - n_lines as f64,
+        project: Box::new(move |g: &DVector<f64>| g - &u * (u.transpose() * g)),
+    })
+}
+
+/// The t of each candidate column against the fit of design `d` (with `n_lines`
+/// constants). For a column g: g⊥ = (I − P)g, θ = g·r / g·g⊥, the residual variance
+/// after the term σ₁² = (χ² − θ·g·r)/(ν − 1), σ = σ₁/√(g·g⊥) — the exact joint fit's t for
+/// least squares, and for a penalised fit the t of the unpenalised column with the
+/// smoothing held.
+fn scores<'a>(
+    d: &Design,
+    n_lines: usize,
+    fitter: &Fitter<'_>,
+    cols: impl ExactSizeIterator<Item = &'a [f64]>,
+) -> Vec<Option<f64>> {
+    let rows = d.a.nrows();
+    let Some(fit) = fitter(d, n_lines) else {
+        return vec![None; cols.len()];
+    };
+    if fit.dof <= 1.0 {
+        return vec![None; cols.len()];
+    }
+    let chi2 = fit.r.norm_squared();
+    let dof1 = fit.dof - 1.0;
     cols.map(|col| {
         let g = DVector::from_iterator(rows, col.iter().zip(&d.sqrt_w).map(|(a, b)| a * b));
         let gn = g.norm();
         if !(gn > 0.0 && gn.is_finite()) {
             return None;
         }
-        let gp = &g - &dec.u_range * (dec.u_range.transpose() * &g);
-        let gg = gp.norm_squared();
-        if gg.sqrt() < SEPARABLE * gn {
+        let gp = (fit.project)(&g);
+        let gg = g.dot(&gp);
+        if gg.is_nan() || gg <= 0.0 || gg.sqrt() < SEPARABLE * gn {
             return None;
         }
-        let gr = gp.dot(&r);
+        let gr = g.dot(&fit.r);
         let theta = gr / gg;
         let s1 = ((chi2 - gr * gr / gg).max(0.0) / dof1).sqrt();
         let sigma = s1 / gg.sqrt();
@@ -171,7 +205,12 @@ pub(crate) struct Chosen {
 /// Forward selection of campaign terms on top of design `d`; `w` the row weights.
 /// Returns the chosen terms and, when there are any, the design augmented with their
 /// columns in that order (for the joint fit).
-pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, Option<Design>) {
+pub(crate) fn select(
+    table: &LineTable,
+    w: &[f64],
+    d: &Design,
+    fitter: &Fitter<'_>,
+) -> (Vec<Chosen>, Option<Design>) {
     let n_lines = table.lines.len();
     let mut cands = candidates(table, w);
     let line_t = line_threshold(n_lines);
@@ -179,7 +218,12 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, 
     let mut cur: Option<Design> = None;
     while chosen.len() < MAX_TERMS && !cands.is_empty() {
         let base = cur.as_ref().unwrap_or(d);
-        let t = scores(base, n_lines, cands.iter().map(|c| c.col.as_slice()));
+        let t = scores(
+            base,
+            n_lines,
+            fitter,
+            cands.iter().map(|c| c.col.as_slice()),
+        );
         let best = t
             .iter()
             .enumerate()
@@ -206,7 +250,7 @@ pub(crate) fn select(table: &LineTable, w: &[f64], d: &Design) -> (Vec<Chosen>, 
                 .filter(|o| matches!(o.term, Term::Line(_)))
                 .map(|o| o.col.as_slice())
                 .collect();
-            let still = scores(&next, n_lines, others.into_iter())
+            let still = scores(&next, n_lines, fitter, others.into_iter())
                 .iter()
                 .any(|t| t.is_some_and(|t| t > line_t));
             cands.retain(|o| !matches!(o.term, Term::Line(_)));

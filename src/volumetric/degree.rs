@@ -23,10 +23,13 @@
 //! 18·(max − 1) candidates a sweep, i.e. about 50 global fits for max = 4 — the price of
 //! the choice, which is why it is a separate mode rather than the default.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::basis::Basis;
-use super::identify::{Design, augment, cv_per_line, decompose, design, identified_flags};
+use super::identify::{
+    CvScore, Design, IdentifyConfig, augment, cv_per_line, decompose, degrees, design,
+    identified_flags,
+};
 use super::lines::LineTable;
 use super::model::{Component, Topology};
 
@@ -36,7 +39,7 @@ pub const RAISE_GAIN: f64 = 0.01;
 pub const MAX_SWEEPS: usize = 3;
 
 /// What the per-component search did (JSON `cv_each`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct EachScore {
     /// CV RMS at the global degree the search started from, µm (weighted).
     pub start_cv_rms_um: f64,
@@ -164,4 +167,68 @@ pub(crate) fn choose_each(
             sweeps,
         },
     )
+}
+
+/// Degree by leave-one-line-out cross-validation: among the degrees that determine at
+/// least the components degree 1 determines, the one with the lowest CV RMS (a degree
+/// too high costs width of the σ bands, one too low a bias they do not show). Lines the others cannot predict at some degree are left out of
+/// every degree's score, so the scores are over the same lines.
+pub(crate) fn choose_degree(
+    table: &LineTable,
+    config: &IdentifyConfig,
+    range: [[f64; 2]; 3],
+    sqrt_w: &[f64],
+    thermal: Option<&[f64]>,
+    max: usize,
+) -> (usize, Vec<CvScore>) {
+    // (degree, identified count, identified flags, CV per line)
+    type PerDegree = (usize, usize, Vec<bool>, Vec<Option<f64>>);
+    let mut per: Vec<PerDegree> = Vec::new();
+    for deg in 1..=max {
+        let basis = Basis::new(config.topology, range, degrees(config, deg));
+        let d = design(table, &basis, sqrt_w);
+        let dec = decompose(&d.a);
+        let flags = identified_flags(&basis, &dec.null);
+        let count = flags.iter().filter(|f| **f).count();
+        // With temperatures, each degree is scored with the scale-expansion column in.
+        let cv = match thermal.and_then(|c| augment(&d, c)) {
+            Some(aug) => cv_per_line(&aug),
+            None => cv_per_line(&d),
+        };
+        per.push((deg, count, flags, cv));
+    }
+    let base = per[0].2.clone();
+    let admissible: Vec<usize> = (0..per.len())
+        .filter(|&i| base.iter().zip(&per[i].2).all(|(b, f)| !b || *f))
+        .collect();
+    let usable: Vec<usize> = (0..table.lines.len())
+        .filter(|&l| admissible.iter().all(|&i| per[i].3[l].is_some()))
+        .collect();
+    let rows: usize = usable.iter().map(|&l| table.lines[l].targets.len()).sum();
+    let scores: Vec<CvScore> = admissible
+        .iter()
+        .map(|&i| {
+            let ss: f64 = usable.iter().map(|&l| per[i].3[l].unwrap_or(0.0)).sum();
+            CvScore {
+                degree: per[i].0,
+                cv_rms_um: if rows > 0 {
+                    (ss / rows as f64).sqrt()
+                } else {
+                    f64::NAN
+                },
+                identified: per[i].1,
+            }
+        })
+        .collect();
+    let best = scores
+        .iter()
+        .map(|s| s.cv_rms_um)
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let chosen = scores
+        .iter()
+        .find(|s| s.cv_rms_um <= best)
+        .map(|s| s.degree)
+        .unwrap_or(2.min(max));
+    (chosen, scores)
 }

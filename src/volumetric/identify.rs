@@ -8,14 +8,16 @@ use std::collections::BTreeMap;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use super::basis::Basis;
-use super::campaign;
+use super::basis::{Basis, BasisKind};
+use super::choice::{
+    Engine, Model, Outcome, RELAX, RICHER_DEGREES, evaluate, poly_model, relaxed, spline_model,
+};
 use super::error::VolumetricError;
-use super::identifiability::suggest;
 use super::lines::LineTable;
-use super::model::{Component, SQUARENESS, Topology};
+use super::model::{Component, Topology};
+pub use super::residual::Z_MISSING;
+use super::residual::residual_test;
 use super::thermal::{self, ThermalTest};
-use crate::base::effect::Effect;
 use crate::diagnose::FoundEffect;
 
 /// Relative tolerance on singular values (after column equilibration) below which a
@@ -54,6 +56,9 @@ pub enum Degree {
 #[derive(Debug, Clone)]
 pub struct IdentifyConfig {
     pub topology: Topology,
+    /// Tables at knots (the default) or polynomials.
+    pub basis: BasisKind,
+    /// Polynomial degree (the polynomial basis only).
     pub degree: Degree,
     /// Per-component degrees that override the global one (index 0..18).
     pub component_degrees: BTreeMap<usize, usize>,
@@ -65,6 +70,7 @@ impl IdentifyConfig {
     pub fn new(topology: Topology) -> IdentifyConfig {
         IdentifyConfig {
             topology,
+            basis: BasisKind::default(),
             degree: Degree::Auto { max: 4 },
             component_degrees: BTreeMap::new(),
             positions: 21,
@@ -87,6 +93,14 @@ pub struct FitState {
     pub column_scale: Vec<f64>,
     /// Per component (18) and squareness (3): determined by the lines?
     pub identified: Vec<bool>,
+    /// Tables at knots: per component (18), the intensity q_c = φ/λ_c of the roughness
+    /// prior the smoothing fitted (µm² or µrad² per cubed unit of the normalised axis;
+    /// 0 for a component not penalised). Between two knots a component's variance gains
+    /// q_c·H³·w²(1 − w)²/2 — H the interval in the normalised axis, w the fraction of it —
+    /// the prior's variance of the true function about the table's chord
+    /// ([`super::smooth`]). Empty for polynomials.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub roughness: Vec<f64>,
 }
 
 impl FitState {
@@ -122,6 +136,8 @@ impl FitState {
     }
 
     /// Component `c` (0..18) at `a_mm`: value and one-sigma, `None` if undetermined.
+    /// For tables at knots the σ includes the roughness prior's variance between knots
+    /// ([`FitState::between_knots_var`]).
     pub fn component(&self, c: usize, a_mm: f64) -> Option<(f64, f64)> {
         if !self.identified[c] {
             return None;
@@ -131,7 +147,29 @@ impl FitState {
         for (j, f) in self.basis.functions(c, a_mm).into_iter().enumerate() {
             g[o + j] = f;
         }
-        self.functional(&g)
+        let (v, s) = self.functional(&g)?;
+        let extra = self.between_knots_var(c, a_mm);
+        Some((v, (s * s + extra).sqrt()))
+    }
+
+    /// The roughness prior's variance of component `c` at `a_mm` about the chord of its
+    /// table: q_c·H³·w²(1 − w)²/2 (0 at knots, outside the knots and for polynomials).
+    /// For f′ a Brownian motion of intensity q′ (the prior whose discrete form is the
+    /// second-difference penalty, q′ = 1.5·q_c), the deviation of f from its chord over an
+    /// interval of length H, given the values at both ends, has variance
+    /// q′·t²(H − t)²/(3H) at distance t from the left knot.
+    pub fn between_knots_var(&self, c: usize, a_mm: f64) -> f64 {
+        let (Some(q), Some(knots)) = (self.roughness.get(c), self.basis.knots_mm.as_ref()) else {
+            return 0.0;
+        };
+        let axis = Component::from_index(c).axis;
+        let kn = &knots[axis];
+        if q.is_nan() || *q <= 0.0 || kn.len() < 2 || a_mm < kn[0] || a_mm > kn[kn.len() - 1] {
+            return 0.0;
+        }
+        let (s, w) = super::spline::segment(kn, a_mm);
+        let h = (kn[s + 1] - kn[s]) / self.basis.scale_mm[axis];
+        q * h.powi(3) * (w * (1.0 - w)).powi(2) / 2.0
     }
 
     /// Squareness `i` (E_C0Y, E_B0Z, E_A0Z), µrad, with one-sigma.
@@ -146,7 +184,7 @@ impl FitState {
 }
 
 /// A cross-validation score of one degree.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct CvScore {
     pub degree: usize,
     /// RMS of the held-out lines' residuals (each line's constant refitted), µm.
@@ -175,6 +213,9 @@ pub struct ResidualVerdict {
     pub test: String,
     /// The test's standard-normal statistic (Wilson–Hilferty z, or ρ·√n).
     pub z: f64,
+    /// When the test fails: the lines carrying most of the residual.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub carriers: Vec<super::residual::Carrier>,
 }
 
 /// Components the lines cannot determine and the line that would.
@@ -188,6 +229,7 @@ pub struct Unidentified {
 #[derive(Debug, Clone)]
 pub struct Identification {
     pub topology: Topology,
+    /// The polynomial degree (highest of the components'; 0 for tables at knots).
     pub degree: usize,
     pub cv: Vec<CvScore>,
     pub fit: FitState,
@@ -196,7 +238,8 @@ pub struct Identification {
     pub rms_residual_um: f64,
     /// Reduced chi-square's square root (the factor σ bands were scaled by).
     pub sigma0: f64,
-    pub dof: usize,
+    /// Residual degrees of freedom (rows − lines − effective parameters).
+    pub dof: f64,
     pub weighted: bool,
     pub residuals: Vec<LineResidual>,
     pub residual: ResidualVerdict,
@@ -205,20 +248,77 @@ pub struct Identification {
     pub thermal: Option<ThermalTest>,
     /// The per-component degree search (`Degree::AutoEach`).
     pub cv_each: Option<super::degree::EachScore>,
+    /// The smoothing of tables at knots (`None` for polynomials).
+    pub smoothing: Option<Smoothing>,
 }
 
-/// What [`Identification::json_numbers`] hands over for a finiteness check.
-#[derive(Debug, Serialize)]
-pub struct JsonNumbers<'a> {
-    pub rms_residual_um: f64,
-    /// (value, one-sigma) of each component at each written position, then of each
-    /// squareness; `None` where not identified.
-    pub components: Vec<Option<(f64, f64)>>,
-    pub residual: &'a ResidualVerdict,
-    pub cv: &'a [CvScore],
-    pub thermal: &'a Option<ThermalTest>,
-    pub cv_each: &'a Option<super::degree::EachScore>,
-    pub fit: &'a FitState,
+/// What the smoothing of tables at knots did (JSON and `model.json` `smoothing`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Smoothing {
+    /// How λ was chosen.
+    pub criterion: String,
+    /// The roughness measure penalised.
+    pub penalty: String,
+    /// REML's λ were multiplied by this (1 unless the residual test asked for rougher
+    /// tables).
+    pub relaxed_by: f64,
+    /// √(χ²/ν) of the reported fit.
+    pub birge_ratio: f64,
+    /// The factor the covariance carries: 1 (the stated noise) or B² when B > 1; χ²/ν
+    /// without s_um.
+    pub covariance_scale: f64,
+    /// Per component: knots, λ (equilibrated units) and effective degrees of freedom;
+    /// components the lines do not determine are not penalised and not listed.
+    pub components: BTreeMap<String, ComponentSmoothing>,
+}
+
+/// One component's smoothing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ComponentSmoothing {
+    pub knots: usize,
+    pub lambda: f64,
+    pub edf: f64,
+}
+
+impl Smoothing {
+    pub(crate) fn of(
+        basis: &Basis,
+        pen: &super::smooth::Penalty,
+        edf_block: &[f64],
+        relaxed_by: f64,
+        birge_ratio: f64,
+        known_noise: bool,
+    ) -> Smoothing {
+        let components = pen
+            .blocks
+            .iter()
+            .zip(&pen.lambda)
+            .enumerate()
+            .map(|(i, (b, l))| {
+                let c = Component::from_index(b.component);
+                let knots = basis.knots_mm.as_ref().map_or(0, |k| k[c.axis].len());
+                (
+                    c.name(),
+                    ComponentSmoothing {
+                        knots,
+                        lambda: *l,
+                        edf: edf_block.get(i).copied().unwrap_or(f64::NAN),
+                    },
+                )
+            })
+            .collect();
+        let ratio = birge_ratio * birge_ratio;
+        Smoothing {
+            criterion: "REML, one λ per component (Fellner–Schall iteration)".into(),
+            penalty: "squared second divided differences of the knot values (∫f''² in a/L)".into(),
+            relaxed_by,
+            birge_ratio,
+            covariance_scale: if known_noise { ratio.max(1.0) } else { ratio },
+            components,
+        }
+    }
 }
 
 /// The centred, weighted design of a line table under a basis.
@@ -363,7 +463,7 @@ fn axis_range(table: &LineTable) -> [[f64; 2]; 3] {
     r
 }
 
-fn degrees(config: &IdentifyConfig, d: usize) -> Vec<usize> {
+pub(crate) fn degrees(config: &IdentifyConfig, d: usize) -> Vec<usize> {
     (0..18)
         .map(|c| config.component_degrees.get(&c).copied().unwrap_or(d))
         .collect()
@@ -398,19 +498,21 @@ pub(crate) fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
 }
 
 /// A solved least-squares problem, parameters unscaled.
-struct Solved {
-    theta: Vec<f64>,
-    cov: DMatrix<f64>,
+pub(crate) struct Solved {
+    pub theta: Vec<f64>,
+    pub cov: DMatrix<f64>,
     /// Weighted residual per row.
-    res_w: DVector<f64>,
-    chi2: f64,
-    dof: usize,
-    sigma0: f64,
-    null: DMatrix<f64>,
+    pub res_w: DVector<f64>,
+    pub chi2: f64,
+    pub dof: f64,
+    pub sigma0: f64,
+    pub null: DMatrix<f64>,
+    /// Effective degrees of freedom per penalised component (tables only).
+    pub edf_block: Vec<f64>,
 }
 
 /// θ = V Σ⁻¹ Uᵀ e on the determined subspace, the covariance σ₀²·V Σ⁻² Vᵀ, the null space.
-fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
+pub(crate) fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
     let dec = decompose(&d.a);
     let rank = dec.sv_range.len();
     let rows = d.a.nrows();
@@ -420,13 +522,13 @@ fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
              parameters and {n_lines} line constants; measure more targets or lower the degree"
         ));
     }
-    let dof = rows - rank - n_lines;
+    let dof = (rows - rank - n_lines) as f64;
     let ut_e = dec.u_range.transpose() * &d.e;
     let coef = DVector::from_fn(rank, |k, _| ut_e[k] / dec.sv_range[k]);
     let theta_s = &dec.v_range * coef;
     let res_w = &d.e - &d.a * &theta_s;
     let chi2 = res_w.norm_squared();
-    let sigma0 = (chi2 / dof as f64).sqrt();
+    let sigma0 = (chi2 / dof).sqrt();
     let n = d.a.ncols();
     let vs = DMatrix::from_fn(n, rank, |i, k| dec.v_range[(i, k)] / dec.sv_range[k]);
     let cov_s = &vs * vs.transpose() * (sigma0 * sigma0);
@@ -438,6 +540,7 @@ fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
         dof,
         sigma0,
         null: dec.null,
+        edf_block: Vec::new(),
     })
 }
 
@@ -481,10 +584,11 @@ pub(crate) fn augment(d: &Design, col: &[f64]) -> Option<Design> {
 }
 
 /// The joint fit with the scale-expansion column and its t-test ([`super::thermal`]).
-fn thermal_fit(
+pub(crate) fn thermal_fit(
     d: &Design,
     col: &thermal::ThermalColumn,
     n_lines: usize,
+    engine: &super::choice::Engine,
 ) -> (ThermalTest, Option<Solved>) {
     let mut test = ThermalTest {
         alpha_ppm_per_k: None,
@@ -498,7 +602,7 @@ fn thermal_fit(
     let Some(aug) = augment(d, &col.centred) else {
         return (test, None);
     };
-    let Ok(solved) = solve(&aug, n_lines) else {
+    let Ok(solved) = engine.solve(&aug, n_lines) else {
         return (test, None);
     };
     let n = d.a.ncols();
@@ -530,12 +634,24 @@ fn thermal_fit(
 
 /// Fits the lines. Errors when the table cannot carry a fit at all (no degrees of
 /// freedom left after the line constants and the determined parameters).
+///
+/// # Selection
+///
+/// The first model is the configured one: tables at knots with REML's smoothing, or
+/// polynomials of the chosen degree. When its residual (after the scale's α and the
+/// campaign terms) fails the test against the noise, richer component models are fitted
+/// before anything is called unexplained — the tables with REML's λ relaxed by each of
+/// [`RELAX`], the polynomials (degree chosen by CV) up to [`RICHER_DEGREES`] degrees
+/// higher, as long as they determine what the first determines — and the first whose
+/// residual passes is reported. When none passes, the first model is reported with an
+/// `unexplained` effect naming the lines that carry the residual.
 pub fn identify(
     table: &LineTable,
     config: &IdentifyConfig,
 ) -> Result<Identification, VolumetricError> {
     let range = axis_range(table);
     let w = weights(table);
+    let weighted = w.is_some();
     let sqrt_w: Vec<f64> = w.clone().unwrap_or_else(|| vec![1.0; table.targets()]);
     let fit_err = |message: String| VolumetricError::Fit {
         file: table.source.clone(),
@@ -564,110 +680,131 @@ pub fn identify(
     }
     let row_w: Vec<f64> = sqrt_w.iter().map(|s| s * s).collect();
     let thermal_col = thermal::column(table, &row_w);
-    let (degree, cv) = match config.degree {
-        Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
-        Degree::Fixed(d) => (d, Vec::new()),
-        Degree::Auto { max } | Degree::AutoEach { max } => {
-            let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
-            choose_degree(table, config, range, &sqrt_w, col, max.max(1))
-        }
-    };
-    let mut degs = degrees(config, degree);
+    let n_lines = table.lines.len();
+    let mut degree = 0;
+    let mut cv = Vec::new();
     let mut cv_each = None;
-    if let Degree::AutoEach { max } = config.degree {
-        let fixed: Vec<bool> = (0..18)
-            .map(|c| config.component_degrees.contains_key(&c))
-            .collect();
-        let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
-        let (chosen, score) = super::degree::choose_each(
+    let first = match config.basis {
+        BasisKind::Spline => spline_model(
             table,
             config.topology,
             range,
             &sqrt_w,
-            col,
-            degs,
-            &fixed,
-            max.max(1),
-        );
-        degs = chosen;
-        cv_each = Some(score);
-    }
-    let basis = Basis::new(config.topology, range, degs);
-    let d = design(table, &basis, &sqrt_w);
-    let rows = table.targets();
-    let n_lines = table.lines.len();
-    let plain = solve(&d, n_lines).map_err(fit_err)?;
-    // Identifiability from the 21 errors' design alone: with α determined, the joint
-    // design's null space is this one padded with 0.
-    let identified = identified_flags(&basis, &plain.null);
-    let unidentified = suggest(&basis, &d.scale, &plain.null, &identified);
-    let null_space: Vec<Vec<f64>> = (0..plain.null.nrows())
-        .map(|i| plain.null.row(i).iter().copied().collect())
-        .collect();
-    let (thermal, joint) = match &thermal_col {
-        Some(col) => {
-            let (t, s) = thermal_fit(&d, col, n_lines);
-            (Some(t), s)
+            thermal_col.as_ref(),
+            weighted,
+        ),
+        BasisKind::Poly => {
+            let (deg, scores) = match config.degree {
+                Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
+                Degree::Fixed(d) => (d, Vec::new()),
+                Degree::Auto { max } | Degree::AutoEach { max } => {
+                    let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
+                    super::degree::choose_degree(table, config, range, &sqrt_w, col, max.max(1))
+                }
+            };
+            degree = deg;
+            cv = scores;
+            let mut degs = degrees(config, degree);
+            if let Degree::AutoEach { max } = config.degree {
+                let fixed: Vec<bool> = (0..18)
+                    .map(|c| config.component_degrees.contains_key(&c))
+                    .collect();
+                let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
+                let (chosen, score) = super::degree::choose_each(
+                    table,
+                    config.topology,
+                    range,
+                    &sqrt_w,
+                    col,
+                    degs,
+                    &fixed,
+                    max.max(1),
+                );
+                degs = chosen;
+                cv_each = Some(score);
+            }
+            poly_model(table, config.topology, range, &sqrt_w, degs)
         }
-        None => (None, None),
     };
-    // The campaign's own terms (a drift, a bad line) on top of the 21 errors and α.
-    let thermal_kept = thermal
-        .as_ref()
-        .filter(|t| t.kept)
-        .and(thermal_col.as_ref())
-        .and_then(|c| augment(&d, &c.centred));
-    let (chosen, joint_campaign) =
-        campaign::select(table, &row_w, thermal_kept.as_ref().unwrap_or(&d));
-    let extra = joint_campaign.and_then(|dd| {
-        let first = dd.a.ncols() - chosen.len();
-        solve(&dd, n_lines).ok().map(|s| (first, s))
-    });
-    let (solved, campaign_effects) = match extra {
-        Some((first, s)) => {
-            let effects: Vec<_> = chosen
+    let evaluate_model = |m: &Model| {
+        evaluate(
+            table,
+            &m.d,
+            &m.engine,
+            thermal_col.as_ref(),
+            &row_w,
+            weighted,
+        )
+    };
+    let first_outcome = evaluate_model(&first).map_err(fit_err)?;
+    let mut chosen: Option<(Model, Outcome)> = None;
+    let mut tried = match config.basis {
+        BasisKind::Spline => "tables at knots with REML smoothing".to_string(),
+        BasisKind::Poly => format!("polynomials of degree {degree}"),
+    };
+    if first_outcome.z > Z_MISSING {
+        let richer: Vec<Model> = match config.basis {
+            BasisKind::Spline => RELAX[1..]
                 .iter()
-                .enumerate()
-                .map(|(k, c)| {
-                    let j = first + k;
-                    campaign::effect(table, c, s.theta[j], s.cov[(j, j)].max(0.0).sqrt())
-                })
-                .collect();
-            (s, effects)
+                .filter_map(|&r| relaxed(&first, r))
+                .collect(),
+            BasisKind::Poly if !matches!(config.degree, Degree::Fixed(_)) => {
+                let top = (degree + RICHER_DEGREES).min(MAX_DEGREE);
+                (degree + 1..=top)
+                    .map(|d| {
+                        let degs: Vec<usize> =
+                            first.basis.degrees.iter().map(|&x| x.max(d)).collect();
+                        poly_model(table, config.topology, range, &sqrt_w, degs)
+                    })
+                    .filter(|m| {
+                        first
+                            .identified
+                            .iter()
+                            .zip(&m.identified)
+                            .all(|(a, b)| !a || *b)
+                    })
+                    .collect()
+            }
+            BasisKind::Poly => Vec::new(),
+        };
+        if let Some(last) = richer.last() {
+            tried = match config.basis {
+                BasisKind::Spline => format!(
+                    "tables at knots, REML smoothing relaxed down to {:.0e}×",
+                    last.relax
+                ),
+                BasisKind::Poly => format!(
+                    "polynomials of degree {degree} to {}",
+                    last.basis.degrees.iter().max().copied().unwrap_or(degree)
+                ),
+            };
         }
-        None => (joint.unwrap_or(plain), Vec::new()),
-    };
-    let n = basis.n_params();
-    let theta = solved.theta[..n].to_vec();
-    let covariance: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..n).map(|j| solved.cov[(i, j)]).collect())
-        .collect();
-    let res_w = &solved.res_w;
-    // Residuals, unweighted, in line order sorted along the line.
-    let mut residuals = Vec::new();
-    let mut all_r = Vec::with_capacity(rows);
-    for (line, rr) in table.lines.iter().zip(&d.line_rows) {
-        let mut v: Vec<(f64, Option<f64>, f64)> = line
-            .targets
-            .iter()
-            .zip(rr.clone())
-            .map(|(t, i)| (line.s_mm(t), t.t_s, res_w[i] / d.sqrt_w[i]))
-            .collect();
-        v.sort_by(|a, b| a.0.total_cmp(&b.0));
-        all_r.extend(v.iter().map(|x| x.2));
-        residuals.push(LineResidual {
-            line: line.id.clone(),
-            s_mm: v.iter().map(|x| x.0).collect(),
-            t_s: v.iter().map(|x| x.1).collect(),
-            r_um: v.iter().map(|x| x.2).collect(),
-        });
+        for m in richer {
+            let Ok(o) = evaluate_model(&m) else { continue };
+            if o.z <= Z_MISSING {
+                chosen = Some((m, o));
+                break;
+            }
+        }
     }
-    let rms_residual_um = crate::base::stats::rms(&all_r).unwrap_or(0.0);
+    let (model, outcome) = chosen.unwrap_or((first, first_outcome));
+    if model.basis.kind() == BasisKind::Poly {
+        degree = model.basis.degrees.iter().max().copied().unwrap_or(degree);
+    }
+    let Outcome {
+        solved,
+        thermal,
+        campaign_effects,
+        residuals,
+        rms_residual_um,
+        ..
+    } = outcome;
     let mut residual = residual_test(
         &residuals,
-        w.is_some().then_some((solved.chi2, solved.dof)),
+        weighted.then_some((solved.chi2, solved.dof)),
         rms_residual_um,
         solved.sigma0,
+        &tried,
     );
     if let Some(e) = thermal
         .as_ref()
@@ -682,154 +819,61 @@ pub fn identify(
         residual.effects.splice(at..at, campaign_effects);
         residual.verdict = crate::base::Verdict::MissingPhysics;
     }
+    let n = model.basis.n_params();
+    let roughness = match &model.engine {
+        Engine::Penalised { pen, known_noise } => {
+            let ratio = solved.sigma0 * solved.sigma0;
+            let phi = if *known_noise { ratio.max(1.0) } else { ratio };
+            let mut q = vec![0.0; 18];
+            for (b, l) in pen.blocks.iter().zip(&pen.lambda) {
+                if *l > 0.0 {
+                    q[b.component] = phi / l;
+                }
+            }
+            q
+        }
+        Engine::LeastSquares => Vec::new(),
+    };
+    let smoothing = match &model.engine {
+        Engine::Penalised { pen, known_noise } => Some(Smoothing::of(
+            &model.basis,
+            pen,
+            &solved.edf_block,
+            model.relax,
+            solved.sigma0,
+            *known_noise,
+        )),
+        Engine::LeastSquares => None,
+    };
     Ok(Identification {
         topology: config.topology,
         degree,
         cv,
         fit: FitState {
-            basis,
-            theta,
-            covariance,
-            null_space,
-            column_scale: d.scale[..n].to_vec(),
-            identified,
+            theta: solved.theta[..n].to_vec(),
+            covariance: (0..n)
+                .map(|i| (0..n).map(|j| solved.cov[(i, j)]).collect())
+                .collect(),
+            null_space: model.null_space,
+            column_scale: model.d.scale[..n].to_vec(),
+            identified: model.identified,
+            roughness,
+            basis: model.basis,
         },
         lines: n_lines,
-        targets: rows,
+        targets: table.targets(),
         rms_residual_um,
         sigma0: solved.sigma0,
         dof: solved.dof,
-        weighted: w.is_some(),
+        weighted,
         residuals,
         residual,
-        unidentified,
+        unidentified: model.unidentified,
         thermal,
         cv_each,
+        smoothing,
     })
 }
-
-/// Degree by leave-one-line-out cross-validation: among the degrees that determine at
-/// least the components degree 1 determines, the one with the lowest CV RMS (a degree
-/// too high costs width of the σ bands, one too low a bias they do not show). Lines the others cannot predict at some degree are left out of
-/// every degree's score, so the scores are over the same lines.
-fn choose_degree(
-    table: &LineTable,
-    config: &IdentifyConfig,
-    range: [[f64; 2]; 3],
-    sqrt_w: &[f64],
-    thermal: Option<&[f64]>,
-    max: usize,
-) -> (usize, Vec<CvScore>) {
-    // (degree, identified count, identified flags, CV per line)
-    type PerDegree = (usize, usize, Vec<bool>, Vec<Option<f64>>);
-    let mut per: Vec<PerDegree> = Vec::new();
-    for deg in 1..=max {
-        let basis = Basis::new(config.topology, range, degrees(config, deg));
-        let d = design(table, &basis, sqrt_w);
-        let dec = decompose(&d.a);
-        let flags = identified_flags(&basis, &dec.null);
-        let count = flags.iter().filter(|f| **f).count();
-        // With temperatures, each degree is scored with the scale-expansion column in.
-        let cv = match thermal.and_then(|c| augment(&d, c)) {
-            Some(aug) => cv_per_line(&aug),
-            None => cv_per_line(&d),
-        };
-        per.push((deg, count, flags, cv));
-    }
-    let base = per[0].2.clone();
-    let admissible: Vec<usize> = (0..per.len())
-        .filter(|&i| base.iter().zip(&per[i].2).all(|(b, f)| !b || *f))
-        .collect();
-    let usable: Vec<usize> = (0..table.lines.len())
-        .filter(|&l| admissible.iter().all(|&i| per[i].3[l].is_some()))
-        .collect();
-    let rows: usize = usable.iter().map(|&l| table.lines[l].targets.len()).sum();
-    let scores: Vec<CvScore> = admissible
-        .iter()
-        .map(|&i| {
-            let ss: f64 = usable.iter().map(|&l| per[i].3[l].unwrap_or(0.0)).sum();
-            CvScore {
-                degree: per[i].0,
-                cv_rms_um: if rows > 0 {
-                    (ss / rows as f64).sqrt()
-                } else {
-                    f64::NAN
-                },
-                identified: per[i].1,
-            }
-        })
-        .collect();
-    let best = scores
-        .iter()
-        .map(|s| s.cv_rms_um)
-        .filter(|v| v.is_finite())
-        .fold(f64::INFINITY, f64::min);
-    let chosen = scores
-        .iter()
-        .find(|s| s.cv_rms_um <= best)
-        .map(|s| s.degree)
-        .unwrap_or(2.min(max));
-    (chosen, scores)
-}
-
-/// The residual against the noise. With `s_um` on every row: the weighted chi-square
-/// with its degrees of freedom, Wilson–Hilferty z; without: the lag-1 autocorrelation
-/// of the residuals along each line, z = ρ·√n (white noise gives z ≈ 0 or slightly
-/// negative; a systematic residual a run of same-sign values). `missing_physics` when
-/// z > 3.09 (one-sided p < 0.001), with an `unexplained` effect: `rms_um` the residual's
-/// RMS, `explains_um` its part above the noise, RMS·√(1 − 1/σ₀²) when rows are weighted
-/// (σ₀² = χ²/ν), the whole RMS otherwise.
-fn residual_test(
-    res: &[LineResidual],
-    chi2: Option<(f64, usize)>,
-    rms_um: f64,
-    sigma0: f64,
-) -> ResidualVerdict {
-    let (test, z) = match chi2 {
-        Some((c, dof)) => {
-            let nu = dof as f64;
-            let h = 2.0 / (9.0 * nu);
-            ("chi-square", ((c / nu).cbrt() - (1.0 - h)) / h.sqrt())
-        }
-        None => {
-            let (mut num, mut den, mut n) = (0.0, 0.0, 0usize);
-            for l in res {
-                den += l.r_um.iter().map(|r| r * r).sum::<f64>();
-                num += l.r_um.windows(2).map(|w| w[0] * w[1]).sum::<f64>();
-                n += l.r_um.len().saturating_sub(1);
-            }
-            let rho = if den > 0.0 { num / den } else { 0.0 };
-            ("lag-1 autocorrelation", rho * (n as f64).sqrt())
-        }
-    };
-    let mut effects = Vec::new();
-    if z > Z_MISSING {
-        let excess = if chi2.is_some() {
-            rms_um * (1.0 - 1.0 / (sigma0 * sigma0)).max(0.0).sqrt()
-        } else {
-            rms_um
-        };
-        effects.push(FoundEffect {
-            effect: Effect::Unexplained { rms_um },
-            uncertainty: BTreeMap::new(),
-            where_: format!(
-                "the residual of the rigid-body fit fails the {test} test against the noise \
-                 (z = {z:.1} > {Z_MISSING}): a drift, a bad line or a component of higher degree \
-                 than fitted; see the residual per line and against time in the report"
-            ),
-            explains_um: excess,
-        });
-    }
-    ResidualVerdict {
-        verdict: crate::base::Verdict::from_found(z > Z_MISSING),
-        effects,
-        test: test.into(),
-        z,
-    }
-}
-
-/// One-sided p < 0.001 of the residual test.
-pub const Z_MISSING: f64 = 3.09;
 
 impl Identification {
     /// Report positions along axis k: `n` evenly over the range, 0 included.
@@ -844,83 +888,6 @@ impl Identification {
             v.sort_by(f64::total_cmp);
         }
         v
-    }
-
-    /// The spec's `identify --json` document; with `fit`, the state `predict` needs.
-    /// The numbers [`Self::to_json`] writes that a computation could leave NaN or ±inf:
-    /// the fit, every component and squareness value with its one-sigma, the residual
-    /// verdict and the cross-validation scores. For a check before writing: inside a
-    /// `serde_json::Value` a NaN has already become `null`, indistinguishable from the
-    /// nulls the document means (an unidentified component).
-    pub fn json_numbers(&self, positions: usize) -> JsonNumbers<'_> {
-        JsonNumbers {
-            rms_residual_um: self.rms_residual_um,
-            components: Component::all()
-                .flat_map(|c| {
-                    self.positions(c.axis, positions)
-                        .into_iter()
-                        .map(move |a| self.fit.component(c.index(), a))
-                })
-                .chain((0..SQUARENESS.len()).map(|i| self.fit.squareness(i)))
-                .collect(),
-            residual: &self.residual,
-            cv: &self.cv,
-            thermal: &self.thermal,
-            cv_each: &self.cv_each,
-            fit: &self.fit,
-        }
-    }
-
-    pub fn to_json(&self, positions: usize, with_fit: bool) -> serde_json::Value {
-        use serde_json::{Value, json};
-        let mut comps = serde_json::Map::new();
-        for c in Component::all() {
-            let i = c.index();
-            let pos = self.positions(c.axis, positions);
-            let vals: Option<Vec<(f64, f64)>> =
-                pos.iter().map(|&a| self.fit.component(i, a)).collect();
-            let (values, sigma) = match vals {
-                Some(v) => (
-                    json!(v.iter().map(|x| x.0).collect::<Vec<_>>()),
-                    json!(v.iter().map(|x| x.1).collect::<Vec<_>>()),
-                ),
-                None => (Value::Null, Value::Null),
-            };
-            comps.insert(
-                c.name(),
-                json!({"identified": self.fit.identified[i], "unit": c.unit(),
-                       "positions_mm": pos, "values": values, "sigma": sigma}),
-            );
-        }
-        for (i, name) in SQUARENESS.iter().enumerate() {
-            let v = self.fit.squareness(i);
-            comps.insert(
-                name.to_string(),
-                json!({"identified": self.fit.identified[18 + i], "unit": "urad",
-                       "value": v.map(|x| x.0), "sigma": v.map(|x| x.1)}),
-            );
-        }
-        let mut doc = json!({
-            "topology": self.topology.to_string(),
-            "rms_residual_um": self.rms_residual_um,
-            "lines": self.lines,
-            "targets": self.targets,
-            "components": comps,
-            "unidentified": self.unidentified,
-            "residual": self.residual,
-            "degree": self.degree,
-            "cv": self.cv,
-            "gauge": super::GAUGE,
-            "thermal": self.thermal,
-            "cv_each": self.cv_each,
-            "component_degrees": Component::all()
-                .map(|c| (c.name(), self.fit.basis.degrees[c.index()]))
-                .collect::<BTreeMap<String, usize>>(),
-        });
-        if with_fit {
-            doc["fit"] = serde_json::to_value(&self.fit).unwrap_or(Value::Null);
-        }
-        doc
     }
 }
 
@@ -964,6 +931,7 @@ mod tests {
         }
         let mut cfg = IdentifyConfig::new(topo);
         cfg.degree = Degree::Fixed(2);
+        cfg.basis = crate::volumetric::BasisKind::Poly;
         cfg.component_degrees.insert(0, MAX_DEGREE + 1);
         assert!(identify(&table, &cfg).is_err());
         cfg.component_degrees.clear();

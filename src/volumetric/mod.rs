@@ -7,7 +7,12 @@
 //! |---|---|---|
 //! | [`model`] | topology, components, lever arms, E(x, y, z; p), the machine-model TOML | O(18) per point |
 //! | [`lines`] | line tables (CSV/Parquet): read, validate, write | O(rows · lines) |
-//! | [`basis`] | the linear parameterisation with the gauge built in | O(params) per row |
+//! | [`basis`] | the linear parameterisation (polynomials or tables at knots) with the gauge built in | O(params) per row |
+//! | [`spline`] | tables at knots: knots from the lines, hat functions, the roughness penalty | O(knots) per value |
+//! | `smooth` | the penalised fit: REML smoothing per component, posterior covariance, Birge ratio | O(params³) per REML step |
+//! | `choice` | the component models compared and their evaluation with the campaign terms | one fit per model tried |
+//! | [`residual`] | the residual's test against the noise, the lines that carry a failing one | O(rows) |
+//! | [`doc`] | `model.json` / `--json` as one typed document, written and read back | O(params²) |
 //! | [`identify`] | least squares, σ bands, identifiability, degree by CV, scale expansion, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
 //! | [`identifiability`] | which line would determine an undetermined component | one small SVD per candidate |
 //! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
@@ -25,6 +30,13 @@
 //! which the components are evaluated (E(P_i; p) as the spec writes it).
 //!
 //! # Identification
+//!
+//! The default component model is a piecewise-linear table at knots with a roughness
+//! penalty, the smoothing of each component chosen by REML and the covariance the
+//! Bayesian posterior's, inflated by the Birge ratio ([`spline`], `smooth`); when its
+//! residual fails the test below, rougher tables are tried before anything is called
+//! unexplained ([`identify::identify`]). The polynomial basis (`--basis poly`) is
+//! described next; its identifiability analysis also decides what the tables determine.
 //!
 //! Linear least squares: each component a polynomial in ξ = a/L_k without constant term
 //! ([`basis`]), each squareness a constant, one free constant per line. The line constants
@@ -89,8 +101,10 @@
 
 pub mod basis;
 pub mod campaign;
+mod choice;
 pub mod compensation;
 pub mod degree;
+pub mod doc;
 mod error;
 pub mod from_session;
 pub mod identifiability;
@@ -98,10 +112,13 @@ pub mod identify;
 pub mod lines;
 pub mod model;
 pub mod predict;
+pub mod residual;
 pub mod simulate;
+mod smooth;
+pub mod spline;
 pub mod thermal;
 
-pub use basis::{Basis, GaugeTruth};
+pub use basis::{Basis, BasisKind, GaugeTruth};
 pub use error::VolumetricError;
 pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
 pub use lines::{Line, LineTable, Target};

@@ -94,6 +94,20 @@ impl fmt::Display for Topology {
     }
 }
 
+/// Written as its letters (`"YXZ"`), read back through [`FromStr`].
+impl serde::Serialize for Topology {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Topology {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 impl Topology {
     /// Position of axis `k` in the chain (0: on the base).
     pub fn place(&self, k: usize) -> usize {

@@ -12,6 +12,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::doc::ModelDoc;
 use super::error::{VolumetricError, config_err, io_err};
 use super::identify::FitState;
 use super::lines::LineTable;
@@ -50,47 +51,13 @@ impl Predictor {
             return Ok(Predictor::Machine(Machine::read(path)?));
         }
         let text = std::fs::read_to_string(path).map_err(io_err(path))?;
-        let doc: serde_json::Value =
+        // The residual is not needed to predict: read past it.
+        let doc: ModelDoc<serde::de::IgnoredAny> =
             serde_json::from_str(&text).map_err(|e| config_err(path, "file", e.to_string()))?;
-        let fit = doc.get("fit").ok_or_else(|| {
-            config_err(
-                path,
-                "fit",
-                "missing: write the model with `errmap volumetric identify … --out MODEL.json`",
-            )
-        })?;
-        let mut fit: FitState = serde_json::from_value(fit.clone())
-            .map_err(|e| config_err(path, "fit", e.to_string()))?;
-        fit.basis
-            .reparse()
-            .map_err(|e| config_err(path, "fit.basis.topology", e.to_string()))?;
-        let n = fit.basis.n_params();
-        let ok = fit.basis.degrees.len() == 18
-            && fit.theta.len() == n
-            && fit.column_scale.len() == n
-            && fit.identified.len() == 21
-            && fit.covariance.len() == n
-            && fit.covariance.iter().all(|r| r.len() == n)
-            && fit.null_space.len() == n;
-        if !ok {
-            return Err(config_err(
-                path,
-                "fit",
-                format!("inconsistent sizes for {n} parameters"),
-            ));
-        }
-        if fit
-            .theta
-            .iter()
-            .chain(fit.covariance.iter().flatten())
-            .any(|v| !v.is_finite())
-        {
-            return Err(config_err(
-                path,
-                "fit",
-                "non-finite parameter or covariance",
-            ));
-        }
+        let fit = doc
+            .check()
+            .map_err(|p| config_err(path, p.key, p.message))?
+            .clone();
         Ok(Predictor::Fit(fit))
     }
 
@@ -167,17 +134,74 @@ impl Predictor {
 /// The error vector and its one-sigma at many points from a fit whose 21 errors are all
 /// determined (so every linear functional of the parameters is): E_i = g_i·θ and
 /// σ_i² = g_iᵀ C g_i, with g_i the point's effect row for direction i. A row is sparse —
-/// a translation component moves one direction, a rotation two — so the quadratic form
-/// runs over the row's non-zero entries only, on a contiguous copy of C; no allocation
-/// per point. Cost O(points · nnz²), nnz ≈ half the parameters.
+/// a translation component moves one direction, a rotation two; a table at knots has two
+/// non-zero hat functions at a point, and a straightness table's slope term is carried as
+/// one more quantity (its slope functional, with its variance and covariances added to C
+/// once) — so the quadratic form runs over the row's non-zero entries only, on a
+/// contiguous copy of C; no allocation per point. Cost O(points · nnz²).
 fn grid_vectors(f: &FitState, points: &[[f64; 3]], probe_mm: [f64; 3]) -> Vec<VectorPrediction> {
     let n = f.theta.len();
-    let cov: Vec<f64> = f.covariance.iter().flatten().copied().collect();
     let topo = f.basis.topology();
     let offsets: Vec<usize> = (0..21).map(|c| f.basis.offset(c)).collect();
+    // Tables: one extra quantity per straightness component, Σ_j β_j·v_j.
+    let straight: Vec<usize> = match &f.basis.knots_mm {
+        Some(_) => (0..18)
+            .filter(|&c| Component::from_index(c).is_straightness())
+            .collect(),
+        None => Vec::new(),
+    };
+    let m = n + straight.len();
+    let mut t_rows: Vec<Vec<f64>> = Vec::new();
+    if let Some(knots) = &f.basis.knots_mm {
+        for &c in &straight {
+            let comp = Component::from_index(c);
+            let kn = &knots[comp.axis];
+            let b = crate::volumetric::spline::hat_slopes(kn);
+            let mut row = vec![0.0; n];
+            for (p, &j) in crate::volumetric::spline::free_knots(kn, true)
+                .iter()
+                .enumerate()
+            {
+                row[offsets[c] + p] = b[j];
+            }
+            t_rows.push(row);
+        }
+    }
+    let mut theta = f.theta.clone();
+    theta.extend(
+        t_rows
+            .iter()
+            .map(|r| r.iter().zip(&f.theta).map(|(a, b)| a * b).sum::<f64>()),
+    );
+    let mut cov = vec![0.0; m * m];
+    for i in 0..n {
+        cov[i * m..i * m + n].copy_from_slice(&f.covariance[i]);
+    }
+    // C·tᵀ for each extra row, then t·C·t'ᵀ.
+    let ct: Vec<Vec<f64>> = t_rows
+        .iter()
+        .map(|t| {
+            (0..n)
+                .map(|i| f.covariance[i].iter().zip(t).map(|(a, b)| a * b).sum())
+                .collect()
+        })
+        .collect();
+    for (s, cts) in ct.iter().enumerate() {
+        for i in 0..n {
+            cov[i * m + n + s] = cts[i];
+            cov[(n + s) * m + i] = cts[i];
+        }
+        for (s2, t2) in t_rows.iter().enumerate() {
+            cov[(n + s) * m + n + s2] = cts.iter().zip(t2).map(|(a, b)| a * b).sum();
+        }
+    }
+    let slot: Vec<Option<usize>> = (0..18)
+        .map(|c| straight.iter().position(|&x| x == c).map(|s| n + s))
+        .collect();
     let mut funcs = Vec::new();
-    let mut rows = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let mut rows = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
     let mut nz: [Vec<usize>; 3] = [Vec::new(), Vec::new(), Vec::new()];
+    let mut entries: Vec<(usize, f64)> = Vec::new();
     points
         .iter()
         .map(|&p| {
@@ -187,9 +211,29 @@ fn grid_vectors(f: &FitState, points: &[[f64; 3]], probe_mm: [f64; 3]) -> Vec<Ve
             for (c, &off) in offsets.iter().enumerate().take(18) {
                 let comp = Component::from_index(c);
                 let eff = comp.unit_effect(topo.lever_arm(comp.axis, p, probe_mm));
-                f.basis.functions_into(c, p[comp.axis], &mut funcs);
-                for (j, b) in funcs.iter().enumerate() {
-                    let k = off + j;
+                entries.clear();
+                match &f.basis.knots_mm {
+                    Some(knots) => {
+                        let (hats, slope) = crate::volumetric::spline::sparse(
+                            &knots[comp.axis],
+                            comp.is_straightness(),
+                            p[comp.axis],
+                        );
+                        entries.extend(
+                            hats.iter()
+                                .filter(|(j, v)| *j != usize::MAX && *v != 0.0)
+                                .map(|(j, v)| (off + j, *v)),
+                        );
+                        if let Some(k) = slot[c] {
+                            entries.push((k, slope));
+                        }
+                    }
+                    None => {
+                        f.basis.functions_into(c, p[comp.axis], &mut funcs);
+                        entries.extend(funcs.iter().enumerate().map(|(j, b)| (off + j, *b)));
+                    }
+                }
+                for &(k, b) in &entries {
                     for i in 0..3 {
                         rows[i][k] = b * eff[i];
                         if eff[i] != 0.0 {
@@ -216,8 +260,8 @@ fn grid_vectors(f: &FitState, points: &[[f64; 3]], probe_mm: [f64; 3]) -> Vec<Ve
                 let mut val = 0.0;
                 let mut var = 0.0;
                 for (a, &ka) in idx.iter().enumerate() {
-                    val += g[ka] * f.theta[ka];
-                    let row = &cov[ka * n..ka * n + n];
+                    val += g[ka] * theta[ka];
+                    let row = &cov[ka * m..ka * m + m];
                     let mut acc = 0.5 * row[ka] * g[ka];
                     for &kb in &idx[a + 1..] {
                         acc += row[kb] * g[kb];
@@ -327,17 +371,34 @@ mod tests {
             lines: preset("rich", vol, 7, 80.0, 1).expect("preset"),
             thermal: None,
         };
-        let mut cfg = IdentifyConfig::new(topo);
-        cfg.degree = crate::volumetric::Degree::Fixed(2);
-        let id = identify(&simulate(&m, &plan), &cfg).expect("identify");
-        let points = [[0.0, 0.0, 0.0], [500.0, 400.0, 300.0], [123.0, 321.0, 77.0]];
-        for probe in [[0.0; 3], [10.0, -20.0, 30.0]] {
-            let fast = grid_vectors(&id.fit, &points, probe);
-            for (p, (v, s)) in points.iter().zip(&fast) {
-                let rows = id.fit.basis.effect_rows(*p, probe);
-                for i in 0..3 {
-                    let (a, b) = id.fit.functional(&rows[i]).expect("determined");
-                    assert!((v[i] - a).abs() < 1e-9 && (s[i] - b).abs() < 1e-9);
+        let table = simulate(&m, &plan);
+        // Polynomials, and tables at knots (sparse hats plus the straightness slopes).
+        for basis in [
+            crate::volumetric::BasisKind::Poly,
+            crate::volumetric::BasisKind::Spline,
+        ] {
+            let mut cfg = IdentifyConfig::new(topo);
+            cfg.degree = crate::volumetric::Degree::Fixed(2);
+            cfg.basis = basis;
+            let id = identify(&table, &cfg).expect("identify");
+            let points = [[0.0, 0.0, 0.0], [500.0, 400.0, 300.0], [123.0, 321.0, 77.0]];
+            for probe in [[0.0; 3], [10.0, -20.0, 30.0]] {
+                let fast = grid_vectors(&id.fit, &points, probe);
+                for (p, (v, s)) in points.iter().zip(&fast) {
+                    let rows = id.fit.basis.effect_rows(*p, probe);
+                    for i in 0..3 {
+                        let (a, b) = id.fit.functional(&rows[i]).expect("determined");
+                        // A determined, smooth machine: σ of a fraction of a µm, and the
+                        // fast path equal to the functional to rounding.
+                        assert!(b < 1.0, "{basis}: σ {b} at {p:?}");
+                        assert!(
+                            (v[i] - a).abs() < 1e-9 * (1.0 + a.abs())
+                                && (s[i] - b).abs() < 1e-9 * (1.0 + b.abs()),
+                            "{basis}: {} vs {a}, {} vs {b}",
+                            v[i],
+                            s[i]
+                        );
+                    }
                 }
             }
         }

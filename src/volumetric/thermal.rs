@@ -31,7 +31,7 @@
 //! and the residual's `effects` carries `scale_thermal_expansion` (`cli-contract.md`'s
 //! vocabulary) with `explains_um`, the RMS of the fitted term about each line's mean.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::lines::LineTable;
 use super::model::dot;
@@ -53,7 +53,7 @@ pub(crate) struct ThermalColumn {
 }
 
 /// The outcome of the test (JSON `thermal`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct ThermalTest {
     /// α̂, ppm/K, `None` when the temperatures do not determine it.
     pub alpha_ppm_per_k: Option<f64>,

@@ -778,7 +778,7 @@ fn the_virtual_test_is_the_projection_of_the_error_vector_difference() -> TestRe
     let id = identify(&table, &cfg)?;
     let dir = tempfile::tempdir()?;
     let model = dir.path().join("model.json");
-    std::fs::write(&model, serde_json::to_string(&id.to_json(9, true))?)?;
+    std::fs::write(&model, serde_json::to_string(&id.doc(9, true))?)?;
     let doc = json(&errmap(&[
         "volumetric",
         "iso10360",
@@ -963,7 +963,7 @@ fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResul
     cfg.degree = errmap::volumetric::Degree::Fixed(2);
     let id = identify(&table, &cfg)?;
     let json_model = dir.path().join("model.json");
-    std::fs::write(&json_model, serde_json::to_string(&id.to_json(5, true))?)?;
+    std::fs::write(&json_model, serde_json::to_string(&id.doc(5, true))?)?;
     let p = write(
         dir.path(),
         "far.toml",

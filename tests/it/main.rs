@@ -38,4 +38,5 @@ mod volumetric;
 mod volumetric_campaign;
 mod volumetric_degree;
 mod volumetric_export;
+mod volumetric_random;
 mod volumetric_thermal;

@@ -219,6 +219,7 @@ fn random_campaigns_recover_every_component_within_its_sigma() {
             let table = simulate(&m, &plan);
             let mut cfg = IdentifyConfig::new(topo(t));
             cfg.degree = Degree::Fixed(3);
+            cfg.basis = errmap::volumetric::BasisKind::Poly;
             let id = identify(&table, &cfg).expect("identify");
             assert!(
                 id.fit.identified.iter().all(|f| *f),
@@ -266,6 +267,7 @@ fn presets_determine_all_21_errors_on_every_topology() {
             assert_eq!(n, if preset == "zhang22" { 22 } else { 43 });
             let mut cfg = IdentifyConfig::new(topo(t));
             cfg.degree = Degree::Fixed(3);
+            cfg.basis = errmap::volumetric::BasisKind::Poly;
             let id = identify(&simulate(&m, &plan), &cfg).expect("identify");
             assert!(
                 id.unidentified.is_empty(),
@@ -327,6 +329,7 @@ fn axis_parallel_lines_without_probe_offsets_leave_exactly_the_expected_errors_u
         };
         let mut cfg = IdentifyConfig::new(topo(t));
         cfg.degree = Degree::Fixed(2);
+        cfg.basis = errmap::volumetric::BasisKind::Poly;
         let id = identify(&table, &cfg).expect("identify");
         let mut got: Vec<String> = id
             .unidentified
@@ -338,7 +341,7 @@ fn axis_parallel_lines_without_probe_offsets_leave_exactly_the_expected_errors_u
         want.sort();
         assert_eq!(got, want, "{t}");
         // The identified ones are recovered; the others have no numbers in the JSON.
-        let doc = id.to_json(11, false);
+        let doc = serde_json::to_value(id.doc(11, false)).expect("json");
         for name in &want {
             let c = &doc["components"][name];
             assert_eq!(c["identified"], false, "{name}");
@@ -386,6 +389,7 @@ fn held_out_lines_are_predicted_within_noise() {
     };
     let mut cfg = IdentifyConfig::new(topo("YXZ"));
     cfg.degree = Degree::Fixed(3);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&fit_table, &cfg).expect("identify");
     let preds = Predictor::Fit(id.fit.clone()).predict_lines(&test_table);
     let mut z = Vec::new();
@@ -424,7 +428,9 @@ fn auto_degree_finds_the_cubic_and_a_warming_scale_is_not_consistent() {
         .validate(Path::new("test"))
         .expect("plan");
     let table = simulate(&m, &plan);
-    let id = identify(&table, &IdentifyConfig::new(topo("ZXY"))).expect("identify");
+    let mut auto = IdentifyConfig::new(topo("ZXY"));
+    auto.basis = errmap::volumetric::BasisKind::Poly;
+    let id = identify(&table, &auto).expect("identify");
     assert!(id.degree >= 3, "auto chose {} ({:?})", id.degree, id.cv);
     assert_eq!(id.cv.len(), 4);
     assert_eq!(id.residual.verdict.as_str(), "consistent");
@@ -441,6 +447,7 @@ fn auto_degree_finds_the_cubic_and_a_warming_scale_is_not_consistent() {
     }
     let mut cfg = IdentifyConfig::new(topo("ZXY"));
     cfg.degree = Degree::Fixed(3);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&warm, &cfg).expect("identify");
     assert_eq!(
         id.residual.verdict.as_str(),

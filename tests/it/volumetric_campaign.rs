@@ -29,6 +29,7 @@ fn campaign(t: &str, seed: u64) -> (Machine, LineTable) {
 fn fit(t: &str, table: &LineTable) -> Identification {
     let mut cfg = IdentifyConfig::new(topo(t));
     cfg.degree = Degree::Fixed(3);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     identify(table, &cfg).expect("identify")
 }
 

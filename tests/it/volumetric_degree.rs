@@ -50,6 +50,7 @@ fn each_component_gets_its_own_degree_and_stays_within_sigma() {
         let table = simulate(&m, &plan);
         let mut cfg = IdentifyConfig::new(topo(t));
         cfg.degree = Degree::AutoEach { max: 4 };
+        cfg.basis = errmap::volumetric::BasisKind::Poly;
         cfg.component_degrees.insert(7, 3); // E_YY fixed at 3
         let id = identify(&table, &cfg).expect("identify");
         let degs = &id.fit.basis.degrees;
@@ -68,7 +69,10 @@ fn each_component_gets_its_own_degree_and_stays_within_sigma() {
             "{t}: {degs:?} (global {})",
             id.degree
         );
-        assert_eq!(id.to_json(5, false)["component_degrees"]["E_XX"], 4);
+        assert_eq!(
+            serde_json::to_value(id.doc(5, false)).expect("json")["component_degrees"]["E_XX"],
+            4
+        );
         let gauge = GaugeTruth::of(&m, id.fit.basis.range_mm);
         for c in Component::all() {
             for a in [0.3 * VOLUME[1][c.axis], 0.8 * VOLUME[1][c.axis]] {
@@ -79,6 +83,7 @@ fn each_component_gets_its_own_degree_and_stays_within_sigma() {
         // Fewer parameters than the global choice for the same lines: a narrower band.
         let mut glob = IdentifyConfig::new(topo(t));
         glob.degree = Degree::Fixed(id.degree);
+        glob.basis = errmap::volumetric::BasisKind::Poly;
         let g = identify(&table, &glob).expect("global");
         let (_, s_each) = id.fit.component(3, VOLUME[1][0]).expect("E_AX");
         let (_, s_glob) = g.fit.component(3, VOLUME[1][0]).expect("E_AX");

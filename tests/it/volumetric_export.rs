@@ -55,6 +55,7 @@ fn twincat_tables_reproduce_the_identified_error_vector() {
             .expect("plan");
         let mut cfg = IdentifyConfig::new(topo(t));
         cfg.degree = Degree::Fixed(3);
+        cfg.basis = errmap::volumetric::BasisKind::Poly;
         let id = identify(&simulate(&m, &plan), &cfg).expect("identify");
         let tables = component_tables(&id.fit, 5).expect("all determined");
         let text = render_twincat(&tables, "test");
@@ -126,6 +127,7 @@ fn undetermined_components_refuse_the_export() {
     };
     let mut cfg = IdentifyConfig::new(topo("YXZ"));
     cfg.degree = Degree::Fixed(2);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&table, &cfg).expect("identify");
     let err = component_tables(&id.fit, 5).expect_err("undetermined");
     assert!(err.contains("E_YX") && err.contains("E_C0Y"), "{err}");

@@ -98,6 +98,7 @@ fn warming_campaigns_recover_alpha_within_3_sigma_and_the_components_at_20_c() {
         let table = simulate(&m, &warm_plan(seed, WARMING));
         let mut cfg = IdentifyConfig::new(topo(t));
         cfg.degree = Degree::Fixed(3);
+        cfg.basis = errmap::volumetric::BasisKind::Poly;
         let id = identify(&table, &cfg).expect("identify");
         let th = id.thermal.as_ref().expect("temperatures in the table");
         let (a, s) = (
@@ -149,6 +150,7 @@ fn ignoring_the_temperature_would_bias_the_positioning_components() {
     }
     let mut cfg = IdentifyConfig::new(topo("YXZ"));
     cfg.degree = Degree::Fixed(3);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&table, &cfg).expect("identify");
     assert!(id.thermal.is_none());
     assert_eq!(id.residual.verdict.as_str(), "missing_physics");
@@ -180,6 +182,7 @@ fn rigid_campaigns_with_temperatures_raise_no_false_alarm() {
         let table = simulate(&m, &warm_plan(seed, WARMING));
         let mut cfg = IdentifyConfig::new(topo(t));
         cfg.degree = Degree::Fixed(3);
+        cfg.basis = errmap::volumetric::BasisKind::Poly;
         let id = identify(&table, &cfg).expect("identify");
         let th = id.thermal.as_ref().expect("temperatures in the table");
         assert!(!th.kept, "{t}: {th:?}");
@@ -192,7 +195,7 @@ fn rigid_campaigns_with_temperatures_raise_no_false_alarm() {
         );
         assert!(id.residual.effects.is_empty());
         assert_eq!(
-            id.to_json(5, false)["residual"]["effects"],
+            serde_json::to_value(id.doc(5, false)).expect("json")["residual"]["effects"],
             serde_json::json!([])
         );
     }
@@ -214,6 +217,7 @@ fn a_constant_temperature_leaves_alpha_undetermined() {
     let table = simulate(&m, &warm_plan(8, hot));
     let mut cfg = IdentifyConfig::new(topo("YXZ"));
     cfg.degree = Degree::Fixed(3);
+    cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&table, &cfg).expect("identify");
     let th = id.thermal.as_ref().expect("temperatures");
     assert_eq!(th.alpha_ppm_per_k, None);
