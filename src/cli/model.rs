@@ -411,9 +411,7 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
         },
         ExportFormatArg::Csv => ExportFormat::Csv,
         ExportFormatArg::Grid => ExportFormat::Grid,
-        ExportFormatArg::Fagor8055 | ExportFormatArg::Fagor8065 => {
-            super::import::fagor_format(a)
-        }
+        ExportFormatArg::Fagor8055 | ExportFormatArg::Fagor8065 => super::import::fagor_format(a),
     }
 }
 

@@ -192,7 +192,10 @@ pub fn render_8065(
     t.push_str(&format!("{:<30};3100\r\n", format!("{a} AXIS")));
     t.push_str(&format!("{:<30};0\r\n", "MM"));
     t.push_str(&format!("{:<30};100\r\n", "MPVersionID"));
-    t.push_str(&format!(" ;{:<50};{:<20};Comment;\r\n", "Parameter", "Value"));
+    t.push_str(&format!(
+        " ;{:<50};{:<20};Comment;\r\n",
+        "Parameter", "Value"
+    ));
     t.push_str(&param_8065("/LSCRWCOMP", "1", Some("Yes")));
     t.push_str(&param_8065("/LSCRWDATA/NPOINTS", &n.to_string(), None));
     t.push_str(&param_8065(

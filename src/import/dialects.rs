@@ -135,7 +135,10 @@ impl SiemensTable {
         if (k - count).abs() > 1e-6 * count.max(1.0) || count > 1e6 {
             return Err(At::new(
                 xl,
-                format!("{what}: MAX − MIN = {} mm is not a whole number of STEP {step} mm", max - min),
+                format!(
+                    "{what}: MAX − MIN = {} mm is not a whole number of STEP {step} mm",
+                    max - min
+                ),
             ));
         }
         let count = count as usize + 1;
@@ -146,7 +149,9 @@ impl SiemensTable {
             ));
         }
         if self.values.len() != count {
-            let missing = (0..count).find(|n| !self.values.contains_key(n)).unwrap_or(0);
+            let missing = (0..count)
+                .find(|n| !self.values.contains_key(n))
+                .unwrap_or(0);
             return Err(At::new(
                 xl,
                 format!(
@@ -210,13 +215,22 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
             return Err(At::new(line, format!("`{t}` is not `$NAME[…]=value`")));
         };
         let (base, key, n_index) = match (cec, name) {
-            (false, "$AA_ENC_COMP") if args.len() == 3 => ("", format!("{},{}", args[0], args[2]), Some(1)),
+            (false, "$AA_ENC_COMP") if args.len() == 3 => {
+                ("", format!("{},{}", args[0], args[2]), Some(1))
+            }
             (false, n) if n.starts_with("$AA_ENC_COMP_") && args.len() == 2 => {
                 (&n[13..], format!("{},{}", args[0], args[1]), None)
             }
             (true, "$AN_CEC") if args.len() == 2 => ("", args[0].to_string(), Some(1)),
-            (true, n) if n.starts_with("$AN_CEC_") && args.len() == 1 => (&n[8..], args[0].to_string(), None),
-            _ => return Err(At::new(line, format!("`{t}`: not a line of this table program"))),
+            (true, n) if n.starts_with("$AN_CEC_") && args.len() == 1 => {
+                (&n[8..], args[0].to_string(), None)
+            }
+            _ => {
+                return Err(At::new(
+                    line,
+                    format!("`{t}`: not a line of this table program"),
+                ));
+            }
         };
         let table = tables.entry(key.clone()).or_insert_with(|| SiemensTable {
             first_line: line,
@@ -227,12 +241,15 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
         let f = field_at(off + voff + lead, vt);
         match (base, n_index) {
             ("", Some(k)) => {
-                let n: usize = args[k]
-                    .parse()
-                    .map_err(|_| At::new(line, format!("point number `{}` is not a count", args[k])))?;
+                let n: usize = args[k].parse().map_err(|_| {
+                    At::new(line, format!("point number `{}` is not a count", args[k]))
+                })?;
                 let v = num(line, "the value", vt)?;
                 if table.values.insert(n, (line, f, v)).is_some() {
-                    return Err(At::new(line, format!("point {n} of table {key} given twice")));
+                    return Err(At::new(
+                        line,
+                        format!("point {n} of table {key} given twice"),
+                    ));
                 }
             }
             ("STEP", _) => table.step = Some((line, num(line, "STEP", vt)?)),
@@ -247,12 +264,18 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
             }
             ("IS_MODULO", _) => {
                 if num(line, "IS_MODULO", vt)? != 0.0 {
-                    return Err(At::new(line, "a modulo (rotary) table: errmap reads linear axes"));
+                    return Err(At::new(
+                        line,
+                        "a modulo (rotary) table: errmap reads linear axes",
+                    ));
                 }
             }
             ("MULT_BY_TABLE", _) => {
                 if num(line, "MULT_BY_TABLE", vt)? != 0.0 {
-                    return Err(At::new(line, "a table multiplied by another: not a leadscrew table"));
+                    return Err(At::new(
+                        line,
+                        "a table multiplied by another: not a leadscrew table",
+                    ));
                 }
             }
             ("INPUT_AXIS", _) | ("OUTPUT_AXIS", _) => {}
@@ -271,7 +294,9 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
             if t.direction.is_some_and(|d| d.1 != 0) {
                 return Err(At::new(
                     t.direction.map_or(last, |d| d.0),
-                    format!("table {name} acts in one direction only and its other-direction table is missing"),
+                    format!(
+                        "table {name} acts in one direction only and its other-direction table is missing"
+                    ),
                 ));
             }
             for (p, l, f, v) in t.points(&format!("table {name}"), last)? {
@@ -302,7 +327,9 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
             }
             for (u, d) in pu.iter().zip(&pd) {
                 check_point(u.1, u.0, &[e(u.3), e(d.3)])?;
-                parsed.points.push(point(u.1, u.0, e(u.3), e(d.3), u.3, d.3, u.2, d.2));
+                parsed
+                    .points
+                    .push(point(u.1, u.0, e(u.3), e(d.3), u.3, d.3, u.2, d.2));
             }
             parsed.bidirectional = true;
         }
@@ -310,7 +337,10 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
         _ => {
             return Err(At::new(
                 list[1].1.first_line,
-                format!("{} tables in one file: errmap reads one axis' table", list.len()),
+                format!(
+                    "{} tables in one file: errmap reads one axis' table",
+                    list.len()
+                ),
             ));
         }
     }
@@ -327,13 +357,19 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
 /// and the compensated axis' column, one row per point, `[END]`.
 pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
     let lines = text.lines();
-    let first: Vec<&str> = lines.first().map(|l| l.1.split_whitespace().collect()).unwrap_or_default();
+    let first: Vec<&str> = lines
+        .first()
+        .map(|l| l.1.split_whitespace().collect())
+        .unwrap_or_default();
     let k = match first.as_slice() {
         ["BEGIN", _, "MM"] | ["BEGIN", _] => 1.0,
         ["BEGIN", _, "INCH"] => super::units::MM_PER_INCH,
         _ => return Err(At::new(1, "not a HEIDENHAIN table (`BEGIN <name> MM`)")),
     };
-    let header: Vec<&str> = lines.get(1).map(|l| l.1.split_whitespace().collect()).unwrap_or_default();
+    let header: Vec<&str> = lines
+        .get(1)
+        .map(|l| l.1.split_whitespace().collect())
+        .unwrap_or_default();
     if header.contains(&"BACKLASH") {
         return Err(At::new(
             2,
@@ -347,11 +383,16 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
     ) else {
         return Err(At::new(2, "the column line needs NR and AXISPOS"));
     };
-    let values: Vec<usize> = (0..header.len()).filter(|&i| i != inr && i != ipos).collect();
+    let values: Vec<usize> = (0..header.len())
+        .filter(|&i| i != inr && i != ipos)
+        .collect();
     let [ival] = values.as_slice() else {
         return Err(At::new(
             2,
-            format!("{} value columns: errmap reads one compensated axis", values.len()),
+            format!(
+                "{} value columns: errmap reads one compensated axis",
+                values.len()
+            ),
         ));
     };
     let axis = header[*ival].parse::<Axis>().ok();
@@ -390,12 +431,19 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
         if toks.len() != header.len() {
             return Err(At::new(
                 line,
-                format!("{} fields, the column line has {}", toks.len(), header.len()),
+                format!(
+                    "{} fields, the column line has {}",
+                    toks.len(),
+                    header.len()
+                ),
             ));
         }
         let tok = |c: usize| &l[toks[c].0..toks[c].1];
         if tok(inr).parse::<u32>().is_err() {
-            return Err(At::new(line, format!("NR `{}` is not a row number", tok(inr))));
+            return Err(At::new(
+                line,
+                format!("NR `{}` is not a row number", tok(inr)),
+            ));
         }
         let p = num(line, "AXISPOS", tok(ipos))? * k;
         let v = num(line, header[*ival], tok(*ival))?;
@@ -404,7 +452,13 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
         if let Some(prev) = parsed.points.last()
             && p <= prev.position_mm
         {
-            return Err(At::new(line, format!("AXISPOS {p} after {}: the points must increase", prev.position_mm)));
+            return Err(At::new(
+                line,
+                format!(
+                    "AXISPOS {p} after {}: the points must increase",
+                    prev.position_mm
+                ),
+            ));
         }
         let f = field_at(off + toks[*ival].0, tok(*ival));
         let mut pt = point(line, p, e, e, v, v, f, f);
@@ -412,7 +466,10 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
         parsed.points.push(pt);
     }
     if !ended {
-        return Err(At::new(lines.len().max(1), "no [END]: the table is cut short"));
+        return Err(At::new(
+            lines.len().max(1),
+            "no [END]: the table is cut short",
+        ));
     }
     if parsed.points.len() < 2 {
         return Err(At::new(lines.len().max(1), "a table needs two points"));
@@ -444,7 +501,10 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
         let start = off + body.find(key).unwrap_or(0) + key.len();
         let vstart = start + l[start - off..].find(value).unwrap_or(0);
         if keys
-            .insert(key.to_string(), (line, field_at(vstart, value), value.to_string()))
+            .insert(
+                key.to_string(),
+                (line, field_at(vstart, value), value.to_string()),
+            )
             .is_some()
         {
             return Err(At::new(line, format!("{key} given twice")));
@@ -463,13 +523,16 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
         }
     };
     let need = |key: &str| -> Result<(usize, Field, i64), At> {
-        int(key)?.ok_or_else(|| At::new(last, format!("no {key}: not a leadscrew compensation list")))
+        int(key)?
+            .ok_or_else(|| At::new(last, format!("no {key}: not a leadscrew compensation list")))
     };
     let (ul, _, unit) = need("kw.ssfk.unit")?;
     if unit != 1 {
         return Err(At::new(
             ul,
-            format!("kw.ssfk.unit {unit}: errmap reads lists in 0.1 µm (unit 1), not drive increments"),
+            format!(
+                "kw.ssfk.unit {unit}: errmap reads lists in 0.1 µm (unit 1), not drive increments"
+            ),
         ));
     }
     if let Some((l, _, m)) = int("kw.ssfk.modulo")?
@@ -479,7 +542,10 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
     }
     let (nl, _, count) = need("kw.ssfk.kw_nr_max")?;
     if !(2..=1_000_000).contains(&count) {
-        return Err(At::new(nl, format!("kw_nr_max {count}: a table needs two points")));
+        return Err(At::new(
+            nl,
+            format!("kw_nr_max {count}: a table needs two points"),
+        ));
     }
     let n = count as usize;
     let bil = int("kw.ssfk.bilateral")?;
@@ -491,24 +557,30 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
     };
     let interval = int("kw.ssfk.interval")?.map_or(0, |x| x.2);
     let start = int("kw.ssfk.kw_startpos")?.map(|x| x.2);
-    // Every table entry must be within kw_nr_max.
-    for (key, (l, ..)) in &keys {
-        if let Some(rest) = key.strip_prefix("kw.ssfk.table[") {
-            let idx = rest.split(']').next().and_then(|s| s.parse::<usize>().ok());
-            match idx {
-                Some(i) if i < n => {}
-                _ => {
-                    return Err(At::new(
-                        *l,
-                        format!("{key}: beyond the kw_nr_max {n} entries"),
-                    ));
-                }
-            }
-        }
+    // Every table entry must be within kw_nr_max (the first one that is not is named).
+    let beyond = keys
+        .iter()
+        .filter(|(key, _)| {
+            key.strip_prefix("kw.ssfk.table[").is_some_and(|rest| {
+                rest.split(']')
+                    .next()
+                    .and_then(|s| s.parse::<usize>().ok())
+                    .is_none_or(|i| i >= n)
+            })
+        })
+        .min_by_key(|(_, (l, ..))| *l);
+    if let Some((key, (l, ..))) = beyond {
+        return Err(At::new(
+            *l,
+            format!("{key}: beyond the kw_nr_max {n} entries"),
+        ));
     }
     let has_neg = (0..n).all(|i| keys.contains_key(&format!("kw.ssfk.table[{i}].neg")));
     if bilateral && !has_neg {
-        return Err(At::new(last, "a bilateral list needs table[i].neg for every point"));
+        return Err(At::new(
+            last,
+            "a bilateral list needs table[i].neg for every point",
+        ));
     }
     let axis = keys
         .get("kopf.log_achs_name")
@@ -523,7 +595,10 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
     for i in 0..n {
         let at = |what: &str| -> Result<(usize, Field, i64), At> {
             int(&format!("kw.ssfk.table[{i}].{what}"))?.ok_or_else(|| {
-                At::new(nl, format!("kw_nr_max {n} but kw.ssfk.table[{i}].{what} is missing"))
+                At::new(
+                    nl,
+                    format!("kw_nr_max {n} but kw.ssfk.table[{i}].{what} is missing"),
+                )
             })
         };
         let p01 = if interval == 0 {
@@ -535,7 +610,11 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
             s + i as i64 * interval
         };
         let (line, uf, u) = at("pos")?;
-        let (df, d) = if has_neg { at("neg").map(|x| (x.1, x.2))? } else { (uf, u) };
+        let (df, d) = if has_neg {
+            at("neg").map(|x| (x.1, x.2))?
+        } else {
+            (uf, u)
+        };
         let p = p01 as f64 * 1e-4;
         let e = |v: i64| -(v as f64) / 10.0;
         let e_down = if bilateral { e(d) } else { e(u) };
@@ -543,9 +622,17 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
         if let Some(prev) = parsed.points.last()
             && p <= prev.position_mm
         {
-            return Err(At::new(line, format!("point {i} at {p} mm after {} mm: the points must increase", prev.position_mm)));
+            return Err(At::new(
+                line,
+                format!(
+                    "point {i} at {p} mm after {} mm: the points must increase",
+                    prev.position_mm
+                ),
+            ));
         }
-        parsed.points.push(point(line, p, e(u), e_down, u as f64, d as f64, uf, df));
+        parsed
+            .points
+            .push(point(line, p, e(u), e_down, u as f64, d as f64, uf, df));
     }
     Ok(parsed)
 }
@@ -601,8 +688,17 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
                 }
             } else if let Some(rest) = t.strip_prefix("(REFERENCE POSITION ") {
                 let w: Vec<&str> = rest.split_whitespace().collect();
-                reference_mm = Some(num(line, "the reference position", w.first().copied().unwrap_or(""))?);
-                let u = w.iter().position(|&x| x == "OF").and_then(|j| w.get(j + 1)).copied().unwrap_or("");
+                reference_mm = Some(num(
+                    line,
+                    "the reference position",
+                    w.first().copied().unwrap_or(""),
+                )?);
+                let u = w
+                    .iter()
+                    .position(|&x| x == "OF")
+                    .and_then(|j| w.get(j + 1))
+                    .copied()
+                    .unwrap_or("");
                 unit_um = Some(num(line, "the unit", u)?);
             }
             continue;
@@ -619,9 +715,15 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
             .ok_or_else(|| At::new(line, format!("value `{vt}` is not a whole number")))?;
         let vstart = off + l.find('P').unwrap_or(0) + 1;
         if n < 10000 {
-            return Err(At::new(line, format!("data number {n}: pitch error data are 10000 + point number")));
+            return Err(At::new(
+                line,
+                format!("data number {n}: pitch error data are 10000 + point number"),
+            ));
         }
-        if data.insert(n - 10000, (line, field_at(vstart, vt), v as i64)).is_some() {
+        if data
+            .insert(n - 10000, (line, field_at(vstart, vt), v as i64))
+            .is_some()
+        {
             return Err(At::new(line, format!("point {} given twice", n - 10000)));
         }
     }
@@ -652,7 +754,10 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
     let lastn = whole(p("3622")?, "3622")?;
     let (hl, _, h) = p("3624")?;
     let (Some(r_mm), Some(unit)) = (reference_mm, unit_um) else {
-        return Err(At::new(1, "no `(REFERENCE POSITION … UNITS OF … UM)` comment"));
+        return Err(At::new(
+            1,
+            "no `(REFERENCE POSITION … UNITS OF … UM)` comment",
+        ));
     };
     if !(h > 0.0) || !(unit > 0.0) {
         return Err(At::new(hl, "3624 and the unit must be positive"));
@@ -660,7 +765,10 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
     if lastn < first || !(first.saturating_sub(1) <= r_num && r_num <= lastn) {
         return Err(At::new(
             hl,
-            format!("3620 = {r_num} is not within 3621 − 1 = {} … 3622 = {lastn}", first as i64 - 1),
+            format!(
+                "3620 = {r_num} is not within 3621 − 1 = {} … 3622 = {lastn}",
+                first as i64 - 1
+            ),
         ));
     }
     let bidir = params.get("3605#0").is_some_and(|x| x.2 == 1.0);
@@ -668,9 +776,9 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
     let take = |from: u64| -> Result<Vec<(Field, i64)>, At> {
         (from..=from + span)
             .map(|n| {
-                data.get(&n).map(|&(_, f, v)| (f, v)).ok_or_else(|| {
-                    At::new(last, format!("point {n} (N{}) is missing", 10000 + n))
-                })
+                data.get(&n)
+                    .map(|&(_, f, v)| (f, v))
+                    .ok_or_else(|| At::new(last, format!("point {n} (N{}) is missing", 10000 + n)))
             })
             .collect()
     };
@@ -696,7 +804,10 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
                         .is_some_and(|s| bidir && (s.2 as u64..=s.2 as u64 + span).contains(*n))
             })
             .map_or(last, |(_, x)| x.0);
-        return Err(At::new(extra, format!("{} data lines, the parameters name {used}", data.len())));
+        return Err(At::new(
+            extra,
+            format!("{} data lines, the parameters name {used}", data.len()),
+        ));
     }
     let k0 = (r_num + 1 - first) as usize;
     let absolute = |inc: &[(Field, i64)], at_ref: i64| -> Vec<i64> {
@@ -725,10 +836,21 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
         };
         let (eu, ed) = (up[j] as f64 * unit, down[j] as f64 * unit);
         check_point(line, pos, &[eu, ed])?;
-        let dummy = Field { start: 0, end: 0, decimals: 0 };
-        parsed
-            .points
-            .push(point(line, pos, eu, ed, up[j] as f64, down[j] as f64, dummy, dummy));
+        let dummy = Field {
+            start: 0,
+            end: 0,
+            decimals: 0,
+        };
+        parsed.points.push(point(
+            line,
+            pos,
+            eu,
+            ed,
+            up[j] as f64,
+            down[j] as f64,
+            dummy,
+            dummy,
+        ));
     }
     parsed.fanuc = Some(FanucLayout {
         unit_um: unit,

@@ -203,7 +203,11 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
     if first.starts_with("BEGIN ") && lines.get(1).is_some_and(|l| l.1.contains("AXISPOS")) {
         return Ok(Format::Heidenhain);
     }
-    if lines.iter().take(60).any(|(_, l)| l.trim_start().starts_with("kw.ssfk.")) {
+    if lines
+        .iter()
+        .take(60)
+        .any(|(_, l)| l.trim_start().starts_with("kw.ssfk."))
+    {
         return Ok(Format::Isg);
     }
     if first == "%"

@@ -239,7 +239,9 @@ pub fn update_table(
             table: a,
         });
     }
-    if bidirectional && (table.one_column || table.fanuc.as_ref().is_some_and(|f| f.reverse.is_none())) {
+    if bidirectional
+        && (table.one_column || table.fanuc.as_ref().is_some_and(|f| f.reverse.is_none()))
+    {
         return Err(UpdateError::OneDirection {
             format: table.format.name(),
         });
@@ -258,18 +260,30 @@ pub fn update_table(
         let max = d.iter().copied().max().unwrap_or(0);
         (max, d.iter().any(|&x| x < max))
     };
-    let (up_dec, up_trim) = column_style(&|p| p.up);
-    let (down_dec, down_trim) = column_style(&|p| p.down);
+    let (mut up_dec, mut up_trim) = column_style(&|p| p.up);
+    let (mut down_dec, mut down_trim) = column_style(&|p| p.down);
+    // Siemens and HEIDENHAIN values are written at 1e-6 mm with trailing zeros trimmed
+    // (`export`'s files): the text shows fewer decimals than the field holds.
+    if matches!(table.format, TableFormat::Siemens | TableFormat::Heidenhain) {
+        (up_dec, up_trim, down_dec, down_trim) = (6, true, 6, true);
+    }
     // `effective` is the value the controller used before (err+ for the err− of a table
     // that was one table for both directions): the change is measured from it.
     // File units per µm of e, and the layout: fixed-width columns (Fagor, LinuxCNC) keep
     // numbers right-aligned; HEIDENHAIN writes `+` on positive values.
     let (scale_um, align, plus) = match table.format {
-        TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } | TableFormat::LinuxCnc { .. } => {
-            (1000.0, true, false)
-        }
+        TableFormat::Fagor8055 { .. }
+        | TableFormat::Fagor8065 { .. }
+        | TableFormat::LinuxCnc { .. } => (1000.0, true, false),
         TableFormat::Siemens | TableFormat::Fanuc => (1000.0, false, false),
-        TableFormat::Heidenhain => (1000.0, false, text[table.points[0].up.start..].starts_with('+')),
+        TableFormat::Heidenhain => (
+            1000.0,
+            false,
+            table
+                .points
+                .iter()
+                .any(|p| text[p.up.start..].starts_with('+')),
+        ),
         TableFormat::Isg => (0.1, false, false),
     };
     let mut edit =
@@ -354,7 +368,14 @@ pub fn update_table(
                     TableFormat::Isg => -e_um * 10.0,
                     _ => -e_um / (k * 1000.0),
                 };
-                edit(p.up, p.up_file, p.up_file, value(p.e_up_um + r_up), up_dec, up_trim);
+                edit(
+                    p.up,
+                    p.up_file,
+                    p.up_file,
+                    value(p.e_up_um + r_up),
+                    up_dec,
+                    up_trim,
+                );
                 if table.one_column {
                     continue;
                 }
@@ -368,7 +389,14 @@ pub fn update_table(
                 } else {
                     continue;
                 };
-                edit(p.down, p.down_file, p.down_file, value(down_e), down_dec, down_trim);
+                edit(
+                    p.down,
+                    p.down_file,
+                    p.down_file,
+                    value(down_e),
+                    down_dec,
+                    down_trim,
+                );
             }
             TableFormat::Fanuc => {}
         }
@@ -450,7 +478,11 @@ fn update_fanuc(
             .enumerate()
             .map(|(j, &a)| {
                 let d = add(j) - shift_um;
-                if d == 0.0 { a as i64 } else { (a + d / unit).round() as i64 }
+                if d == 0.0 {
+                    a as i64
+                } else {
+                    (a + d / unit).round() as i64
+                }
             })
             .collect();
         for j in 0..new.len() {
