@@ -36,6 +36,9 @@ pub struct Parsed {
     pub fanuc: Option<FanucLayout>,
 }
 
+/// Increments with where each sits in the text.
+pub type Increments = Vec<(Field, i64)>;
+
 /// A FANUC table as read: the increments and where they sit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FanucLayout {
@@ -44,10 +47,10 @@ pub struct FanucLayout {
     /// The index of the point at the reference position.
     pub reference_index: usize,
     /// The increment ending at point j (j ≥ 1) is `forward[j − 1]`.
-    pub forward: Vec<(Field, i64)>,
+    pub forward: Increments,
     /// The negative-travel increments and 3627 (the negative-travel value at the
     /// reference position), when 3605#0 = 1.
-    pub reverse: Option<(Vec<(Field, i64)>, (Field, i64))>,
+    pub reverse: Option<(Increments, (Field, i64))>,
 }
 
 fn field_at(start: usize, token: &str) -> Field {
@@ -124,7 +127,7 @@ impl SiemensTable {
         let (sl, step) = need(self.step, "STEP")?;
         let (_, min) = need(self.min, "MIN")?;
         let (xl, max) = need(self.max, "MAX")?;
-        if !(step > 0.0) || max <= min {
+        if step <= 0.0 || max <= min {
             return Err(At::new(
                 sl,
                 format!("{what}: STEP {step} mm from {min} to {max} mm is not a table"),
@@ -759,7 +762,7 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
             "no `(REFERENCE POSITION … UNITS OF … UM)` comment",
         ));
     };
-    if !(h > 0.0) || !(unit > 0.0) {
+    if h <= 0.0 || unit <= 0.0 {
         return Err(At::new(hl, "3624 and the unit must be positive"));
     }
     if lastn < first || !(first.saturating_sub(1) <= r_num && r_num <= lastn) {
