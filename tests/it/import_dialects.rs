@@ -469,6 +469,38 @@ fn every_dialect_through_the_cli() {
             "{format}"
         );
     }
+    // --bidirectional on a table of one value per point: exit 1, nothing written.
+    let bi = dir.path().join("bi.csv");
+    let mut rows = String::from(
+        "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
+    );
+    let mut k = 0;
+    for run in 1..=2 {
+        for (d, order) in [(1, [0usize, 1, 2]), (-1, [2, 1, 0])] {
+            for t in order {
+                let p = POS[t];
+                rows.push_str(&format!("{run},{k},{k},X,{d},,{t},{p},0,0,{p},{p},0,0\n"));
+                k += 1;
+            }
+        }
+    }
+    std::fs::write(&bi, rows).expect("session");
+    let f = dir.path().join("heidenhain.txt");
+    let new = dir.path().join("never.COM");
+    let o = errmap(&[
+        "export",
+        s(&bi),
+        "--existing",
+        s(&f),
+        "--format",
+        "heidenhain",
+        "--bidirectional",
+        "--out",
+        s(&new),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("one value per point"), "{}", stderr(&o));
+    assert!(!new.exists());
 }
 
 /// Broken files: truncated, counts that disagree, non-numeric cells, an unknown format;
