@@ -252,6 +252,10 @@ fn controller_table(data: &[u8]) -> bool {
             comp_type: LinuxCncCompType::ActualPosition,
             units: LengthUnit::Inch,
         },
+        TableFormat::Siemens,
+        TableFormat::Fanuc,
+        TableFormat::Heidenhain,
+        TableFormat::Isg,
     ];
     let mut accepted = false;
     for f in formats {
@@ -272,6 +276,17 @@ fn controller_table(data: &[u8]) -> bool {
         let u = import::update_table(&t, &zero, false)
             .expect("a zero residual updates any table it read");
         assert!(u.bytes == data, "a zero residual changed the file");
+        // A residual of 1 µm over the table: the update is written and reads back.
+        let one = import::Residual {
+            up_um: vec![1.0; t.points.len()],
+            down_um: vec![-1.0; t.points.len()],
+            ..zero
+        };
+        for bidirectional in [false, true] {
+            if let Ok(u) = import::update_table(&t, &one, bidirectional) {
+                let _ = import::tables::read(&u.bytes, f);
+            }
+        }
     }
     accepted
 }

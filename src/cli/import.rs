@@ -37,6 +37,14 @@ pub enum ImportFormatArg {
     Fagor8065,
     /// LinuxCNC COMP_FILE (needs --comp-type).
     Linuxcnc,
+    /// Siemens 840D LEC/MSEC or direction-dependent CEC program (as errmap writes it).
+    Siemens,
+    /// FANUC pitch error data with errmap's parameter comment.
+    Fanuc,
+    /// HEIDENHAIN TNC .COM table.
+    Heidenhain,
+    /// TwinCAT CNC (ISG) kw.ssfk compensation value list.
+    Isg,
 }
 
 #[derive(Debug, Args)]
@@ -200,6 +208,10 @@ fn table_format(f: ImportFormatArg, a: &ImportArgs) -> Result<Option<TableFormat
                 .into(),
             units: length_only(a.units.as_deref(), false, "")?,
         },
+        ImportFormatArg::Siemens => TableFormat::Siemens,
+        ImportFormatArg::Fanuc => TableFormat::Fanuc,
+        ImportFormatArg::Heidenhain => TableFormat::Heidenhain,
+        ImportFormatArg::Isg => TableFormat::Isg,
         _ => return Ok(None),
     }))
 }
@@ -236,6 +248,10 @@ pub fn import_cmd(a: ImportArgs) -> Result<()> {
         match import::detect(&bytes) {
             Ok(import::Format::Fagor8055) => format = ImportFormatArg::Fagor8055,
             Ok(import::Format::Fagor8065) => format = ImportFormatArg::Fagor8065,
+            Ok(import::Format::Siemens) => format = ImportFormatArg::Siemens,
+            Ok(import::Format::Fanuc) => format = ImportFormatArg::Fanuc,
+            Ok(import::Format::Heidenhain) => format = ImportFormatArg::Heidenhain,
+            Ok(import::Format::Isg) => format = ImportFormatArg::Isg,
             _ => {}
         }
     }
@@ -333,6 +349,10 @@ pub enum TableFormatChoice {
     Fagor8055,
     Fagor8065,
     Linuxcnc,
+    Siemens,
+    Fanuc,
+    Heidenhain,
+    Isg,
 }
 
 /// `export SESSION --existing TABLE --format F --out NEW`: the table updated by the
@@ -354,6 +374,10 @@ pub fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
                 .into(),
             units: length_only(a.units, false, "")?,
         },
+        TableFormatChoice::Siemens => TableFormat::Siemens,
+        TableFormatChoice::Fanuc => TableFormat::Fanuc,
+        TableFormatChoice::Heidenhain => TableFormat::Heidenhain,
+        TableFormatChoice::Isg => TableFormat::Isg,
     };
     guard::refuse_aliases(
         &[("--out", a.out)],
@@ -400,6 +424,10 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
         F::Fagor8055 => Some(TableFormatChoice::Fagor8055),
         F::Fagor8065 => Some(TableFormatChoice::Fagor8065),
         F::Linuxcnc => Some(TableFormatChoice::Linuxcnc),
+        F::Siemens => Some(TableFormatChoice::Siemens),
+        F::Fanuc => Some(TableFormatChoice::Fanuc),
+        F::Heidenhain => Some(TableFormatChoice::Heidenhain),
+        F::Isg => Some(TableFormatChoice::Isg),
         _ => None,
     };
     let Some(existing) = &a.existing else {
@@ -408,18 +436,12 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
         {
             return Some(Err(e));
         }
-        return choice
-            .filter(|c| *c == TableFormatChoice::Fagor8065)
-            .map(|_| {
-                Err(guard::usage(
-                    "--format fagor-8065 writes an updated axis file: give the file in use with \
-                     --existing",
-                ))
-            });
+        return None;
     };
     let Some(format) = choice else {
         return Some(Err(guard::usage(
-            "--existing updates fagor-8055, fagor-8065 or linuxcnc tables",
+            "--existing updates fagor-8055, fagor-8065, linuxcnc, siemens, fanuc, heidenhain or \
+             isg tables",
         )));
     };
     Some(export_existing(ExistingArgs {
@@ -434,19 +456,23 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
     }))
 }
 
-/// `export --format fagor-8055` (from a model): the axis letter and the unit (`--units`,
-/// checked by [`existing_or_refuse`] before).
-pub fn fagor_8055_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
+/// `export --format fagor-8055|fagor-8065` (from a model or a session's means): the axis
+/// letter and the unit (`--units`; the 8055's checked by [`existing_or_refuse`] before,
+/// the 8065's mm unless `--units inch`).
+pub fn fagor_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
     let inch = a.units.as_deref().is_some_and(|u| u.starts_with("in"));
     let letter = a
         .axis_name
         .as_deref()
         .and_then(|n| n.chars().next())
         .unwrap_or_else(|| a.axis.upper().chars().next().unwrap_or('X'));
-    errmap::export::ExportFormat::Fagor8055 {
-        spec: errmap::export::Fagor8055Spec {
-            axis_letter: letter,
-            inch,
-        },
+    let spec = errmap::export::Fagor8055Spec {
+        axis_letter: letter,
+        inch,
+    };
+    if a.format == super::values::ExportFormatArg::Fagor8065 {
+        errmap::export::ExportFormat::Fagor8065 { spec }
+    } else {
+        errmap::export::ExportFormat::Fagor8055 { spec }
     }
 }

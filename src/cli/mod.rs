@@ -88,7 +88,7 @@ pub enum Command {
     /// Find and model what the simulation left out of a recording.
     Diagnose(DiagnoseArgs),
     /// Export compensation tables (LinuxCNC, Siemens 840D, FANUC, HEIDENHAIN, ISG/TwinCAT,
-    /// Fagor 8055, Fagor 8065 update, CSV) or a volumetric grid.
+    /// Fagor 8055, Fagor 8065, CSV) or a volumetric grid; --existing updates a table in use.
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),
@@ -104,7 +104,8 @@ pub enum Command {
     #[command(hide = true)]
     GenCapture(stream::GenCaptureArgs),
     /// Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a
-    /// controller table (Fagor 8055/8065, LinuxCNC) into errmap's tables.
+    /// controller table (Fagor 8055/8065, LinuxCNC, and errmap's Siemens, FANUC, HEIDENHAIN,
+    /// ISG) into errmap's tables.
     Import(import::ImportArgs),
     /// The calibration history of a fleet in a ledger (SQLite or PostgreSQL): add, report, verify.
     History(history::HistoryArgs),

@@ -411,9 +411,7 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
         },
         ExportFormatArg::Csv => ExportFormat::Csv,
         ExportFormatArg::Grid => ExportFormat::Grid,
-        ExportFormatArg::Fagor8055 => super::import::fagor_8055_format(a),
-        // Only with --existing (export_cmd returns before): no 8065 file from scratch.
-        ExportFormatArg::Fagor8065 => ExportFormat::Csv,
+        ExportFormatArg::Fagor8055 | ExportFormatArg::Fagor8065 => super::import::fagor_format(a),
     }
 }
 
@@ -483,8 +481,8 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     };
     let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)
         .with_context(what)?;
-    let text = format.render_line(&sampled, None).with_context(what)?;
-    super::guard::write_file(&a.out, text.as_bytes())?;
+    let bytes = format.render_bytes(&sampled, None).with_context(what)?;
+    super::guard::write_file(&a.out, &bytes)?;
     let fixed: Vec<String> = errmap::base::Axis::ALL
         .iter()
         .filter(|&&k| k != axis)
@@ -595,7 +593,7 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
     if !format.bidirectional() {
         return Err(super::guard::usage(format!(
             "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
-             siemens, fanuc, isg); export the bidirectional mean from the error table instead",
+             siemens, fanuc, isg, fagor-8055, fagor-8065); export the bidirectional mean from the error table instead",
             format.name()
         )));
     }
@@ -626,10 +624,10 @@ fn export_bidirectional(a: &ExportArgs) -> Result<()> {
         forward = regrid_measured(&forward, step, fit)?;
         reverse = regrid_measured(&reverse, step, fit)?;
     }
-    let text = format
-        .render_line(&forward, Some(&reverse))
+    let bytes = format
+        .render_bytes(&forward, Some(&reverse))
         .with_context(|| format!("{}: {} table", path.display(), format.name()))?;
-    super::guard::write_file(&a.out, text.as_bytes())?;
+    super::guard::write_file(&a.out, &bytes)?;
     eprintln!(
         "export: {} {} points along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
          (mean reversal {:.4} µm) → {}; compensation = −error",

@@ -388,10 +388,11 @@ pub enum ExportFormatArg {
     Csv,
     /// A volumetric grid table (CSV or Parquet).
     Grid,
-    /// Fagor 8055 leadscrew table AL<axis> (with --existing).
+    /// Fagor 8055 leadscrew table AL<axis> (needs --units).
     #[value(name = "fagor-8055", alias = "fagor8055")]
     Fagor8055,
-    /// Fagor 8065 axis file <axis>.mp (with --existing).
+    /// Fagor 8065 axis file <axis>.mp holding the leadscrew table (UTF-16LE; mm unless
+    /// --units inch); with --existing the machine's own file updated.
     #[value(name = "fagor-8065", alias = "fagor8065")]
     Fagor8065,
 }

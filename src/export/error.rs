@@ -26,7 +26,7 @@ impl fmt::Display for Controller {
             Controller::Siemens => "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)",
             Controller::Fanuc => "FANUC pitch error compensation",
             Controller::Heidenhain => "a HEIDENHAIN TNC compensation table (.COM)",
-            Controller::Fagor => "the Fagor 8055 leadscrew table (AL<axis>)",
+            Controller::Fagor => "the Fagor leadscrew table (8055 AL<axis>, 8065 <axis>.mp)",
             Controller::Isg => {
                 "the TwinCAT CNC (ISG) leadscrew error compensation table (P-COMP-00059 kw.ssfk.max_points)"
             }

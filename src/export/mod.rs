@@ -14,6 +14,7 @@
 //! | [`heidenhain`](mod@heidenhain) | a HEIDENHAIN TNC `.COM` nonlinear axis error compensation table | [`HEIDENHAIN_MAX_POINTS`] = 256, a parameter | O(n) text |
 //! | [`isg`](mod@isg) | a TwinCAT CNC (ISG) `kw.ssfk` leadscrew error compensation list, unilateral or bilateral | < P-COMP-00059 ([`ISG_DEFAULT_MAX_POINTS`] = 1500) | O(n) text |
 //! | [`fagor`](mod@fagor) | a Fagor 8055 leadscrew table `AL<axis>` (one table, or both directions with a reverse line) | [`FAGOR_8055_MAX_POINTS`] (unverified) | O(n) text |
+//! | [`fagor`](mod@fagor) | a Fagor 8065 axis file `<axis>.mp` holding the leadscrew table (UTF-16LE; BIDIR 1 with a reverse line) | [`FAGOR_8065_MAX_POINTS`] (unverified) | O(n) text |
 //! | [`csv`](mod@csv) | `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated` for one line | — | O(n) text |
 //! | [`grid`] | the same columns over a box ([`GridRows`]; CSV or Parquet via polars by [`write_grid`]) | [`MAX_SAMPLES`] | N predictions |
 //!
@@ -69,7 +70,7 @@ use crate::table::{Axis, TableError, write_frame};
 
 pub use csv::render as csv;
 pub use error::{Controller, ExportError, MappedBox};
-pub use fagor::{FAGOR_8055_MAX_POINTS, Fagor8055Spec};
+pub use fagor::{FAGOR_8055_MAX_POINTS, FAGOR_8065_MAX_POINTS, Fagor8055Spec};
 pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
 pub use grid::GridRows;
 pub use heidenhain::HEIDENHAIN_MAX_POINTS;
@@ -124,6 +125,9 @@ pub enum ExportFormat {
     Isg { axis: IsgAxis },
     /// A Fagor 8055 `AL<axis>` leadscrew table (both directions with a reverse line).
     Fagor8055 { spec: Fagor8055Spec },
+    /// A Fagor 8065 `<axis>.mp` axis file holding the leadscrew table (both directions,
+    /// BIDIR 1, with a reverse line); UTF-16LE ([`ExportFormat::render_bytes`]).
+    Fagor8065 { spec: Fagor8055Spec },
     /// One line as `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
     Csv,
     /// A volumetric grid (CSV or Parquet by extension), see [`write_grid`].
@@ -141,6 +145,7 @@ impl ExportFormat {
             ExportFormat::Heidenhain { .. } => "heidenhain",
             ExportFormat::Isg { .. } => "isg",
             ExportFormat::Fagor8055 { .. } => "fagor-8055",
+            ExportFormat::Fagor8065 { .. } => "fagor-8065",
             ExportFormat::Csv => "csv",
             ExportFormat::Grid => "grid",
         }
@@ -155,6 +160,7 @@ impl ExportFormat {
             ExportFormat::LinuxCnc { .. }
                 | ExportFormat::Isg { .. }
                 | ExportFormat::Fagor8055 { .. }
+                | ExportFormat::Fagor8065 { .. }
                 | ExportFormat::Csv
         )
     }
@@ -168,6 +174,7 @@ impl ExportFormat {
                 | ExportFormat::Fanuc { .. }
                 | ExportFormat::Isg { .. }
                 | ExportFormat::Fagor8055 { .. }
+                | ExportFormat::Fagor8065 { .. }
         )
     }
 
@@ -231,6 +238,7 @@ impl ExportFormat {
             }
             ExportFormat::Isg { axis } => isg::render(forward, reverse, axis),
             ExportFormat::Fagor8055 { spec } => fagor::render_8055(forward, reverse, spec),
+            ExportFormat::Fagor8065 { spec } => fagor::render_8065(forward, reverse, spec),
             ExportFormat::Csv => {
                 if reverse.is_some() {
                     return Err(ExportError::ReverseUnsupported {
@@ -242,6 +250,20 @@ impl ExportFormat {
             }
             ExportFormat::Grid => Err(ExportError::GridNeedsVolume),
         }
+    }
+
+    /// The file's bytes for a sampled line: [`Self::render_line`]'s text, UTF-8, except
+    /// the Fagor 8065 axis file, which is UTF-16LE with its byte-order mark.
+    pub fn render_bytes(
+        &self,
+        forward: &Sampled,
+        reverse: Option<&Sampled>,
+    ) -> Result<Vec<u8>, ExportError> {
+        let text = self.render_line(forward, reverse)?;
+        Ok(match self {
+            ExportFormat::Fagor8065 { .. } => fagor::encode_8065(&text),
+            _ => text.into_bytes(),
+        })
     }
 }
 

@@ -10,6 +10,7 @@
 //! | [`rtl`] | Renishaw Laser10/LaserXL linear `.rtl` (text sections) | session rows |
 //! | [`csv`] | any table through a column map (delimiter, decimal comma, units, error sign) | session rows |
 //! | [`tables`] | Fagor 8055 `AL<axis>`, Fagor 8065 `<axis>.mp`, LinuxCNC `COMP_FILE` | an error table per table point |
+//! | [`dialects`] | Siemens 840D LEC/CEC, HEIDENHAIN `.COM`, ISG `kw.ssfk`, FANUC pitch error data (as errmap writes them) | an error table per table point |
 //! | [`update`] | a controller table + a session measured with it active | the same file, values updated |
 //!
 //! Detection ([`detect`]) is by content, never by file name; a Renishaw `.rtx` dynamic
@@ -31,6 +32,7 @@
 
 pub mod api;
 pub mod csv;
+pub mod dialects;
 pub mod rtl;
 pub mod tables;
 pub mod text;
@@ -132,6 +134,10 @@ pub enum Format {
     Fagor8055,
     Fagor8065,
     Linuxcnc,
+    Siemens,
+    Fanuc,
+    Heidenhain,
+    Isg,
 }
 
 impl Format {
@@ -144,6 +150,10 @@ impl Format {
             Format::Fagor8055 => "fagor-8055",
             Format::Fagor8065 => "fagor-8065",
             Format::Linuxcnc => "linuxcnc",
+            Format::Siemens => "siemens",
+            Format::Fanuc => "fanuc",
+            Format::Heidenhain => "heidenhain",
+            Format::Isg => "isg",
         }
     }
 }
@@ -187,11 +197,32 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
     if tables::fagor_8055_line(first).is_some() {
         return Ok(Format::Fagor8055);
     }
+    if first == "%_N_AX_EEC_INI" || first == "%_N_NC_CEC_INI" {
+        return Ok(Format::Siemens);
+    }
+    if first.starts_with("BEGIN ") && lines.get(1).is_some_and(|l| l.1.contains("AXISPOS")) {
+        return Ok(Format::Heidenhain);
+    }
+    if lines
+        .iter()
+        .take(60)
+        .any(|(_, l)| l.trim_start().starts_with("kw.ssfk."))
+    {
+        return Ok(Format::Isg);
+    }
+    if first == "%"
+        && lines
+            .iter()
+            .take(10)
+            .any(|(_, l)| l.trim_start().starts_with("(FANUC PITCH ERROR"))
+    {
+        return Ok(Format::Fanuc);
+    }
     Err(At::new(
         1,
         "not a recognised format (API XD .pos, Renishaw .rtl, Fagor 8055 AL<axis>, Fagor 8065 \
-         <axis>.mp); a spreadsheet or CSV needs --format csv --map …, a LinuxCNC table \
-         --format linuxcnc",
+         <axis>.mp, errmap's Siemens, HEIDENHAIN, ISG and FANUC tables); a spreadsheet or CSV \
+         needs --format csv --map …, a LinuxCNC table --format linuxcnc",
     ))
 }
 
@@ -402,11 +433,20 @@ pub fn import_session(
             Format::ApiXd => Format::ApiXd,
             Format::RenishawRtl => Format::RenishawRtl,
             Format::RenishawRtx => Format::RenishawRtx,
-            Format::Fagor8055 | Format::Fagor8065 => {
+            f @ (Format::Fagor8055
+            | Format::Fagor8065
+            | Format::Siemens
+            | Format::Fanuc
+            | Format::Heidenhain
+            | Format::Isg) => {
                 return Err(At::new(
                     1,
-                    "a Fagor compensation table, not a positioning test: read it with \
-                     --format fagor-8055 (or fagor-8065) into an error table",
+                    format!(
+                        "a {} compensation table, not a positioning test: read it with \
+                         --format {} into an error table",
+                        f.name(),
+                        f.name()
+                    ),
                 )
                 .at(path));
             }

@@ -38,6 +38,14 @@ pub enum TableFormat {
         comp_type: LinuxCncCompType,
         units: LengthUnit,
     },
+    /// Siemens 840D LEC/MSEC or direction-dependent CEC program (mm).
+    Siemens,
+    /// FANUC pitch error data as errmap writes them (its parameter comment).
+    Fanuc,
+    /// HEIDENHAIN `.COM` table (`MM`, or `INCH` in its first line).
+    Heidenhain,
+    /// TwinCAT CNC (ISG) `kw.ssfk` compensation value list (0.1 µm).
+    Isg,
 }
 
 impl TableFormat {
@@ -46,6 +54,10 @@ impl TableFormat {
             TableFormat::Fagor8055 { .. } => "fagor-8055",
             TableFormat::Fagor8065 { .. } => "fagor-8065",
             TableFormat::LinuxCnc { .. } => "linuxcnc",
+            TableFormat::Siemens => "siemens",
+            TableFormat::Fanuc => "fanuc",
+            TableFormat::Heidenhain => "heidenhain",
+            TableFormat::Isg => "isg",
         }
     }
 
@@ -54,6 +66,10 @@ impl TableFormat {
             TableFormat::Fagor8055 { units }
             | TableFormat::Fagor8065 { units }
             | TableFormat::LinuxCnc { units, .. } => units,
+            TableFormat::Siemens
+            | TableFormat::Fanuc
+            | TableFormat::Heidenhain
+            | TableFormat::Isg => LengthUnit::Mm,
         }
     }
 }
@@ -97,6 +113,10 @@ pub struct ControllerTable {
     /// 8065: the `/LSCRWDATA/BIDIR` value and its comment (`No`/`Yes`), when present.
     pub bidir_value: Option<Field>,
     pub bidir_comment: Option<Field>,
+    /// One value per point, no second direction possible (Siemens LEC, HEIDENHAIN, …).
+    pub one_column: bool,
+    /// FANUC: the increments and where they sit.
+    pub fanuc: Option<super::dialects::FanucLayout>,
 }
 
 /// The byte ranges of the whitespace-separated tokens of `line` (offsets from `base`).
@@ -161,6 +181,26 @@ fn field(text: &str, (start, end): (usize, usize)) -> Field {
 pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let k = format.units().mm();
+    let dialect = match format {
+        TableFormat::Siemens => Some(super::dialects::read_siemens(&text)?),
+        TableFormat::Fanuc => Some(super::dialects::read_fanuc(&text)?),
+        TableFormat::Heidenhain => Some(super::dialects::read_heidenhain(&text)?),
+        TableFormat::Isg => Some(super::dialects::read_isg(&text)?),
+        _ => None,
+    };
+    if let Some(d) = dialect {
+        return Ok(ControllerTable {
+            format,
+            text,
+            axis: d.axis,
+            points: d.points,
+            bidirectional: d.bidirectional,
+            bidir_value: d.bidir_value,
+            bidir_comment: None,
+            one_column: d.one_column,
+            fanuc: d.fanuc,
+        });
+    }
     let (axis, points, bidirectional, bidir_value, bidir_comment) = match format {
         TableFormat::Fagor8055 { .. } => {
             let (axis, points) = read_8055(&text, k)?;
@@ -173,6 +213,7 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
             let bidir = points.iter().any(|p| p.e_up_um != p.e_down_um);
             (None, points, bidir, None, None)
         }
+        _ => return Err(At::new(1, "not a table format")),
     };
     Ok(ControllerTable {
         format,
@@ -182,6 +223,8 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
         bidirectional,
         bidir_value,
         bidir_comment,
+        one_column: false,
+        fanuc: None,
     })
 }
 

@@ -52,6 +52,11 @@ pub enum UpdateError {
         up: usize,
         down: usize,
     },
+    #[error(
+        "--bidirectional: this {format} table holds one value per point for both directions; \
+         export a direction-dependent table from the session instead (export --bidirectional)"
+    )]
+    OneDirection { format: &'static str },
     #[error("the session measures {session} but the table is for {table}")]
     AxisMismatch { session: Axis, table: Axis },
 }
@@ -165,7 +170,7 @@ pub struct Updated {
 }
 
 /// `v` with `decimals` decimals and no `-0`.
-fn fixed(v: f64, decimals: usize) -> String {
+pub(super) fn fixed(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     match s.strip_prefix('-') {
         Some(rest) if rest.parse::<f64>() == Ok(0.0) => rest.to_string(),
@@ -190,6 +195,8 @@ fn trimmed(mut s: String) -> String {
 struct Edit {
     field: Field,
     text: String,
+    /// Right-align in the padding before the field (fixed-width layouts).
+    align: bool,
 }
 
 /// Applies `edits` to `text`, right-aligning in the padding before each field.
@@ -200,7 +207,7 @@ fn apply(text: &str, mut edits: Vec<Edit>) -> String {
         let (mut start, end) = (e.field.start, e.field.end);
         let width = end - start;
         let mut new = e.text;
-        let padded = start > 0 && out.as_bytes()[start - 1] == b' ';
+        let padded = e.align && start > 0 && out.as_bytes()[start - 1] == b' ';
         if padded {
             if new.len() < width {
                 new = format!("{}{new}", " ".repeat(width - new.len()));
@@ -232,6 +239,16 @@ pub fn update_table(
             table: a,
         });
     }
+    if bidirectional
+        && (table.one_column || table.fanuc.as_ref().is_some_and(|f| f.reverse.is_none()))
+    {
+        return Err(UpdateError::OneDirection {
+            format: table.format.name(),
+        });
+    }
+    if let Some(layout) = &table.fanuc {
+        return Ok(update_fanuc(table, layout, residual, bidirectional));
+    }
     let k = table.format.units().mm();
     let text = &table.text.text;
     let mut edits = Vec::new();
@@ -243,10 +260,32 @@ pub fn update_table(
         let max = d.iter().copied().max().unwrap_or(0);
         (max, d.iter().any(|&x| x < max))
     };
-    let (up_dec, up_trim) = column_style(&|p| p.up);
-    let (down_dec, down_trim) = column_style(&|p| p.down);
+    let (mut up_dec, mut up_trim) = column_style(&|p| p.up);
+    let (mut down_dec, mut down_trim) = column_style(&|p| p.down);
+    // Siemens and HEIDENHAIN values are written at 1e-6 mm with trailing zeros trimmed
+    // (`export`'s files): the text shows fewer decimals than the field holds.
+    if matches!(table.format, TableFormat::Siemens | TableFormat::Heidenhain) {
+        (up_dec, up_trim, down_dec, down_trim) = (6, true, 6, true);
+    }
     // `effective` is the value the controller used before (err+ for the err− of a table
     // that was one table for both directions): the change is measured from it.
+    // File units per µm of e, and the layout: fixed-width columns (Fagor, LinuxCNC) keep
+    // numbers right-aligned; HEIDENHAIN writes `+` on positive values.
+    let (scale_um, align, plus) = match table.format {
+        TableFormat::Fagor8055 { .. }
+        | TableFormat::Fagor8065 { .. }
+        | TableFormat::LinuxCnc { .. } => (1000.0, true, false),
+        TableFormat::Siemens | TableFormat::Fanuc => (1000.0, false, false),
+        TableFormat::Heidenhain => (
+            1000.0,
+            false,
+            table
+                .points
+                .iter()
+                .any(|p| text[p.up.start..].starts_with('+')),
+        ),
+        TableFormat::Isg => (0.1, false, false),
+    };
     let mut edit =
         |field: Field, old: f64, effective: f64, new: f64, decimals: usize, trim: bool| {
             let s = fixed(new, decimals);
@@ -255,10 +294,15 @@ pub fn update_table(
             if rounded == old_rounded {
                 return;
             }
-            max_change_um = max_change_um.max((rounded - effective).abs() * k * 1000.0);
+            max_change_um = max_change_um.max((rounded - effective).abs() * k * scale_um);
+            let mut s = if trim { trimmed(s) } else { s };
+            if plus && !s.starts_with('-') {
+                s.insert(0, '+');
+            }
             edits.push(Edit {
                 field,
-                text: if trim { trimmed(s) } else { s },
+                text: s,
+                align,
             });
         };
     let becomes_bidirectional = bidirectional && !table.bidirectional;
@@ -318,12 +362,50 @@ pub fn update_table(
                     down_trim,
                 );
             }
+            TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
+                // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
+                let value = |e_um: f64| match table.format {
+                    TableFormat::Isg => -e_um * 10.0,
+                    _ => -e_um / (k * 1000.0),
+                };
+                edit(
+                    p.up,
+                    p.up_file,
+                    p.up_file,
+                    value(p.e_up_um + r_up),
+                    up_dec,
+                    up_trim,
+                );
+                if table.one_column {
+                    continue;
+                }
+                // A one-table list (ISG bilateral 0) whose neg repeats pos keeps it so.
+                let down_e = if table.bidirectional {
+                    p.e_down_um + r_down
+                } else if bidirectional {
+                    p.e_up_um + r_down
+                } else if p.down_file == p.up_file {
+                    p.e_up_um + r_up
+                } else {
+                    continue;
+                };
+                edit(
+                    p.down,
+                    p.down_file,
+                    p.down_file,
+                    value(down_e),
+                    down_dec,
+                    down_trim,
+                );
+            }
+            TableFormat::Fanuc => {}
         }
     }
     if becomes_bidirectional && let Some(f) = table.bidir_value {
         edits.push(Edit {
             field: f,
             text: "1".into(),
+            align: false,
         });
         if let Some(c) = table.bidir_comment
             && &text[c.start..c.end] == "No"
@@ -331,23 +413,11 @@ pub fn update_table(
             edits.push(Edit {
                 field: c,
                 text: "Yes".into(),
+                align: false,
             });
         }
     }
-    let mut warnings = Vec::new();
-    if !outside_mm.is_empty() {
-        let lo = residual.positions_mm.first().copied().unwrap_or(f64::NAN);
-        let hi = residual.positions_mm.last().copied().unwrap_or(f64::NAN);
-        warnings.push(format!(
-            "{} table point(s) outside the measured {lo} … {hi} mm keep their values: {}",
-            outside_mm.len(),
-            outside_mm
-                .iter()
-                .map(|x| format!("{x}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
+    let warnings = outside_warning(&outside_mm, residual);
     let new_text = apply(text, edits);
     let directions = if bidirectional || table.bidirectional {
         2
@@ -365,6 +435,122 @@ pub fn update_table(
             warnings,
         },
     })
+}
+
+/// FANUC: the absolute curves (the sums of the increments from the reference position,
+/// where the positive-travel curve is 0) get r in units of the table, less r at the
+/// reference position (a datum offset the table cannot hold: warned about), are rounded
+/// and differenced again; only the increments that change are rewritten, and 3627 when the
+/// negative-travel curve moves at the reference position.
+fn update_fanuc(
+    table: &ControllerTable,
+    layout: &super::dialects::FanucLayout,
+    residual: &Residual,
+    bidirectional: bool,
+) -> Updated {
+    let unit = layout.unit_um;
+    let k0 = layout.reference_index;
+    let mut outside_mm = Vec::new();
+    let r: Vec<(f64, f64)> = table
+        .points
+        .iter()
+        .map(|p| {
+            residual.at(p.position_mm).unwrap_or_else(|| {
+                outside_mm.push(p.position_mm);
+                (0.0, 0.0)
+            })
+        })
+        .collect();
+    let shift_um = r[k0].0;
+    let mut warnings = outside_warning(&outside_mm, residual);
+    if shift_um != 0.0 {
+        warnings.push(format!(
+            "the residual at the reference position, {shift_um:.4} µm, is a datum offset \
+             FANUC's pitch error table cannot hold (it is 0 there): it is left out"
+        ));
+    }
+    let mut edits = Vec::new();
+    let mut max_change_um: f64 = 0.0;
+    let mut biggest: i64 = 0;
+    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> f64| -> Vec<i64> {
+        let new: Vec<i64> = old
+            .iter()
+            .enumerate()
+            .map(|(j, &a)| {
+                let d = add(j) - shift_um;
+                if d == 0.0 {
+                    a as i64
+                } else {
+                    (a + d / unit).round() as i64
+                }
+            })
+            .collect();
+        for j in 0..new.len() {
+            max_change_um = max_change_um.max((new[j] as f64 - old[j]).abs() * unit);
+            if j > 0 {
+                let v = new[j] - new[j - 1];
+                biggest = biggest.max(v.abs());
+                if v != inc[j - 1].1 {
+                    edits.push(Edit {
+                        field: inc[j - 1].0,
+                        text: v.to_string(),
+                        align: false,
+                    });
+                }
+            }
+        }
+        new
+    };
+    let up: Vec<f64> = table.points.iter().map(|p| p.up_file).collect();
+    redo(&layout.forward, &up, &|j| r[j].0);
+    if let Some((inc, (f3627, v3627))) = &layout.reverse {
+        let down: Vec<f64> = table.points.iter().map(|p| p.down_file).collect();
+        let new = redo(inc, &down, &|j| if bidirectional { r[j].1 } else { r[j].0 });
+        if new[k0] != *v3627 {
+            edits.push(Edit {
+                field: *f3627,
+                text: new[k0].to_string(),
+                align: false,
+            });
+        }
+    }
+    let limit = i64::from(crate::export::fanuc::FANUC_DEFAULT_MAX_VALUE);
+    if biggest > limit {
+        warnings.push(format!(
+            "an increment of ±{biggest} units: beyond ±{limit}, the range of the older series; \
+             check the control's limit"
+        ));
+    }
+    let new_text = apply(&table.text.text, edits);
+    Updated {
+        bytes: table.text.encode(&new_text),
+        summary: UpdateSummary {
+            format: table.format.name(),
+            points: table.points.len(),
+            directions: if layout.reverse.is_some() { 2 } else { 1 },
+            outside_mm,
+            max_change_um,
+            warnings,
+        },
+    }
+}
+
+/// The warning for table points outside the measured targets.
+fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
+    if outside_mm.is_empty() {
+        return Vec::new();
+    }
+    let lo = residual.positions_mm.first().copied().unwrap_or(f64::NAN);
+    let hi = residual.positions_mm.last().copied().unwrap_or(f64::NAN);
+    vec![format!(
+        "{} table point(s) outside the measured {lo} … {hi} mm keep their values: {}",
+        outside_mm.len(),
+        outside_mm
+            .iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )]
 }
 
 #[cfg(test)]

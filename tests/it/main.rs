@@ -16,6 +16,7 @@ mod gp;
 mod help;
 mod history;
 mod import;
+mod import_dialects;
 mod interp;
 mod iso230;
 mod layers;
