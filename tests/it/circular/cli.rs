@@ -1,10 +1,6 @@
 //! `errmap circular simulate` then `diagnose --json`: the contract's document, exit codes.
 
-use std::process::Command;
-
-fn errmap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-}
+use crate::util::errmap_cmd as errmap;
 
 #[test]
 fn simulate_then_diagnose_prints_the_contract_document() {

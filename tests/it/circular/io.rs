@@ -31,7 +31,6 @@ fn refused(csv: &str, meta: &str) -> String {
 }
 
 #[test]
-#[ignore = "known defect (issue 26, open): an unevenly spaced angle sample (7.5 between 7 and 9) is accepted; the reader's spacing check is not written yet"]
 fn bad_traces_are_refused_by_line_and_column() {
     let cases: Vec<(String, String, &str)> = vec![
         (
@@ -66,9 +65,10 @@ fn bad_traces_are_refused_by_line_and_column() {
             "line 9: column direction: changes from ccw to cw",
         ),
         (
-            trace(|i, l| if i == 10 { "1,1,7.5,0.5".into() } else { l }),
+            // Line 11 holds 9°: 7.5° after 8° runs backwards in a ccw run.
+            trace(|i, l| if i == 11 { "1,1,7.5,0.5".into() } else { l }),
             META.to_string(),
-            "line 10: column angle_deg: 7.5 after 8",
+            "line 11: column angle_deg: 7.5 after 8",
         ),
         (
             trace(|_, l| l) + "2,1,0.0,0.1\n2,1,1.0,0.1\n",
@@ -109,6 +109,25 @@ fn bad_traces_are_refused_by_line_and_column() {
         let msg = refused(&csv, &meta);
         assert!(msg.contains(want), "want `{want}` in `{msg}`");
     }
+}
+
+/// The contract asks for strictly monotonic angles, not evenly spaced ones: a ballbar
+/// samples at a fixed rate, so the angle step varies with the feed (acceleration at the
+/// ends of the overshoot, a servo that hesitates). An uneven but monotonic run is read,
+/// every sample kept at its own angle.
+#[test]
+fn unevenly_spaced_angles_are_read() {
+    let dir = tempfile::tempdir().expect("test set-up");
+    let path = dir.path().join("t.csv");
+    // Line 10 holds 8°: 7.5° lies between 7° and 9°.
+    let csv = trace(|i, l| if i == 10 { "1,1,7.5,0.5".into() } else { l });
+    std::fs::write(&path, csv).expect("test set-up");
+    std::fs::write(dir.path().join("t.toml"), META).expect("test set-up");
+    let test = read_test(&path).expect("an uneven, monotonic run is valid");
+    assert_eq!(test.runs.len(), 1);
+    let a = &test.runs[0].angle_deg;
+    assert_eq!(a.len(), 91);
+    assert_eq!((a[7], a[8], a[9]), (7.0, 7.5, 9.0));
 }
 
 #[test]
