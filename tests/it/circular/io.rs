@@ -4,6 +4,8 @@
 use errmap::circular::simulate::{simulate, write_test};
 use errmap::circular::{Plane, read_test};
 
+use crate::util::tempdir;
+
 const META: &str = "plane = \"XY\"\nradius_mm = 100.0\nfeed_mm_per_min = 1000.0\n\
                     arc_start_deg = 0.0\narc_deg = 90.0\novershoot_deg = 0.0\n";
 
@@ -22,11 +24,17 @@ fn trace(edit: impl Fn(usize, String) -> String) -> String {
         + "\n"
 }
 
-fn refused(csv: &str, meta: &str) -> String {
-    let dir = tempfile::tempdir().expect("test set-up");
+/// `t.csv` holding `csv` and `t.toml` beside it holding `meta`, in a fresh directory.
+fn files(csv: &str, meta: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempdir();
     let path = dir.path().join("t.csv");
     std::fs::write(&path, csv).expect("test set-up");
     std::fs::write(dir.path().join("t.toml"), meta).expect("test set-up");
+    (dir, path)
+}
+
+fn refused(csv: &str, meta: &str) -> String {
+    let (_dir, path) = files(csv, meta);
     read_test(&path).expect_err("refused").to_string()
 }
 
@@ -117,12 +125,9 @@ fn bad_traces_are_refused_by_line_and_column() {
 /// every sample kept at its own angle.
 #[test]
 fn unevenly_spaced_angles_are_read() {
-    let dir = tempfile::tempdir().expect("test set-up");
-    let path = dir.path().join("t.csv");
     // Line 10 holds 8°: 7.5° lies between 7° and 9°.
     let csv = trace(|i, l| if i == 10 { "1,1,7.5,0.5".into() } else { l });
-    std::fs::write(&path, csv).expect("test set-up");
-    std::fs::write(dir.path().join("t.toml"), META).expect("test set-up");
+    let (_dir, path) = files(&csv, META);
     let test = read_test(&path).expect("an uneven, monotonic run is valid");
     assert_eq!(test.runs.len(), 1);
     let a = &test.runs[0].angle_deg;
@@ -146,7 +151,7 @@ fn t_s_decreasing_is_refused() {
 #[test]
 fn a_simulated_test_round_trips_through_csv_and_parquet() {
     let test = simulate(&super::model(Plane::ZX, &[], 0.1, 3));
-    let dir = tempfile::tempdir().expect("test set-up");
+    let dir = tempdir();
     for name in ["t.csv", "t.parquet"] {
         let path = dir.path().join(name);
         write_test(&test, &path).expect("test set-up");

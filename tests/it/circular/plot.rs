@@ -6,6 +6,7 @@ use errmap::plot::polar::{colour, pixel};
 use errmap::report::circular::{CCW_COLOUR, CW_COLOUR, chart, write_report};
 
 use super::model;
+use crate::util::tempdir;
 use errmap::base::Effect;
 use errmap::circular::signature::Slot;
 
@@ -37,7 +38,7 @@ fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
     let radius_term_um = m.bar_error_um;
     let test = simulate(&m);
     let d = diagnose(&test, &DiagnoseConfig::default());
-    let dir = tempfile::tempdir().expect("test set-up");
+    let dir = tempdir();
     write_report(&test, &d, dir.path()).expect("test set-up");
     assert!(dir.path().join("polar.svg").exists());
     let (w, _, px) = read_png(&dir.path().join("polar.png"));
