@@ -22,7 +22,6 @@ use rand::rngs::StdRng;
 
 use crate::util::{bin, errmap, errmap_cmd, reference_row, stderr, tempdir};
 
-
 /// A one-axis session: `lines` (the two other coordinates, mm), 6 targets 0…500 mm,
 /// 3 runs each way, 2 samples per dwell; the error grows `slope_um_per_m` along the axis,
 /// with a reversal of `reversal_um` and noise.

@@ -151,7 +151,10 @@ fn random_concealed_effects_are_found_without_false_alarms() {
          false alarms, {nulls_clean}/{nulls} null cases consistent",
         hit_rate
     );
-    assert!(planted >= 80 && nulls == 16, "{planted} planted, {nulls} nulls");
+    assert!(
+        planted >= 80 && nulls == 16,
+        "{planted} planted, {nulls} nulls"
+    );
     assert!(hit_rate >= 0.95, "hit rate {hit_rate}");
     assert!(
         false_alarms as f64 <= 0.03 * cases as f64,

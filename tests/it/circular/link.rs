@@ -57,9 +57,7 @@ fn row<'a>(doc: &'a Value, id: &str, axis: &str) -> &'a Value {
 }
 
 fn num(v: &Value, key: &str) -> f64 {
-    v[key]
-        .as_f64()
-        .unwrap_or_else(|| panic!("{key} in {v}"))
+    v[key].as_f64().unwrap_or_else(|| panic!("{key} in {v}"))
 }
 
 /// Checks the comparison of one diagnosis; `predict_tol` is how exactly the model's
@@ -84,7 +82,10 @@ fn check(doc: &Value, predict_tol: (f64, f64)) {
     );
     // The differences are the ballbar machine's extra, within the ballbar's σ and the
     // prediction's tolerance.
-    for (r, extra, tol) in [(sq, EXTRA_URAD, predict_tol.0), (sc, EXTRA_PPM, predict_tol.1)] {
+    for (r, extra, tol) in [
+        (sq, EXTRA_URAD, predict_tol.0),
+        (sc, EXTRA_PPM, predict_tol.1),
+    ] {
         let sigma = num(r, "measured_sigma");
         let diff = num(r, "difference");
         assert!(sigma > 0.0 && sigma < 0.2 * extra.abs(), "{r}");
@@ -112,10 +113,23 @@ fn the_predicted_circle_of_a_known_model_and_its_difference_from_the_ballbar() {
     std::fs::write(p("machine.toml"), VOLUMETRIC).expect("test set-up");
     std::fs::write(p("plan.toml"), PLAN).expect("test set-up");
     std::fs::write(p("ballbar.toml"), ballbar_machine()).expect("test set-up");
-    run(&["circular", "simulate", "--model", &p("ballbar.toml"), "--out", &p("xy.csv")]);
+    run(&[
+        "circular",
+        "simulate",
+        "--model",
+        &p("ballbar.toml"),
+        "--out",
+        &p("xy.csv"),
+    ]);
     let diagnose = |model: &str, report: &str| -> Value {
         let out = run(&[
-            "circular", "diagnose", &p("xy.csv"), "--report", &p(report), "--model", model,
+            "circular",
+            "diagnose",
+            &p("xy.csv"),
+            "--report",
+            &p(report),
+            "--model",
+            model,
             "--json",
         ]);
         serde_json::from_slice(&out).expect("one JSON document")
@@ -130,11 +144,24 @@ fn the_predicted_circle_of_a_known_model_and_its_difference_from_the_ballbar() {
     // MODEL.json as `volumetric identify --out` writes it from a simulated laser campaign
     // on the same machine: the same prediction within the campaign's noise.
     run(&[
-        "volumetric", "simulate", "--model", &p("machine.toml"), "--plan", &p("plan.toml"),
-        "--out", &p("lines.csv"),
+        "volumetric",
+        "simulate",
+        "--model",
+        &p("machine.toml"),
+        "--plan",
+        &p("plan.toml"),
+        "--out",
+        &p("lines.csv"),
     ]);
     run(&[
-        "volumetric", "identify", &p("lines.csv"), "--topology", "YXZ", "--degree", "1", "--out",
+        "volumetric",
+        "identify",
+        &p("lines.csv"),
+        "--topology",
+        "YXZ",
+        "--degree",
+        "1",
+        "--out",
         &p("model.json"),
     ]);
     let doc = diagnose(&p("model.json"), "by-json");
