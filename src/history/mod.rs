@@ -263,11 +263,17 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
     }
     match &rec.content {
         Content::Session { lines, .. } => {
-            for l in lines {
-                tx.exec(
-                    "INSERT INTO line_stat (record, axis, line_1_mm, line_2_mm, parameter, value, u_um) \
-                     VALUES (?, ?, ?, ?, ?, ?, ?)",
-                    &[
+            // Many rows a statement (one round trip to a server instead of one a row),
+            // at most 64 so that SQLite's limit of 999 parameters is never reached.
+            for chunk in lines.chunks(64) {
+                let mut sql = String::from(
+                    "INSERT INTO line_stat (record, axis, line_1_mm, line_2_mm, parameter, value, u_um) VALUES ",
+                );
+                let mut params: Vec<&dyn ledger::Param> = Vec::with_capacity(7 * chunk.len());
+                for (i, l) in chunk.iter().enumerate() {
+                    sql.push_str(if i == 0 { "" } else { ", " });
+                    sql.push_str("(?, ?, ?, ?, ?, ?, ?)");
+                    params.extend_from_slice(&[
                         &id,
                         &l.axis,
                         &l.line_mm.0,
@@ -275,8 +281,9 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
                         &l.parameter,
                         &l.value,
                         &l.u_um,
-                    ],
-                )?;
+                    ]);
+                }
+                tx.exec(&sql, &params)?;
             }
         }
         Content::Volumetric { components } => {

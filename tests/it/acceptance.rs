@@ -6,7 +6,7 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
 use errmap::acceptance::predicted::default_lines;
 use errmap::acceptance::{ConformityVerdict, DecisionRule, Limits, Mpe, Rule, aggregate};
@@ -16,25 +16,9 @@ use rand::rngs::StdRng;
 use serde_json::Value;
 
 use super::volumetric::{VOLUME, plan_file, random_machine, topo};
+use crate::util::{errmap, json, stderr};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
-
-fn errmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json(o: &Output) -> Value {
-    assert!(o.status.success(), "{}", stderr(o));
-    serde_json::from_slice(&o.stdout).expect("one JSON document")
-}
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

@@ -20,17 +20,7 @@ use errmap::history::tolerance::Tolerances;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_errmap")
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(bin()).args(args).output().expect("run errmap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use crate::util::{bin, errmap, errmap_cmd, reference_row, stderr, tempdir};
 
 /// A one-axis session: `lines` (the two other coordinates, mm), 6 targets 0…500 mm,
 /// 3 runs each way, 2 samples per dwell; the error grows `slope_um_per_m` along the axis,
@@ -68,22 +58,7 @@ fn session(axis: Axis, lines: &[(f64, f64)], slope_um_per_m: f64, seed: u64) -> 
                             run,
                             sample,
                             t_s: t,
-                            axis: axis.into(),
-                            direction: d,
-                            feed_mm_s: Some(100.0),
-                            target: j as i32,
-                            x_mm: Some(pos[0]),
-                            y_mm: Some(pos[1]),
-                            z_mm: Some(pos[2]),
-                            scale_mm: x,
-                            laser_mm: x - e * 1e-3,
-                            error_um: e,
-                            air_temp_c: Some(20.0),
-                            air_pressure_hpa: Some(1013.25),
-                            air_rh_pct: Some(50.0),
-                            scale_temp_c: Some(20.0),
-                            part_temp_c: Some(20.0),
-                            flags: 0,
+                            ..reference_row(axis.into(), d, j as i32, pos, x, e)
                         });
                         sample += 1;
                         t += 0.05;
@@ -191,7 +166,7 @@ fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
         machine,
     ];
     args.extend_from_slice(extra);
-    run(&args)
+    errmap(&args)
 }
 
 fn add_ok(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> serde_json::Value {
@@ -263,7 +238,7 @@ fn scenario_statistics(ledger: &str, dir: &Path) {
     assert_eq!(added["lines"], 3);
     assert_eq!(added["axes"], serde_json::json!(["Y"]));
     assert_eq!(added["at"], "2026-01-05T08:30:00Z");
-    let o = run(&[
+    let o = errmap(&[
         "table",
         s.to_str().expect("utf-8"),
         "--out",
@@ -474,7 +449,7 @@ fn scenario_supersede(ledger: &str, dir: &Path) {
     );
     // Only the current record enters the report; both stay in the ledger.
     let out = dir.join("rep-supersede");
-    let o = run(&[
+    let o = errmap(&[
         "history",
         "report",
         "--ledger",
@@ -494,7 +469,7 @@ fn scenario_supersede(ledger: &str, dir: &Path) {
     assert_eq!(series[0]["at"], "2026-02-02T00:00:00Z");
     assert!(r["ledger"]["superseded"].as_i64() >= Some(1));
     assert_eq!(
-        run(&[
+        errmap(&[
             "history",
             "report",
             "--ledger",
@@ -553,7 +528,7 @@ fn scenario_concurrency(ledger: &str, dir: &Path) {
     }
     let same: Vec<_> = (0..5)
         .map(|_| {
-            Command::new(bin())
+            errmap_cmd()
                 .args([
                     "history",
                     "add",
@@ -609,7 +584,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
     let before = records(ledger);
     // Inside the transaction, for certain: the record row is written, the rest pending.
     let f = write_session(dir, "k0.csv", &session(Axis::X, &big, 2.0, 500));
-    let mut child = Command::new(bin())
+    let mut child = errmap_cmd()
         .args([
             "history",
             "add",
@@ -654,7 +629,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             &session(Axis::X, &big, 3.0 + i as f64, 502 + i),
         );
         let n0 = scalar(ledger, "SELECT COUNT(*) FROM record");
-        let mut child = Command::new(bin())
+        let mut child = errmap_cmd()
             .args([
                 "history",
                 "add",
@@ -705,13 +680,13 @@ fn scenario_verify(ledger: &str, dir: &Path) {
     let b = model_json(dir, "vb.json", 1.0, 2.0);
     add_ok(ledger, &a, "V", &[]);
     add_ok(ledger, &b, "V", &[]);
-    let o = run(&["history", "verify", "--ledger", ledger, "--json"]);
+    let o = errmap(&["history", "verify", "--ledger", ledger, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let mut text = std::fs::read_to_string(&a).expect("read");
     text.push('\n');
     std::fs::write(&a, text).expect("tamper");
     std::fs::remove_file(&b).expect("remove");
-    let o = run(&["history", "verify", "--ledger", ledger, "--json"]);
+    let o = errmap(&["history", "verify", "--ledger", ledger, "--json"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("verify --json");
     let changed = v["changed"].as_array().expect("changed");
@@ -779,7 +754,7 @@ fn fleet_ledger(ledger: &str, dir: &Path) {
 
 fn fleet_report(ledger: &str, dir: &Path, name: &str) -> serde_json::Value {
     let out = dir.join(name);
-    let o = run(&[
+    let o = errmap(&[
         "history",
         "report",
         "--ledger",
@@ -897,7 +872,7 @@ fn all_scenarios(ledger_for: &mut dyn FnMut(&str) -> String, dir: &Path) -> serd
 
 #[test]
 fn sqlite_ledger_scenarios() {
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = tempdir();
     let root = dir.path().to_path_buf();
     let r = all_scenarios(
         &mut |n| root.join(format!("{n}.sqlite")).display().to_string(),
@@ -914,7 +889,7 @@ fn sqlite_ledger_scenarios() {
     // report and verify on a missing ledger.
     let missing = root.join("none.sqlite");
     assert_eq!(
-        run(&[
+        errmap(&[
             "history",
             "verify",
             "--ledger",
@@ -1068,7 +1043,7 @@ fn postgresql_ledger_scenarios_match_sqlite() {
             return;
         }
     };
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = tempdir();
     let pg = all_scenarios(&mut |n| cluster.create_db(n), dir.path());
     // The same fleet on SQLite gives the same report.
     let sq_dir = dir.path().join("sqlite-fleet");
@@ -1078,7 +1053,7 @@ fn postgresql_ledger_scenarios_match_sqlite() {
     let r = fleet_report(&sq, &sq_dir, "report");
     same_json(&pg, &r, "report");
     // A missing ledger.
-    let o = run(&["history", "verify", "--ledger", &cluster.url("postgres")]);
+    let o = errmap(&["history", "verify", "--ledger", &cluster.url("postgres")]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("no ledger"), "{}", stderr(&o));
 }

@@ -5,25 +5,10 @@
 //! is written here from the documented layouts.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use errmap::import::{self, ImportOptions, LengthUnit, SessionFormat, TableFormat};
 
-fn errmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("runs errmap")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+use crate::util::{errmap, s, stderr};
 
 /// A real file from `../shared/data/real_import`, or `None` with a skip message.
 fn real(rel: &str) -> Option<PathBuf> {

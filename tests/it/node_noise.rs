@@ -12,6 +12,8 @@ use errmap_drivers::{Axis, SessionRow};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
+use crate::util::{reference_row, tempdir};
+
 /// The true error along the line, µm.
 fn truth(x: f64) -> f64 {
     2.0 * (x / 150.0).sin() + 0.002 * x
@@ -49,22 +51,7 @@ fn session(
                         run,
                         sample,
                         t_s: t,
-                        axis: Axis::X,
-                        direction: d,
-                        feed_mm_s: Some(100.0),
-                        target: j as i32,
-                        x_mm: Some(x),
-                        y_mm: Some(0.0),
-                        z_mm: Some(0.0),
-                        scale_mm: x,
-                        laser_mm: x - e * 1e-3,
-                        error_um: e,
-                        air_temp_c: Some(20.0),
-                        air_pressure_hpa: Some(1013.25),
-                        air_rh_pct: Some(50.0),
-                        scale_temp_c: Some(20.0),
-                        part_temp_c: Some(20.0),
-                        flags: 0,
+                        ..reference_row(Axis::X, d, j as i32, [x, 0.0, 0.0], x, e)
                     });
                     sample += 1;
                     t += 0.05;
@@ -122,7 +109,7 @@ fn the_effective_sample_count_follows_the_dwell_autocorrelation() {
     let rows = session(2, 3, 40, rho, 0.0, 0.1, |_| 1.0);
     let (t, _) = error_table("ar1", &rows).expect("reduces");
     // On disk and back; a table without the column reads as before.
-    let dir = tempfile::tempdir().expect("tempdir");
+    let dir = tempdir();
     let path = dir.path().join("nodes.csv");
     t.write(&path).expect("writes");
     let back = ErrorTable::read(&path).expect("reads");

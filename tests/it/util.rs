@@ -30,16 +30,69 @@ pub fn errmap(args: &[&str]) -> Output {
 
 /// Runs `errmap args` in `dir` and waits for it.
 pub fn errmap_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(bin())
+    errmap_cmd()
         .current_dir(dir)
         .args(args)
         .output()
         .expect("runs errmap")
 }
 
+/// The `errmap` binary as a command to complete (arguments, standard streams, spawn),
+/// for a test that pipes, kills or runs it in parallel.
+pub fn errmap_cmd() -> Command {
+    Command::new(bin())
+}
+
 /// A command's standard error as text.
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The one JSON document a successful command printed (the test fails with the
+/// command's standard error otherwise).
+pub fn json(o: &Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", stderr(o));
+    serde_json::from_slice(&o.stdout).expect("one JSON document on stdout")
+}
+
+/// A path as the `&str` an argument list takes.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// One sample of a simulated positioning session at reference conditions (air, scale
+/// and part at 20 °C, 1013.25 hPa, 50 % RH, feed 100 mm/s, no flag): the laser reads the
+/// scale minus the error. Run, sample number and time are the caller's
+/// (`SessionRow { run, sample, t_s, ..reference_row(…) }`).
+pub fn reference_row(
+    axis: errmap::drivers::Axis,
+    direction: i8,
+    target: i32,
+    pos_mm: [f64; 3],
+    scale_mm: f64,
+    error_um: f64,
+) -> errmap::drivers::SessionRow {
+    errmap::drivers::SessionRow {
+        run: 1,
+        sample: 0,
+        t_s: 0.0,
+        axis,
+        direction,
+        feed_mm_s: Some(100.0),
+        target,
+        x_mm: Some(pos_mm[0]),
+        y_mm: Some(pos_mm[1]),
+        z_mm: Some(pos_mm[2]),
+        scale_mm,
+        laser_mm: scale_mm - error_um * 1e-3,
+        error_um,
+        air_temp_c: Some(20.0),
+        air_pressure_hpa: Some(1013.25),
+        air_rh_pct: Some(50.0),
+        scale_temp_c: Some(20.0),
+        part_temp_c: Some(20.0),
+        flags: 0,
+    }
 }
 
 /// A fresh temporary directory, removed when dropped.

@@ -1,5 +1,9 @@
-//! The concealed-effect campaign: 120 random tests (seeded), each with 0 to 3 effects the
+//! The concealed-effect campaign: 64 random tests (seeded), each with 0 to 3 effects the
 //! diagnosis is not told about, in random planes; hit rate and false alarms measured.
+//!
+//! The fewest cases that still prove the claims: every fourth test is a null (16), and
+//! with about 95 planted effects all found, the one-sided 95 % lower bound of the hit rate
+//! is above 0.95 (0.95⁵⁹ < 0.05: 59 hits in 59 already prove it).
 
 use std::f64::consts::PI;
 
@@ -83,10 +87,10 @@ fn random_effect(rng: &mut StdRng, kind: usize) -> (Effect, Slot) {
 fn random_concealed_effects_are_found_without_false_alarms() {
     let mut rng = StdRng::seed_from_u64(2026);
     let (mut planted, mut hits, mut false_alarms, mut nulls, mut nulls_clean) = (0, 0, 0, 0, 0);
-    let cases = 120;
+    let cases = 64;
     for case in 0..cases {
         let plane = Plane::ALL[rng.random_range(0..3)];
-        let count = if rng.random_bool(0.25) {
+        let count = if case % 4 == 3 {
             0
         } else {
             rng.random_range(1..=3)
@@ -147,7 +151,10 @@ fn random_concealed_effects_are_found_without_false_alarms() {
          false alarms, {nulls_clean}/{nulls} null cases consistent",
         hit_rate
     );
-    assert!(planted >= 100 && nulls >= 15);
+    assert!(
+        planted >= 80 && nulls == 16,
+        "{planted} planted, {nulls} nulls"
+    );
     assert!(hit_rate >= 0.95, "hit rate {hit_rate}");
     assert!(
         false_alarms as f64 <= 0.03 * cases as f64,

@@ -1,14 +1,10 @@
 //! `errmap circular simulate` then `diagnose --json`: the contract's document, exit codes.
 
-use std::process::Command;
-
-fn errmap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_errmap"))
-}
+use crate::util::{errmap_cmd as errmap, tempdir};
 
 #[test]
 fn simulate_then_diagnose_prints_the_contract_document() {
-    let dir = tempfile::tempdir().expect("test set-up");
+    let dir = tempdir();
     let trace = dir.path().join("t.csv");
     let model = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -77,7 +73,7 @@ fn simulate_then_diagnose_prints_the_contract_document() {
 
 #[test]
 fn a_bad_cell_names_file_line_and_column_and_usage_errors_exit_2() {
-    let dir = tempfile::tempdir().expect("test set-up");
+    let dir = tempdir();
     let trace = dir.path().join("bad.csv");
     std::fs::write(
         &trace,

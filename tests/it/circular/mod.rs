@@ -7,6 +7,7 @@ mod cli;
 mod effects;
 mod io;
 mod iso;
+mod link;
 mod plot;
 
 use errmap::base::{Effect, ParamName};
