@@ -68,7 +68,7 @@ pub fn write_session(path: &Path, rows: &[SessionRow]) -> Result<(), TableError>
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    if !crate::table::is_parquet(path)? {
+    if !crate::table::output_is_parquet(path)? {
         let mut df = session_frame(rows).map_err(format)?;
         return write_frame(path, &mut df);
     }

@@ -77,7 +77,7 @@ impl SessionWriter {
 
     /// As [`SessionWriter::create`] with `batch_rows` rows per batch (at least 1).
     pub fn with_batch(path: &Path, batch_rows: usize) -> Result<Self, TableError> {
-        let parquet = is_parquet(path)?;
+        let parquet = crate::table::output_is_parquet(path)?;
         // Its directory must exist (errmap makes no directory tree for an output).
         if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty())
             && !parent.exists()

@@ -31,6 +31,24 @@ pub(crate) fn is_parquet(path: &Path) -> Result<bool, TableError> {
     }
 }
 
+/// The format an output table is written in: by extension, as [`is_parquet`]; a target
+/// without one that is a character device or a pipe (`--out /dev/null`, `/dev/stdout`)
+/// gets CSV, the text a reader at the other end expects. A regular file still needs its
+/// extension, so that the file says what it holds.
+pub(crate) fn output_is_parquet(path: &Path) -> Result<bool, TableError> {
+    match is_parquet(path) {
+        Err(TableError::Extension { .. })
+            if matches!(
+                super::output::output_target(path),
+                Ok(super::output::OutputTarget::Through(_))
+            ) =>
+        {
+            Ok(false)
+        }
+        other => other,
+    }
+}
+
 /// Reads any table (CSV with every column as text, or Parquet) into a DataFrame.
 ///
 /// CSV is read with all columns as strings so that a bad cell is reported by its row
@@ -58,7 +76,7 @@ pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
 /// Writes a DataFrame as CSV or Parquet by extension, creating the parent directory:
 /// atomically, and never with a NaN or inf (see [`super::output`]).
 pub fn write_frame(path: &Path, df: &mut DataFrame) -> Result<(), TableError> {
-    let parquet = is_parquet(path)?;
+    let parquet = output_is_parquet(path)?;
     super::output::check_finite(path, df)?;
     super::output::write_atomically(path, |file| {
         if parquet {

@@ -88,8 +88,8 @@ mod structure;
 
 pub use error::{MISSING_LISTED, TableError};
 pub(crate) use frame::{
-    Cells, column_cells, format_err, is_parquet, optional_column_cells, parse_cell, required_cell,
-    text_or_number_cells,
+    Cells, column_cells, format_err, is_parquet, optional_column_cells, output_is_parquet,
+    parse_cell, required_cell, text_or_number_cells,
 };
 pub use frame::{read_frame, write_frame, write_predictions};
 pub use grid::{Extent, Grid, interval};

@@ -183,6 +183,49 @@ fn a_fifo_and_dev_stdout_receive_the_output() {
     assert!(out.contains("targets_mm"), "the plan on stdout: {out}");
 }
 
+/// Issue 28: `table … --out /dev/null` was refused for want of an extension. A device or
+/// pipe without one gets the CSV text; a new regular file without one is still refused
+/// (a file should say what it holds), naming the extensions.
+#[cfg(unix)]
+#[test]
+fn an_extensionless_device_or_pipe_gets_the_table_as_csv() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let session = d.join("s.csv");
+    simulate_session(&session);
+    let s = session.display().to_string();
+    if let Some(null) = device(d, "null", 3) {
+        let o = errmap(d, &["table", &s, "--out", "null"]);
+        assert_eq!(code(&o), Some(0), "{}", stderr(&o));
+        assert!(is_char_device(&null), "the null device is still one");
+    }
+    let fifo = d.join("errors");
+    if Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|st| st.success())
+    {
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read_to_string(&fifo).expect("read the fifo"))
+        };
+        let o = errmap(d, &["table", &s, "--out", "errors"]);
+        assert_eq!(code(&o), Some(0), "{}", stderr(&o));
+        let got = reader.join().expect("reader");
+        let header = got.lines().next().unwrap_or("");
+        assert!(
+            header.contains("e_um"),
+            "a CSV table came through: {header}"
+        );
+    } else {
+        eprintln!("skipped the FIFO half: no mkfifo");
+    }
+    let o = errmap(d, &["table", &s, "--out", "plain"]);
+    assert_eq!(code(&o), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains(".csv or .parquet"), "{}", stderr(&o));
+    assert!(!d.join("plain").exists());
+}
+
 /// A link to a regular file stays a link; the file it names gets the output.
 #[cfg(unix)]
 #[test]
