@@ -129,16 +129,16 @@ fn decode_rows(b: Bencher) {
         .bench_local(|| errmap_drivers::decode_all(black_box(&capture)).0.len());
 }
 
-/// Volumetric identification, the command line's default (degree by leave-one-line-out
-/// cross-validation over 1…4), with σ and identifiability.
+/// Volumetric identification with the command line's default model (components as tables
+/// at knots, smoothing by REML), with σ and identifiability.
 #[divan::bench(sample_count = 5)]
-fn volumetric_identify_auto(b: Bencher) {
+fn volumetric_identify_default(b: Bencher) {
     let (_, table) = errmap::bench::volumetric::campaign(1);
     let config = errmap::bench::volumetric::config(None);
     b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
 }
 
-/// Volumetric identification at a fixed degree 3.
+/// Volumetric identification with polynomials of a fixed degree 3.
 #[divan::bench(sample_count = 5)]
 fn volumetric_identify_degree3(b: Bencher) {
     let (_, table) = errmap::bench::volumetric::campaign(1);
@@ -146,11 +146,11 @@ fn volumetric_identify_degree3(b: Bencher) {
     b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
 }
 
-/// The error vector with σ at 41³ points from the identified model, points per second.
+/// The error vector with σ at 41³ points from the default model, points per second.
 #[divan::bench(sample_count = 5)]
 fn volumetric_vector_map(b: Bencher) {
     let (_, table) = errmap::bench::volumetric::campaign(1);
-    let id = errmap::volumetric::identify(&table, &errmap::bench::volumetric::config(Some(3)))
+    let id = errmap::volumetric::identify(&table, &errmap::bench::volumetric::config(None))
         .expect("the benchmark campaign identifies");
     let model = errmap::volumetric::Predictor::Fit(id.fit);
     let points = errmap::bench::volumetric::grid_points();

@@ -354,15 +354,18 @@ pub fn markdown(r: &BenchReport) -> String {
     if let Some(v) = &r.volumetric {
         s.push_str(&format!(
             "\nVolumetric, one core: identification of {} lines × {} targets with σ and \
-             identifiability {:.3} s (degree by cross-validation, 1…4) and {:.3} s (degree 3, \
-             {} parameters); the error vector with σ at {} grid points {:.3} s.\n",
+             identifiability {:.3} s (tables at knots, REML; {} parameters) and {:.3} s \
+             (polynomials of degree 3; {} parameters); the error vector with σ at {} grid \
+             points {:.3} s from the first model, {:.3} s from the second.\n",
             v.lines,
             v.targets_per_line,
-            v.identify_auto_s,
-            v.identify_degree3_s,
-            v.params,
+            v.identify_default_s,
+            v.params_default,
+            v.identify_poly3_s,
+            v.params_poly3,
             v.grid_points,
-            v.predict_grid_s
+            v.predict_grid_s,
+            v.predict_grid_poly3_s
         ));
     }
     if let Some(b) = &r.stream {
