@@ -202,8 +202,11 @@ pub fn demo(a: DemoArgs) -> Result<()> {
             model: None,
         }),
     })?;
-    eprintln!("errmap demo: the captured session in a calibration ledger (history add, report)");
-    super::history::demo_step(&a.out, &session_dir, None)?;
+    eprintln!(
+        "errmap demo: the captured session and the volumetric model in a calibration ledger (history add, report)"
+    );
+    let volumetric_model = a.out.join("volumetric").join("model.json");
+    super::history::demo_step(&a.out, &session_dir, Some(&volumetric_model))?;
     eprintln!("errmap demo: done; reports under {}", a.out.display());
     Ok(())
 }
