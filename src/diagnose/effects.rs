@@ -59,9 +59,17 @@ impl Kind {
 
     /// The id with the Abbe offset axis, for messages.
     pub fn label(self, obs: &Obs) -> String {
+        match self.offset_axis(obs) {
+            Some(a) => format!("abbe (offset along {})", a.lower()),
+            None => self.id().as_str().to_string(),
+        }
+    }
+
+    /// The axis an Abbe term's offset lies along (`None` for every other effect).
+    pub fn offset_axis(self, obs: &Obs) -> Option<crate::base::Axis> {
         match self {
-            Kind::Abbe(k) => format!("abbe (offset along {})", obs.c_axes[k as usize].lower()),
-            _ => self.id().as_str().to_string(),
+            Kind::Abbe(k) => Some(obs.c_axes[k as usize]),
+            _ => None,
         }
     }
 

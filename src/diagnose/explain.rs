@@ -157,7 +157,8 @@ pub(super) fn assemble(
         .scores
         .iter()
         .map(|(k, d)| CandidateScore {
-            effect: k.label(obs),
+            effect: k.id(),
+            offset_axis: k.offset_axis(obs),
             found: out.terms.iter().any(|t| t.term.kind == *k),
             delta_bic: *d,
         })
@@ -535,7 +536,7 @@ fn report_series(obs: &data::Obs, before: &[f64], after: &[f64], out: &Outcome) 
             _ => ("t / s".into(), obs.t.clone()),
         };
         effects.push(EffectSeries {
-            id: f.term.kind.id().as_str().into(),
+            id: f.term.kind.id(),
             covariate_label: label,
             covariate: cov,
             partial_um: partial,

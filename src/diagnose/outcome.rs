@@ -1,6 +1,7 @@
 //! What a diagnosis returns: [`Diagnosis`] (the contract's keys first, then the extras),
 //! its [`Verdict`], the [`FoundEffect`]s, and the per-row series behind the report's charts.
 
+use crate::base::Axis;
 use crate::base::effect::{Effect, ParamValue, ParamsMap};
 use crate::base::vocabulary::{EffectId, ParamName};
 use std::collections::BTreeMap;
@@ -104,15 +105,39 @@ pub struct NoiseGroup {
 }
 
 /// A testable effect's standing against the final model.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CandidateScore {
-    /// Effect id (with the offset axis for abbe).
-    pub effect: String,
+    /// The effect.
+    pub effect: EffectId,
+    /// For abbe: the axis its offset lies along (the vocabulary tests one per axis).
+    pub offset_axis: Option<Axis>,
     /// Whether it was reported.
     pub found: bool,
     /// For a found effect: how much BIC rises when it is removed; otherwise how much BIC
     /// changes when it is added (negative: it would help).
     pub delta_bic: f64,
+}
+
+impl CandidateScore {
+    /// The effect as reports name it: the id, with the offset axis for abbe.
+    pub fn label(&self) -> String {
+        match self.offset_axis {
+            Some(a) => format!("{} (offset along {})", self.effect, a.lower()),
+            None => self.effect.to_string(),
+        }
+    }
+}
+
+impl Serialize for CandidateScore {
+    /// `{"effect": label, "found", "delta_bic"}`: the label, as the report's table shows it.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("CandidateScore", 3)?;
+        st.serialize_field("effect", &self.label())?;
+        st.serialize_field("found", &self.found)?;
+        st.serialize_field("delta_bic", &self.delta_bic)?;
+        st.end()
+    }
 }
 
 /// The diagnosis (contract keys first; the rest are extras).
@@ -229,10 +254,10 @@ pub struct ReportSeries {
 }
 
 /// The partial residual of one effect against the covariate it follows.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct EffectSeries {
-    /// Effect id (the vocabulary's, as text).
-    pub id: String,
+    /// The effect.
+    pub id: EffectId,
     /// Axis label of the covariate.
     pub covariate_label: String,
     /// Covariate per row.

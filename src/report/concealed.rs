@@ -20,10 +20,31 @@ pub struct CaseOutcome {
     pub effects: Vec<EffectId>,
 }
 
+/// The hidden effects' parameters as the index shows them: ids sorted by name, as in
+/// `truth.json`, each with its parameters by name (numbers as the JSON writes them).
+fn hidden_params(truth: &Truth) -> Vec<String> {
+    let mut effects: Vec<_> = truth.effects.iter().collect();
+    effects.sort_by_key(|e| e.id().as_str());
+    effects
+        .iter()
+        .map(|e| {
+            let ps: Vec<String> = e
+                .params_by_name()
+                .iter()
+                .map(|(k, v)| match v.as_f64() {
+                    Some(x) => format!("{k} {}", json_number(x)),
+                    None => format!("{k} {v}"),
+                })
+                .collect();
+            format!("`{}`: {}", e.id(), ps.join(", "))
+        })
+        .collect()
+}
+
 /// A number as the JSON of `truth.json` writes it (`3.0`, `0.004`), so that the index
 /// reads like the truth files it quotes.
 fn json_number(v: f64) -> String {
-    serde_json::Value::from(v).to_string()
+    serde_json::to_string(&v).unwrap_or_else(|_| v.to_string())
 }
 
 /// Diagnoses every case under `cases` (each with `recorded.parquet`, `simulated.parquet`
@@ -85,24 +106,15 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
                     .join(", ")
             })
             .collect();
-        let hidden: Vec<String> = truth
-            .params
-            .iter()
-            .map(|(id, p)| {
-                let ps: Vec<String> = p
-                    .iter()
-                    .map(|(k, v)| format!("{k} {}", json_number(*v)))
-                    .collect();
-                format!("`{id}`: {}", ps.join(", "))
-            })
-            .collect();
+        let hidden = hidden_params(&truth);
         let _ = writeln!(
             index,
             "| [{name}]({name}/report.md) | {} | {} | {} | {} | {:.4} → {:.4} | {} |",
             if hidden.is_empty() {
                 "nothing".to_string()
             } else {
-                serde_json::Value::from(truth.effects.clone()).to_string()
+                let ids: Vec<&str> = truth.effects.iter().map(|e| e.id().as_str()).collect();
+                serde_json::to_string(&ids).unwrap_or_default()
             },
             if found.is_empty() {
                 format!("none ({})", d.verdict)

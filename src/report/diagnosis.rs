@@ -448,7 +448,7 @@ fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         let _ = writeln!(
             o,
             "| {} | {} | {:+.1} |",
-            c.effect,
+            c.label(),
             if c.found { "yes" } else { "no" },
             c.delta_bic
         );

@@ -11,7 +11,9 @@
 //! lines are absent because their position is unknown), `truth.json` (the hidden parameters, for the tests — the diagnosis never
 //! reads it) and a README saying what is hidden and how big it is.
 
+use crate::base::effect::{Drift, Effect, ParamValue};
 use crate::base::stats::peak_to_peak;
+use crate::base::vocabulary::EffectId;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -86,22 +88,18 @@ pub fn nominal(table1: &Path, seed: u64) -> MachineModel {
 pub struct Case {
     pub name: &'static str,
     pub what: &'static str,
-    /// The vocabulary ids hidden in the recording (empty: clean).
-    pub effects: Vec<&'static str>,
-    /// Hidden parameters by effect id, for the tests.
-    pub truth: BTreeMap<String, BTreeMap<String, f64>>,
+    /// The effects hidden in the recording with their true parameters, in the order the
+    /// case names them (empty: clean).
+    pub hidden: Vec<Effect>,
+    /// What `hidden` does to the nominal model (and, for a clean case, what else differs).
     pub apply: fn(&mut MachineModel),
 }
 
-fn params(pairs: &[(&str, f64)]) -> BTreeMap<String, f64> {
-    pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
-}
-
-fn truth(entries: &[(&str, &[(&str, f64)])]) -> BTreeMap<String, BTreeMap<String, f64>> {
-    entries
-        .iter()
-        .map(|(id, p)| (id.to_string(), params(p)))
-        .collect()
+impl Case {
+    /// The vocabulary ids hidden in the recording, in the case's order.
+    pub fn effect_ids(&self) -> Vec<EffectId> {
+        self.hidden.iter().map(Effect::id).collect()
+    }
 }
 
 /// All cases.
@@ -110,11 +108,10 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "scale_thermal_expansion",
             what: "a steel scale (α = 11.5 ppm/K) warming from 20.1 to 20.6 °C that the nominal model treats as perfect",
-            effects: vec!["scale_thermal_expansion"],
-            truth: truth(&[(
-                "scale_thermal_expansion",
-                &[("alpha_ppm_per_k", 11.5), ("x0_mm", 0.0)],
-            )]),
+            hidden: vec![Effect::ScaleThermalExpansion {
+                alpha_ppm_per_k: 11.5,
+                x0_mm: 0.0,
+            }],
             apply: |m| {
                 m.scale = Some(Scale {
                     enabled: true,
@@ -127,8 +124,7 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "scale_factor",
             what: "a scale pitch error of +3 ppm",
-            effects: vec!["scale_factor"],
-            truth: truth(&[("scale_factor", &[("ppm", 3.0)])]),
+            hidden: vec![Effect::ScaleFactor { ppm: 3.0 }],
             apply: |m| {
                 m.scale_factor = Some(ScaleFactor {
                     enabled: true,
@@ -139,11 +135,11 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "abbe",
             what: "a pitch error of the carriage, θ(x) = 3 µrad + 0.004 µrad/mm · x, acting over the z offset of the lines",
-            effects: vec!["abbe"],
-            truth: truth(&[(
-                "abbe",
-                &[("theta0_urad", 3.0), ("theta1_urad_per_mm", 0.004)],
-            )]),
+            hidden: vec![Effect::Abbe {
+                offset_axis: crate::base::Axis::Z,
+                theta0_urad: 3.0,
+                theta1_urad_per_mm: 0.004,
+            }],
             apply: |m| {
                 m.abbe = Some(Abbe {
                     enabled: true,
@@ -156,8 +152,10 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "reversal",
             what: "a backlash (reversal) of 1.0 µm",
-            effects: vec!["reversal"],
-            truth: truth(&[("reversal", &[("b_um", 1.0)])]),
+            hidden: vec![Effect::Reversal {
+                b_um: 1.0,
+                b1_um_per_m: None,
+            }],
             apply: |m| {
                 m.reversal = Some(Reversal {
                     enabled: true,
@@ -168,8 +166,7 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "latch_delay",
             what: "the laser latched 6 µs after the scale (0.72 µm at 120 mm/s, on moving samples only)",
-            effects: vec!["latch_delay"],
-            truth: truth(&[("latch_delay", &[("tau_us", 6.0)])]),
+            hidden: vec![Effect::LatchDelay { tau_us: 6.0 }],
             apply: |m| {
                 m.latch_delay = Some(LatchDelay {
                     enabled: true,
@@ -180,15 +177,11 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "periodic_scale",
             what: "a 0.2 µm interpolation error of the readhead, once per 20 µm grating period",
-            effects: vec!["periodic_scale"],
-            truth: truth(&[(
-                "periodic_scale",
-                &[
-                    ("amplitude_um", 0.2),
-                    ("period_um", 20.0),
-                    ("phase_rad", 0.7),
-                ],
-            )]),
+            hidden: vec![Effect::PeriodicScale {
+                amplitude_um: 0.2,
+                period_um: 20.0,
+                phase_rad: 0.7,
+            }],
             apply: |m| {
                 m.periodic_scale = Some(PeriodicScale {
                     enabled: true,
@@ -201,8 +194,10 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "thermal_drift",
             what: "the machine warming up: a drift of 1.5 µm with a 400 s time constant",
-            effects: vec!["thermal_drift"],
-            truth: truth(&[("thermal_drift", &[("amplitude_um", 1.5), ("tau_s", 400.0)])]),
+            hidden: vec![Effect::ThermalDrift(Drift::Exponential {
+                amplitude_um: 1.5,
+                tau_s: 400.0,
+            })],
             apply: |m| {
                 m.thermal_drift = Some(ThermalDrift {
                     enabled: true,
@@ -215,15 +210,18 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "dead_path",
             what: "500 mm of dead path left uncompensated while the air temperature cycles by ±0.3 K",
-            effects: vec!["dead_path"],
-            truth: truth(&[("dead_path", &[("dead_path_mm", 500.0)])]),
+            hidden: vec![Effect::DeadPath {
+                dead_path_mm: 500.0,
+            }],
             apply: |m| m.laser.dead_path_mm = 500.0,
         },
         Case {
             name: "refraction",
             what: "air refraction compensation frozen at the start: a = 0.93 ppm/K, b = −0.27 ppm/hPa of the air's changes",
-            effects: vec!["refraction"],
-            truth: truth(&[("refraction", &[("ppm_per_k", 0.93), ("ppm_per_hpa", -0.27)])]),
+            hidden: vec![Effect::Refraction {
+                ppm_per_k: Some(0.93),
+                ppm_per_hpa: Some(-0.27),
+            }],
             apply: |m| {
                 m.refraction = Some(Refraction {
                     enabled: true,
@@ -235,18 +233,17 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "two_effects",
             what: "two effects at once: a 0.8 µm reversal and a 0.15 µm periodic error with a 10 µm period (half the grating period)",
-            effects: vec!["reversal", "periodic_scale"],
-            truth: truth(&[
-                ("reversal", &[("b_um", 0.8)]),
-                (
-                    "periodic_scale",
-                    &[
-                        ("amplitude_um", 0.15),
-                        ("period_um", 10.0),
-                        ("phase_rad", -1.1),
-                    ],
-                ),
-            ]),
+            hidden: vec![
+                Effect::Reversal {
+                    b_um: 0.8,
+                    b1_um_per_m: None,
+                },
+                Effect::PeriodicScale {
+                    amplitude_um: 0.15,
+                    period_um: 10.0,
+                    phase_rad: -1.1,
+                },
+            ],
             apply: |m| {
                 m.reversal = Some(Reversal {
                     enabled: true,
@@ -263,22 +260,20 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "clean",
             what: "nothing: the recording is the nominal model plus 0.05 µm white noise",
-            effects: vec![],
-            truth: BTreeMap::new(),
+            hidden: vec![],
             apply: |_| {},
         },
         Case {
             name: "clean_uneven_noise",
             what: "nothing, but the noise is uneven: 0.05 µm while dwelling, 0.15 µm while moving",
-            effects: vec![],
-            truth: BTreeMap::new(),
+            hidden: vec![],
             apply: |m| m.noise_moving_um = Some(0.15),
         },
     ]
 }
 
 /// Sizes that a README reports, µm.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaseSizes {
     pub geometric_pp_um: f64,
@@ -290,16 +285,75 @@ pub struct CaseSizes {
 
 /// A case's `truth.json`: what was hidden in the recording, for the tests and the
 /// concealed-case report (the diagnosis never reads it).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+///
+/// On disk the effects keep the file's shape — `effects`, the ids in the case's order, and
+/// `params`, each id's parameters by name (ids and names sorted) — and are read back into
+/// typed [`Effect`]s, so a missing, unknown or mistyped parameter is an error naming it.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Truth {
     pub case: String,
-    /// Effect ids hidden in the recording (empty for a clean case).
-    pub effects: Vec<String>,
-    /// Hidden parameters per effect id.
-    pub params: BTreeMap<String, BTreeMap<String, f64>>,
+    /// The effects hidden in the recording (empty for a clean case).
+    pub effects: Vec<Effect>,
     pub sizes: CaseSizes,
     pub note: String,
+}
+
+/// `truth.json` as it is written.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TruthFile {
+    case: String,
+    effects: Vec<EffectId>,
+    /// Keyed by the id's text, so that the ids are sorted by name as they always were.
+    params: BTreeMap<String, BTreeMap<String, ParamValue>>,
+    sizes: CaseSizes,
+    note: String,
+}
+
+impl Serialize for Truth {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let params = self
+            .effects
+            .iter()
+            .map(|e| {
+                let p = e.params_by_name().into_iter();
+                let p = p.map(|(n, v)| (n.as_str().to_string(), v)).collect();
+                (e.id().as_str().to_string(), p)
+            })
+            .collect();
+        TruthFile {
+            case: self.case.clone(),
+            effects: self.effects.iter().map(Effect::id).collect(),
+            params,
+            sizes: self.sizes.clone(),
+            note: self.note.clone(),
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Truth {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let f = TruthFile::deserialize(d)?;
+        let listed = |id: &EffectId| f.params.contains_key(id.as_str());
+        if f.params.len() != f.effects.len() || !f.effects.iter().all(listed) {
+            return Err(D::Error::custom(
+                "`effects` and the ids of `params` must name the same effects, each once",
+            ));
+        }
+        let effects = f
+            .effects
+            .iter()
+            .map(|id| Effect::from_params(*id, &f.params[id.as_str()]).map_err(D::Error::custom))
+            .collect::<Result<_, _>>()?;
+        Ok(Truth {
+            case: f.case,
+            effects,
+            sizes: f.sizes,
+            note: f.note,
+        })
+    }
 }
 
 impl Truth {
@@ -394,8 +448,7 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
         relative_table(&g.hidden).write(&dir.join("hidden.toml"))?;
         let tj = Truth {
             case: case.name.to_string(),
-            effects: case.effects.iter().map(|e| e.to_string()).collect(),
-            params: case.truth.clone(),
+            effects: case.hidden.clone(),
             sizes: g.sizes.clone(),
             note: "for the tests only: errmap diagnose is given recorded.parquet and simulated.parquet"
                 .to_string(),
@@ -457,4 +510,41 @@ pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), SimError> {
             source,
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn datasets() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed")
+    }
+
+    /// Every committed `truth.json` reads into typed effects and is written back byte for
+    /// byte, and says what its case hides.
+    #[test]
+    fn every_committed_truth_round_trips_and_matches_its_case() {
+        for case in cases() {
+            let path = datasets().join(case.name).join("truth.json");
+            let text = std::fs::read_to_string(&path).expect("truth.json");
+            let t = Truth::read(&path).expect("reads");
+            assert_eq!(t.effects, case.hidden, "{}", case.name);
+            let back = serde_json::to_string_pretty(&t).expect("writes") + "\n";
+            assert_eq!(back, text, "{}", case.name);
+        }
+    }
+
+    /// A parameter missing from, or unknown to, an effect is refused by name; so is an
+    /// effect listed without its parameters.
+    #[test]
+    fn a_truth_with_a_wrong_parameter_is_refused_naming_it() {
+        let good =
+            std::fs::read_to_string(datasets().join("two_effects/truth.json")).expect("truth.json");
+        let missing = good.replace("\"b_um\": 0.8", "\"b_ux\": 0.8");
+        let e = serde_json::from_str::<Truth>(&missing).expect_err("refused");
+        assert!(e.to_string().contains("b_ux"), "{e}");
+        let unlisted = good.replace("    \"reversal\",\n", "");
+        let e = serde_json::from_str::<Truth>(&unlisted).expect_err("refused");
+        assert!(e.to_string().contains("same effects"), "{e}");
+    }
 }

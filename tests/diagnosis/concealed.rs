@@ -10,15 +10,17 @@
 mod against_truth {
     use std::path::{Path, PathBuf};
 
+    use errmap::base::effect::ParamValue;
     use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
     use errmap::session::read_session;
+    use errmap::sim::concealed::Truth;
     use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
 
     use crate::util::root;
 
     struct Case {
         dir: PathBuf,
-        truth: serde_json::Value,
+        truth: Truth,
         diagnosis: Diagnosis,
     }
 
@@ -26,9 +28,7 @@ mod against_truth {
         let dir = root().join("datasets/concealed").join(name);
         let recorded = read_session(&dir.join("recorded.parquet")).expect("recorded");
         let simulated = read_session(&dir.join("simulated.parquet")).expect("simulated");
-        let truth: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).expect("truth"))
-                .expect("json");
+        let truth = Truth::read(&dir.join("truth.json")).expect("truth");
         let config = DiagnoseConfig {
             grating_period_um: Some(20.0),
             ..DiagnoseConfig::default()
@@ -49,23 +49,24 @@ mod against_truth {
     fn check_found(name: &str) {
         let c = run(name);
         let d = &c.diagnosis;
-        let noise = c.truth["sizes"]["noise_um"].as_f64().expect("noise");
+        let noise = c.truth.sizes.noise_um;
         eprintln!("{name}: {}", serde_json::to_string(d).expect("json"));
         assert_eq!(d.verdict.as_str(), "missing_physics", "{name}");
-        let hidden = c.truth["params"].as_object().expect("params");
         let mut ids: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
         ids.sort_unstable();
-        let mut want: Vec<&str> = hidden.keys().map(String::as_str).collect();
+        let mut want: Vec<&str> = c.truth.effects.iter().map(|e| e.id().as_str()).collect();
         want.sort_unstable();
         assert_eq!(ids, want, "{name}: effects named");
-        for (id, params) in hidden {
-            let found = d
-                .effects
-                .iter()
-                .find(|e| e.id().as_str() == id.as_str())
-                .expect("found");
-            for (k, v) in params.as_object().expect("params") {
-                let truth = v.as_f64().expect("number");
+        for hidden in &c.truth.effects {
+            let id = hidden.id();
+            let found = d.effects.iter().find(|e| e.id() == id).expect("found");
+            for (k, v) in hidden.params_by_name() {
+                let k = k.as_str();
+                let ParamValue::Number(truth) = v else {
+                    // The axis an Abbe offset lies along: found as it was hidden.
+                    assert_eq!(found.param_named(k), Some(v), "{name}: {id}.{k}");
+                    continue;
+                };
                 let got = found.number_named(k);
                 let sigma = found.sigma_named(k);
                 let (Some(got), Some(sigma)) = (got, sigma) else {
@@ -180,7 +181,7 @@ mod against_truth {
             let mean = r.iter().sum::<f64>() / r.len() as f64;
             let rms =
                 (r.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / r.len() as f64).sqrt();
-            let noise = c.truth["sizes"]["noise_um"].as_f64().expect("noise");
+            let noise = c.truth.sizes.noise_um;
             // Noise plus counter quantisation (≈ 0.03 µm RMS).
             assert!(
                 rms <= 1.3 * noise + 0.03,
@@ -200,12 +201,13 @@ mod by_name {
     use crate::common::diagnosis_text;
     use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
     use errmap::session::read_session;
+    use errmap::sim::concealed::Truth;
 
     fn dir() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed")
     }
 
-    fn case(name: &str) -> Option<(Diagnosis, serde_json::Value)> {
+    fn case(name: &str) -> Option<(Diagnosis, Truth)> {
         let d = dir().join(name);
         if !d.join("recorded.parquet").exists() {
             eprintln!("skipping {name}: {} not found", d.display());
@@ -213,8 +215,7 @@ mod by_name {
         }
         let rec = read_session(&d.join("recorded.parquet")).ok()?;
         let sim = read_session(&d.join("simulated.parquet")).ok()?;
-        let truth: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.join("truth.json")).ok()?).ok()?;
+        let truth = Truth::read(&d.join("truth.json")).ok()?;
         let cfg = DiagnoseConfig {
             grating_period_um: Some(20.0),
             ..DiagnoseConfig::default()
@@ -230,22 +231,27 @@ mod by_name {
         let Some((d, truth)) = case(name) else { return };
         let t = diagnosis_text(&d);
         println!("{name}: {t}");
-        let hidden = truth["params"].as_object().cloned().unwrap_or_default();
+        let hidden = &truth.effects;
         if hidden.is_empty() {
             assert_eq!(d.verdict.as_str(), "consistent", "{name}\n{t}");
             return;
         }
         assert_eq!(d.verdict.as_str(), "missing_physics", "{name}\n{t}");
-        for (id, params) in &hidden {
-            let Some(e) = d.effects.iter().find(|e| e.id().as_str() == id.as_str()) else {
+        for h in hidden {
+            let id = h.id();
+            let Some(e) = d.effects.iter().find(|e| e.id() == id) else {
                 panic!("{name}: {id} not found\n{t}");
             };
-            for (p, v) in params.as_object().cloned().unwrap_or_default() {
-                let truth = v.as_f64().unwrap_or(f64::NAN);
+            for (p, v) in h.params_by_name() {
+                let p = p.as_str();
+                let Some(truth) = v.as_f64() else {
+                    assert_eq!(e.param_named(p), Some(v), "{name}: {id}.{p}\n{t}");
+                    continue;
+                };
                 if p == "phase_rad" || truth == 0.0 {
                     continue;
                 }
-                let got = e.number_named(&p).unwrap_or(f64::NAN);
+                let got = e.number_named(p).unwrap_or(f64::NAN);
                 assert!(
                     (got - truth).abs() <= 0.25 * truth.abs(),
                     "{name}: {id}.{p} = {got} vs {truth}\n{t}"
@@ -335,18 +341,23 @@ mod by_name {
                     Ok(d) => d,
                     Err(e) => panic!("{}: {e}", case.name),
                 };
-                let mut got: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
-                let mut want = case.effects.clone();
+                let mut got: Vec<errmap::base::EffectId> =
+                    d.effects.iter().map(|e| e.id()).collect();
+                let mut want = case.effect_ids();
                 got.sort_unstable();
                 want.sort_unstable();
-                let params_ok = case.truth.iter().all(|(id, params)| {
+                let params_ok = case.hidden.iter().all(|h| {
                     d.effects.iter().any(|e| {
-                        e.id().as_str() == id.as_str()
-                            && params.iter().all(|(p, &truth)| {
-                                p == "phase_rad"
-                                    || truth == 0.0
-                                    || e.number_named(p)
-                                        .is_some_and(|v| (v - truth).abs() <= 0.25 * truth.abs())
+                        e.id() == h.id()
+                            && h.params_by_name().iter().all(|(p, v)| match v.as_f64() {
+                                None => e.param_named(p.as_str()) == Some(*v),
+                                Some(truth) => {
+                                    p.as_str() == "phase_rad"
+                                        || truth == 0.0
+                                        || e.number_named(p.as_str()).is_some_and(|v| {
+                                            (v - truth).abs() <= 0.25 * truth.abs()
+                                        })
+                                }
                             })
                     })
                 });
