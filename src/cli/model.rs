@@ -460,7 +460,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     for &(k, v) in &a.at.0 {
         if k == axis {
             return Err(super::guard::usage(format!(
-                "--at: {k} is the axis of the line; give the other two"
+                "--at: {k} is the axis of the line (--axis {k}); give the other two"
             )));
         }
         at[k.index()] = v;

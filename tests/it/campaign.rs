@@ -772,6 +772,12 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         &["--at", "axis of the line"],
     ),
     (
+        // Seed 71, case 1226: the refusal named --at only, not the --axis it clashes with.
+        "export {t1} --method spline --format linuxcnc --at y=1,z=200 --step 50 --out {out} --axis=z",
+        2,
+        &["--axis", "--at"],
+    ),
+    (
         "export {t1} --method trilinear --format csv --step 50 --out {out} --at=,,,",
         2,
         &["--at"],
