@@ -419,6 +419,14 @@ impl MachineModel {
     }
 
     fn check(&self) -> Result<(), String> {
+        // The diagnosis takes the scale's grating period from here when no capture says it
+        // (campaign seed 72: a 0 reached it and was blamed on the session).
+        if self.device.grating_period_nm == 0 {
+            return Err(
+                "device.grating_period_nm = 0 must be positive (the scale's grating period, nm)"
+                    .into(),
+            );
+        }
         if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
             return Err(format!("noise_um = {} must be ≥ 0", self.noise_um));
         }

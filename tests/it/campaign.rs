@@ -772,6 +772,13 @@ const FIXED: &[(&str, i32, &[&str])] = &[
         &["--at", "axis of the line"],
     ),
     (
+        // Seed 72, case 7550: a model's grating period of 0 reached the diagnosis, whose
+        // refusal named the session instead of the model.
+        "diagnose --recorded {s} --model {nograting} --report {rep3} --json",
+        1,
+        &["no-grating.toml", "grating_period_nm"],
+    ),
+    (
         // Seed 71, case 1226: the refusal named --at only, not the --axis it clashes with.
         "export {t1} --method spline --format linuxcnc --at y=1,z=200 --step 50 --out {out} --axis=z",
         2,
@@ -933,6 +940,10 @@ fn what_the_campaign_found_stays_fixed() {
     let intm = vmodel.replace("E_C0Y = 8.0", "E_C0Y = 1000000000000000000");
     assert_ne!(intm, vmodel);
     std::fs::write(d.join("int-coefficient.toml"), intm).expect("write");
+    let model = std::fs::read_to_string(&f.models[0]).expect("model");
+    let no_grating = model.replace("grating_period_nm = 20000", "grating_period_nm = 0");
+    assert_ne!(no_grating, model);
+    std::fs::write(d.join("no-grating.toml"), no_grating).expect("write");
     let lost = "[error_map]\ntable = \"no-such-table.csv\"\nmethod = \"spline\"\n";
     std::fs::write(d.join("lost-table.toml"), lost).expect("write");
     let vars = [
@@ -955,6 +966,7 @@ fn what_the_campaign_found_stays_fixed() {
         ("bigt", d.join("big-targets.toml")),
         ("hugeint", d.join("huge-int-targets.toml")),
         ("intm", d.join("int-coefficient.toml")),
+        ("nograting", d.join("no-grating.toml")),
         ("missing", d.join("no-such-dir/p.toml")),
         ("plan", f.plans[0].clone()),
         ("damaged", root().join("tests/it/data/damaged-page.parquet")),
