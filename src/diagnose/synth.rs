@@ -12,8 +12,9 @@
 //! [`SynthNoise`], what makes real sessions untidy: latch-timing jitter, coloured
 //! (time-correlated) noise and occasional outliers ([`SynthNoise::untidy`]).
 
+use crate::base::effect::{Drift, Effect};
 use crate::base::stats::gaussian;
-use crate::base::vocabulary::{EffectId, ParamName as P};
+use crate::base::vocabulary::EffectId;
 use std::f64::consts::TAU;
 
 use errmap_drivers::{Axis, SessionRow, edlen};
@@ -98,120 +99,56 @@ impl Default for SynthEnv {
     }
 }
 
-/// A hidden effect, by the contract's signatures (t0 = the first row).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Hidden {
-    /// −α·(T_scale − 20)·(x − x0)·1e−3.
-    ScaleThermal { alpha_ppm_per_k: f64, x0_mm: f64 },
-    /// k·x·1e−3.
-    ScaleFactor { ppm: f64 },
-    /// c·(θ0 + θ1·x)·1e−3 with c = y (`along_z` false) or z.
-    Abbe {
-        along_z: bool,
-        theta0_urad: f64,
-        theta1_urad_per_mm: f64,
-    },
-    /// d·b/2.
-    Reversal { b_um: f64 },
-    /// d·(b + b1·(x − x_mid)·1e−3)/2: backlash that changes along the axis (x_mid: the
-    /// middle of the targets).
-    ReversalLinear { b_um: f64, b1_um_per_m: f64 },
-    /// d·v·τ·1e−3 (v = the feed on moving rows, 0 dwelling).
-    LatchDelay { tau_us: f64 },
-    /// a·sin(2πx/P + φ).
-    Periodic {
-        amplitude_um: f64,
-        period_um: f64,
-        phase_rad: f64,
-    },
-    /// A·(1 − exp(−(t − t0)/τ)).
-    DriftExp { amplitude_um: f64, tau_s: f64 },
-    /// ρ·(t − t0).
-    DriftLinear { rate_um_per_s: f64 },
-    /// −D·(n(t) − n(t0))·1e3.
-    DeadPath { dead_path_mm: f64 },
-    /// −x·Δn·1e3, Δn·1e6 = a·(T − T̄) + b·(p − p̄).
-    Refraction { ppm_per_k: f64, ppm_per_hpa: f64 },
+/// The true numeric parameters of a hidden effect by the contract's names, in the
+/// variant's order (an Abbe offset's axis is not a number and is left out).
+///
+/// The synthetic pair hides positioning effects by their contract signatures (t0 = the
+/// first row): scale thermal expansion −α·(T_scale − 20)·(x − x0)·1e−3; scale factor
+/// k·x·1e−3; Abbe c·(θ0 + θ1·x)·1e−3 with c the line's y or z; reversal d·b/2, or
+/// d·(b + b1·(x − x_mid)·1e−3)/2 when it changes along the axis (x_mid: the middle of the
+/// targets); latch delay d·v·τ·1e−3 (v = the feed on moving rows, 0 dwelling); periodic
+/// a·sin(2πx/P + φ); drift A·(1 − exp(−t/τ)) or ρ·t; dead path −D·(n(t) − n(t0))·1e3;
+/// refraction −x·Δn·1e3 with Δn·1e6 = a·(T − T̄) + b·(p − p̄), a coefficient left `None`
+/// being a term the effect does not have.
+pub fn truth(effect: &Effect) -> Vec<(&'static str, f64)> {
+    effect
+        .params()
+        .into_iter()
+        .filter_map(|(n, v)| v.as_f64().map(|x| (n.as_str(), x)))
+        .collect()
 }
 
-impl Hidden {
-    /// The vocabulary id.
-    pub fn id(&self) -> EffectId {
-        self.effect()
-    }
+/// Why a synthetic pair cannot hide an effect.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SynthError {
+    /// The circular test's effects and `unexplained` have no positioning signature.
+    #[error("a synthetic positioning pair cannot hide `{0}`")]
+    Unsupported(EffectId),
+    /// The lines run along x: an Abbe offset lies along y or z.
+    #[error("an Abbe offset along {0} on lines along x: the offset must lie along y or z")]
+    AbbeAxis(crate::base::Axis),
+}
 
-    /// The vocabulary effect this is.
-    pub fn effect(&self) -> EffectId {
-        match self {
-            Hidden::ScaleThermal { .. } => EffectId::ScaleThermalExpansion,
-            Hidden::ScaleFactor { .. } => EffectId::ScaleFactor,
-            Hidden::Abbe { .. } => EffectId::Abbe,
-            Hidden::Reversal { .. } | Hidden::ReversalLinear { .. } => EffectId::Reversal,
-            Hidden::LatchDelay { .. } => EffectId::LatchDelay,
-            Hidden::Periodic { .. } => EffectId::PeriodicScale,
-            Hidden::DriftExp { .. } | Hidden::DriftLinear { .. } => EffectId::ThermalDrift,
-            Hidden::DeadPath { .. } => EffectId::DeadPath,
-            Hidden::Refraction { .. } => EffectId::Refraction,
+/// Refuses what [`generate`] cannot hide, before anything is drawn.
+fn check_hidden(hidden: &[Effect]) -> Result<(), SynthError> {
+    for h in hidden {
+        match *h {
+            Effect::Abbe { offset_axis, .. } if offset_axis == crate::base::Axis::X => {
+                return Err(SynthError::AbbeAxis(offset_axis));
+            }
+            Effect::Unexplained { .. }
+            | Effect::Backlash { .. }
+            | Effect::ReversalSpike { .. }
+            | Effect::LateralPlay { .. }
+            | Effect::CyclicError { .. }
+            | Effect::Straightness { .. }
+            | Effect::ServoMismatch { .. }
+            | Effect::ScaleMismatch { .. }
+            | Effect::Squareness { .. } => return Err(SynthError::Unsupported(h.id())),
+            _ => {}
         }
     }
-
-    /// The true parameters by the contract's names.
-    pub fn truth(&self) -> Vec<(&'static str, f64)> {
-        match *self {
-            Hidden::ScaleThermal {
-                alpha_ppm_per_k,
-                x0_mm,
-            } => {
-                vec![
-                    (P::AlphaPpmPerK.as_str(), alpha_ppm_per_k),
-                    (P::X0Mm.as_str(), x0_mm),
-                ]
-            }
-            Hidden::ScaleFactor { ppm } => vec![(P::Ppm.as_str(), ppm)],
-            Hidden::Abbe {
-                theta0_urad,
-                theta1_urad_per_mm,
-                ..
-            } => vec![
-                (P::Theta0Urad.as_str(), theta0_urad),
-                (P::Theta1UradPerMm.as_str(), theta1_urad_per_mm),
-            ],
-            Hidden::Reversal { b_um } => vec![(P::BUm.as_str(), b_um)],
-            Hidden::ReversalLinear { b_um, b1_um_per_m } => {
-                vec![(P::BUm.as_str(), b_um), (P::B1UmPerM.as_str(), b1_um_per_m)]
-            }
-            Hidden::LatchDelay { tau_us } => vec![(P::TauUs.as_str(), tau_us)],
-            Hidden::Periodic {
-                amplitude_um,
-                period_um,
-                phase_rad,
-            } => vec![
-                (P::AmplitudeUm.as_str(), amplitude_um),
-                (P::PeriodUm.as_str(), period_um),
-                (P::PhaseRad.as_str(), phase_rad),
-            ],
-            Hidden::DriftExp {
-                amplitude_um,
-                tau_s,
-            } => {
-                vec![
-                    (P::AmplitudeUm.as_str(), amplitude_um),
-                    (P::TauS.as_str(), tau_s),
-                ]
-            }
-            Hidden::DriftLinear { rate_um_per_s } => vec![(P::RateUmPerS.as_str(), rate_um_per_s)],
-            Hidden::DeadPath { dead_path_mm } => vec![(P::DeadPathMm.as_str(), dead_path_mm)],
-            Hidden::Refraction {
-                ppm_per_k,
-                ppm_per_hpa,
-            } => {
-                vec![
-                    (P::PpmPerK.as_str(), ppm_per_k),
-                    (P::PpmPerHpa.as_str(), ppm_per_hpa),
-                ]
-            }
-        }
-    }
+    Ok(())
 }
 
 /// The noise of the recording.
@@ -276,7 +213,7 @@ impl Default for SynthNoise {
 pub struct Synth {
     pub plan: SynthPlan,
     pub env: SynthEnv,
-    pub hidden: Vec<Hidden>,
+    pub hidden: Vec<Effect>,
     pub noise: SynthNoise,
     /// Scale of the geometric error, µm (its peak to peak is about twice this).
     pub geometric_um: f64,
@@ -396,8 +333,9 @@ fn schedule(p: &SynthPlan, rng: &mut StdRng) -> Vec<Slot> {
     s
 }
 
-/// Generates the pair.
-pub fn generate(cfg: &Synth) -> SynthOutput {
+/// Generates the pair; refuses an effect the pair cannot hide.
+pub fn generate(cfg: &Synth) -> Result<SynthOutput, SynthError> {
+    check_hidden(&cfg.hidden)?;
     let mut rng = StdRng::seed_from_u64(cfg.seed);
     let mut slots = schedule(&cfg.plan, &mut rng);
     // The untidy terms draw from their own generator: without them a seed gives the
@@ -478,42 +416,63 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
         let mut h_total = 0.0;
         for (i, h) in cfg.hidden.iter().enumerate() {
             let val = match *h {
-                Hidden::ScaleThermal {
+                Effect::ScaleThermalExpansion {
                     alpha_ppm_per_k,
                     x0_mm,
                 } => -alpha_ppm_per_k * (ts - 20.0) * (s.x - x0_mm) * 1e-3,
-                Hidden::ScaleFactor { ppm } => ppm * s.x * 1e-3,
-                Hidden::Abbe {
-                    along_z,
+                Effect::ScaleFactor { ppm } => ppm * s.x * 1e-3,
+                Effect::Abbe {
+                    offset_axis,
                     theta0_urad,
                     theta1_urad_per_mm,
                 } => {
-                    let c = if along_z { z } else { y };
+                    let c = if offset_axis == crate::base::Axis::Z {
+                        z
+                    } else {
+                        y
+                    };
                     c * (theta0_urad + theta1_urad_per_mm * s.x) * 1e-3
                 }
-                Hidden::Reversal { b_um } => d * b_um / 2.0,
-                Hidden::ReversalLinear { b_um, b1_um_per_m } => {
-                    d * (b_um + b1_um_per_m * (s.x - 0.5 * (xlo + xhi)) * 1e-3) / 2.0
-                }
-                Hidden::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
-                Hidden::Periodic {
+                Effect::Reversal {
+                    b_um,
+                    b1_um_per_m: None,
+                } => d * b_um / 2.0,
+                Effect::Reversal {
+                    b_um,
+                    b1_um_per_m: Some(b1_um_per_m),
+                } => d * (b_um + b1_um_per_m * (s.x - 0.5 * (xlo + xhi)) * 1e-3) / 2.0,
+                Effect::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
+                Effect::PeriodicScale {
                     amplitude_um,
                     period_um,
                     phase_rad,
                 } => amplitude_um * (TAU * s.x * 1000.0 / period_um + phase_rad).sin(),
-                Hidden::DriftExp {
+                Effect::ThermalDrift(Drift::Exponential {
                     amplitude_um,
                     tau_s,
-                } => amplitude_um * (1.0 - (-s.t / tau_s).exp()),
-                Hidden::DriftLinear { rate_um_per_s } => rate_um_per_s * s.t,
-                Hidden::DeadPath { dead_path_mm } => -dead_path_mm * (index(k) - n0) * 1e3,
-                Hidden::Refraction {
+                }) => amplitude_um * (1.0 - (-s.t / tau_s).exp()),
+                Effect::ThermalDrift(Drift::Linear { rate_um_per_s }) => rate_um_per_s * s.t,
+                Effect::DeadPath { dead_path_mm } => -dead_path_mm * (index(k) - n0) * 1e3,
+                Effect::Refraction {
                     ppm_per_k,
                     ppm_per_hpa,
                 } => {
-                    let dn = 1e-6 * (ppm_per_k * (at[k] - t_mean) + ppm_per_hpa * (ap[k] - p_mean));
+                    // A coefficient left out is a term the effect does not have.
+                    let a = ppm_per_k.unwrap_or(0.0);
+                    let b = ppm_per_hpa.unwrap_or(0.0);
+                    let dn = 1e-6 * (a * (at[k] - t_mean) + b * (ap[k] - p_mean));
                     -s.x * dn * 1e3
                 }
+                // Refused by `check_hidden` before anything was drawn.
+                Effect::Unexplained { .. }
+                | Effect::Backlash { .. }
+                | Effect::ReversalSpike { .. }
+                | Effect::LateralPlay { .. }
+                | Effect::CyclicError { .. }
+                | Effect::Straightness { .. }
+                | Effect::ServoMismatch { .. }
+                | Effect::ScaleMismatch { .. }
+                | Effect::Squareness { .. } => 0.0,
             };
             hidden_um[i][k] = val;
             h_total += val;
@@ -567,10 +526,47 @@ pub fn generate(cfg: &Synth) -> SynthOutput {
         recorded.push(row(e_rec));
         simulated.push(row(e_geo));
     }
-    SynthOutput {
+    Ok(SynthOutput {
         recorded,
         simulated,
         hidden_um,
         geometric_pp_um: ghi - glo,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::base::Axis;
+
+    /// What a positioning pair cannot carry is refused by name before anything is drawn;
+    /// what it can is generated with one contribution per effect.
+    #[test]
+    fn circular_effects_and_an_offset_along_the_axis_are_refused() {
+        let with = |h: Effect| Synth {
+            hidden: vec![h],
+            ..Synth::default()
+        };
+        let e = generate(&with(Effect::Backlash { b_um: 1.0 })).expect_err("circular");
+        assert_eq!(e, SynthError::Unsupported(EffectId::Backlash));
+        let abbe = |offset_axis| Effect::Abbe {
+            offset_axis,
+            theta0_urad: 5.0,
+            theta1_urad_per_mm: 0.0,
+        };
+        let e = generate(&with(abbe(Axis::X))).expect_err("along the axis");
+        assert_eq!(e, SynthError::AbbeAxis(Axis::X));
+        let out = generate(&with(abbe(Axis::Z))).expect("along z");
+        assert_eq!(out.hidden_um.len(), 1);
+        // θ0 = 5 µrad over the lines' z offsets: c·θ0·1e−3 µm on every row.
+        let lines = SynthPlan::default().lines_mm;
+        let zs: Vec<f64> = lines.iter().map(|l| l[1] * 5.0 * 1e-3).collect();
+        assert!(
+            out.hidden_um[0]
+                .iter()
+                .all(|v| zs.iter().any(|z| (v - z).abs() < 1e-12)),
+            "{:?}",
+            &out.hidden_um[0][..5]
+        );
     }
 }

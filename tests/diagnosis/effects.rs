@@ -3,7 +3,8 @@
 //! Synthetic sessions from `errmap::diagnose::synth` (seeded).
 
 use crate::common::diagnosis_text;
-use errmap::diagnose::synth::{Hidden, Synth, generate};
+use errmap::base::{Axis, Drift, Effect};
+use errmap::diagnose::synth::{Synth, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 
 pub(crate) fn config() -> DiagnoseConfig {
@@ -14,7 +15,7 @@ pub(crate) fn config() -> DiagnoseConfig {
 }
 
 fn run(s: &Synth) -> Diagnosis {
-    let out = generate(s);
+    let out = generate(s).expect("a positioning pair");
     // The hidden effects are concealed: each smaller than the geometric error's range.
     for (h, v) in s.hidden.iter().zip(&out.hidden_um) {
         let (lo, hi) = v
@@ -41,14 +42,14 @@ fn param(e: &FoundEffect, name: &str) -> f64 {
 
 /// The effect is found alone with its parameters within 25 % (and one-sigma ≤ half the
 /// value), and the residual after is at noise level.
-fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
+fn check_single(s: &Synth, hidden: Effect, keys: &[&str]) {
     let d = run(s);
     let text = diagnosis_text(&d);
     assert_eq!(d.verdict.as_str(), "missing_physics", "{text}");
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
     assert_eq!(e.id(), hidden.id(), "{text}");
-    for (name, truth) in hidden.truth() {
+    for (name, truth) in truth(&hidden) {
         if !keys.contains(&name) {
             continue;
         }
@@ -68,7 +69,7 @@ fn check_single(s: &Synth, hidden: Hidden, keys: &[&str]) {
     );
 }
 
-pub(crate) fn with(hidden: &[Hidden]) -> Synth {
+pub(crate) fn with(hidden: &[Effect]) -> Synth {
     Synth {
         hidden: hidden.to_vec(),
         seed: 7,
@@ -84,12 +85,12 @@ fn finds_two_periodic_terms_at_p_and_p_over_2() {
 
 fn check_multi_periodic() {
     let s = with(&[
-        Hidden::Periodic {
+        Effect::PeriodicScale {
             amplitude_um: 0.2,
             period_um: 20.0,
             phase_rad: 0.4,
         },
-        Hidden::Periodic {
+        Effect::PeriodicScale {
             amplitude_um: 0.08,
             period_um: 10.0,
             phase_rad: -2.0,
@@ -114,7 +115,7 @@ fn check_multi_periodic() {
 
 #[test]
 fn finds_scale_thermal_expansion() {
-    let h = Hidden::ScaleThermal {
+    let h = Effect::ScaleThermalExpansion {
         alpha_ppm_per_k: 10.5,
         x0_mm: 0.0,
     };
@@ -123,7 +124,7 @@ fn finds_scale_thermal_expansion() {
 
 #[test]
 fn finds_scale_thermal_expansion_with_x0() {
-    let h = Hidden::ScaleThermal {
+    let h = Effect::ScaleThermalExpansion {
         alpha_ppm_per_k: 11.5,
         x0_mm: 300.0,
     };
@@ -132,14 +133,14 @@ fn finds_scale_thermal_expansion_with_x0() {
 
 #[test]
 fn finds_scale_factor() {
-    let h = Hidden::ScaleFactor { ppm: 4.0 };
+    let h = Effect::ScaleFactor { ppm: 4.0 };
     check_single(&with(&[h]), h, &["ppm"]);
 }
 
 #[test]
 fn finds_abbe_along_z() {
-    let h = Hidden::Abbe {
-        along_z: true,
+    let h = Effect::Abbe {
+        offset_axis: Axis::Z,
         theta0_urad: 5.0,
         theta1_urad_per_mm: 0.01,
     };
@@ -157,8 +158,8 @@ fn finds_abbe_along_z() {
 
 #[test]
 fn finds_abbe_along_y() {
-    let h = Hidden::Abbe {
-        along_z: false,
+    let h = Effect::Abbe {
+        offset_axis: Axis::Y,
         theta0_urad: -8.0,
         theta1_urad_per_mm: 0.02,
     };
@@ -176,19 +177,22 @@ fn finds_abbe_along_y() {
 
 #[test]
 fn finds_reversal() {
-    let h = Hidden::Reversal { b_um: 0.8 };
+    let h = Effect::Reversal {
+        b_um: 0.8,
+        b1_um_per_m: None,
+    };
     check_single(&with(&[h]), h, &["b_um"]);
 }
 
 #[test]
 fn finds_latch_delay() {
-    let h = Hidden::LatchDelay { tau_us: 25.0 };
+    let h = Effect::LatchDelay { tau_us: 25.0 };
     check_single(&with(&[h]), h, &["tau_us"]);
 }
 
 #[test]
 fn finds_periodic_scale_at_half_the_grating_period() {
-    let h = Hidden::Periodic {
+    let h = Effect::PeriodicScale {
         amplitude_um: 0.15,
         period_um: 10.0,
         phase_rad: 0.7,
@@ -198,7 +202,7 @@ fn finds_periodic_scale_at_half_the_grating_period() {
 
 #[test]
 fn finds_periodic_scale_at_a_non_grating_period() {
-    let h = Hidden::Periodic {
+    let h = Effect::PeriodicScale {
         amplitude_um: 0.2,
         period_um: 1000.0,
         phase_rad: -1.2,
@@ -208,16 +212,16 @@ fn finds_periodic_scale_at_a_non_grating_period() {
 
 #[test]
 fn finds_exponential_thermal_drift() {
-    let h = Hidden::DriftExp {
+    let h = Effect::ThermalDrift(Drift::Exponential {
         amplitude_um: 1.5,
         tau_s: 600.0,
-    };
+    });
     check_single(&with(&[h]), h, &["amplitude_um", "tau_s"]);
 }
 
 #[test]
 fn finds_dead_path() {
-    let h = Hidden::DeadPath {
+    let h = Effect::DeadPath {
         dead_path_mm: 300.0,
     };
     let mut s = with(&[h]);
@@ -227,9 +231,9 @@ fn finds_dead_path() {
 
 #[test]
 fn finds_refraction() {
-    let h = Hidden::Refraction {
-        ppm_per_k: 0.93,
-        ppm_per_hpa: -0.27,
+    let h = Effect::Refraction {
+        ppm_per_k: Some(0.93),
+        ppm_per_hpa: Some(-0.27),
     };
     check_single(&with(&[h]), h, &["ppm_per_k", "ppm_per_hpa"]);
 }
@@ -243,9 +247,9 @@ fn clean_recording_is_consistent() {
 
 #[test]
 fn finds_linear_thermal_drift() {
-    let h = Hidden::DriftLinear {
+    let h = Effect::ThermalDrift(Drift::Linear {
         rate_um_per_s: 6e-4,
-    };
+    });
     check_single(&with(&[h]), h, &["rate_um_per_s"]);
 }
 
@@ -264,7 +268,7 @@ fn check_multi(s: &Synth) -> Diagnosis {
             .iter()
             .find(|e| e.id() == h.id())
             .unwrap_or_else(|| panic!("{} missing\n{text}", h.id()));
-        let (name, truth) = h.truth()[0];
+        let (name, truth) = truth(&h)[0];
         let v = param(e, name);
         assert!(
             (v - truth).abs() <= 0.25 * truth.abs(),
@@ -278,8 +282,11 @@ fn check_multi(s: &Synth) -> Diagnosis {
 #[test]
 fn finds_reversal_and_periodic_together() {
     check_multi(&with(&[
-        Hidden::Reversal { b_um: 0.8 },
-        Hidden::Periodic {
+        Effect::Reversal {
+            b_um: 0.8,
+            b1_um_per_m: None,
+        },
+        Effect::PeriodicScale {
             amplitude_um: 0.15,
             period_um: 10.0,
             phase_rad: -1.1,
@@ -290,26 +297,26 @@ fn finds_reversal_and_periodic_together() {
 #[test]
 fn finds_scale_thermal_expansion_and_latch_delay_together() {
     check_multi(&with(&[
-        Hidden::ScaleThermal {
+        Effect::ScaleThermalExpansion {
             alpha_ppm_per_k: 9.0,
             x0_mm: 0.0,
         },
-        Hidden::LatchDelay { tau_us: 30.0 },
+        Effect::LatchDelay { tau_us: 30.0 },
     ]));
 }
 
 #[test]
 fn finds_abbe_and_thermal_drift_together() {
     let mut s = with(&[
-        Hidden::Abbe {
-            along_z: false,
+        Effect::Abbe {
+            offset_axis: Axis::Y,
             theta0_urad: 6.0,
             theta1_urad_per_mm: -0.02,
         },
-        Hidden::DriftExp {
+        Effect::ThermalDrift(Drift::Exponential {
             amplitude_um: -2.0,
             tau_s: 500.0,
-        },
+        }),
     ]);
     s.noise.sigma_um = 0.08;
     check_multi(&s);
@@ -318,10 +325,10 @@ fn finds_abbe_and_thermal_drift_together() {
 #[test]
 fn finds_dead_path_and_scale_factor_together() {
     let mut s = with(&[
-        Hidden::DeadPath {
+        Effect::DeadPath {
             dead_path_mm: 400.0,
         },
-        Hidden::ScaleFactor { ppm: -6.0 },
+        Effect::ScaleFactor { ppm: -6.0 },
     ]);
     s.env.air_temp_drift_k = -0.5;
     check_multi(&s);
@@ -366,7 +373,10 @@ fn uneven_noise_in_two_runs_is_consistent() {
 
 #[test]
 fn uneven_noise_does_not_hide_an_effect() {
-    let h = Hidden::Reversal { b_um: 0.5 };
+    let h = Effect::Reversal {
+        b_um: 0.5,
+        b1_um_per_m: None,
+    };
     let mut s = with(&[h]);
     s.noise.moving_factor = 3.0;
     let d = run(&s);
@@ -384,7 +394,7 @@ fn all_text(d: &Diagnosis) -> String {
 /// the ambiguity is stated with the measurement that separates them.
 #[test]
 fn constant_scale_temperature_makes_thermal_expansion_ambiguous() {
-    let mut s = with(&[Hidden::ScaleThermal {
+    let mut s = with(&[Effect::ScaleThermalExpansion {
         alpha_ppm_per_k: 10.0,
         x0_mm: 0.0,
     }]);
@@ -413,7 +423,7 @@ fn constant_scale_temperature_makes_thermal_expansion_ambiguous() {
 /// One feed and no dwell rows: d·v·τ is a reversal.
 #[test]
 fn one_feed_without_dwell_makes_latch_delay_ambiguous() {
-    let mut s = with(&[Hidden::LatchDelay { tau_us: 20.0 }]);
+    let mut s = with(&[Effect::LatchDelay { tau_us: 20.0 }]);
     s.plan.feeds_mm_s = vec![100.0];
     s.plan.dwell_samples = 0;
     let d = run(&s);
@@ -433,8 +443,8 @@ fn one_feed_without_dwell_makes_latch_delay_ambiguous() {
 /// A single line: c·θ(x) is a constant plus a scale factor.
 #[test]
 fn single_line_makes_abbe_ambiguous() {
-    let mut s = with(&[Hidden::Abbe {
-        along_z: true,
+    let mut s = with(&[Effect::Abbe {
+        offset_axis: Axis::Z,
         theta0_urad: 5.0,
         theta1_urad_per_mm: 0.01,
     }]);
@@ -455,12 +465,12 @@ fn single_line_makes_abbe_ambiguous() {
 /// the correction (a model may over-compensate).
 #[test]
 fn a_negative_total_dead_path_is_refused_when_the_model_is_known() {
-    let h = Hidden::DeadPath {
+    let h = Effect::DeadPath {
         dead_path_mm: -300.0,
     };
     let mut s = with(&[h]);
     s.env.air_temp_drift_k = 0.5;
-    let out = generate(&s);
+    let out = generate(&s).expect("a positioning pair");
     let free = diagnose(&out.recorded, &out.simulated, &config()).expect("diagnoses");
     assert_eq!(
         free.effects.first().map(|e| e.id().as_str()),

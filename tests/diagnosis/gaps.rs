@@ -5,11 +5,12 @@
 
 use crate::common::diagnosis_text;
 use crate::effects::{config, with};
-use errmap::diagnose::synth::{Hidden, Synth, generate};
+use errmap::base::{Axis, Drift, Effect};
+use errmap::diagnose::synth::{Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
 
 fn run(s: &Synth) -> Diagnosis {
-    let out = generate(s);
+    let out = generate(s).expect("a positioning pair");
     diagnose(&out.recorded, &out.simulated, &config()).expect("diagnoses")
 }
 
@@ -33,9 +34,9 @@ fn param(e: &FoundEffect, name: &str) -> (f64, f64) {
 /// and said to be consistent with zero.
 #[test]
 fn refraction_reports_both_parameters_when_pressure_is_compensated() {
-    let h = Hidden::Refraction {
-        ppm_per_k: 0.93,
-        ppm_per_hpa: 0.0,
+    let h = Effect::Refraction {
+        ppm_per_k: Some(0.93),
+        ppm_per_hpa: Some(0.0),
     };
     let d = run(&with(&[h]));
     let text = diagnosis_text(&d);
@@ -56,8 +57,8 @@ fn refraction_reports_both_parameters_when_pressure_is_compensated() {
 /// with its σ and consistent with zero; the determined one is not flagged.
 #[test]
 fn abbe_and_scale_expansion_report_every_parameter() {
-    let h = Hidden::Abbe {
-        along_z: true,
+    let h = Effect::Abbe {
+        offset_axis: Axis::Z,
         theta0_urad: 6.0,
         theta1_urad_per_mm: 0.0,
     };
@@ -70,7 +71,7 @@ fn abbe_and_scale_expansion_report_every_parameter() {
     assert!(s1 > 0.0 && t1.abs() <= 3.0 * s1, "{text}");
     assert!(e.where_.contains("theta1_urad_per_mm"), "{text}");
 
-    let h = Hidden::ScaleThermal {
+    let h = Effect::ScaleThermalExpansion {
         alpha_ppm_per_k: 10.5,
         x0_mm: 0.0,
     };
@@ -85,7 +86,7 @@ fn abbe_and_scale_expansion_report_every_parameter() {
 
 /// The air drifting monotonically (no cycle, steady pressure): the dead-path column is a
 /// smooth function of time, so a drift fits it as well.
-fn monotone_air(hidden: &[Hidden]) -> Synth {
+fn monotone_air(hidden: &[Effect]) -> Synth {
     let mut s = with(hidden);
     s.env.air_temp_cycle = (0.0, 900.0);
     s.env.air_temp_drift_k = 0.6;
@@ -111,7 +112,7 @@ fn check_plan(d: &Diagnosis) -> String {
 /// is reported, the basis is stated, and the separating dwell is a ready plan.
 #[test]
 fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
-    let d = run(&monotone_air(&[Hidden::DeadPath {
+    let d = run(&monotone_air(&[Effect::DeadPath {
         dead_path_mm: 300.0,
     }]));
     let text = diagnosis_text(&d);
@@ -127,9 +128,10 @@ fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
 
     // The same data with the set-up's optics known to be 150 mm long: no dead path of
     // 300 mm is possible, so the drift is reported.
-    let out = generate(&monotone_air(&[Hidden::DeadPath {
+    let out = generate(&monotone_air(&[Effect::DeadPath {
         dead_path_mm: 300.0,
-    }]));
+    }]))
+    .expect("a positioning pair");
     let short = DiagnoseConfig {
         max_dead_path_mm: Some(150.0),
         ..config()
@@ -145,9 +147,9 @@ fn a_plausible_dead_path_is_kept_with_its_basis_and_plan() {
 /// longer than the 800 mm axis: `thermal_drift` is reported, with the basis and the plan.
 #[test]
 fn an_impossible_dead_path_decides_for_the_drift() {
-    let d = run(&monotone_air(&[Hidden::DriftLinear {
+    let d = run(&monotone_air(&[Effect::ThermalDrift(Drift::Linear {
         rate_um_per_s: 6e-4,
-    }]));
+    })]));
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
@@ -163,9 +165,9 @@ fn an_impossible_dead_path_decides_for_the_drift() {
 /// still reported as one constant.
 #[test]
 fn position_dependent_reversal_is_found_and_constant_stays_constant() {
-    let h = Hidden::ReversalLinear {
+    let h = Effect::Reversal {
         b_um: 0.8,
-        b1_um_per_m: 1.0,
+        b1_um_per_m: Some(1.0),
     };
     let d = run(&with(&[h]));
     let text = diagnosis_text(&d);
@@ -182,7 +184,10 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
     assert!(e.where_.contains("changes along the axis"), "{text}");
     assert!(d.rms_after_um <= 1.3 * 0.05, "{text}");
 
-    let d = run(&with(&[Hidden::Reversal { b_um: 0.8 }]));
+    let d = run(&with(&[Effect::Reversal {
+        b_um: 0.8,
+        b1_um_per_m: None,
+    }]));
     let text = diagnosis_text(&d);
     assert_eq!(d.effects.len(), 1, "{text}");
     let e = &d.effects[0];
@@ -199,13 +204,16 @@ fn position_dependent_reversal_is_found_and_constant_stays_constant() {
 #[test]
 fn recorded_only_finds_a_concealed_drift() {
     let s = with(&[
-        Hidden::Reversal { b_um: 0.8 },
-        Hidden::ScaleFactor { ppm: 4.0 },
-        Hidden::DriftLinear {
-            rate_um_per_s: 4e-4,
+        Effect::Reversal {
+            b_um: 0.8,
+            b1_um_per_m: None,
         },
+        Effect::ScaleFactor { ppm: 4.0 },
+        Effect::ThermalDrift(Drift::Linear {
+            rate_um_per_s: 4e-4,
+        }),
     ]);
-    let out = generate(&s);
+    let out = generate(&s).expect("a positioning pair");
     let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
     let text = diagnosis_text(&d);
     let ids: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
@@ -235,15 +243,18 @@ fn recorded_only_finds_a_concealed_drift() {
 #[test]
 fn recorded_only_clean_recording_gives_no_effect() {
     let s = with(&[
-        Hidden::Reversal { b_um: 0.8 },
-        Hidden::ScaleFactor { ppm: 4.0 },
-        Hidden::Abbe {
-            along_z: true,
+        Effect::Reversal {
+            b_um: 0.8,
+            b1_um_per_m: None,
+        },
+        Effect::ScaleFactor { ppm: 4.0 },
+        Effect::Abbe {
+            offset_axis: Axis::Z,
             theta0_urad: 5.0,
             theta1_urad_per_mm: 0.01,
         },
     ]);
-    let out = generate(&s);
+    let out = generate(&s).expect("a positioning pair");
     let d = errmap::diagnose::diagnose_recorded(&out.recorded, &config()).expect("diagnoses");
     let text = diagnosis_text(&d);
     assert_eq!(d.verdict.as_str(), "consistent", "{text}");

@@ -3,7 +3,8 @@
 
 use std::time::Instant;
 
-use errmap::diagnose::synth::{Hidden, Synth, SynthPlan, generate};
+use errmap::base::{Drift, Effect};
+use errmap::diagnose::synth::{Synth, SynthPlan, generate};
 use errmap::diagnose::{DiagnoseConfig, diagnose};
 
 #[test]
@@ -27,21 +28,24 @@ fn hundred_thousand_rows_in_under_two_seconds() {
             ..SynthPlan::default()
         },
         hidden: vec![
-            Hidden::Reversal { b_um: 0.5 },
-            Hidden::Periodic {
+            Effect::Reversal {
+                b_um: 0.5,
+                b1_um_per_m: None,
+            },
+            Effect::PeriodicScale {
                 amplitude_um: 0.1,
                 period_um: 10.0,
                 phase_rad: 0.4,
             },
-            Hidden::DriftExp {
+            Effect::ThermalDrift(Drift::Exponential {
                 amplitude_um: 1.0,
                 tau_s: 900.0,
-            },
+            }),
         ],
         seed: 4,
         ..Synth::default()
     };
-    let out = generate(&s);
+    let out = generate(&s).expect("a positioning pair");
     assert!(out.recorded.len() >= 100_000, "{} rows", out.recorded.len());
     for (name, cfg) in [
         (

@@ -10,7 +10,8 @@
 //! of random size. `ERRMAP_DIAG_TIDY=1` switches them off (the campaigns as they were
 //! before those terms existed, for comparison).
 
-use errmap::diagnose::synth::{Hidden, Synth, SynthNoise, generate};
+use errmap::base::{Axis, Drift, Effect};
+use errmap::diagnose::synth::{Synth, SynthNoise, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -108,7 +109,7 @@ fn draw(
     kind: &str,
     rng: &mut StdRng,
     s: &mut Synth,
-) -> (Hidden, Vec<&'static str>, DiagnoseConfig) {
+) -> (Effect, Vec<&'static str>, DiagnoseConfig) {
     let mut cfg = DiagnoseConfig {
         grating_period_um: Some(20.0),
         ..DiagnoseConfig::default()
@@ -120,12 +121,12 @@ fn draw(
             } else {
                 rng.random_range(100.0..400.0)
             };
-            Hidden::ScaleThermal {
+            Effect::ScaleThermalExpansion {
                 alpha_ppm_per_k: rng.random_range(8.0..12.0),
                 x0_mm: x0,
             }
         }
-        "scale_factor" => Hidden::ScaleFactor {
+        "scale_factor" => Effect::ScaleFactor {
             ppm: sign(rng) * rng.random_range(2.0..20.0),
         },
         "abbe" => {
@@ -134,16 +135,21 @@ fn draw(
                 l[0] = rng.random_range(100.0..500.0);
                 l[1] = rng.random_range(100.0..500.0);
             }
-            Hidden::Abbe {
-                along_z: rng.random_bool(0.5),
+            Effect::Abbe {
+                offset_axis: if rng.random_bool(0.5) {
+                    Axis::Z
+                } else {
+                    Axis::Y
+                },
                 theta0_urad: sign(rng) * rng.random_range(2.0..20.0),
                 theta1_urad_per_mm: sign(rng) * rng.random_range(0.005..0.05),
             }
         }
-        "reversal" => Hidden::Reversal {
+        "reversal" => Effect::Reversal {
             b_um: rng.random_range(0.3..3.0),
+            b1_um_per_m: None,
         },
-        "latch_delay" => Hidden::LatchDelay {
+        "latch_delay" => Effect::LatchDelay {
             tau_us: rng.random_range(20.0..500.0),
         },
         "periodic_scale" => {
@@ -156,7 +162,7 @@ fn draw(
                 _ => (Some(20.0), rng.random_range(500.0..2000.0)),
             };
             cfg.grating_period_um = grating;
-            Hidden::Periodic {
+            Effect::PeriodicScale {
                 amplitude_um: rng.random_range(0.05..0.5),
                 period_um: period,
                 phase_rad: rng.random_range(-3.0..3.0),
@@ -170,27 +176,29 @@ fn draw(
                 [100.0, 450.0],
                 [400.0, 450.0],
             ];
-            Hidden::DriftExp {
+            Effect::ThermalDrift(Drift::Exponential {
                 amplitude_um: sign(rng) * rng.random_range(0.5..3.0),
                 tau_s: rng.random_range(300.0..3000.0),
-            }
+            })
         }
         "dead_path" => {
             s.env.air_temp_drift_k = 0.5 * sign(rng);
-            Hidden::DeadPath {
+            Effect::DeadPath {
                 dead_path_mm: rng.random_range(50.0..500.0),
             }
         }
-        _ => Hidden::Refraction {
-            ppm_per_k: rng.random_range(0.9..1.0),
-            ppm_per_hpa: -rng.random_range(0.25..0.29),
+        _ => Effect::Refraction {
+            ppm_per_k: Some(rng.random_range(0.9..1.0)),
+            ppm_per_hpa: Some(-rng.random_range(0.25..0.29)),
         },
     };
     let keys: Vec<&'static str> = match h {
-        Hidden::ScaleThermal { x0_mm, .. } if x0_mm != 0.0 => vec!["alpha_ppm_per_k", "x0_mm"],
-        Hidden::ScaleThermal { .. } => vec!["alpha_ppm_per_k"],
-        Hidden::Periodic { .. } => vec!["amplitude_um", "period_um"],
-        _ => h.truth().iter().map(|(k, _)| *k).collect(),
+        Effect::ScaleThermalExpansion { x0_mm, .. } if x0_mm != 0.0 => {
+            vec!["alpha_ppm_per_k", "x0_mm"]
+        }
+        Effect::ScaleThermalExpansion { .. } => vec!["alpha_ppm_per_k"],
+        Effect::PeriodicScale { .. } => vec!["amplitude_um", "period_um"],
+        _ => truth(&h).iter().map(|(k, _)| *k).collect(),
     };
     (h, keys, cfg)
 }
@@ -212,12 +220,12 @@ fn describe(d: &Diagnosis) -> String {
 }
 
 /// Why a draw failed, or None.
-fn judge(d: &Diagnosis, h: &Hidden, keys: &[&str], noise: f64) -> Option<String> {
+fn judge(d: &Diagnosis, h: &Effect, keys: &[&str], noise: f64) -> Option<String> {
     if d.effects.len() != 1 || d.effects[0].id() != h.id() {
         return Some(format!("wrong effects: {}", describe(d)));
     }
     let e = &d.effects[0];
-    for (name, truth) in h.truth() {
+    for (name, truth) in truth(&h) {
         if !keys.contains(&name) {
             continue;
         }
@@ -256,7 +264,7 @@ fn campaign(kind: &str, seed: u64, min_rate: f64) {
         let mut s = session(&mut rng, seed * 1000 + k);
         let (h, keys, cfg) = draw(kind, &mut rng, &mut s);
         s.hidden = vec![h];
-        let out = generate(&s);
+        let out = generate(&s).expect("a positioning pair");
         let d = match diagnose(&out.recorded, &out.simulated, &cfg) {
             Ok(d) => d,
             Err(e) => panic!("{kind} draw {k}: {e}"),
@@ -342,7 +350,7 @@ fn random_clean_sessions_stay_consistent() {
             }
             _ => {}
         }
-        let out = generate(&s);
+        let out = generate(&s).expect("a positioning pair");
         let cfg = DiagnoseConfig::default();
         let d = match diagnose(&out.recorded, &out.simulated, &cfg) {
             Ok(d) => d,

@@ -1,6 +1,7 @@
 //! Matching, bad input, the JSON contract shape, the report files, random pairs of effects.
 
-use errmap::diagnose::synth::{Hidden, Synth, generate};
+use errmap::base::{Axis, Drift, Effect};
+use errmap::diagnose::synth::{Synth, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose};
 use errmap::report::diagnosis::write_report;
 use rand::rngs::StdRng;
@@ -18,7 +19,10 @@ fn cfg() -> DiagnoseConfig {
 
 fn reversal() -> Synth {
     Synth {
-        hidden: vec![Hidden::Reversal { b_um: 0.6 }],
+        hidden: vec![Effect::Reversal {
+            b_um: 0.6,
+            b1_um_per_m: None,
+        }],
         seed: 3,
         ..Synth::default()
     }
@@ -28,7 +32,7 @@ fn reversal() -> Synth {
 /// non-finite error: the same effect, and every left-out row counted.
 #[test]
 fn matching_survives_order_gaps_and_flags() -> TestResult {
-    let out = generate(&reversal());
+    let out = generate(&reversal()).expect("a positioning pair");
     let mut rec = out.recorded.clone();
     let mut sim = out.simulated.clone();
     let mut rng = StdRng::seed_from_u64(9);
@@ -76,7 +80,7 @@ fn matching_survives_order_gaps_and_flags() -> TestResult {
 /// Duplicate (run, sample) keys are left out, never matched by guess.
 #[test]
 fn duplicate_keys_are_left_out() -> TestResult {
-    let out = generate(&reversal());
+    let out = generate(&reversal()).expect("a positioning pair");
     let mut rec = out.recorded.clone();
     let dup = rec[200].clone();
     rec.push(dup);
@@ -88,7 +92,7 @@ fn duplicate_keys_are_left_out() -> TestResult {
 
 #[test]
 fn bad_input_is_a_typed_error() {
-    let out = generate(&reversal());
+    let out = generate(&reversal()).expect("a positioning pair");
     assert!(matches!(
         diagnose(&[], &out.simulated, &cfg()),
         Err(DiagnoseError::Empty { which: "recorded" })
@@ -127,7 +131,7 @@ fn bad_input_is_a_typed_error() {
 /// Tiny, degenerate and identical sessions do not panic; identical ones are consistent.
 #[test]
 fn degenerate_sessions_do_not_panic() -> TestResult {
-    let out = generate(&reversal());
+    let out = generate(&reversal()).expect("a positioning pair");
     // Identical tables: the residual is exactly zero.
     let d = diagnose(&out.simulated, &out.simulated, &cfg())?;
     assert_eq!(d.verdict.as_str(), "consistent");
@@ -167,14 +171,15 @@ fn degenerate_sessions_do_not_panic() -> TestResult {
 #[test]
 fn json_has_the_contract_shape() -> TestResult {
     let out = generate(&Synth {
-        hidden: vec![Hidden::Abbe {
-            along_z: true,
+        hidden: vec![Effect::Abbe {
+            offset_axis: Axis::Z,
             theta0_urad: 4.0,
             theta1_urad_per_mm: 0.01,
         }],
         seed: 5,
         ..Synth::default()
-    });
+    })
+    .expect("a positioning pair");
     let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
     let v = serde_json::to_value(&d)?;
     assert!(matches!(
@@ -208,8 +213,11 @@ fn json_has_the_contract_shape() -> TestResult {
 fn report_has_markdown_and_charts() -> TestResult {
     let out = generate(&Synth {
         hidden: vec![
-            Hidden::Reversal { b_um: 0.7 },
-            Hidden::Periodic {
+            Effect::Reversal {
+                b_um: 0.7,
+                b1_um_per_m: None,
+            },
+            Effect::PeriodicScale {
                 amplitude_um: 0.2,
                 period_um: 20.0,
                 phase_rad: 0.3,
@@ -217,7 +225,8 @@ fn report_has_markdown_and_charts() -> TestResult {
         ],
         seed: 8,
         ..Synth::default()
-    });
+    })
+    .expect("a positioning pair");
     let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
     let dir = tempfile::tempdir()?;
     let files = write_report(&d, dir.path(), None)?;
@@ -259,40 +268,45 @@ fn random_pairs_of_effects() -> TestResult {
         .unwrap_or(16);
     let mut fails = Vec::new();
     for k in 0..draws {
-        let mut pool: Vec<Hidden> = vec![
-            Hidden::ScaleThermal {
+        let mut pool: Vec<Effect> = vec![
+            Effect::ScaleThermalExpansion {
                 alpha_ppm_per_k: rng.random_range(8.0..12.0),
                 x0_mm: 0.0,
             },
-            Hidden::ScaleFactor {
+            Effect::ScaleFactor {
                 ppm: rng.random_range(2.0..20.0),
             },
-            Hidden::Abbe {
-                along_z: rng.random_bool(0.5),
+            Effect::Abbe {
+                offset_axis: if rng.random_bool(0.5) {
+                    Axis::Z
+                } else {
+                    Axis::Y
+                },
                 theta0_urad: rng.random_range(2.0..20.0),
                 theta1_urad_per_mm: rng.random_range(0.005..0.05),
             },
-            Hidden::Reversal {
+            Effect::Reversal {
                 b_um: rng.random_range(0.3..3.0),
+                b1_um_per_m: None,
             },
-            Hidden::LatchDelay {
+            Effect::LatchDelay {
                 tau_us: rng.random_range(20.0..200.0),
             },
-            Hidden::Periodic {
+            Effect::PeriodicScale {
                 amplitude_um: rng.random_range(0.05..0.5),
                 period_um: 20.0,
                 phase_rad: rng.random_range(-3.0..3.0),
             },
-            Hidden::DriftExp {
+            Effect::ThermalDrift(Drift::Exponential {
                 amplitude_um: rng.random_range(0.5..3.0),
                 tau_s: rng.random_range(300.0..1000.0),
-            },
-            Hidden::DeadPath {
+            }),
+            Effect::DeadPath {
                 dead_path_mm: rng.random_range(200.0..500.0),
             },
-            Hidden::Refraction {
-                ppm_per_k: rng.random_range(0.9..1.0),
-                ppm_per_hpa: -0.27,
+            Effect::Refraction {
+                ppm_per_k: Some(rng.random_range(0.9..1.0)),
+                ppm_per_hpa: Some(-0.27),
             },
         ];
         pool.shuffle(&mut rng);
@@ -302,7 +316,7 @@ fn random_pairs_of_effects() -> TestResult {
             seed: 500 + k,
             ..Synth::default()
         };
-        let out = generate(&s);
+        let out = generate(&s).expect("a positioning pair");
         let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
         let mut want: Vec<&str> = hidden.iter().map(|h| h.id().as_str()).collect();
         let mut got: Vec<&str> = d.effects.iter().map(|e| e.id().as_str()).collect();
@@ -312,7 +326,7 @@ fn random_pairs_of_effects() -> TestResult {
         let ok_params = hidden.iter().all(|h| {
             d.effects.iter().any(|e| {
                 e.id() == h.id() && {
-                    let (name, truth) = h.truth()[0];
+                    let (name, truth) = truth(&h)[0];
                     let v = e.number_named(name).unwrap_or(f64::NAN);
                     (v - truth).abs() <= 0.25 * truth.abs()
                 }
@@ -421,14 +435,15 @@ fn random_rows_never_panic() {
 #[test]
 fn works_on_the_y_axis() -> TestResult {
     let out = generate(&Synth {
-        hidden: vec![Hidden::Abbe {
-            along_z: true,
+        hidden: vec![Effect::Abbe {
+            offset_axis: Axis::Z,
             theta0_urad: 6.0,
             theta1_urad_per_mm: 0.01,
         }],
         seed: 12,
         ..Synth::default()
-    });
+    })
+    .expect("a positioning pair");
     let to_y = |rows: &[errmap::drivers::SessionRow]| -> Vec<errmap::drivers::SessionRow> {
         rows.iter()
             .map(|r| {
@@ -466,7 +481,8 @@ fn structure_outside_the_vocabulary_is_reported_as_unexplained() -> TestResult {
     let mut out = generate(&Synth {
         seed: 77,
         ..Synth::default()
-    });
+    })
+    .expect("a positioning pair");
     for r in &mut out.recorded {
         let x = r.x_mm.unwrap_or(0.0);
         r.error_um += 0.4 * (-((x - 400.0) / 40.0).powi(2)).exp();

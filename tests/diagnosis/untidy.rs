@@ -4,7 +4,8 @@
 //! the wider search stays quiet on untidy sessions.
 
 use crate::common::diagnosis_text;
-use errmap::diagnose::synth::{Hidden, Synth, SynthNoise, generate};
+use errmap::base::Effect;
+use errmap::diagnose::synth::{Synth, SynthNoise, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
 
 fn config() -> DiagnoseConfig {
@@ -14,7 +15,7 @@ fn config() -> DiagnoseConfig {
     }
 }
 
-fn untidy(seed: u64, hidden: Vec<Hidden>) -> Synth {
+fn untidy(seed: u64, hidden: Vec<Effect>) -> Synth {
     Synth {
         seed,
         hidden,
@@ -28,7 +29,7 @@ fn untidy(seed: u64, hidden: Vec<Hidden>) -> Synth {
 }
 
 fn run(s: &Synth) -> Diagnosis {
-    let out = generate(s);
+    let out = generate(s).expect("a positioning pair");
     match diagnose(&out.recorded, &out.simulated, &config()) {
         Ok(d) => d,
         Err(e) => panic!("diagnose failed: {e}"),
@@ -51,7 +52,10 @@ fn outliers_get_no_weight_and_raise_no_alarm() {
             "the outliers are not stated: {:?}",
             d.selection_log
         );
-        s.hidden = vec![Hidden::Reversal { b_um: 0.4 }];
+        s.hidden = vec![Effect::Reversal {
+            b_um: 0.4,
+            b1_um_per_m: None,
+        }];
         let d = run(&s);
         let text = diagnosis_text(&d);
         assert_eq!(d.effects.len(), 1, "{text}");
@@ -68,7 +72,7 @@ fn outliers_get_no_weight_and_raise_no_alarm() {
 /// noise and concealed by the geometric error, on an untidy session.
 #[test]
 fn a_periodic_error_of_0_2_mm_is_found_with_its_amplitude() {
-    let truth = Hidden::Periodic {
+    let truth = Effect::PeriodicScale {
         amplitude_um: 0.08,
         period_um: 200.0,
         phase_rad: 0.9,
@@ -97,7 +101,7 @@ fn a_periodic_error_of_0_2_mm_is_found_with_its_amplitude() {
 fn no_periodic_term_gives_no_detection_in_the_wider_band() {
     for seed in 30u64..36 {
         let s = untidy(seed, Vec::new());
-        let out = generate(&s);
+        let out = generate(&s).expect("a positioning pair");
         let cfg = if seed % 2 == 0 {
             config()
         } else {
