@@ -422,6 +422,31 @@ impl Effect {
         Effect::from_params(id, &map)
     }
 
+    /// Whether this is one of the circular test's effects (ISO 230-4), which act on a
+    /// plane, not on a linear axis measured by a laser.
+    pub fn is_circular(&self) -> bool {
+        match self {
+            Effect::Backlash { .. }
+            | Effect::ReversalSpike { .. }
+            | Effect::LateralPlay { .. }
+            | Effect::CyclicError { .. }
+            | Effect::Straightness { .. }
+            | Effect::ServoMismatch { .. }
+            | Effect::ScaleMismatch { .. }
+            | Effect::Squareness { .. } => true,
+            Effect::ScaleThermalExpansion { .. }
+            | Effect::ScaleFactor { .. }
+            | Effect::Abbe { .. }
+            | Effect::Reversal { .. }
+            | Effect::LatchDelay { .. }
+            | Effect::PeriodicScale { .. }
+            | Effect::ThermalDrift(_)
+            | Effect::DeadPath { .. }
+            | Effect::Refraction { .. }
+            | Effect::Unexplained { .. } => false,
+        }
+    }
+
     /// The first parameter that is not a finite number, by name.
     pub fn non_finite(&self) -> Option<(ParamName, f64)> {
         self.params()

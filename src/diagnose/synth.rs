@@ -136,15 +136,8 @@ fn check_hidden(hidden: &[Effect]) -> Result<(), SynthError> {
             Effect::Abbe { offset_axis, .. } if offset_axis == crate::base::Axis::X => {
                 return Err(SynthError::AbbeAxis(offset_axis));
             }
-            Effect::Unexplained { .. }
-            | Effect::Backlash { .. }
-            | Effect::ReversalSpike { .. }
-            | Effect::LateralPlay { .. }
-            | Effect::CyclicError { .. }
-            | Effect::Straightness { .. }
-            | Effect::ServoMismatch { .. }
-            | Effect::ScaleMismatch { .. }
-            | Effect::Squareness { .. } => return Err(SynthError::Unsupported(h.id())),
+            Effect::Unexplained { .. } => return Err(SynthError::Unsupported(h.id())),
+            _ if h.is_circular() => return Err(SynthError::Unsupported(h.id())),
             _ => {}
         }
     }
