@@ -268,7 +268,7 @@ fn check_multi(s: &Synth) -> Diagnosis {
             .iter()
             .find(|e| e.id() == h.id())
             .unwrap_or_else(|| panic!("{} missing\n{text}", h.id()));
-        let (name, truth) = truth(&h)[0];
+        let (name, truth) = truth(h)[0];
         let v = param(e, name);
         assert!(
             (v - truth).abs() <= 0.25 * truth.abs(),

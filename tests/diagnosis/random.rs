@@ -225,7 +225,7 @@ fn judge(d: &Diagnosis, h: &Effect, keys: &[&str], noise: f64) -> Option<String>
         return Some(format!("wrong effects: {}", describe(d)));
     }
     let e = &d.effects[0];
-    for (name, truth) in truth(&h) {
+    for (name, truth) in truth(h) {
         if !keys.contains(&name) {
             continue;
         }

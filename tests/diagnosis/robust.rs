@@ -326,7 +326,7 @@ fn random_pairs_of_effects() -> TestResult {
         let ok_params = hidden.iter().all(|h| {
             d.effects.iter().any(|e| {
                 e.id() == h.id() && {
-                    let (name, truth) = truth(&h)[0];
+                    let (name, truth) = truth(h)[0];
                     let v = e.number_named(name).unwrap_or(f64::NAN);
                     (v - truth).abs() <= 0.25 * truth.abs()
                 }
