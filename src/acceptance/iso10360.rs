@@ -198,154 +198,192 @@ fn cells_of(
     ]))
 }
 
+/// The file's columns, checked for presence and consistency before any row is read.
+struct Columns {
+    positions: Cells,
+    p1: [Cells; 3],
+    p2: Option<[Cells; 3]>,
+    dir: Option<[Cells; 3]>,
+    calibrated: Cells,
+    measured: Cells,
+    repetition: Cells,
+    nominal: Option<Cells>,
+    probe: Option<[Cells; 3]>,
+    u: Option<Cells>,
+}
+
+impl Columns {
+    /// Finds the required and optional columns, refusing a file with both or neither of
+    /// the second end and the direction.
+    fn read(path: &Path, df: &polars::prelude::DataFrame) -> Result<Columns, AcceptanceError> {
+        let positions = column_cells(path, df, "position")?;
+        let p1 = cells_of(path, df, ["x1_mm", "y1_mm", "z1_mm"])?.ok_or_else(|| {
+            AcceptanceError::file(
+                path,
+                "columns `x1_mm, y1_mm, z1_mm` (the first end) are missing",
+            )
+        })?;
+        let p2 = cells_of(path, df, ["x2_mm", "y2_mm", "z2_mm"])?;
+        let dir = cells_of(path, df, ["ux", "uy", "uz"])?;
+        match (&p2, &dir) {
+            (Some(_), Some(_)) => {
+                return Err(AcceptanceError::file(
+                    path,
+                    "both `x2_mm, y2_mm, z2_mm` and `ux, uy, uz`: give one of them",
+                ));
+            }
+            (None, None) => {
+                return Err(AcceptanceError::file(
+                    path,
+                    "neither `x2_mm, y2_mm, z2_mm` (the other end) nor `ux, uy, uz` (the direction)",
+                ));
+            }
+            _ => {}
+        }
+        Ok(Columns {
+            positions,
+            p1,
+            p2,
+            dir,
+            calibrated: column_cells(path, df, "calibrated_mm")?,
+            measured: column_cells(path, df, "measured_mm")?,
+            repetition: column_cells(path, df, "repetition")?,
+            nominal: optional_column_cells(path, df, "nominal_mm")?,
+            probe: cells_of(path, df, ["px_mm", "py_mm", "pz_mm"])?,
+            u: optional_column_cells(path, df, "u_um")?,
+        })
+    }
+}
+
+/// A required number of row `r0` (0-based), an empty cell refused.
+fn req(path: &Path, c: &Cells, r0: usize, name: &str) -> Result<f64, AcceptanceError> {
+    parse_cell(path, c, r0, name)?
+        .ok_or_else(|| AcceptanceError::row(path, r0 + 1, Some(name), "empty"))
+}
+
 fn read_rows(path: &Path) -> Result<Vec<Row>, AcceptanceError> {
     let df = read_frame(path)?;
-    let positions = column_cells(path, &df, "position")?;
-    let p1 = cells_of(path, &df, ["x1_mm", "y1_mm", "z1_mm"])?.ok_or_else(|| {
-        AcceptanceError::file(
-            path,
-            "columns `x1_mm, y1_mm, z1_mm` (the first end) are missing",
-        )
-    })?;
-    let p2 = cells_of(path, &df, ["x2_mm", "y2_mm", "z2_mm"])?;
-    let dir = cells_of(path, &df, ["ux", "uy", "uz"])?;
-    match (&p2, &dir) {
-        (Some(_), Some(_)) => {
-            return Err(AcceptanceError::file(
-                path,
-                "both `x2_mm, y2_mm, z2_mm` and `ux, uy, uz`: give one of them",
-            ));
-        }
-        (None, None) => {
-            return Err(AcceptanceError::file(
-                path,
-                "neither `x2_mm, y2_mm, z2_mm` (the other end) nor `ux, uy, uz` (the direction)",
-            ));
-        }
-        _ => {}
-    }
-    let calibrated = column_cells(path, &df, "calibrated_mm")?;
-    let measured = column_cells(path, &df, "measured_mm")?;
-    let repetition = column_cells(path, &df, "repetition")?;
-    let nominal = optional_column_cells(path, &df, "nominal_mm")?;
-    let probe = cells_of(path, &df, ["px_mm", "py_mm", "pz_mm"])?;
-    let u = optional_column_cells(path, &df, "u_um")?;
+    let cols = Columns::read(path, &df)?;
     if df.height() == 0 {
         return Err(AcceptanceError::file(path, "no data rows"));
     }
-    let req = |c: &Cells, r0: usize, name: &str| -> Result<f64, AcceptanceError> {
-        parse_cell(path, c, r0, name)?
-            .ok_or_else(|| AcceptanceError::row(path, r0 + 1, Some(name), "empty"))
-    };
     let mut rows = Vec::with_capacity(df.height());
     for r0 in 0..df.height() {
-        let row = r0 + 1;
-        let position = text_cell(&positions, r0)
-            .ok_or_else(|| AcceptanceError::row(path, row, Some("position"), "empty"))?;
-        let a = [
-            req(&p1[0], r0, "x1_mm")?,
-            req(&p1[1], r0, "y1_mm")?,
-            req(&p1[2], r0, "z1_mm")?,
+        rows.push(read_row(path, &cols, r0)?);
+    }
+    Ok(rows)
+}
+
+/// Reads row `r0` (0-based) and checks it on its own: a length, measured near calibrated,
+/// end points or direction consistent with it, a repetition number, U ≥ 0.
+fn read_row(path: &Path, cols: &Columns, r0: usize) -> Result<Row, AcceptanceError> {
+    let row = r0 + 1;
+    let req = |c: &Cells, r0: usize, name: &str| req(path, c, r0, name);
+    let position = text_cell(&cols.positions, r0)
+        .ok_or_else(|| AcceptanceError::row(path, row, Some("position"), "empty"))?;
+    let p1 = &cols.p1;
+    let a = [
+        req(&p1[0], r0, "x1_mm")?,
+        req(&p1[1], r0, "y1_mm")?,
+        req(&p1[2], r0, "z1_mm")?,
+    ];
+    let calibrated_mm = req(&cols.calibrated, r0, "calibrated_mm")?;
+    if !(calibrated_mm > 0.0 && calibrated_mm <= 1e6) {
+        return Err(AcceptanceError::row(
+            path,
+            row,
+            Some("calibrated_mm"),
+            format!("{calibrated_mm} mm is not a length (> 0, ≤ 10⁶)"),
+        ));
+    }
+    let measured_mm = req(&cols.measured, r0, "measured_mm")?;
+    if (measured_mm - calibrated_mm).abs() > GAUGE_TOL_MM {
+        return Err(AcceptanceError::row(
+            path,
+            row,
+            Some("measured_mm"),
+            format!(
+                "measured {measured_mm} mm and calibrated {calibrated_mm} mm differ by more \
+                 than {GAUGE_TOL_MM} mm: another gauge, or a unit mistake"
+            ),
+        ));
+    }
+    if let Some(c) = &cols.p2 {
+        let b = [
+            req(&c[0], r0, "x2_mm")?,
+            req(&c[1], r0, "y2_mm")?,
+            req(&c[2], r0, "z2_mm")?,
         ];
-        let calibrated_mm = req(&calibrated, r0, "calibrated_mm")?;
-        if !(calibrated_mm > 0.0 && calibrated_mm <= 1e6) {
+        let d = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
+        if (d - calibrated_mm).abs() > GAUGE_TOL_MM {
             return Err(AcceptanceError::row(
                 path,
                 row,
-                Some("calibrated_mm"),
-                format!("{calibrated_mm} mm is not a length (> 0, ≤ 10⁶)"),
-            ));
-        }
-        let measured_mm = req(&measured, r0, "measured_mm")?;
-        if (measured_mm - calibrated_mm).abs() > GAUGE_TOL_MM {
-            return Err(AcceptanceError::row(
-                path,
-                row,
-                Some("measured_mm"),
+                None,
                 format!(
-                    "measured {measured_mm} mm and calibrated {calibrated_mm} mm differ by more \
-                     than {GAUGE_TOL_MM} mm: another gauge, or a unit mistake"
+                    "the end points are {d} mm apart but the calibrated length is \
+                     {calibrated_mm} mm (more than {GAUGE_TOL_MM} mm off)"
                 ),
             ));
         }
-        if let Some(c) = &p2 {
-            let b = [
-                req(&c[0], r0, "x2_mm")?,
-                req(&c[1], r0, "y2_mm")?,
-                req(&c[2], r0, "z2_mm")?,
-            ];
-            let d = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt();
-            if (d - calibrated_mm).abs() > GAUGE_TOL_MM {
-                return Err(AcceptanceError::row(
-                    path,
-                    row,
-                    None,
-                    format!(
-                        "the end points are {d} mm apart but the calibrated length is \
-                         {calibrated_mm} mm (more than {GAUGE_TOL_MM} mm off)"
-                    ),
-                ));
-            }
-        }
-        if let Some(c) = &dir {
-            let v = [
-                req(&c[0], r0, "ux")?,
-                req(&c[1], r0, "uy")?,
-                req(&c[2], r0, "uz")?,
-            ];
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if (n - 1.0).abs() > UNIT_TOL {
-                return Err(AcceptanceError::row(
-                    path,
-                    row,
-                    None,
-                    format!("the direction (ux, uy, uz) has length {n}, not 1 (to {UNIT_TOL})"),
-                ));
-            }
-        }
-        if let Some(c) = &nominal {
-            parse_cell(path, c, r0, "nominal_mm")?;
-        }
-        let rep = req(&repetition, r0, "repetition")?;
-        if !(rep >= 1.0 && rep.fract() == 0.0 && rep <= 1e6) {
-            return Err(AcceptanceError::row(
-                path,
-                row,
-                Some("repetition"),
-                format!("{rep} is not a repetition number (1, 2, …)"),
-            ));
-        }
-        let u_um = match &u {
-            Some(c) => parse_cell(path, c, r0, "u_um")?,
-            None => None,
-        };
-        if let Some(v) = u_um
-            && !(0.0..=1e6).contains(&v)
-        {
-            return Err(AcceptanceError::row(
-                path,
-                row,
-                Some("u_um"),
-                format!("U = {v} µm must be ≥ 0"),
-            ));
-        }
-        let mut p = [0.0; 3];
-        if let Some(c) = &probe {
-            for (k, name) in ["px_mm", "py_mm", "pz_mm"].iter().enumerate() {
-                p[k] = parse_cell(path, &c[k], r0, name)?.unwrap_or(0.0);
-            }
-        }
-        rows.push(Row {
-            row,
-            position,
-            calibrated_mm,
-            measured_mm,
-            repetition: rep as usize,
-            u_um,
-            probe: p,
-        });
     }
-    Ok(rows)
+    if let Some(c) = &cols.dir {
+        let v = [
+            req(&c[0], r0, "ux")?,
+            req(&c[1], r0, "uy")?,
+            req(&c[2], r0, "uz")?,
+        ];
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if (n - 1.0).abs() > UNIT_TOL {
+            return Err(AcceptanceError::row(
+                path,
+                row,
+                None,
+                format!("the direction (ux, uy, uz) has length {n}, not 1 (to {UNIT_TOL})"),
+            ));
+        }
+    }
+    if let Some(c) = &cols.nominal {
+        parse_cell(path, c, r0, "nominal_mm")?;
+    }
+    let rep = req(&cols.repetition, r0, "repetition")?;
+    if !(rep >= 1.0 && rep.fract() == 0.0 && rep <= 1e6) {
+        return Err(AcceptanceError::row(
+            path,
+            row,
+            Some("repetition"),
+            format!("{rep} is not a repetition number (1, 2, …)"),
+        ));
+    }
+    let u_um = match &cols.u {
+        Some(c) => parse_cell(path, c, r0, "u_um")?,
+        None => None,
+    };
+    if let Some(v) = u_um
+        && !(0.0..=1e6).contains(&v)
+    {
+        return Err(AcceptanceError::row(
+            path,
+            row,
+            Some("u_um"),
+            format!("U = {v} µm must be ≥ 0"),
+        ));
+    }
+    let mut p = [0.0; 3];
+    if let Some(c) = &cols.probe {
+        for (k, name) in ["px_mm", "py_mm", "pz_mm"].iter().enumerate() {
+            p[k] = parse_cell(path, &c[k], r0, name)?.unwrap_or(0.0);
+        }
+    }
+    Ok(Row {
+        row,
+        position,
+        calibrated_mm,
+        measured_mm,
+        repetition: rep as usize,
+        u_um,
+        probe: p,
+    })
 }
 
 fn rows_text(rows: &[usize]) -> String {
@@ -363,11 +401,13 @@ pub fn evaluate_file(path: &Path, config: &TestConfig) -> Result<TestResult, Acc
     evaluate(path, &rows, config)
 }
 
-fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult, AcceptanceError> {
-    let n = config.repetitions;
-    // Positions in first-appearance order; test lengths of each, in first appearance.
-    // (position, [(calibrated length, indices of its rows)]).
-    type Lengths = Vec<(f64, Vec<usize>)>;
+/// The test lengths of one position: (calibrated length, indices of its rows), in first
+/// appearance.
+type Lengths = Vec<(f64, Vec<usize>)>;
+
+/// Groups the rows by position and, within one, by calibrated length (within
+/// `LENGTH_TOL_MM`), both in first-appearance order.
+fn group(rows: &[Row]) -> Vec<(String, Lengths)> {
     let mut positions: Vec<(String, Lengths)> = Vec::new();
     for (i, r) in rows.iter().enumerate() {
         let k = match positions.iter().position(|p| p.0 == r.position) {
@@ -386,8 +426,18 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             None => lengths.push((r.calibrated_mm, vec![i])),
         }
     }
-    // Repetitions exactly 1 … N.
-    for (pos, lengths) in &positions {
+    positions
+}
+
+/// Refuses a test length whose repetitions are not exactly 1 … n, naming the repeated,
+/// missing and extra ones.
+fn check_repetitions(
+    path: &Path,
+    rows: &[Row],
+    positions: &[(String, Lengths)],
+    n: usize,
+) -> Result<(), AcceptanceError> {
+    for (pos, lengths) in positions {
         for (l, members) in lengths {
             let mut by_rep: Vec<(usize, usize)> = members
                 .iter()
@@ -430,16 +480,26 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             }
         }
     }
+    Ok(())
+}
+
+/// A row's expanded uncertainty: its own `u_um`, else `--u-um` at its length.
+fn u_of(r: &Row, config: &TestConfig) -> Option<f64> {
+    r.u_um
+        .or_else(|| config.u.as_ref().map(|u| u.at(r.calibrated_mm)))
+}
+
+/// The test lengths ranked within each position (the gauge number of every row, and the
+/// gauges with their E0 by repetition, R0 and R0's verdict).
+fn rank_gauges(
+    rows: &[Row],
+    positions: &[(String, Lengths)],
+    config: &TestConfig,
+) -> Result<(Vec<usize>, Vec<Gauge>), AcceptanceError> {
     let rule = &config.rule;
-    let u_of = |r: &Row| -> Option<f64> {
-        r.u_um
-            .or_else(|| config.u.as_ref().map(|u| u.at(r.calibrated_mm)))
-    };
-    let u_given = rows.iter().any(|r| u_of(r).is_some());
-    // Gauge rank of each row's test length within its position.
     let mut gauge_of = vec![0usize; rows.len()];
     let mut gauges = Vec::new();
-    for (pos, lengths) in &positions {
+    for (pos, lengths) in positions {
         let mut order: Vec<usize> = (0..lengths.len()).collect();
         order.sort_by(|&a, &b| lengths[a].0.total_cmp(&lengths[b].0));
         for (rank, &li) in order.iter().enumerate() {
@@ -481,12 +541,23 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             });
         }
     }
+    Ok((gauge_of, gauges))
+}
+
+/// Every row's E0 judged against ±MPE_E0(L) with its U.
+fn judge_rows(
+    path: &Path,
+    rows: &[Row],
+    gauge_of: &[usize],
+    config: &TestConfig,
+) -> Result<Vec<Measurement>, AcceptanceError> {
     let mut measurements = Vec::with_capacity(rows.len());
     for (i, r) in rows.iter().enumerate() {
         let e0 = (r.measured_mm - r.calibrated_mm) * 1e3;
         let mpe = config.mpe.at(r.calibrated_mm);
-        let u = u_of(r).unwrap_or(0.0);
-        let d = rule
+        let u = u_of(r, config).unwrap_or(0.0);
+        let d = config
+            .rule
             .decide(
                 e0,
                 u,
@@ -509,19 +580,11 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             verdict: d.verdict,
         });
     }
-    let position_list: Vec<Position> = positions
-        .iter()
-        .map(|(pos, _)| {
-            let ms = measurements.iter().filter(|m| &m.position == pos);
-            let gs = gauges.iter().filter(|g| &g.position == pos);
-            Position {
-                position: pos.clone(),
-                max_abs_e0_um: ms.clone().map(|m| m.e0_um.abs()).fold(0.0, f64::max),
-                verdict: aggregate(ms.map(|m| m.verdict).chain(gs.filter_map(|g| g.verdict_r0)))
-                    .unwrap_or(ConformityVerdict::Pass),
-            }
-        })
-        .collect();
+    Ok(measurements)
+}
+
+/// How the test departs from the standard's design (7 × 5 × 3, no stylus offset).
+fn deviations(rows: &[Row], positions: &[(String, Lengths)], n: usize) -> Vec<String> {
     let mut deviations = Vec::new();
     if positions.len() != POSITIONS {
         deviations.push(format!(
@@ -530,7 +593,7 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             positions.len()
         ));
     }
-    for (pos, lengths) in &positions {
+    for (pos, lengths) in positions {
         if lengths.len() != LENGTHS {
             deviations.push(format!(
                 "position `{pos}`: {} test length(s) where the standard asks for {LENGTHS}",
@@ -556,13 +619,12 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
             offsets.len()
         ));
     }
-    let verdict_e0 =
-        aggregate(measurements.iter().map(|m| m.verdict)).unwrap_or(ConformityVerdict::Pass);
-    let verdict_r0 = config.mpl_r0_um.map(|_| {
-        aggregate(gauges.iter().filter_map(|g| g.verdict_r0)).unwrap_or(ConformityVerdict::Pass)
-    });
-    let verdict =
-        aggregate([verdict_e0].into_iter().chain(verdict_r0)).unwrap_or(ConformityVerdict::Pass);
+    deviations
+}
+
+/// The decision statement: the rule's, then what E0 and R0 are judged against.
+fn statement(config: &TestConfig, u_given: bool) -> String {
+    let rule = &config.rule;
     let mut statement = rule.statement(u_given, None);
     statement.push_str(&format!(
         " Each E0 is judged against ±MPE_E0(L) = ±({}) µm, L the calibrated length in mm",
@@ -583,6 +645,39 @@ fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult
              applied.",
         );
     }
+    statement
+}
+
+fn evaluate(path: &Path, rows: &[Row], config: &TestConfig) -> Result<TestResult, AcceptanceError> {
+    let n = config.repetitions;
+    let positions = group(rows);
+    check_repetitions(path, rows, &positions, n)?;
+    let rule = &config.rule;
+    let u_given = rows.iter().any(|r| u_of(r, config).is_some());
+    let (gauge_of, gauges) = rank_gauges(rows, &positions, config)?;
+    let measurements = judge_rows(path, rows, &gauge_of, config)?;
+    let position_list: Vec<Position> = positions
+        .iter()
+        .map(|(pos, _)| {
+            let ms = measurements.iter().filter(|m| &m.position == pos);
+            let gs = gauges.iter().filter(|g| &g.position == pos);
+            Position {
+                position: pos.clone(),
+                max_abs_e0_um: ms.clone().map(|m| m.e0_um.abs()).fold(0.0, f64::max),
+                verdict: aggregate(ms.map(|m| m.verdict).chain(gs.filter_map(|g| g.verdict_r0)))
+                    .unwrap_or(ConformityVerdict::Pass),
+            }
+        })
+        .collect();
+    let deviations = deviations(rows, &positions, n);
+    let verdict_e0 =
+        aggregate(measurements.iter().map(|m| m.verdict)).unwrap_or(ConformityVerdict::Pass);
+    let verdict_r0 = config.mpl_r0_um.map(|_| {
+        aggregate(gauges.iter().filter_map(|g| g.verdict_r0)).unwrap_or(ConformityVerdict::Pass)
+    });
+    let verdict =
+        aggregate([verdict_e0].into_iter().chain(verdict_r0)).unwrap_or(ConformityVerdict::Pass);
+    let statement = statement(config, u_given);
     let summary = Summary {
         measurements: measurements.len(),
         positions: positions.len(),

@@ -162,26 +162,7 @@ impl VirtualPlan {
         let f: PlanFile = toml::from_str(&text)
             .map_err(|e| AcceptanceError::key(path, "file", e.to_string().trim().to_string()))?;
         let key = |k: &str, p: String| AcceptanceError::key(path, k, p);
-        let volume_mm = match (f.volume_mm, model_volume) {
-            (Some(v), _) => v,
-            (None, Some(v)) => v,
-            (None, None) => {
-                return Err(key(
-                    "volume_mm",
-                    "missing: the model has no measured range (a machine model), so the plan \
-                     must give volume_mm = [[lo…], [hi…]]"
-                        .into(),
-                ));
-            }
-        };
-        for v in volume_mm.iter().flatten() {
-            if !(v.is_finite() && v.abs() <= 1e6) {
-                return Err(key("volume_mm", format!("{v} is not a coordinate")));
-            }
-        }
-        if (0..3).any(|k| volume_mm[0][k] > volume_mm[1][k]) {
-            return Err(key("volume_mm", "lo above hi".into()));
-        }
+        let volume_mm = plan_volume(path, &f, model_volume)?;
         let repetitions = f.repetitions.unwrap_or(3);
         if !(1..=100).contains(&repetitions) {
             return Err(key("repetitions", format!("{repetitions}: 1 … 100")));
@@ -204,71 +185,8 @@ impl VirtualPlan {
                 .collect(),
         };
         let mut positions = Vec::new();
-        for (i, (id, s, e, p)) in lines.into_iter().enumerate() {
-            let k = |name: &str| match p {
-                Some(_) => format!("position[{}].{name}", i + 1),
-                None => name.to_string(),
-            };
-            for v in s.iter().chain(&e) {
-                if !(v.is_finite() && v.abs() <= 1e6) {
-                    return Err(key(&k("start_mm"), format!("{v} is not a coordinate")));
-                }
-            }
-            let d = norm(sub(e, s));
-            if d <= 1e-6 {
-                return Err(key(&k("end_mm"), "the same point as start_mm".into()));
-            }
-            let (fr, le) = match p {
-                Some(p) if p.fractions.is_some() || p.lengths_mm.is_some() => {
-                    if p.fractions.is_some() && p.lengths_mm.is_some() {
-                        return Err(key(
-                            &k("fractions"),
-                            "and lengths_mm both given: one of them".into(),
-                        ));
-                    }
-                    (p.fractions.clone(), p.lengths_mm.clone())
-                }
-                _ => (f.fractions.clone(), f.lengths_mm.clone()),
-            };
-            let lengths_mm: Vec<f64> = match (fr, le) {
-                (Some(fr), _) => {
-                    if let Some(x) = fr.iter().find(|x| !(**x > 0.0 && **x <= 1.0)) {
-                        return Err(key(&k("fractions"), format!("{x} is not in (0, 1]")));
-                    }
-                    fr.iter().map(|x| x * d).collect()
-                }
-                (None, Some(le)) => {
-                    if let Some(x) = le.iter().find(|x| !(**x > 0.0 && **x <= d + 1e-9)) {
-                        return Err(key(
-                            &k("lengths_mm"),
-                            format!("{x} mm is not in (0, {d}] (the line's length)"),
-                        ));
-                    }
-                    le
-                }
-                (None, None) => FRACTIONS.iter().map(|x| x * d).collect(),
-            };
-            if lengths_mm.is_empty() {
-                return Err(key(&k("lengths_mm"), "no length".into()));
-            }
-            let probe_mm = p
-                .and_then(|p| p.probe_mm)
-                .or(f.probe_mm)
-                .unwrap_or([0.0; 3]);
-            if let Some(v) = probe_mm.iter().find(|v| !(v.is_finite() && v.abs() <= 1e4)) {
-                return Err(key(&k("probe_mm"), format!("{v} is not an offset")));
-            }
-            positions.push(PlannedPosition {
-                id,
-                start_mm: s,
-                end_mm: e,
-                lengths_mm,
-                placement: p
-                    .and_then(|p| p.placement)
-                    .or(f.placement)
-                    .unwrap_or_default(),
-                probe_mm,
-            });
+        for (i, line) in lines.into_iter().enumerate() {
+            positions.push(planned_position(path, &f, i, line)?);
         }
         Ok(VirtualPlan {
             source: path.display().to_string(),
@@ -277,6 +195,113 @@ impl VirtualPlan {
             positions,
         })
     }
+}
+
+/// The plan's volume (its own, else the model's measured range), checked: finite
+/// coordinates, lo not above hi.
+fn plan_volume(
+    path: &Path,
+    f: &PlanFile,
+    model_volume: Option<[[f64; 3]; 2]>,
+) -> Result<[[f64; 3]; 2], AcceptanceError> {
+    let key = |k: &str, p: String| AcceptanceError::key(path, k, p);
+    let volume_mm = match (f.volume_mm, model_volume) {
+        (Some(v), _) => v,
+        (None, Some(v)) => v,
+        (None, None) => {
+            return Err(key(
+                "volume_mm",
+                "missing: the model has no measured range (a machine model), so the plan \
+                 must give volume_mm = [[lo…], [hi…]]"
+                    .into(),
+            ));
+        }
+    };
+    for v in volume_mm.iter().flatten() {
+        if !(v.is_finite() && v.abs() <= 1e6) {
+            return Err(key("volume_mm", format!("{v} is not a coordinate")));
+        }
+    }
+    if (0..3).any(|k| volume_mm[0][k] > volume_mm[1][k]) {
+        return Err(key("volume_mm", "lo above hi".into()));
+    }
+    Ok(volume_mm)
+}
+
+/// Position `i` (0-based) of the plan: its line (from the file, or a default line when
+/// `p` is `None`), its gauge lengths (fractions or lengths, the position's own or the
+/// plan's), placement and probe offset, checked.
+fn planned_position(
+    path: &Path,
+    f: &PlanFile,
+    i: usize,
+    (id, s, e, p): (String, [f64; 3], [f64; 3], Option<&PositionFile>),
+) -> Result<PlannedPosition, AcceptanceError> {
+    let key = |k: &str, p: String| AcceptanceError::key(path, k, p);
+    let k = |name: &str| match p {
+        Some(_) => format!("position[{}].{name}", i + 1),
+        None => name.to_string(),
+    };
+    for v in s.iter().chain(&e) {
+        if !(v.is_finite() && v.abs() <= 1e6) {
+            return Err(key(&k("start_mm"), format!("{v} is not a coordinate")));
+        }
+    }
+    let d = norm(sub(e, s));
+    if d <= 1e-6 {
+        return Err(key(&k("end_mm"), "the same point as start_mm".into()));
+    }
+    let (fr, le) = match p {
+        Some(p) if p.fractions.is_some() || p.lengths_mm.is_some() => {
+            if p.fractions.is_some() && p.lengths_mm.is_some() {
+                return Err(key(
+                    &k("fractions"),
+                    "and lengths_mm both given: one of them".into(),
+                ));
+            }
+            (p.fractions.clone(), p.lengths_mm.clone())
+        }
+        _ => (f.fractions.clone(), f.lengths_mm.clone()),
+    };
+    let lengths_mm: Vec<f64> = match (fr, le) {
+        (Some(fr), _) => {
+            if let Some(x) = fr.iter().find(|x| !(**x > 0.0 && **x <= 1.0)) {
+                return Err(key(&k("fractions"), format!("{x} is not in (0, 1]")));
+            }
+            fr.iter().map(|x| x * d).collect()
+        }
+        (None, Some(le)) => {
+            if let Some(x) = le.iter().find(|x| !(**x > 0.0 && **x <= d + 1e-9)) {
+                return Err(key(
+                    &k("lengths_mm"),
+                    format!("{x} mm is not in (0, {d}] (the line's length)"),
+                ));
+            }
+            le
+        }
+        (None, None) => FRACTIONS.iter().map(|x| x * d).collect(),
+    };
+    if lengths_mm.is_empty() {
+        return Err(key(&k("lengths_mm"), "no length".into()));
+    }
+    let probe_mm = p
+        .and_then(|p| p.probe_mm)
+        .or(f.probe_mm)
+        .unwrap_or([0.0; 3]);
+    if let Some(v) = probe_mm.iter().find(|v| !(v.is_finite() && v.abs() <= 1e4)) {
+        return Err(key(&k("probe_mm"), format!("{v} is not an offset")));
+    }
+    Ok(PlannedPosition {
+        id,
+        start_mm: s,
+        end_mm: e,
+        lengths_mm,
+        placement: p
+            .and_then(|p| p.placement)
+            .or(f.placement)
+            .unwrap_or_default(),
+        probe_mm,
+    })
 }
 
 /// How the virtual test is judged (all optional).
@@ -568,28 +593,40 @@ fn summarise(
     (positions, max, verdict)
 }
 
-/// Predicts the test of `plan` from `model` (read from `model_path`, named in errors).
-pub fn predict(
-    model_path: &Path,
-    model: &Model,
-    plan: &VirtualPlan,
-    config: &VirtualConfig,
-) -> Result<VirtualTest, AcceptanceError> {
-    let gauges = planned(plan);
-    let err = |problem: String| AcceptanceError::Model {
-        path: model_path.to_path_buf(),
-        problem,
-    };
-    if let Some([lo, hi]) = model.volume_mm {
-        for g in &gauges {
+/// One virtual test being predicted: the model (and its file, for messages), the plan,
+/// the configuration and the planned gauges, shared by the steps of `predict`.
+struct VirtualRun<'a> {
+    model_path: &'a Path,
+    model: &'a Model,
+    plan: &'a VirtualPlan,
+    config: &'a VirtualConfig,
+    gauges: Vec<Planned>,
+}
+
+impl VirtualRun<'_> {
+    /// An error about the model, naming its file.
+    fn err(&self, problem: String) -> AcceptanceError {
+        AcceptanceError::Model {
+            path: self.model_path.to_path_buf(),
+            problem,
+        }
+    }
+
+    /// Refuses a gauge end outside the model's measured range (an extrapolation the
+    /// model's σ does not cover).
+    fn check_in_range(&self) -> Result<(), AcceptanceError> {
+        let Some([lo, hi]) = self.model.volume_mm else {
+            return Ok(());
+        };
+        for g in &self.gauges {
             for (end, p) in [("P1", g.p1), ("P2", g.p2)] {
                 if let Some(k) =
                     (0..3).find(|&k| p[k] < lo[k] - RANGE_TOL_MM || p[k] > hi[k] + RANGE_TOL_MM)
                 {
-                    return Err(err(format!(
+                    return Err(self.err(format!(
                         "position `{}`, gauge {}: end {end} = ({}, {}, {}) mm is outside the \
                          model's measured range of {} [{}, {}] mm",
-                        plan.positions[g.position].id,
+                        self.plan.positions[g.position].id,
                         g.gauge,
                         p[0],
                         p[1],
@@ -601,52 +638,65 @@ pub fn predict(
                 }
             }
         }
+        Ok(())
     }
-    let target = |p: [f64; 3]| Target {
-        row: 0,
-        pos_mm: p,
-        e_um: None,
-        s_um: None,
-        t_s: None,
-        scale_temp_c: None,
-        air_temp_c: None,
-        part_temp_c: None,
-    };
-    let table = LineTable {
-        source: "ISO 10360-2 plan".into(),
-        lines: gauges
-            .iter()
-            .enumerate()
-            .map(|(i, g)| Line {
-                id: i.to_string(),
-                u: g.u,
-                probe_mm: g.probe,
-                targets: vec![target(g.p1), target(g.p2)],
-            })
-            .collect(),
-    };
-    let preds = model.predictor.predict_lines(&table);
-    let mut base = Vec::with_capacity(gauges.len());
-    for (i, g) in gauges.iter().enumerate() {
-        let p = &preds[2 * i + 1];
-        match (p.e_um, p.sigma_um) {
-            (Some(e), Some(s)) if e.is_finite() && s.is_finite() => base.push((e, s)),
-            _ => {
-                let why = model
-                    .predictor
-                    .predict_grid(&[g.p1, g.p2], g.probe)
-                    .err()
-                    .unwrap_or_else(|| "a component the lines did not determine".into());
-                return Err(err(format!(
-                    "position `{}`, gauge {} cannot be predicted: {why}",
-                    plan.positions[g.position].id, g.gauge
-                )));
+
+    /// Each gauge's predicted error and one-sigma (P2's along the gauge, the line through
+    /// P1 and P2 with P1 as its zero), refused when the model cannot predict it.
+    fn predict_gauges(&self) -> Result<Vec<(f64, f64)>, AcceptanceError> {
+        let gauges = &self.gauges;
+        let target = |p: [f64; 3]| Target {
+            row: 0,
+            pos_mm: p,
+            e_um: None,
+            s_um: None,
+            t_s: None,
+            scale_temp_c: None,
+            air_temp_c: None,
+            part_temp_c: None,
+        };
+        let table = LineTable {
+            source: "ISO 10360-2 plan".into(),
+            lines: gauges
+                .iter()
+                .enumerate()
+                .map(|(i, g)| Line {
+                    id: i.to_string(),
+                    u: g.u,
+                    probe_mm: g.probe,
+                    targets: vec![target(g.p1), target(g.p2)],
+                })
+                .collect(),
+        };
+        let preds = self.model.predictor.predict_lines(&table);
+        let mut base = Vec::with_capacity(gauges.len());
+        for (i, g) in gauges.iter().enumerate() {
+            let p = &preds[2 * i + 1];
+            match (p.e_um, p.sigma_um) {
+                (Some(e), Some(s)) if e.is_finite() && s.is_finite() => base.push((e, s)),
+                _ => {
+                    let why = self
+                        .model
+                        .predictor
+                        .predict_grid(&[g.p1, g.p2], g.probe)
+                        .err()
+                        .unwrap_or_else(|| "a component the lines did not determine".into());
+                    return Err(self.err(format!(
+                        "position `{}`, gauge {} cannot be predicted: {why}",
+                        self.plan.positions[g.position].id, g.gauge
+                    )));
+                }
             }
         }
+        Ok(base)
     }
-    let expand = |values: &[(f64, f64)]| -> Vec<VirtualMeasurement> {
+
+    /// The plan's measurements (every repetition of every gauge) with the gauges'
+    /// predicted (e, σ) `values`, not judged yet.
+    fn expand(&self, values: &[(f64, f64)]) -> Vec<VirtualMeasurement> {
+        let plan = self.plan;
         let mut out = Vec::new();
-        for (g, &(e, s)) in gauges.iter().zip(values) {
+        for (g, &(e, s)) in self.gauges.iter().zip(values) {
             for r in 1..=plan.repetitions {
                 out.push(VirtualMeasurement {
                     position: plan.positions[g.position].id.clone(),
@@ -661,49 +711,44 @@ pub fn predict(
                     mpe_um: None,
                     u_um: None,
                     verdict: None,
-                });
+                })
             }
         }
         out
-    };
-    let mut measurements = expand(&base);
-    judge(&mut measurements, config)?;
-    let (positions, max_abs_e_um, verdict) = summarise(plan, &measurements);
-    let compensated = match config.compensated {
-        None => None,
-        Some(n) => {
-            let tab = table_machine(model, plan.volume_mm, n).map_err(err)?;
-            let after: Vec<(f64, f64)> = gauges
-                .iter()
-                .zip(&base)
-                .map(|(g, &(e, s))| {
-                    let t = tab.line_error_um(g.p2, g.u, [0.0; 3])
-                        - tab.line_error_um(g.p1, g.u, [0.0; 3]);
-                    (e - t, s)
-                })
-                .collect();
-            let mut ms = expand(&after);
-            judge(&mut ms, config)?;
-            let (positions, max_abs_e_um, verdict) = summarise(plan, &ms);
-            Some(Compensated {
-                table_points: n,
-                measurements: ms,
-                positions,
-                max_abs_e_um,
-                verdict,
-            })
-        }
-    };
-    let mut warnings = Vec::new();
-    if model.residual != "consistent" && model.residual != "exact" {
-        warnings.push(format!(
-            "the model's residual is `{}`, not consistent with the noise: σ covers the \
-             parameters' uncertainty only, not what the model leaves out, so the predicted \
-             E and its U understate the real test's spread",
-            model.residual
-        ));
     }
-    let statement = config.mpe.as_ref().map(|m| {
+
+    /// The test again after compensation by the model's table at `n` points per axis:
+    /// each gauge's error less what the table corrects between its ends.
+    fn compensated(&self, n: usize, base: &[(f64, f64)]) -> Result<Compensated, AcceptanceError> {
+        let (plan, config) = (self.plan, self.config);
+        let tab = table_machine(self.model, plan.volume_mm, n).map_err(|p| self.err(p))?;
+        let after: Vec<(f64, f64)> = self
+            .gauges
+            .iter()
+            .zip(base)
+            .map(|(g, &(e, s))| {
+                let t =
+                    tab.line_error_um(g.p2, g.u, [0.0; 3]) - tab.line_error_um(g.p1, g.u, [0.0; 3]);
+                (e - t, s)
+            })
+            .collect();
+        let mut ms = self.expand(&after);
+        judge(&mut ms, config)?;
+        let (positions, max_abs_e_um, verdict) = summarise(plan, &ms);
+        Ok(Compensated {
+            table_points: n,
+            measurements: ms,
+            positions,
+            max_abs_e_um,
+            verdict,
+        })
+    }
+}
+
+/// The decision statement of a virtual test: the rule's, and what predicted E is judged
+/// against with which U.
+fn virtual_statement(config: &VirtualConfig) -> Option<String> {
+    config.mpe.as_ref().map(|m| {
         format!(
             "{} Predicted E (the geometric part of E0 only: no probing error, repeatability or \
              thermal state) is judged against ±MPE_E0(L) = ±({}) µm with U = √((2σ)² + U_u²), \
@@ -715,7 +760,42 @@ pub fn predict(
                 None => ", U_u = 0".into(),
             }
         )
-    });
+    })
+}
+
+/// Predicts the test of `plan` from `model` (read from `model_path`, named in errors).
+pub fn predict(
+    model_path: &Path,
+    model: &Model,
+    plan: &VirtualPlan,
+    config: &VirtualConfig,
+) -> Result<VirtualTest, AcceptanceError> {
+    let run = VirtualRun {
+        model_path,
+        model,
+        plan,
+        config,
+        gauges: planned(plan),
+    };
+    run.check_in_range()?;
+    let base = run.predict_gauges()?;
+    let mut measurements = run.expand(&base);
+    judge(&mut measurements, config)?;
+    let (positions, max_abs_e_um, verdict) = summarise(plan, &measurements);
+    let compensated = match config.compensated {
+        None => None,
+        Some(n) => Some(run.compensated(n, &base)?),
+    };
+    let mut warnings = Vec::new();
+    if model.residual != "consistent" && model.residual != "exact" {
+        warnings.push(format!(
+            "the model's residual is `{}`, not consistent with the noise: σ covers the \
+             parameters' uncertainty only, not what the model leaves out, so the predicted \
+             E and its U understate the real test's spread",
+            model.residual
+        ));
+    }
+    let statement = virtual_statement(config);
     Ok(VirtualTest {
         standard: super::iso10360::STANDARD,
         is_virtual: true,

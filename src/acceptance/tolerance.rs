@@ -206,6 +206,61 @@ fn axis_of(path: &Path, key: &str, s: &str) -> Result<Axis, AcceptanceError> {
         )),
     }
 }
+/// `[[line]]` table `i` (0-based): the axis, the line's fixed coordinates and its
+/// limits.
+fn line_tolerance(
+    path: &Path,
+    i: usize,
+    item: &toml::Value,
+) -> Result<LineTolerance, AcceptanceError> {
+    let key = format!("line[{}]", i + 1);
+    let toml::Value::Table(t) = item else {
+        return Err(AcceptanceError::key(path, key, "must be a table"));
+    };
+    let axis = match t.get("axis") {
+        Some(toml::Value::String(s)) => axis_of(path, &format!("{key}.axis"), s)?,
+        _ => {
+            return Err(AcceptanceError::key(
+                path,
+                format!("{key}.axis"),
+                "missing (X, Y or Z)",
+            ));
+        }
+    };
+    let line_mm = match t.get("line_mm") {
+        Some(toml::Value::Array(a)) if a.len() == 2 => {
+            let mut out = [0.0; 2];
+            for (o, v) in out.iter_mut().zip(a) {
+                *o = match v {
+                    toml::Value::Float(f) if f.is_finite() => *f,
+                    toml::Value::Integer(i) => *i as f64,
+                    _ => {
+                        return Err(AcceptanceError::key(
+                            path,
+                            format!("{key}.line_mm"),
+                            "must be two finite numbers (mm)",
+                        ));
+                    }
+                };
+            }
+            out
+        }
+        _ => {
+            return Err(AcceptanceError::key(
+                path,
+                format!("{key}.line_mm"),
+                "missing or not two numbers: the line's fixed coordinates \
+                 as `table --json` prints them (line_mm)",
+            ));
+        }
+    };
+    Ok(LineTolerance {
+        axis,
+        line_mm,
+        limits: params_of(path, &format!("{key}."), t, &["axis", "line_mm"])?,
+        index: i + 1,
+    })
+}
 
 impl Tolerances {
     /// Reads and checks a tolerance file.
@@ -254,55 +309,7 @@ impl Tolerances {
                 }
                 ("line", toml::Value::Array(items)) => {
                     for (i, item) in items.iter().enumerate() {
-                        let key = format!("line[{}]", i + 1);
-                        let toml::Value::Table(t) = item else {
-                            return Err(AcceptanceError::key(path, key, "must be a table"));
-                        };
-                        let axis = match t.get("axis") {
-                            Some(toml::Value::String(s)) => {
-                                axis_of(path, &format!("{key}.axis"), s)?
-                            }
-                            _ => {
-                                return Err(AcceptanceError::key(
-                                    path,
-                                    format!("{key}.axis"),
-                                    "missing (X, Y or Z)",
-                                ));
-                            }
-                        };
-                        let line_mm = match t.get("line_mm") {
-                            Some(toml::Value::Array(a)) if a.len() == 2 => {
-                                let mut out = [0.0; 2];
-                                for (o, v) in out.iter_mut().zip(a) {
-                                    *o = match v {
-                                        toml::Value::Float(f) if f.is_finite() => *f,
-                                        toml::Value::Integer(i) => *i as f64,
-                                        _ => {
-                                            return Err(AcceptanceError::key(
-                                                path,
-                                                format!("{key}.line_mm"),
-                                                "must be two finite numbers (mm)",
-                                            ));
-                                        }
-                                    };
-                                }
-                                out
-                            }
-                            _ => {
-                                return Err(AcceptanceError::key(
-                                    path,
-                                    format!("{key}.line_mm"),
-                                    "missing or not two numbers: the line's fixed coordinates \
-                                     as `table --json` prints them (line_mm)",
-                                ));
-                            }
-                        };
-                        lines.push(LineTolerance {
-                            axis,
-                            line_mm,
-                            limits: params_of(path, &format!("{key}."), t, &["axis", "line_mm"])?,
-                            index: i + 1,
-                        });
+                        lines.push(line_tolerance(path, i, item)?);
                     }
                 }
                 ("axis" | "line" | "rule" | "guard_fraction", _) => {

@@ -163,6 +163,105 @@ pub enum EffectParamError {
         want: &'static str,
     },
 }
+/// An effect's parameters as read from a document, with the checks every field needs:
+/// known names, numbers where numbers go, an axis where an axis goes.
+struct Params<'a> {
+    id: EffectId,
+    params: &'a BTreeMap<String, ParamValue>,
+}
+
+impl Params<'_> {
+    /// Refuses a parameter the effect does not have, listing those it has.
+    fn check_known(&self) -> Result<(), EffectParamError> {
+        let id = self.id;
+        let known = |n: &str| EffectId::param_names(id).iter().any(|p| p.as_str() == n);
+        if let Some(bad) = self.params.keys().find(|k| !known(k)) {
+            return Err(EffectParamError::Unknown {
+                id,
+                param: bad.clone(),
+                list: EffectId::param_names(id)
+                    .iter()
+                    .map(|p| p.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        Ok(())
+    }
+
+    /// An optional number.
+    fn opt(&self, name: ParamName) -> Result<Option<f64>, EffectParamError> {
+        match self.params.get(name.as_str()) {
+            None => Ok(None),
+            Some(ParamValue::Number(v)) => Ok(Some(*v)),
+            Some(ParamValue::Axis(_)) => Err(EffectParamError::Kind {
+                id: self.id,
+                param: name,
+                want: "a number",
+            }),
+        }
+    }
+
+    /// A required number.
+    fn num(&self, name: ParamName) -> Result<f64, EffectParamError> {
+        self.opt(name)?.ok_or(EffectParamError::Missing {
+            id: self.id,
+            param: name,
+        })
+    }
+
+    /// A required axis.
+    fn axis(&self, name: ParamName) -> Result<Axis, EffectParamError> {
+        match self.params.get(name.as_str()) {
+            Some(ParamValue::Axis(a)) => Ok(*a),
+            Some(ParamValue::Number(_)) => Err(EffectParamError::Kind {
+                id: self.id,
+                param: name,
+                want: "an axis (\"y\" or \"z\")",
+            }),
+            None => Err(EffectParamError::Missing {
+                id: self.id,
+                param: name,
+            }),
+        }
+    }
+
+    /// A thermal drift: linear (rate_um_per_s alone) or exponential (amplitude_um and
+    /// tau_s), never both.
+    fn drift(&self) -> Result<Drift, EffectParamError> {
+        Ok(match self.opt(P::RateUmPerS)? {
+            Some(rate_um_per_s) if self.params.len() == 1 => Drift::Linear { rate_um_per_s },
+            Some(_) => {
+                return Err(EffectParamError::Unknown {
+                    id: self.id,
+                    param: P::RateUmPerS.as_str().into(),
+                    list:
+                        "amplitude_um and tau_s (exponential) or rate_um_per_s (linear), not both"
+                            .into(),
+                });
+            }
+            None => Drift::Exponential {
+                amplitude_um: self.num(P::AmplitudeUm)?,
+                tau_s: self.num(P::TauS)?,
+            },
+        })
+    }
+
+    /// A refraction with at least one of its two coefficients.
+    fn refraction(&self) -> Result<Effect, EffectParamError> {
+        let (k, h) = (self.opt(P::PpmPerK)?, self.opt(P::PpmPerHpa)?);
+        if k.is_none() && h.is_none() {
+            return Err(EffectParamError::Missing {
+                id: self.id,
+                param: P::PpmPerK,
+            });
+        }
+        Ok(Effect::Refraction {
+            ppm_per_k: k,
+            ppm_per_hpa: h,
+        })
+    }
+}
 
 impl Effect {
     /// The vocabulary id.
@@ -283,32 +382,10 @@ impl Effect {
         id: EffectId,
         params: &BTreeMap<String, ParamValue>,
     ) -> Result<Effect, EffectParamError> {
-        let known = |n: &str| EffectId::param_names(id).iter().any(|p| p.as_str() == n);
-        if let Some(bad) = params.keys().find(|k| !known(k)) {
-            return Err(EffectParamError::Unknown {
-                id,
-                param: bad.clone(),
-                list: EffectId::param_names(id)
-                    .iter()
-                    .map(|p| p.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        }
-        let opt = |name: ParamName| -> Result<Option<f64>, EffectParamError> {
-            match params.get(name.as_str()) {
-                None => Ok(None),
-                Some(ParamValue::Number(v)) => Ok(Some(*v)),
-                Some(ParamValue::Axis(_)) => Err(EffectParamError::Kind {
-                    id,
-                    param: name,
-                    want: "a number",
-                }),
-            }
-        };
-        let num = |name: ParamName| -> Result<f64, EffectParamError> {
-            opt(name)?.ok_or(EffectParamError::Missing { id, param: name })
-        };
+        let p = Params { id, params };
+        p.check_known()?;
+        let opt = |name: ParamName| p.opt(name);
+        let num = |name: ParamName| p.num(name);
         Ok(match id {
             EffectId::ScaleThermalExpansion => Effect::ScaleThermalExpansion {
                 alpha_ppm_per_k: num(P::AlphaPpmPerK)?,
@@ -316,22 +393,7 @@ impl Effect {
             },
             EffectId::ScaleFactor => Effect::ScaleFactor { ppm: num(P::Ppm)? },
             EffectId::Abbe => Effect::Abbe {
-                offset_axis: match params.get(P::OffsetAxis.as_str()) {
-                    Some(ParamValue::Axis(a)) => *a,
-                    Some(ParamValue::Number(_)) => {
-                        return Err(EffectParamError::Kind {
-                            id,
-                            param: P::OffsetAxis,
-                            want: "an axis (\"y\" or \"z\")",
-                        });
-                    }
-                    None => {
-                        return Err(EffectParamError::Missing {
-                            id,
-                            param: P::OffsetAxis,
-                        });
-                    }
-                },
+                offset_axis: p.axis(P::OffsetAxis)?,
                 theta0_urad: num(P::Theta0Urad)?,
                 theta1_urad_per_mm: num(P::Theta1UradPerMm)?,
             },
@@ -347,38 +409,11 @@ impl Effect {
                 period_um: num(P::PeriodUm)?,
                 phase_rad: num(P::PhaseRad)?,
             },
-            EffectId::ThermalDrift => match opt(P::RateUmPerS)? {
-                Some(rate_um_per_s) if params.len() == 1 => {
-                    Effect::ThermalDrift(Drift::Linear { rate_um_per_s })
-                }
-                Some(_) => {
-                    return Err(EffectParamError::Unknown {
-                        id,
-                        param: P::RateUmPerS.as_str().into(),
-                        list: "amplitude_um and tau_s (exponential) or rate_um_per_s (linear), not both".into(),
-                    });
-                }
-                None => Effect::ThermalDrift(Drift::Exponential {
-                    amplitude_um: num(P::AmplitudeUm)?,
-                    tau_s: num(P::TauS)?,
-                }),
-            },
+            EffectId::ThermalDrift => Effect::ThermalDrift(p.drift()?),
             EffectId::DeadPath => Effect::DeadPath {
                 dead_path_mm: num(P::DeadPathMm)?,
             },
-            EffectId::Refraction => {
-                let (k, h) = (opt(P::PpmPerK)?, opt(P::PpmPerHpa)?);
-                if k.is_none() && h.is_none() {
-                    return Err(EffectParamError::Missing {
-                        id,
-                        param: P::PpmPerK,
-                    });
-                }
-                Effect::Refraction {
-                    ppm_per_k: k,
-                    ppm_per_hpa: h,
-                }
-            }
+            EffectId::Refraction => p.refraction()?,
             EffectId::Unexplained => Effect::Unexplained {
                 rms_um: num(P::RmsUm)?,
             },

@@ -690,59 +690,86 @@ pub fn diagnose(test: &CircularTest, cfg: &DiagnoseConfig) -> CircularDiagnosis 
     finish(test, &data, &set, both)
 }
 
-/// The final joint fit of setup + `set` and the result document.
-fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> CircularDiagnosis {
-    let n = data.n();
-    let cols = design(data, set);
-    let fit = fit_columns(&cols, &data.dr);
-    // Jacobian: the linear columns, then one derivative column per nonlinear parameter.
-    let mut jac = cols.clone();
-    let mut offsets = Vec::new();
-    let mut nl_index = Vec::new();
-    let mut at = 3;
-    for c in set {
-        offsets.push(at);
-        let w = width(c.id);
-        if nonlinear(c.id) {
-            let h = c.nl * 1e-4;
-            let coef = &fit.coef[at..at + w];
-            let eval = |nl: f64| -> Vec<f64> {
-                let cc = data.cand_cols(&Cand { nl, ..*c });
-                (0..n)
-                    .map(|i| (0..w).map(|k| cc[k][i] * coef[k]).sum())
-                    .collect()
-            };
-            let (up, down) = (eval(c.nl + h), eval(c.nl - h));
-            nl_index.push(Some(jac.len()));
-            jac.push(
-                up.iter()
-                    .zip(&down)
-                    .map(|(u, d)| (u - d) / (2.0 * h))
-                    .collect(),
-            );
-        } else {
-            nl_index.push(None);
+/// The final fit of a candidate set: its design columns and linear fit, where each
+/// effect's coefficients start, its nonlinear parameter's column in the Jacobian, and the
+/// covariance of all parameters (linear and nonlinear) scaled by the residual variance.
+struct Solution {
+    cols: Vec<Vec<f64>>,
+    fit: Fit,
+    offsets: Vec<usize>,
+    nl_index: Vec<Option<usize>>,
+    cov: DMatrix<f64>,
+    sigma2: f64,
+}
+
+impl Solution {
+    /// Fits `set` and linearises it: the Jacobian is the linear columns, then one
+    /// derivative column per nonlinear parameter (central differences).
+    fn of(data: &Data, set: &[Cand]) -> Solution {
+        let n = data.n();
+        let cols = design(data, set);
+        let fit = fit_columns(&cols, &data.dr);
+        // Jacobian: the linear columns, then one derivative column per nonlinear parameter.
+        let mut jac = cols.clone();
+        let mut offsets = Vec::new();
+        let mut nl_index = Vec::new();
+        let mut at = 3;
+        for c in set {
+            offsets.push(at);
+            let w = width(c.id);
+            if nonlinear(c.id) {
+                let h = c.nl * 1e-4;
+                let coef = &fit.coef[at..at + w];
+                let eval = |nl: f64| -> Vec<f64> {
+                    let cc = data.cand_cols(&Cand { nl, ..*c });
+                    (0..n)
+                        .map(|i| (0..w).map(|k| cc[k][i] * coef[k]).sum())
+                        .collect()
+                };
+                let (up, down) = (eval(c.nl + h), eval(c.nl - h));
+                nl_index.push(Some(jac.len()));
+                jac.push(
+                    up.iter()
+                        .zip(&down)
+                        .map(|(u, d)| (u - d) / (2.0 * h))
+                        .collect(),
+                );
+            } else {
+                nl_index.push(None);
+            }
+            at += w;
         }
-        at += w;
-    }
-    let jfit = fit_columns(&jac, &data.dr);
-    let dof = n.saturating_sub(jfit.rank).max(1) as f64;
-    let sigma2 = fit.rss / dof;
-    let cov = &jfit.inv * sigma2;
-    // Residual and contributions.
-    let mut model = vec![0.0; n];
-    for (col, coef) in cols.iter().zip(&fit.coef) {
-        for (m, v) in model.iter_mut().zip(col) {
-            *m += coef * v;
+        let jfit = fit_columns(&jac, &data.dr);
+        let dof = n.saturating_sub(jfit.rank).max(1) as f64;
+        let sigma2 = fit.rss / dof;
+        let cov = &jfit.inv * sigma2;
+        Solution {
+            cols,
+            fit,
+            offsets,
+            nl_index,
+            cov,
+            sigma2,
         }
     }
-    let nominal_idx: Vec<usize> = (0..n).filter(|&i| data.nominal[i]).collect();
-    let rms_after = (nominal_idx
-        .iter()
-        .map(|&i| (data.dr[i] - model[i]).powi(2))
-        .sum::<f64>()
-        / nominal_idx.len().max(1) as f64)
-        .sqrt();
+
+    /// The one-sigma of parameter `i`.
+    fn sd(&self, i: usize) -> f64 {
+        self.cov[(i, i)].max(0.0).sqrt()
+    }
+}
+
+/// Each effect of `set` with its parameters, their uncertainty, what it explains on the
+/// nominal arc beyond the setup terms and what dropping it costs (Δχ²), largest first.
+fn found_effects(
+    test: &CircularTest,
+    data: &Data,
+    set: &[Cand],
+    sol: &Solution,
+    both: bool,
+) -> Vec<CircularEffect> {
+    let (cols, fit, cov) = (&sol.cols, &sol.fit, &sol.cov);
+    let nominal_idx: Vec<usize> = (0..data.n()).filter(|&i| data.nominal[i]).collect();
     let setup_nom: Vec<Vec<f64>> = data
         .setup_cols()
         .into_iter()
@@ -751,10 +778,10 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
     let mut effects = Vec::new();
     for (k, c) in set.iter().enumerate() {
         let w = width(c.id);
-        let off = offsets[k];
+        let off = sol.offsets[k];
         let coef = &fit.coef[off..off + w];
         let mut idx: Vec<usize> = (off..off + w).collect();
-        idx.extend(nl_index[k]);
+        idx.extend(sol.nl_index[k]);
         let block = DMatrix::from_fn(idx.len(), idx.len(), |i, j| cov[(idx[i], idx[j])]);
         let (effect, uncertainty) = effect_of(c, coef, &block);
         let contrib: Vec<f64> = nominal_idx
@@ -766,7 +793,7 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
         let mut less = set.to_vec();
         less.remove(k);
         let delta_chi2 =
-            (fit_columns(&design(data, &less), &data.dr).rss - fit.rss) / sigma2.max(1e-30);
+            (fit_columns(&design(data, &less), &data.dr).rss - fit.rss) / sol.sigma2.max(1e-30);
         effects.push(CircularEffect {
             effect,
             axis: AxisOrPlane {
@@ -780,7 +807,14 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
         });
     }
     effects.sort_by(|a, b| b.explains_um.total_cmp(&a.explains_um));
-    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
+    effects
+}
+
+/// What the test cannot separate: the mean scale from the bar's length always, and with
+/// one direction only squareness from servo mismatch and lateral play from scale mismatch.
+fn unidentifiable(data: &Data, set: &[Cand], sol: &Solution, both: bool) -> Vec<Unidentifiable> {
+    let fit = &sol.fit;
+    let sd = |i: usize| sol.sd(i);
     let mut unidentifiable = vec![Unidentifiable {
         ids: vec!["scale_mean".into(), "ballbar_length".into()],
         why: "the mean scale of the two axes, (k_A + k_B)/2, changes the radius only, exactly \
@@ -794,7 +828,7 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
         let sq = set
             .iter()
             .position(|c| c.id == EffectId::Squareness)
-            .map(|k| offsets[k]);
+            .map(|k| sol.offsets[k]);
         let (params, uncertainty) = match sq {
             Some(o) => (
                 [(
@@ -829,6 +863,30 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
             uncertainty: Default::default(),
         });
     }
+    unidentifiable
+}
+
+/// The final joint fit of setup + `set` and the result document.
+fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> CircularDiagnosis {
+    let n = data.n();
+    let sol = Solution::of(data, set);
+    let fit = &sol.fit;
+    // Residual and contributions.
+    let mut model = vec![0.0; n];
+    for (col, coef) in sol.cols.iter().zip(&fit.coef) {
+        for (m, v) in model.iter_mut().zip(col) {
+            *m += coef * v;
+        }
+    }
+    let nominal_idx: Vec<usize> = (0..n).filter(|&i| data.nominal[i]).collect();
+    let rms_after = (nominal_idx
+        .iter()
+        .map(|&i| (data.dr[i] - model[i]).powi(2))
+        .sum::<f64>()
+        / nominal_idx.len().max(1) as f64)
+        .sqrt();
+    let effects = found_effects(test, data, set, &sol, both);
+    let unidentifiable = unidentifiable(data, set, &sol, both);
     let rms_before = common_lsc(test).rms_um();
     CircularDiagnosis {
         plane: test.meta.plane,
@@ -849,7 +907,7 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
             centre_offset_um: [fit.coef[1], fit.coef[2]],
             radius_offset_um: fit.coef[0],
         },
-        sigma_um: sigma2.max(0.0).sqrt(),
+        sigma_um: sol.sigma2.max(0.0).sqrt(),
         samples_fitted: n,
         link: None,
     }

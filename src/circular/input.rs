@@ -260,78 +260,104 @@ pub fn meta_path(trace: &Path) -> PathBuf {
     trace.with_extension("toml")
 }
 
-/// Reads the trace at `trace` and its TOML beside it.
-pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
-    let meta = TestMeta::read(&meta_path(trace))?;
-    let df = read_frame(trace)?;
-    if df.height() == 0 {
-        return Err(TableError::Empty {
-            path: trace.to_path_buf(),
+/// One row of the trace as read: its run, direction, angle, radial deviation and time.
+struct Sample {
+    run_id: i64,
+    sense: Sense,
+    angle: f64,
+    dr: f64,
+    t: Option<f64>,
+}
+
+/// The trace's columns, found before any row is read, and how a cell of one is read.
+struct TraceColumns<'a> {
+    trace: &'a Path,
+    run_c: Cells,
+    dir_c: Cells,
+    ang_c: Cells,
+    dr_c: Cells,
+    t_c: Option<Cells>,
+}
+
+impl TraceColumns<'_> {
+    /// A problem with row `row0` (0-based; line row0 + 2 of the file) in `column`.
+    fn bad(&self, row0: usize, column: &str, problem: String) -> CircularError {
+        CircularError::Trace {
+            path: self.trace.to_path_buf(),
+            line: row0 + 2,
+            column: column.to_string(),
+            problem,
         }
-        .into());
     }
-    let cols = |name: &str| column_cells(trace, &df, name);
-    let run_c = cols("run")?;
-    let dir_c = cols("direction")?;
-    let ang_c = cols("angle_deg")?;
-    let dr_c = cols("dr_um")?;
-    let t_c = optional_column_cells(trace, &df, "t_s")?;
-    let bad = |row0: usize, column: &str, problem: String| CircularError::Trace {
-        path: trace.to_path_buf(),
-        line: row0 + 2,
-        column: column.to_string(),
-        problem,
-    };
-    let cell = |cells: &Cells, row0: usize, column: &str| -> Result<f64, CircularError> {
-        match parse_cell(trace, cells, row0, column) {
+
+    /// A required number, its problems named with the file line and column.
+    fn cell(&self, cells: &Cells, row0: usize, column: &str) -> Result<f64, CircularError> {
+        match parse_cell(self.trace, cells, row0, column) {
             Ok(Some(v)) => Ok(v),
-            Ok(None) => Err(bad(row0, column, "empty cell".into())),
+            Ok(None) => Err(self.bad(row0, column, "empty cell".into())),
             Err(TableError::NotNumeric { value, .. }) => {
-                Err(bad(row0, column, format!("`{value}` is not a number")))
+                Err(self.bad(row0, column, format!("`{value}` is not a number")))
             }
             Err(TableError::NonFinite { value, .. }) => {
-                Err(bad(row0, column, format!("{value} is not a finite number")))
+                Err(self.bad(row0, column, format!("{value} is not a finite number")))
             }
             Err(e) => Err(e.into()),
         }
-    };
-    let mut runs: Vec<Run> = Vec::new();
-    for row0 in 0..df.height() {
-        let run_v = cell(&run_c, row0, "run")?;
+    }
+
+    /// Row `row0` as a sample: an integer run id, a direction of ±1, the numbers.
+    fn sample(&self, row0: usize) -> Result<Sample, CircularError> {
+        let run_v = self.cell(&self.run_c, row0, "run")?;
         if run_v.fract() != 0.0 || run_v.abs() > 1e15 {
-            return Err(bad(
-                row0,
-                "run",
-                format!("{run_v} is not an integer run id"),
-            ));
+            return Err(self.bad(row0, "run", format!("{run_v} is not an integer run id")));
         }
         let run_id = run_v as i64;
-        let d = cell(&dir_c, row0, "direction")?;
+        let d = self.cell(&self.dir_c, row0, "direction")?;
         let sense = if d == 1.0 {
             Sense::Ccw
         } else if d == -1.0 {
             Sense::Cw
         } else {
-            return Err(bad(
-                row0,
-                "direction",
-                format!("{d} is not +1 (ccw) or -1 (cw)"),
-            ));
+            return Err(self.bad(row0, "direction", format!("{d} is not +1 (ccw) or -1 (cw)")));
         };
-        let angle = cell(&ang_c, row0, "angle_deg")?;
-        let dr = cell(&dr_c, row0, "dr_um")?;
-        let t = t_c.as_ref().map(|c| cell(c, row0, "t_s")).transpose()?;
+        let angle = self.cell(&self.ang_c, row0, "angle_deg")?;
+        let dr = self.cell(&self.dr_c, row0, "dr_um")?;
+        let t = self
+            .t_c
+            .as_ref()
+            .map(|c| self.cell(c, row0, "t_s"))
+            .transpose()?;
+        Ok(Sample {
+            run_id,
+            sense,
+            angle,
+            dr,
+            t,
+        })
+    }
+
+    /// Adds sample `s` (row `row0`) to its run, starting a run at a new id: runs must be
+    /// contiguous, one per direction, their angle strictly monotonic in the run's sense
+    /// and their time not decreasing.
+    fn add(&self, runs: &mut Vec<Run>, row0: usize, s: Sample) -> Result<(), CircularError> {
+        let Sample {
+            run_id,
+            sense,
+            angle,
+            dr,
+            t,
+        } = s;
         let new_run = runs.last().is_none_or(|r| r.id != run_id);
         if new_run {
             if runs.iter().any(|r| r.id == run_id) {
-                return Err(bad(
+                return Err(self.bad(
                     row0,
                     "run",
                     format!("run {run_id} appears again: the rows of a run must be contiguous"),
                 ));
             }
             if let Some(other) = runs.iter().find(|r| r.sense == sense) {
-                return Err(bad(
+                return Err(self.bad(
                     row0,
                     "direction",
                     format!(
@@ -353,7 +379,7 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
         }
         let r = runs.last_mut().expect("a run was just pushed");
         if r.sense != sense {
-            return Err(bad(
+            return Err(self.bad(
                 row0,
                 "direction",
                 format!(
@@ -366,7 +392,7 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
         if let Some(&prev) = r.angle_deg.last()
             && (angle - prev) * sense.s() <= 0.0
         {
-            return Err(bad(
+            return Err(self.bad(
                 row0,
                 "angle_deg",
                 format!(
@@ -384,19 +410,53 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
             if let Some(&prev) = ts.last()
                 && t < prev
             {
-                return Err(bad(
-                    row0,
-                    "t_s",
-                    format!("{t} after {prev}: time decreases"),
-                ));
+                return Err(self.bad(row0, "t_s", format!("{t} after {prev}: time decreases")));
             }
             ts.push(t);
         }
         r.angle_deg.push(angle);
         r.dr_um.push(dr);
+        Ok(())
     }
+}
+
+/// Reads the trace at `trace` and its TOML beside it.
+pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
+    let meta = TestMeta::read(&meta_path(trace))?;
+    let df = read_frame(trace)?;
+    if df.height() == 0 {
+        return Err(TableError::Empty {
+            path: trace.to_path_buf(),
+        }
+        .into());
+    }
+    let cols = |name: &str| column_cells(trace, &df, name);
+    let columns = TraceColumns {
+        trace,
+        run_c: cols("run")?,
+        dir_c: cols("direction")?,
+        ang_c: cols("angle_deg")?,
+        dr_c: cols("dr_um")?,
+        t_c: optional_column_cells(trace, &df, "t_s")?,
+    };
+    let mut runs: Vec<Run> = Vec::new();
+    for row0 in 0..df.height() {
+        let s = columns.sample(row0)?;
+        columns.add(&mut runs, row0, s)?;
+    }
+    check_arcs(trace, &runs, &meta)?;
+    runs.sort_by_key(|r| r.sense);
+    Ok(CircularTest {
+        trace: trace.to_path_buf(),
+        meta,
+        runs,
+    })
+}
+
+/// Refuses a run that does not cover the nominal arc or has fewer than 16 samples on it.
+fn check_arcs(trace: &Path, runs: &[Run], meta: &TestMeta) -> Result<(), CircularError> {
     let (lo, hi) = meta.arc_deg_range();
-    for r in &runs {
+    for r in runs {
         let (a0, a1) = (r.angle_deg[0], r.angle_deg[r.angle_deg.len() - 1]);
         let (min, max) = (a0.min(a1), a0.max(a1));
         if min > lo + 1e-9 || max < hi - 1e-9 {
@@ -410,7 +470,7 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
                 ),
             });
         }
-        if r.nominal(&meta).len() < 16 {
+        if r.nominal(meta).len() < 16 {
             return Err(CircularError::Trace {
                 path: trace.to_path_buf(),
                 line: r.first_line,
@@ -418,15 +478,10 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
                 problem: format!(
                     "run {} has {} samples on the nominal arc (at least 16 are needed)",
                     r.id,
-                    r.nominal(&meta).len()
+                    r.nominal(meta).len()
                 ),
             });
         }
     }
-    runs.sort_by_key(|r| r.sense);
-    Ok(CircularTest {
-        trace: trace.to_path_buf(),
-        meta,
-        runs,
-    })
+    Ok(())
 }

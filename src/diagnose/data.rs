@@ -249,42 +249,34 @@ fn along(row: &SessionRow, a: Axis) -> f64 {
     v.filter(|v| v.is_finite()).unwrap_or(row.scale_mm)
 }
 
-/// Matches the tables and builds the observations.
-pub(crate) fn build(
+/// Key (run, sample) → row index, duplicates marked `usize::MAX`; and how many rows
+/// share a key.
+fn key_index(rows: &[SessionRow]) -> (HashMap<(u32, i64), usize>, usize) {
+    let mut map: HashMap<(u32, i64), usize> = HashMap::with_capacity(rows.len());
+    let mut dups = 0usize;
+    for (i, r) in rows.iter().enumerate() {
+        map.entry((r.run, r.sample))
+            .and_modify(|v| {
+                if *v != usize::MAX {
+                    dups += 1;
+                }
+                dups += 1;
+                *v = usize::MAX;
+            })
+            .or_insert(i);
+    }
+    (map, dups)
+}
+
+/// Pairs recorded and simulated rows by (run, sample), duplicates left out, counting in
+/// `m` what did not pair; refuses sessions with no pair at all.
+fn match_rows(
     recorded: &[SessionRow],
     simulated: &[SessionRow],
-) -> Result<(Obs, Matching), DiagnoseError> {
-    if recorded.is_empty() {
-        return Err(DiagnoseError::Empty { which: "recorded" });
-    }
-    if simulated.is_empty() {
-        return Err(DiagnoseError::Empty { which: "simulated" });
-    }
-    let mut m = Matching {
-        recorded_rows: recorded.len(),
-        simulated_rows: simulated.len(),
-        ..Matching::default()
-    };
-
-    // Key → index, with duplicates marked (usize::MAX).
-    let index = |rows: &[SessionRow]| {
-        let mut map: HashMap<(u32, i64), usize> = HashMap::with_capacity(rows.len());
-        let mut dups = 0usize;
-        for (i, r) in rows.iter().enumerate() {
-            map.entry((r.run, r.sample))
-                .and_modify(|v| {
-                    if *v != usize::MAX {
-                        dups += 1;
-                    }
-                    dups += 1;
-                    *v = usize::MAX;
-                })
-                .or_insert(i);
-        }
-        (map, dups)
-    };
-    let (sim_map, sim_dups) = index(simulated);
-    let (rec_map, rec_dups) = index(recorded);
+    m: &mut Matching,
+) -> Result<Vec<(usize, usize)>, DiagnoseError> {
+    let (sim_map, sim_dups) = key_index(simulated);
+    let (rec_map, rec_dups) = key_index(recorded);
     m.duplicate_keys = sim_dups + rec_dups;
 
     let mut pairs: Vec<(usize, usize)> = Vec::with_capacity(recorded.len());
@@ -313,9 +305,13 @@ pub(crate) fn build(
             simulated: simulated.len(),
         });
     }
+    Ok(pairs)
+}
 
-    // One axis per session: a line-to-line move on another axis changes it twice per
-    // line; rows that keep switching are interleaved sessions or damage.
+/// The session's axis, the most common one among matched rows; refuses rows that keep
+/// switching axis (a line-to-line move on another axis changes it twice per line; more
+/// is interleaved sessions or damage).
+fn session_axis(recorded: &[SessionRow], pairs: &[(usize, usize)]) -> Result<Axis, DiagnoseError> {
     let switches = pairs
         .windows(2)
         .filter(|w| recorded[w[0].0].axis != recorded[w[1].0].axis)
@@ -326,17 +322,26 @@ pub(crate) fn build(
             rows: pairs.len(),
         });
     }
-
-    // The session's axis: the most common one among matched rows.
     let mut counts = [0usize; 3];
-    for &(i, _) in &pairs {
+    for &(i, _) in pairs {
         counts[recorded[i].axis.code() as usize] += 1;
     }
     let code = (0..3).max_by_key(|&k| counts[k]).unwrap_or(0);
-    let axis = Axis::from_code(code as u8).unwrap_or(Axis::X);
+    Ok(Axis::from_code(code as u8).unwrap_or(Axis::X))
+}
 
+/// The pairs the diagnosis uses, with their residual recorded − simulated: unflagged, on
+/// the session's axis, finite (each exclusion counted in `m`); refuses too few rows and
+/// sessions without runs.
+fn usable_rows(
+    recorded: &[SessionRow],
+    simulated: &[SessionRow],
+    pairs: &[(usize, usize)],
+    axis: Axis,
+    m: &mut Matching,
+) -> Result<Vec<(usize, f64)>, DiagnoseError> {
     let mut used: Vec<(usize, f64)> = Vec::with_capacity(pairs.len());
-    for &(i, j) in &pairs {
+    for &(i, j) in pairs {
         let (rec, sim) = (&recorded[i], &simulated[j]);
         if rec.flags != 0 || sim.flags != 0 {
             m.flagged_rows += 1;
@@ -364,10 +369,61 @@ pub(crate) fn build(
             ),
         });
     }
-
     if used.iter().all(|&(i, _)| recorded[i].run == 0) {
         return Err(DiagnoseError::NoRuns { rows: used.len() });
     }
+    Ok(used)
+}
+
+/// The lines: distinct pairs of the two other coordinates (to 1 µm), numbered in order
+/// of first appearance; returns each line's coordinates and each row's line.
+fn lines_of(c_filled: &[Option<Vec<f64>>; 2], n: usize) -> (Vec<[f64; 2]>, Vec<usize>) {
+    let mut line_ids: BTreeMap<(i64, i64), usize> = BTreeMap::new();
+    let key = |v: Option<f64>| v.map_or(i64::MIN, |v| (v * 1000.0).round() as i64);
+    let line_key = |k: usize| {
+        let get = |i: usize| c_filled[i].as_ref().map(|v| v[k]);
+        (key(get(0)), key(get(1)))
+    };
+    for k in 0..n {
+        let next = line_ids.len();
+        line_ids.entry(line_key(k)).or_insert(next);
+    }
+    let mut lines = vec![[f64::NAN; 2]; line_ids.len()];
+    for (k, &id) in &line_ids {
+        let f = |v: i64| {
+            if v == i64::MIN {
+                f64::NAN
+            } else {
+                v as f64 / 1000.0
+            }
+        };
+        lines[id] = [f(k.0), f(k.1)];
+    }
+    let line: Vec<usize> = (0..n)
+        .map(|k| line_ids.get(&line_key(k)).copied().unwrap_or(0))
+        .collect();
+    (lines, line)
+}
+
+/// Matches the tables and builds the observations.
+pub(crate) fn build(
+    recorded: &[SessionRow],
+    simulated: &[SessionRow],
+) -> Result<(Obs, Matching), DiagnoseError> {
+    if recorded.is_empty() {
+        return Err(DiagnoseError::Empty { which: "recorded" });
+    }
+    if simulated.is_empty() {
+        return Err(DiagnoseError::Empty { which: "simulated" });
+    }
+    let mut m = Matching {
+        recorded_rows: recorded.len(),
+        simulated_rows: simulated.len(),
+        ..Matching::default()
+    };
+    let pairs = match_rows(recorded, simulated, &mut m)?;
+    let axis = session_axis(recorded, &pairs)?;
+    let used = usable_rows(recorded, simulated, &pairs, axis, &mut m)?;
 
     let t0 = recorded
         .iter()
@@ -412,32 +468,8 @@ pub(crate) fn build(
                 .map(|row| coord(row, a).filter(|v| v.is_finite())),
         )
     });
-    let c = c_filled.clone();
-    // Lines: distinct pairs of the two other coordinates (to 1 µm).
-    let mut line_ids: BTreeMap<(i64, i64), usize> = BTreeMap::new();
-    let key = |v: Option<f64>| v.map_or(i64::MIN, |v| (v * 1000.0).round() as i64);
-    let line_key = |k: usize| {
-        let get = |i: usize| c_filled[i].as_ref().map(|v| v[k]);
-        (key(get(0)), key(get(1)))
-    };
-    for k in 0..n {
-        let next = line_ids.len();
-        line_ids.entry(line_key(k)).or_insert(next);
-    }
-    let mut lines = vec![[f64::NAN; 2]; line_ids.len()];
-    for (k, &id) in &line_ids {
-        let f = |v: i64| {
-            if v == i64::MIN {
-                f64::NAN
-            } else {
-                v as f64 / 1000.0
-            }
-        };
-        lines[id] = [f(k.0), f(k.1)];
-    }
-    let line: Vec<usize> = (0..n)
-        .map(|k| line_ids.get(&line_key(k)).copied().unwrap_or(0))
-        .collect();
+    let (lines, line) = lines_of(&c_filled, n);
+    let c = c_filled;
 
     let column = |f: &dyn Fn(&SessionRow) -> Option<f64>| {
         fill_by_time(&t, rows.iter().map(|row| f(row).filter(|v| v.is_finite())))

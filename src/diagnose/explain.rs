@@ -52,15 +52,6 @@ pub(super) fn assemble(
         chi2 / (n as f64 - k as f64).max(1.0)
     };
     let before: Vec<f64> = y.to_vec();
-    let peaks: Vec<SpectralPeak> = out
-        .periods
-        .iter()
-        .map(|p| SpectralPeak {
-            period_um: p.refined_um.unwrap_or(p.period_um),
-            source: p.label.clone(),
-            delta_chi2: p.power,
-        })
-        .collect();
     let loc = locate::locate(
         &locate::Input {
             obs,
@@ -69,65 +60,13 @@ pub(super) fn assemble(
             w,
             s2,
             noise_sigma,
-            peaks,
+            peaks: spectral_peaks(&out),
         },
         config.laser_wavelength_um,
     );
 
     // Ambiguity statements.
-    let mut ambiguities: Vec<String> = Vec::new();
-    let mut amb_by_kind: BTreeMap<Kind, Vec<String>> = BTreeMap::new();
-    for a in &out.ambiguities {
-        let decided = out
-            .decisions
-            .iter()
-            .find(|d| d.chosen == a.found && d.other == a.alt);
-        let why = if let Some(d) = decided {
-            format!(
-                "of physics, not of the fit: {}; the separating measurement is written as a plan (separating-plan.toml)",
-                d.basis
-            )
-        } else if a.delta_bic > select::TIE_BIC {
-            format!(
-                "it fits better (the alternative raises BIC by {:.1})",
-                a.delta_bic
-            )
-        } else if a.delta_bic >= -select::TIE_BIC {
-            "the fits are equally good and it is the simpler explanation (fewer assumptions or covariates)".to_string()
-        } else if -a.delta_bic < config.min_delta_bic {
-            format!(
-                "it was selected first and the alternative is better by only {:.1} (less than the {} an exchange needs)",
-                -a.delta_bic, config.min_delta_bic
-            )
-        } else {
-            format!(
-                "the selection kept it, although the alternative fits these rows better (BIC lower by {:.1}): \
-                 on its path the alternative failed leave-one-run-out cross-validation or the checks on its \
-                 parameters; treat the attribution between the two as open",
-                -a.delta_bic
-            )
-        };
-        let text = format!(
-            "ambiguous: {found} is indistinguishable on these data from {alt} (ΔBIC = {d:+.1}); reported as {found} because {why}; to separate them: {advice}",
-            found = a.found.label(obs),
-            alt = a.alt.label(obs),
-            d = a.delta_bic,
-            advice = separation_advice(a.found, a.alt, obs)
-        );
-        amb_by_kind.entry(a.found).or_default().push(text.clone());
-        ambiguities.push(text);
-    }
-    for &(ka, pa, kb, pb, rho) in &out.correlated {
-        let text = format!(
-            "hard to separate: {pa} of {} and {pb} of {} are correlated (ρ = {rho:+.3}) on these data, so the split between the two effects rests on little information (their one-sigma values include it); to separate them: {}",
-            ka.label(obs),
-            kb.label(obs),
-            separation_advice(ka, kb, obs)
-        );
-        amb_by_kind.entry(ka).or_default().push(text.clone());
-        amb_by_kind.entry(kb).or_default().push(text.clone());
-        ambiguities.push(text);
-    }
+    let (mut ambiguities, amb_by_kind) = ambiguity_statements(obs, &out, config);
     ambiguities.extend(out.refused.iter().cloned());
 
     // Effects.
@@ -180,16 +119,7 @@ pub(super) fn assemble(
         effects,
         rms_before_centred_um: rms_before_c,
         noise_sigma_um: noise_sigma,
-        noise_groups: groups
-            .labels
-            .iter()
-            .enumerate()
-            .map(|(g, l)| NoiseGroup {
-                group: l.clone(),
-                rows: groups.count[g],
-                sigma_um: sigma[g],
-            })
-            .collect(),
+        noise_groups: noise_groups(groups, sigma),
         matched_rows: matching.matched_rows,
         used_rows: matching.used_rows,
         only_in_recorded: matching.only_in_recorded,
@@ -203,19 +133,113 @@ pub(super) fn assemble(
         locate: loc,
         candidates,
         static_map: None,
-        separating_plans: out
-            .decisions
-            .iter()
-            .map(|d| SeparatingPlan {
-                chosen: d.chosen.id(),
-                other: d.other.id(),
-                basis: d.basis.clone(),
-                plan_toml: d.plan_toml.clone(),
-            })
-            .collect(),
+        separating_plans: separating_plans(&out),
         selection_log: out.log.clone(),
         series,
     })
+}
+
+/// The spectral peaks the selection saw, for the localisation's periodic search.
+fn spectral_peaks(out: &Outcome) -> Vec<SpectralPeak> {
+    out.periods
+        .iter()
+        .map(|p| SpectralPeak {
+            period_um: p.refined_um.unwrap_or(p.period_um),
+            source: p.label.clone(),
+            delta_chi2: p.power,
+        })
+        .collect()
+}
+
+/// The statements on effects the data cannot tell apart (exchangeable and strongly
+/// correlated pairs), all of them and by the effect they concern (each effect's `where`
+/// repeats its own).
+fn ambiguity_statements(
+    obs: &data::Obs,
+    out: &Outcome,
+    config: &DiagnoseConfig,
+) -> (Vec<String>, BTreeMap<Kind, Vec<String>>) {
+    let mut ambiguities: Vec<String> = Vec::new();
+    let mut amb_by_kind: BTreeMap<Kind, Vec<String>> = BTreeMap::new();
+    for a in &out.ambiguities {
+        let decided = out
+            .decisions
+            .iter()
+            .find(|d| d.chosen == a.found && d.other == a.alt);
+        let why = if let Some(d) = decided {
+            format!(
+                "of physics, not of the fit: {}; the separating measurement is written as a plan (separating-plan.toml)",
+                d.basis
+            )
+        } else if a.delta_bic > select::TIE_BIC {
+            format!(
+                "it fits better (the alternative raises BIC by {:.1})",
+                a.delta_bic
+            )
+        } else if a.delta_bic >= -select::TIE_BIC {
+            "the fits are equally good and it is the simpler explanation (fewer assumptions or covariates)".to_string()
+        } else if -a.delta_bic < config.min_delta_bic {
+            format!(
+                "it was selected first and the alternative is better by only {:.1} (less than the {} an exchange needs)",
+                -a.delta_bic, config.min_delta_bic
+            )
+        } else {
+            format!(
+                "the selection kept it, although the alternative fits these rows better (BIC lower by {:.1}): \
+             on its path the alternative failed leave-one-run-out cross-validation or the checks on its \
+             parameters; treat the attribution between the two as open",
+                -a.delta_bic
+            )
+        };
+        let text = format!(
+            "ambiguous: {found} is indistinguishable on these data from {alt} (ΔBIC = {d:+.1}); reported as {found} because {why}; to separate them: {advice}",
+            found = a.found.label(obs),
+            alt = a.alt.label(obs),
+            d = a.delta_bic,
+            advice = separation_advice(a.found, a.alt, obs)
+        );
+        amb_by_kind.entry(a.found).or_default().push(text.clone());
+        ambiguities.push(text);
+    }
+    for &(ka, pa, kb, pb, rho) in &out.correlated {
+        let text = format!(
+            "hard to separate: {pa} of {} and {pb} of {} are correlated (ρ = {rho:+.3}) on these data, so the split between the two effects rests on little information (their one-sigma values include it); to separate them: {}",
+            ka.label(obs),
+            kb.label(obs),
+            separation_advice(ka, kb, obs)
+        );
+        amb_by_kind.entry(ka).or_default().push(text.clone());
+        amb_by_kind.entry(kb).or_default().push(text.clone());
+        ambiguities.push(text);
+    }
+    (ambiguities, amb_by_kind)
+}
+
+/// The noise groups with their row counts and σ, as the diagnosis reports them.
+fn noise_groups(groups: &data::Groups, sigma: &[f64]) -> Vec<NoiseGroup> {
+    groups
+        .labels
+        .iter()
+        .enumerate()
+        .map(|(g, l)| NoiseGroup {
+            group: l.clone(),
+            rows: groups.count[g],
+            sigma_um: sigma[g],
+        })
+        .collect()
+}
+
+/// The measurements that would separate the physics-decided pairs, as written plans.
+fn separating_plans(out: &Outcome) -> Vec<SeparatingPlan> {
+    out.decisions
+        .iter()
+        .map(|d| SeparatingPlan {
+            chosen: d.chosen.id(),
+            other: d.other.id(),
+            basis: d.basis.clone(),
+            plan_toml: d.plan_toml.clone(),
+        })
+        .collect()
 }
 
 fn found_effect(
@@ -292,6 +316,121 @@ fn decimals(sigma: f64) -> usize {
     (1 - sigma.abs().log10().floor() as i32).clamp(0, 8) as usize
 }
 
+/// What `where_text` says about every effect: the effect, the data, and the ranges and
+/// the row where the effect is largest, shared by the per-kind sentences.
+struct Where<'a> {
+    f: &'a FittedTerm,
+    obs: &'a data::Obs,
+    out: &'a Outcome,
+    axl: String,
+    xlo: f64,
+    xhi: f64,
+}
+
+impl Where<'_> {
+    /// The fitted value of parameter `name` (0 when the term has none).
+    fn pv(&self, name: P) -> f64 {
+        self.f
+            .params
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(0.0, |p| p.value)
+    }
+
+    /// The reversal's sentence: the ±b/2 step, where it applies, and its change along the
+    /// axis when the linear variant was chosen.
+    fn reversal(&self, v: &Variant) -> String {
+        let (obs, axl, xlo, xhi) = (self.obs, &self.axl, self.xlo, self.xhi);
+        let pv = |name: P| self.pv(name);
+        let along = if matches!(v, Variant::ReversalLinear) {
+            let xm = effects::reversal_centre_mm(obs);
+            let b = |x: f64| pv(P::BUm) + pv(P::B1UmPerM) * (x - xm) * 1e-3;
+            format!(
+                "; the reversal changes along the axis (position-dependent backlash, linear fits better than a constant by BIC): b = {:.3} µm at {axl} = {} mm, {:.3} µm at {} mm, {:.3} µm at {} mm (b_um is its value at the middle of the travel, b1_um_per_m its change per metre)",
+                b(xlo),
+                fixed(xlo, 0),
+                b(xm),
+                fixed(xm, 0),
+                b(xhi),
+                fixed(xhi, 0)
+            )
+        } else {
+            String::new()
+        };
+        let dwell = obs.moving.iter().any(|m| !m);
+        let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
+        feeds.sort_by(f64::total_cmp);
+        feeds.dedup();
+        let rows = if dwell {
+            "dwelling and moving"
+        } else {
+            "on every moving sample"
+        };
+        let feed = match feeds.len() {
+            0 => String::new(),
+            1 => format!(", at the single feed of {} mm/s", feeds[0]),
+            _ => ", the same at every feed".to_string(),
+        };
+        format!(
+            "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel{along}",
+            pv(P::BUm) / 2.0
+        )
+    }
+
+    /// The latch delay's sentence: the step at the first feeds, and the speed it follows.
+    fn latch(&self, v: &Variant) -> String {
+        let obs = self.obs;
+        let pv = |name: P| self.pv(name);
+        let mut feeds: Vec<f64> = (0..obs.len())
+            .filter(|&k| obs.moving[k] && obs.v_feed[k] > 0.0)
+            .map(|k| obs.v_feed[k])
+            .collect();
+        feeds.sort_by(f64::total_cmp);
+        feeds.dedup();
+        let at: Vec<String> = feeds
+            .iter()
+            .take(4)
+            .map(|v| format!("±{:.3} µm at {v} mm/s", v * pv(P::TauUs) * 1e-3))
+            .collect();
+        let how = if matches!(v, Variant::LatchMeasured) {
+            "; v is the carriage speed measured from successive samples, which fits better than the commanded feed (accelerations)"
+        } else {
+            ""
+        };
+        format!(
+            "on moving samples only, opposite in the two directions and proportional to the feed ({}), absent while dwelling; follows direction × speed{how}",
+            at.join(", ")
+        )
+    }
+
+    /// The periodic error's sentence: its period, whether the grating explains it, its
+    /// amplitude.
+    fn periodic(&self, period_um: f64) -> String {
+        let (out, axl) = (self.out, &self.axl);
+        let period_um = &period_um;
+        let pv = |name: P| self.pv(name);
+        let tied = out
+            .periods
+            .iter()
+            .filter(|p| {
+                (p.refined_um.unwrap_or(p.period_um) - period_um).abs() < 3.0 * p.step_um.max(1e-9)
+            })
+            .map(|p| p.label.clone())
+            .next()
+            .unwrap_or_else(|| "found by the broad periodogram".into());
+        let tied = if tied.contains("grating") {
+            tied
+        } else {
+            "not tied to the grating period: found by the broad periodogram".into()
+        };
+        format!(
+            "periodic along {axl} with a period of {} µm ({tied}) and an amplitude of {:.3} µm, all along the axis in every run and direction; follows the phase of {axl} within the period",
+            fmt_sig(*period_um),
+            pv(P::AmplitudeUm)
+        )
+    }
+}
+
 fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
     let ax = data::axis_label(obs.axis);
     let axl = ax.to_lowercase();
@@ -313,12 +452,15 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
     let kmax = (0..c.len())
         .max_by(|&a, &b| (c[a] - m).abs().total_cmp(&(c[b] - m).abs()))
         .unwrap_or(0);
-    let pv = |name: P| {
-        f.params
-            .iter()
-            .find(|p| p.name == name)
-            .map_or(0.0, |p| p.value)
+    let w = Where {
+        f,
+        obs,
+        out,
+        axl: axl.clone(),
+        xlo,
+        xhi,
     };
+    let pv = |name: P| w.pv(name);
     let lines_s = if obs.lines.len() > 1 {
         if obs.lines.len() == 2 {
             "both lines".to_string()
@@ -366,85 +508,9 @@ fn where_text(f: &FittedTerm, obs: &data::Obs, out: &Outcome) -> String {
                 obs.c[*i as usize].as_ref().map_or(f64::NAN, |v| v[kmax])
             )
         }
-        (Kind::Reversal, v) => {
-            let along = if matches!(v, Variant::ReversalLinear) {
-                let xm = effects::reversal_centre_mm(obs);
-                let b = |x: f64| pv(P::BUm) + pv(P::B1UmPerM) * (x - xm) * 1e-3;
-                format!(
-                    "; the reversal changes along the axis (position-dependent backlash, linear fits better than a constant by BIC): b = {:.3} µm at {axl} = {} mm, {:.3} µm at {} mm, {:.3} µm at {} mm (b_um is its value at the middle of the travel, b1_um_per_m its change per metre)",
-                    b(xlo),
-                    fixed(xlo, 0),
-                    b(xm),
-                    fixed(xm, 0),
-                    b(xhi),
-                    fixed(xhi, 0)
-                )
-            } else {
-                String::new()
-            };
-            let dwell = obs.moving.iter().any(|m| !m);
-            let mut feeds: Vec<f64> = obs.v_feed.iter().copied().filter(|v| *v > 0.0).collect();
-            feeds.sort_by(f64::total_cmp);
-            feeds.dedup();
-            let rows = if dwell {
-                "dwelling and moving"
-            } else {
-                "on every moving sample"
-            };
-            let feed = match feeds.len() {
-                0 => String::new(),
-                1 => format!(", at the single feed of {} mm/s", feeds[0]),
-                _ => ", the same at every feed".to_string(),
-            };
-            format!(
-                "opposite in the + and − directions (±b/2 = ±{:.3} µm) on every row, {rows}{feed}; follows the direction of travel{along}",
-                pv(P::BUm) / 2.0
-            )
-        }
-        (Kind::LatchDelay, v) => {
-            let mut feeds: Vec<f64> = (0..obs.len())
-                .filter(|&k| obs.moving[k] && obs.v_feed[k] > 0.0)
-                .map(|k| obs.v_feed[k])
-                .collect();
-            feeds.sort_by(f64::total_cmp);
-            feeds.dedup();
-            let at: Vec<String> = feeds
-                .iter()
-                .take(4)
-                .map(|v| format!("±{:.3} µm at {v} mm/s", v * pv(P::TauUs) * 1e-3))
-                .collect();
-            let how = if matches!(v, Variant::LatchMeasured) {
-                "; v is the carriage speed measured from successive samples, which fits better than the commanded feed (accelerations)"
-            } else {
-                ""
-            };
-            format!(
-                "on moving samples only, opposite in the two directions and proportional to the feed ({}), absent while dwelling; follows direction × speed{how}",
-                at.join(", ")
-            )
-        }
-        (Kind::Periodic, Variant::Periodic { period_um }) => {
-            let tied = out
-                .periods
-                .iter()
-                .filter(|p| {
-                    (p.refined_um.unwrap_or(p.period_um) - period_um).abs()
-                        < 3.0 * p.step_um.max(1e-9)
-                })
-                .map(|p| p.label.clone())
-                .next()
-                .unwrap_or_else(|| "found by the broad periodogram".into());
-            let tied = if tied.contains("grating") {
-                tied
-            } else {
-                "not tied to the grating period: found by the broad periodogram".into()
-            };
-            format!(
-                "periodic along {axl} with a period of {} µm ({tied}) and an amplitude of {:.3} µm, all along the axis in every run and direction; follows the phase of {axl} within the period",
-                fmt_sig(*period_um),
-                pv(P::AmplitudeUm)
-            )
-        }
+        (Kind::Reversal, v) => w.reversal(v),
+        (Kind::LatchDelay, v) => w.latch(v),
+        (Kind::Periodic, Variant::Periodic { period_um }) => w.periodic(*period_um),
         (Kind::ThermalDrift, Variant::DriftExp { tau_s }) => format!(
             "follows time, not position: rises by {:.3} µm over t {tlo:.0}–{thi:.0} s, exponential with τ = {tau_s:.0} s (an exponential fits better than a linear drift by BIC)",
             pv(P::AmplitudeUm) * (1.0 - (-(thi - obs.t0) / tau_s).exp())

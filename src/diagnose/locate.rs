@@ -155,32 +155,11 @@ fn corr(a: &[f64], b: &[f64], w: &[f64]) -> f64 {
         0.0
     }
 }
-
-/// Computes the localisation.
-pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
+/// The residual's statistics per measured line, each labelled by its coordinates.
+fn per_line(inp: &Input) -> Vec<GroupStat> {
     let obs = inp.obs;
     let n = obs.len();
-    let ax = super::data::axis_label(obs.axis).to_lowercase();
-    let mut loc = Locate {
-        spectral_peaks: inp.peaks.clone(),
-        ..Locate::default()
-    };
-
-    let (xb, xe) = bins(&obs.x, 20);
-    for (b, idx) in xb.iter().enumerate() {
-        if let Some(s) = stat(
-            format!(
-                "{ax} {}–{} mm",
-                super::fixed(xe[b].0, 1),
-                super::fixed(xe[b].1, 1)
-            ),
-            idx,
-            inp,
-            false,
-        ) {
-            loc.along_x.push(s);
-        }
-    }
+    let mut out = Vec::new();
     let mut by_line = vec![Vec::new(); obs.lines.len()];
     for k in 0..n {
         by_line[obs.line[k]].push(k);
@@ -202,24 +181,18 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
             coordinate(obs.c_axes[1].lower(), b)
         );
         if let Some(s) = stat(label, idx, inp, false) {
-            loc.per_line.push(s);
+            out.push(s);
         }
     }
-    let mut runs: Vec<u32> = obs.run.clone();
-    runs.sort_unstable();
-    runs.dedup();
-    for &r in &runs {
-        let idx: Vec<usize> = (0..n).filter(|&k| obs.run[k] == r).collect();
-        if let Some(s) = stat(format!("run {r}"), &idx, inp, false) {
-            loc.per_run.push(s);
-        }
-    }
-    for (d, name) in [(1.0, "+"), (-1.0, "−"), (0.0, "none (outside runs)")] {
-        let idx: Vec<usize> = (0..n).filter(|&k| obs.d[k] == d).collect();
-        if let Some(s) = stat(format!("direction {name}"), &idx, inp, false) {
-            loc.per_direction.push(s);
-        }
-    }
+    out
+}
+
+/// The direction-signed residual (d·r) while dwelling and at each feed: a latch delay
+/// grows with the feed, a reversal does not.
+fn per_feed_signed(inp: &Input) -> Vec<GroupStat> {
+    let obs = inp.obs;
+    let n = obs.len();
+    let mut out = Vec::new();
     let mut feeds: Vec<i64> = (0..n)
         .filter(|&k| obs.moving[k])
         .map(|k| (obs.v_feed[k] * 1000.0).round() as i64)
@@ -230,7 +203,7 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
         .filter(|&k| !obs.moving[k] && obs.d[k] != 0.0)
         .collect();
     if let Some(s) = stat("dwell (d·r)".into(), &dwell, inp, true) {
-        loc.per_feed_signed.push(s);
+        out.push(s);
     }
     for f in feeds {
         let idx: Vec<usize> = (0..n)
@@ -244,22 +217,17 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
             inp,
             true,
         ) {
-            loc.per_feed_signed.push(s);
+            out.push(s);
         }
     }
-    let (tb, te) = bins(&obs.t, 20);
-    for (b, idx) in tb.iter().enumerate() {
-        if let Some(s) = stat(
-            format!("t {:.0}–{:.0} s", te[b].0, te[b].1),
-            idx,
-            inp,
-            false,
-        ) {
-            loc.over_time.push(s);
-        }
-    }
+    out
+}
 
-    // Correlations.
+/// The covariates the residual is correlated with: position, direction, feed, time, the
+/// temperatures and the air (with their products with position where an effect has that
+/// form), the line offsets.
+fn covariates(obs: &super::data::Obs, ax: &str, lambda_um: f64) -> Vec<(String, Vec<f64>)> {
+    let n = obs.len();
     let mut covs: Vec<(String, Vec<f64>)> = vec![
         (format!("{ax} (position)"), obs.x.clone()),
         ("direction".into(), obs.d.clone()),
@@ -299,6 +267,65 @@ pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
             ));
         }
     }
+    covs
+}
+
+/// Computes the localisation.
+pub(crate) fn locate(inp: &Input, lambda_um: f64) -> Locate {
+    let obs = inp.obs;
+    let n = obs.len();
+    let ax = super::data::axis_label(obs.axis).to_lowercase();
+    let mut loc = Locate {
+        spectral_peaks: inp.peaks.clone(),
+        ..Locate::default()
+    };
+
+    let (xb, xe) = bins(&obs.x, 20);
+    for (b, idx) in xb.iter().enumerate() {
+        if let Some(s) = stat(
+            format!(
+                "{ax} {}–{} mm",
+                super::fixed(xe[b].0, 1),
+                super::fixed(xe[b].1, 1)
+            ),
+            idx,
+            inp,
+            false,
+        ) {
+            loc.along_x.push(s);
+        }
+    }
+    loc.per_line = per_line(inp);
+    let mut runs: Vec<u32> = obs.run.clone();
+    runs.sort_unstable();
+    runs.dedup();
+    for &r in &runs {
+        let idx: Vec<usize> = (0..n).filter(|&k| obs.run[k] == r).collect();
+        if let Some(s) = stat(format!("run {r}"), &idx, inp, false) {
+            loc.per_run.push(s);
+        }
+    }
+    for (d, name) in [(1.0, "+"), (-1.0, "−"), (0.0, "none (outside runs)")] {
+        let idx: Vec<usize> = (0..n).filter(|&k| obs.d[k] == d).collect();
+        if let Some(s) = stat(format!("direction {name}"), &idx, inp, false) {
+            loc.per_direction.push(s);
+        }
+    }
+    loc.per_feed_signed = per_feed_signed(inp);
+    let (tb, te) = bins(&obs.t, 20);
+    for (b, idx) in tb.iter().enumerate() {
+        if let Some(s) = stat(
+            format!("t {:.0}–{:.0} s", te[b].0, te[b].1),
+            idx,
+            inp,
+            false,
+        ) {
+            loc.over_time.push(s);
+        }
+    }
+
+    // Correlations.
+    let covs = covariates(obs, &ax, lambda_um);
     for (name, v) in covs {
         loc.correlations.push(Correlation {
             covariate: name,

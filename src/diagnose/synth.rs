@@ -326,6 +326,198 @@ fn schedule(p: &SynthPlan, rng: &mut StdRng) -> Vec<Slot> {
     s
 }
 
+/// The session's conditions every row's error is computed from: the scale's warming, the
+/// air along the slots (with its refractive index) and the smooth geometric error.
+struct Conditions<'a> {
+    cfg: &'a Synth,
+    /// The session's duration, s (≥ 1).
+    total: f64,
+    at: Vec<f64>,
+    ap: Vec<f64>,
+    t_mean: f64,
+    p_mean: f64,
+    n0: f64,
+    /// The geometric polynomial's seeded coefficients.
+    g: Vec<f64>,
+    xlo: f64,
+    xhi: f64,
+    xspan: f64,
+}
+
+impl<'a> Conditions<'a> {
+    /// The air at every slot, then the geometric coefficients drawn from `rng` (after the
+    /// schedule's draws, so a seed keeps its pair).
+    fn new(cfg: &'a Synth, slots: &[Slot], rng: &mut StdRng) -> Conditions<'a> {
+        let n = slots.len();
+        let total = slots.last().map_or(1.0, |s| s.t).max(1.0);
+        let e = &cfg.env;
+        let air_t = |t: f64| {
+            e.air_temp_c
+                + e.air_temp_cycle.0 * (TAU * t / e.air_temp_cycle.1).sin()
+                + e.air_temp_drift_k * (t / total - 0.5)
+        };
+        let air_p = |t: f64| {
+            e.pressure_hpa + e.pressure_cycle.0 * (TAU * t / e.pressure_cycle.1 + 1.0).sin()
+        };
+        let at: Vec<f64> = slots.iter().map(|s| air_t(s.t)).collect();
+        let ap: Vec<f64> = slots.iter().map(|s| air_p(s.t)).collect();
+        let t_mean = at.iter().sum::<f64>() / n as f64;
+        let p_mean = ap.iter().sum::<f64>() / n as f64;
+        let n0 = edlen::refractive_index(HENE_WAVELENGTH_UM, at[0], ap[0] * 100.0, e.rh_pct);
+        // Geometric error: a smooth polynomial in x, y, z with seeded coefficients.
+        let g: Vec<f64> = (0..7).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let (xlo, xhi) = cfg
+            .plan
+            .targets_mm
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        let xspan = (xhi - xlo).max(1.0);
+        Conditions {
+            cfg,
+            total,
+            at,
+            ap,
+            t_mean,
+            p_mean,
+            n0,
+            g,
+            xlo,
+            xhi,
+            xspan,
+        }
+    }
+
+    /// The scale temperature at time `t`: an exponential approach over the session.
+    fn scale_t(&self, t: f64) -> f64 {
+        let e = &self.cfg.env;
+        let total = self.total;
+        let tau = total / 2.0;
+        let f = (1.0 - (-t / tau).exp()) / (1.0 - (-total / tau).exp());
+        e.scale_temp_c.0 + (e.scale_temp_c.1 - e.scale_temp_c.0) * f
+    }
+
+    /// The air's refractive index at slot `k`.
+    fn index(&self, k: usize) -> f64 {
+        let e = &self.cfg.env;
+        edlen::refractive_index(HENE_WAVELENGTH_UM, self.at[k], self.ap[k] * 100.0, e.rh_pct)
+    }
+
+    /// The geometric error at (x, y, z), µm.
+    fn geo(&self, x: f64, y: f64, z: f64) -> f64 {
+        let g = &self.g;
+        let u = (x - self.xlo) / self.xspan;
+        self.cfg.geometric_um
+            * (4.0 * u * (1.0 - u)
+                + (2.0 * u - 1.0)
+                + 0.4 * g[0] * (3.0 * u).sin()
+                + 0.3 * g[1] * u * u
+                + 0.4 * g[2] * y / 500.0
+                + 0.4 * g[3] * z / 500.0
+                + 0.3 * g[4] * u * y / 500.0
+                + 0.3 * g[5] * u * z / 500.0
+                + 0.2 * g[6])
+    }
+
+    /// Hidden effect `h`'s contribution at slot `k` (`s`), the scale at `ts` °C, µm: each
+    /// effect's contract signature.
+    fn hidden(&self, h: &Effect, s: &Slot, k: usize, ts: f64) -> f64 {
+        let [y, z] = self.cfg.plan.lines_mm[s.line];
+        let d = f64::from(s.d);
+        let v = if s.target < 0 {
+            s.feed.unwrap_or(0.0)
+        } else {
+            0.0
+        };
+        let (xlo, xhi, n0) = (self.xlo, self.xhi, self.n0);
+        let (at, ap) = (&self.at, &self.ap);
+        match *h {
+            Effect::ScaleThermalExpansion {
+                alpha_ppm_per_k,
+                x0_mm,
+            } => -alpha_ppm_per_k * (ts - 20.0) * (s.x - x0_mm) * 1e-3,
+            Effect::ScaleFactor { ppm } => ppm * s.x * 1e-3,
+            Effect::Abbe {
+                offset_axis,
+                theta0_urad,
+                theta1_urad_per_mm,
+            } => {
+                let c = if offset_axis == crate::base::Axis::Z {
+                    z
+                } else {
+                    y
+                };
+                c * (theta0_urad + theta1_urad_per_mm * s.x) * 1e-3
+            }
+            Effect::Reversal {
+                b_um,
+                b1_um_per_m: None,
+            } => d * b_um / 2.0,
+            Effect::Reversal {
+                b_um,
+                b1_um_per_m: Some(b1_um_per_m),
+            } => d * (b_um + b1_um_per_m * (s.x - 0.5 * (xlo + xhi)) * 1e-3) / 2.0,
+            Effect::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
+            Effect::PeriodicScale {
+                amplitude_um,
+                period_um,
+                phase_rad,
+            } => amplitude_um * (TAU * s.x * 1000.0 / period_um + phase_rad).sin(),
+            Effect::ThermalDrift(Drift::Exponential {
+                amplitude_um,
+                tau_s,
+            }) => amplitude_um * (1.0 - (-s.t / tau_s).exp()),
+            Effect::ThermalDrift(Drift::Linear { rate_um_per_s }) => rate_um_per_s * s.t,
+            Effect::DeadPath { dead_path_mm } => -dead_path_mm * (self.index(k) - n0) * 1e3,
+            Effect::Refraction {
+                ppm_per_k,
+                ppm_per_hpa,
+            } => {
+                // A coefficient left out is a term the effect does not have.
+                let a = ppm_per_k.unwrap_or(0.0);
+                let b = ppm_per_hpa.unwrap_or(0.0);
+                let dn = 1e-6 * (a * (at[k] - self.t_mean) + b * (ap[k] - self.p_mean));
+                -s.x * dn * 1e3
+            }
+            // Refused by `check_hidden` before anything was drawn.
+            Effect::Unexplained { .. }
+            | Effect::Backlash { .. }
+            | Effect::ReversalSpike { .. }
+            | Effect::LateralPlay { .. }
+            | Effect::CyclicError { .. }
+            | Effect::Straightness { .. }
+            | Effect::ServoMismatch { .. }
+            | Effect::ScaleMismatch { .. }
+            | Effect::Squareness { .. } => 0.0,
+        }
+    }
+}
+
+/// Latch-timing jitter: each slot sampled late by up to `jitter_us`, a moving one further
+/// along by the distance travelled meanwhile (draws from the untidy generator).
+fn jitter(slots: &mut [Slot], jitter_us: f64, untidy: &mut StdRng) {
+    for s in slots {
+        let late = untidy.random_range(0.0..jitter_us) * 1e-6;
+        s.t += late;
+        if s.target < 0 {
+            s.x += f64::from(s.d) * s.feed.unwrap_or(0.0) * late;
+        }
+    }
+}
+
+/// The noise σ of slot `s`: the base, times the moving and noisy-run factors.
+fn slot_sigma(nz: &SynthNoise, s: &Slot) -> f64 {
+    let mut sigma = nz.sigma_um;
+    if s.target < 0 {
+        sigma *= nz.moving_factor;
+    }
+    if nz.noisy_runs.contains(&s.run) {
+        sigma *= nz.noisy_factor;
+    }
+    sigma
+}
+
 /// Generates the pair; refuses an effect the pair cannot hide.
 pub fn generate(cfg: &Synth) -> Result<SynthOutput, SynthError> {
     check_hidden(&cfg.hidden)?;
@@ -336,60 +528,12 @@ pub fn generate(cfg: &Synth) -> Result<SynthOutput, SynthError> {
     let mut untidy = StdRng::seed_from_u64(cfg.seed ^ 0x3c6e_f372_fe94_f82b);
     let nz = &cfg.noise;
     if nz.jitter_us > 0.0 {
-        for s in &mut slots {
-            let late = untidy.random_range(0.0..nz.jitter_us) * 1e-6;
-            s.t += late;
-            if s.target < 0 {
-                s.x += f64::from(s.d) * s.feed.unwrap_or(0.0) * late;
-            }
-        }
+        jitter(&mut slots, nz.jitter_us, &mut untidy);
     }
     let n = slots.len();
-    let total = slots.last().map_or(1.0, |s| s.t).max(1.0);
     let e = &cfg.env;
-    let scale_t = |t: f64| {
-        let tau = total / 2.0;
-        let f = (1.0 - (-t / tau).exp()) / (1.0 - (-total / tau).exp());
-        e.scale_temp_c.0 + (e.scale_temp_c.1 - e.scale_temp_c.0) * f
-    };
-    let air_t = |t: f64| {
-        e.air_temp_c
-            + e.air_temp_cycle.0 * (TAU * t / e.air_temp_cycle.1).sin()
-            + e.air_temp_drift_k * (t / total - 0.5)
-    };
-    let air_p =
-        |t: f64| e.pressure_hpa + e.pressure_cycle.0 * (TAU * t / e.pressure_cycle.1 + 1.0).sin();
-    let at: Vec<f64> = slots.iter().map(|s| air_t(s.t)).collect();
-    let ap: Vec<f64> = slots.iter().map(|s| air_p(s.t)).collect();
-    let t_mean = at.iter().sum::<f64>() / n as f64;
-    let p_mean = ap.iter().sum::<f64>() / n as f64;
-    let index =
-        |k: usize| edlen::refractive_index(HENE_WAVELENGTH_UM, at[k], ap[k] * 100.0, e.rh_pct);
-    let n0 = index(0);
-
-    // Geometric error: a smooth polynomial in x, y, z with seeded coefficients.
-    let g: Vec<f64> = (0..7).map(|_| rng.random_range(-1.0..1.0)).collect();
-    let (xlo, xhi) = cfg
-        .plan
-        .targets_mm
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-            (l.min(x), h.max(x))
-        });
-    let xspan = (xhi - xlo).max(1.0);
-    let geo = |x: f64, y: f64, z: f64| {
-        let u = (x - xlo) / xspan;
-        cfg.geometric_um
-            * (4.0 * u * (1.0 - u)
-                + (2.0 * u - 1.0)
-                + 0.4 * g[0] * (3.0 * u).sin()
-                + 0.3 * g[1] * u * u
-                + 0.4 * g[2] * y / 500.0
-                + 0.4 * g[3] * z / 500.0
-                + 0.3 * g[4] * u * y / 500.0
-                + 0.3 * g[5] * u * z / 500.0
-                + 0.2 * g[6])
-    };
+    let cond = Conditions::new(cfg, &slots, &mut rng);
+    let (at, ap) = (&cond.at, &cond.ap);
 
     let mut hidden_um = vec![vec![0.0; n]; cfg.hidden.len()];
     let mut recorded = Vec::with_capacity(n);
@@ -399,85 +543,15 @@ pub fn generate(cfg: &Synth) -> Result<SynthOutput, SynthError> {
     let mut coloured: Option<(f64, f64)> = None;
     for (k, s) in slots.iter().enumerate() {
         let [y, z] = cfg.plan.lines_mm[s.line];
-        let d = f64::from(s.d);
-        let v = if s.target < 0 {
-            s.feed.unwrap_or(0.0)
-        } else {
-            0.0
-        };
-        let ts = scale_t(s.t);
+        let ts = cond.scale_t(s.t);
         let mut h_total = 0.0;
         for (i, h) in cfg.hidden.iter().enumerate() {
-            let val = match *h {
-                Effect::ScaleThermalExpansion {
-                    alpha_ppm_per_k,
-                    x0_mm,
-                } => -alpha_ppm_per_k * (ts - 20.0) * (s.x - x0_mm) * 1e-3,
-                Effect::ScaleFactor { ppm } => ppm * s.x * 1e-3,
-                Effect::Abbe {
-                    offset_axis,
-                    theta0_urad,
-                    theta1_urad_per_mm,
-                } => {
-                    let c = if offset_axis == crate::base::Axis::Z {
-                        z
-                    } else {
-                        y
-                    };
-                    c * (theta0_urad + theta1_urad_per_mm * s.x) * 1e-3
-                }
-                Effect::Reversal {
-                    b_um,
-                    b1_um_per_m: None,
-                } => d * b_um / 2.0,
-                Effect::Reversal {
-                    b_um,
-                    b1_um_per_m: Some(b1_um_per_m),
-                } => d * (b_um + b1_um_per_m * (s.x - 0.5 * (xlo + xhi)) * 1e-3) / 2.0,
-                Effect::LatchDelay { tau_us } => d * v * tau_us * 1e-3,
-                Effect::PeriodicScale {
-                    amplitude_um,
-                    period_um,
-                    phase_rad,
-                } => amplitude_um * (TAU * s.x * 1000.0 / period_um + phase_rad).sin(),
-                Effect::ThermalDrift(Drift::Exponential {
-                    amplitude_um,
-                    tau_s,
-                }) => amplitude_um * (1.0 - (-s.t / tau_s).exp()),
-                Effect::ThermalDrift(Drift::Linear { rate_um_per_s }) => rate_um_per_s * s.t,
-                Effect::DeadPath { dead_path_mm } => -dead_path_mm * (index(k) - n0) * 1e3,
-                Effect::Refraction {
-                    ppm_per_k,
-                    ppm_per_hpa,
-                } => {
-                    // A coefficient left out is a term the effect does not have.
-                    let a = ppm_per_k.unwrap_or(0.0);
-                    let b = ppm_per_hpa.unwrap_or(0.0);
-                    let dn = 1e-6 * (a * (at[k] - t_mean) + b * (ap[k] - p_mean));
-                    -s.x * dn * 1e3
-                }
-                // Refused by `check_hidden` before anything was drawn.
-                Effect::Unexplained { .. }
-                | Effect::Backlash { .. }
-                | Effect::ReversalSpike { .. }
-                | Effect::LateralPlay { .. }
-                | Effect::CyclicError { .. }
-                | Effect::Straightness { .. }
-                | Effect::ServoMismatch { .. }
-                | Effect::ScaleMismatch { .. }
-                | Effect::Squareness { .. } => 0.0,
-            };
+            let val = cond.hidden(h, s, k, ts);
             hidden_um[i][k] = val;
             h_total += val;
         }
-        let mut sigma = cfg.noise.sigma_um;
-        if s.target < 0 {
-            sigma *= cfg.noise.moving_factor;
-        }
-        if cfg.noise.noisy_runs.contains(&s.run) {
-            sigma *= cfg.noise.noisy_factor;
-        }
-        let e_geo = geo(s.x, y, z);
+        let sigma = slot_sigma(&cfg.noise, s);
+        let e_geo = cond.geo(s.x, y, z);
         glo = glo.min(e_geo);
         ghi = ghi.max(e_geo);
         let mut e_rec = e_geo + h_total + cfg.offset_um + sigma * gauss(&mut rng);

@@ -169,16 +169,86 @@ fn increments(error_um: &[f64], zero_um: f64, unit_um: f64) -> Result<Vec<i64>, 
     Ok(q)
 }
 
-/// The table for `forward` (and `reverse`, direction-dependent errors at the same
-/// positions, for a bidirectional table). The samples must be equidistant and include
-/// the reference position.
-pub fn table(
-    forward: &Sampled,
-    reverse: Option<&Sampled>,
-    spec: &FanucSpec,
-) -> Result<FanucTable, ExportError> {
-    let rev = super::paired(forward, reverse)?;
-    let h = forward.uniform_step()?;
+/// The increments and the negative-direction list at one magnification.
+type Lists = (Vec<i64>, Option<FanucReverse>);
+
+/// How the table's points are numbered: 3620 and the first and last numbers of each
+/// direction (all within the control's range), and the index of the reference point.
+struct Numbering {
+    reference_number: u32,
+    first: u32,
+    last: u32,
+    negative_start: u32,
+    k0: usize,
+}
+
+impl Numbering {
+    /// The number of table index `number`'s section: section i (1 ≤ i < n) ends at point
+    /// i and has number R + i − k0.
+    fn section(&self, number: u32) -> i64 {
+        number as i64 - self.reference_number as i64 + self.k0 as i64
+    }
+
+    /// The increments of numbers first..=last from the absolute values `q`.
+    fn values_of(&self, q: &[i64]) -> Vec<i64> {
+        (self.first..=self.last)
+            .map(|number| {
+                let i = self.section(number);
+                if i <= 0 {
+                    0
+                } else {
+                    q[i as usize] - q[i as usize - 1]
+                }
+            })
+            .collect()
+    }
+}
+
+/// What the value lists are computed from: the two curves, e at the reference position,
+/// the numbering and the spec; a separate step so a magnification can be tried in turn.
+struct Curves<'a> {
+    forward: &'a Sampled,
+    rev: &'a Sampled,
+    bidirectional: bool,
+    e_ref: f64,
+    numbering: &'a Numbering,
+    spec: &'a FanucSpec,
+}
+
+impl Curves<'_> {
+    /// The lists at a magnification; both relative to the positive-travel curve, which is
+    /// 0 at the reference position.
+    fn lists(&self, magnification: u32) -> Result<Lists, ExportError> {
+        let unit_um = self.spec.detection_unit_um * magnification as f64;
+        let values =
+            self.numbering
+                .values_of(&increments(&self.forward.error_um, self.e_ref, unit_um)?);
+        let reverse_table = if self.bidirectional {
+            let qd = increments(&self.rev.error_um, self.e_ref, unit_um)?;
+            Some(FanucReverse {
+                negative_number: self.numbering.negative_start,
+                reference_value: qd[self.numbering.k0],
+                values: self.numbering.values_of(&qd),
+            })
+        } else {
+            None
+        };
+        Ok((values, reverse_table))
+    }
+}
+
+/// The largest |increment| of both lists.
+fn worst(l: &Lists) -> u64 {
+    l.0.iter()
+        .chain(l.1.iter().flat_map(|r| r.values.iter()))
+        .map(|v| v.unsigned_abs())
+        .max()
+        .unwrap_or(0)
+}
+
+/// Refuses settings no control takes: a detection unit that is not a length, a
+/// magnification beyond errmap's range, a zero largest value or axis number.
+fn check_spec(spec: &FanucSpec) -> Result<(), ExportError> {
     if !(spec.detection_unit_um.is_finite() && spec.detection_unit_um > 0.0) {
         return Err(limit(format!(
             "the detection unit {} µm must be a positive length",
@@ -196,28 +266,46 @@ pub fn table(
             "the largest value per point and the axis number must be at least 1".into(),
         ));
     }
+    Ok(())
+}
+
+/// The index of the reference position among the table's points (FANUC counts from it),
+/// refused when it is not one.
+fn reference_index(forward: &Sampled, spec: &FanucSpec, h: f64) -> Result<usize, ExportError> {
     let n = forward.len();
     let (first_mm, last_mm) = (forward.positions_mm[0], forward.positions_mm[n - 1]);
     let r = spec.reference_mm;
     let tol = 1e-9 * (1.0 + r.abs().max(last_mm.abs()).max(first_mm.abs()));
-    let Some(k0) = forward
+    forward
         .positions_mm
         .iter()
         .position(|&x| (x - r).abs() <= tol.max(1e-7))
-    else {
-        let where_ = if r < first_mm || r > last_mm {
-            "lies outside the table"
-        } else {
-            "is not one of its points"
-        };
-        return Err(limit(format!(
-            "the reference position {r} mm {where_} ({first_mm} to {last_mm} mm every {h} mm); \
-             FANUC counts the compensation points from the reference position: keep the step on \
-             the grid through it (--ends clamp|extrapolate --reference {r}) and a range that \
-             contains it"
-        )));
-    };
-    let e_ref = forward.error_um[k0];
+        .ok_or_else(|| {
+            let where_ = if r < first_mm || r > last_mm {
+                "lies outside the table"
+            } else {
+                "is not one of its points"
+            };
+            limit(format!(
+                "the reference position {r} mm {where_} ({first_mm} to {last_mm} mm every {h} mm); \
+                 FANUC counts the compensation points from the reference position: keep the step on \
+                 the grid through it (--ends clamp|extrapolate --reference {r}) and a range that \
+                 contains it"
+            ))
+        })
+}
+
+/// Numbers the points from 3620 (given, or the smallest that fits) and checks that the
+/// two directions' numbers do not overlap and stay within the control's highest number.
+fn number_points(
+    forward: &Sampled,
+    spec: &FanucSpec,
+    k0: usize,
+    h: f64,
+    bidirectional: bool,
+) -> Result<Numbering, ExportError> {
+    let n = forward.len();
+    let (first_mm, last_mm) = (forward.positions_mm[0], forward.positions_mm[n - 1]);
     // Section i (1 ≤ i < n) ends at point i and has number R + i − k0; with the reference
     // at the first point, number R is the (empty) section before it.
     // Point numbers are worked in u64 so that no flag value can overflow; the control's
@@ -243,14 +331,14 @@ pub fn table(
     let last = reference_number + (n as u64 - 1 - k0_u);
     let span = last - first;
     let negative_start = spec.negative_start.map_or(last + 1, u64::from);
-    if reverse.is_some() && negative_start <= last && negative_start + span >= first {
+    if bidirectional && negative_start <= last && negative_start + span >= first {
         return Err(limit(format!(
             "the negative-direction numbers {negative_start}–{} (3626) overlap the \
              positive-direction numbers {first}–{last}",
             negative_start + span
         )));
     }
-    let top = if reverse.is_some() {
+    let top = if bidirectional {
         last.max(negative_start + span)
     } else {
         last
@@ -261,7 +349,7 @@ pub fn table(
              {}: {n} points from {first_mm} to {last_mm} mm every {h} mm{}; use a coarser \
              interval or a smaller 3620",
             spec.max_point_number,
-            if reverse.is_some() {
+            if bidirectional {
                 " in each direction"
             } else {
                 ""
@@ -269,89 +357,92 @@ pub fn table(
         )));
     }
     // All numbers now fit the control's u32 range.
-    let (reference_number, first, last, negative_start) = (
-        reference_number as u32,
-        first as u32,
-        last as u32,
-        negative_start as u32,
-    );
-    let section = |number: u32| number as i64 - reference_number as i64 + k0 as i64;
-    let values_of = |q: &[i64]| -> Vec<i64> {
-        (first..=last)
-            .map(|number| {
-                let i = section(number);
-                if i <= 0 {
-                    0
-                } else {
-                    q[i as usize] - q[i as usize - 1]
-                }
+    Ok(Numbering {
+        reference_number: reference_number as u32,
+        first: first as u32,
+        last: last as u32,
+        negative_start: negative_start as u32,
+        k0,
+    })
+}
+
+/// The refusal of increments beyond the largest value: which point needs what, and the
+/// smallest magnification that would fit (tried in turn: rounding decides it).
+fn too_big_error(curves: &Curves, lists: &Lists, too_big: u64, h: f64) -> ExportError {
+    let (spec, numbering) = (curves.spec, curves.numbering);
+    let (values, reverse_table) = lists;
+    let unit_um = spec.detection_unit_um * spec.magnification as f64;
+    let (which, j) = values
+        .iter()
+        .position(|v| v.unsigned_abs() == too_big)
+        .map(|j| ("", numbering.first as usize + j))
+        .or_else(|| {
+            reverse_table.as_ref().and_then(|r| {
+                r.values
+                    .iter()
+                    .position(|v| v.unsigned_abs() == too_big)
+                    .map(|j| {
+                        (
+                            " (negative direction)",
+                            numbering.negative_start as usize + j,
+                        )
+                    })
             })
-            .collect()
+        })
+        .unwrap_or(("", numbering.first as usize));
+    let fits = (spec.magnification + 1..=FANUC_MAX_MAGNIFICATION).find(|&m| {
+        curves
+            .lists(m)
+            .is_ok_and(|l| worst(&l) <= spec.max_value as u64)
+    });
+    let advice = match fits {
+        Some(m) => {
+            format!("raise the magnification (3623) to at least {m} or use a finer interval")
+        }
+        None => {
+            format!("no magnification up to {FANUC_MAX_MAGNIFICATION} fits: use a finer interval")
+        }
     };
-    // The lists at a magnification; both relative to the positive-travel curve, which is
-    // 0 at the reference position.
-    let lists = |magnification: u32| -> Result<(Vec<i64>, Option<FanucReverse>), ExportError> {
-        let unit_um = spec.detection_unit_um * magnification as f64;
-        let values = values_of(&increments(&forward.error_um, e_ref, unit_um)?);
-        let reverse_table = match reverse {
-            Some(_) => {
-                let qd = increments(&rev.error_um, e_ref, unit_um)?;
-                Some(FanucReverse {
-                    negative_number: negative_start,
-                    reference_value: qd[k0],
-                    values: values_of(&qd),
-                })
-            }
-            None => None,
-        };
-        Ok((values, reverse_table))
+    limit(format!(
+        "point {j}{which} needs an increment of ±{too_big} units of {unit_um} µm over {h} mm, \
+         beyond ±{}; {advice}",
+        spec.max_value
+    ))
+}
+
+/// The table for `forward` (and `reverse`, direction-dependent errors at the same
+/// positions, for a bidirectional table). The samples must be equidistant and include
+/// the reference position.
+pub fn table(
+    forward: &Sampled,
+    reverse: Option<&Sampled>,
+    spec: &FanucSpec,
+) -> Result<FanucTable, ExportError> {
+    let rev = super::paired(forward, reverse)?;
+    let h = forward.uniform_step()?;
+    check_spec(spec)?;
+    let k0 = reference_index(forward, spec, h)?;
+    let e_ref = forward.error_um[k0];
+    let numbering = number_points(forward, spec, k0, h, reverse.is_some())?;
+    let curves = Curves {
+        forward,
+        rev,
+        bidirectional: reverse.is_some(),
+        e_ref,
+        numbering: &numbering,
+        spec,
     };
-    let worst = |l: &(Vec<i64>, Option<FanucReverse>)| {
-        l.0.iter()
-            .chain(l.1.iter().flat_map(|r| r.values.iter()))
-            .map(|v| v.unsigned_abs())
-            .max()
-            .unwrap_or(0)
-    };
-    let (values, reverse_table) = lists(spec.magnification)?;
-    let too_big = worst(&(values.clone(), reverse_table.clone()));
+    let lists = curves.lists(spec.magnification)?;
+    let too_big = worst(&lists);
     if too_big > spec.max_value as u64 {
-        let unit_um = spec.detection_unit_um * spec.magnification as f64;
-        let (which, j) = values
-            .iter()
-            .position(|v| v.unsigned_abs() == too_big)
-            .map(|j| ("", first as usize + j))
-            .or_else(|| {
-                reverse_table.as_ref().and_then(|r| {
-                    r.values
-                        .iter()
-                        .position(|v| v.unsigned_abs() == too_big)
-                        .map(|j| (" (negative direction)", negative_start as usize + j))
-                })
-            })
-            .unwrap_or(("", first as usize));
-        // The smallest magnification that fits, tried in turn (rounding decides it).
-        let fits = (spec.magnification + 1..=FANUC_MAX_MAGNIFICATION)
-            .find(|&m| lists(m).is_ok_and(|l| worst(&l) <= spec.max_value as u64));
-        let advice = match fits {
-            Some(m) => {
-                format!("raise the magnification (3623) to at least {m} or use a finer interval")
-            }
-            None => format!(
-                "no magnification up to {FANUC_MAX_MAGNIFICATION} fits: use a finer interval"
-            ),
-        };
-        return Err(limit(format!(
-            "point {j}{which} needs an increment of ±{too_big} units of {unit_um} µm over {h} mm, \
-             beyond ±{}; {advice}",
-            spec.max_value
-        )));
+        return Err(too_big_error(&curves, &lists, too_big, h));
     }
+    let (values, reverse_table) = lists;
     let unit_um = spec.detection_unit_um * spec.magnification as f64;
     Ok(FanucTable {
-        reference_number,
-        negative_number: first,
-        positive_number: last,
+        reference_number: numbering.reference_number,
+        negative_number: numbering.first,
+        positive_number: numbering.last,
         magnification: spec.magnification,
         interval_mm: h,
         unit_um,

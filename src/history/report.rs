@@ -344,6 +344,43 @@ fn seconds(y: f64, origin: i64) -> f64 {
     origin as f64 + y * YEAR_S
 }
 
+/// A machine's series by key: each one's unit and points in time order.
+type SeriesMap = BTreeMap<SeriesKey, (String, Vec<Point>)>;
+
+/// What the machine's advice is made of, gathered over all its series.
+#[derive(Default)]
+struct AdviceState {
+    out_of_tolerance: bool,
+    alarm_at_last: bool,
+    recalibrate_by: Option<f64>,
+    risk_max: f64,
+}
+
+/// What every parameter report of one machine needs besides its series.
+struct MachineContext<'a> {
+    id: &'a str,
+    config: &'a ReportConfig,
+    /// The horizon's end, s.
+    t_h_s: f64,
+}
+
+/// One series' EWMA charts, segment by segment: the points with their chart values, the
+/// alarms, and the last segment's centre line and σ.
+struct Chart {
+    out: Vec<SeriesPoint>,
+    alarms: Vec<Alarm>,
+    center: Option<f64>,
+    chart_sigma: Option<f64>,
+}
+
+/// What the current segment's trend says against a tolerance.
+#[derive(Default)]
+struct Forecast {
+    exceeds_tolerance_at: Option<String>,
+    exceeds_interval: Option<[Option<String>; 2]>,
+    risk: Option<f64>,
+}
+
 /// One machine's report from its rows.
 pub fn machine_report(
     ledger: &str,
@@ -352,8 +389,53 @@ pub fn machine_report(
     config: &ReportConfig,
     as_of_s: i64,
 ) -> Result<MachineReport, HistoryError> {
+    let series = collect_series(ledger, rows.points)?;
+    let sigma_by_name = pooled_sigmas(&series);
+    let horizon_s = config.horizon_days * DAY_S as f64;
+    let t_h_s = as_of_s as f64 + horizon_s;
+    let ctx = MachineContext { id, config, t_h_s };
+    let mut axes: Vec<AxisReport> = Vec::new();
+    let mut state = AdviceState::default();
+    for ((_, axis, _, name), (unit, pts)) in &series {
+        let sigma = sigma_by_name
+            .get(name.as_str())
+            .copied()
+            .unwrap_or(stats::SIGMA_FLOOR);
+        let p = parameter_report(&ctx, (axis, name), unit, pts, sigma, &mut state);
+        match axes.last_mut() {
+            Some(a) if a.axis == *axis => a.parameters.push(p),
+            _ => axes.push(AxisReport {
+                axis: axis.clone(),
+                parameters: vec![p],
+            }),
+        }
+    }
+    let recalibrate_date = state.recalibrate_by.and_then(time::format_date);
+    let advice = if state.out_of_tolerance {
+        Advice::OutOfTolerance
+    } else if state.recalibrate_by.is_some_and(|r| r <= t_h_s) {
+        Advice::Recalibrate
+    } else if state.alarm_at_last {
+        Advice::Investigate
+    } else {
+        Advice::Ok
+    };
+    Ok(MachineReport {
+        id: id.to_string(),
+        site: rows.site,
+        records: rows.records,
+        advice,
+        recalibrate_by: recalibrate_date,
+        axes,
+        risk: state.risk_max,
+    })
+}
+
+/// Groups the stored points into series by (axis, parameter), each in time order
+/// (as-found before as-left at one time, then by record).
+fn collect_series(ledger: &str, points: Vec<RawPoint>) -> Result<SeriesMap, HistoryError> {
     // (axis, parameter) → (unit, points)
-    let mut series: BTreeMap<SeriesKey, (String, Vec<Point>)> = BTreeMap::new();
+    let mut series: SeriesMap = BTreeMap::new();
     for RawPoint {
         record,
         at,
@@ -362,7 +444,7 @@ pub fn machine_report(
         parameter,
         unit,
         value,
-    } in rows.points
+    } in points
     {
         let t_s = time::parse_utc(&at).map_err(|e| HistoryError::Db {
             ledger: ledger.to_string(),
@@ -391,171 +473,175 @@ pub fn machine_report(
                 .then(a.record.cmp(&b.record))
         });
     }
-    // σ per parameter name, pooled over the machine's axes.
+    Ok(series)
+}
+
+/// σ per parameter name, pooled over the machine's axes and segments (one axis has too
+/// few points for its own).
+fn pooled_sigmas(series: &SeriesMap) -> BTreeMap<&str, f64> {
     let mut sigma_by_name: BTreeMap<&str, f64> = BTreeMap::new();
-    {
-        let mut values_by_name: BTreeMap<&str, Vec<Vec<f64>>> = BTreeMap::new();
-        for ((_, _, _, name), (_, pts)) in &series {
-            let v = values_by_name.entry(name.as_str()).or_default();
-            for seg in segments(pts) {
-                v.push(seg.iter().map(|p| p.value).collect());
-            }
-        }
-        for (name, segs) in values_by_name {
-            sigma_by_name.insert(
-                name,
-                stats::moving_range_sigma(segs.iter().map(|s| s.as_slice())),
-            );
+    let mut values_by_name: BTreeMap<&str, Vec<Vec<f64>>> = BTreeMap::new();
+    for ((_, _, _, name), (_, pts)) in series {
+        let v = values_by_name.entry(name.as_str()).or_default();
+        for seg in segments(pts) {
+            v.push(seg.iter().map(|p| p.value).collect());
         }
     }
-    let horizon_s = config.horizon_days * DAY_S as f64;
-    let t_h_s = as_of_s as f64 + horizon_s;
-    let mut axes: Vec<AxisReport> = Vec::new();
-    let mut out_of_tolerance = false;
-    let mut alarm_at_last = false;
-    let mut recalibrate_by: Option<f64> = None;
-    let mut risk_max: f64 = 0.0;
-    for ((_, axis, _, name), (unit, pts)) in &series {
-        let sigma = sigma_by_name
-            .get(name.as_str())
-            .copied()
-            .unwrap_or(stats::SIGMA_FLOOR);
-        let mut out: Vec<SeriesPoint> = pts
-            .iter()
-            .map(|p| SeriesPoint {
-                at: p.at.clone(),
-                record: p.record,
-                state: if p.as_left { "as-left" } else { "as-found" }.to_string(),
-                value: p.value,
-                ewma: None,
-                lcl: None,
-                ucl: None,
-            })
-            .collect();
-        let mut alarms = Vec::new();
-        let mut center = None;
-        let mut chart_sigma = None;
-        let starts = segment_starts(pts);
-        for (k, &a) in starts.iter().enumerate() {
-            let b = starts.get(k + 1).copied().unwrap_or(pts.len());
-            let values: Vec<f64> = pts[a..b].iter().map(|p| p.value).collect();
-            let last_segment = k + 1 == starts.len();
-            if let Some((mu0, chart)) = stats::ewma_chart(&values, sigma) {
-                for (i, c) in chart.into_iter().enumerate() {
-                    let Some(c) = c else { continue };
-                    let j = a + i;
-                    out[j].ewma = Some(c.ewma);
-                    out[j].lcl = Some(c.lcl);
-                    out[j].ucl = Some(c.ucl);
-                    if let Some(rule) = c.alarm {
-                        alarms.push(Alarm {
-                            at: pts[j].at.clone(),
-                            record: pts[j].record,
-                            rule: rule.as_str(),
-                        });
-                        if j + 1 == pts.len() {
-                            alarm_at_last = true;
-                        }
-                    }
-                }
-                if last_segment {
-                    center = Some(mu0);
-                    chart_sigma = Some(sigma);
-                }
-            }
-        }
-        // Trend of the current segment.
-        let cur = &pts[*starts.last().unwrap_or(&0)..];
-        let origin = cur.first().map(|p| p.t_s).unwrap_or(0);
-        let xy: Vec<(f64, f64)> = cur
-            .iter()
-            .map(|p| (years(p.t_s, origin), p.value))
-            .collect();
-        let trend = Trend::fit(&xy);
-        let tolerance = if axis_rank(axis) < 3 {
-            config.tolerances.get(id, axis, name)
-        } else {
-            None
-        };
-        let last = pts.last().map(|p| p.value).unwrap_or(f64::NAN);
-        let mut exceeds_tolerance_at = None;
-        let mut exceeds_interval = None;
-        let mut risk = None;
-        if let Some(tol) = tolerance {
-            if last > tol {
-                out_of_tolerance = true;
-            }
-            if let Some(tr) = &trend {
-                if let Some(t) = tr.crossing(tol) {
-                    exceeds_tolerance_at = time::format_date(seconds(t, origin));
-                    let iv = tr.crossing_interval(tol);
-                    let lo = iv.map(|(lo, _)| seconds(lo, origin));
-                    let hi = iv.map(|(_, hi)| seconds(hi, origin));
-                    let dates = [
-                        lo.and_then(time::format_date),
-                        hi.and_then(time::format_date),
-                    ];
-                    if let (Some(lo), Some(_), Some(_)) = (lo, &dates[0], &dates[1]) {
-                        recalibrate_by = Some(recalibrate_by.map_or(lo, |r: f64| r.min(lo)));
-                    }
-                    exceeds_interval = Some(dates);
-                }
-                risk = Some(tr.risk(tol, years(0, origin) + t_h_s / YEAR_S));
-            } else {
-                risk = Some(if last > tol { 1.0 } else { 0.0 });
-            }
-        }
-        if let Some(r) = risk {
-            risk_max = risk_max.max(r);
-        }
-        let pairs = pairs(pts);
-        let p = ParameterReport {
-            name: name.clone(),
-            unit: unit.clone(),
-            n: pts.len(),
-            last,
-            tolerance,
-            series: out,
-            trend_from: trend.as_ref().and(cur.first()).map(|p| p.at.clone()),
-            trend_n: trend.as_ref().map(|t| t.n),
-            rate_per_year: trend.as_ref().map(|t| t.slope),
-            rate_sigma: trend.as_ref().map(|t| t.slope_sigma()),
-            center,
-            sigma: chart_sigma,
-            alarms,
-            pairs,
-            exceeds_tolerance_at,
-            exceeds_interval,
-            risk,
-            fit: trend.map(|t| (origin, t)),
-        };
-        match axes.last_mut() {
-            Some(a) if a.axis == *axis => a.parameters.push(p),
-            _ => axes.push(AxisReport {
-                axis: axis.clone(),
-                parameters: vec![p],
-            }),
-        }
+    for (name, segs) in values_by_name {
+        sigma_by_name.insert(
+            name,
+            stats::moving_range_sigma(segs.iter().map(|s| s.as_slice())),
+        );
     }
-    let recalibrate_date = recalibrate_by.and_then(time::format_date);
-    let advice = if out_of_tolerance {
-        Advice::OutOfTolerance
-    } else if recalibrate_by.is_some_and(|r| r <= t_h_s) {
-        Advice::Recalibrate
-    } else if alarm_at_last {
-        Advice::Investigate
+    sigma_by_name
+}
+
+/// One parameter's report: its charts, its current trend and, against the tolerance,
+/// the forecast; feeds the machine's advice in `state`.
+fn parameter_report(
+    ctx: &MachineContext,
+    (axis, name): (&str, &str),
+    unit: &str,
+    pts: &[Point],
+    sigma: f64,
+    state: &mut AdviceState,
+) -> ParameterReport {
+    let chart = chart(pts, sigma, state);
+    let starts = segment_starts(pts);
+    // Trend of the current segment.
+    let cur = &pts[*starts.last().unwrap_or(&0)..];
+    let origin = cur.first().map(|p| p.t_s).unwrap_or(0);
+    let xy: Vec<(f64, f64)> = cur
+        .iter()
+        .map(|p| (years(p.t_s, origin), p.value))
+        .collect();
+    let trend = Trend::fit(&xy);
+    let tolerance = if axis_rank(axis) < 3 {
+        ctx.config.tolerances.get(ctx.id, axis, name)
     } else {
-        Advice::Ok
+        None
     };
-    Ok(MachineReport {
-        id: id.to_string(),
-        site: rows.site,
-        records: rows.records,
-        advice,
-        recalibrate_by: recalibrate_date,
-        axes,
-        risk: risk_max,
-    })
+    let last = pts.last().map(|p| p.value).unwrap_or(f64::NAN);
+    let forecast = match tolerance {
+        Some(tol) => forecast(trend.as_ref(), tol, last, origin, ctx.t_h_s, state),
+        None => Forecast::default(),
+    };
+    if let Some(r) = forecast.risk {
+        state.risk_max = state.risk_max.max(r);
+    }
+    let pairs = pairs(pts);
+    ParameterReport {
+        name: name.to_string(),
+        unit: unit.to_string(),
+        n: pts.len(),
+        last,
+        tolerance,
+        series: chart.out,
+        trend_from: trend.as_ref().and(cur.first()).map(|p| p.at.clone()),
+        trend_n: trend.as_ref().map(|t| t.n),
+        rate_per_year: trend.as_ref().map(|t| t.slope),
+        rate_sigma: trend.as_ref().map(|t| t.slope_sigma()),
+        center: chart.center,
+        sigma: chart.chart_sigma,
+        alarms: chart.alarms,
+        pairs,
+        exceeds_tolerance_at: forecast.exceeds_tolerance_at,
+        exceeds_interval: forecast.exceeds_interval,
+        risk: forecast.risk,
+        fit: trend.map(|t| (origin, t)),
+    }
+}
+
+/// The EWMA chart of each segment of a series with the pooled `sigma`; an alarm on the
+/// series' last point is noted in `state`.
+fn chart(pts: &[Point], sigma: f64, state: &mut AdviceState) -> Chart {
+    let mut out: Vec<SeriesPoint> = pts
+        .iter()
+        .map(|p| SeriesPoint {
+            at: p.at.clone(),
+            record: p.record,
+            state: if p.as_left { "as-left" } else { "as-found" }.to_string(),
+            value: p.value,
+            ewma: None,
+            lcl: None,
+            ucl: None,
+        })
+        .collect();
+    let mut alarms = Vec::new();
+    let mut center = None;
+    let mut chart_sigma = None;
+    let starts = segment_starts(pts);
+    for (k, &a) in starts.iter().enumerate() {
+        let b = starts.get(k + 1).copied().unwrap_or(pts.len());
+        let values: Vec<f64> = pts[a..b].iter().map(|p| p.value).collect();
+        let last_segment = k + 1 == starts.len();
+        if let Some((mu0, chart)) = stats::ewma_chart(&values, sigma) {
+            for (i, c) in chart.into_iter().enumerate() {
+                let Some(c) = c else { continue };
+                let j = a + i;
+                out[j].ewma = Some(c.ewma);
+                out[j].lcl = Some(c.lcl);
+                out[j].ucl = Some(c.ucl);
+                if let Some(rule) = c.alarm {
+                    alarms.push(Alarm {
+                        at: pts[j].at.clone(),
+                        record: pts[j].record,
+                        rule: rule.as_str(),
+                    });
+                    if j + 1 == pts.len() {
+                        state.alarm_at_last = true;
+                    }
+                }
+            }
+            if last_segment {
+                center = Some(mu0);
+                chart_sigma = Some(sigma);
+            }
+        }
+    }
+    Chart {
+        out,
+        alarms,
+        center,
+        chart_sigma,
+    }
+}
+
+/// When the trend reaches the tolerance `tol` (with its interval) and the risk of being
+/// beyond it at the horizon; an exceeded tolerance and the earliest recalibration date
+/// are noted in `state`.
+fn forecast(
+    trend: Option<&Trend>,
+    tol: f64,
+    last: f64,
+    origin: i64,
+    t_h_s: f64,
+    state: &mut AdviceState,
+) -> Forecast {
+    let mut f = Forecast::default();
+    if last > tol {
+        state.out_of_tolerance = true;
+    }
+    if let Some(tr) = trend {
+        if let Some(t) = tr.crossing(tol) {
+            f.exceeds_tolerance_at = time::format_date(seconds(t, origin));
+            let iv = tr.crossing_interval(tol);
+            let lo = iv.map(|(lo, _)| seconds(lo, origin));
+            let hi = iv.map(|(_, hi)| seconds(hi, origin));
+            let dates = [
+                lo.and_then(time::format_date),
+                hi.and_then(time::format_date),
+            ];
+            if let (Some(lo), Some(_), Some(_)) = (lo, &dates[0], &dates[1]) {
+                state.recalibrate_by = Some(state.recalibrate_by.map_or(lo, |r: f64| r.min(lo)));
+            }
+            f.exceeds_interval = Some(dates);
+        }
+        f.risk = Some(tr.risk(tol, years(0, origin) + t_h_s / YEAR_S));
+    } else {
+        f.risk = Some(if last > tol { 1.0 } else { 0.0 });
+    }
+    f
 }
 
 /// Each as-left point with the latest as-found point at most 30 days before it.

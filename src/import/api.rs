@@ -108,214 +108,347 @@ struct Row {
     env: [Option<f64>; 5],
 }
 
+/// The readings block's column line: every name, and where the three required columns are.
+struct Columns<'a> {
+    names: Vec<&'a str>,
+    pos: usize,
+    las: usize,
+    err: usize,
+}
+
+impl<'a> Columns<'a> {
+    /// Splits the column line and finds Position, LasRead and LinearError, which every
+    /// reading needs; the others (Status, air and material) are optional.
+    fn parse(line: &'a str, header_end: usize) -> Result<Columns<'a>, At> {
+        let names: Vec<&str> = line.split('\t').map(str::trim).collect();
+        let col = |name: &str| names.iter().position(|&c| c == name);
+        let (Some(pos), Some(las), Some(err)) =
+            (col("Position"), col("LasRead"), col("LinearError"))
+        else {
+            return Err(At::new(
+                header_end,
+                "the column line needs Position, LasRead and LinearError",
+            ));
+        };
+        Ok(Columns {
+            names,
+            pos,
+            las,
+            err,
+        })
+    }
+
+    /// The index of the column `name`, if the file has it.
+    fn find(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|&c| c == name)
+    }
+}
+
+/// What the header says about the test: the unit, the travel range and how many readings
+/// the block must hold; every later step checks against it.
+struct Layout {
+    inch: bool,
+    /// mm per file unit.
+    k: f64,
+    ini: f64,
+    end: f64,
+    runs: usize,
+    per_pass: usize,
+    bidirectional: bool,
+    expected: usize,
+}
+
+impl Layout {
+    /// Reads Unit, IniPos, EndPos, RunNum, NumofPos and TestType, refusing values the
+    /// reader cannot interpret (separate so `read` shows the steps, not the key checks).
+    fn from_header(header: &Header, header_end: usize) -> Result<Layout, At> {
+        let (unit_line, unit) = header.need("Unit", header_end)?;
+        let inch = match unit.to_ascii_lowercase().as_str() {
+            "inch" | "in" => true,
+            "mm" => false,
+            other => {
+                return Err(At::new(
+                    unit_line,
+                    format!("unit `{other}` (expected inch or mm)"),
+                ));
+            }
+        };
+        let k = if inch { MM_PER_INCH } else { 1.0 };
+        let ini = header.need_number("IniPos", header_end)?;
+        let end = header.need_number("EndPos", header_end)?;
+        let run_num = header.need_number("RunNum", header_end)?;
+        let num_pos = header.need_number("NumofPos", header_end)?;
+        let (tt_line, test_type) = header.need("TestType", header_end)?;
+        let bidirectional = match test_type.to_ascii_lowercase().as_str() {
+            "unidirection" | "unidirectional" => false,
+            "bidirection" | "bidirectional" => true,
+            other => {
+                return Err(At::new(
+                    tt_line,
+                    format!("TestType `{other}` (expected Unidirection or Bidirection)"),
+                ));
+            }
+        };
+        let count_ok = |v: f64| v.fract() == 0.0 && (1.0..=100_000.0).contains(&v);
+        if !count_ok(run_num) || !count_ok(num_pos) {
+            return Err(At::new(
+                header.first("RunNum").map(|l| l.0).unwrap_or(header_end),
+                format!("RunNum {run_num} and NumofPos {num_pos} must be whole counts ≥ 1"),
+            ));
+        }
+        let (runs, per_pass) = (run_num as usize, num_pos as usize);
+        if per_pass < 2 {
+            return Err(At::new(
+                header.first("NumofPos").map(|l| l.0).unwrap_or(header_end),
+                "NumofPos 1: a pass needs two targets to have a direction of travel",
+            ));
+        }
+        let passes = runs * if bidirectional { 2 } else { 1 };
+        Ok(Layout {
+            inch,
+            k,
+            ini,
+            end,
+            runs,
+            per_pass,
+            bidirectional,
+            expected: passes * per_pass,
+        })
+    }
+
+    /// "RunNum r × NumofPos n[ × 2 directions]", the count messages' explanation.
+    fn counts(&self) -> String {
+        format!(
+            "RunNum {} × NumofPos {}{}",
+            self.runs,
+            self.per_pass,
+            if self.bidirectional {
+                " × 2 directions"
+            } else {
+                ""
+            }
+        )
+    }
+
+    /// A temperature in °C from the file's unit (°F in inch exports).
+    fn temp(&self, v: f64) -> f64 {
+        if self.inch { fahrenheit_to_c(v) } else { v }
+    }
+}
+
 /// Reads an API XD `.pos` export (see the module docs).
 pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let lines = text.lines();
-    let first = lines.first().map(|l| l.1.trim()).unwrap_or("");
-    if !first.starts_with("API X-D Laser Measurement Linear Data Table") {
-        return Err(if first.starts_with("API Linear") {
-            At::new(
-                1,
-                "an API laser analysis section only (no header, no readings, so no unit)",
-            )
-        } else {
-            At::new(
-                1,
-                "not an API XD export (the first line is not `API X-D Laser Measurement Linear \
-                 Data Table`)",
-            )
-        });
+    check_title(&lines)?;
+    let (header, ci) = read_header(&lines)?;
+    let header_end = ci + 1;
+    let columns = Columns::parse(lines[ci].1, header_end)?;
+    let layout = Layout::from_header(&header, header_end)?;
+    let (rows, closed_at) = read_rows(&lines, ci, &columns, &layout)?;
+    let readings = to_readings(&rows, &layout, &header)?;
+    let mut warnings = Vec::new();
+    if !layout.inch
+        && rows
+            .iter()
+            .any(|r| r.env[0].is_some() || r.env[1].is_some())
+    {
+        warnings.push(
+            "a mm export: AirTemp read as °C and AirPress as mmHg (unverified against a genuine \
+             mm file)"
+                .to_string(),
+        );
     }
-    // The header runs to the readings' column line.
+    check_compensation_table(&lines, closed_at, &rows, layout.inch, &mut warnings);
+    let (axis, at_mm) = placement(&header, axis_override, layout.k, &mut warnings);
+    let dt_s = header
+        .first("Dwell")
+        .and_then(|(_, v)| number(v))
+        .filter(|&d| d > 0.0)
+        .unwrap_or(1.0);
+    let machine = header
+        .first("MachName")
+        .or_else(|| header.first("MachID"))
+        .map(|(_, v)| v.to_string());
+    let rows_out = assemble(&readings, axis, at_mm, dt_s);
+    let (runs_n, targets_n, directions) = summary_counts(&readings);
+    Ok(Imported {
+        summary: ImportSummary {
+            format: "api-xd",
+            rows: rows_out.len(),
+            runs: Some(runs_n),
+            targets: targets_n,
+            directions,
+            units_in: if layout.inch { "inch" } else { "mm" },
+            axis: axis.upper(),
+            machine,
+            warnings,
+        },
+        rows: rows_out,
+    })
+}
+
+/// Refuses a file whose first line is not the Linear Data Table title, naming the API
+/// analysis-only export apart because it is the likely mistake.
+fn check_title(lines: &[(usize, &str)]) -> Result<(), At> {
+    let first = lines.first().map(|l| l.1.trim()).unwrap_or("");
+    if first.starts_with("API X-D Laser Measurement Linear Data Table") {
+        return Ok(());
+    }
+    Err(if first.starts_with("API Linear") {
+        At::new(
+            1,
+            "an API laser analysis section only (no header, no readings, so no unit)",
+        )
+    } else {
+        At::new(
+            1,
+            "not an API XD export (the first line is not `API X-D Laser Measurement Linear \
+             Data Table`)",
+        )
+    })
+}
+
+/// Collects the header's `Key: value` pieces up to the readings' column line, and returns
+/// them with that line's index (the header has no closing marker of its own).
+fn read_header(lines: &[(usize, &str)]) -> Result<(Header, usize), At> {
     let mut header = Header::default();
-    let mut columns_at = None;
     for (i, (_, l)) in lines.iter().enumerate().skip(1) {
         let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
         if fields.first() == Some(&"Position") && fields.contains(&"LinearError") {
-            columns_at = Some(i);
-            break;
+            return Ok((header, i));
         }
         header.push_line(i + 1, l);
     }
-    let Some(ci) = columns_at else {
-        return Err(At::new(
-            lines.len().max(1),
-            "no readings: the `Position LasRead LinearError …` column line is missing",
-        ));
-    };
-    let header_end = ci + 1;
-    let columns: Vec<&str> = lines[ci].1.split('\t').map(str::trim).collect();
-    let col = |name: &str| columns.iter().position(|&c| c == name);
-    let (Some(c_pos), Some(c_las), Some(c_err)) =
-        (col("Position"), col("LasRead"), col("LinearError"))
-    else {
-        return Err(At::new(
-            header_end,
-            "the column line needs Position, LasRead and LinearError",
-        ));
-    };
-    let (unit_line, unit) = header.need("Unit", header_end)?;
-    let inch = match unit.to_ascii_lowercase().as_str() {
-        "inch" | "in" => true,
-        "mm" => false,
-        other => {
-            return Err(At::new(
-                unit_line,
-                format!("unit `{other}` (expected inch or mm)"),
-            ));
-        }
-    };
-    let k = if inch { MM_PER_INCH } else { 1.0 };
-    let ini = header.need_number("IniPos", header_end)?;
-    let end = header.need_number("EndPos", header_end)?;
-    let run_num = header.need_number("RunNum", header_end)?;
-    let num_pos = header.need_number("NumofPos", header_end)?;
-    let (tt_line, test_type) = header.need("TestType", header_end)?;
-    let bidirectional = match test_type.to_ascii_lowercase().as_str() {
-        "unidirection" | "unidirectional" => false,
-        "bidirection" | "bidirectional" => true,
-        other => {
-            return Err(At::new(
-                tt_line,
-                format!("TestType `{other}` (expected Unidirection or Bidirection)"),
-            ));
-        }
-    };
-    let count_ok = |v: f64| v.fract() == 0.0 && (1.0..=100_000.0).contains(&v);
-    if !count_ok(run_num) || !count_ok(num_pos) {
-        return Err(At::new(
-            header.first("RunNum").map(|l| l.0).unwrap_or(header_end),
-            format!("RunNum {run_num} and NumofPos {num_pos} must be whole counts ≥ 1"),
-        ));
-    }
-    let (runs, per_pass) = (run_num as usize, num_pos as usize);
-    if per_pass < 2 {
-        return Err(At::new(
-            header.first("NumofPos").map(|l| l.0).unwrap_or(header_end),
-            "NumofPos 1: a pass needs two targets to have a direction of travel",
-        ));
-    }
-    let passes = runs * if bidirectional { 2 } else { 1 };
-    let expected = passes * per_pass;
+    Err(At::new(
+        lines.len().max(1),
+        "no readings: the `Position LasRead LinearError …` column line is missing",
+    ))
+}
 
-    // The readings block.
+/// Reads the readings block after the column line `ci` up to `DecimalPoints:`, checking
+/// its count against the header; returns the rows and the closing line's number.
+fn read_rows(
+    lines: &[(usize, &str)],
+    ci: usize,
+    columns: &Columns,
+    layout: &Layout,
+) -> Result<(Vec<Row>, usize), At> {
+    let expected = layout.expected;
     let mut rows: Vec<Row> = Vec::with_capacity(expected);
-    let mut closed_at = None;
     for (i, (_, l)) in lines.iter().enumerate().skip(ci + 1) {
         let line = i + 1;
         if l.trim_start().starts_with("DecimalPoints:") {
-            closed_at = Some(line);
-            break;
+            if rows.len() != expected {
+                return Err(At::new(
+                    line,
+                    format!(
+                        "{} readings, the header says {expected} ({})",
+                        rows.len(),
+                        layout.counts()
+                    ),
+                ));
+            }
+            return Ok((rows, line));
         }
         if rows.len() == expected {
             return Err(At::new(
                 line,
                 format!(
-                    "more readings than the header's {expected} (RunNum {runs} × NumofPos \
-                     {per_pass}{})",
-                    if bidirectional {
-                        " × 2 directions"
-                    } else {
-                        ""
-                    }
+                    "more readings than the header's {expected} ({})",
+                    layout.counts()
                 ),
             ));
         }
-        let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
-        if fields.len() != columns.len() {
-            return Err(At::new(
-                line,
-                format!(
-                    "a reading with {} fields, the column line has {} (a truncated or broken row)",
-                    fields.len(),
-                    columns.len()
-                ),
-            ));
-        }
-        let num = |c: usize| {
-            number(fields[c]).ok_or_else(|| {
-                At::new(
-                    line,
-                    format!("{} `{}` is not a number", columns[c], fields[c]),
-                )
-            })
-        };
-        let status = match col("Status") {
-            Some(c) => {
-                let v = num(c)?;
-                if v.fract() != 0.0 || !(0.0..=255.0).contains(&v) {
-                    return Err(At::new(
-                        line,
-                        format!("Status `{}` is not a laser status code", fields[c]),
-                    ));
-                }
-                v as u8
-            }
-            None => 0,
-        };
-        let opt = |name: &str| -> Result<Option<f64>, At> {
-            match col(name) {
-                Some(c) => num(c).map(Some),
-                None => Ok(None),
-            }
-        };
-        rows.push(Row {
-            line,
-            position: num(c_pos)?,
-            las_read: num(c_las)?,
-            las_decimals: decimals(fields[c_las]),
-            linear_error: num(c_err)?,
-            status,
-            env: [
-                opt("AirTemp")?,
-                opt("AirPress")?,
-                opt("MatTemp")?,
-                opt("MatTemp2")?,
-                opt("MatTemp3")?,
-            ],
-        });
+        rows.push(parse_row(line, l, columns)?);
     }
-    let Some(closed_at) = closed_at else {
-        return Err(At::new(
-            lines.len(),
-            format!(
-                "the file ends inside the readings ({} of {expected}, no `DecimalPoints:` line): \
-                 truncated",
-                rows.len()
-            ),
-        ));
-    };
-    if rows.len() != expected {
-        return Err(At::new(
-            closed_at,
-            format!(
-                "{} readings, the header says {expected} (RunNum {runs} × NumofPos {per_pass}{})",
-                rows.len(),
-                if bidirectional {
-                    " × 2 directions"
-                } else {
-                    ""
-                }
-            ),
-        ));
-    }
+    Err(At::new(
+        lines.len(),
+        format!(
+            "the file ends inside the readings ({} of {expected}, no `DecimalPoints:` line): \
+             truncated",
+            rows.len()
+        ),
+    ))
+}
 
-    // The counting sign s: the one most readings satisfy.
-    let fits = |r: &Row, s: f64| {
-        let tol = 2.5 * 10f64.powi(-(r.las_decimals as i32));
-        (r.las_read - s * (r.position + r.linear_error)).abs() <= tol + 1e-12
+/// Parses one TAB-separated reading into a `Row` (numbers only; the cross-checks between
+/// columns and rows come later, once the counting sign is known).
+fn parse_row(line: usize, l: &str, columns: &Columns) -> Result<Row, At> {
+    let fields: Vec<&str> = l.split('\t').map(str::trim).collect();
+    if fields.len() != columns.names.len() {
+        return Err(At::new(
+            line,
+            format!(
+                "a reading with {} fields, the column line has {} (a truncated or broken row)",
+                fields.len(),
+                columns.names.len()
+            ),
+        ));
+    }
+    let num = |c: usize| {
+        number(fields[c]).ok_or_else(|| {
+            At::new(
+                line,
+                format!("{} `{}` is not a number", columns.names[c], fields[c]),
+            )
+        })
     };
+    let status = match columns.find("Status") {
+        Some(c) => {
+            let v = num(c)?;
+            if v.fract() != 0.0 || !(0.0..=255.0).contains(&v) {
+                return Err(At::new(
+                    line,
+                    format!("Status `{}` is not a laser status code", fields[c]),
+                ));
+            }
+            v as u8
+        }
+        None => 0,
+    };
+    let opt = |name: &str| -> Result<Option<f64>, At> {
+        match columns.find(name) {
+            Some(c) => num(c).map(Some),
+            None => Ok(None),
+        }
+    };
+    Ok(Row {
+        line,
+        position: num(columns.pos)?,
+        las_read: num(columns.las)?,
+        las_decimals: decimals(fields[columns.las]),
+        linear_error: num(columns.err)?,
+        status,
+        env: [
+            opt("AirTemp")?,
+            opt("AirPress")?,
+            opt("MatTemp")?,
+            opt("MatTemp2")?,
+            opt("MatTemp3")?,
+        ],
+    })
+}
+
+/// Whether a row satisfies LasRead = s·(Position + LinearError) within 2.5 units of
+/// LasRead's last printed decimal.
+fn fits(r: &Row, s: f64) -> bool {
+    let tol = 2.5 * 10f64.powi(-(r.las_decimals as i32));
+    (r.las_read - s * (r.position + r.linear_error)).abs() <= tol + 1e-12
+}
+
+/// Turns the rows into readings pass by pass: the counting sign most rows satisfy, the
+/// direction from each pass' order, and every row checked against both and the range.
+fn to_readings(rows: &[Row], layout: &Layout, header: &Header) -> Result<Vec<Reading>, At> {
     let plus = rows.iter().filter(|r| fits(r, 1.0)).count();
     let minus = rows.iter().filter(|r| fits(r, -1.0)).count();
     let s = if minus > plus { -1.0 } else { 1.0 };
+    let (ini, end) = (layout.ini, layout.end);
     let (lo, hi) = (ini.min(end), ini.max(end));
     let range_tol = 1e-9 * (1.0 + hi.abs().max(lo.abs()));
     let mut readings = Vec::with_capacity(rows.len());
-    let mut warnings = Vec::new();
-    let temp = |v: f64| if inch { fahrenheit_to_c(v) } else { v };
     let rh = header.first("Humidity").and_then(|(_, v)| number(v));
-    for (p, pass) in rows.chunks(per_pass).enumerate() {
+    for (p, pass) in rows.chunks(layout.per_pass).enumerate() {
         let direction: i8 = if pass[1].position > pass[0].position {
             1
         } else {
@@ -357,52 +490,59 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
                     ),
                 ));
             }
-            let mats: Vec<f64> = r.env[2..]
-                .iter()
-                .flatten()
-                .copied()
-                .filter(|&v| v != -1.0)
-                .collect();
-            let part =
-                (!mats.is_empty()).then(|| temp(mats.iter().sum::<f64>() / mats.len() as f64));
-            let env = Env {
-                air_temp_c: r.env[0].map(temp),
-                air_pressure_hpa: r.env[1]
-                    .map(|v| v * if inch { HPA_PER_INHG } else { HPA_PER_MMHG }),
-                air_rh_pct: rh,
-                scale_temp_c: None,
-                part_temp_c: part,
-            };
-            let run = if bidirectional { p / 2 + 1 } else { p + 1 } as u32;
-            let target_mm = r.position * k;
-            let reading = Reading {
-                run,
-                direction,
-                target_mm,
-                scale_mm: target_mm,
-                laser_mm: (r.position + r.linear_error) * k,
-                error_um: -r.linear_error * k * 1000.0,
-                flags: r.status,
-                env,
-            };
+            let run = if layout.bidirectional {
+                p / 2 + 1
+            } else {
+                p + 1
+            } as u32;
+            let reading = to_reading(r, run, direction, layout, rh);
             reading.check(r.line)?;
             readings.push(reading);
         }
     }
-    if !inch
-        && rows
-            .iter()
-            .any(|r| r.env[0].is_some() || r.env[1].is_some())
-    {
-        warnings.push(
-            "a mm export: AirTemp read as °C and AirPress as mmHg (unverified against a genuine \
-             mm file)"
-                .to_string(),
-        );
-    }
-    check_compensation_table(&lines, closed_at, &rows, inch, &mut warnings);
+    Ok(readings)
+}
 
-    // Axis and the other coordinates.
+/// One checked row as a reading in mm and µm, with its air and material conditions in
+/// °C and hPa (the unit conversions in one place).
+fn to_reading(r: &Row, run: u32, direction: i8, layout: &Layout, rh: Option<f64>) -> Reading {
+    let (inch, k) = (layout.inch, layout.k);
+    let mats: Vec<f64> = r.env[2..]
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|&v| v != -1.0)
+        .collect();
+    let part =
+        (!mats.is_empty()).then(|| layout.temp(mats.iter().sum::<f64>() / mats.len() as f64));
+    let env = Env {
+        air_temp_c: r.env[0].map(|v| layout.temp(v)),
+        air_pressure_hpa: r.env[1].map(|v| v * if inch { HPA_PER_INHG } else { HPA_PER_MMHG }),
+        air_rh_pct: rh,
+        scale_temp_c: None,
+        part_temp_c: part,
+    };
+    let target_mm = r.position * k;
+    Reading {
+        run,
+        direction,
+        target_mm,
+        scale_mm: target_mm,
+        laser_mm: (r.position + r.linear_error) * k,
+        error_um: -r.linear_error * k * 1000.0,
+        flags: r.status,
+        env,
+    }
+}
+
+/// The measured axis (the override, else TestAxis, else X with a warning) and the other
+/// axes' coordinates from AxesLoc, in mm.
+fn placement(
+    header: &Header,
+    axis_override: Option<Axis>,
+    k: f64,
+    warnings: &mut Vec<String>,
+) -> (Axis, [f64; 3]) {
     let letter = header
         .first("TestAxis")
         .map(|(_, v)| v.trim_matches(|c| c == '(' || c == ')').trim().to_string());
@@ -427,31 +567,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             at_mm[a.index()] = v * k;
         }
     }
-    let dt_s = header
-        .first("Dwell")
-        .and_then(|(_, v)| number(v))
-        .filter(|&d| d > 0.0)
-        .unwrap_or(1.0);
-    let machine = header
-        .first("MachName")
-        .or_else(|| header.first("MachID"))
-        .map(|(_, v)| v.to_string());
-    let rows_out = assemble(&readings, axis, at_mm, dt_s);
-    let (runs_n, targets_n, directions) = summary_counts(&readings);
-    Ok(Imported {
-        summary: ImportSummary {
-            format: "api-xd",
-            rows: rows_out.len(),
-            runs: Some(runs_n),
-            targets: targets_n,
-            directions,
-            units_in: if inch { "inch" } else { "mm" },
-            axis: axis.upper(),
-            machine,
-            warnings,
-        },
-        rows: rows_out,
-    })
+    (axis, at_mm)
 }
 
 /// Cross-checks the vendor's "API Linear Error Compensation Table" against the readings:

@@ -275,6 +275,80 @@ fn direction_word(s: &str) -> Option<i8> {
     }
 }
 
+/// A mapped column resolved against the header: its index and its header name (for the
+/// messages).
+type Resolved = (usize, String);
+
+/// The column map resolved against the header, once, before the rows are read.
+struct Mapped {
+    target: Resolved,
+    reference: Option<Resolved>,
+    indicated: Option<Resolved>,
+    error: Option<Resolved>,
+    run: Option<Resolved>,
+    direction: Option<Resolved>,
+    air_t: Option<Resolved>,
+    air_p: Option<Resolved>,
+    air_h: Option<Resolved>,
+    part_t: Option<Resolved>,
+    scale_t: Option<Resolved>,
+}
+
+impl Mapped {
+    /// Finds every `--map` column in the header (by name or number), refusing one that is
+    /// not there and an error column without a sign.
+    fn resolve(header: &[String], header_line: usize, o: &CsvOptions) -> Result<Mapped, At> {
+        let resolve = |c: &Col| -> Result<Resolved, At> {
+            match c {
+                Col::Number(n) if *n <= header.len() => Ok((n - 1, header[n - 1].clone())),
+                Col::Number(n) => Err(At::new(
+                    header_line,
+                    format!("--map column #{n}: the header has {} columns", header.len()),
+                )),
+                Col::Name(name) => header
+                    .iter()
+                    .position(|h| h == name)
+                    .map(|i| (i, name.clone()))
+                    .ok_or_else(|| {
+                        At::new(
+                            header_line,
+                            format!(
+                                "--map column `{name}` is not in the header ({})",
+                                header.join(", ")
+                            ),
+                        )
+                    }),
+            }
+        };
+        let opt = |c: &Option<Col>| c.as_ref().map(&resolve).transpose();
+        let m = &o.map;
+        let mapped = Mapped {
+            target: resolve(
+                m.target
+                    .as_ref()
+                    .ok_or_else(|| At::new(1, "--map has no target"))?,
+            )?,
+            reference: opt(&m.reference)?,
+            indicated: opt(&m.indicated)?,
+            error: opt(&m.error)?,
+            run: opt(&m.run)?,
+            direction: opt(&m.direction)?,
+            air_t: opt(&m.air_temp)?,
+            air_p: opt(&m.air_pressure)?,
+            air_h: opt(&m.air_rh)?,
+            part_t: opt(&m.part_temp)?,
+            scale_t: opt(&m.scale_temp)?,
+        };
+        if mapped.error.is_some() && o.error_sign.is_none() {
+            return Err(At::new(
+                header_line,
+                "an error column needs --error-sign (a sign is never guessed)",
+            ));
+        }
+        Ok(mapped)
+    }
+}
+
 /// Reads a CSV through the column map (see the module docs).
 pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
@@ -283,87 +357,8 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
         return Err(At::new(1, "no header and no data"));
     };
     let header: Vec<String> = header.iter().map(|h| h.trim().to_string()).collect();
-    if header.len() == 1 {
-        let h = &header[0];
-        let other = [';', '\t', ',']
-            .into_iter()
-            .find(|&d| d != o.delimiter && h.contains(d));
-        if let Some(d) = other {
-            let name = match d {
-                '\t' => "TAB".to_string(),
-                c => format!("`{c}`"),
-            };
-            let flag = match d {
-                '\t' => "--delimiter tab".to_string(),
-                c => format!("--delimiter '{c}'"),
-            };
-            let comma = d != ',' && has_decimal_comma(&text.text) && !o.decimal_comma;
-            return Err(At::new(
-                *header_line,
-                format!(
-                    "the header is one column but holds {name}: this looks like a {}-separated \
-                     export{}; read it with {flag}{}",
-                    if d == ';' {
-                        "`;` (European Excel)"
-                    } else {
-                        "differently"
-                    },
-                    if comma { " with decimal commas" } else { "" },
-                    if comma { " --decimal-comma" } else { "" },
-                ),
-            ));
-        }
-    }
-    let resolve = |c: &Col| -> Result<(usize, String), At> {
-        match c {
-            Col::Number(n) if *n <= header.len() => Ok((n - 1, header[n - 1].clone())),
-            Col::Number(n) => Err(At::new(
-                *header_line,
-                format!("--map column #{n}: the header has {} columns", header.len()),
-            )),
-            Col::Name(name) => header
-                .iter()
-                .position(|h| h == name)
-                .map(|i| (i, name.clone()))
-                .ok_or_else(|| {
-                    At::new(
-                        *header_line,
-                        format!(
-                            "--map column `{name}` is not in the header ({})",
-                            header.join(", ")
-                        ),
-                    )
-                }),
-        }
-    };
-    let opt = |c: &Option<Col>| c.as_ref().map(&resolve).transpose();
-    let m = &o.map;
-    let target = resolve(
-        m.target
-            .as_ref()
-            .ok_or_else(|| At::new(1, "--map has no target"))?,
-    )?;
-    let reference = opt(&m.reference)?;
-    let indicated = opt(&m.indicated)?;
-    let error = opt(&m.error)?;
-    let run_c = opt(&m.run)?;
-    let dir_c = opt(&m.direction)?;
-    let air_t = opt(&m.air_temp)?;
-    let air_p = opt(&m.air_pressure)?;
-    let air_h = opt(&m.air_rh)?;
-    let part_t = opt(&m.part_temp)?;
-    let scale_t = opt(&m.scale_temp)?;
-    if error.is_some() && o.error_sign.is_none() {
-        return Err(At::new(
-            *header_line,
-            "an error column needs --error-sign (a sign is never guessed)",
-        ));
-    }
-    let k = o.length.mm();
-    let temp = |v: f64| match o.temperature {
-        TempUnit::C => v,
-        TempUnit::F => fahrenheit_to_c(v),
-    };
+    check_delimiter(&header, *header_line, &text.text, o)?;
+    let mapped = Mapped::resolve(&header, *header_line, o)?;
     let mut readings: Vec<Reading> = Vec::with_capacity(recs.len());
     let mut lines: Vec<usize> = Vec::with_capacity(recs.len());
     for (line, rec) in recs.iter().skip(1) {
@@ -383,107 +378,7 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
                 ),
             ));
         }
-        let cell = |c: &(usize, String)| -> Result<Option<f64>, At> {
-            let raw = rec[c.0].trim();
-            if raw.is_empty() {
-                return Ok(None);
-            }
-            let parsed = if o.decimal_comma {
-                if raw.contains('.') {
-                    return Err(At::col(
-                        line,
-                        &c.1,
-                        format!(
-                            "`{raw}` has a `.` but --decimal-comma says `,` is the decimal mark"
-                        ),
-                    ));
-                }
-                number(&raw.replace(',', "."))
-            } else {
-                number(raw)
-            };
-            match parsed {
-                Some(v) => Ok(Some(v)),
-                None if !o.decimal_comma && has_decimal_comma(raw) => Err(At::col(
-                    line,
-                    &c.1,
-                    format!("`{raw}` has a decimal comma; read the file with --decimal-comma"),
-                )),
-                None => Err(At::col(line, &c.1, format!("`{raw}` is not a number"))),
-            }
-        };
-        let need = |c: &(usize, String)| -> Result<f64, At> {
-            cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column"))
-        };
-        let t = need(&target)?;
-        let ind = match &indicated {
-            Some(c) => need(c)?,
-            None => t,
-        };
-        let (laser_mm, error_um) = match (&reference, &error) {
-            (Some(r), _) => {
-                let r = need(r)?;
-                (r * k, (ind - r) * k * 1000.0)
-            }
-            (None, Some(e)) => {
-                let v = need(e)?;
-                let e_um = match o.error_sign {
-                    Some(ErrorSign::ReferenceMinusIndicated) => -v * o.error_units.um(),
-                    _ => v * o.error_units.um(),
-                };
-                (ind * k - e_um / 1000.0, e_um)
-            }
-            (None, None) => unreachable!("the map has reference or error"),
-        };
-        let run = match &run_c {
-            Some(c) => {
-                let v = need(c)?;
-                if v.fract() != 0.0 || !(1.0..=1e6).contains(&v) {
-                    return Err(At::col(
-                        line,
-                        &c.1,
-                        format!("run `{v}` is not a whole number ≥ 1"),
-                    ));
-                }
-                v as u32
-            }
-            None => 1,
-        };
-        let direction = match &dir_c {
-            Some(c) => direction_word(&rec[c.0]).ok_or_else(|| {
-                At::col(
-                    line,
-                    &c.1,
-                    format!(
-                        "`{}` is not a direction (+1, up, fwd, forward, pos / -1, down, rev, \
-                         back, neg)",
-                        rec[c.0].trim()
-                    ),
-                )
-            })?,
-            None => 0,
-        };
-        let reading = Reading {
-            run,
-            direction,
-            target_mm: t * k,
-            scale_mm: ind * k,
-            laser_mm,
-            error_um,
-            flags: 0,
-            env: Env {
-                air_temp_c: air_t.as_ref().map(cell).transpose()?.flatten().map(temp),
-                air_pressure_hpa: air_p
-                    .as_ref()
-                    .map(cell)
-                    .transpose()?
-                    .flatten()
-                    .map(|v| v * o.pressure.hpa()),
-                air_rh_pct: air_h.as_ref().map(cell).transpose()?.flatten(),
-                scale_temp_c: scale_t.as_ref().map(cell).transpose()?.flatten().map(temp),
-                part_temp_c: part_t.as_ref().map(cell).transpose()?.flatten().map(temp),
-            },
-        };
+        let reading = read_record(line, rec, &mapped, o)?;
         reading.check(line)?;
         readings.push(reading);
         lines.push(line);
@@ -491,7 +386,7 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
     if readings.is_empty() {
         return Err(At::new(*header_line, "a header and no data rows"));
     }
-    if dir_c.is_none() {
+    if mapped.direction.is_none() {
         set_directions(&mut readings, &lines)?;
     }
     let axis = axis.unwrap_or(Axis::X);
@@ -510,6 +405,169 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
             warnings: Vec::new(),
         },
         rows,
+    })
+}
+
+/// Refuses a one-column header holding another delimiter: a European-locale export read
+/// with the wrong flags, named with the flags that read it.
+fn check_delimiter(
+    header: &[String],
+    header_line: usize,
+    text: &str,
+    o: &CsvOptions,
+) -> Result<(), At> {
+    if header.len() != 1 {
+        return Ok(());
+    }
+    let h = &header[0];
+    let other = [';', '\t', ',']
+        .into_iter()
+        .find(|&d| d != o.delimiter && h.contains(d));
+    let Some(d) = other else {
+        return Ok(());
+    };
+    let name = match d {
+        '\t' => "TAB".to_string(),
+        c => format!("`{c}`"),
+    };
+    let flag = match d {
+        '\t' => "--delimiter tab".to_string(),
+        c => format!("--delimiter '{c}'"),
+    };
+    let comma = d != ',' && has_decimal_comma(text) && !o.decimal_comma;
+    Err(At::new(
+        header_line,
+        format!(
+            "the header is one column but holds {name}: this looks like a {}-separated \
+             export{}; read it with {flag}{}",
+            if d == ';' {
+                "`;` (European Excel)"
+            } else {
+                "differently"
+            },
+            if comma { " with decimal commas" } else { "" },
+            if comma { " --decimal-comma" } else { "" },
+        ),
+    ))
+}
+
+/// One cell of a mapped column as a number (`None` when empty), with the decimal-comma
+/// mistakes named in the message.
+fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Option<f64>, At> {
+    let raw = rec[c.0].trim();
+    if raw.is_empty() {
+        return Ok(None);
+    }
+    let parsed = if o.decimal_comma {
+        if raw.contains('.') {
+            return Err(At::col(
+                line,
+                &c.1,
+                format!("`{raw}` has a `.` but --decimal-comma says `,` is the decimal mark"),
+            ));
+        }
+        number(&raw.replace(',', "."))
+    } else {
+        number(raw)
+    };
+    match parsed {
+        Some(v) => Ok(Some(v)),
+        None if !o.decimal_comma && has_decimal_comma(raw) => Err(At::col(
+            line,
+            &c.1,
+            format!("`{raw}` has a decimal comma; read the file with --decimal-comma"),
+        )),
+        None => Err(At::col(line, &c.1, format!("`{raw}` is not a number"))),
+    }
+}
+
+/// One data record as a reading in mm and µm (direction 0 when the map has no direction
+/// column: `set_directions` fills it from the whole run).
+fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Result<Reading, At> {
+    let k = o.length.mm();
+    let temp = |v: f64| match o.temperature {
+        TempUnit::C => v,
+        TempUnit::F => fahrenheit_to_c(v),
+    };
+    let cell = |c: &Resolved| cell(line, rec, c, o);
+    let need = |c: &Resolved| -> Result<f64, At> {
+        cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column"))
+    };
+    let t = need(&m.target)?;
+    let ind = match &m.indicated {
+        Some(c) => need(c)?,
+        None => t,
+    };
+    let (laser_mm, error_um) = match (&m.reference, &m.error) {
+        (Some(r), _) => {
+            let r = need(r)?;
+            (r * k, (ind - r) * k * 1000.0)
+        }
+        (None, Some(e)) => {
+            let v = need(e)?;
+            let e_um = match o.error_sign {
+                Some(ErrorSign::ReferenceMinusIndicated) => -v * o.error_units.um(),
+                _ => v * o.error_units.um(),
+            };
+            (ind * k - e_um / 1000.0, e_um)
+        }
+        (None, None) => unreachable!("the map has reference or error"),
+    };
+    let run = match &m.run {
+        Some(c) => {
+            let v = need(c)?;
+            if v.fract() != 0.0 || !(1.0..=1e6).contains(&v) {
+                return Err(At::col(
+                    line,
+                    &c.1,
+                    format!("run `{v}` is not a whole number ≥ 1"),
+                ));
+            }
+            v as u32
+        }
+        None => 1,
+    };
+    let direction = match &m.direction {
+        Some(c) => direction_word(&rec[c.0]).ok_or_else(|| {
+            At::col(
+                line,
+                &c.1,
+                format!(
+                    "`{}` is not a direction (+1, up, fwd, forward, pos / -1, down, rev, \
+                     back, neg)",
+                    rec[c.0].trim()
+                ),
+            )
+        })?,
+        None => 0,
+    };
+    Ok(Reading {
+        run,
+        direction,
+        target_mm: t * k,
+        scale_mm: ind * k,
+        laser_mm,
+        error_um,
+        flags: 0,
+        env: Env {
+            air_temp_c: m.air_t.as_ref().map(cell).transpose()?.flatten().map(temp),
+            air_pressure_hpa: m
+                .air_p
+                .as_ref()
+                .map(cell)
+                .transpose()?
+                .flatten()
+                .map(|v| v * o.pressure.hpa()),
+            air_rh_pct: m.air_h.as_ref().map(cell).transpose()?.flatten(),
+            scale_temp_c: m
+                .scale_t
+                .as_ref()
+                .map(cell)
+                .transpose()?
+                .flatten()
+                .map(temp),
+            part_temp_c: m.part_t.as_ref().map(cell).transpose()?.flatten().map(temp),
+        },
     })
 }
 

@@ -184,6 +184,93 @@ fn siemens_assignment(l: &str) -> Option<(&str, Vec<&str>, usize, &str)> {
     ))
 }
 
+impl SiemensTable {
+    /// Stores one entry of the table `key`: a point value when `point` (the point number's
+    /// argument) is given, else the table parameter `base` (STEP, MIN, …), checked.
+    fn take(
+        &mut self,
+        key: &str,
+        line: usize,
+        base: &str,
+        point: Option<&str>,
+        (f, vt): (Field, &str),
+    ) -> Result<(), At> {
+        match (base, point) {
+            ("", Some(arg)) => {
+                let n: usize = arg
+                    .parse()
+                    .map_err(|_| At::new(line, format!("point number `{}` is not a count", arg)))?;
+                let v = num(line, "the value", vt)?;
+                if self.values.insert(n, (line, f, v)).is_some() {
+                    return Err(At::new(
+                        line,
+                        format!("point {n} of table {key} given twice"),
+                    ));
+                }
+            }
+            ("STEP", _) => self.step = Some((line, num(line, "STEP", vt)?)),
+            ("MIN", _) => self.min = Some((line, num(line, "MIN", vt)?)),
+            ("MAX", _) => self.max = Some((line, num(line, "MAX", vt)?)),
+            ("DIRECTION", _) => {
+                let d = num(line, "DIRECTION", vt)?;
+                if ![-1.0, 0.0, 1.0].contains(&d) {
+                    return Err(At::new(line, format!("DIRECTION {d} (−1, 0 or 1)")));
+                }
+                self.direction = Some((line, d as i64));
+            }
+            ("IS_MODULO", _) => {
+                if num(line, "IS_MODULO", vt)? != 0.0 {
+                    return Err(At::new(
+                        line,
+                        "a modulo (rotary) table: errmap reads linear axes",
+                    ));
+                }
+            }
+            ("MULT_BY_TABLE", _) => {
+                if num(line, "MULT_BY_TABLE", vt)? != 0.0 {
+                    return Err(At::new(
+                        line,
+                        "a table multiplied by another: not a leadscrew table",
+                    ));
+                }
+            }
+            ("INPUT_AXIS", _) | ("OUTPUT_AXIS", _) => {}
+            (other, _) => return Err(At::new(line, format!("unknown table entry `{other}`"))),
+        }
+        Ok(())
+    }
+}
+
+/// Which table and entry a Siemens assignment sets: (entry after the name's `_`, or ""
+/// for a point value; the table's key; the argument holding the point number), refusing
+/// names of the other program kind.
+fn siemens_target<'l>(
+    cec: bool,
+    name: &'l str,
+    args: &[&str],
+    line: usize,
+    t: &str,
+) -> Result<(&'l str, String, Option<usize>), At> {
+    Ok(match (cec, name) {
+        (false, "$AA_ENC_COMP") if args.len() == 3 => {
+            ("", format!("{},{}", args[0], args[2]), Some(1))
+        }
+        (false, n) if n.starts_with("$AA_ENC_COMP_") && args.len() == 2 => {
+            (&n[13..], format!("{},{}", args[0], args[1]), None)
+        }
+        (true, "$AN_CEC") if args.len() == 2 => ("", args[0].to_string(), Some(1)),
+        (true, n) if n.starts_with("$AN_CEC_") && args.len() == 1 => {
+            (&n[8..], args[0].to_string(), None)
+        }
+        _ => {
+            return Err(At::new(
+                line,
+                format!("`{t}`: not a line of this table program"),
+            ));
+        }
+    })
+}
+
 /// A Siemens `%_N_AX_EEC_INI` (one LEC/MSEC table) or `%_N_NC_CEC_INI` (one CEC table
 /// without direction, or two for the positive and negative directions).
 pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
@@ -217,24 +304,7 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
         let Some((name, args, voff, value)) = siemens_assignment(l) else {
             return Err(At::new(line, format!("`{t}` is not `$NAME[…]=value`")));
         };
-        let (base, key, n_index) = match (cec, name) {
-            (false, "$AA_ENC_COMP") if args.len() == 3 => {
-                ("", format!("{},{}", args[0], args[2]), Some(1))
-            }
-            (false, n) if n.starts_with("$AA_ENC_COMP_") && args.len() == 2 => {
-                (&n[13..], format!("{},{}", args[0], args[1]), None)
-            }
-            (true, "$AN_CEC") if args.len() == 2 => ("", args[0].to_string(), Some(1)),
-            (true, n) if n.starts_with("$AN_CEC_") && args.len() == 1 => {
-                (&n[8..], args[0].to_string(), None)
-            }
-            _ => {
-                return Err(At::new(
-                    line,
-                    format!("`{t}`: not a line of this table program"),
-                ));
-            }
-        };
+        let (base, key, n_index) = siemens_target(cec, name, &args, line, t)?;
         let table = tables.entry(key.clone()).or_insert_with(|| SiemensTable {
             first_line: line,
             ..Default::default()
@@ -242,53 +312,26 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
         let vt = value.trim();
         let lead = value.len() - value.trim_start().len();
         let f = field_at(off + voff + lead, vt);
-        match (base, n_index) {
-            ("", Some(k)) => {
-                let n: usize = args[k].parse().map_err(|_| {
-                    At::new(line, format!("point number `{}` is not a count", args[k]))
-                })?;
-                let v = num(line, "the value", vt)?;
-                if table.values.insert(n, (line, f, v)).is_some() {
-                    return Err(At::new(
-                        line,
-                        format!("point {n} of table {key} given twice"),
-                    ));
-                }
-            }
-            ("STEP", _) => table.step = Some((line, num(line, "STEP", vt)?)),
-            ("MIN", _) => table.min = Some((line, num(line, "MIN", vt)?)),
-            ("MAX", _) => table.max = Some((line, num(line, "MAX", vt)?)),
-            ("DIRECTION", _) => {
-                let d = num(line, "DIRECTION", vt)?;
-                if ![-1.0, 0.0, 1.0].contains(&d) {
-                    return Err(At::new(line, format!("DIRECTION {d} (−1, 0 or 1)")));
-                }
-                table.direction = Some((line, d as i64));
-            }
-            ("IS_MODULO", _) => {
-                if num(line, "IS_MODULO", vt)? != 0.0 {
-                    return Err(At::new(
-                        line,
-                        "a modulo (rotary) table: errmap reads linear axes",
-                    ));
-                }
-            }
-            ("MULT_BY_TABLE", _) => {
-                if num(line, "MULT_BY_TABLE", vt)? != 0.0 {
-                    return Err(At::new(
-                        line,
-                        "a table multiplied by another: not a leadscrew table",
-                    ));
-                }
-            }
-            ("INPUT_AXIS", _) | ("OUTPUT_AXIS", _) => {}
-            (other, _) => return Err(At::new(line, format!("unknown table entry `{other}`"))),
-        }
+        table.take(&key, line, base, n_index.map(|k| args[k]), (f, vt))?;
     }
     let last = lines.len().max(1);
     if !ended {
         return Err(At::new(last, "no M17: the program is cut short"));
     }
+    let parsed = siemens_points(&tables, cec, last)?;
+    if parsed.points.len() < 2 {
+        return Err(At::new(last, "a table needs two points"));
+    }
+    Ok(parsed)
+}
+
+/// The table points of the program's tables: one table (one column), or in a CEC program
+/// two tables of directions 1 and −1 at the same points; anything else is refused.
+fn siemens_points(
+    tables: &std::collections::BTreeMap<String, SiemensTable>,
+    cec: bool,
+    last: usize,
+) -> Result<Parsed, At> {
     let e = |v: f64| -v * 1000.0;
     let mut parsed = Parsed::default();
     let list: Vec<(&String, &SiemensTable)> = tables.iter().collect();
@@ -347,9 +390,6 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
             ));
         }
     }
-    if parsed.points.len() < 2 {
-        return Err(At::new(last, "a table needs two points"));
-    }
     Ok(parsed)
 }
 
@@ -373,6 +413,80 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
         .get(1)
         .map(|l| l.1.split_whitespace().collect())
         .unwrap_or_default();
+    let (inr, ipos, ival) = heidenhain_columns(&header)?;
+    let axis = header[ival].parse::<Axis>().ok();
+    let mut parsed = Parsed {
+        axis,
+        one_column: true,
+        ..Default::default()
+    };
+    let mut ended = false;
+    for (i, &(off, l)) in lines.iter().enumerate().skip(2) {
+        let line = i + 1;
+        let t = l.trim();
+        if t.is_empty() {
+            continue;
+        }
+        if ended {
+            return Err(At::new(line, "text after [END]"));
+        }
+        if t == "[END]" {
+            ended = true;
+            continue;
+        }
+        let toks = token_ranges(l);
+        if toks.len() != header.len() {
+            return Err(At::new(
+                line,
+                format!(
+                    "{} fields, the column line has {}",
+                    toks.len(),
+                    header.len()
+                ),
+            ));
+        }
+        let tok = |c: usize| &l[toks[c].0..toks[c].1];
+        if tok(inr).parse::<u32>().is_err() {
+            return Err(At::new(
+                line,
+                format!("NR `{}` is not a row number", tok(inr)),
+            ));
+        }
+        let p = num(line, "AXISPOS", tok(ipos))? * k;
+        let v = num(line, header[ival], tok(ival))?;
+        let e = -v * k * 1000.0;
+        check_point(line, p, &[e])?;
+        if let Some(prev) = parsed.points.last()
+            && p <= prev.position_mm
+        {
+            return Err(At::new(
+                line,
+                format!(
+                    "AXISPOS {p} after {}: the points must increase",
+                    prev.position_mm
+                ),
+            ));
+        }
+        let f = field_at(off + toks[ival].0, tok(ival));
+        let mut pt = point(line, p, e, e, v, v, f, f);
+        pt.position_file = p / k;
+        parsed.points.push(pt);
+    }
+    if !ended {
+        return Err(At::new(
+            lines.len().max(1),
+            "no [END]: the table is cut short",
+        ));
+    }
+    if parsed.points.len() < 2 {
+        return Err(At::new(lines.len().max(1), "a table needs two points"));
+    }
+    Ok(parsed)
+}
+
+/// The column line's NR, AXISPOS and single value column (indices), refusing a BACKLASH
+/// column, whose meaning errmap's sources leave open, and more than one axis.
+fn heidenhain_columns(header: &[&str]) -> Result<(usize, usize, usize), At> {
     if header.contains(&"BACKLASH") {
         return Err(At::new(
             2,
@@ -398,124 +512,76 @@ pub fn read_heidenhain(text: &Text) -> Result<Parsed, At> {
             ),
         ));
     };
-    let axis = header[*ival].parse::<Axis>().ok();
-    let mut parsed = Parsed {
-        axis,
-        one_column: true,
-        ..Default::default()
-    };
-    let mut ended = false;
-    for (i, &(off, l)) in lines.iter().enumerate().skip(2) {
-        let line = i + 1;
-        let t = l.trim();
-        if t.is_empty() {
-            continue;
-        }
-        if ended {
-            return Err(At::new(line, "text after [END]"));
-        }
-        if t == "[END]" {
-            ended = true;
-            continue;
-        }
-        // Token byte ranges.
-        let mut toks = Vec::new();
-        let mut start = None;
-        for (j, c) in l.char_indices().chain(std::iter::once((l.len(), ' '))) {
-            match (c.is_whitespace(), start) {
-                (true, Some(s)) => {
-                    toks.push((s, j));
-                    start = None;
-                }
-                (false, None) => start = Some(j),
-                _ => {}
+    Ok((inr, ipos, *ival))
+}
+
+/// The byte ranges of the whitespace-separated tokens of `l` (the value's range is where
+/// an update writes).
+fn token_ranges(l: &str) -> Vec<(usize, usize)> {
+    let mut toks = Vec::new();
+    let mut start = None;
+    for (j, c) in l.char_indices().chain(std::iter::once((l.len(), ' '))) {
+        match (c.is_whitespace(), start) {
+            (true, Some(s)) => {
+                toks.push((s, j));
+                start = None;
             }
+            (false, None) => start = Some(j),
+            _ => {}
         }
-        if toks.len() != header.len() {
-            return Err(At::new(
-                line,
-                format!(
-                    "{} fields, the column line has {}",
-                    toks.len(),
-                    header.len()
-                ),
-            ));
-        }
-        let tok = |c: usize| &l[toks[c].0..toks[c].1];
-        if tok(inr).parse::<u32>().is_err() {
-            return Err(At::new(
-                line,
-                format!("NR `{}` is not a row number", tok(inr)),
-            ));
-        }
-        let p = num(line, "AXISPOS", tok(ipos))? * k;
-        let v = num(line, header[*ival], tok(*ival))?;
-        let e = -v * k * 1000.0;
-        check_point(line, p, &[e])?;
-        if let Some(prev) = parsed.points.last()
-            && p <= prev.position_mm
-        {
-            return Err(At::new(
-                line,
-                format!(
-                    "AXISPOS {p} after {}: the points must increase",
-                    prev.position_mm
-                ),
-            ));
-        }
-        let f = field_at(off + toks[*ival].0, tok(*ival));
-        let mut pt = point(line, p, e, e, v, v, f, f);
-        pt.position_file = p / k;
-        parsed.points.push(pt);
     }
-    if !ended {
-        return Err(At::new(
-            lines.len().max(1),
-            "no [END]: the table is cut short",
-        ));
-    }
-    if parsed.points.len() < 2 {
-        return Err(At::new(lines.len().max(1), "a table needs two points"));
-    }
-    Ok(parsed)
+    toks
 }
 
 // ---------------------------------------------------------------------------------------
 // ISG
 
-/// A TwinCAT CNC (ISG) compensation value list: `name value` lines (`#` comment lines,
-/// `/* … */` after a value), `kw.ssfk.unit` 1 (0.1 µm), points from `interval` and
-/// `kw_startpos` or each `table[i].setpoint`, `table[i].pos` (and `neg`).
-pub fn read_isg(text: &Text) -> Result<Parsed, At> {
-    type Entry = (usize, Field, String);
-    let mut keys: std::collections::HashMap<String, Entry> = Default::default();
-    let lines = text.lines();
-    for (i, &(off, l)) in lines.iter().enumerate() {
-        let line = i + 1;
-        let body = l.split("/*").next().unwrap_or("");
-        let t = body.trim();
-        if t.is_empty() || t.starts_with('#') {
-            continue;
+/// An ISG list value: its line, where it sits and its text.
+type IsgEntry = (usize, Field, String);
+
+/// An ISG list's `name value` pairs by name, with the last line (for "missing" messages).
+struct IsgKeys {
+    keys: std::collections::HashMap<String, IsgEntry>,
+    last: usize,
+}
+
+impl IsgKeys {
+    /// Collects the `name value` lines (comments skipped), refusing a malformed line and a
+    /// name given twice.
+    fn read(lines: &[(usize, &str)]) -> Result<IsgKeys, At> {
+        let mut keys: std::collections::HashMap<String, IsgEntry> = Default::default();
+        for (i, &(off, l)) in lines.iter().enumerate() {
+            let line = i + 1;
+            let body = l.split("/*").next().unwrap_or("");
+            let t = body.trim();
+            if t.is_empty() || t.starts_with('#') {
+                continue;
+            }
+            let mut it = t.split_whitespace();
+            let (Some(key), Some(value), None) = (it.next(), it.next(), it.next()) else {
+                return Err(At::new(line, format!("`{t}` is not `name value`")));
+            };
+            let start = off + body.find(key).unwrap_or(0) + key.len();
+            let vstart = start + l[start - off..].find(value).unwrap_or(0);
+            if keys
+                .insert(
+                    key.to_string(),
+                    (line, field_at(vstart, value), value.to_string()),
+                )
+                .is_some()
+            {
+                return Err(At::new(line, format!("{key} given twice")));
+            }
         }
-        let mut it = t.split_whitespace();
-        let (Some(key), Some(value), None) = (it.next(), it.next(), it.next()) else {
-            return Err(At::new(line, format!("`{t}` is not `name value`")));
-        };
-        let start = off + body.find(key).unwrap_or(0) + key.len();
-        let vstart = start + l[start - off..].find(value).unwrap_or(0);
-        if keys
-            .insert(
-                key.to_string(),
-                (line, field_at(vstart, value), value.to_string()),
-            )
-            .is_some()
-        {
-            return Err(At::new(line, format!("{key} given twice")));
-        }
+        Ok(IsgKeys {
+            keys,
+            last: lines.len().max(1),
+        })
     }
-    let last = lines.len().max(1);
-    let int = |key: &str| -> Result<Option<(usize, Field, i64)>, At> {
-        match keys.get(key) {
+
+    /// The whole-number value of `key`, if given.
+    fn int(&self, key: &str) -> Result<Option<(usize, Field, i64)>, At> {
+        match self.keys.get(key) {
             None => Ok(None),
             Some((l, f, v)) => {
                 let x = number(v)
@@ -524,12 +590,50 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
                 Ok(Some((*l, *f, x as i64)))
             }
         }
-    };
-    let need = |key: &str| -> Result<(usize, Field, i64), At> {
-        int(key)?
-            .ok_or_else(|| At::new(last, format!("no {key}: not a leadscrew compensation list")))
-    };
-    let (ul, _, unit) = need("kw.ssfk.unit")?;
+    }
+
+    /// The whole-number value of a key every leadscrew list has.
+    fn need(&self, key: &str) -> Result<(usize, Field, i64), At> {
+        self.int(key)?.ok_or_else(|| {
+            At::new(
+                self.last,
+                format!("no {key}: not a leadscrew compensation list"),
+            )
+        })
+    }
+
+    /// Refuses a table entry beyond the `n` entries of kw_nr_max (the first one by line).
+    fn check_entries(&self, n: usize) -> Result<(), At> {
+        let beyond = self
+            .keys
+            .iter()
+            .filter(|(key, _)| {
+                key.strip_prefix("kw.ssfk.table[").is_some_and(|rest| {
+                    rest.split(']')
+                        .next()
+                        .and_then(|s| s.parse::<usize>().ok())
+                        .is_none_or(|i| i >= n)
+                })
+            })
+            .min_by_key(|(_, (l, ..))| *l);
+        if let Some((key, (l, ..))) = beyond {
+            return Err(At::new(
+                *l,
+                format!("{key}: beyond the kw_nr_max {n} entries"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A TwinCAT CNC (ISG) compensation value list: `name value` lines (`#` comment lines,
+/// `/* … */` after a value), `kw.ssfk.unit` 1 (0.1 µm), points from `interval` and
+/// `kw_startpos` or each `table[i].setpoint`, `table[i].pos` (and `neg`).
+pub fn read_isg(text: &Text) -> Result<Parsed, At> {
+    let lines = text.lines();
+    let keys = IsgKeys::read(&lines)?;
+    let last = keys.last;
+    let (ul, _, unit) = keys.need("kw.ssfk.unit")?;
     if unit != 1 {
         return Err(At::new(
             ul,
@@ -538,12 +642,12 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
             ),
         ));
     }
-    if let Some((l, _, m)) = int("kw.ssfk.modulo")?
+    if let Some((l, _, m)) = keys.int("kw.ssfk.modulo")?
         && m != 0
     {
         return Err(At::new(l, "a modulo axis' list: errmap reads linear axes"));
     }
-    let (nl, _, count) = need("kw.ssfk.kw_nr_max")?;
+    let (nl, _, count) = keys.need("kw.ssfk.kw_nr_max")?;
     if !(2..=1_000_000).contains(&count) {
         return Err(At::new(
             nl,
@@ -551,34 +655,18 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
         ));
     }
     let n = count as usize;
-    let bil = int("kw.ssfk.bilateral")?;
+    let bil = keys.int("kw.ssfk.bilateral")?;
     let bilateral = match bil {
         None => false,
         Some((_, _, 0)) => false,
         Some((_, _, 1)) => true,
         Some((l, _, b)) => return Err(At::new(l, format!("bilateral {b} (0 or 1)"))),
     };
-    let interval = int("kw.ssfk.interval")?.map_or(0, |x| x.2);
-    let start = int("kw.ssfk.kw_startpos")?.map(|x| x.2);
+    let interval = keys.int("kw.ssfk.interval")?.map_or(0, |x| x.2);
+    let start = keys.int("kw.ssfk.kw_startpos")?.map(|x| x.2);
     // Every table entry must be within kw_nr_max (the first one that is not is named).
-    let beyond = keys
-        .iter()
-        .filter(|(key, _)| {
-            key.strip_prefix("kw.ssfk.table[").is_some_and(|rest| {
-                rest.split(']')
-                    .next()
-                    .and_then(|s| s.parse::<usize>().ok())
-                    .is_none_or(|i| i >= n)
-            })
-        })
-        .min_by_key(|(_, (l, ..))| *l);
-    if let Some((key, (l, ..))) = beyond {
-        return Err(At::new(
-            *l,
-            format!("{key}: beyond the kw_nr_max {n} entries"),
-        ));
-    }
-    let has_neg = (0..n).all(|i| keys.contains_key(&format!("kw.ssfk.table[{i}].neg")));
+    keys.check_entries(n)?;
+    let has_neg = (0..n).all(|i| keys.keys.contains_key(&format!("kw.ssfk.table[{i}].neg")));
     if bilateral && !has_neg {
         return Err(At::new(
             last,
@@ -586,6 +674,7 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
         ));
     }
     let axis = keys
+        .keys
         .get("kopf.log_achs_name")
         .and_then(|(_, _, v)| v.parse::<Axis>().ok());
     let mut parsed = Parsed {
@@ -597,12 +686,13 @@ pub fn read_isg(text: &Text) -> Result<Parsed, At> {
     };
     for i in 0..n {
         let at = |what: &str| -> Result<(usize, Field, i64), At> {
-            int(&format!("kw.ssfk.table[{i}].{what}"))?.ok_or_else(|| {
-                At::new(
-                    nl,
-                    format!("kw_nr_max {n} but kw.ssfk.table[{i}].{what} is missing"),
-                )
-            })
+            keys.int(&format!("kw.ssfk.table[{i}].{what}"))?
+                .ok_or_else(|| {
+                    At::new(
+                        nl,
+                        format!("kw_nr_max {n} but kw.ssfk.table[{i}].{what} is missing"),
+                    )
+                })
         };
         let p01 = if interval == 0 {
             at("setpoint")?.2
@@ -658,54 +748,77 @@ fn fanuc_words(l: &str, off: usize) -> Vec<(&str, Field, &str)> {
     out
 }
 
-/// A FANUC pitch error data file as errmap writes it (`crate::export::fanuc`): `%`, the
-/// parameter comments, `N<10000 + number>P<increment>` lines, `%`.
-pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
-    let lines = text.lines();
-    if lines.first().map(|l| l.1.trim()) != Some("%") {
-        return Err(At::new(1, "not a FANUC data file (first line `%`)"));
-    }
-    let mut params: std::collections::HashMap<String, (usize, Field, f64)> = Default::default();
-    let mut reference_mm: Option<f64> = None;
-    let mut unit_um: Option<f64> = None;
-    let mut data: std::collections::BTreeMap<u64, (usize, Field, i64)> = Default::default();
-    let mut closed = false;
-    for (i, &(off, l)) in lines.iter().enumerate().skip(1) {
-        let line = i + 1;
-        let t = l.trim();
-        if t.is_empty() {
-            continue;
-        }
-        if closed {
-            return Err(At::new(line, "text after the closing `%`"));
-        }
-        if t == "%" {
-            closed = true;
-            continue;
-        }
-        if t.starts_with('(') {
-            if t.starts_with("(PARAMETERS OF AXIS") {
-                for (k, f, v) in fanuc_words(l, off) {
-                    let x = num(line, &format!("parameter {k}"), v.trim_end_matches("MM"))?;
-                    params.insert(k.to_string(), (line, f, x));
-                }
-            } else if let Some(rest) = t.strip_prefix("(REFERENCE POSITION ") {
-                let w: Vec<&str> = rest.split_whitespace().collect();
-                reference_mm = Some(num(
-                    line,
-                    "the reference position",
-                    w.first().copied().unwrap_or(""),
-                )?);
-                let u = w
-                    .iter()
-                    .position(|&x| x == "OF")
-                    .and_then(|j| w.get(j + 1))
-                    .copied()
-                    .unwrap_or("");
-                unit_um = Some(num(line, "the unit", u)?);
+/// What a FANUC data file holds as text: the parameter comment's values, the reference
+/// comment's position and unit, and the data lines by point number (N − 10000).
+#[derive(Default)]
+struct FanucFile {
+    params: std::collections::HashMap<String, (usize, Field, f64)>,
+    reference_mm: Option<f64>,
+    unit_um: Option<f64>,
+    data: std::collections::BTreeMap<u64, (usize, Field, i64)>,
+    /// The last line's number.
+    last: usize,
+}
+
+impl FanucFile {
+    /// Reads the lines between the two `%`, refusing text after the second and a file
+    /// without it.
+    fn read(lines: &[(usize, &str)]) -> Result<FanucFile, At> {
+        let mut file = FanucFile::default();
+        let mut closed = false;
+        for (i, &(off, l)) in lines.iter().enumerate().skip(1) {
+            let line = i + 1;
+            let t = l.trim();
+            if t.is_empty() {
+                continue;
             }
-            continue;
+            if closed {
+                return Err(At::new(line, "text after the closing `%`"));
+            }
+            if t == "%" {
+                closed = true;
+                continue;
+            }
+            if t.starts_with('(') {
+                file.comment(line, off, l, t)?;
+                continue;
+            }
+            file.data_line(line, off, l, t)?;
         }
+        file.last = lines.len().max(1);
+        if !closed {
+            return Err(At::new(file.last, "no closing `%`: the file is cut short"));
+        }
+        Ok(file)
+    }
+
+    /// Takes the parameter and reference-position comments (other comments are notes).
+    fn comment(&mut self, line: usize, off: usize, l: &str, t: &str) -> Result<(), At> {
+        if t.starts_with("(PARAMETERS OF AXIS") {
+            for (k, f, v) in fanuc_words(l, off) {
+                let x = num(line, &format!("parameter {k}"), v.trim_end_matches("MM"))?;
+                self.params.insert(k.to_string(), (line, f, x));
+            }
+        } else if let Some(rest) = t.strip_prefix("(REFERENCE POSITION ") {
+            let w: Vec<&str> = rest.split_whitespace().collect();
+            self.reference_mm = Some(num(
+                line,
+                "the reference position",
+                w.first().copied().unwrap_or(""),
+            )?);
+            let u = w
+                .iter()
+                .position(|&x| x == "OF")
+                .and_then(|j| w.get(j + 1))
+                .copied()
+                .unwrap_or("");
+            self.unit_um = Some(num(line, "the unit", u)?);
+        }
+        Ok(())
+    }
+
+    /// Takes one `N<10000 + n>P<value>` line, refusing other numbers and repeats.
+    fn data_line(&mut self, line: usize, off: usize, l: &str, t: &str) -> Result<(), At> {
         let parsed = t.strip_prefix('N').and_then(|r| r.split_once('P'));
         let Some((nt, vt)) = parsed else {
             return Err(At::new(line, format!("`{t}` is not `N<number>P<value>`")));
@@ -723,19 +836,19 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
                 format!("data number {n}: pitch error data are 10000 + point number"),
             ));
         }
-        if data
+        if self
+            .data
             .insert(n - 10000, (line, field_at(vstart, vt), v as i64))
             .is_some()
         {
             return Err(At::new(line, format!("point {} given twice", n - 10000)));
         }
+        Ok(())
     }
-    let last = lines.len().max(1);
-    if !closed {
-        return Err(At::new(last, "no closing `%`: the file is cut short"));
-    }
-    let p = |k: &str| -> Result<(usize, Field, f64), At> {
-        params.get(k).copied().ok_or_else(|| {
+
+    /// The parameter `k`, which errmap's comment always names.
+    fn param(&self, k: &str) -> Result<(usize, Field, f64), At> {
+        self.params.get(k).copied().ok_or_else(|| {
             At::new(
                 1,
                 format!(
@@ -744,19 +857,44 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
                 ),
             )
         })
-    };
-    let whole = |(l, _, x): (usize, Field, f64), k: &str| -> Result<u64, At> {
+    }
+
+    /// The parameter `k` as a point number.
+    fn point_number(&self, k: &str) -> Result<u64, At> {
+        let (l, _, x) = self.param(k)?;
         if x.fract() == 0.0 && (0.0..1e6).contains(&x) {
             Ok(x as u64)
         } else {
             Err(At::new(l, format!("{k} = {x} is not a point number")))
         }
-    };
-    let r_num = whole(p("3620")?, "3620")?;
-    let first = whole(p("3621")?, "3621")?;
-    let lastn = whole(p("3622")?, "3622")?;
-    let (hl, _, h) = p("3624")?;
-    let (Some(r_mm), Some(unit)) = (reference_mm, unit_um) else {
+    }
+
+    /// The `span + 1` increments from point `from`, each one required.
+    fn take(&self, from: u64, span: u64) -> Result<Increments, At> {
+        (from..=from + span)
+            .map(|n| {
+                self.data.get(&n).map(|&(_, f, v)| (f, v)).ok_or_else(|| {
+                    At::new(self.last, format!("point {n} (N{}) is missing", 10000 + n))
+                })
+            })
+            .collect()
+    }
+}
+
+/// A FANUC pitch error data file as errmap writes it (`crate::export::fanuc`): `%`, the
+/// parameter comments, `N<10000 + number>P<increment>` lines, `%`.
+pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
+    let lines = text.lines();
+    if lines.first().map(|l| l.1.trim()) != Some("%") {
+        return Err(At::new(1, "not a FANUC data file (first line `%`)"));
+    }
+    let file = FanucFile::read(&lines)?;
+    let (params, data, last) = (&file.params, &file.data, file.last);
+    let r_num = file.point_number("3620")?;
+    let first = file.point_number("3621")?;
+    let lastn = file.point_number("3622")?;
+    let (hl, _, h) = file.param("3624")?;
+    let (Some(r_mm), Some(unit)) = (file.reference_mm, file.unit_um) else {
         return Err(At::new(
             1,
             "no `(REFERENCE POSITION … UNITS OF … UM)` comment",
@@ -776,23 +914,14 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
     }
     let bidir = params.get("3605#0").is_some_and(|x| x.2 == 1.0);
     let span = lastn - first;
-    let take = |from: u64| -> Result<Vec<(Field, i64)>, At> {
-        (from..=from + span)
-            .map(|n| {
-                data.get(&n)
-                    .map(|&(_, f, v)| (f, v))
-                    .ok_or_else(|| At::new(last, format!("point {n} (N{}) is missing", 10000 + n)))
-            })
-            .collect()
-    };
-    let forward = take(first)?;
+    let forward = file.take(first, span)?;
     let reverse = if bidir {
-        let s = whole(p("3626")?, "3626")?;
-        let (l3627, f3627, v3627) = p("3627")?;
+        let s = file.point_number("3626")?;
+        let (l3627, f3627, v3627) = file.param("3627")?;
         if v3627.fract() != 0.0 {
             return Err(At::new(l3627, "3627 is not a whole number"));
         }
-        Some((take(s)?, (f3627, v3627 as i64)))
+        Some((file.take(s, span)?, (f3627, v3627 as i64)))
     } else {
         None
     };

@@ -94,6 +94,99 @@ fn whole(v: f64) -> Option<usize> {
     (v.fract() == 0.0 && (1.0..=1e6).contains(&v)).then_some(v as usize)
 }
 
+/// One `run target deviation` line of DEVIATIONS::, numbers checked against the counts.
+struct Deviation {
+    line: usize,
+    run: usize,
+    target: usize,
+    /// Deviation in µm.
+    x: f64,
+}
+
+/// ENVIRONMENT::'s first and last values; a reading's value is interpolated between them
+/// by its index among the `k_total` readings.
+struct Environment {
+    air_t: Option<(f64, f64)>,
+    air_p: Option<(f64, f64)>,
+    air_h: Option<(f64, f64)>,
+    mats: Vec<(f64, f64)>,
+    k_total: usize,
+}
+
+impl Environment {
+    /// Reads the optional section's pairs (one number: constant; none: refused).
+    fn read(env_sec: Option<&Section>, k_total: usize) -> Result<Environment, At> {
+        let pair = |key: &str| -> Result<Option<(f64, f64)>, At> {
+            let Some(e) = env_sec.and_then(|s| s.get(key)) else {
+                return Ok(None);
+            };
+            let v: Vec<f64> = e
+                .value
+                .split_whitespace()
+                .filter_map(number)
+                .take(2)
+                .collect();
+            match v.as_slice() {
+                [a, b] => Ok(Some((*a, *b))),
+                [a] => Ok(Some((*a, *a))),
+                _ => Err(At::new(e.line, format!("`{key}` has no numbers"))),
+            }
+        };
+        let air_t = pair("Air temp")?;
+        let air_p = pair("Air press")?;
+        let air_h = pair("Air humid")?;
+        let mats: Vec<(f64, f64)> = (1..=3)
+            .map(|i| pair(&format!("Mat temp {i}")))
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .flatten()
+            .collect();
+        Ok(Environment {
+            air_t,
+            air_p,
+            air_h,
+            mats,
+            k_total,
+        })
+    }
+
+    /// The value of a first/last pair at reading `k`, linear in the reading's index.
+    fn at(&self, p: Option<(f64, f64)>, k: usize) -> Option<f64> {
+        let k_total = self.k_total;
+        p.map(|(a, b)| {
+            if k_total > 1 {
+                a + (b - a) * k as f64 / (k_total - 1) as f64
+            } else {
+                a
+            }
+        })
+    }
+
+    /// The conditions at reading `k` (air pressure from kPa to hPa, the mean material
+    /// temperature as the part's).
+    fn env(&self, k: usize) -> Env {
+        let mats = &self.mats;
+        let part = (!mats.is_empty()).then(|| {
+            mats.iter()
+                .map(|&m| self.at(Some(m), k).unwrap_or(m.0))
+                .sum::<f64>()
+                / mats.len() as f64
+        });
+        Env {
+            air_temp_c: self.at(self.air_t, k),
+            air_pressure_hpa: self.at(self.air_p, k).map(|v| v * HPA_PER_KPA),
+            air_rh_pct: self.at(self.air_h, k),
+            scale_temp_c: None,
+            part_temp_c: part,
+        }
+    }
+}
+
+/// The section called `name`, if the file has one.
+fn section<'s, 'a>(secs: &'s [Section<'a>], name: &str) -> Option<&'s Section<'a>> {
+    secs.iter().find(|s| s.name == name)
+}
+
 /// Reads a Renishaw linear `.rtl` (see the module docs).
 pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
@@ -102,8 +195,83 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
         return Err(At::new(1, "not a Renishaw file (no `HEADER::` on line 1)"));
     }
     let secs = sections(&lines);
-    let section = |name: &str| secs.iter().find(|s| s.name == name);
-    let header = section("HEADER").ok_or_else(|| At::new(1, "no HEADER:: section"))?;
+    let header = section(&secs, "HEADER").ok_or_else(|| At::new(1, "no HEADER:: section"))?;
+    check_header(header, bytes)?;
+    let targets_sec = section(&secs, "TARGET DATA")
+        .ok_or_else(|| At::new(lines.len().max(1), "no TARGET DATA:: section"))?;
+    let positions = read_targets(targets_sec)?;
+    let n = positions.len();
+    let unidirectional = targets_sec
+        .get("Flags")
+        .and_then(|e| e.value.split_whitespace().nth(1).map(|f| f == "1"))
+        .unwrap_or(false);
+    let runs_sec =
+        section(&secs, "RUNS").ok_or_else(|| At::new(lines.len().max(1), "no RUNS:: section"))?;
+    let rc = runs_sec
+        .get("Run-count")
+        .ok_or_else(|| At::new(runs_sec.line, "RUNS:: has no `Run-count`"))?;
+    let r = number(rc.value)
+        .and_then(whole)
+        .ok_or_else(|| At::new(rc.line, format!("Run-count `{}`", rc.value)))?;
+    let dev = section(&secs, "DEVIATIONS")
+        .ok_or_else(|| At::new(lines.len().max(1), "no DEVIATIONS:: section"))?;
+    let raw = read_deviations(dev, r, n)?;
+    if raw.len() != r * n {
+        return Err(At::new(
+            rc.line,
+            format!(
+                "{} deviations, Run-count {r} × Target-count {n} = {}",
+                raw.len(),
+                r * n
+            ),
+        ));
+    }
+    // Environment: first and last values, spread over the readings.
+    let mut warnings = Vec::new();
+    let k_total = raw.len();
+    let env_sec = section(&secs, "ENVIRONMENT");
+    let environment = Environment::read(env_sec, k_total)?;
+    let dt_s = env_sec
+        .and_then(|s| s.get("Date Time"))
+        .and_then(|e| span_s(e.value))
+        .map(|span| span / (k_total.max(2) - 1) as f64)
+        .filter(|d| *d > 0.0)
+        .unwrap_or(1.0);
+    let readings = to_readings(&raw, &positions, unidirectional, &environment)?;
+    let file_axis = section(&secs, "USER-TEXT")
+        .and_then(|s| s.get("Axis"))
+        .and_then(|e| e.value.trim().parse::<Axis>().ok());
+    let axis = match (axis_override, file_axis) {
+        (Some(a), _) | (None, Some(a)) => a,
+        (None, None) => {
+            warnings.push("the file states no axis (USER-TEXT:: Axis): taken as X".into());
+            Axis::X
+        }
+    };
+    let machine = section(&secs, "USER-TEXT")
+        .and_then(|s| s.get("Machine"))
+        .map(|e| e.value.to_string());
+    let rows = assemble(&readings, axis, [0.0; 3], dt_s);
+    let (runs_n, targets_n, directions) = summary_counts(&readings);
+    Ok(Imported {
+        summary: ImportSummary {
+            format: "renishaw-rtl",
+            rows: rows.len(),
+            runs: Some(runs_n),
+            targets: targets_n,
+            directions,
+            units_in: "mm",
+            axis: axis.upper(),
+            machine,
+            warnings,
+        },
+        rows,
+    })
+}
+
+/// Accepts a linear `.rtl` HEADER:: only (File type rtl, Owner Linear): anything else is
+/// a file this reader would misread, so it is refused before the data.
+fn check_header(header: &Section, bytes: &[u8]) -> Result<(), At> {
     if !header
         .get("File type")
         .is_some_and(|e| e.value.eq_ignore_ascii_case("rtl"))
@@ -111,27 +279,27 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
         return Err(refuse_rtx(bytes));
     }
     match header.get("Owner") {
-        Some(e) if e.value.eq_ignore_ascii_case("Linear") => {}
-        Some(e) => {
-            return Err(At::new(
-                e.line,
-                format!(
-                    "Owner `{}`: errmap imports linear positioning tests only",
-                    e.value
-                ),
-            ));
-        }
-        None => return Err(At::new(header.line, "HEADER:: has no `Owner` (Linear)")),
+        Some(e) if e.value.eq_ignore_ascii_case("Linear") => Ok(()),
+        Some(e) => Err(At::new(
+            e.line,
+            format!(
+                "Owner `{}`: errmap imports linear positioning tests only",
+                e.value
+            ),
+        )),
+        None => Err(At::new(header.line, "HEADER:: has no `Owner` (Linear)")),
     }
-    let targets_sec = section("TARGET DATA")
-        .ok_or_else(|| At::new(lines.len().max(1), "no TARGET DATA:: section"))?;
+}
+
+/// The Target-count target positions of TARGET DATA:: (`Targets :` and N numbers,
+/// possibly continued on the following lines), their number checked.
+fn read_targets(targets_sec: &Section) -> Result<Vec<f64>, At> {
     let count = targets_sec
         .get("Target-count")
         .ok_or_else(|| At::new(targets_sec.line, "TARGET DATA:: has no `Target-count`"))?;
     let n = number(count.value)
         .and_then(whole)
         .ok_or_else(|| At::new(count.line, format!("Target-count `{}`", count.value)))?;
-    // `Targets :` and N numbers, possibly continued on the following lines.
     let start = targets_sec
         .lines
         .iter()
@@ -169,22 +337,14 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             ),
         ));
     }
-    let unidirectional = targets_sec
-        .get("Flags")
-        .and_then(|e| e.value.split_whitespace().nth(1).map(|f| f == "1"))
-        .unwrap_or(false);
-    let runs_sec =
-        section("RUNS").ok_or_else(|| At::new(lines.len().max(1), "no RUNS:: section"))?;
-    let rc = runs_sec
-        .get("Run-count")
-        .ok_or_else(|| At::new(runs_sec.line, "RUNS:: has no `Run-count`"))?;
-    let r = number(rc.value)
-        .and_then(whole)
-        .ok_or_else(|| At::new(rc.line, format!("Run-count `{}`", rc.value)))?;
-    let dev = section("DEVIATIONS")
-        .ok_or_else(|| At::new(lines.len().max(1), "no DEVIATIONS:: section"))?;
+    Ok(positions)
+}
+
+/// The DEVIATIONS:: lines, each run and target within 1..r / 1..n and each pair once (the
+/// caller checks that every pair is there).
+fn read_deviations(dev: &Section, r: usize, n: usize) -> Result<Vec<Deviation>, At> {
     let mut seen = vec![false; r * n];
-    let mut raw: Vec<(usize, usize, usize, f64)> = Vec::with_capacity(r * n);
+    let mut raw: Vec<Deviation> = Vec::with_capacity(r * n);
     for &(line, l) in &dev.lines {
         let f: Vec<&str> = l.split_whitespace().collect();
         if f.len() != 3 {
@@ -211,66 +371,34 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             ));
         }
         seen[slot] = true;
-        raw.push((line, run, target, x));
+        raw.push(Deviation {
+            line,
+            run,
+            target,
+            x,
+        });
     }
-    if raw.len() != r * n {
-        return Err(At::new(
-            rc.line,
-            format!(
-                "{} deviations, Run-count {r} × Target-count {n} = {}",
-                raw.len(),
-                r * n
-            ),
-        ));
-    }
-    // Environment: first and last values, spread over the readings.
-    let mut warnings = Vec::new();
-    let k_total = raw.len();
-    let env_sec = section("ENVIRONMENT");
-    let pair = |key: &str| -> Result<Option<(f64, f64)>, At> {
-        let Some(e) = env_sec.and_then(|s| s.get(key)) else {
-            return Ok(None);
-        };
-        let v: Vec<f64> = e
-            .value
-            .split_whitespace()
-            .filter_map(number)
-            .take(2)
+    Ok(raw)
+}
+
+/// The deviations as readings, passes in file order: a run's lines give the order of its
+/// targets and so its direction; the ISO run pairs passes out and back unless
+/// unidirectional.
+fn to_readings(
+    raw: &[Deviation],
+    positions: &[f64],
+    unidirectional: bool,
+    environment: &Environment,
+) -> Result<Vec<Reading>, At> {
+    let n = positions.len();
+    let mut readings = Vec::with_capacity(raw.len());
+    for (k, d) in raw.iter().enumerate() {
+        let (line, run, target, x) = (d.line, d.run, d.target, d.x);
+        let order: Vec<usize> = raw
+            .iter()
+            .filter(|q| q.run == run)
+            .map(|q| q.target)
             .collect();
-        match v.as_slice() {
-            [a, b] => Ok(Some((*a, *b))),
-            [a] => Ok(Some((*a, *a))),
-            _ => Err(At::new(e.line, format!("`{key}` has no numbers"))),
-        }
-    };
-    let air_t = pair("Air temp")?;
-    let air_p = pair("Air press")?;
-    let air_h = pair("Air humid")?;
-    let mats: Vec<(f64, f64)> = (1..=3)
-        .map(|i| pair(&format!("Mat temp {i}")))
-        .collect::<Result<Vec<_>, _>>()?
-        .into_iter()
-        .flatten()
-        .collect();
-    let at = |p: Option<(f64, f64)>, k: usize| {
-        p.map(|(a, b)| {
-            if k_total > 1 {
-                a + (b - a) * k as f64 / (k_total - 1) as f64
-            } else {
-                a
-            }
-        })
-    };
-    let dt_s = env_sec
-        .and_then(|s| s.get("Date Time"))
-        .and_then(|e| span_s(e.value))
-        .map(|span| span / (k_total.max(2) - 1) as f64)
-        .filter(|d| *d > 0.0)
-        .unwrap_or(1.0);
-    // Passes in file order: a run's lines give the order of its targets.
-    let mut readings = Vec::with_capacity(k_total);
-    for (k, &(line, run, target, x)) in raw.iter().enumerate() {
-        let order: Vec<usize> = raw.iter().filter(|q| q.1 == run).map(|q| q.2).collect();
         let first = positions[order[0] - 1];
         let last = positions[order[order.len() - 1] - 1];
         let direction: i8 = if n < 2 || last > first {
@@ -284,12 +412,6 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             ));
         };
         let p = positions[target - 1];
-        let part = (!mats.is_empty()).then(|| {
-            mats.iter()
-                .map(|&m| at(Some(m), k).unwrap_or(m.0))
-                .sum::<f64>()
-                / mats.len() as f64
-        });
         let reading = Reading {
             run: if unidirectional {
                 run as u32
@@ -302,46 +424,12 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
             laser_mm: p + x / 1000.0,
             error_um: -x,
             flags: 0,
-            env: Env {
-                air_temp_c: at(air_t, k),
-                air_pressure_hpa: at(air_p, k).map(|v| v * HPA_PER_KPA),
-                air_rh_pct: at(air_h, k),
-                scale_temp_c: None,
-                part_temp_c: part,
-            },
+            env: environment.env(k),
         };
         reading.check(line)?;
         readings.push(reading);
     }
-    let file_axis = section("USER-TEXT")
-        .and_then(|s| s.get("Axis"))
-        .and_then(|e| e.value.trim().parse::<Axis>().ok());
-    let axis = match (axis_override, file_axis) {
-        (Some(a), _) | (None, Some(a)) => a,
-        (None, None) => {
-            warnings.push("the file states no axis (USER-TEXT:: Axis): taken as X".into());
-            Axis::X
-        }
-    };
-    let machine = section("USER-TEXT")
-        .and_then(|s| s.get("Machine"))
-        .map(|e| e.value.to_string());
-    let rows = assemble(&readings, axis, [0.0; 3], dt_s);
-    let (runs_n, targets_n, directions) = summary_counts(&readings);
-    Ok(Imported {
-        summary: ImportSummary {
-            format: "renishaw-rtl",
-            rows: rows.len(),
-            runs: Some(runs_n),
-            targets: targets_n,
-            directions,
-            units_in: "mm",
-            axis: axis.upper(),
-            machine,
-            warnings,
-        },
-        rows,
-    })
+    Ok(readings)
 }
 
 /// Seconds between the first and the second quoted time of day (`"… hh:mm:ss" "… hh:mm:ss"`),

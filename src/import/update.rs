@@ -225,86 +225,128 @@ fn apply(text: &str, mut edits: Vec<Edit>) -> String {
     out
 }
 
+/// How a column's new values are written: the decimals and whether trailing zeros are
+/// trimmed.
+#[derive(Clone, Copy)]
+struct Digits {
+    decimals: usize,
+    trim: bool,
+}
+
+/// The file's writing style, read once from the table: the two columns' digits, file
+/// units per µm, right-alignment and HEIDENHAIN's `+`.
+struct Style {
+    /// mm per file length unit.
+    k: f64,
+    up: Digits,
+    down: Digits,
+    scale_um: f64,
+    align: bool,
+    plus: bool,
+}
+
+impl Style {
+    /// The style of `table` (see the comments for each format's conventions).
+    fn of(table: &ControllerTable) -> Style {
+        let text = &table.text.text;
+        // LinuxCNC files written by errmap trim trailing zeros: keep that style per column.
+        let column_style = |pick: &dyn Fn(&super::tables::TablePoint) -> Field| {
+            let d: Vec<usize> = table.points.iter().map(|p| pick(p).decimals).collect();
+            let max = d.iter().copied().max().unwrap_or(0);
+            (max, d.iter().any(|&x| x < max))
+        };
+        let (mut up_dec, mut up_trim) = column_style(&|p| p.up);
+        let (mut down_dec, mut down_trim) = column_style(&|p| p.down);
+        // Siemens and HEIDENHAIN values are written at 1e-6 mm with trailing zeros trimmed
+        // (`export`'s files): the text shows fewer decimals than the field holds.
+        if matches!(table.format, TableFormat::Siemens | TableFormat::Heidenhain) {
+            (up_dec, up_trim, down_dec, down_trim) = (6, true, 6, true);
+        }
+        // File units per µm of e, and the layout: fixed-width columns (Fagor, LinuxCNC) keep
+        // numbers right-aligned; HEIDENHAIN writes `+` on positive values.
+        let (scale_um, align, plus) = match table.format {
+            TableFormat::Fagor8055 { .. }
+            | TableFormat::Fagor8065 { .. }
+            | TableFormat::LinuxCnc { .. } => (1000.0, true, false),
+            TableFormat::Siemens | TableFormat::Fanuc => (1000.0, false, false),
+            TableFormat::Heidenhain => (
+                1000.0,
+                false,
+                table
+                    .points
+                    .iter()
+                    .any(|p| text[p.up.start..].starts_with('+')),
+            ),
+            TableFormat::Isg => (0.1, false, false),
+        };
+        Style {
+            k: table.format.units().mm(),
+            up: Digits {
+                decimals: up_dec,
+                trim: up_trim,
+            },
+            down: Digits {
+                decimals: down_dec,
+                trim: down_trim,
+            },
+            scale_um,
+            align,
+            plus,
+        }
+    }
+}
+
+/// Collects the value replacements and the largest change while the points are walked.
+struct Editor {
+    style: Style,
+    edits: Vec<Edit>,
+    max_change_um: f64,
+}
+
+impl Editor {
+    /// Plans writing `new` over `field` (whose value is `old`) unless it rounds to the same
+    /// text; the change is measured from `effective`, the value the controller used before
+    /// (err+ for the err− of a table that was one table for both directions).
+    fn edit(&mut self, field: Field, old: f64, effective: f64, new: f64, digits: Digits) {
+        let Digits { decimals, trim } = digits;
+        let s = fixed(new, decimals);
+        let rounded: f64 = s.parse().unwrap_or(new);
+        let old_rounded: f64 = fixed(old, decimals).parse().unwrap_or(old);
+        if rounded == old_rounded {
+            return;
+        }
+        self.max_change_um = self
+            .max_change_um
+            .max((rounded - effective).abs() * self.style.k * self.style.scale_um);
+        let mut s = if trim { trimmed(s) } else { s };
+        if self.style.plus && !s.starts_with('-') {
+            s.insert(0, '+');
+        }
+        self.edits.push(Edit {
+            field,
+            text: s,
+            align: self.style.align,
+        });
+    }
+}
+
 /// Updates `table` by `residual` (see the module docs).
 pub fn update_table(
     table: &ControllerTable,
     residual: &Residual,
     bidirectional: bool,
 ) -> Result<Updated, UpdateError> {
-    if let Some(a) = table.axis
-        && a != residual.axis
-    {
-        return Err(UpdateError::AxisMismatch {
-            session: residual.axis,
-            table: a,
-        });
-    }
-    if bidirectional
-        && (table.one_column || table.fanuc.as_ref().is_some_and(|f| f.reverse.is_none()))
-    {
-        return Err(UpdateError::OneDirection {
-            format: table.format.name(),
-        });
-    }
+    check_update(table, residual, bidirectional)?;
     if let Some(layout) = &table.fanuc {
         return Ok(update_fanuc(table, layout, residual, bidirectional));
     }
-    let k = table.format.units().mm();
     let text = &table.text.text;
-    let mut edits = Vec::new();
     let mut outside_mm = Vec::new();
-    let mut max_change_um: f64 = 0.0;
-    // LinuxCNC files written by errmap trim trailing zeros: keep that style per column.
-    let column_style = |pick: &dyn Fn(&super::tables::TablePoint) -> Field| {
-        let d: Vec<usize> = table.points.iter().map(|p| pick(p).decimals).collect();
-        let max = d.iter().copied().max().unwrap_or(0);
-        (max, d.iter().any(|&x| x < max))
+    let mut editor = Editor {
+        style: Style::of(table),
+        edits: Vec::new(),
+        max_change_um: 0.0,
     };
-    let (mut up_dec, mut up_trim) = column_style(&|p| p.up);
-    let (mut down_dec, mut down_trim) = column_style(&|p| p.down);
-    // Siemens and HEIDENHAIN values are written at 1e-6 mm with trailing zeros trimmed
-    // (`export`'s files): the text shows fewer decimals than the field holds.
-    if matches!(table.format, TableFormat::Siemens | TableFormat::Heidenhain) {
-        (up_dec, up_trim, down_dec, down_trim) = (6, true, 6, true);
-    }
-    // `effective` is the value the controller used before (err+ for the err− of a table
-    // that was one table for both directions): the change is measured from it.
-    // File units per µm of e, and the layout: fixed-width columns (Fagor, LinuxCNC) keep
-    // numbers right-aligned; HEIDENHAIN writes `+` on positive values.
-    let (scale_um, align, plus) = match table.format {
-        TableFormat::Fagor8055 { .. }
-        | TableFormat::Fagor8065 { .. }
-        | TableFormat::LinuxCnc { .. } => (1000.0, true, false),
-        TableFormat::Siemens | TableFormat::Fanuc => (1000.0, false, false),
-        TableFormat::Heidenhain => (
-            1000.0,
-            false,
-            table
-                .points
-                .iter()
-                .any(|p| text[p.up.start..].starts_with('+')),
-        ),
-        TableFormat::Isg => (0.1, false, false),
-    };
-    let mut edit =
-        |field: Field, old: f64, effective: f64, new: f64, decimals: usize, trim: bool| {
-            let s = fixed(new, decimals);
-            let rounded: f64 = s.parse().unwrap_or(new);
-            let old_rounded: f64 = fixed(old, decimals).parse().unwrap_or(old);
-            if rounded == old_rounded {
-                return;
-            }
-            max_change_um = max_change_um.max((rounded - effective).abs() * k * scale_um);
-            let mut s = if trim { trimmed(s) } else { s };
-            if plus && !s.starts_with('-') {
-                s.insert(0, '+');
-            }
-            edits.push(Edit {
-                field,
-                text: s,
-                align,
-            });
-        };
     let becomes_bidirectional = bidirectional && !table.bidirectional;
     for p in &table.points {
         let (r_up, r_down) = match residual.at(p.position_mm) {
@@ -319,88 +361,13 @@ pub fn update_table(
         if r_up == 0.0 && r_down == 0.0 && !becomes_bidirectional {
             continue;
         }
-        match table.format {
-            TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
-                let new_up = p.up_file - r_up / (k * 1000.0);
-                edit(p.up, p.up_file, p.up_file, new_up, p.up.decimals, false);
-                if bidirectional || table.bidirectional {
-                    let base = if table.bidirectional {
-                        p.down_file
-                    } else {
-                        p.up_file
-                    };
-                    let r = if bidirectional { r_down } else { r_up };
-                    edit(
-                        p.down,
-                        p.down_file,
-                        base,
-                        base - r / (k * 1000.0),
-                        p.down.decimals,
-                        false,
-                    );
-                }
-            }
-            TableFormat::LinuxCnc { comp_type, .. } => {
-                let value = |e_um: f64| match comp_type {
-                    LinuxCncCompType::Trim => e_um / (k * 1000.0),
-                    LinuxCncCompType::ActualPosition => p.position_file - e_um / (k * 1000.0),
-                };
-                edit(
-                    p.up,
-                    p.up_file,
-                    p.up_file,
-                    value(p.e_up_um + r_up),
-                    up_dec,
-                    up_trim,
-                );
-                edit(
-                    p.down,
-                    p.down_file,
-                    p.down_file,
-                    value(p.e_down_um + r_down),
-                    down_dec,
-                    down_trim,
-                );
-            }
-            TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
-                // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
-                let value = |e_um: f64| match table.format {
-                    TableFormat::Isg => -e_um * 10.0,
-                    _ => -e_um / (k * 1000.0),
-                };
-                edit(
-                    p.up,
-                    p.up_file,
-                    p.up_file,
-                    value(p.e_up_um + r_up),
-                    up_dec,
-                    up_trim,
-                );
-                if table.one_column {
-                    continue;
-                }
-                // A one-table list (ISG bilateral 0) whose neg repeats pos keeps it so.
-                let down_e = if table.bidirectional {
-                    p.e_down_um + r_down
-                } else if bidirectional {
-                    p.e_up_um + r_down
-                } else if p.down_file == p.up_file {
-                    p.e_up_um + r_up
-                } else {
-                    continue;
-                };
-                edit(
-                    p.down,
-                    p.down_file,
-                    p.down_file,
-                    value(down_e),
-                    down_dec,
-                    down_trim,
-                );
-            }
-            TableFormat::Fanuc => {}
-        }
+        edit_point(&mut editor, table, p, (r_up, r_down), bidirectional);
     }
+    let Editor {
+        mut edits,
+        max_change_um,
+        ..
+    } = editor;
     if becomes_bidirectional && let Some(f) = table.bidir_value {
         edits.push(Edit {
             field: f,
@@ -435,6 +402,117 @@ pub fn update_table(
             warnings,
         },
     })
+}
+
+/// Refuses an update the table cannot take: another axis, or two directions into a
+/// one-direction table.
+fn check_update(
+    table: &ControllerTable,
+    residual: &Residual,
+    bidirectional: bool,
+) -> Result<(), UpdateError> {
+    if let Some(a) = table.axis
+        && a != residual.axis
+    {
+        return Err(UpdateError::AxisMismatch {
+            session: residual.axis,
+            table: a,
+        });
+    }
+    if bidirectional
+        && (table.one_column || table.fanuc.as_ref().is_some_and(|f| f.reverse.is_none()))
+    {
+        return Err(UpdateError::OneDirection {
+            format: table.format.name(),
+        });
+    }
+    Ok(())
+}
+
+/// Plans one point's new values, `r` = (r_up, r_down) the residual there, in the
+/// format's own convention (FANUC's increments are done by `update_fanuc`).
+fn edit_point(
+    editor: &mut Editor,
+    table: &ControllerTable,
+    p: &super::tables::TablePoint,
+    r: (f64, f64),
+    bidirectional: bool,
+) {
+    let (r_up, r_down) = r;
+    let k = editor.style.k;
+    let (up_digits, down_digits) = (editor.style.up, editor.style.down);
+    match table.format {
+        TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
+            let new_up = p.up_file - r_up / (k * 1000.0);
+            let own = Digits {
+                decimals: p.up.decimals,
+                trim: false,
+            };
+            editor.edit(p.up, p.up_file, p.up_file, new_up, own);
+            if bidirectional || table.bidirectional {
+                let base = if table.bidirectional {
+                    p.down_file
+                } else {
+                    p.up_file
+                };
+                let r = if bidirectional { r_down } else { r_up };
+                let own = Digits {
+                    decimals: p.down.decimals,
+                    trim: false,
+                };
+                editor.edit(p.down, p.down_file, base, base - r / (k * 1000.0), own);
+            }
+        }
+        TableFormat::LinuxCnc { comp_type, .. } => {
+            let value = |e_um: f64| match comp_type {
+                LinuxCncCompType::Trim => e_um / (k * 1000.0),
+                LinuxCncCompType::ActualPosition => p.position_file - e_um / (k * 1000.0),
+            };
+            editor.edit(
+                p.up,
+                p.up_file,
+                p.up_file,
+                value(p.e_up_um + r_up),
+                up_digits,
+            );
+            editor.edit(
+                p.down,
+                p.down_file,
+                p.down_file,
+                value(p.e_down_um + r_down),
+                down_digits,
+            );
+        }
+        TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
+            // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
+            let value = |e_um: f64| match table.format {
+                TableFormat::Isg => -e_um * 10.0,
+                _ => -e_um / (k * 1000.0),
+            };
+            editor.edit(
+                p.up,
+                p.up_file,
+                p.up_file,
+                value(p.e_up_um + r_up),
+                up_digits,
+            );
+            if table.one_column {
+                return;
+            }
+            // A one-table list (ISG bilateral 0) whose neg repeats pos keeps it so.
+            let down_e = if table.bidirectional {
+                p.e_down_um + r_down
+            } else if bidirectional {
+                p.e_up_um + r_down
+            } else if p.down_file == p.up_file {
+                p.e_up_um + r_up
+            } else {
+                return;
+            };
+            editor.edit(p.down, p.down_file, p.down_file, value(down_e), down_digits);
+        }
+        TableFormat::Fanuc => {}
+    }
 }
 
 /// FANUC: the absolute curves (the sums of the increments from the reference position,

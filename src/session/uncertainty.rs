@@ -409,104 +409,8 @@ impl Budget {
         let d_theta = conditions
             .material_temp_c
             .map_or(0.0, |t| (t - REFERENCE_TEMP_C).abs());
-        let theta = c.misalignment_urad * 1e-6;
-        let length =
-            |id, name, input, input_unit, sensitivity: f64, sensitivity_unit| Contribution {
-                id,
-                name,
-                input,
-                input_unit,
-                sensitivity,
-                sensitivity_unit,
-                kind: Kind::Length,
-                u: (sensitivity * input).abs(),
-            };
-        let contributions = vec![
-            length(
-                "wavelength",
-                "laser vacuum wavelength",
-                c.wavelength_ppm,
-                "ppm",
-                1.0,
-                "1",
-            ),
-            length(
-                "edlen",
-                "modified Edlén equation",
-                c.edlen_equation_ppm,
-                "ppm",
-                1.0,
-                "1",
-            ),
-            length(
-                "air_temp",
-                "air temperature sensor",
-                c.air_temp_k,
-                "K",
-                sens.dn_dt_per_k * 1e6,
-                "ppm/K",
-            ),
-            length(
-                "air_pressure",
-                "air pressure sensor",
-                c.air_pressure_hpa,
-                "hPa",
-                sens.dn_dp_per_hpa * 1e6,
-                "ppm/hPa",
-            ),
-            length(
-                "air_rh",
-                "humidity sensor",
-                c.air_rh_pct,
-                "%RH",
-                sens.dn_drh_per_pct * 1e6,
-                "ppm/%RH",
-            ),
-            length(
-                "material_temp",
-                "material temperature sensor",
-                c.material_temp_k,
-                "K",
-                c.expansion_ppm_per_k,
-                "ppm/K",
-            ),
-            length(
-                "expansion",
-                "expansion coefficient",
-                c.expansion_u_ppm_per_k,
-                "ppm/K",
-                d_theta,
-                "K",
-            ),
-            length(
-                "cosine",
-                "cosine error (misalignment)",
-                c.misalignment_urad,
-                "µrad",
-                theta / (4.0 * SQRT3),
-                "ppm/µrad",
-            ),
-            Contribution {
-                id: "dead_path",
-                name: "dead path",
-                input: c.dead_path_mm,
-                input_unit: "mm",
-                sensitivity: n_span / (2.0 * SQRT3) * 1e3,
-                sensitivity_unit: "µm/mm",
-                kind: Kind::Reading,
-                u: c.dead_path_mm * n_span / (2.0 * SQRT3) * 1e3,
-            },
-            Contribution {
-                id: "resolution",
-                name: "device resolution",
-                input: c.resolution_um,
-                input_unit: "µm",
-                sensitivity: 1.0 / (2.0 * SQRT3),
-                sensitivity_unit: "",
-                kind: Kind::Reading,
-                u: c.resolution_um / (2.0 * SQRT3),
-            },
-        ];
+        let mut contributions = length_contributions(c, &sens, d_theta);
+        contributions.extend(reading_contributions(c, n_span));
         let rss = |kind: Kind| {
             contributions
                 .iter()
@@ -600,4 +504,128 @@ pub fn line_budget_of(
     )?;
     let u = budget.expanded();
     Ok((budget, u))
+}
+
+/// A length term: the input's uncertainty times its sensitivity, in ppm of the length.
+fn length(
+    id: &'static str,
+    name: &'static str,
+    input: f64,
+    input_unit: &'static str,
+    sensitivity: f64,
+    sensitivity_unit: &'static str,
+) -> Contribution {
+    Contribution {
+        id,
+        name,
+        input,
+        input_unit,
+        sensitivity,
+        sensitivity_unit,
+        kind: Kind::Length,
+        u: (sensitivity * input).abs(),
+    }
+}
+
+/// The length terms (ppm): the wavelength, the Edlén equation and its air sensors, the
+/// material's temperature and expansion (`d_theta` K from 20 °C), the cosine error.
+fn length_contributions(
+    c: &UncertaintyConfig,
+    sens: &EdlenSensitivities,
+    d_theta: f64,
+) -> Vec<Contribution> {
+    let theta = c.misalignment_urad * 1e-6;
+    vec![
+        length(
+            "wavelength",
+            "laser vacuum wavelength",
+            c.wavelength_ppm,
+            "ppm",
+            1.0,
+            "1",
+        ),
+        length(
+            "edlen",
+            "modified Edlén equation",
+            c.edlen_equation_ppm,
+            "ppm",
+            1.0,
+            "1",
+        ),
+        length(
+            "air_temp",
+            "air temperature sensor",
+            c.air_temp_k,
+            "K",
+            sens.dn_dt_per_k * 1e6,
+            "ppm/K",
+        ),
+        length(
+            "air_pressure",
+            "air pressure sensor",
+            c.air_pressure_hpa,
+            "hPa",
+            sens.dn_dp_per_hpa * 1e6,
+            "ppm/hPa",
+        ),
+        length(
+            "air_rh",
+            "humidity sensor",
+            c.air_rh_pct,
+            "%RH",
+            sens.dn_drh_per_pct * 1e6,
+            "ppm/%RH",
+        ),
+        length(
+            "material_temp",
+            "material temperature sensor",
+            c.material_temp_k,
+            "K",
+            c.expansion_ppm_per_k,
+            "ppm/K",
+        ),
+        length(
+            "expansion",
+            "expansion coefficient",
+            c.expansion_u_ppm_per_k,
+            "ppm/K",
+            d_theta,
+            "K",
+        ),
+        length(
+            "cosine",
+            "cosine error (misalignment)",
+            c.misalignment_urad,
+            "µrad",
+            theta / (4.0 * SQRT3),
+            "ppm/µrad",
+        ),
+    ]
+}
+
+/// The reading terms (µm): the dead path over the air's span `n_span` of the refractive
+/// index, and the device's resolution.
+fn reading_contributions(c: &UncertaintyConfig, n_span: f64) -> Vec<Contribution> {
+    vec![
+        Contribution {
+            id: "dead_path",
+            name: "dead path",
+            input: c.dead_path_mm,
+            input_unit: "mm",
+            sensitivity: n_span / (2.0 * SQRT3) * 1e3,
+            sensitivity_unit: "µm/mm",
+            kind: Kind::Reading,
+            u: c.dead_path_mm * n_span / (2.0 * SQRT3) * 1e3,
+        },
+        Contribution {
+            id: "resolution",
+            name: "device resolution",
+            input: c.resolution_um,
+            input_unit: "µm",
+            sensitivity: 1.0 / (2.0 * SQRT3),
+            sensitivity_unit: "",
+            kind: Kind::Reading,
+            u: c.resolution_um / (2.0 * SQRT3),
+        },
+    ]
 }

@@ -104,6 +104,12 @@ impl Case {
 
 /// All cases.
 pub fn cases() -> Vec<Case> {
+    [instrument_cases(), environment_cases(), control_cases()].concat()
+}
+
+/// The effects of the instrument chain itself — the scale, the carriage, the reversal,
+/// the laser's latch, the readhead's interpolation — one per case.
+fn instrument_cases() -> Vec<Case> {
     vec![
         Case {
             name: "scale_thermal_expansion",
@@ -191,6 +197,13 @@ pub fn cases() -> Vec<Case> {
                 })
             },
         },
+    ]
+}
+
+/// The effects of the environment over the session — the machine warming, the air
+/// through an uncompensated dead path and a frozen refraction compensation.
+fn environment_cases() -> Vec<Case> {
+    vec![
         Case {
             name: "thermal_drift",
             what: "the machine warming up: a drift of 1.5 µm with a 400 s time constant",
@@ -230,6 +243,12 @@ pub fn cases() -> Vec<Case> {
                 })
             },
         },
+    ]
+}
+
+/// The controls: two effects at once, and nothing at all (even and uneven noise).
+fn control_cases() -> Vec<Case> {
+    vec![
         Case {
             name: "two_effects",
             what: "two effects at once: a 0.8 µm reversal and a 0.15 µm periodic error with a 10 µm period (half the grating period)",

@@ -632,6 +632,224 @@ pub(crate) fn thermal_fit(
     (test, Some(solved))
 }
 
+/// What every candidate model of one identification shares: the table, the configuration,
+/// the axis ranges and the row weights (with the thermal column built on them).
+struct FitInputs<'a> {
+    table: &'a LineTable,
+    config: &'a IdentifyConfig,
+    range: [[f64; 2]; 3],
+    sqrt_w: Vec<f64>,
+    row_w: Vec<f64>,
+    thermal_col: Option<thermal::ThermalColumn>,
+    weighted: bool,
+}
+
+impl FitInputs<'_> {
+    /// Fits and tests model `m` ([`evaluate`]).
+    fn evaluate(&self, m: &Model) -> Result<Outcome, String> {
+        evaluate(
+            self.table,
+            &m.d,
+            &m.engine,
+            self.thermal_col.as_ref(),
+            &self.row_w,
+            self.weighted,
+        )
+    }
+
+    /// The thermal column centred per line, as the degree searches take it.
+    fn thermal_centred(&self) -> Option<&[f64]> {
+        self.thermal_col.as_ref().map(|c| c.centred.as_slice())
+    }
+}
+
+/// The configured first model and what choosing it found (the polynomial degree and the
+/// cross-validation scores; zero and empty for tables at knots).
+struct FirstModel {
+    model: Model,
+    degree: usize,
+    cv: Vec<CvScore>,
+    cv_each: Option<super::degree::EachScore>,
+}
+
+/// A fit error naming the table's file.
+fn fit_err(table: &LineTable, message: String) -> VolumetricError {
+    VolumetricError::Fit {
+        file: table.source.clone(),
+        message,
+    }
+}
+
+/// Refuses component degrees of 0 and any degree above [`MAX_DEGREE`] before anything is
+/// fitted.
+fn check_degrees(table: &LineTable, config: &IdentifyConfig) -> Result<(), VolumetricError> {
+    if let Some((&c, &d)) = config.component_degrees.iter().find(|(_, d)| **d == 0) {
+        return Err(fit_err(
+            table,
+            format!(
+                "degree {d} for {}: degrees start at 1",
+                Component::from_index(c).name()
+            ),
+        ));
+    }
+    let asked = match config.degree {
+        Degree::Fixed(d) | Degree::Auto { max: d } | Degree::AutoEach { max: d } => d,
+    };
+    if let Some(d) = config
+        .component_degrees
+        .values()
+        .copied()
+        .chain([asked])
+        .max()
+        && d > MAX_DEGREE
+    {
+        return Err(fit_err(
+            table,
+            format!("degree {d} is above {MAX_DEGREE}, the highest component degree errmap fits"),
+        ));
+    }
+    Ok(())
+}
+
+/// The configured model: tables at knots with REML's smoothing, or polynomials of the
+/// fixed degree or the one cross-validation chooses (per component with `AutoEach`).
+fn first_model(inp: &FitInputs) -> Result<FirstModel, VolumetricError> {
+    let (table, config) = (inp.table, inp.config);
+    match config.basis {
+        BasisKind::Spline => Ok(FirstModel {
+            model: spline_model(
+                table,
+                config.topology,
+                inp.range,
+                &inp.sqrt_w,
+                inp.thermal_col.as_ref(),
+                inp.weighted,
+            ),
+            degree: 0,
+            cv: Vec::new(),
+            cv_each: None,
+        }),
+        BasisKind::Poly => {
+            let (degree, cv) = match config.degree {
+                Degree::Fixed(0) => {
+                    return Err(fit_err(table, "degree 0: degrees start at 1".into()));
+                }
+                Degree::Fixed(d) => (d, Vec::new()),
+                Degree::Auto { max } | Degree::AutoEach { max } => super::degree::choose_degree(
+                    table,
+                    config,
+                    inp.range,
+                    &inp.sqrt_w,
+                    inp.thermal_centred(),
+                    max.max(1),
+                ),
+            };
+            let mut degs = degrees(config, degree);
+            let mut cv_each = None;
+            if let Degree::AutoEach { max } = config.degree {
+                let fixed: Vec<bool> = (0..18)
+                    .map(|c| config.component_degrees.contains_key(&c))
+                    .collect();
+                let (chosen, score) = super::degree::choose_each(
+                    table,
+                    config.topology,
+                    inp.range,
+                    &inp.sqrt_w,
+                    inp.thermal_centred(),
+                    degs,
+                    &fixed,
+                    max.max(1),
+                );
+                degs = chosen;
+                cv_each = Some(score);
+            }
+            Ok(FirstModel {
+                model: poly_model(table, config.topology, inp.range, &inp.sqrt_w, degs),
+                degree,
+                cv,
+                cv_each,
+            })
+        }
+    }
+}
+
+/// The richer models tried when the first one's residual fails (see `identify`'s
+/// Selection), in order, and the description of what was tried when there are any.
+fn richer_models(inp: &FitInputs, first: &Model, degree: usize) -> (Vec<Model>, Option<String>) {
+    let config = inp.config;
+    let richer: Vec<Model> = match config.basis {
+        BasisKind::Spline => RELAX[1..]
+            .iter()
+            .filter_map(|&r| relaxed(first, r))
+            .collect(),
+        BasisKind::Poly if !matches!(config.degree, Degree::Fixed(_)) => {
+            let top = (degree + RICHER_DEGREES).min(MAX_DEGREE);
+            (degree + 1..=top)
+                .map(|d| {
+                    let degs: Vec<usize> = first.basis.degrees.iter().map(|&x| x.max(d)).collect();
+                    poly_model(inp.table, config.topology, inp.range, &inp.sqrt_w, degs)
+                })
+                .filter(|m| {
+                    first
+                        .identified
+                        .iter()
+                        .zip(&m.identified)
+                        .all(|(a, b)| !a || *b)
+                })
+                .collect()
+        }
+        BasisKind::Poly => Vec::new(),
+    };
+    let tried = richer.last().map(|last| match config.basis {
+        BasisKind::Spline => format!(
+            "tables at knots, REML smoothing relaxed down to {:.0e}×",
+            last.relax
+        ),
+        BasisKind::Poly => format!(
+            "polynomials of degree {degree} to {}",
+            last.basis.degrees.iter().max().copied().unwrap_or(degree)
+        ),
+    });
+    (richer, tried)
+}
+
+/// Puts the scale's expansion (when kept) and the campaign's effects in front of the
+/// residual's own effects: found physics, so the verdict becomes missing physics.
+fn add_found_effects(
+    residual: &mut ResidualVerdict,
+    thermal: Option<&ThermalTest>,
+    campaign_effects: Vec<FoundEffect>,
+) {
+    if let Some(e) = thermal.filter(|t| t.kept).and_then(thermal::effect) {
+        residual.effects.insert(0, e);
+        residual.verdict = crate::base::Verdict::MissingPhysics;
+    }
+    if !campaign_effects.is_empty() {
+        let at = usize::from(thermal.is_some_and(|t| t.kept));
+        residual.effects.splice(at..at, campaign_effects);
+        residual.verdict = crate::base::Verdict::MissingPhysics;
+    }
+}
+
+/// Per component, the variance the penalty's λ stands for (φ/λ, φ the noise scale), for
+/// the tables' roughness; empty for least squares.
+fn roughness(engine: &Engine, sigma0: f64) -> Vec<f64> {
+    match engine {
+        Engine::Penalised { pen, known_noise } => {
+            let ratio = sigma0 * sigma0;
+            let phi = if *known_noise { ratio.max(1.0) } else { ratio };
+            let mut q = vec![0.0; 18];
+            for (b, l) in pen.blocks.iter().zip(&pen.lambda) {
+                if *l > 0.0 {
+                    q[b.component] = phi / l;
+                }
+            }
+            q
+        }
+        Engine::LeastSquares => Vec::new(),
+    }
+}
+
 /// Fits the lines. Errors when the table cannot carry a fit at all (no degrees of
 /// freedom left after the line constants and the determined parameters).
 ///
@@ -653,134 +871,38 @@ pub fn identify(
     let w = weights(table);
     let weighted = w.is_some();
     let sqrt_w: Vec<f64> = w.clone().unwrap_or_else(|| vec![1.0; table.targets()]);
-    let fit_err = |message: String| VolumetricError::Fit {
-        file: table.source.clone(),
-        message,
-    };
-    if let Some((&c, &d)) = config.component_degrees.iter().find(|(_, d)| **d == 0) {
-        return Err(fit_err(format!(
-            "degree {d} for {}: degrees start at 1",
-            Component::from_index(c).name()
-        )));
-    }
-    let asked = match config.degree {
-        Degree::Fixed(d) | Degree::Auto { max: d } | Degree::AutoEach { max: d } => d,
-    };
-    if let Some(d) = config
-        .component_degrees
-        .values()
-        .copied()
-        .chain([asked])
-        .max()
-        && d > MAX_DEGREE
-    {
-        return Err(fit_err(format!(
-            "degree {d} is above {MAX_DEGREE}, the highest component degree errmap fits"
-        )));
-    }
+    check_degrees(table, config)?;
     let row_w: Vec<f64> = sqrt_w.iter().map(|s| s * s).collect();
     let thermal_col = thermal::column(table, &row_w);
+    let inp = FitInputs {
+        table,
+        config,
+        range,
+        sqrt_w,
+        row_w,
+        thermal_col,
+        weighted,
+    };
     let n_lines = table.lines.len();
-    let mut degree = 0;
-    let mut cv = Vec::new();
-    let mut cv_each = None;
-    let first = match config.basis {
-        BasisKind::Spline => spline_model(
-            table,
-            config.topology,
-            range,
-            &sqrt_w,
-            thermal_col.as_ref(),
-            weighted,
-        ),
-        BasisKind::Poly => {
-            let (deg, scores) = match config.degree {
-                Degree::Fixed(0) => return Err(fit_err("degree 0: degrees start at 1".into())),
-                Degree::Fixed(d) => (d, Vec::new()),
-                Degree::Auto { max } | Degree::AutoEach { max } => {
-                    let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
-                    super::degree::choose_degree(table, config, range, &sqrt_w, col, max.max(1))
-                }
-            };
-            degree = deg;
-            cv = scores;
-            let mut degs = degrees(config, degree);
-            if let Degree::AutoEach { max } = config.degree {
-                let fixed: Vec<bool> = (0..18)
-                    .map(|c| config.component_degrees.contains_key(&c))
-                    .collect();
-                let col = thermal_col.as_ref().map(|c| c.centred.as_slice());
-                let (chosen, score) = super::degree::choose_each(
-                    table,
-                    config.topology,
-                    range,
-                    &sqrt_w,
-                    col,
-                    degs,
-                    &fixed,
-                    max.max(1),
-                );
-                degs = chosen;
-                cv_each = Some(score);
-            }
-            poly_model(table, config.topology, range, &sqrt_w, degs)
-        }
-    };
-    let evaluate_model = |m: &Model| {
-        evaluate(
-            table,
-            &m.d,
-            &m.engine,
-            thermal_col.as_ref(),
-            &row_w,
-            weighted,
-        )
-    };
-    let first_outcome = evaluate_model(&first).map_err(fit_err)?;
+    let FirstModel {
+        model: first,
+        mut degree,
+        cv,
+        cv_each,
+    } = first_model(&inp)?;
+    let first_outcome = inp.evaluate(&first).map_err(|m| fit_err(table, m))?;
     let mut chosen: Option<(Model, Outcome)> = None;
     let mut tried = match config.basis {
         BasisKind::Spline => "tables at knots with REML smoothing".to_string(),
         BasisKind::Poly => format!("polynomials of degree {degree}"),
     };
     if first_outcome.z > Z_MISSING {
-        let richer: Vec<Model> = match config.basis {
-            BasisKind::Spline => RELAX[1..]
-                .iter()
-                .filter_map(|&r| relaxed(&first, r))
-                .collect(),
-            BasisKind::Poly if !matches!(config.degree, Degree::Fixed(_)) => {
-                let top = (degree + RICHER_DEGREES).min(MAX_DEGREE);
-                (degree + 1..=top)
-                    .map(|d| {
-                        let degs: Vec<usize> =
-                            first.basis.degrees.iter().map(|&x| x.max(d)).collect();
-                        poly_model(table, config.topology, range, &sqrt_w, degs)
-                    })
-                    .filter(|m| {
-                        first
-                            .identified
-                            .iter()
-                            .zip(&m.identified)
-                            .all(|(a, b)| !a || *b)
-                    })
-                    .collect()
-            }
-            BasisKind::Poly => Vec::new(),
-        };
-        if let Some(last) = richer.last() {
-            tried = match config.basis {
-                BasisKind::Spline => format!(
-                    "tables at knots, REML smoothing relaxed down to {:.0e}×",
-                    last.relax
-                ),
-                BasisKind::Poly => format!(
-                    "polynomials of degree {degree} to {}",
-                    last.basis.degrees.iter().max().copied().unwrap_or(degree)
-                ),
-            };
+        let (richer, richer_tried) = richer_models(&inp, &first, degree);
+        if let Some(t) = richer_tried {
+            tried = t;
         }
         for m in richer {
-            let Ok(o) = evaluate_model(&m) else { continue };
+            let Ok(o) = inp.evaluate(&m) else { continue };
             if o.z <= Z_MISSING {
                 chosen = Some((m, o));
                 break;
@@ -806,34 +928,9 @@ pub fn identify(
         solved.sigma0,
         &tried,
     );
-    if let Some(e) = thermal
-        .as_ref()
-        .filter(|t| t.kept)
-        .and_then(thermal::effect)
-    {
-        residual.effects.insert(0, e);
-        residual.verdict = crate::base::Verdict::MissingPhysics;
-    }
-    if !campaign_effects.is_empty() {
-        let at = usize::from(thermal.as_ref().is_some_and(|t| t.kept));
-        residual.effects.splice(at..at, campaign_effects);
-        residual.verdict = crate::base::Verdict::MissingPhysics;
-    }
+    add_found_effects(&mut residual, thermal.as_ref(), campaign_effects);
     let n = model.basis.n_params();
-    let roughness = match &model.engine {
-        Engine::Penalised { pen, known_noise } => {
-            let ratio = solved.sigma0 * solved.sigma0;
-            let phi = if *known_noise { ratio.max(1.0) } else { ratio };
-            let mut q = vec![0.0; 18];
-            for (b, l) in pen.blocks.iter().zip(&pen.lambda) {
-                if *l > 0.0 {
-                    q[b.component] = phi / l;
-                }
-            }
-            q
-        }
-        Engine::LeastSquares => Vec::new(),
-    };
+    let roughness = roughness(&model.engine, solved.sigma0);
     let smoothing = match &model.engine {
         Engine::Penalised { pen, known_noise } => Some(Smoothing::of(
             &model.basis,

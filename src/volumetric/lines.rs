@@ -133,20 +133,7 @@ impl LineTable {
         df: &DataFrame,
         require_e: bool,
     ) -> Result<LineTable, VolumetricError> {
-        let ids = text_or_number_cells(path, df, "line")?;
-        let req = ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
-            .iter()
-            .map(|c| column_cells(path, df, c))
-            .collect::<Result<Vec<_>, _>>()?;
-        let e_cells = if require_e || df.column("e_um").is_ok() {
-            Some(column_cells(path, df, "e_um")?)
-        } else {
-            None
-        };
-        let opt: Vec<Option<Cells>> = OPTIONAL
-            .iter()
-            .map(|c| optional_column_cells(path, df, c))
-            .collect::<Result<_, _>>()?;
+        let cols = LineColumns::read(path, df, require_e)?;
         if df.height() == 0 {
             return Err(TableError::Empty {
                 path: path.to_path_buf(),
@@ -156,69 +143,13 @@ impl LineTable {
         let mut lines: Vec<Line> = Vec::new();
         let mut first_row: Vec<usize> = Vec::new();
         for r0 in 0..df.height() {
-            let row = r0 + 1;
-            let id = line_id(path, &ids, r0)?;
-            let mut v = [0.0; 6];
-            for (k, name) in ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
-                .iter()
-                .enumerate()
-            {
-                v[k] = required_cell(path, &req[k], r0, name)?;
-            }
-            let e_um = match &e_cells {
-                Some(c) if require_e => Some(required_cell(path, c, r0, "e_um")?),
-                Some(c) => parse_cell(path, c, r0, "e_um")?,
-                None => None,
-            };
-            let mut o = [None; 8];
-            for (k, cells) in opt.iter().enumerate() {
-                if let Some(c) = cells {
-                    o[k] = parse_cell(path, c, r0, OPTIONAL[k])?;
-                }
-            }
-            // Physical bounds at the door (`base::limits`): a position of 1e308 mm
-            // passed the finiteness check and came out as NaN predictions.
-            let values = [
-                ("x_mm", Some(v[0])),
-                ("y_mm", Some(v[1])),
-                ("z_mm", Some(v[2])),
-            ]
-            .into_iter()
-            .chain([("e_um", e_um)])
-            .chain(OPTIONAL.iter().copied().zip(o));
-            for (name, value) in values {
-                if let Some(x) = value
-                    && let Err(problem) = bound_of(name).check(x)
-                {
-                    return Err(bad(path, row, name, problem));
-                }
-            }
-            let u = [v[3], v[4], v[5]];
-            let norm = dot(u, u).sqrt();
-            if (norm - 1.0).abs() > UNIT_TOL {
-                return Err(bad(
-                    path,
-                    row,
-                    "ux",
-                    format!(
-                        "the beam direction ({}, {}, {}) of line `{id}` has norm {norm:.9}, not 1 \
-                         (checked to 1e-6)",
-                        u[0], u[1], u[2]
-                    ),
-                ));
-            }
-            let u = u.map(|c| c / norm);
-            let probe = [o[0], o[1], o[2]].map(|p| p.unwrap_or(0.0));
-            let target = Target {
-                row,
-                pos_mm: [v[0], v[1], v[2]],
-                e_um,
-                s_um: o[3],
-                t_s: o[4],
-                scale_temp_c: o[5],
-                air_temp_c: o[6],
-                part_temp_c: o[7],
-            };
+            let ParsedRow {
+                id,
+                u,
+                probe,
+                target,
+            } = cols.row(path, r0)?;
+            let row = target.row;
             match lines.iter_mut().position(|l| l.id == id) {
                 None => {
                     first_row.push(row);
@@ -229,82 +160,10 @@ impl LineTable {
                         targets: vec![target],
                     });
                 }
-                Some(i) => {
-                    let l = &mut lines[i];
-                    for (k, col) in ["ux", "uy", "uz"].iter().enumerate() {
-                        if (l.u[k] - u[k]).abs() > UNIT_TOL {
-                            return Err(bad(
-                                path,
-                                row,
-                                col,
-                                format!(
-                                    "{} differs from {} on row {} of the same line `{}`: rows of a \
-                                     line share the beam direction",
-                                    u[k], l.u[k], first_row[i], l.id
-                                ),
-                            ));
-                        }
-                    }
-                    for (k, col) in ["px_mm", "py_mm", "pz_mm"].iter().enumerate() {
-                        if (l.probe_mm[k] - probe[k]).abs() > 1e-6 {
-                            return Err(bad(
-                                path,
-                                row,
-                                col,
-                                format!(
-                                    "probe offset {} mm differs from {} mm on row {} of the same \
-                                     line `{}`: rows of a line share the probe offset",
-                                    probe[k], l.probe_mm[k], first_row[i], l.id
-                                ),
-                            ));
-                        }
-                    }
-                    let p0 = l.targets[0].pos_mm;
-                    let d = sub(target.pos_mm, p0);
-                    let s = dot(d, l.u);
-                    let off = sub(d, l.u.map(|c| c * s));
-                    let dist = dot(off, off).sqrt();
-                    if dist > OFF_LINE_TOL_MM {
-                        return Err(bad(
-                            path,
-                            row,
-                            "x_mm",
-                            format!(
-                                "target ({}, {}, {}) mm is {:.4} µm off line `{}` (through row {} \
-                                 along ({:.6}, {:.6}, {:.6}); the limit is 1 µm)",
-                                target.pos_mm[0],
-                                target.pos_mm[1],
-                                target.pos_mm[2],
-                                dist * 1e3,
-                                l.id,
-                                first_row[i],
-                                l.u[0],
-                                l.u[1],
-                                l.u[2]
-                            ),
-                        ));
-                    }
-                    l.targets.push(target);
-                }
+                Some(i) => join_line(path, &mut lines[i], first_row[i], (u, probe), target)?,
             }
         }
-        for (l, &row) in lines.iter().zip(&first_row) {
-            let mut s: Vec<f64> = l.targets.iter().map(|t| l.s_mm(t)).collect();
-            s.sort_by(f64::total_cmp);
-            s.dedup_by(|a, b| (*a - *b).abs() < OFF_LINE_TOL_MM);
-            if s.len() < MIN_TARGETS {
-                return Err(VolumetricError::Line {
-                    path: path.to_path_buf(),
-                    line: l.id.clone(),
-                    row,
-                    file_line: row + 1,
-                    problem: format!(
-                        "{} distinct target(s); a line needs at least {MIN_TARGETS}",
-                        s.len()
-                    ),
-                });
-            }
-        }
+        check_distinct_targets(path, &lines, &first_row)?;
         Ok(LineTable {
             source: path.display().to_string(),
             lines,
@@ -367,6 +226,220 @@ impl LineTable {
         let mut df = DataFrame::new(rows.len(), cols).map_err(|e| format_err(path, e))?;
         Ok(write_frame(path, &mut df)?)
     }
+}
+
+/// The line table's columns, found before any row is read.
+struct LineColumns {
+    ids: Cells,
+    /// x_mm, y_mm, z_mm, ux, uy, uz.
+    req: Vec<Cells>,
+    e_cells: Option<Cells>,
+    require_e: bool,
+    /// The `OPTIONAL` columns.
+    opt: Vec<Option<Cells>>,
+}
+
+/// One row as read: its line, beam direction (normalised), probe offset and target.
+struct ParsedRow {
+    id: String,
+    u: [f64; 3],
+    probe: [f64; 3],
+    target: Target,
+}
+
+impl LineColumns {
+    /// Finds the required columns (and `e_um` when `require_e`) and the optional ones.
+    fn read(path: &Path, df: &DataFrame, require_e: bool) -> Result<LineColumns, VolumetricError> {
+        let ids = text_or_number_cells(path, df, "line")?;
+        let req = ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
+            .iter()
+            .map(|c| column_cells(path, df, c))
+            .collect::<Result<Vec<_>, _>>()?;
+        let e_cells = if require_e || df.column("e_um").is_ok() {
+            Some(column_cells(path, df, "e_um")?)
+        } else {
+            None
+        };
+        let opt: Vec<Option<Cells>> = OPTIONAL
+            .iter()
+            .map(|c| optional_column_cells(path, df, c))
+            .collect::<Result<_, _>>()?;
+        Ok(LineColumns {
+            ids,
+            req,
+            e_cells,
+            require_e,
+            opt,
+        })
+    }
+
+    /// Reads row `r0` (0-based) and checks it on its own: every value within the physical
+    /// bounds, a unit beam direction.
+    fn row(&self, path: &Path, r0: usize) -> Result<ParsedRow, VolumetricError> {
+        let row = r0 + 1;
+        let id = line_id(path, &self.ids, r0)?;
+        let mut v = [0.0; 6];
+        for (k, name) in ["x_mm", "y_mm", "z_mm", "ux", "uy", "uz"]
+            .iter()
+            .enumerate()
+        {
+            v[k] = required_cell(path, &self.req[k], r0, name)?;
+        }
+        let e_um = match &self.e_cells {
+            Some(c) if self.require_e => Some(required_cell(path, c, r0, "e_um")?),
+            Some(c) => parse_cell(path, c, r0, "e_um")?,
+            None => None,
+        };
+        let mut o = [None; 8];
+        for (k, cells) in self.opt.iter().enumerate() {
+            if let Some(c) = cells {
+                o[k] = parse_cell(path, c, r0, OPTIONAL[k])?;
+            }
+        }
+        // Physical bounds at the door (`base::limits`): a position of 1e308 mm
+        // passed the finiteness check and came out as NaN predictions.
+        let values = [
+            ("x_mm", Some(v[0])),
+            ("y_mm", Some(v[1])),
+            ("z_mm", Some(v[2])),
+        ]
+        .into_iter()
+        .chain([("e_um", e_um)])
+        .chain(OPTIONAL.iter().copied().zip(o));
+        for (name, value) in values {
+            if let Some(x) = value
+                && let Err(problem) = bound_of(name).check(x)
+            {
+                return Err(bad(path, row, name, problem));
+            }
+        }
+        let u = [v[3], v[4], v[5]];
+        let norm = dot(u, u).sqrt();
+        if (norm - 1.0).abs() > UNIT_TOL {
+            return Err(bad(
+                path,
+                row,
+                "ux",
+                format!(
+                    "the beam direction ({}, {}, {}) of line `{id}` has norm {norm:.9}, not 1 \
+                     (checked to 1e-6)",
+                    u[0], u[1], u[2]
+                ),
+            ));
+        }
+        let u = u.map(|c| c / norm);
+        let probe = [o[0], o[1], o[2]].map(|p| p.unwrap_or(0.0));
+        let target = Target {
+            row,
+            pos_mm: [v[0], v[1], v[2]],
+            e_um,
+            s_um: o[3],
+            t_s: o[4],
+            scale_temp_c: o[5],
+            air_temp_c: o[6],
+            part_temp_c: o[7],
+        };
+        Ok(ParsedRow {
+            id,
+            u,
+            probe,
+            target,
+        })
+    }
+}
+
+/// Adds `target` to line `l` (first read on row `first_row`) after checking that its row
+/// shares the line's beam direction and probe offset (`(u, probe)`) and lies on the line
+/// (within `OFF_LINE_TOL_MM`).
+fn join_line(
+    path: &Path,
+    l: &mut Line,
+    first_row: usize,
+    (u, probe): ([f64; 3], [f64; 3]),
+    target: Target,
+) -> Result<(), VolumetricError> {
+    let row = target.row;
+    for (k, col) in ["ux", "uy", "uz"].iter().enumerate() {
+        if (l.u[k] - u[k]).abs() > UNIT_TOL {
+            return Err(bad(
+                path,
+                row,
+                col,
+                format!(
+                    "{} differs from {} on row {} of the same line `{}`: rows of a \
+                     line share the beam direction",
+                    u[k], l.u[k], first_row, l.id
+                ),
+            ));
+        }
+    }
+    for (k, col) in ["px_mm", "py_mm", "pz_mm"].iter().enumerate() {
+        if (l.probe_mm[k] - probe[k]).abs() > 1e-6 {
+            return Err(bad(
+                path,
+                row,
+                col,
+                format!(
+                    "probe offset {} mm differs from {} mm on row {} of the same \
+                     line `{}`: rows of a line share the probe offset",
+                    probe[k], l.probe_mm[k], first_row, l.id
+                ),
+            ));
+        }
+    }
+    let p0 = l.targets[0].pos_mm;
+    let d = sub(target.pos_mm, p0);
+    let s = dot(d, l.u);
+    let off = sub(d, l.u.map(|c| c * s));
+    let dist = dot(off, off).sqrt();
+    if dist > OFF_LINE_TOL_MM {
+        return Err(bad(
+            path,
+            row,
+            "x_mm",
+            format!(
+                "target ({}, {}, {}) mm is {:.4} µm off line `{}` (through row {} \
+                 along ({:.6}, {:.6}, {:.6}); the limit is 1 µm)",
+                target.pos_mm[0],
+                target.pos_mm[1],
+                target.pos_mm[2],
+                dist * 1e3,
+                l.id,
+                first_row,
+                l.u[0],
+                l.u[1],
+                l.u[2]
+            ),
+        ));
+    }
+    l.targets.push(target);
+    Ok(())
+}
+
+/// Refuses a line with fewer than `MIN_TARGETS` distinct targets (to `OFF_LINE_TOL_MM`).
+fn check_distinct_targets(
+    path: &Path,
+    lines: &[Line],
+    first_row: &[usize],
+) -> Result<(), VolumetricError> {
+    for (l, &row) in lines.iter().zip(first_row) {
+        let mut s: Vec<f64> = l.targets.iter().map(|t| l.s_mm(t)).collect();
+        s.sort_by(f64::total_cmp);
+        s.dedup_by(|a, b| (*a - *b).abs() < OFF_LINE_TOL_MM);
+        if s.len() < MIN_TARGETS {
+            return Err(VolumetricError::Line {
+                path: path.to_path_buf(),
+                line: l.id.clone(),
+                row,
+                file_line: row + 1,
+                problem: format!(
+                    "{} distinct target(s); a line needs at least {MIN_TARGETS}",
+                    s.len()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn line_id(path: &Path, cells: &Cells, r0: usize) -> Result<String, VolumetricError> {

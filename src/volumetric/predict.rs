@@ -131,6 +131,185 @@ impl Predictor {
     }
 }
 
+/// The fit's parameters and covariance extended by one quantity per straightness table
+/// (its slope functional Σ_j β_j·v_j), C stored contiguously (m × m), with where each
+/// component's parameters start and which extra quantity carries its slope.
+struct Extended {
+    /// The number of quantities: the fit's parameters and the slope quantities.
+    m: usize,
+    theta: Vec<f64>,
+    cov: Vec<f64>,
+    offsets: Vec<usize>,
+    slot: Vec<Option<usize>>,
+}
+
+impl Extended {
+    /// Builds the extension once per grid (see `grid_vectors`).
+    fn of(f: &FitState) -> Extended {
+        let n = f.theta.len();
+        let offsets: Vec<usize> = (0..21).map(|c| f.basis.offset(c)).collect();
+        // Tables: one extra quantity per straightness component, Σ_j β_j·v_j.
+        let straight: Vec<usize> = match &f.basis.knots_mm {
+            Some(_) => (0..18)
+                .filter(|&c| Component::from_index(c).is_straightness())
+                .collect(),
+            None => Vec::new(),
+        };
+        let m = n + straight.len();
+        let mut t_rows: Vec<Vec<f64>> = Vec::new();
+        if let Some(knots) = &f.basis.knots_mm {
+            for &c in &straight {
+                let comp = Component::from_index(c);
+                let kn = &knots[comp.axis];
+                let b = crate::volumetric::spline::hat_slopes(kn);
+                let mut row = vec![0.0; n];
+                for (p, &j) in crate::volumetric::spline::free_knots(kn, true)
+                    .iter()
+                    .enumerate()
+                {
+                    row[offsets[c] + p] = b[j];
+                }
+                t_rows.push(row);
+            }
+        }
+        let mut theta = f.theta.clone();
+        theta.extend(
+            t_rows
+                .iter()
+                .map(|r| r.iter().zip(&f.theta).map(|(a, b)| a * b).sum::<f64>()),
+        );
+        let mut cov = vec![0.0; m * m];
+        for i in 0..n {
+            cov[i * m..i * m + n].copy_from_slice(&f.covariance[i]);
+        }
+        // C·tᵀ for each extra row, then t·C·t'ᵀ.
+        let ct: Vec<Vec<f64>> = t_rows
+            .iter()
+            .map(|t| {
+                (0..n)
+                    .map(|i| f.covariance[i].iter().zip(t).map(|(a, b)| a * b).sum())
+                    .collect()
+            })
+            .collect();
+        for (s, cts) in ct.iter().enumerate() {
+            for i in 0..n {
+                cov[i * m + n + s] = cts[i];
+                cov[(n + s) * m + i] = cts[i];
+            }
+            for (s2, t2) in t_rows.iter().enumerate() {
+                cov[(n + s) * m + n + s2] = cts.iter().zip(t2).map(|(a, b)| a * b).sum();
+            }
+        }
+        let slot: Vec<Option<usize>> = (0..18)
+            .map(|c| straight.iter().position(|&x| x == c).map(|s| n + s))
+            .collect();
+        Extended {
+            m,
+            theta,
+            cov,
+            offsets,
+            slot,
+        }
+    }
+
+    /// g·θ and √(gᵀ C g) over the non-zero entries `idx` of the row `g`.
+    fn value_sd(&self, g: &[f64], idx: &[usize]) -> (f64, f64) {
+        let (m, theta, cov) = (self.m, &self.theta, &self.cov);
+        let mut val = 0.0;
+        let mut var = 0.0;
+        for (a, &ka) in idx.iter().enumerate() {
+            val += g[ka] * theta[ka];
+            let row = &cov[ka * m..ka * m + m];
+            let mut acc = 0.5 * row[ka] * g[ka];
+            for &kb in &idx[a + 1..] {
+                acc += row[kb] * g[kb];
+            }
+            var += 2.0 * g[ka] * acc;
+        }
+        (val, var.max(0.0).sqrt())
+    }
+}
+
+/// One point's three effect rows and their non-zero entries: buffers reused over the
+/// grid (no allocation per point).
+struct GridRows {
+    funcs: Vec<f64>,
+    rows: [Vec<f64>; 3],
+    nz: [Vec<usize>; 3],
+    entries: Vec<(usize, f64)>,
+}
+
+impl GridRows {
+    /// Empty buffers for rows of `m` entries.
+    fn new(m: usize) -> GridRows {
+        GridRows {
+            funcs: Vec::new(),
+            rows: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
+            nz: [Vec::new(), Vec::new(), Vec::new()],
+            entries: Vec::new(),
+        }
+    }
+
+    /// Fills the rows for point `p` (probe offset `probe_mm`): every component's basis
+    /// functions times its unit effect there, then the squareness terms.
+    fn fill(&mut self, f: &FitState, ext: &Extended, p: [f64; 3], probe_mm: [f64; 3]) {
+        let topo = f.basis.topology();
+        let GridRows {
+            funcs,
+            rows,
+            nz,
+            entries,
+        } = self;
+        for v in nz.iter_mut() {
+            v.clear();
+        }
+        for (c, &off) in ext.offsets.iter().enumerate().take(18) {
+            let comp = Component::from_index(c);
+            let eff = comp.unit_effect(topo.lever_arm(comp.axis, p, probe_mm));
+            entries.clear();
+            match &f.basis.knots_mm {
+                Some(knots) => {
+                    let (hats, slope) = crate::volumetric::spline::sparse(
+                        &knots[comp.axis],
+                        comp.is_straightness(),
+                        p[comp.axis],
+                    );
+                    entries.extend(
+                        hats.iter()
+                            .filter(|(j, v)| *j != usize::MAX && *v != 0.0)
+                            .map(|(j, v)| (off + j, *v)),
+                    );
+                    if let Some(k) = ext.slot[c] {
+                        entries.push((k, slope));
+                    }
+                }
+                None => {
+                    f.basis.functions_into(c, p[comp.axis], funcs);
+                    entries.extend(funcs.iter().enumerate().map(|(j, b)| (off + j, *b)));
+                }
+            }
+            for &(k, b) in entries.iter() {
+                for i in 0..3 {
+                    rows[i][k] = b * eff[i];
+                    if eff[i] != 0.0 {
+                        nz[i].push(k);
+                    }
+                }
+            }
+        }
+        for s in 0..SQUARENESS.len() {
+            let eff = squareness_effect(s, p);
+            let k = ext.offsets[18 + s];
+            for i in 0..3 {
+                rows[i][k] = eff[i];
+                if eff[i] != 0.0 {
+                    nz[i].push(k);
+                }
+            }
+        }
+    }
+}
+
 /// The error vector and its one-sigma at many points from a fit whose 21 errors are all
 /// determined (so every linear functional of the parameters is): E_i = g_i·θ and
 /// σ_i² = g_iᵀ C g_i, with g_i the point's effect row for direction i. A row is sparse —
@@ -140,136 +319,16 @@ impl Predictor {
 /// once) — so the quadratic form runs over the row's non-zero entries only, on a
 /// contiguous copy of C; no allocation per point. Cost O(points · nnz²).
 fn grid_vectors(f: &FitState, points: &[[f64; 3]], probe_mm: [f64; 3]) -> Vec<VectorPrediction> {
-    let n = f.theta.len();
-    let topo = f.basis.topology();
-    let offsets: Vec<usize> = (0..21).map(|c| f.basis.offset(c)).collect();
-    // Tables: one extra quantity per straightness component, Σ_j β_j·v_j.
-    let straight: Vec<usize> = match &f.basis.knots_mm {
-        Some(_) => (0..18)
-            .filter(|&c| Component::from_index(c).is_straightness())
-            .collect(),
-        None => Vec::new(),
-    };
-    let m = n + straight.len();
-    let mut t_rows: Vec<Vec<f64>> = Vec::new();
-    if let Some(knots) = &f.basis.knots_mm {
-        for &c in &straight {
-            let comp = Component::from_index(c);
-            let kn = &knots[comp.axis];
-            let b = crate::volumetric::spline::hat_slopes(kn);
-            let mut row = vec![0.0; n];
-            for (p, &j) in crate::volumetric::spline::free_knots(kn, true)
-                .iter()
-                .enumerate()
-            {
-                row[offsets[c] + p] = b[j];
-            }
-            t_rows.push(row);
-        }
-    }
-    let mut theta = f.theta.clone();
-    theta.extend(
-        t_rows
-            .iter()
-            .map(|r| r.iter().zip(&f.theta).map(|(a, b)| a * b).sum::<f64>()),
-    );
-    let mut cov = vec![0.0; m * m];
-    for i in 0..n {
-        cov[i * m..i * m + n].copy_from_slice(&f.covariance[i]);
-    }
-    // C·tᵀ for each extra row, then t·C·t'ᵀ.
-    let ct: Vec<Vec<f64>> = t_rows
-        .iter()
-        .map(|t| {
-            (0..n)
-                .map(|i| f.covariance[i].iter().zip(t).map(|(a, b)| a * b).sum())
-                .collect()
-        })
-        .collect();
-    for (s, cts) in ct.iter().enumerate() {
-        for i in 0..n {
-            cov[i * m + n + s] = cts[i];
-            cov[(n + s) * m + i] = cts[i];
-        }
-        for (s2, t2) in t_rows.iter().enumerate() {
-            cov[(n + s) * m + n + s2] = cts.iter().zip(t2).map(|(a, b)| a * b).sum();
-        }
-    }
-    let slot: Vec<Option<usize>> = (0..18)
-        .map(|c| straight.iter().position(|&x| x == c).map(|s| n + s))
-        .collect();
-    let mut funcs = Vec::new();
-    let mut rows = [vec![0.0; m], vec![0.0; m], vec![0.0; m]];
-    let mut nz: [Vec<usize>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    let mut entries: Vec<(usize, f64)> = Vec::new();
+    let ext = Extended::of(f);
+    let mut buf = GridRows::new(ext.m);
     points
         .iter()
         .map(|&p| {
-            for v in nz.iter_mut() {
-                v.clear();
-            }
-            for (c, &off) in offsets.iter().enumerate().take(18) {
-                let comp = Component::from_index(c);
-                let eff = comp.unit_effect(topo.lever_arm(comp.axis, p, probe_mm));
-                entries.clear();
-                match &f.basis.knots_mm {
-                    Some(knots) => {
-                        let (hats, slope) = crate::volumetric::spline::sparse(
-                            &knots[comp.axis],
-                            comp.is_straightness(),
-                            p[comp.axis],
-                        );
-                        entries.extend(
-                            hats.iter()
-                                .filter(|(j, v)| *j != usize::MAX && *v != 0.0)
-                                .map(|(j, v)| (off + j, *v)),
-                        );
-                        if let Some(k) = slot[c] {
-                            entries.push((k, slope));
-                        }
-                    }
-                    None => {
-                        f.basis.functions_into(c, p[comp.axis], &mut funcs);
-                        entries.extend(funcs.iter().enumerate().map(|(j, b)| (off + j, *b)));
-                    }
-                }
-                for &(k, b) in &entries {
-                    for i in 0..3 {
-                        rows[i][k] = b * eff[i];
-                        if eff[i] != 0.0 {
-                            nz[i].push(k);
-                        }
-                    }
-                }
-            }
-            for s in 0..SQUARENESS.len() {
-                let eff = squareness_effect(s, p);
-                let k = offsets[18 + s];
-                for i in 0..3 {
-                    rows[i][k] = eff[i];
-                    if eff[i] != 0.0 {
-                        nz[i].push(k);
-                    }
-                }
-            }
+            buf.fill(f, &ext, p, probe_mm);
             let mut v = [0.0; 3];
             let mut sd = [0.0; 3];
             for i in 0..3 {
-                let g = &rows[i];
-                let idx = &nz[i];
-                let mut val = 0.0;
-                let mut var = 0.0;
-                for (a, &ka) in idx.iter().enumerate() {
-                    val += g[ka] * theta[ka];
-                    let row = &cov[ka * m..ka * m + m];
-                    let mut acc = 0.5 * row[ka] * g[ka];
-                    for &kb in &idx[a + 1..] {
-                        acc += row[kb] * g[kb];
-                    }
-                    var += 2.0 * g[ka] * acc;
-                }
-                v[i] = val;
-                sd[i] = var.max(0.0).sqrt();
+                (v[i], sd[i]) = ext.value_sd(&buf.rows[i], &buf.nz[i]);
             }
             (v, sd)
         })

@@ -221,6 +221,31 @@ impl PlanFile {
     }
 
     pub fn validate(&self, path: &Path) -> Result<Plan, VolumetricError> {
+        self.check_scalars(path)?;
+        let mut lines = match &self.preset {
+            Some(name) => self.preset_lines(path, name)?,
+            None => Vec::new(),
+        };
+        for (i, l) in self.lines.iter().enumerate() {
+            let line = self.planned_line(path, i, l, lines.len())?;
+            lines.push(line);
+        }
+        check_lines(path, &lines)?;
+        Ok(Plan {
+            seed: self.seed,
+            noise_um: self.noise_um,
+            laser_zero_um: self.laser_zero_um,
+            feed_mm_s: self.feed_mm_s,
+            dwell_s: self.dwell_s,
+            setup_s: self.setup_s,
+            lines,
+            thermal: self.thermal,
+        })
+    }
+
+    /// Checks the plan's scalars (noise, zero, feed, dwell, set-up, runs) and the thermal
+    /// history before any line is made.
+    fn check_scalars(&self, path: &Path) -> Result<(), VolumetricError> {
         let scalars = [
             ("noise_um", self.noise_um, true),
             ("laser_zero_um", self.laser_zero_um, true),
@@ -273,147 +298,116 @@ impl PlanFile {
                 ));
             }
         }
-        let mut lines = Vec::new();
-        if let Some(name) = &self.preset {
-            let Some(vol) = self.volume_mm else {
-                return Err(config_err(
-                    path,
-                    "volume_mm",
-                    "a preset needs volume_mm = [[x0, y0, z0], [x1, y1, z1]]",
-                ));
-            };
-            // At least a micrometre along each axis: a box 5e-324 mm wide made NaN
-            // line directions.
-            if vol.iter().flatten().any(|v| !v.is_finite())
-                || (0..3).any(|k| vol[1][k] - vol[0][k] < MIN_EXTENT_MM)
-            {
-                return Err(config_err(
-                    path,
-                    "volume_mm",
-                    "corners must be finite with x1 > x0, y1 > y0, z1 > z0, each at least \
-                     0.001 mm apart",
-                ));
-            }
-            if self.targets < 3 {
-                return Err(config_err(
-                    path,
-                    "targets",
-                    "a line needs at least 3 targets",
-                ));
-            }
-            let p = self.probe_offset_mm.unwrap_or(100.0);
-            if !p.is_finite() {
-                return Err(config_err(path, "probe_offset_mm", "not finite"));
-            }
-            lines = preset(name, vol, self.targets, p, self.runs)
-                .map_err(|m| config_err(path, "preset", m))?;
-        }
-        for (i, l) in self.lines.iter().enumerate() {
-            let key = |f: &str| format!("line[{}].{f}", i + 1);
-            let all = l
-                .start_mm
-                .iter()
-                .chain(l.end_mm.iter().flatten())
-                .chain(l.direction.iter().flatten())
-                .chain(l.length_mm.iter())
-                .chain(l.probe_mm.iter());
-            if all.clone().any(|v| !v.is_finite()) {
-                return Err(config_err(path, key("start_mm"), "a value is not finite"));
-            }
-            let (u, len) = match (l.end_mm, l.direction, l.length_mm) {
-                (Some(end), None, None) => {
-                    let d = [0, 1, 2].map(|k| end[k] - l.start_mm[k]);
-                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    let u = unit(d)
-                        .ok_or_else(|| config_err(path, key("end_mm"), "end equals start"))?;
-                    (u, len)
-                }
-                (None, Some(d), Some(len)) => {
-                    let u = unit(d)
-                        .ok_or_else(|| config_err(path, key("direction"), "zero direction"))?;
-                    if len <= 0.0 {
-                        return Err(config_err(
-                            path,
-                            key("length_mm"),
-                            format!("{len} must be positive"),
-                        ));
-                    }
-                    (u, len)
-                }
-                _ => {
-                    return Err(config_err(
-                        path,
-                        key("end_mm"),
-                        "give either end_mm, or direction and length_mm",
-                    ));
-                }
-            };
-            let targets = l.targets.unwrap_or(self.targets);
-            if targets < 3 {
-                return Err(config_err(
-                    path,
-                    key("targets"),
-                    format!("{targets}: a line needs at least 3 targets"),
-                ));
-            }
-            let runs = l.runs.unwrap_or(self.runs);
-            if runs == 0 {
-                return Err(config_err(path, key("runs"), "at least 1 run"));
-            }
-            lines.push(PlannedLine {
-                name: l
-                    .name
-                    .clone()
-                    .unwrap_or_else(|| format!("L{}", lines.len() + 1)),
-                start_mm: l.start_mm,
-                u,
-                length_mm: len,
-                targets,
-                probe_mm: l.probe_mm,
-                runs,
-            });
-        }
-        if lines.is_empty() {
+        Ok(())
+    }
+
+    /// The preset's lines in the plan's volume (checked: finite corners at least
+    /// `MIN_EXTENT_MM` apart, 3 targets, a finite probe offset).
+    fn preset_lines(&self, path: &Path, name: &str) -> Result<Vec<PlannedLine>, VolumetricError> {
+        let Some(vol) = self.volume_mm else {
             return Err(config_err(
                 path,
-                "line",
-                "no lines: give a preset or [[line]] tables",
+                "volume_mm",
+                "a preset needs volume_mm = [[x0, y0, z0], [x1, y1, z1]]",
+            ));
+        };
+        // At least a micrometre along each axis: a box 5e-324 mm wide made NaN
+        // line directions.
+        if vol.iter().flatten().any(|v| !v.is_finite())
+            || (0..3).any(|k| vol[1][k] - vol[0][k] < MIN_EXTENT_MM)
+        {
+            return Err(config_err(
+                path,
+                "volume_mm",
+                "corners must be finite with x1 > x0, y1 > y0, z1 > z0, each at least \
+                 0.001 mm apart",
             ));
         }
-        // Before any target is made (issue 28: `targets = 100000` silently made 4.3 M).
-        let readings: u64 = lines
-            .iter()
-            .map(|l| l.targets as u64 * u64::from(l.runs))
-            .sum();
-        if readings > MAX_READINGS {
+        if self.targets < 3 {
             return Err(config_err(
                 path,
                 "targets",
-                format!(
-                    "{} lines with these targets and runs make {readings} readings, more than \
-                     the {MAX_READINGS} a campaign may have",
-                    lines.len()
-                ),
+                "a line needs at least 3 targets",
             ));
         }
-        let mut names: Vec<&str> = lines.iter().map(|l| l.name.as_str()).collect();
-        names.sort_unstable();
-        if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        let p = self.probe_offset_mm.unwrap_or(100.0);
+        if !p.is_finite() {
+            return Err(config_err(path, "probe_offset_mm", "not finite"));
+        }
+        preset(name, vol, self.targets, p, self.runs).map_err(|m| config_err(path, "preset", m))
+    }
+
+    /// `[[line]]` table `i` (0-based) as a planned line, `n_before` lines already planned
+    /// (for its default name): end point, or direction and length; targets and runs.
+    fn planned_line(
+        &self,
+        path: &Path,
+        i: usize,
+        l: &LineSpec,
+        n_before: usize,
+    ) -> Result<PlannedLine, VolumetricError> {
+        let key = |f: &str| format!("line[{}].{f}", i + 1);
+        let all = l
+            .start_mm
+            .iter()
+            .chain(l.end_mm.iter().flatten())
+            .chain(l.direction.iter().flatten())
+            .chain(l.length_mm.iter())
+            .chain(l.probe_mm.iter());
+        if all.clone().any(|v| !v.is_finite()) {
+            return Err(config_err(path, key("start_mm"), "a value is not finite"));
+        }
+        let (u, len) = match (l.end_mm, l.direction, l.length_mm) {
+            (Some(end), None, None) => {
+                let d = [0, 1, 2].map(|k| end[k] - l.start_mm[k]);
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let u =
+                    unit(d).ok_or_else(|| config_err(path, key("end_mm"), "end equals start"))?;
+                (u, len)
+            }
+            (None, Some(d), Some(len)) => {
+                let u =
+                    unit(d).ok_or_else(|| config_err(path, key("direction"), "zero direction"))?;
+                if len <= 0.0 {
+                    return Err(config_err(
+                        path,
+                        key("length_mm"),
+                        format!("{len} must be positive"),
+                    ));
+                }
+                (u, len)
+            }
+            _ => {
+                return Err(config_err(
+                    path,
+                    key("end_mm"),
+                    "give either end_mm, or direction and length_mm",
+                ));
+            }
+        };
+        let targets = l.targets.unwrap_or(self.targets);
+        if targets < 3 {
             return Err(config_err(
                 path,
-                "line",
-                format!("line name `{}` is used twice", w[0]),
+                key("targets"),
+                format!("{targets}: a line needs at least 3 targets"),
             ));
         }
-        Ok(Plan {
-            seed: self.seed,
-            noise_um: self.noise_um,
-            laser_zero_um: self.laser_zero_um,
-            feed_mm_s: self.feed_mm_s,
-            dwell_s: self.dwell_s,
-            setup_s: self.setup_s,
-            lines,
-            thermal: self.thermal,
+        let runs = l.runs.unwrap_or(self.runs);
+        if runs == 0 {
+            return Err(config_err(path, key("runs"), "at least 1 run"));
+        }
+        Ok(PlannedLine {
+            name: l
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("L{}", n_before + 1)),
+            start_mm: l.start_mm,
+            u,
+            length_mm: len,
+            targets,
+            probe_mm: l.probe_mm,
+            runs,
         })
     }
 }
@@ -425,6 +419,43 @@ pub const MAX_READINGS: u64 = 200_000;
 
 /// Names of the presets.
 pub const PRESETS: [&str; 2] = ["zhang22", "rich"];
+/// Refuses a plan without lines, with more readings than a campaign may have (checked
+/// before any target is made) or with a line name used twice.
+fn check_lines(path: &Path, lines: &[PlannedLine]) -> Result<(), VolumetricError> {
+    if lines.is_empty() {
+        return Err(config_err(
+            path,
+            "line",
+            "no lines: give a preset or [[line]] tables",
+        ));
+    }
+    // Before any target is made (issue 28: `targets = 100000` silently made 4.3 M).
+    let readings: u64 = lines
+        .iter()
+        .map(|l| l.targets as u64 * u64::from(l.runs))
+        .sum();
+    if readings > MAX_READINGS {
+        return Err(config_err(
+            path,
+            "targets",
+            format!(
+                "{} lines with these targets and runs make {readings} readings, more than \
+                 the {MAX_READINGS} a campaign may have",
+                lines.len()
+            ),
+        ));
+    }
+    let mut names: Vec<&str> = lines.iter().map(|l| l.name.as_str()).collect();
+    names.sort_unstable();
+    if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
+        return Err(config_err(
+            path,
+            "line",
+            format!("line name `{}` is used twice", w[0]),
+        ));
+    }
+    Ok(())
+}
 
 fn e(k: usize, v: f64) -> [f64; 3] {
     let mut x = [0.0; 3];
@@ -432,41 +463,54 @@ fn e(k: usize, v: f64) -> [f64; 3] {
     x
 }
 
-/// The lines of a preset over the box `vol`.
-pub fn preset(
-    name: &str,
-    vol: [[f64; 3]; 2],
+/// A preset's lines being built over the box `lo`–`hi`: the shared settings and the
+/// line shapes (along an axis, along a plane's diagonal) every preset is made of.
+struct PresetBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    mid: [f64; 3],
     targets: usize,
     probe: f64,
     runs: u32,
-) -> Result<Vec<PlannedLine>, String> {
-    let [lo, hi] = vol;
-    let mid: [f64; 3] = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-    let mut out: Vec<PlannedLine> = Vec::new();
-    let mut push = |name: String, start: [f64; 3], end: [f64; 3], p: [f64; 3]| {
+    out: Vec<PlannedLine>,
+}
+
+impl PresetBox {
+    /// Adds the line `name` from `start` to `end` with probe offset `p`.
+    fn push(&mut self, name: String, start: [f64; 3], end: [f64; 3], p: [f64; 3]) {
         let d = [0, 1, 2].map(|k| end[k] - start[k]);
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        out.push(PlannedLine {
+        self.out.push(PlannedLine {
             name,
             start_mm: start,
             u: d.map(|c| c / len),
             length_mm: len,
-            targets,
+            targets: self.targets,
             probe_mm: p,
-            runs,
+            runs: self.runs,
         });
-    };
-    let along = |k: usize, base: [f64; 3]| {
+    }
+
+    /// The ends of the line along axis `k` through `base`, across the whole box.
+    fn along(&self, k: usize, base: [f64; 3]) -> ([f64; 3], [f64; 3]) {
         let mut s = base;
         let mut t = base;
-        s[k] = lo[k];
-        t[k] = hi[k];
+        s[k] = self.lo[k];
+        t[k] = self.hi[k];
         (s, t)
-    };
-    let planes = [(0usize, 1usize, 2usize), (0, 2, 1), (1, 2, 0)];
-    // A diagonal of plane (k, j) at third coordinate c, from fraction f0 to f1 of the
-    // diagonal, shifted by `shift` of the k range; `minus` runs j downwards.
-    let diag = |k: usize, j: usize, l: usize, c: f64, minus: bool, f0: f64, f1: f64, shift: f64| {
+    }
+
+    /// A diagonal of plane (k, j) at third coordinate c (axis l), from fraction f0 to f1
+    /// of the diagonal, shifted by `shift` of the k range; `minus` runs j downwards.
+    fn diag(
+        &self,
+        (k, j, l): (usize, usize, usize),
+        c: f64,
+        minus: bool,
+        (f0, f1): (f64, f64),
+        shift: f64,
+    ) -> ([f64; 3], [f64; 3]) {
+        let (lo, hi) = (self.lo, self.hi);
         let mut s = [0.0; 3];
         let mut t = [0.0; 3];
         s[l] = c;
@@ -482,76 +526,114 @@ pub fn preset(
             t[j] = lo[j] + f1 * sj;
         }
         (s, t)
+    }
+
+    /// `zhang22`: the three axis lines with their probe offsets, three diagonals per
+    /// plane (one with a probe offset, one on half the diagonal), one space diagonal.
+    fn zhang22(&mut self) {
+        let (lo, hi, probe) = (self.lo, self.hi, self.probe);
+        for (k, name) in AXES.iter().enumerate() {
+            let (s, t) = self.along(k, lo);
+            self.push(format!("{name}0"), s, t, [0.0; 3]);
+            for j in (0..3).filter(|&j| j != k) {
+                self.push(format!("{name}p{}", AXES[j]), s, t, e(j, probe));
+            }
+        }
+        for &(k, j, l) in &PLANES {
+            let pl = plane_name(k, j);
+            let (s, t) = self.diag((k, j, l), lo[l], false, (0.0, 1.0), 0.0);
+            self.push(format!("D{pl}+"), s, t, [0.0; 3]);
+            self.push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
+            let (s, t) = self.diag((k, j, l), lo[l], true, (0.0, 1.0), 0.0);
+            self.push(format!("D{pl}-"), s, t, [0.0; 3]);
+            let (s, t) = self.diag((k, j, l), lo[l], false, (0.0, 0.5), 0.5);
+            self.push(format!("D{pl}+s"), s, t, [0.0; 3]);
+        }
+        self.push("B+++".into(), lo, hi, [0.0; 3]);
+    }
+
+    /// `rich`: four lines per axis along the box's edges and two through its middle with
+    /// probe offsets, face and mid-plane diagonals per plane, the four space diagonals.
+    fn rich(&mut self) {
+        let (lo, hi, mid, probe) = (self.lo, self.hi, self.mid, self.probe);
+        for (k, name) in AXES.iter().enumerate() {
+            let others: Vec<usize> = (0..3).filter(|&j| j != k).collect();
+            for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let mut base = lo;
+                base[others[0]] = if a == 0 { lo[others[0]] } else { hi[others[0]] };
+                base[others[1]] = if b == 0 { lo[others[1]] } else { hi[others[1]] };
+                let (s, t) = self.along(k, base);
+                self.push(format!("{name}{a}{b}"), s, t, [0.0; 3]);
+            }
+            for &j in &others {
+                let (s, t) = self.along(k, mid);
+                self.push(format!("{name}cp{}", AXES[j]), s, t, e(j, probe));
+            }
+        }
+        for &(k, j, l) in &PLANES {
+            let pl = plane_name(k, j);
+            for (tag, c) in [("lo", lo[l]), ("hi", hi[l])] {
+                let (s, t) = self.diag((k, j, l), c, false, (0.0, 1.0), 0.0);
+                self.push(format!("D{pl}+{tag}"), s, t, [0.0; 3]);
+                let (s, t) = self.diag((k, j, l), c, true, (0.0, 1.0), 0.0);
+                self.push(format!("D{pl}-{tag}"), s, t, [0.0; 3]);
+            }
+            let (s, t) = self.diag((k, j, l), mid[l], false, (0.0, 0.5), 0.5);
+            self.push(format!("D{pl}+s1"), s, t, [0.0; 3]);
+            let (s, t) = self.diag((k, j, l), mid[l], false, (0.5, 1.0), -0.5);
+            self.push(format!("D{pl}+s2"), s, t, [0.0; 3]);
+            let (s, t) = self.diag((k, j, l), mid[l], false, (0.0, 1.0), 0.0);
+            self.push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
+        }
+        for (i, flip) in [[false, false], [true, false], [false, true], [true, true]]
+            .iter()
+            .enumerate()
+        {
+            let mut s = lo;
+            let mut t = hi;
+            if flip[0] {
+                s[0] = hi[0];
+                t[0] = lo[0];
+            }
+            if flip[1] {
+                s[1] = hi[1];
+                t[1] = lo[1];
+            }
+            self.push(format!("B{}", i + 1), s, t, [0.0; 3]);
+        }
+    }
+}
+
+/// The three planes as (k, j, l): the plane's two axes and the third.
+const PLANES: [(usize, usize, usize); 3] = [(0, 1, 2), (0, 2, 1), (1, 2, 0)];
+
+/// A plane's name from its two axes ("XY").
+fn plane_name(k: usize, j: usize) -> String {
+    format!("{}{}", AXES[k], AXES[j])
+}
+
+/// The lines of a preset over the box `vol`.
+pub fn preset(
+    name: &str,
+    vol: [[f64; 3]; 2],
+    targets: usize,
+    probe: f64,
+    runs: u32,
+) -> Result<Vec<PlannedLine>, String> {
+    let [lo, hi] = vol;
+    let mid: [f64; 3] = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let mut b = PresetBox {
+        lo,
+        hi,
+        mid,
+        targets,
+        probe,
+        runs,
+        out: Vec::new(),
     };
-    let pname = |k: usize, j: usize| format!("{}{}", AXES[k], AXES[j]);
     match name {
-        "zhang22" => {
-            for (k, name) in AXES.iter().enumerate() {
-                let (s, t) = along(k, lo);
-                push(format!("{name}0"), s, t, [0.0; 3]);
-                for j in (0..3).filter(|&j| j != k) {
-                    push(format!("{name}p{}", AXES[j]), s, t, e(j, probe));
-                }
-            }
-            for &(k, j, l) in &planes {
-                let pl = pname(k, j);
-                let (s, t) = diag(k, j, l, lo[l], false, 0.0, 1.0, 0.0);
-                push(format!("D{pl}+"), s, t, [0.0; 3]);
-                push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
-                let (s, t) = diag(k, j, l, lo[l], true, 0.0, 1.0, 0.0);
-                push(format!("D{pl}-"), s, t, [0.0; 3]);
-                let (s, t) = diag(k, j, l, lo[l], false, 0.0, 0.5, 0.5);
-                push(format!("D{pl}+s"), s, t, [0.0; 3]);
-            }
-            push("B+++".into(), lo, hi, [0.0; 3]);
-        }
-        "rich" => {
-            for (k, name) in AXES.iter().enumerate() {
-                let others: Vec<usize> = (0..3).filter(|&j| j != k).collect();
-                for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let mut base = lo;
-                    base[others[0]] = if a == 0 { lo[others[0]] } else { hi[others[0]] };
-                    base[others[1]] = if b == 0 { lo[others[1]] } else { hi[others[1]] };
-                    let (s, t) = along(k, base);
-                    push(format!("{name}{a}{b}"), s, t, [0.0; 3]);
-                }
-                for &j in &others {
-                    let (s, t) = along(k, mid);
-                    push(format!("{name}cp{}", AXES[j]), s, t, e(j, probe));
-                }
-            }
-            for &(k, j, l) in &planes {
-                let pl = pname(k, j);
-                for (tag, c) in [("lo", lo[l]), ("hi", hi[l])] {
-                    let (s, t) = diag(k, j, l, c, false, 0.0, 1.0, 0.0);
-                    push(format!("D{pl}+{tag}"), s, t, [0.0; 3]);
-                    let (s, t) = diag(k, j, l, c, true, 0.0, 1.0, 0.0);
-                    push(format!("D{pl}-{tag}"), s, t, [0.0; 3]);
-                }
-                let (s, t) = diag(k, j, l, mid[l], false, 0.0, 0.5, 0.5);
-                push(format!("D{pl}+s1"), s, t, [0.0; 3]);
-                let (s, t) = diag(k, j, l, mid[l], false, 0.5, 1.0, -0.5);
-                push(format!("D{pl}+s2"), s, t, [0.0; 3]);
-                let (s, t) = diag(k, j, l, mid[l], false, 0.0, 1.0, 0.0);
-                push(format!("D{pl}+p{}", AXES[l]), s, t, e(l, probe));
-            }
-            for (i, flip) in [[false, false], [true, false], [false, true], [true, true]]
-                .iter()
-                .enumerate()
-            {
-                let mut s = lo;
-                let mut t = hi;
-                if flip[0] {
-                    s[0] = hi[0];
-                    t[0] = lo[0];
-                }
-                if flip[1] {
-                    s[1] = hi[1];
-                    t[1] = lo[1];
-                }
-                push(format!("B{}", i + 1), s, t, [0.0; 3]);
-            }
-        }
+        "zhang22" => b.zhang22(),
+        "rich" => b.rich(),
         other => {
             return Err(format!(
                 "unknown preset `{other}` (presets: {})",
@@ -559,7 +641,7 @@ pub fn preset(
             ));
         }
     }
-    Ok(out)
+    Ok(b.out)
 }
 
 /// Simulates the campaign: a line table with e_um = −u·E + the line's zero + noise, the

@@ -54,68 +54,8 @@ impl Selector<'_> {
         }
         match kind {
             Kind::Periodic => {
-                let selected: Vec<f64> = terms
-                    .iter()
-                    .filter_map(|t| match t.variant {
-                        Variant::Periodic { period_um } => Some(period_um),
-                        _ => None,
-                    })
-                    .collect();
-                let rms = self.weighted_rms(resid);
-                if self
-                    .searched_rms
-                    .is_none_or(|r| rms < RESEARCH_FRACTION * r)
-                {
-                    self.spectral_search(resid, &selected);
-                    self.searched_rms = Some(rms);
-                }
-                let base_bic = self.model_bic(&base, nl);
-                for k in 0..self.periods.len() {
-                    let pc = self.periods[k].clone();
-                    if pc.power < MIN_CANDIDATE_POWER
-                        || selected
-                            .iter()
-                            .chain(&self.failed_periods)
-                            .any(|&p| (p - pc.period_um).abs() < 3.0 * pc.step_um)
-                    {
-                        continue;
-                    }
-                    let p = match pc.refined_um {
-                        Some(p) => p,
-                        None => {
-                            let p = self.refine_period(
-                                resid,
-                                pc.period_um,
-                                pc.step_um,
-                                GOLDEN_ITERS,
-                                false,
-                            );
-                            self.periods[k].refined_um = Some(p);
-                            p
-                        }
-                    };
-                    let [s, c] = effects::periodic_cols(&self.obs.x, p);
-                    let (s, c) = (self.engine.project(s), self.engine.project(c));
-                    let fit = self.engine.fit_with(&ids, &[&s, &c]);
-                    let mut e = self.make_eval(
-                        kind,
-                        Variant::Periodic { period_um: p },
-                        Cand::Trial(Vec::new()),
-                        &fit,
-                        base.rank,
-                        nl,
-                        ids.len(),
-                    );
-                    // The support check only matters for a candidate that would enter.
-                    if e.undetermined.is_none()
-                        && base_bic - e.bic >= self.cfg.min_delta_bic
-                        && let Err(why) = self.periodic_support(resid, &s, &c)
-                    {
-                        e.undetermined = Some(why);
-                    }
-                    e.cand = Cand::Trial(vec![s, c]);
-                    evals.push(e);
-                }
+                let periodic = self.periodic_evals(terms, resid, &ids, &base, nl);
+                evals.extend(periodic);
             }
             Kind::ThermalDrift if self.cols.t_lin.is_some() => {
                 let tau = self.profile_tau(&ids, None);
@@ -133,6 +73,83 @@ impl Selector<'_> {
             }
             _ => {}
         }
+        self.best_of(evals, strict)
+    }
+    /// The periodogram's candidates not yet in the model nor refused, each at its refined
+    /// period, fitted; one that would enter must pass the support check on the moving rows.
+    fn periodic_evals(
+        &mut self,
+        terms: &[Term],
+        resid: &[f64],
+        ids: &[usize],
+        base: &Fit,
+        nl: usize,
+    ) -> Vec<Eval> {
+        let kind = Kind::Periodic;
+        let mut evals = Vec::new();
+        let selected: Vec<f64> = terms
+            .iter()
+            .filter_map(|t| match t.variant {
+                Variant::Periodic { period_um } => Some(period_um),
+                _ => None,
+            })
+            .collect();
+        let rms = self.weighted_rms(resid);
+        if self
+            .searched_rms
+            .is_none_or(|r| rms < RESEARCH_FRACTION * r)
+        {
+            self.spectral_search(resid, &selected);
+            self.searched_rms = Some(rms);
+        }
+        let base_bic = self.model_bic(base, nl);
+        for k in 0..self.periods.len() {
+            let pc = self.periods[k].clone();
+            if pc.power < MIN_CANDIDATE_POWER
+                || selected
+                    .iter()
+                    .chain(&self.failed_periods)
+                    .any(|&p| (p - pc.period_um).abs() < 3.0 * pc.step_um)
+            {
+                continue;
+            }
+            let p = match pc.refined_um {
+                Some(p) => p,
+                None => {
+                    let p =
+                        self.refine_period(resid, pc.period_um, pc.step_um, GOLDEN_ITERS, false);
+                    self.periods[k].refined_um = Some(p);
+                    p
+                }
+            };
+            let [s, c] = effects::periodic_cols(&self.obs.x, p);
+            let (s, c) = (self.engine.project(s), self.engine.project(c));
+            let fit = self.engine.fit_with(ids, &[&s, &c]);
+            let mut e = self.make_eval(
+                kind,
+                Variant::Periodic { period_um: p },
+                Cand::Trial(Vec::new()),
+                &fit,
+                base.rank,
+                nl,
+                ids.len(),
+            );
+            // The support check only matters for a candidate that would enter.
+            if e.undetermined.is_none()
+                && base_bic - e.bic >= self.cfg.min_delta_bic
+                && let Err(why) = self.periodic_support(resid, &s, &c)
+            {
+                e.undetermined = Some(why);
+            }
+            e.cand = Cand::Trial(vec![s, c]);
+            evals.push(e);
+        }
+        evals
+    }
+
+    /// The best determined full-rank evaluation (determined even by the support check when
+    /// `strict`) and the best of any, leaving out variants refused before.
+    fn best_of(&self, evals: Vec<Eval>, strict: bool) -> (Option<Eval>, Option<Eval>) {
         let mut best: Option<Eval> = None;
         let mut any: Option<Eval> = None;
         for e in evals {

@@ -409,9 +409,10 @@ impl<'a> Selector<'a> {
     /// Runs the whole selection: [`Self::select_terms`], then the final checks; a term
     /// that fails them is refused, its variant (or period) excluded, and the selection
     /// starts again without it, so a better explanation can take its place.
-    pub fn run(mut self) -> Outcome {
-        let n = self.n();
-        let cfg = self.cfg;
+    /// Steps 1–4 with restarts: selects, fits and checks; a term failing the checks is
+    /// refused and its variant (or period) excluded, and the selection starts again (at
+    /// most `MAX_RESTARTS` times, then every failing term is dropped).
+    fn select_with_restarts(&mut self) -> (Vec<Term>, Vec<FittedTerm>) {
         let mut terms;
         let mut fitted;
         let mut restarts = 0;
@@ -444,7 +445,15 @@ impl<'a> Selector<'a> {
                 .push("selection restarted without the refused variant".into());
         }
 
-        // 5. Too small to matter, repeated until nothing more is dropped (the effects
+        (terms, fitted)
+    }
+
+    /// Step 5: drops the effects too small to matter against the noise or the counter's
+    /// quantisation, refitting the rest until nothing more is dropped.
+    fn drop_small(&mut self, mut terms: Vec<Term>, mut fitted: Vec<FittedTerm>) -> Vec<Term> {
+        let n = self.n();
+        let cfg = self.cfg;
+        // Too small to matter, repeated until nothing more is dropped (the effects
         // left after a drop are refitted, and one may shrink below its floor).
         // Counter quantisation is uniform over a step q (standard uncertainty q/√12), and
         // with sampling locked to the counter's grid it is constant along a move and differs
@@ -511,6 +520,31 @@ impl<'a> Selector<'a> {
             terms = keep.iter().map(|f| f.term.clone()).collect();
             fitted = self.final_fit(&terms);
         }
+        terms
+    }
+
+    /// Each row's leave-one-fold-out prediction by the terms `ids`.
+    fn cv_predictions(&mut self, ids: &[usize]) -> Vec<f64> {
+        let n = self.n();
+        let cv = self.engine.cv(ids);
+        let mut cv_pred = vec![0.0; n];
+        let fold = self.engine.fold().to_vec();
+        for (k, p) in cv_pred.iter_mut().enumerate() {
+            let c = &cv.coefs[fold[k]];
+            *p = ids
+                .iter()
+                .zip(c)
+                .map(|(&id, &b)| b * self.engine.col(id)[k])
+                .sum();
+        }
+        cv_pred
+    }
+
+    pub fn run(mut self) -> Outcome {
+        let (mut terms, fitted) = self.select_with_restarts();
+
+        // 5. Too small to matter.
+        terms = self.drop_small(terms, fitted);
 
         // 6. Ambiguities, design notes, scores (on the selected variants).
         let mut ambiguities = self.ambiguities(&terms);
@@ -531,17 +565,7 @@ impl<'a> Selector<'a> {
         let ids = ids_of(&terms);
         let fit = self.engine.fit(&ids);
         let model = self.engine.predict(&ids, &fit.coef);
-        let cv = self.engine.cv(&ids);
-        let mut cv_pred = vec![0.0; n];
-        let fold = self.engine.fold().to_vec();
-        for (k, p) in cv_pred.iter_mut().enumerate() {
-            let c = &cv.coefs[fold[k]];
-            *p = ids
-                .iter()
-                .zip(c)
-                .map(|(&id, &b)| b * self.engine.col(id)[k])
-                .sum();
-        }
+        let cv_pred = self.cv_predictions(&ids);
         Outcome {
             terms: fitted,
             model,

@@ -42,39 +42,86 @@ pub(super) const GOLDEN_ITERS: usize = 12;
 /// Points of the τ grid of the drift search.
 const TAU_GRID: usize = 16;
 
-impl Selector<'_> {
-    /// Periodogram candidates on the current residual: narrow windows around the
-    /// grating-tied periods and broad scans of long and short periods (detrended by a
-    /// cubic in x; see [`Selector::broad_bands`]).
-    pub(super) fn spectral_search(&mut self, resid: &[f64], keep: &[f64]) {
-        let cfg = self.cfg;
-        let (lo, span) = self.x_span();
-        let mut cands: Vec<PeriodCand> = Vec::new();
-        let n = self.obs.len();
-        // Rows for a scan of `nf` frequencies: within the row·frequency budget.
-        // The scans use the moving rows when there are enough: their positions are
-        // independent draws of the phase, while all samples of a dwell share one (and
-        // dwell targets on a round pitch put many periods in phase, so a sine would fit
-        // the dwell-vs-moving offset at many frequencies).
-        let moving: Vec<usize> = (0..n).filter(|&k| self.obs.moving[k]).collect();
+/// The rows the periodograms scan. The scans use the moving rows when there are enough:
+/// their positions are independent draws of the phase, while all samples of a dwell share
+/// one (and dwell targets on a round pitch put many periods in phase, so a sine would fit
+/// the dwell-vs-moving offset at many frequencies).
+struct ScanRows {
+    base: Vec<usize>,
+}
+
+impl ScanRows {
+    /// The moving rows, or all rows when fewer than [`MIN_MOVING_FOR_SCAN`] move.
+    fn of(sel: &Selector) -> ScanRows {
+        let n = sel.obs.len();
+        let moving: Vec<usize> = (0..n).filter(|&k| sel.obs.moving[k]).collect();
         let base: Vec<usize> = if moving.len() >= MIN_MOVING_FOR_SCAN {
             moving
         } else {
             (0..n).collect()
         };
-        let rows_for = |nf: usize| -> Vec<usize> {
-            let by_budget = (cfg.spectral_budget / nf.max(1) as f64) as usize;
-            spectral::subset(
-                base.len(),
-                by_budget.clamp(200, cfg.spectral_max_rows.max(200)),
-            )
-            .into_iter()
-            .map(|k| base[k])
-            .collect()
-        };
-        let pick = |idx: &[usize], v: &[f64]| -> Vec<f64> { idx.iter().map(|&k| v[k]).collect() };
+        ScanRows { base }
+    }
 
+    /// Rows for a scan of `nf` frequencies: within the row·frequency budget.
+    fn rows_for(&self, nf: usize, cfg: &crate::diagnose::DiagnoseConfig) -> Vec<usize> {
+        let base = &self.base;
+        let by_budget = (cfg.spectral_budget / nf.max(1) as f64) as usize;
+        spectral::subset(
+            base.len(),
+            by_budget.clamp(200, cfg.spectral_max_rows.max(200)),
+        )
+        .into_iter()
+        .map(|k| base[k])
+        .collect()
+    }
+}
+
+/// The values of `v` at the rows `idx`.
+fn pick(idx: &[usize], v: &[f64]) -> Vec<f64> {
+    idx.iter().map(|&k| v[k]).collect()
+}
+
+impl Selector<'_> {
+    /// Periodogram candidates on the current residual: narrow windows around the
+    /// grating-tied periods and broad scans of long and short periods (detrended by a
+    /// cubic in x; see [`Selector::broad_bands`]).
+    pub(super) fn spectral_search(&mut self, resid: &[f64], keep: &[f64]) {
+        let (lo, span) = self.x_span();
+        let mut cands: Vec<PeriodCand> = Vec::new();
+        let scan = ScanRows::of(self);
         // Windows around grating-tied periods.
+        cands.extend(self.grating_windows(&scan, span, resid));
+        // Broad scans on the residual minus a cubic in x: long periods (0.5 mm – L/10),
+        // then short ones (4 grating periods – 0.5 mm), each within its own row budget.
+        let (broad_cands, broad) = self.broad_scans(&scan, lo, span, resid);
+        cands.extend(broad_cands);
+        if !broad.power.is_empty() {
+            self.broad = broad;
+        }
+        // The new search replaces the old candidates (it ran on a cleaner residual), except
+        // those of the periodic terms already in the model (`keep`): their peaks are gone
+        // from this residual, and a later pass with other weights needs them.
+        let mut merged = cands;
+        for old in std::mem::take(&mut self.periods) {
+            let near = |p: f64, q: f64| (p - q).abs() <= 3.0 * old.step_um;
+            if keep.iter().any(|&p| near(p, old.period_um)) {
+                // It replaces a new peak at the same period (whose power was measured
+                // with the term already removed).
+                match merged.iter().position(|c| near(c.period_um, old.period_um)) {
+                    Some(k) => merged[k] = old,
+                    None => merged.insert(0, old),
+                }
+            }
+        }
+        merged.truncate(MAX_PERIOD_CANDIDATES);
+        self.periods = merged;
+    }
+
+    /// The best peak of a narrow window around each grating-tied period (P, P/2, P/4 of
+    /// each grating), the three strongest.
+    fn grating_windows(&self, scan: &ScanRows, span: f64, resid: &[f64]) -> Vec<PeriodCand> {
+        let cfg = self.cfg;
         let mut centres: Vec<(f64, String)> = Vec::new();
         let gratings: Vec<f64> = match cfg.grating_period_um {
             Some(p) => vec![p],
@@ -103,7 +150,7 @@ impl Selector<'_> {
             })
             .collect();
         let total: usize = plan.iter().map(|p| p.4).sum();
-        let idx = rows_for(total);
+        let idx = scan.rows_for(total, cfg);
         let (x, w, r) = (
             pick(&idx, &self.obs.x),
             pick(&idx, self.engine.w()),
@@ -124,10 +171,19 @@ impl Selector<'_> {
             }
         }
         window_peaks.sort_by(|a, b| b.power.total_cmp(&a.power));
-        cands.extend(window_peaks.into_iter().take(3));
+        window_peaks.into_iter().take(3).collect()
+    }
 
-        // Broad scans on the residual minus a cubic in x: long periods (0.5 mm – L/10),
-        // then short ones (4 grating periods – 0.5 mm), each within its own row budget.
+    /// The peaks of the broad scans of [`Selector::broad_bands`] on the residual less a
+    /// cubic in x, and the scans themselves (for the report's periodogram).
+    fn broad_scans(
+        &self,
+        scan: &ScanRows,
+        lo: f64,
+        span: f64,
+        resid: &[f64],
+    ) -> (Vec<PeriodCand>, Broad) {
+        let mut cands = Vec::new();
         let mut broad = Broad::default();
         for (fmin, fmax, oversample) in self.broad_bands(span) {
             // One point per resolution element (two in the short band, where a peak is
@@ -139,7 +195,7 @@ impl Selector<'_> {
                 df = (fmax - fmin) / (MAX_BROAD_FREQUENCIES - 1) as f64;
                 nf = MAX_BROAD_FREQUENCIES;
             }
-            let idx = rows_for(nf);
+            let idx = scan.rows_for(nf, self.cfg);
             let (x, w, r) = (
                 pick(&idx, &self.obs.x),
                 pick(&idx, self.engine.w()),
@@ -163,26 +219,7 @@ impl Selector<'_> {
                 .extend((0..nf).map(|k| 1.0 / (fmin + k as f64 * df)));
             broad.power.extend(pw);
         }
-        if !broad.power.is_empty() {
-            self.broad = broad;
-        }
-        // The new search replaces the old candidates (it ran on a cleaner residual), except
-        // those of the periodic terms already in the model (`keep`): their peaks are gone
-        // from this residual, and a later pass with other weights needs them.
-        let mut merged = cands;
-        for old in std::mem::take(&mut self.periods) {
-            let near = |p: f64, q: f64| (p - q).abs() <= 3.0 * old.step_um;
-            if keep.iter().any(|&p| near(p, old.period_um)) {
-                // It replaces a new peak at the same period (whose power was measured
-                // with the term already removed).
-                match merged.iter().position(|c| near(c.period_um, old.period_um)) {
-                    Some(k) => merged[k] = old,
-                    None => merged.insert(0, old),
-                }
-            }
-        }
-        merged.truncate(MAX_PERIOD_CANDIDATES);
-        self.periods = merged;
+        (cands, broad)
     }
 
     /// The broad scans' frequency bands, cycles/mm, with their oversampling: long periods
