@@ -28,8 +28,6 @@ pub enum FileOp {
     Read,
     /// Writing or creating, a directory included (`FILE: cannot write: REASON`).
     Write,
-    /// Either, where one helper serves both (`FILE: cannot read or write: REASON`).
-    ReadOrWrite,
 }
 
 impl FileOp {
@@ -39,7 +37,6 @@ impl FileOp {
             FileOp::Access => ": ",
             FileOp::Read => ": cannot read: ",
             FileOp::Write => ": cannot write: ",
-            FileOp::ReadOrWrite => ": cannot read or write: ",
         }
     }
 }
@@ -231,10 +228,6 @@ mod tests {
         assert_eq!(e(FileOp::Access), format!("m.toml: {reason}"));
         assert_eq!(e(FileOp::Read), format!("m.toml: cannot read: {reason}"));
         assert_eq!(e(FileOp::Write), format!("m.toml: cannot write: {reason}"));
-        assert_eq!(
-            e(FileOp::ReadOrWrite),
-            format!("m.toml: cannot read or write: {reason}")
-        );
     }
 
     #[test]

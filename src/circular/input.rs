@@ -195,7 +195,7 @@ impl TestMeta {
                           same name, extension .toml)"
                     .into(),
             },
-            _ => io_err(path, FileOp::ReadOrWrite)(source).into(),
+            _ => io_err(path, FileOp::Read)(source).into(),
         })?;
         let meta: TestMeta = parse_toml(path, &text)?;
         meta.check(path)?;

@@ -102,7 +102,7 @@ impl MachineModel {
     /// Reads a model TOML: unknown keys, an effect outside the circular vocabulary, a
     /// missing or unknown parameter, an axis outside the plane are refused by name.
     pub fn read(path: &Path) -> Result<MachineModel, CircularError> {
-        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::ReadOrWrite))?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         let raw: RawModel = parse_toml(path, &text)?;
         raw.test.check(path)?;
         let mut directions = Vec::new();

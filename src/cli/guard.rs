@@ -138,7 +138,7 @@ pub fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> {
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     errmap::table::write_atomically::<errmap::table::TableError>(path, |f| {
         f.write_all(bytes)
-            .map_err(|e| io_err(path, FileOp::ReadOrWrite)(e).into())
+            .map_err(|e| io_err(path, FileOp::Write)(e).into())
     })?;
     Ok(())
 }

@@ -81,7 +81,7 @@ pub fn write_session(path: &Path, rows: &[SessionRow]) -> Result<(), TableError>
         }
         let mut out = sink.finish().map_err(format)?;
         out.flush()
-            .map_err(|e| io_err(path, FileOp::ReadOrWrite)(e).into())
+            .map_err(|e| io_err(path, FileOp::Write)(e).into())
     })
 }
 

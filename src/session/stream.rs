@@ -89,7 +89,7 @@ impl SessionWriter {
                 dir: parent.to_path_buf(),
             });
         }
-        let file = File::create(path).map_err(io_err(path, FileOp::ReadOrWrite))?;
+        let file = File::create(path).map_err(io_err(path, FileOp::Write))?;
         let sink = if parquet {
             Sink::Parquet(Box::new(
                 ParquetSink::new(BufWriter::with_capacity(1 << 20, file))
@@ -165,8 +165,7 @@ impl SessionWriter {
             }
             Sink::Parquet(w) => {
                 let mut out = w.finish().map_err(|e| format_err(&self.path, e))?;
-                out.flush()
-                    .map_err(io_err(&self.path, FileOp::ReadOrWrite))?;
+                out.flush().map_err(io_err(&self.path, FileOp::Write))?;
             }
         }
         Ok(self.rows)
@@ -188,7 +187,7 @@ fn write_csv(
         .map_err(|e| format_err(path, e))?;
     *header = true;
     file.write_all(text)
-        .map_err(|e| io_err(path, FileOp::ReadOrWrite)(e).into())
+        .map_err(|e| io_err(path, FileOp::Write)(e).into())
 }
 
 /// Reads the session table at `path` in batches of at most `batch_rows` rows, validated
@@ -199,7 +198,7 @@ pub fn for_each_batch(
     each: &mut dyn FnMut(&[SessionRow]) -> Result<(), TableError>,
 ) -> Result<u64, TableError> {
     let batch_rows = batch_rows.max(1);
-    let io = |e| io_err(path, FileOp::ReadOrWrite)(e);
+    let io = |e| io_err(path, FileOp::Read)(e);
     // The structure checks of `read_frame` (ragged rows, repeated column names, column
     // types polars cannot read), in one streaming pass or from the schema.
     let parquet = is_parquet(path)?;

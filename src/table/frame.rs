@@ -43,7 +43,7 @@ pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
     } else {
         // Open first so that a missing file is an I/O error with the OS's words; then the
         // header names and field counts (polars accepts repeated names and short rows).
-        File::open(path).map_err(io_err(path, FileOp::ReadOrWrite))?;
+        File::open(path).map_err(io_err(path, FileOp::Read))?;
         super::structure::check_csv(path)?;
         CsvReadOptions::default()
             .with_has_header(true)

@@ -123,14 +123,14 @@ pub fn output_target(path: &Path) -> Result<OutputTarget, TableError> {
                 }
                 return Ok(OutputTarget::Atomic(p));
             }
-            Err(e) => return Err(io_err(path, FileOp::ReadOrWrite)(e).into()),
+            Err(e) => return Err(io_err(path, FileOp::Write)(e).into()),
         };
         let kind = meta.file_type();
         if kind.is_symlink() {
             if descriptor_link(&p) {
                 return Ok(OutputTarget::Through(p));
             }
-            let to = std::fs::read_link(&p).map_err(io_err(path, FileOp::ReadOrWrite))?;
+            let to = std::fs::read_link(&p).map_err(io_err(path, FileOp::Write))?;
             p = match p.parent() {
                 Some(dir) => dir.join(to),
                 None => to,
@@ -244,7 +244,7 @@ mod tests {
     /// The table error of an I/O failure on `path`, for the closures handed to
     /// [`write_atomically`].
     fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
-        move |e| io_err(path, FileOp::ReadOrWrite)(e).into()
+        move |e| io_err(path, FileOp::Write)(e).into()
     }
 
     #[test]

@@ -79,7 +79,7 @@ fn split_fields(record: &str) -> Vec<String> {
 
 /// Checks a CSV file's header names and field counts (see the module docs).
 pub(crate) fn check_csv(path: &Path) -> Result<(), TableError> {
-    let file = File::open(path).map_err(io_err(path, FileOp::ReadOrWrite))?;
+    let file = File::open(path).map_err(io_err(path, FileOp::Read))?;
     let mut reader = BufReader::with_capacity(1 << 16, file);
     let mut buf = Vec::new();
     let mut line_no = 0usize;
@@ -95,7 +95,7 @@ pub(crate) fn check_csv(path: &Path) -> Result<(), TableError> {
         buf.clear();
         let n = reader
             .read_until(b'\n', &mut buf)
-            .map_err(io_err(path, FileOp::ReadOrWrite))?;
+            .map_err(io_err(path, FileOp::Read))?;
         if n == 0 {
             break;
         }
@@ -239,7 +239,7 @@ fn readable(dtype: &ArrowDataType) -> bool {
 /// `measured_on` date or `operator_id` byte is a normal column of a lab's table), and a
 /// reader that needs one is told its type by [`unreadable_type`].
 pub(crate) fn parquet_reader(path: &Path) -> Result<ParquetReader<File>, TableError> {
-    let file = File::open(path).map_err(io_err(path, FileOp::ReadOrWrite))?;
+    let file = File::open(path).map_err(io_err(path, FileOp::Read))?;
     let mut reader = ParquetReader::new(file);
     let schema = guarded(path, "the footer (file metadata) cannot be decoded", || {
         reader.schema()
