@@ -1,8 +1,7 @@
 //! Why an acceptance input was refused: each variant names the file and the row, key or
 //! option, as `cli-contract.md` asks of exit 1.
 
-use std::path::PathBuf;
-
+use crate::base::{ConfigError, FileError};
 use crate::table::TableError;
 use crate::volumetric::VolumetricError;
 
@@ -12,24 +11,10 @@ pub enum AcceptanceError {
     /// A value the rule cannot judge with (a negative U, T_L > T_U, r < 0, …).
     #[error("{what}: {problem}")]
     Value { what: String, problem: String },
-    /// A data row of a table: `FILE: row R (line R+1): problem`.
-    #[error("{}: row {row} (line {}){}: {problem}", path.display(), row + 1, column.as_deref().map(|c| format!(", column `{c}`")).unwrap_or_default())]
-    Row {
-        path: PathBuf,
-        row: usize,
-        column: Option<String>,
-        problem: String,
-    },
-    /// A problem of the whole file (its columns, its design).
-    #[error("{}: {problem}", path.display())]
-    File { path: PathBuf, problem: String },
-    /// A key of a TOML file.
-    #[error("{}: {key}: {problem}", path.display())]
-    Key {
-        path: PathBuf,
-        key: String,
-        problem: String,
-    },
+    /// A data row of a table (`FILE: row R (line R+1): problem`), a problem of the whole
+    /// file (its columns, its design) or a key of a TOML file: the shared [`ConfigError`].
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// An MPE (or U) formula that does not parse.
     #[error(
         "{option} `{formula}`: {problem} (expected `A+L/K`, `min(A+L/K,B)` or `B`, A and B in µm, K > 0)"
@@ -41,13 +26,13 @@ pub enum AcceptanceError {
     },
     /// The volumetric model cannot give what the plan needs.
     #[error("{}: {problem}", path.display())]
-    Model { path: PathBuf, problem: String },
-    #[error("{}: cannot read: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
+    Model {
+        path: std::path::PathBuf,
+        problem: String,
     },
+    /// A file that cannot be read (the shared [`FileError`] shape).
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error(transparent)]
     Table(#[from] TableError),
     #[error(transparent)]
@@ -68,19 +53,11 @@ impl AcceptanceError {
         column: Option<&str>,
         problem: impl Into<String>,
     ) -> Self {
-        AcceptanceError::Row {
-            path: path.to_path_buf(),
-            row,
-            column: column.map(str::to_string),
-            problem: problem.into(),
-        }
+        ConfigError::row(path, row, row + 1, column, problem).into()
     }
 
     pub(crate) fn file(path: &std::path::Path, problem: impl Into<String>) -> Self {
-        AcceptanceError::File {
-            path: path.to_path_buf(),
-            problem: problem.into(),
-        }
+        ConfigError::file(path, problem).into()
     }
 
     pub(crate) fn key(
@@ -88,10 +65,6 @@ impl AcceptanceError {
         key: impl Into<String>,
         problem: impl Into<String>,
     ) -> Self {
-        AcceptanceError::Key {
-            path: path.to_path_buf(),
-            key: key.into(),
-            problem: problem.into(),
-        }
+        ConfigError::key(path, key, problem).into()
     }
 }

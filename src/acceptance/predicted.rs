@@ -30,6 +30,8 @@ use serde::{Deserialize, Serialize};
 use super::AcceptanceError;
 use super::mpe::Mpe;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::interp::Method;
 use crate::volumetric::compensation;
 use crate::volumetric::{
@@ -155,10 +157,7 @@ impl VirtualPlan {
         path: &Path,
         model_volume: Option<[[f64; 3]; 2]>,
     ) -> Result<VirtualPlan, AcceptanceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| AcceptanceError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         let f: PlanFile = toml::from_str(&text)
             .map_err(|e| AcceptanceError::key(path, "file", e.to_string().trim().to_string()))?;
         let key = |k: &str, p: String| AcceptanceError::key(path, k, p);
@@ -409,10 +408,7 @@ impl Model {
                 predictor,
             }),
             Predictor::Fit(f) => {
-                let text = std::fs::read_to_string(path).map_err(|source| AcceptanceError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
+                let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
                 let head: ModelHead =
                     serde_json::from_str(&text).map_err(|e| AcceptanceError::Model {
                         path: path.to_path_buf(),

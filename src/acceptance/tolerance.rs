@@ -26,6 +26,8 @@ use serde::Serialize;
 use super::AcceptanceError;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::base::Axis;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::session::iso230::AxisStats;
 use crate::session::uncertainty::StatUncertainty;
 
@@ -265,10 +267,7 @@ fn line_tolerance(
 impl Tolerances {
     /// Reads and checks a tolerance file.
     pub fn read(path: &Path) -> Result<Tolerances, AcceptanceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| AcceptanceError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         Tolerances::parse(&text, path)
     }
 

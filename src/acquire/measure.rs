@@ -13,7 +13,9 @@ use std::time::Instant;
 use errmap_drivers::longrun::write_long_capture;
 use serde::Serialize;
 
-use super::{AcquireError, io_err, replay};
+use super::{AcquireError, replay};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::session::{BATCH_ROWS, Reducer, for_each_batch};
 
 /// What [`stream_bench`] measured.
@@ -62,7 +64,7 @@ fn scratch_dir() -> PathBuf {
 /// and reduces the table, measuring both; removes the directory afterwards.
 pub fn stream_bench(mb: f64) -> Result<StreamBench, AcquireError> {
     let dir = scratch_dir();
-    std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    std::fs::create_dir_all(&dir).map_err(io_err(&dir, FileOp::Access))?;
     let r = measure(&dir, mb);
     let _ = std::fs::remove_dir_all(&dir);
     r
@@ -72,12 +74,14 @@ fn measure(dir: &Path, mb: f64) -> Result<StreamBench, AcquireError> {
     let raw = dir.join("raw.bin");
     let table = dir.join("session.parquet");
     {
-        let file = std::fs::File::create(&raw).map_err(io_err(&raw))?;
+        let file = std::fs::File::create(&raw).map_err(io_err(&raw, FileOp::Access))?;
         let mut out = std::io::BufWriter::new(file);
         write_long_capture(&mut out, (mb.max(0.0) * 1e6) as u64, 0, 1000.0)
-            .map_err(io_err(&raw))?;
+            .map_err(io_err(&raw, FileOp::Access))?;
     }
-    let bytes = std::fs::metadata(&raw).map_err(io_err(&raw))?.len();
+    let bytes = std::fs::metadata(&raw)
+        .map_err(io_err(&raw, FileOp::Access))?
+        .len();
     let reset = reset_peak_rss();
     let t = Instant::now();
     let replayed = replay(&raw, &table)?;

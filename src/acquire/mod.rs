@@ -25,6 +25,8 @@ use errmap_drivers::frame::Hello;
 use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
+use crate::base::error::io_err;
+use crate::base::{ConfigError, FileError, FileOp};
 use crate::session::SessionWriter;
 use crate::table::TableError;
 
@@ -32,14 +34,10 @@ use crate::table::TableError;
 /// wrapped).
 #[derive(Debug, thiserror::Error)]
 pub enum AcquireError {
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{path}: {message}")]
-    Config { path: PathBuf, message: String },
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     #[error(transparent)]
     Table(#[from] TableError),
     #[error("{path}: {source}")]
@@ -54,13 +52,6 @@ pub enum AcquireError {
         "{path} already exists: a capture never overwrites an earlier one; choose another --out"
     )]
     Exists { path: PathBuf },
-}
-
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> AcquireError + '_ {
-    move |source| AcquireError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
 }
 
 // --------------------------------------------------------------------------------------
@@ -136,11 +127,8 @@ pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
     struct Partial {
         hello: Option<HelloJson>,
     }
-    let bad = |message: String| AcquireError::Config {
-        path: path.to_path_buf(),
-        message,
-    };
-    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+    let bad = |message: String| AcquireError::from(ConfigError::file(path, message));
+    let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Access))?;
     let p: Partial = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
     let json = p
         .hello
@@ -204,7 +192,7 @@ pub fn capture_session_watched(
     progress: &mut dyn FnMut(&Progress),
     watch: &mut dyn FnMut(&SessionEvent),
 ) -> Result<Captured, AcquireError> {
-    std::fs::create_dir_all(&paths.dir).map_err(io_err(&paths.dir))?;
+    std::fs::create_dir_all(&paths.dir).map_err(io_err(&paths.dir, FileOp::Access))?;
     let mut raw: File = OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -215,10 +203,7 @@ pub fn capture_session_watched(
                     path: paths.raw.clone(),
                 }
             } else {
-                AcquireError::Io {
-                    path: paths.raw.clone(),
-                    source: e,
-                }
+                io_err(&paths.raw, FileOp::Access)(e).into()
             }
         })?;
     let mut table = SessionWriter::create(&paths.table)?;
@@ -291,14 +276,13 @@ fn file_name(p: &Path) -> String {
 }
 
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), AcquireError> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| AcquireError::Config {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })?;
+    let text =
+        serde_json::to_string_pretty(value).map_err(|e| ConfigError::file(path, e.to_string()))?;
     // Whole or not at all: a temporary file beside it, renamed into place.
     crate::table::write_atomically::<AcquireError>(path, |f| {
         use std::io::Write;
-        f.write_all((text + "\n").as_bytes()).map_err(io_err(path))
+        f.write_all((text + "\n").as_bytes())
+            .map_err(|e| io_err(path, FileOp::Access)(e).into())
     })
 }
 
@@ -335,12 +319,11 @@ pub fn replay_with_hello(
 ) -> Result<Replayed, AcquireError> {
     let mut decoder = match hello {
         None => SessionDecoder::new(),
-        Some(h) => SessionDecoder::with_hello(h).map_err(|e| AcquireError::Config {
-            path: raw.to_path_buf(),
-            message: format!("the given HELLO gives no scaling: {e}"),
+        Some(h) => SessionDecoder::with_hello(h).map_err(|e| {
+            ConfigError::file(raw, format!("the given HELLO gives no scaling: {e}"))
         })?,
     };
-    let mut file = File::open(raw).map_err(io_err(raw))?;
+    let mut file = File::open(raw).map_err(io_err(raw, FileOp::Access))?;
     // The table goes to the temporary sibling of `out` (same extension, so the same
     // format) and is renamed into place only when whole: a failed replay leaves no
     // partial table and an existing one untouched.
@@ -355,7 +338,7 @@ pub fn replay_with_hello(
     let result = replay_into(&mut decoder, &mut file, raw, &partial);
     match result {
         Ok(r) => {
-            std::fs::rename(&partial, &target).map_err(io_err(out))?;
+            std::fs::rename(&partial, &target).map_err(io_err(out, FileOp::Access))?;
             Ok(r)
         }
         Err(e) => {
@@ -390,7 +373,7 @@ fn replay_into(
             Ok(0) => break,
             Ok(n) => n,
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(io_err(raw)(e)),
+            Err(e) => return Err(io_err(raw, FileOp::Access)(e).into()),
         };
         bytes += n;
         decoder.push_with(&buf[..n], &mut sink);

@@ -1,6 +1,7 @@
 //! Shared leaves used by every stage: the axis, the diagnosis vocabulary, small
-//! statistics, the optimisers and physical constants. Nothing here does I/O and nothing
-//! here imports another module of the crate, so any stage may import it.
+//! statistics, the optimisers, physical constants and the shared shape of file and
+//! configuration errors. Nothing here imports another module of the crate, so any stage
+//! may import it; nothing does I/O but [`error::read_toml`], the one reader of TOML files.
 //!
 //! | module | holds |
 //! |---|---|
@@ -11,10 +12,12 @@
 //! | [`optim`] | L-BFGS and golden-section minimisers |
 //! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
 //! | [`limits`] | the physical ranges every reader checks its numbers against |
+//! | [`error`] | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
 
 pub mod axis;
 pub mod consts;
 pub mod effect;
+pub mod error;
 pub mod limits;
 pub mod optim;
 pub mod stats;
@@ -22,4 +25,5 @@ pub mod vocabulary;
 
 pub use axis::{Axis, Direction};
 pub use effect::{Drift, Effect, ParamValue};
+pub use error::{ConfigError, FileError, FileOp, Location};
 pub use vocabulary::{EffectId, ParamName, Verdict};

@@ -4,17 +4,15 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::base::{ConfigError, FileError};
 use crate::table::TableError;
 
 /// Why a circular test (or a model) could not be read, or a result not made.
 #[derive(Debug, thiserror::Error)]
 pub enum CircularError {
-    #[error("{path}: cannot read or write: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file that cannot be read or written (the trace, its TOML, a model).
+    #[error(transparent)]
+    File(#[from] FileError),
     /// A cell or a row of the trace (line = file line, the header is line 1).
     #[error("{path}: line {line}: column {column}: {problem}")]
     Trace {
@@ -23,21 +21,10 @@ pub enum CircularError {
         column: String,
         problem: String,
     },
-    /// A TOML file that does not parse (line and column of the problem).
-    #[error("{path}: line {line}: column {column}: {problem}")]
-    Toml {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        problem: String,
-    },
-    /// A TOML key that is missing or has an invalid value.
-    #[error("{path}: key {key}: {problem}")]
-    Key {
-        path: PathBuf,
-        key: String,
-        problem: String,
-    },
+    /// A TOML file that does not parse (at a line and column) or a key that is missing or
+    /// has an invalid value.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// The trace as a whole (no rows, too many runs, ...).
     #[error("{path}: {problem}")]
     Test { path: PathBuf, problem: String },
@@ -48,19 +35,9 @@ pub enum CircularError {
     Link { path: PathBuf, problem: String },
 }
 
-pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> CircularError + '_ {
-    move |source| CircularError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
+/// A TOML key that is missing or has an invalid value (the shared [`ConfigError`] shape).
 pub(crate) fn key_err(path: &Path, key: &str, problem: impl Into<String>) -> CircularError {
-    CircularError::Key {
-        path: path.to_path_buf(),
-        key: key.to_string(),
-        problem: problem.into(),
-    }
+    ConfigError::key(path, key, problem).into()
 }
 
 /// Parses TOML text into `T`, a parse error (an unknown key included, where `T` denies
@@ -74,12 +51,7 @@ pub(crate) fn parse_toml<T: for<'de> serde::Deserialize<'de>>(
             Some(span) => line_column(text, span.start),
             None => (1, 1),
         };
-        CircularError::Toml {
-            path: path.to_path_buf(),
-            line,
-            column,
-            problem: e.message().trim_end().to_string(),
-        }
+        ConfigError::position(path, line, column, e.message().trim_end()).into()
     })
 }
 

@@ -14,7 +14,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::error::{CircularError, key_err, parse_toml};
-use crate::base::Axis;
+use crate::base::error::io_err;
+use crate::base::{Axis, FileOp};
 use crate::table::TableError;
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
@@ -194,10 +195,7 @@ impl TestMeta {
                           same name, extension .toml)"
                     .into(),
             },
-            _ => CircularError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
+            _ => io_err(path, FileOp::Read)(source).into(),
         })?;
         let meta: TestMeta = parse_toml(path, &text)?;
         meta.check(path)?;

@@ -39,9 +39,11 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Deserialize;
 
-use super::error::{CircularError, io_err, key_err, parse_toml};
+use super::error::{CircularError, key_err, parse_toml};
 use super::input::{CircularTest, Run, Sense, TestMeta, meta_path};
 use super::signature::{Slot, slots};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::base::stats::gaussian;
 use crate::base::{Effect, EffectId, ParamValue};
 
@@ -100,7 +102,7 @@ impl MachineModel {
     /// Reads a model TOML: unknown keys, an effect outside the circular vocabulary, a
     /// missing or unknown parameter, an axis outside the plane are refused by name.
     pub fn read(path: &Path) -> Result<MachineModel, CircularError> {
-        let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         let raw: RawModel = parse_toml(path, &text)?;
         raw.test.check(path)?;
         let mut directions = Vec::new();
@@ -365,6 +367,7 @@ pub fn write_test(test: &CircularTest, trace: &Path) -> Result<(), CircularError
     let text = test.meta.to_toml();
     crate::table::write_atomically::<CircularError>(&toml_path, |f| {
         use std::io::Write;
-        f.write_all(text.as_bytes()).map_err(io_err(&toml_path))
+        f.write_all(text.as_bytes())
+            .map_err(|e| io_err(&toml_path, FileOp::Write)(e).into())
     })
 }

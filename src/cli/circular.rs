@@ -68,10 +68,10 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     let mut d = diagnose(&test, &config);
     if let Some(model) = &a.model {
         let centre = test.meta.centre_mm.ok_or_else(|| {
-            anyhow::anyhow!(
-                "{}: key centre_mm: missing; --model needs the test centre in machine \
-                 coordinates",
-                errmap::circular::input::meta_path(&a.trace).display()
+            errmap::base::ConfigError::key(
+                &errmap::circular::input::meta_path(&a.trace),
+                "centre_mm",
+                "missing; --model needs the test centre in machine coordinates",
             )
         })?;
         d.link = Some(link(model, &test.meta, centre, &d)?);

@@ -30,6 +30,8 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
+use errmap::base::FileOp;
+use errmap::base::error::io_err;
 
 /// The error [`print_stdout`] returns when the reader of stdout has gone; `main` turns it
 /// into a quiet exit with [`STDOUT_CLOSED_STATUS`].
@@ -136,10 +138,7 @@ pub fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> {
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     errmap::table::write_atomically::<errmap::table::TableError>(path, |f| {
         f.write_all(bytes)
-            .map_err(|source| errmap::table::TableError::Io {
-                path: path.to_path_buf(),
-                source,
-            })
+            .map_err(|e| io_err(path, FileOp::Write)(e).into())
     })?;
     Ok(())
 }

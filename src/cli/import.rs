@@ -7,6 +7,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use errmap::base::Axis;
+use errmap::base::FileOp;
+use errmap::base::error::io_err;
 use errmap::import::csv::ErrorUnit;
 use errmap::import::{
     self, ColumnMap, CsvOptions, ErrorSign, ImportOptions, LengthUnit, PressureUnit, SessionFormat,
@@ -217,13 +219,8 @@ fn table_format(f: ImportFormatArg, a: &ImportArgs) -> Result<Option<TableFormat
 }
 
 fn read_bytes(path: &std::path::Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|source| {
-        import::ImportError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-        .into()
-    })
+    let bytes = std::fs::read(path).map_err(io_err(path, FileOp::Read))?;
+    Ok(bytes)
 }
 
 fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {

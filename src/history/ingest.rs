@@ -10,6 +10,8 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
 use super::HistoryError;
+use crate::base::error::io_err;
+use crate::base::{ConfigError, FileOp};
 use crate::session::{self, iso230, uncertainty};
 
 /// The squareness components (a value and a σ, µrad).
@@ -116,18 +118,9 @@ pub struct Ingested {
     pub warnings: Vec<String>,
 }
 
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> HistoryError + '_ {
-    move |source| HistoryError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
+/// A bad input file as a whole (the shared [`ConfigError`] shape).
 fn input(path: &Path, message: impl Into<String>) -> HistoryError {
-    HistoryError::Input {
-        path: path.to_path_buf(),
-        message: message.into(),
-    }
+    ConfigError::file(path, message).into()
 }
 
 /// sha256 (lowercase hex) and size of a file, read in 64 KiB blocks.
@@ -159,8 +152,8 @@ pub fn hex(b: &[u8]) -> String {
 }
 
 fn source(role: Role, path: &Path) -> Result<SourceFile, HistoryError> {
-    let abs: PathBuf = std::path::absolute(path).map_err(io_err(path))?;
-    let (sha256, bytes) = sha256_file(path).map_err(io_err(path))?;
+    let abs: PathBuf = std::path::absolute(path).map_err(io_err(path, FileOp::Read))?;
+    let (sha256, bytes) = sha256_file(path).map_err(io_err(path, FileOp::Read))?;
     Ok(SourceFile {
         role,
         path: abs.display().to_string(),
@@ -204,10 +197,8 @@ pub fn ingest(result: &Path) -> Result<Ingested, HistoryError> {
         });
     }
     if !result.exists() {
-        return Err(HistoryError::Io {
-            path: result.to_path_buf(),
-            source: std::io::Error::from(std::io::ErrorKind::NotFound),
-        });
+        let missing = std::io::Error::from(std::io::ErrorKind::NotFound);
+        return Err(io_err(result, FileOp::Read)(missing).into());
     }
     match extension(result).as_str() {
         "csv" | "parquet" => {
@@ -348,7 +339,7 @@ struct ModelJson {
 /// The 21 components of a volumetric model: squareness value and σ, each function's
 /// range (max − min of its values with 0 included); nulls where not identified.
 pub fn model_content(path: &Path) -> Result<Content, HistoryError> {
-    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+    let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
     let model: ModelJson = serde_json::from_str(&text).map_err(|e| {
         input(
             path,

@@ -21,7 +21,7 @@ pub mod stats;
 pub mod time;
 pub mod tolerance;
 
-use std::path::PathBuf;
+use crate::base::{ConfigError, FileError};
 
 use serde::Serialize;
 
@@ -59,26 +59,15 @@ pub enum HistoryError {
         record: i64,
         by: i64,
     },
-    /// A bad input file.
-    #[error("{path}: {message}")]
-    Input { path: PathBuf, message: String },
     /// A file could not be read.
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// A bad input file (the whole file) or a bad key of the tolerance file.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// `--machine` names no machine of the current records.
     #[error("--machine {machine}: no current record of this machine in {ledger}")]
     UnknownMachine { ledger: String, machine: String },
-    /// The tolerance file.
-    #[error("{path}: {key}: {message}")]
-    Tolerance {
-        path: PathBuf,
-        key: String,
-        message: String,
-    },
 }
 
 /// `as-found` or `as-left`.

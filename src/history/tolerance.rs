@@ -7,6 +7,8 @@ use std::path::Path;
 
 use super::HistoryError;
 use super::ingest::PARAMETERS;
+use crate::base::error::io_err;
+use crate::base::{ConfigError, FileOp};
 
 /// Upper limits by (machine or none, axis or none, parameter).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -30,20 +32,14 @@ impl Tolerances {
 
     /// Reads and checks a tolerance file.
     pub fn read(path: &Path) -> Result<Tolerances, HistoryError> {
-        let text = std::fs::read_to_string(path).map_err(|source| HistoryError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         Tolerances::parse(path, &text)
     }
 
     /// Parses the text of `path`.
     pub fn parse(path: &Path, text: &str) -> Result<Tolerances, HistoryError> {
-        let bad = |key: &str, message: &str| HistoryError::Tolerance {
-            path: path.to_path_buf(),
-            key: key.to_string(),
-            message: message.to_string(),
-        };
+        let bad =
+            |key: &str, message: &str| HistoryError::from(ConfigError::key(path, key, message));
         let doc: toml::Table = text.parse().map_err(|e: toml::de::Error| {
             let key = match e.span() {
                 Some(span) => {

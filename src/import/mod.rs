@@ -78,12 +78,9 @@ pub enum ImportError {
         column: Option<String>,
         message: String,
     },
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file cannot be read (the shared [`FileError`] shape).
+    #[error(transparent)]
+    File(#[from] crate::base::FileError),
     #[error(transparent)]
     Table(#[from] TableError),
 }

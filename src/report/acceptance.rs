@@ -12,13 +12,12 @@ use super::ReportError;
 use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::predicted::{VirtualMeasurement, VirtualTest};
 use crate::acceptance::{DecisionRule, Mpe, Rule};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::plot::{self, XySeries, XyStyle};
 
 fn create(dir: &Path) -> Result<(), ReportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })
+    std::fs::create_dir_all(dir).map_err(|e| io_err(dir, FileOp::Write)(e).into())
 }
 
 /// The MPE curve and its negative, sampled so that the kink of `min(A+L/K,B)` shows.

@@ -14,7 +14,7 @@ pub mod conformity;
 pub mod info;
 pub mod pdf;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use errmap_drivers::SessionRow;
 
@@ -67,13 +67,10 @@ pub enum CertificateError {
     /// The PDF could not be assembled.
     #[error(transparent)]
     Pdf(#[from] PdfError),
-    /// The file could not be written.
-    #[error("{path}: cannot write: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file could not be written (the report writers' error: `FILE: cannot write:
+    /// REASON`, or the output refused, e.g. a missing directory).
+    #[error(transparent)]
+    Write(#[from] super::ReportError),
     /// Nothing to certify.
     #[error("{0}: no line has ISO 230-2 statistics")]
     NoLines(String),
@@ -600,16 +597,7 @@ pub fn write_with(
 ) -> Result<(), CertificateError> {
     let bytes = render_with(data, conformity)?;
     // Whole or not at all: a temporary file beside `path`, renamed into place.
-    super::write_bytes(path, &bytes).map_err(|e| match e {
-        super::ReportError::Io { path, source }
-        | super::ReportError::Table(crate::table::TableError::Io { path, source }) => {
-            CertificateError::Io { path, source }
-        }
-        other => CertificateError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(other.to_string()),
-        },
-    })
+    Ok(super::write_bytes(path, &bytes)?)
 }
 
 /// 1-2-5 tick spacing giving about `n` ticks over `[lo, hi]`.

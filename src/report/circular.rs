@@ -8,6 +8,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::ReportError;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::circular::iso::nominal_samples;
 use crate::circular::{CircularDiagnosis, CircularTest, Sense};
 use crate::plot::polar::{PolarChart, PolarTrace, polar};
@@ -91,20 +93,13 @@ pub fn chart(test: &CircularTest, d: &CircularDiagnosis) -> PolarChart {
     }
 }
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
-    move |source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
 /// Writes the report into `dir`.
 pub fn write_report(
     test: &CircularTest,
     d: &CircularDiagnosis,
     dir: &Path,
 ) -> Result<(), ReportError> {
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
     super::write_json(&dir.join("circular.json"), d)?;
     polar(&dir.join("polar"), &chart(test, d))?;
     super::write_text(&dir.join("report.md"), &markdown(test, d))

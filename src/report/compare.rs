@@ -10,6 +10,8 @@ use polars::prelude::*;
 use super::ReportError;
 use super::findings::group_by_reason;
 use super::json::finite;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::evaluate::compare::{Comparison, SigmaKind};
 use crate::evaluate::cv::CvScheme;
 use crate::interp::Method;
@@ -59,10 +61,7 @@ pub fn write_report(
     dir: &Path,
     command: &str,
 ) -> Result<Vec<PathBuf>, ReportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
     let mut written = Vec::new();
 
     // comparison.csv: one row per model.

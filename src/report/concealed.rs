@@ -8,6 +8,8 @@ use std::path::Path;
 use super::ReportError;
 use super::diagnosis::write_report;
 use crate::base::EffectId;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::diagnose::{DiagnoseConfig, Verdict, diagnose};
 use crate::session::read_session;
 use crate::sim::concealed::Truth;
@@ -50,12 +52,8 @@ fn json_number(v: f64) -> String {
 /// Diagnoses every case under `cases` (each with `recorded.parquet`, `simulated.parquet`
 /// and `truth.json`) into `out/<case>/`, and writes `out/README.md`, the index.
 pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, ReportError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| ReportError::Io { path, source }
-    };
     let mut names: Vec<String> = std::fs::read_dir(cases)
-        .map_err(io(cases))?
+        .map_err(io_err(cases, FileOp::Write))?
         .filter_map(|e| e.ok())
         .filter(|e| e.path().join("recorded.parquet").is_file())
         .map(|e| e.file_name().to_string_lossy().into_owned())

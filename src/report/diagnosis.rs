@@ -6,6 +6,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
@@ -64,10 +66,7 @@ pub fn write_report(
     dir: &Path,
     environment: Option<&str>,
 ) -> Result<Vec<PathBuf>, ReportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
     let s = &d.series;
     let ax = d.axis.to_lowercase();
     let mut files: Vec<PathBuf> = Vec::new();
@@ -256,10 +255,7 @@ pub fn iso_effect(recorded: &[errmap_drivers::SessionRow], d: &Diagnosis) -> Iso
 /// Appends the [`IsoEffect`] table to `dir/report.md`.
 pub fn append_iso_effect(dir: &Path, e: &IsoEffect) -> Result<(), ReportError> {
     let path = dir.join("report.md");
-    let mut md = std::fs::read_to_string(&path).map_err(|source| ReportError::Io {
-        path: path.clone(),
-        source,
-    })?;
+    let mut md = std::fs::read_to_string(&path).map_err(io_err(&path, FileOp::Read))?;
     md.push_str("\n## ISO 230-2 figures with the found effects removed\n\n");
     md.push_str("The static part (map and reversal) is the recording's own; the found effects (drift, air, feed, periodic terms) are taken out of every row and the figures computed again.\n\n");
     md.push_str("| line (mm) | | B | B̄ | R | R↑ | R↓ | E | M | A |\n|---|---|---|---|---|---|---|---|---|---|\n");

@@ -9,6 +9,8 @@ use std::fmt::Write as _;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::history::report::{FleetEntry, Head, MachineReport, ParameterReport};
 use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};
@@ -17,13 +19,6 @@ use super::ReportError;
 
 /// At most this many machines in the fleet figure (the riskiest).
 pub const FLEET_FIGURE_MAX: usize = 40;
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
-    move |source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
 
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map(|x| format!("{x:.digits$}"))
@@ -68,9 +63,10 @@ impl ReportWriter {
     /// Like [`ReportWriter::new`]; `figures` false leaves out every figure (the
     /// benchmark measures the figures apart).
     pub fn with_figures(dir: &Path, figures: bool) -> Result<ReportWriter, ReportError> {
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
+        std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
         let scratch_path = dir.join(".machines.md.partial");
-        let f = std::fs::File::create(&scratch_path).map_err(io(&scratch_path))?;
+        let f =
+            std::fs::File::create(&scratch_path).map_err(io_err(&scratch_path, FileOp::Write))?;
         Ok(ReportWriter {
             dir: dir.to_path_buf(),
             scratch_path,
@@ -86,7 +82,7 @@ impl ReportWriter {
         super::finite::check_markdown(&self.dir.join("report.md"), &text)?;
         self.scratch
             .write_all(text.as_bytes())
-            .map_err(io(&self.scratch_path))?;
+            .map_err(io_err(&self.scratch_path, FileOp::Write))?;
         if self.figures {
             machine_figure(&self.dir.join(stem(&m.id)), m)?;
         }
@@ -97,13 +93,15 @@ impl ReportWriter {
     /// Writes `report.md` (head, fleet, the machines' sections) and the fleet figure;
     /// returns a one-line summary.
     pub fn finish(mut self, head: &Head, fleet: &[FleetEntry]) -> Result<String, ReportError> {
-        self.scratch.flush().map_err(io(&self.scratch_path))?;
+        self.scratch
+            .flush()
+            .map_err(io_err(&self.scratch_path, FileOp::Write))?;
         drop(self.scratch);
         let mut md = head_section(head, fleet);
         let mut rest = String::new();
         std::fs::File::open(&self.scratch_path)
             .and_then(|mut f| f.read_to_string(&mut rest))
-            .map_err(io(&self.scratch_path))?;
+            .map_err(io_err(&self.scratch_path, FileOp::Write))?;
         md += &rest;
         let path = self.dir.join("report.md");
         super::write_text(&path, &md)?;

@@ -5,6 +5,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::ReportError;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
 use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::{Budget, StatUncertainty};
@@ -261,10 +263,7 @@ pub fn write_session_report(
     budgets: &[Budget],
     dir: &Path,
 ) -> Result<PathBuf, ReportError> {
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
     let mut md = format!(
         "# ISO 230-2 positioning statistics\n\nSession: `{source}`; axis {axis}; {} line(s).\n\n",
         iso.len()

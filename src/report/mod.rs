@@ -23,6 +23,8 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::base::error::io_err;
+use crate::base::{FileError, FileOp};
 use crate::plot::PlotError;
 use crate::table::TableError;
 
@@ -49,15 +51,9 @@ pub use json::{CompareJson, CompareJsonRow, MethodJson, RefusedJson};
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    /// Creating the directory or writing a file failed.
-    #[error("{path}: cannot write: {source}")]
-    Io {
-        /// The file or directory.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// Creating the directory or writing a file failed (the shared [`FileError`] shape).
+    #[error(transparent)]
+    File(#[from] FileError),
     /// A table (CSV/Parquet) could not be written.
     #[error(transparent)]
     Table(#[from] TableError),
@@ -127,10 +123,8 @@ pub fn write_json<T: serde::Serialize + ?Sized>(path: &Path, value: &T) -> Resul
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
     use std::io::Write;
     crate::table::write_atomically::<ReportError>(path, |f| {
-        f.write_all(bytes).map_err(|source| ReportError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        f.write_all(bytes)
+            .map_err(|e| io_err(path, FileOp::Write)(e).into())
     })
 }
 

@@ -8,19 +8,14 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::ReportError;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::plot::{XySeries, XyStyle, xy};
 use crate::volumetric::{Component, GAUGE, Identification, SQUARENESS};
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> ReportError + '_ {
-    move |source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
 /// Writes the report into `dir`.
 pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result<(), ReportError> {
-    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
     let model = dir.join("model.json");
     super::write_json(&model, &id.doc(positions, true))?;
 

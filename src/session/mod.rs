@@ -54,7 +54,8 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use polars::prelude::*;
 
-use crate::base::Axis;
+use crate::base::error::io_err;
+use crate::base::{Axis, FileOp};
 use crate::table::{
     Cells, TableError, column_cells, optional_column_cells, parse_cell, read_frame, required_cell,
     text_or_number_cells, write_frame,
@@ -79,10 +80,8 @@ pub fn write_session(path: &Path, rows: &[SessionRow]) -> Result<(), TableError>
             sink.write(&mut Columns::from_rows(chunk)).map_err(format)?;
         }
         let mut out = sink.finish().map_err(format)?;
-        out.flush().map_err(|source| TableError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        out.flush()
+            .map_err(|e| io_err(path, FileOp::Write)(e).into())
     })
 }
 

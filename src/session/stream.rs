@@ -39,6 +39,8 @@ use polars::prelude::*;
 
 use super::columns::{Columns, ParquetSink};
 use super::{SampleSet, frame_rows, frame_rows_into};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::table::{TableError, format_err, is_parquet};
 
 /// Rows per batch (and per Parquet row group) of the streaming writer and reader.
@@ -87,10 +89,7 @@ impl SessionWriter {
                 dir: parent.to_path_buf(),
             });
         }
-        let file = File::create(path).map_err(|source| TableError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let file = File::create(path).map_err(io_err(path, FileOp::Write))?;
         let sink = if parquet {
             Sink::Parquet(Box::new(
                 ParquetSink::new(BufWriter::with_capacity(1 << 20, file))
@@ -166,10 +165,7 @@ impl SessionWriter {
             }
             Sink::Parquet(w) => {
                 let mut out = w.finish().map_err(|e| format_err(&self.path, e))?;
-                out.flush().map_err(|source| TableError::Io {
-                    path: self.path.clone(),
-                    source,
-                })?;
+                out.flush().map_err(io_err(&self.path, FileOp::Write))?;
             }
         }
         Ok(self.rows)
@@ -190,10 +186,8 @@ fn write_csv(
         .finish(df)
         .map_err(|e| format_err(path, e))?;
     *header = true;
-    file.write_all(text).map_err(|source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    file.write_all(text)
+        .map_err(|e| io_err(path, FileOp::Write)(e).into())
 }
 
 /// Reads the session table at `path` in batches of at most `batch_rows` rows, validated
@@ -204,10 +198,7 @@ pub fn for_each_batch(
     each: &mut dyn FnMut(&[SessionRow]) -> Result<(), TableError>,
 ) -> Result<u64, TableError> {
     let batch_rows = batch_rows.max(1);
-    let io = |source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io = |e| io_err(path, FileOp::Read)(e);
     // The structure checks of `read_frame` (ragged rows, repeated column names, column
     // types polars cannot read), in one streaming pass or from the schema.
     let parquet = is_parquet(path)?;

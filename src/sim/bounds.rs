@@ -46,7 +46,7 @@ use crate::base::limits::{
     Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
 };
 
-use super::error::SimError;
+use crate::base::ConfigError;
 
 const ACCEL_MM_S2: Bound = Bound {
     lo: 1e-3,
@@ -173,21 +173,20 @@ fn rule(keys: &[&str]) -> Bound {
 }
 
 /// Checks every number of the TOML document `text` read from `path` (see the module docs).
-pub(crate) fn check_numbers(path: &Path, text: &str) -> Result<(), SimError> {
+/// A value out of range is refused with its dotted key as [`crate::base::Location::Key`],
+/// so every reader (the simulator's, the volumetric model's) passes the key on as data.
+pub(crate) fn check_numbers(path: &Path, text: &str) -> Result<(), ConfigError> {
     let table: toml::Table = text
         .parse()
-        .map_err(|e: toml::de::Error| SimError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        .map_err(|e: toml::de::Error| crate::base::error::parse_error(path, &e))?;
     let mut keys = Vec::new();
-    walk_table(&table, &mut keys).map_err(|message| SimError::Config {
-        path: path.to_path_buf(),
-        message,
-    })
+    walk_table(&table, &mut keys).map_err(|(key, problem)| ConfigError::key(path, key, problem))
 }
 
-fn walk_table<'a>(table: &'a toml::Table, keys: &mut Vec<&'a str>) -> Result<(), String> {
+/// An out-of-range value: its dotted key as shown to the user and the problem.
+type OutOfRange = (String, String);
+
+fn walk_table<'a>(table: &'a toml::Table, keys: &mut Vec<&'a str>) -> Result<(), OutOfRange> {
     for (k, v) in table {
         keys.push(k);
         walk(v, keys, k.clone())?;
@@ -196,7 +195,7 @@ fn walk_table<'a>(table: &'a toml::Table, keys: &mut Vec<&'a str>) -> Result<(),
     Ok(())
 }
 
-fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Result<(), String> {
+fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Result<(), OutOfRange> {
     let number = match v {
         toml::Value::Float(f) => Some(*f),
         toml::Value::Integer(i) => Some(*i as f64),
@@ -226,9 +225,9 @@ fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Resul
             Some(Some(b)) => b,
             None => rule(keys),
         };
-        bound
-            .check(x)
-            .map_err(|problem| format!("{shown}: {problem}"))?;
+        if let Err(problem) = bound.check(x) {
+            return Err((shown, problem));
+        }
     }
     Ok(())
 }

@@ -12,8 +12,10 @@
 //! reads it) and a README saying what is hidden and how big it is.
 
 use crate::base::effect::{Drift, Effect, ParamValue};
+use crate::base::error::io_err;
 use crate::base::stats::peak_to_peak;
 use crate::base::vocabulary::EffectId;
+use crate::base::{ConfigError, FileOp};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -378,14 +380,8 @@ impl<'de> Deserialize<'de> for Truth {
 impl Truth {
     /// Reads `truth.json` of a case directory.
     pub fn read(path: &Path) -> Result<Self, SimError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        serde_json::from_str(&text).map_err(|e| SimError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Access))?;
+        serde_json::from_str(&text).map_err(|e| ConfigError::file(path, e.to_string()).into())
     }
 }
 
@@ -445,10 +441,6 @@ fn relative_table(m: &MachineModel) -> MachineModel {
 
 /// Writes every case under `out` (`table1` is `datasets/table1.csv`).
 pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| SimError::Io { path, source }
-    };
     let mut dirs = Vec::new();
     let mut index = String::from(
         "# Concealed-effect cases\n\nRegenerate with `errmap gen-concealed --out datasets/concealed`. Each \
@@ -459,7 +451,7 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
     );
     for (k, case) in cases().iter().enumerate() {
         let dir = out.join(case.name);
-        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        std::fs::create_dir_all(&dir).map_err(io_err(&dir, FileOp::Access))?;
         let g = generate(case, table1, 100 + k as u64)?;
         write_session(&dir.join("recorded.parquet"), &g.recorded)?;
         write_session(&dir.join("simulated.parquet"), &g.simulated)?;
@@ -472,10 +464,8 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
             note: "for the tests only: errmap diagnose is given recorded.parquet and simulated.parquet"
                 .to_string(),
         };
-        let text = serde_json::to_string_pretty(&tj).map_err(|e| SimError::Config {
-            path: dir.join("truth.json"),
-            message: e.to_string(),
-        })?;
+        let text = serde_json::to_string_pretty(&tj)
+            .map_err(|e| ConfigError::file(&dir.join("truth.json"), e.to_string()))?;
         write_whole(&dir.join("truth.json"), &(text + "\n"))?;
         let s = &g.sizes;
         let readme = format!(
@@ -524,10 +514,8 @@ pub fn write_all(out: &Path, table1: &Path) -> Result<Vec<PathBuf>, SimError> {
 pub(crate) fn write_whole(path: &Path, text: &str) -> Result<(), SimError> {
     crate::table::write_atomically::<SimError>(path, |f| {
         use std::io::Write;
-        f.write_all(text.as_bytes()).map_err(|source| SimError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        f.write_all(text.as_bytes())
+            .map_err(|e| io_err(path, FileOp::Access)(e).into())
     })
 }
 

@@ -45,9 +45,10 @@ use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
-use crate::base::Axis;
 use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
+use crate::base::error::read_toml;
 use crate::base::stats::gaussian;
+use crate::base::{Axis, ConfigError};
 use crate::interp::{
     Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy,
 };
@@ -392,17 +393,15 @@ pub struct MachineModel {
     pub device: Device,
 }
 
+/// A problem of the model file as a whole (the shared [`ConfigError`] shape).
 fn config_err(path: &Path, message: impl Into<String>) -> SimError {
-    SimError::Config {
-        path: path.to_path_buf(),
-        message: message.into(),
-    }
+    ConfigError::file(path, message).into()
 }
 
 impl MachineModel {
     /// Reads a model file; table paths are made relative to the file's directory.
     pub fn read(path: &Path) -> Result<Self, SimError> {
-        let mut m: MachineModel = super::error::read_toml(path)?;
+        let mut m: MachineModel = read_toml::<_, SimError>(path, super::bounds::check_numbers)?;
         if let Some(map) = &mut m.error_map
             && map.table.is_relative()
         {

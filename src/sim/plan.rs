@@ -9,9 +9,10 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
-use super::error::{SimError, read_toml};
+use super::error::SimError;
 use super::physics::{MachineModel, PhysicsTruth, simulate_plan};
-use crate::base::Axis;
+use crate::base::error::read_toml;
+use crate::base::{Axis, ConfigError};
 use crate::table::ErrorTable;
 
 /// A measurement plan file.
@@ -71,20 +72,22 @@ impl PlanSpec {
     /// Reads a plan file: unknown keys refused, every number finite and in its range
     /// ([`super::bounds`]).
     pub fn read(path: &Path) -> Result<Self, SimError> {
-        read_toml(path)
+        read_toml(path, super::bounds::check_numbers)
     }
 
     pub fn plan(&self, path: &Path) -> Result<Plan, SimError> {
-        let axis: Axis = self.axis.trim().parse().map_err(|e| SimError::Config {
-            path: path.to_path_buf(),
-            message: format!("axis: {e}"),
-        })?;
+        let axis: Axis = self
+            .axis
+            .trim()
+            .parse()
+            .map_err(|e| ConfigError::key(path, "axis", format!("{e}")))?;
         let axis = WireAxis::from(axis);
         if !(self.overrun_mm.is_finite() && self.overrun_mm >= 0.0) {
-            return Err(SimError::Config {
-                path: path.to_path_buf(),
-                message: format!("overrun_mm = {} must be ≥ 0", self.overrun_mm),
-            });
+            return Err(ConfigError::file(
+                path,
+                format!("overrun_mm = {} must be ≥ 0", self.overrun_mm),
+            )
+            .into());
         }
         let plan = Plan {
             axis,
@@ -100,12 +103,14 @@ impl PlanSpec {
             seed: self.seed,
         };
         // The board's checks, with this file's name: ranges, order, the sample budget.
-        errmap_drivers::sim::check_plan(&plan).map_err(|e| SimError::Config {
-            path: path.to_path_buf(),
-            message: match e {
-                errmap_drivers::sim::SimError::Plan(m)
-                | errmap_drivers::sim::SimError::Device(m) => m,
-            },
+        errmap_drivers::sim::check_plan(&plan).map_err(|e| {
+            ConfigError::file(
+                path,
+                match e {
+                    errmap_drivers::sim::SimError::Plan(m)
+                    | errmap_drivers::sim::SimError::Device(m) => m,
+                },
+            )
         })?;
         Ok(plan)
     }

@@ -2,16 +2,15 @@
 
 use std::path::PathBuf;
 
+use crate::base::FileError;
+
 /// What can be wrong with a table file. Rows are 1-based data rows (the header is not
 /// counted; in a CSV file data row r is on line r + 1).
 #[derive(Debug, thiserror::Error)]
 pub enum TableError {
-    #[error("{path}: cannot read or write: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The file cannot be opened, read or written (the shared [`FileError`] shape).
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
     #[error(

@@ -8,6 +8,8 @@ use std::path::Path;
 use polars::prelude::*;
 
 use super::{ErrorPoint, TableError};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 
 pub(crate) fn format_err(path: &Path, e: impl fmt::Display) -> TableError {
     TableError::Format {
@@ -59,10 +61,7 @@ pub fn read_frame(path: &Path) -> Result<DataFrame, TableError> {
     } else {
         // Open first so that a missing file is an I/O error with the OS's words; then the
         // header names and field counts (polars accepts repeated names and short rows).
-        File::open(path).map_err(|source| TableError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        File::open(path).map_err(io_err(path, FileOp::Read))?;
         super::structure::check_csv(path)?;
         CsvReadOptions::default()
             .with_has_header(true)

@@ -33,13 +33,8 @@ use std::sync::Mutex;
 use polars::prelude::*;
 
 use super::TableError;
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
-    move |source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
+use crate::base::error::io_err;
+use crate::base::{FileError, FileOp};
 
 /// Every temporary name handed out by [`temporary`] in this process.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -128,14 +123,14 @@ pub fn output_target(path: &Path) -> Result<OutputTarget, TableError> {
                 }
                 return Ok(OutputTarget::Atomic(p));
             }
-            Err(e) => return Err(io(path)(e)),
+            Err(e) => return Err(io_err(path, FileOp::Write)(e).into()),
         };
         let kind = meta.file_type();
         if kind.is_symlink() {
             if descriptor_link(&p) {
                 return Ok(OutputTarget::Through(p));
             }
-            let to = std::fs::read_link(&p).map_err(io(path))?;
+            let to = std::fs::read_link(&p).map_err(io_err(path, FileOp::Write))?;
             p = match p.parent() {
                 Some(dir) => dir.join(to),
                 None => to,
@@ -177,8 +172,8 @@ pub fn output_target(path: &Path) -> Result<OutputTarget, TableError> {
 
 /// Writes `path` through `fill` (see the module docs): atomically over a regular file or
 /// a new path, through to a device or pipe, refused otherwise. `fill`'s own errors are
-/// returned as they are; I/O errors name `path`.
-pub fn write_atomically<E: From<TableError>>(
+/// returned as they are; I/O errors name `path` (`PATH: cannot write: REASON`).
+pub fn write_atomically<E: From<TableError> + From<FileError>>(
     path: &Path,
     fill: impl FnOnce(&mut File) -> Result<(), E>,
 ) -> Result<(), E> {
@@ -187,20 +182,24 @@ pub fn write_atomically<E: From<TableError>>(
             let mut file = OpenOptions::new()
                 .append(true)
                 .open(&p)
-                .map_err(|e| E::from(io(path)(e)))?;
+                .map_err(|e| E::from(io_err(path, FileOp::Write)(e)))?;
             fill(&mut file)?;
-            return file.flush().map_err(|e| E::from(io(path)(e)));
+            return file
+                .flush()
+                .map_err(|e| E::from(io_err(path, FileOp::Write)(e)));
         }
         OutputTarget::Atomic(p) => p,
     };
     let tmp = temporary(&target);
     let result = (|| {
-        let mut file = File::create(&tmp).map_err(|e| E::from(io(path)(e)))?;
+        let mut file = File::create(&tmp).map_err(|e| E::from(io_err(path, FileOp::Write)(e)))?;
         fill(&mut file)?;
-        file.flush().map_err(|e| E::from(io(path)(e)))?;
-        file.sync_data().map_err(|e| E::from(io(path)(e)))?;
+        file.flush()
+            .map_err(|e| E::from(io_err(path, FileOp::Write)(e)))?;
+        file.sync_data()
+            .map_err(|e| E::from(io_err(path, FileOp::Write)(e)))?;
         drop(file);
-        std::fs::rename(&tmp, &target).map_err(|e| E::from(io(path)(e)))
+        std::fs::rename(&tmp, &target).map_err(|e| E::from(io_err(path, FileOp::Write)(e)))
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -241,6 +240,12 @@ pub fn check_finite(path: &Path, df: &DataFrame) -> Result<(), TableError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The table error of an I/O failure on `path`, for the closures handed to
+    /// [`write_atomically`].
+    fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
+        move |e| io_err(path, FileOp::Write)(e).into()
+    }
 
     #[test]
     fn a_failed_write_leaves_the_old_file_and_no_temporary() {

@@ -32,13 +32,8 @@ use polars::prelude::{ArrowDataType, DataFrame, ParquetReader, SerReader};
 
 use super::TableError;
 use super::frame::format_err;
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> TableError + '_ {
-    move |source| TableError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
-}
+use crate::base::FileOp;
+use crate::base::error::io_err;
 
 /// Refuses a repeated name among `names` (the first repeated one, with its count).
 fn unique_names<'a>(path: &Path, names: impl Iterator<Item = &'a str>) -> Result<(), TableError> {
@@ -84,7 +79,7 @@ fn split_fields(record: &str) -> Vec<String> {
 
 /// Checks a CSV file's header names and field counts (see the module docs).
 pub(crate) fn check_csv(path: &Path) -> Result<(), TableError> {
-    let file = File::open(path).map_err(io(path))?;
+    let file = File::open(path).map_err(io_err(path, FileOp::Read))?;
     let mut reader = BufReader::with_capacity(1 << 16, file);
     let mut buf = Vec::new();
     let mut line_no = 0usize;
@@ -98,7 +93,9 @@ pub(crate) fn check_csv(path: &Path) -> Result<(), TableError> {
     let mut row = 0usize;
     loop {
         buf.clear();
-        let n = reader.read_until(b'\n', &mut buf).map_err(io(path))?;
+        let n = reader
+            .read_until(b'\n', &mut buf)
+            .map_err(io_err(path, FileOp::Read))?;
         if n == 0 {
             break;
         }
@@ -242,7 +239,7 @@ fn readable(dtype: &ArrowDataType) -> bool {
 /// `measured_on` date or `operator_id` byte is a normal column of a lab's table), and a
 /// reader that needs one is told its type by [`unreadable_type`].
 pub(crate) fn parquet_reader(path: &Path) -> Result<ParquetReader<File>, TableError> {
-    let file = File::open(path).map_err(io(path))?;
+    let file = File::open(path).map_err(io_err(path, FileOp::Read))?;
     let mut reader = ParquetReader::new(file);
     let schema = guarded(path, "the footer (file metadata) cannot be decoded", || {
         reader.schema()

@@ -51,7 +51,8 @@ use std::str::FromStr;
 
 use serde::Deserialize;
 
-use super::error::{VolumetricError, config_err, read_toml};
+use super::error::{VolumetricError, config_err};
+use crate::base::error::read_toml;
 use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order};
 use crate::table::{ErrorPoint, ErrorTable};
 
@@ -409,7 +410,8 @@ impl Machine {
 
     /// Reads and validates a machine-model TOML file.
     pub fn read(path: &Path) -> Result<Machine, VolumetricError> {
-        let file: MachineFile = read_toml(path)?;
+        let file: MachineFile =
+            read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
         file.validate(path)
     }
 }

@@ -13,10 +13,12 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::doc::ModelDoc;
-use super::error::{VolumetricError, config_err, io_err};
+use super::error::{VolumetricError, config_err};
 use super::identify::FitState;
 use super::lines::LineTable;
 use super::model::{Component, Machine, SQUARENESS, squareness_effect};
+use crate::base::FileOp;
+use crate::base::error::io_err;
 
 /// One predicted row.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -50,7 +52,7 @@ impl Predictor {
         if !is_json {
             return Ok(Predictor::Machine(Machine::read(path)?));
         }
-        let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Access))?;
         // The residual is not needed to predict: read past it.
         let doc: ModelDoc<serde::de::IgnoredAny> =
             serde_json::from_str(&text).map_err(|e| config_err(path, "file", e.to_string()))?;

@@ -53,9 +53,10 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Deserialize;
 
-use super::error::{VolumetricError, config_err, read_toml};
+use super::error::{VolumetricError, config_err};
 use super::lines::{Line, LineTable, Target};
 use super::model::{AXES, Machine};
+use crate::base::error::read_toml;
 use crate::base::stats::gaussian;
 
 /// The plan file as written.
@@ -216,7 +217,7 @@ pub const MIN_FEED_MM_S: f64 = 1e-3;
 
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
-        let f: PlanFile = read_toml(path)?;
+        let f: PlanFile = read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
         f.validate(path)
     }
 

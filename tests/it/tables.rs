@@ -188,7 +188,7 @@ fn empty_table_and_missing_file_and_bad_extension() {
     let (e, _) = read_err("x_mm,y_mm,z_mm,e_um\n");
     assert!(matches!(e, TableError::Empty { .. }), "{e}");
     let e = ErrorTable::read(std::path::Path::new("/nonexistent/t.csv")).expect_err("missing");
-    assert!(matches!(e, TableError::Io { .. }) && e.to_string().contains("/nonexistent/t.csv"));
+    assert!(matches!(e, TableError::File(_)) && e.to_string().contains("/nonexistent/t.csv"));
     let e = ErrorTable::read(std::path::Path::new("t.xlsx")).expect_err("extension");
     assert!(matches!(e, TableError::Extension { .. }));
 }

@@ -24,10 +24,12 @@
 //! air_temp_k = 0.05
 //! ```
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
 
+use crate::base::error::io_err;
+use crate::base::{ConfigError, FileError, FileOp};
 use crate::session::uncertainty::{UncertaintyConfig, UncertaintyError};
 
 /// One instrument: what it is and when it was calibrated.
@@ -91,23 +93,13 @@ pub struct CertificateInfo {
 #[derive(Debug, thiserror::Error)]
 pub enum InfoError {
     /// The file cannot be read.
-    #[error("{path}: cannot read: {source}")]
-    Read {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    Read(#[from] FileError),
     /// Not valid TOML, or a key that does not exist, or a value of the wrong type (the
-    /// parser's message names the line, column and key).
-    #[error("{path}: {message}")]
-    Parse { path: PathBuf, message: String },
-    /// A value of the right type that is not acceptable.
-    #[error("{path}: {key}: {message}")]
-    Invalid {
-        path: PathBuf,
-        key: String,
-        message: String,
-    },
+    /// whole file: the parser's message names the line, column and key), or a value of
+    /// the right type that is not acceptable (at its key).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
 }
 
 /// A date as `YYYY-MM-DD` with a real month and a day that exists in it (leap years
@@ -142,15 +134,10 @@ fn check_date(s: &str) -> Result<(), String> {
 impl CertificateInfo {
     /// Parses and validates info TOML text; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<CertificateInfo, InfoError> {
-        let info: CertificateInfo = toml::from_str(text).map_err(|e| InfoError::Parse {
-            path: path.to_path_buf(),
-            message: e.to_string().trim_end().to_string(),
-        })?;
-        let invalid = |key: &str, message: String| InfoError::Invalid {
-            path: path.to_path_buf(),
-            key: key.to_string(),
-            message,
-        };
+        let info: CertificateInfo =
+            toml::from_str(text).map_err(|e| crate::base::error::parse_error(path, &e))?;
+        let invalid =
+            |key: &str, message: String| InfoError::from(ConfigError::key(path, key, message));
         let s = &info.sensors;
         let dates = [
             ("date_of_test", &info.date_of_test),
@@ -189,10 +176,7 @@ impl CertificateInfo {
 
     /// Reads and validates an info file.
     pub fn read(path: &Path) -> Result<CertificateInfo, InfoError> {
-        let text = std::fs::read_to_string(path).map_err(|source| InfoError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
         Self::parse(&text, path)
     }
 }

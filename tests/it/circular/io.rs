@@ -100,7 +100,7 @@ fn bad_traces_are_refused_by_line_and_column() {
         (
             trace(|_, l| l),
             META.replace("radius_mm = 100.0", "radius_mm = -1.0"),
-            "t.toml: key radius_mm:",
+            "t.toml: radius_mm:",
         ),
         (
             trace(|_, l| l),
