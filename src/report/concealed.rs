@@ -2,7 +2,7 @@
 //! diagnosed from its recorded and simulated sessions alone, and an index comparing what
 //! was found with the hidden truth.
 
-use std::fmt::Write as _;
+use super::md::Md;
 use std::path::Path;
 
 use super::ReportError;
@@ -40,13 +40,23 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    let mut index = String::from(
-        "# Diagnosis of the concealed-effect cases\n\nRegenerate with `errmap report-concealed` \
-         (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
-         `simulated.parquet`; the hidden truth comes from `truth.json`.\n\n\
-         | case | hidden | found | parameters found (± 1σ) | hidden parameters | RMS before → after µm | noise σ µm |\n\
-         |---|---|---|---|---|---|---|\n",
-    );
+    let mut index = Md::new();
+    index
+        .heading(1, "Diagnosis of the concealed-effect cases")
+        .para(
+            "Regenerate with `errmap report-concealed` \
+             (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
+             `simulated.parquet`; the hidden truth comes from `truth.json`.",
+        )
+        .table([
+            "case",
+            "hidden",
+            "found",
+            "parameters found (± 1σ)",
+            "hidden parameters",
+            "RMS before → after µm",
+            "noise σ µm",
+        ]);
     let mut outcomes = Vec::new();
     for name in &names {
         let dir = cases.join(name);
@@ -96,9 +106,8 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
                 format!("`{id}`: {}", ps.join(", "))
             })
             .collect();
-        let _ = writeln!(
-            index,
-            "| [{name}]({name}/report.md) | {} | {} | {} | {} | {:.4} → {:.4} | {} |",
+        index.row([
+            format!("[{name}]({name}/report.md)"),
             if hidden.is_empty() {
                 "nothing".to_string()
             } else {
@@ -111,10 +120,9 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
             },
             params.join("; "),
             hidden.join("; "),
-            d.rms_before_um,
-            d.rms_after_um,
-            json_number(truth.sizes.noise_um)
-        );
+            format!("{:.4} → {:.4}", d.rms_before_um, d.rms_after_um),
+            json_number(truth.sizes.noise_um),
+        ]);
         outcomes.push(CaseOutcome {
             name: name.clone(),
             verdict: d.verdict,
@@ -122,6 +130,6 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         });
     }
     let index_path = out.join("README.md");
-    super::write_text(&index_path, &index)?;
+    super::write_text(&index_path, index.as_str())?;
     Ok(outcomes)
 }

@@ -5,7 +5,6 @@
 //! ([`ReportWriter::machine`]); their sections wait in a scratch file, so the writer
 //! holds no more than one machine.
 
-use std::fmt::Write as _;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -14,6 +13,7 @@ use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
+use super::md::Md;
 
 /// At most this many machines in the fleet figure (the riskiest).
 pub const FLEET_FIGURE_MAX: usize = 40;
@@ -122,62 +122,74 @@ impl ReportWriter {
     }
 }
 
+/// The report's head: the date and ledger, the control chart's method, the fleet ranked.
 fn head_section(head: &Head, fleet: &[FleetEntry]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# Calibration history\n");
-    let _ = writeln!(
-        s,
-        "As of {}, horizon {} days. Ledger: {} records, {} current, {} superseded.\n",
-        head.as_of,
-        head.horizon_days,
-        head.ledger.records,
-        head.ledger.current,
-        head.ledger.superseded
-    );
-    let _ = writeln!(
-        s,
-        "Control chart: {} ({}), λ = {}, limits ±{}σ√v_k around the mean of the first {} points of \
-         each segment; σ from moving ranges pooled over the machine's axes. Risk: the probability \
-         that the trend line is above the tolerance at the horizon.\n",
-        head.chart.method,
-        head.chart.standard,
-        head.chart.lambda,
-        head.chart.l,
-        head.chart.baseline
-    );
-    let _ = writeln!(
-        s,
-        "## Fleet\n\n| rank | machine | risk | advice |\n|---|---|---|---|"
-    );
+    let mut md = Md::new();
+    md.heading(1, "Calibration history")
+        .para(format_args!(
+            "As of {}, horizon {} days. Ledger: {} records, {} current, {} superseded.",
+            head.as_of,
+            head.horizon_days,
+            head.ledger.records,
+            head.ledger.current,
+            head.ledger.superseded
+        ))
+        .para(format_args!(
+            "Control chart: {} ({}), λ = {}, limits ±{}σ√v_k around the mean of the first {} points of \
+             each segment; σ from moving ranges pooled over the machine's axes. Risk: the probability \
+             that the trend line is above the tolerance at the horizon.",
+            head.chart.method,
+            head.chart.standard,
+            head.chart.lambda,
+            head.chart.l,
+            head.chart.baseline
+        ))
+        .heading(2, "Fleet")
+        .table(["rank", "machine", "risk", "advice"]);
     for (i, f) in fleet.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.3} | {} |",
-            i + 1,
-            f.id,
-            f.risk,
-            f.advice.as_str()
-        );
+        md.row([
+            (i + 1).to_string(),
+            f.id.to_string(),
+            format!("{:.3}", f.risk),
+            f.advice.as_str().to_string(),
+        ]);
     }
-    s.push('\n');
-    s
+    md.nl();
+    md.finish()
 }
 
 /// A machine's section of `report.md`.
 pub fn machine_section(m: &MachineReport) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "## {} — {}\n", m.id, m.advice.as_str());
-    let _ = writeln!(
-        s,
-        "Site: {}. Current records: {}. Recalibrate by: {}.\n",
-        m.site.as_deref().unwrap_or("—"),
-        m.records,
-        m.recalibrate_by.as_deref().unwrap_or("—")
-    );
-    let _ = writeln!(
-        s,
-        "| axis | parameter | n | last | tolerance | rate /year ± σ | EWMA centre | σ | alarms | exceeds tolerance | 95 % interval | risk |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
-    );
+    let mut md = Md::new();
+    md.heading(2, format_args!("{} — {}", m.id, m.advice.as_str()))
+        .para(format_args!(
+            "Site: {}. Current records: {}. Recalibrate by: {}.",
+            m.site.as_deref().unwrap_or("—"),
+            m.records,
+            m.recalibrate_by.as_deref().unwrap_or("—")
+        ));
+    series_table(&mut md, m);
+    pairs_table(&mut md, m);
+    md.nl();
+    md.finish()
+}
+
+/// One row per series: its last value, trend, chart and risk.
+fn series_table(md: &mut Md, m: &MachineReport) {
+    md.table([
+        "axis",
+        "parameter",
+        "n",
+        "last",
+        "tolerance",
+        "rate /year ± σ",
+        "EWMA centre",
+        "σ",
+        "alarms",
+        "exceeds tolerance",
+        "95 % interval",
+        "risk",
+    ]);
     for a in &m.axes {
         for p in &a.parameters {
             let rate = match (p.rate_per_year, p.rate_sigma) {
@@ -192,55 +204,58 @@ pub fn machine_section(m: &MachineReport) -> String {
                 ),
                 None => "—".into(),
             };
-            let _ = writeln!(
-                s,
-                "| {} | {} ({}) | {} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                a.axis,
-                p.name,
-                p.unit,
-                p.n,
-                p.last,
+            md.row([
+                a.axis.to_string(),
+                format!("{} ({})", p.name, p.unit),
+                p.n.to_string(),
+                format!("{:.3}", p.last),
                 opt(p.tolerance, 3),
                 rate,
                 opt(p.center, 3),
                 opt(p.sigma, 3),
-                p.alarms.len(),
-                p.exceeds_tolerance_at.as_deref().unwrap_or("—"),
+                p.alarms.len().to_string(),
+                p.exceeds_tolerance_at.as_deref().unwrap_or("—").to_string(),
                 iv,
-                opt(p.risk, 3)
-            );
+                opt(p.risk, 3),
+            ]);
         }
     }
-    let pairs: Vec<String> = m
+}
+
+/// The as-found / as-left pairs of an adjustment, when the machine had one.
+fn pairs_table(md: &mut Md, m: &MachineReport) {
+    let pairs: Vec<[String; 6]> = m
         .axes
         .iter()
         .flat_map(|a| {
             a.parameters.iter().flat_map(move |p| {
                 p.pairs.iter().map(move |q| {
-                    format!(
-                        "| {} | {} | {} | {} | {} | {:.3} |",
-                        a.axis,
-                        p.name,
-                        q.as_found_at.as_deref().unwrap_or("—"),
+                    [
+                        a.axis.to_string(),
+                        p.name.to_string(),
+                        q.as_found_at.as_deref().unwrap_or("—").to_string(),
                         opt(q.as_found, 3),
-                        q.as_left_at,
-                        q.as_left
-                    )
+                        q.as_left_at.to_string(),
+                        format!("{:.3}", q.as_left),
+                    ]
                 })
             })
         })
         .collect();
-    if !pairs.is_empty() {
-        let _ = writeln!(
-            s,
-            "\nAs-found / as-left:\n\n| axis | parameter | as found at | as found | as left at | as left |\n|---|---|---|---|---|---|"
-        );
-        for p in pairs {
-            let _ = writeln!(s, "{p}");
-        }
+    if pairs.is_empty() {
+        return;
     }
-    s.push('\n');
-    s
+    md.nl().para("As-found / as-left:").table([
+        "axis",
+        "parameter",
+        "as found at",
+        "as found",
+        "as left at",
+        "as left",
+    ]);
+    for p in pairs {
+        md.row(p);
+    }
 }
 
 /// The machine's riskiest series (the first in axis and parameter order on ties).
