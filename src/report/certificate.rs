@@ -256,25 +256,21 @@ pub const TARGET_HEADER: [&str; 10] = [
     "target i", "P_i / mm", "x̄_i↑", "x̄_i↓", "B_i", "2s_i↑", "2s_i↓", "R_i↑", "R_i↓", "R_i",
 ];
 
-/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k).
-pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
-    let d = decimals(stats);
-    let f = |v: f64| format!("{v:.d$}");
-    let o = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
-    let u = budget.expanded();
-    let (l, t) = (u.along_travel_um, u.at_one_target_um);
-    let s = stats;
-    let v = &s.vdi;
-    // symbol, name, ↑, ↓, bidirectional, U
-    type Row = (
-        &'static str,
-        &'static str,
-        Option<f64>,
-        Option<f64>,
-        f64,
-        f64,
-    );
-    let rows: [Row; 12] = [
+/// An axis value as the certificate lists it: symbol, name, ↑, ↓, bidirectional, and
+/// which expanded uncertainty applies (`true`: along the travel, `false`: at one target).
+type AxisValue = (
+    &'static str,
+    &'static str,
+    Option<f64>,
+    Option<f64>,
+    f64,
+    bool,
+);
+
+/// ISO 230-2's axis values.
+fn iso_values(s: &AxisStats) -> [AxisValue; 6] {
+    let (l, t) = (true, false);
+    [
         (
             "E",
             "systematic positional deviation",
@@ -316,6 +312,14 @@ pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
             s.mean_reversal_um,
             t,
         ),
+    ]
+}
+
+/// VDI/DGQ 3441's values.
+fn vdi_values(s: &AxisStats) -> [AxisValue; 6] {
+    let (l, t) = (true, false);
+    let v = &s.vdi;
+    [
         (
             "P",
             "VDI/DGQ 3441 position uncertainty",
@@ -364,16 +368,30 @@ pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
             v.u_mean_um,
             t,
         ),
-    ];
-    rows.iter()
-        .map(|&(sym, name, up, down, bi, uu)| {
+    ]
+}
+
+/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k).
+pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
+    let d = decimals(stats);
+    let f = |v: f64| format!("{v:.d$}");
+    let o = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
+    let u = budget.expanded();
+    iso_values(stats)
+        .into_iter()
+        .chain(vdi_values(stats))
+        .map(|(sym, name, up, down, bi, travel)| {
             vec![
                 sym.to_string(),
                 name.to_string(),
                 o(up),
                 o(down),
                 f(bi),
-                f(uu),
+                f(if travel {
+                    u.along_travel_um
+                } else {
+                    u.at_one_target_um
+                }),
             ]
         })
         .collect()
@@ -393,11 +411,27 @@ pub fn render_with(
     if data.lines.is_empty() {
         return Err(CertificateError::NoLines(data.source.to_string()));
     }
-    let info = data.info;
     let mut flow = Flow {
         doc: Doc::new("Calibration certificate: positioning accuracy (ISO 230-2)")?,
         y: PAGE_H - MARGIN,
     };
+    title(&mut flow);
+    certificate_fields(&mut flow, data);
+    instruments(&mut flow, data.info);
+    environment(&mut flow, data);
+    for (k, line) in data.lines.iter().enumerate() {
+        line_pages(&mut flow, data.axis, k, line);
+    }
+    if let Some(c) = conformity {
+        conformity::section(&mut flow, data, c);
+    }
+    signatures(&mut flow);
+    footers(&mut flow, data.info);
+    Ok(flow.doc.finish()?)
+}
+
+/// The title and the standards the certificate follows.
+fn title(flow: &mut Flow) {
     flow.y -= 16.0;
     flow.doc.text(
         MARGIN,
@@ -414,8 +448,12 @@ pub fn render_with(
         Weight::Regular,
         "ISO 230-2:2014 (GB/T 17421.2-2016), VDI/DGQ 3441; uncertainty after ISO/TR 230-9 and the GUM",
     );
+}
+
+/// The certificate's fields: who, what, when, and which session.
+fn certificate_fields(flow: &mut Flow, data: &CertificateData) {
+    let info = data.info;
     let l = Align::Left;
-    let r = Align::Right;
     flow.heading("Certificate", 11.0);
     let field = |name: &str, v: &Option<String>| vec![name.to_string(), blank(v)];
     let lines_text = data
@@ -436,7 +474,11 @@ pub fn render_with(
         vec!["Session".into(), data.source.to_string()],
     ];
     flow.table(&["field", "value"], &fields, &[l, l], BODY);
+}
 
+/// The instruments and their calibrations.
+fn instruments(flow: &mut Flow, info: &CertificateInfo) {
+    let l = Align::Left;
     flow.heading("Instruments", 11.0);
     let s = &info.sensors;
     let instruments: Vec<Vec<String>> = [
@@ -458,7 +500,12 @@ pub fn render_with(
         &[l, l, l, l],
         BODY,
     );
+}
 
+/// The air and material temperatures over the test, and the sign convention.
+fn environment(flow: &mut Flow, data: &CertificateData) {
+    let l = Align::Left;
+    let r = Align::Right;
     flow.heading("Environment over the test", 11.0);
     type Col = (&'static str, fn(&SessionRow) -> Option<f64>);
     let cols: [Col; 5] = [
@@ -487,77 +534,80 @@ pub fn render_with(
          ↑ positive approach, ↓ negative approach; s with n − 1.",
         BODY - 1.0,
     );
+}
 
-    for (k, line) in data.lines.iter().enumerate() {
-        flow.doc.new_page();
-        flow.y = PAGE_H - MARGIN;
-        let stats = line.stats;
-        flow.heading(
-            &format!(
-                "Line {} at ({}, {}) mm — axis {}",
-                k + 1,
-                mm(line.line_mm.0),
-                mm(line.line_mm.1),
-                data.axis
-            ),
-            12.0,
-        );
-        let n_up = stats.targets.iter().map(|t| t.n_up).min().unwrap_or(0);
-        let n_down = stats.targets.iter().map(|t| t.n_down).min().unwrap_or(0);
-        flow.paragraph(
-            &format!(
-                "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
-                stats.targets.len()
-            ),
-            BODY,
-        );
-        flow.table(
-            &TARGET_HEADER,
-            &target_rows(stats),
-            &[r, r, r, r, r, r, r, r, r, r],
-            BODY - 1.0,
-        );
-        let u = line.budget.expanded();
-        let u_head = format!("U (k = {})", u.k);
-        flow.table(
-            &["symbol", "axis value", "↑", "↓", "bidirectional", &u_head],
-            &axis_rows(stats, line.budget),
-            &[l, l, r, r, r, r],
-            BODY - 1.0,
-        );
-        flow.paragraph(STANDARDS_NOTE, BODY - 2.0);
-        chart(&mut flow, stats, data.axis);
-        flow.heading("Measurement uncertainty", 11.0);
-        let d = decimals(stats);
-        let budget: Vec<Vec<String>> = budget_rows(line.budget, d)
-            .into_iter()
-            .map(|b| vec![b.name, b.input, b.sensitivity, b.u, b.u_travel_um])
-            .collect();
-        flow.table(
-            &["influence", "u(x_i)", "c_i", "u_i", "over travel / µm"],
-            &budget,
-            &[l, r, r, r, r],
-            BODY - 1.0,
-        );
-        flow.paragraph(
-            &format!(
-                "u_rel = {:.4} ppm (length terms), u_read = {:.d$} µm (reading terms). \
-                 U = k·√((u_rel·L)² + 2·u_read²): {:.d$} µm over the {} mm travel (E, M, A, P, \
-                 Pa), {:.d$} µm at one target (R, B, Ps, U). k = {}.",
-                line.budget.u_rel_ppm,
-                line.budget.u_read_um,
-                u.along_travel_um,
-                mm(u.travel_mm),
-                u.at_one_target_um,
-                u.k
-            ),
-            BODY - 1.0,
-        );
-    }
+/// One line's pages: its targets, axis values, chart and uncertainty budget.
+fn line_pages(flow: &mut Flow, axis: &str, k: usize, line: &LineResult) {
+    let l = Align::Left;
+    let r = Align::Right;
+    flow.doc.new_page();
+    flow.y = PAGE_H - MARGIN;
+    let stats = line.stats;
+    flow.heading(
+        &format!(
+            "Line {} at ({}, {}) mm — axis {}",
+            k + 1,
+            mm(line.line_mm.0),
+            mm(line.line_mm.1),
+            axis
+        ),
+        12.0,
+    );
+    let n_up = stats.targets.iter().map(|t| t.n_up).min().unwrap_or(0);
+    let n_down = stats.targets.iter().map(|t| t.n_down).min().unwrap_or(0);
+    flow.paragraph(
+        &format!(
+            "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
+            stats.targets.len()
+        ),
+        BODY,
+    );
+    flow.table(
+        &TARGET_HEADER,
+        &target_rows(stats),
+        &[r, r, r, r, r, r, r, r, r, r],
+        BODY - 1.0,
+    );
+    let u = line.budget.expanded();
+    let u_head = format!("U (k = {})", u.k);
+    flow.table(
+        &["symbol", "axis value", "↑", "↓", "bidirectional", &u_head],
+        &axis_rows(stats, line.budget),
+        &[l, l, r, r, r, r],
+        BODY - 1.0,
+    );
+    flow.paragraph(STANDARDS_NOTE, BODY - 2.0);
+    chart(flow, stats, axis);
+    flow.heading("Measurement uncertainty", 11.0);
+    let d = decimals(stats);
+    let budget: Vec<Vec<String>> = budget_rows(line.budget, d)
+        .into_iter()
+        .map(|b| vec![b.name, b.input, b.sensitivity, b.u, b.u_travel_um])
+        .collect();
+    flow.table(
+        &["influence", "u(x_i)", "c_i", "u_i", "over travel / µm"],
+        &budget,
+        &[l, r, r, r, r],
+        BODY - 1.0,
+    );
+    flow.paragraph(
+        &format!(
+            "u_rel = {:.4} ppm (length terms), u_read = {:.d$} µm (reading terms). \
+             U = k·√((u_rel·L)² + 2·u_read²): {:.d$} µm over the {} mm travel (E, M, A, P, \
+             Pa), {:.d$} µm at one target (R, B, Ps, U). k = {}.",
+            line.budget.u_rel_ppm,
+            line.budget.u_read_um,
+            u.along_travel_um,
+            mm(u.travel_mm),
+            u.at_one_target_um,
+            u.k
+        ),
+        BODY - 1.0,
+    );
+}
 
-    if let Some(c) = conformity {
-        conformity::section(&mut flow, data, c);
-    }
+/// The signature lines, on the last page.
+fn signatures(flow: &mut Flow) {
     flow.need(90.0);
     flow.heading("Signatures", 11.0);
     flow.y -= 36.0;
@@ -570,7 +620,10 @@ pub fn render_with(
         flow.doc
             .text(x, flow.y - 11.0, BODY - 1.0, Weight::Regular, label);
     }
+}
 
+/// `Certificate N · page i of n` at the foot of every page.
+fn footers(flow: &mut Flow, info: &CertificateInfo) {
     let pages = flow.doc.page_count();
     let number = blank(&info.certificate_number);
     for p in 0..pages {
@@ -584,7 +637,6 @@ pub fn render_with(
             &footer,
         );
     }
-    Ok(flow.doc.finish()?)
 }
 
 /// Writes the certificate to `path`.
