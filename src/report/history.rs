@@ -284,15 +284,54 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
         .map(|s| time::parse_utc(&s.at).unwrap_or(0))
         .collect();
     let origin = t.first().copied().unwrap_or(0);
-    let year = 365.25 * 86_400.0;
-    let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / year).collect();
+    let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / YEAR_S).collect();
+    let mut series = chart_series(axis, p, &x);
+    series.extend(alarm_series(p, &x));
+    let x_end = x.last().copied().unwrap_or(0.0);
+    series.extend(trend_and_tolerance(p, origin, x_end));
+    let first = p.series.first().map(|s| &s.at[..10]).unwrap_or("");
+    Ok(plot::xy(
+        stem,
+        &format!(
+            "{} — {axis} {} ({}), advice {}",
+            m.id,
+            p.name,
+            p.unit,
+            m.advice.as_str()
+        ),
+        &format!("years since {first}"),
+        &format!("{} ({})", p.name, p.unit),
+        &series,
+    )?)
+}
+
+/// Seconds in a (Julian) year: the figures' time axis is in years.
+const YEAR_S: f64 = 365.25 * 86_400.0;
+
+/// A line in palette colour `colour`, dashed or solid, without markers.
+fn styled(name: String, x: Vec<f64>, y: Vec<f64>, colour: usize, dashed: bool) -> XySeries {
+    XySeries {
+        name,
+        x,
+        y,
+        style: XyStyle::Styled {
+            colour,
+            dashed,
+            markers: false,
+        },
+    }
+}
+
+/// The series itself with markers, its EWMA, and the EWMA's control limits (the lower
+/// one unnamed, so the legend lists the limits once).
+fn chart_series(axis: &str, p: &ParameterReport, x: &[f64]) -> Vec<XySeries> {
     let col = |f: fn(&crate::history::report::SeriesPoint) -> Option<f64>| -> Vec<f64> {
         p.series.iter().map(|s| f(s).unwrap_or(f64::NAN)).collect()
     };
-    let mut series = vec![
+    vec![
         XySeries {
             name: format!("{axis} {}", p.name),
-            x: x.clone(),
+            x: x.to_vec(),
             y: p.series.iter().map(|s| s.value).collect(),
             style: XyStyle::Styled {
                 colour: 0,
@@ -300,37 +339,14 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
                 markers: true,
             },
         },
-        XySeries {
-            name: "EWMA".into(),
-            x: x.clone(),
-            y: col(|s| s.ewma),
-            style: XyStyle::Styled {
-                colour: 1,
-                dashed: false,
-                markers: false,
-            },
-        },
-        XySeries {
-            name: "EWMA limits".into(),
-            x: x.clone(),
-            y: col(|s| s.ucl),
-            style: XyStyle::Styled {
-                colour: 2,
-                dashed: true,
-                markers: false,
-            },
-        },
-        XySeries {
-            name: "".into(),
-            x: x.clone(),
-            y: col(|s| s.lcl),
-            style: XyStyle::Styled {
-                colour: 2,
-                dashed: true,
-                markers: false,
-            },
-        },
-    ];
+        styled("EWMA".into(), x.to_vec(), col(|s| s.ewma), 1, false),
+        styled("EWMA limits".into(), x.to_vec(), col(|s| s.ucl), 2, true),
+        styled("".into(), x.to_vec(), col(|s| s.lcl), 2, true),
+    ]
+}
+
+/// The points that raised an alarm, when any did.
+fn alarm_series(p: &ParameterReport, x: &[f64]) -> Option<XySeries> {
     let alarm_x: Vec<f64> = p
         .alarms
         .iter()
@@ -351,56 +367,40 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
                 .map(|s| s.value)
         })
         .collect();
-    if !alarm_x.is_empty() {
-        series.push(XySeries {
-            name: "alarm".into(),
-            x: alarm_x,
-            y: alarm_y,
-            style: XyStyle::Points,
-        });
-    }
-    let x_end = x.last().copied().unwrap_or(0.0);
+    (!alarm_x.is_empty()).then(|| XySeries {
+        name: "alarm".into(),
+        x: alarm_x,
+        y: alarm_y,
+        style: XyStyle::Points,
+    })
+}
+
+/// The trend line from the start of its fit to the last point, and the tolerance, each
+/// when there is one.
+fn trend_and_tolerance(p: &ParameterReport, origin: i64, x_end: f64) -> Vec<XySeries> {
+    let mut series = Vec::new();
     if let Some((o, tr)) = &p.fit {
-        let shift = (*o - origin) as f64 / year;
+        let shift = (*o - origin) as f64 / YEAR_S;
         let x0 = shift;
         let line = |xx: f64| tr.y_mean + tr.slope * (xx - shift - tr.t_mean);
-        series.push(XySeries {
-            name: format!("trend {:+.3}/year", tr.slope),
-            x: vec![x0, x_end],
-            y: vec![line(x0), line(x_end)],
-            style: XyStyle::Styled {
-                colour: 3,
-                dashed: false,
-                markers: false,
-            },
-        });
+        series.push(styled(
+            format!("trend {:+.3}/year", tr.slope),
+            vec![x0, x_end],
+            vec![line(x0), line(x_end)],
+            3,
+            false,
+        ));
     }
     if let Some(tol) = p.tolerance {
-        series.push(XySeries {
-            name: "tolerance".into(),
-            x: vec![0.0, x_end.max(1e-3)],
-            y: vec![tol, tol],
-            style: XyStyle::Styled {
-                colour: 4,
-                dashed: true,
-                markers: false,
-            },
-        });
+        series.push(styled(
+            "tolerance".into(),
+            vec![0.0, x_end.max(1e-3)],
+            vec![tol, tol],
+            4,
+            true,
+        ));
     }
-    let first = p.series.first().map(|s| &s.at[..10]).unwrap_or("");
-    Ok(plot::xy(
-        stem,
-        &format!(
-            "{} — {axis} {} ({}), advice {}",
-            m.id,
-            p.name,
-            p.unit,
-            m.advice.as_str()
-        ),
-        &format!("years since {first}"),
-        &format!("{} ({})", p.name, p.unit),
-        &series,
-    )?)
+    series
 }
 
 /// `<stem>.png`/`.svg`: the riskiest machines' risk.
