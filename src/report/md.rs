@@ -10,17 +10,6 @@
 
 use std::fmt::{Display, Write as _};
 
-impl From<char> for Align {
-    /// `r` is [`Align::Right`], anything else [`Align::Default`].
-    fn from(c: char) -> Self {
-        if c == 'r' {
-            Align::Right
-        } else {
-            Align::Default
-        }
-    }
-}
-
 /// A Markdown document being written.
 #[derive(Debug, Default, Clone)]
 pub struct Md {
@@ -36,6 +25,17 @@ pub enum Align {
     Right,
 }
 
+impl From<char> for Align {
+    /// `r` is [`Align::Right`], anything else [`Align::Default`].
+    fn from(c: char) -> Self {
+        if c == 'r' {
+            Align::Right
+        } else {
+            Align::Default
+        }
+    }
+}
+
 impl Md {
     /// An empty document.
     pub fn new() -> Self {
@@ -47,7 +47,7 @@ impl Md {
         self.s
     }
 
-    /// The text written so far, borrowed (to test what a section wrote).
+    /// The text written so far, borrowed (to write it out without giving up the writer).
     pub fn as_str(&self) -> &str {
         &self.s
     }
