@@ -70,7 +70,7 @@ pub use text::register_fonts;
 
 use std::path::{Path, PathBuf};
 
-use plotters::style::FontStyle;
+use plotters::style::{FontStyle, RGBColor};
 
 use draw::{
     Frame, LegendEntry, Marker, PALETTE, Prim, Sample, legend_width, push_lines, series_look,
@@ -231,26 +231,12 @@ pub fn category_lines(
     }
     fonts_ready()?;
 
-    let mut extent = Extent::default();
-    for s in series {
-        for (i, &y) in s.y.iter().enumerate() {
-            if y.is_finite() {
-                extent.add(y);
-                if let Some(e) = err_at(s, i) {
-                    extent.add(y - e);
-                    extent.add(y + e);
-                }
-            }
-        }
-    }
-    let (lo, hi) = extent.get().ok_or(PlotError::NoFiniteValues)?;
+    let (lo, hi) = error_extent(series).ok_or(PlotError::NoFiniteValues)?;
     let (lo, hi) = padded_range(lo, hi, true, true)?;
     let x_area = x_label_area(!x_label.is_empty());
     let y_axis = Axis::linear(lo, hi, plot_height(HEIGHT, x_area), false);
 
     let hl = |i: usize| highlight.get(i).copied().unwrap_or(false);
-    let any_highlight = (0..n).any(hl);
-
     let mut legend: Vec<LegendEntry> = series
         .iter()
         .enumerate()
@@ -265,7 +251,7 @@ pub fn category_lines(
             }
         })
         .collect();
-    if any_highlight {
+    if (0..n).any(hl) {
         let label = if highlight_label.is_empty() {
             "highlighted"
         } else {
@@ -282,8 +268,39 @@ pub fn category_lines(
     let positions: Vec<f64> = (0..n).map(|i| i as f64).collect();
     let x_axis = Axis::category(categories, &positions, -0.5, n as f64 - 0.5, plot_w, None);
 
+    let mut prims = highlight_bands(n, &hl);
+    category_series_prims(&mut prims, series, &hl);
+
+    let frame = Frame::standard(
+        [title, x_label, y_label],
+        (x_axis, x_area),
+        (y_axis, y_area),
+        legend,
+        legend_width,
+    );
+    write_both(stem, &frame, &prims)
+}
+
+/// The range of the series' finite values and of their error bars.
+fn error_extent(series: &[Series]) -> Option<(f64, f64)> {
+    let mut extent = Extent::default();
+    for s in series {
+        for (i, &y) in s.y.iter().enumerate() {
+            if y.is_finite() {
+                extent.add(y);
+                if let Some(e) = err_at(s, i) {
+                    extent.add(y - e);
+                    extent.add(y + e);
+                }
+            }
+        }
+    }
+    extent.get()
+}
+
+/// Shaded bands, one per run of consecutive highlighted categories.
+fn highlight_bands(n: usize, hl: &dyn Fn(usize) -> bool) -> Vec<Prim> {
     let mut prims = Vec::new();
-    // Shaded bands, one per run of consecutive highlighted categories.
     let mut i = 0;
     while i < n {
         if hl(i) {
@@ -299,6 +316,12 @@ pub fn category_lines(
             i += 1;
         }
     }
+    prims
+}
+
+/// Every series' line, then its error bars and markers (hollow on highlighted
+/// categories), each series shifted sideways a little when error bars would overlap.
+fn category_series_prims(prims: &mut Vec<Prim>, series: &[Series], hl: &dyn Fn(usize) -> bool) {
     let m = series.len();
     let dodge = if m > 1 && series.iter().any(|s| s.y_err.is_some()) {
         (0.3 / (m - 1) as f64).min(0.08)
@@ -313,7 +336,7 @@ pub fn category_lines(
                 .enumerate()
                 .map(|(i, &y)| y.is_finite().then_some((i as f64 + dx, y)))
                 .collect();
-        push_lines(&mut prims, &pts, color, false);
+        push_lines(prims, &pts, color, false);
     }
     for (k, s) in series.iter().enumerate() {
         let (color, marker) = series_look(k);
@@ -338,15 +361,6 @@ pub fn category_lines(
             });
         }
     }
-
-    let frame = Frame::standard(
-        [title, x_label, y_label],
-        (x_axis, x_area),
-        (y_axis, y_area),
-        legend,
-        legend_width,
-    );
-    write_both(stem, &frame, &prims)
 }
 
 /// Bar chart of one value per label (e.g. cross-validated RMS per interpolation order).
@@ -389,55 +403,89 @@ pub fn bars(
     }
     fonts_ready()?;
 
-    let finite_values = || {
-        values
-            .iter()
-            .chain(markers.iter().flat_map(|s| s.y.iter()))
-            .copied()
-            .filter(|v| v.is_finite())
-    };
-    if finite_values().next().is_none() {
-        return Err(PlotError::NoFiniteValues);
-    }
-    let log = log_y && finite_values().all(|v| v > 0.0);
+    let scale = ValueScale::of(values, markers, log_y)?;
+    let legend = bars_legend(y_label, markers);
+    let layout = bar_layout(title, y_label, labels, &scale, legend)?;
+    let prims = bar_prims(&layout, &scale, values, markers);
+    write_both(stem, &layout.frame, &prims)
+}
 
-    // Value extent (in data units), including marker error bars where they can be shown.
-    let mut extent = Extent::default();
-    for v in finite_values() {
-        extent.add(v);
-    }
-    if let Some(s) = markers {
-        for (i, &y) in s.y.iter().enumerate() {
-            if let (true, Some(e)) = (y.is_finite(), err_at(s, i)) {
-                extent.add(y + e);
-                if !log || y - e > 0.0 {
-                    extent.add(y - e);
+/// The bars' colour, and the markers' colour and shape.
+const BAR_COLOR: RGBColor = PALETTE[0];
+const MARK_COLOR: RGBColor = PALETTE[1];
+const MARK_SHAPE: Marker = Marker::Diamond;
+
+/// The value axis of a bar chart: logarithmic when asked for and every value is
+/// positive, otherwise linear and padded to include zero.
+#[derive(Debug, Clone, Copy)]
+struct ValueScale {
+    log: bool,
+    vmin: f64,
+    vmax: f64,
+    /// The linear axis's range; `None` on a log axis.
+    linear: Option<(f64, f64)>,
+}
+
+impl ValueScale {
+    /// The scale of the bars' values and the markers' (with their error bars where
+    /// they can be shown).
+    fn of(values: &[f64], markers: Option<&Series>, log_y: bool) -> Result<Self, PlotError> {
+        let finite_values = || {
+            values
+                .iter()
+                .chain(markers.iter().flat_map(|s| s.y.iter()))
+                .copied()
+                .filter(|v| v.is_finite())
+        };
+        if finite_values().next().is_none() {
+            return Err(PlotError::NoFiniteValues);
+        }
+        let log = log_y && finite_values().all(|v| v > 0.0);
+        let mut extent = Extent::default();
+        for v in finite_values() {
+            extent.add(v);
+        }
+        if let Some(s) = markers {
+            for (i, &y) in s.y.iter().enumerate() {
+                if let (true, Some(e)) = (y.is_finite(), err_at(s, i)) {
+                    extent.add(y + e);
+                    if !log || y - e > 0.0 {
+                        extent.add(y - e);
+                    }
                 }
             }
         }
+        let (vmin, vmax) = extent.get().ok_or(PlotError::NoFiniteValues)?;
+        let linear = if log {
+            None
+        } else {
+            Some(padded_range(
+                vmin.min(0.0),
+                vmax.max(0.0),
+                vmin < 0.0,
+                vmax > 0.0,
+            )?)
+        };
+        Ok(Self {
+            log,
+            vmin,
+            vmax,
+            linear,
+        })
     }
-    let (vmin, vmax) = extent.get().ok_or(PlotError::NoFiniteValues)?;
-    let linear_range = if log {
-        None
-    } else {
-        Some(padded_range(
-            vmin.min(0.0),
-            vmax.max(0.0),
-            vmin < 0.0,
-            vmax > 0.0,
-        )?)
-    };
-    let value_axis_for = |length: f64, along_x: bool| -> Result<Axis, PlotError> {
-        match linear_range {
-            Some((lo, hi)) => Ok(Axis::linear(lo, hi, length, along_x)),
-            None => Axis::log(vmin, vmax),
-        }
-    };
 
-    let bar_color = PALETTE[0];
-    let mark_color = PALETTE[1];
-    let mark_shape = Marker::Diamond;
-    let legend: Vec<LegendEntry> = match markers {
+    /// The value axis over `length` pixels.
+    fn axis(&self, length: f64, along_x: bool) -> Result<Axis, PlotError> {
+        match self.linear {
+            Some((lo, hi)) => Ok(Axis::linear(lo, hi, length, along_x)),
+            None => Axis::log(self.vmin, self.vmax),
+        }
+    }
+}
+
+/// The legend of a bar chart: only with markers, to tell them from the bars.
+fn bars_legend(y_label: &str, markers: Option<&Series>) -> Vec<LegendEntry> {
+    match markers {
         Some(s) => vec![
             LegendEntry {
                 label: if y_label.is_empty() {
@@ -445,22 +493,40 @@ pub fn bars(
                 } else {
                     y_label.to_owned()
                 },
-                sample: Sample::Bar { color: bar_color },
+                sample: Sample::Bar { color: BAR_COLOR },
             },
             LegendEntry {
                 label: s.name.clone(),
                 sample: Sample::Marker {
-                    color: mark_color,
-                    marker: mark_shape,
+                    color: MARK_COLOR,
+                    marker: MARK_SHAPE,
                 },
             },
         ],
         None => Vec::new(),
-    };
-    let legend_width = legend_width(&legend);
+    }
+}
 
-    // Vertical bars if every label fits under its bar, horizontal bars otherwise.
-    let vertical_value_axis = value_axis_for(plot_height(HEIGHT, x_label_area(false)), false)?;
+/// A bar chart's frame, its orientation, each label's category coordinate, and the
+/// pixels per category.
+struct BarLayout {
+    frame: Frame,
+    vertical: bool,
+    positions: Vec<f64>,
+    slot_px: f64,
+}
+
+/// Vertical bars if every label fits under its bar, horizontal bars otherwise.
+fn bar_layout(
+    title: &str,
+    y_label: &str,
+    labels: &[String],
+    scale: &ValueScale,
+    legend: Vec<LegendEntry>,
+) -> Result<BarLayout, PlotError> {
+    let n = labels.len();
+    let legend_width = legend_width(&legend);
+    let vertical_value_axis = scale.axis(plot_height(HEIGHT, x_label_area(false)), false)?;
     let vertical_y_area = y_label_area(&vertical_value_axis, !y_label.is_empty());
     let vertical_plot_w = plot_width(legend_width, vertical_y_area);
     let max_label_w = labels
@@ -474,9 +540,6 @@ pub fn bars(
     let positions: Vec<f64> = (0..n)
         .map(|i| if vertical { i } else { n - 1 - i } as f64)
         .collect();
-    let (cat_lo, cat_hi) = (-0.5, n as f64 - 0.5);
-    // (x, y) of a point at category coordinate `c` and value-axis coordinate `v`.
-    let pt = |c: f64, v: f64| if vertical { (c, v) } else { (v, c) };
     let frame = if vertical {
         Frame {
             title: title.to_owned(),
@@ -485,7 +548,14 @@ pub fn bars(
             height: HEIGHT,
             x_area: x_label_area(false),
             y_area: vertical_y_area,
-            x: Axis::category(labels, &positions, cat_lo, cat_hi, vertical_plot_w, None),
+            x: Axis::category(
+                labels,
+                &positions,
+                -0.5,
+                n as f64 - 0.5,
+                vertical_plot_w,
+                None,
+            ),
             y: vertical_value_axis,
             x_grid: false,
             y_grid: true,
@@ -493,54 +563,92 @@ pub fn bars(
             legend_width,
         }
     } else {
-        // Taller than usual when there are many labels, so that every one stays readable.
-        let x_area = x_label_area(!y_label.is_empty());
-        let needed = n as f64 * MIN_ROW_PX;
-        let available = plot_height(HEIGHT, x_area);
-        let height = if needed > available {
-            (f64::from(HEIGHT) + needed - available)
-                .ceil()
-                .min(f64::from(MAX_HEIGHT)) as u32
-        } else {
-            HEIGHT
-        };
-        let cat_axis = Axis::category(
-            labels,
-            &positions,
-            cat_lo,
-            cat_hi,
-            plot_height(height, x_area),
-            Some(f64::from(WIDTH) * 0.4),
-        );
-        let y_area = y_label_area(&cat_axis, false);
-        Frame {
-            title: title.to_owned(),
-            x_desc: y_label.to_owned(),
-            y_desc: String::new(),
-            height,
-            x_area,
-            y_area,
-            x: value_axis_for(plot_width(legend_width, y_area), true)?,
-            y: cat_axis,
-            x_grid: true,
-            y_grid: false,
-            legend,
-            legend_width,
-        }
+        horizontal_bar_frame(title, y_label, labels, &positions, scale, legend)?
     };
-    let value_axis = if vertical { &frame.y } else { &frame.x };
-    // Coordinate of a value on the value axis (log10 on a log axis).
-    let vc = |v: f64| value_axis.coord(v);
-    let base = if log { value_axis.lo } else { 0.0 };
-
-    // Bar and marker offsets across the category, in category units; with few bars
-    // they are kept to a slot of about 150 pixels.
     let slot_px = if vertical {
         vertical_plot_w
     } else {
         plot_height(frame.height, frame.x_area)
     } / n as f64;
-    let shrink = (150.0 / slot_px).min(1.0);
+    Ok(BarLayout {
+        frame,
+        vertical,
+        positions,
+        slot_px,
+    })
+}
+
+/// The frame of horizontal bars: taller than usual when there are many labels, so that
+/// every one stays readable.
+fn horizontal_bar_frame(
+    title: &str,
+    y_label: &str,
+    labels: &[String],
+    positions: &[f64],
+    scale: &ValueScale,
+    legend: Vec<LegendEntry>,
+) -> Result<Frame, PlotError> {
+    let n = labels.len();
+    let legend_width = legend_width(&legend);
+    let x_area = x_label_area(!y_label.is_empty());
+    let needed = n as f64 * MIN_ROW_PX;
+    let available = plot_height(HEIGHT, x_area);
+    let height = if needed > available {
+        (f64::from(HEIGHT) + needed - available)
+            .ceil()
+            .min(f64::from(MAX_HEIGHT)) as u32
+    } else {
+        HEIGHT
+    };
+    let cat_axis = Axis::category(
+        labels,
+        positions,
+        -0.5,
+        n as f64 - 0.5,
+        plot_height(height, x_area),
+        Some(f64::from(WIDTH) * 0.4),
+    );
+    let y_area = y_label_area(&cat_axis, false);
+    Ok(Frame {
+        title: title.to_owned(),
+        x_desc: y_label.to_owned(),
+        y_desc: String::new(),
+        height,
+        x_area,
+        y_area,
+        x: scale.axis(plot_width(legend_width, y_area), true)?,
+        y: cat_axis,
+        x_grid: true,
+        y_grid: false,
+        legend,
+        legend_width,
+    })
+}
+
+/// The bars (from zero, or from the axis's bottom on a log axis), a zero line for signed
+/// values, and the markers with their error bars.
+fn bar_prims(
+    layout: &BarLayout,
+    scale: &ValueScale,
+    values: &[f64],
+    markers: Option<&Series>,
+) -> Vec<Prim> {
+    let (vertical, positions) = (layout.vertical, &layout.positions);
+    let (cat_lo, cat_hi) = (-0.5, positions.len() as f64 - 0.5);
+    // (x, y) of a point at category coordinate `c` and value-axis coordinate `v`.
+    let pt = |c: f64, v: f64| if vertical { (c, v) } else { (v, c) };
+    let value_axis = if vertical {
+        &layout.frame.y
+    } else {
+        &layout.frame.x
+    };
+    // Coordinate of a value on the value axis (log10 on a log axis).
+    let vc = |v: f64| value_axis.coord(v);
+    let base = if scale.log { value_axis.lo } else { 0.0 };
+
+    // Bar and marker offsets across the category, in category units; with few bars
+    // they are kept to a slot of about 150 pixels.
+    let shrink = (150.0 / layout.slot_px).min(1.0);
     let (bar_c, bar_half, mark_off) = if markers.is_some() {
         (-0.12 * shrink, 0.25 * shrink, 0.25 * shrink)
     } else {
@@ -548,14 +656,14 @@ pub fn bars(
     };
 
     let mut prims = Vec::new();
-    if linear_range.is_some_and(|(lo, _)| lo < 0.0) {
+    if scale.linear.is_some_and(|(lo, _)| lo < 0.0) {
         // Signed values: a zero line to grow the bars from.
         prims.push(Prim::Zero {
             a: pt(cat_lo, 0.0),
             b: pt(cat_hi, 0.0),
         });
     }
-    for (&v, &p) in values.iter().zip(&positions) {
+    for (&v, &p) in values.iter().zip(positions) {
         if !v.is_finite() {
             continue;
         }
@@ -563,37 +671,37 @@ pub fn bars(
         prims.push(Prim::Rect {
             a: pt(c - bar_half, base),
             b: pt(c + bar_half, vc(v)),
-            color: bar_color,
+            color: BAR_COLOR,
         });
     }
-    if let Some(s) = markers {
-        for (i, (&y, &p)) in s.y.iter().zip(&positions).enumerate() {
-            if !y.is_finite() {
-                continue;
-            }
-            let c = p + mark_off;
-            if let Some(e) = err_at(s, i) {
-                let low = if log && y - e <= 0.0 {
-                    value_axis.lo
-                } else {
-                    vc(y - e)
-                };
-                prims.push(Prim::ErrBar {
-                    from: pt(c, low),
-                    to: pt(c, vc(y + e)),
-                    color: mark_color,
-                });
-            }
-            prims.push(Prim::Marker {
-                at: pt(c, vc(y)),
-                marker: mark_shape,
-                color: mark_color,
-                filled: true,
+    let Some(s) = markers else {
+        return prims;
+    };
+    for (i, (&y, &p)) in s.y.iter().zip(positions).enumerate() {
+        if !y.is_finite() {
+            continue;
+        }
+        let c = p + mark_off;
+        if let Some(e) = err_at(s, i) {
+            let low = if scale.log && y - e <= 0.0 {
+                value_axis.lo
+            } else {
+                vc(y - e)
+            };
+            prims.push(Prim::ErrBar {
+                from: pt(c, low),
+                to: pt(c, vc(y + e)),
+                color: MARK_COLOR,
             });
         }
+        prims.push(Prim::Marker {
+            at: pt(c, vc(y)),
+            marker: MARK_SHAPE,
+            color: MARK_COLOR,
+            filled: true,
+        });
     }
-
-    write_both(stem, &frame, &prims)
+    prims
 }
 
 /// Generic x–y chart: several series, each with its own x values, drawn as points or lines.
@@ -615,16 +723,10 @@ pub fn xy(
     }
     fonts_ready()?;
 
-    let finite = |s: &XySeries| -> Vec<Option<(f64, f64)>> {
-        s.x.iter()
-            .zip(&s.y)
-            .map(|(&x, &y)| (x.is_finite() && y.is_finite()).then_some((x, y)))
-            .collect()
-    };
     let mut ex = Extent::default();
     let mut ey = Extent::default();
     for s in series {
-        for (x, y) in finite(s).into_iter().flatten() {
+        for (x, y) in finite_points(s).into_iter().flatten() {
             ex.add(x);
             ey.add(y);
         }
@@ -641,32 +743,9 @@ pub fn xy(
     let legend: Vec<LegendEntry> = series
         .iter()
         .enumerate()
-        .map(|(k, s)| {
-            let (color, marker) = series_look(k);
-            let sample = match s.style {
-                XyStyle::Points => Sample::Marker { color, marker },
-                XyStyle::Line => Sample::Line {
-                    color,
-                    marker: None,
-                },
-                XyStyle::Styled {
-                    colour,
-                    dashed,
-                    markers,
-                } => {
-                    let (color, marker) = series_look(colour % PALETTE.len());
-                    let marker = markers.then_some(marker);
-                    if dashed {
-                        Sample::Dashed { color, marker }
-                    } else {
-                        Sample::Line { color, marker }
-                    }
-                }
-            };
-            LegendEntry {
-                label: s.name.clone(),
-                sample,
-            }
+        .map(|(k, s)| LegendEntry {
+            label: s.name.clone(),
+            sample: xy_sample(k, s.style),
         })
         .collect();
     let legend_width = legend_width(&legend);
@@ -674,69 +753,17 @@ pub fn xy(
     let plot_w = plot_width(legend_width, y_area);
     let x_axis = Axis::linear(xlo, xhi, plot_w, true);
 
+    let to_px = PxMap {
+        xlo,
+        xhi,
+        ylo,
+        yhi,
+        w: plot_w,
+        h: plot_height(HEIGHT, x_area),
+    };
     let mut prims = Vec::new();
     for (k, s) in series.iter().enumerate() {
-        let (color, marker) = series_look(k);
-        let pts = finite(s);
-        match s.style {
-            XyStyle::Line => push_lines(&mut prims, &pts, color, true),
-            XyStyle::Styled {
-                colour,
-                dashed,
-                markers,
-            } => {
-                let (color, marker) = series_look(colour % PALETTE.len());
-                if dashed {
-                    let plot_h = plot_height(HEIGHT, x_area);
-                    let to_px = |(x, y): (f64, f64)| {
-                        (
-                            (x - xlo) / (xhi - xlo) * plot_w,
-                            (y - ylo) / (yhi - ylo) * plot_h,
-                        )
-                    };
-                    for run in pts.split(|p| p.is_none()) {
-                        let run: Vec<(f64, f64)> = run.iter().flatten().copied().collect();
-                        for pts in dashes(&run, to_px, DASH_PX, GAP_PX) {
-                            prims.push(Prim::Line { pts, color });
-                        }
-                    }
-                } else {
-                    push_lines(&mut prims, &pts, color, !markers);
-                }
-                if markers {
-                    for at in pts.iter().flatten() {
-                        prims.push(Prim::Marker {
-                            at: *at,
-                            marker,
-                            color,
-                            filled: true,
-                        });
-                    }
-                }
-            }
-            XyStyle::Points => {
-                // A marker whose grid cell of 2.5 px (half its radius) already holds one of
-                // the same series adds almost nothing visible: drop it, so a 100 000-point
-                // scatter stays a small SVG and looks the same.
-                let plot_h = plot_height(HEIGHT, x_area);
-                let mut seen = std::collections::HashSet::new();
-                for at in pts.into_iter().flatten() {
-                    let cell = (
-                        ((at.0 - xlo) / (xhi - xlo) * plot_w / THIN_PX).floor() as i64,
-                        ((at.1 - ylo) / (yhi - ylo) * plot_h / THIN_PX).floor() as i64,
-                    );
-                    if !seen.insert(cell) {
-                        continue;
-                    }
-                    prims.push(Prim::Marker {
-                        at,
-                        marker,
-                        color,
-                        filled: true,
-                    });
-                }
-            }
-        }
+        xy_series_prims(&mut prims, k, s, to_px);
     }
 
     let frame = Frame::standard(
@@ -747,6 +774,124 @@ pub fn xy(
         legend_width,
     );
     write_both(stem, &frame, &prims)
+}
+
+/// A series' points, `None` where x or y is not finite (a break in its line).
+fn finite_points(s: &XySeries) -> Vec<Option<(f64, f64)>> {
+    s.x.iter()
+        .zip(&s.y)
+        .map(|(&x, &y)| (x.is_finite() && y.is_finite()).then_some((x, y)))
+        .collect()
+}
+
+/// Where a value lands in the plot area, in pixels from its lower left corner: the
+/// data range and the area's size, for dashing lines and thinning scatters.
+#[derive(Debug, Clone, Copy)]
+struct PxMap {
+    xlo: f64,
+    xhi: f64,
+    ylo: f64,
+    yhi: f64,
+    w: f64,
+    h: f64,
+}
+
+impl PxMap {
+    fn px(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        (
+            (x - self.xlo) / (self.xhi - self.xlo) * self.w,
+            (y - self.ylo) / (self.yhi - self.ylo) * self.h,
+        )
+    }
+}
+
+/// The legend's sample of series `k` drawn in `style`.
+fn xy_sample(k: usize, style: XyStyle) -> Sample {
+    let (color, marker) = series_look(k);
+    match style {
+        XyStyle::Points => Sample::Marker { color, marker },
+        XyStyle::Line => Sample::Line {
+            color,
+            marker: None,
+        },
+        XyStyle::Styled {
+            colour,
+            dashed,
+            markers,
+        } => {
+            let (color, marker) = series_look(colour % PALETTE.len());
+            let marker = markers.then_some(marker);
+            if dashed {
+                Sample::Dashed { color, marker }
+            } else {
+                Sample::Line { color, marker }
+            }
+        }
+    }
+}
+
+/// The primitives of series `k`: its line (solid or dashed), its markers, or its
+/// thinned scatter.
+fn xy_series_prims(prims: &mut Vec<Prim>, k: usize, s: &XySeries, to_px: PxMap) {
+    let (color, marker) = series_look(k);
+    let pts = finite_points(s);
+    match s.style {
+        XyStyle::Line => push_lines(prims, &pts, color, true),
+        XyStyle::Styled {
+            colour,
+            dashed,
+            markers,
+        } => {
+            let (color, marker) = series_look(colour % PALETTE.len());
+            if dashed {
+                for run in pts.split(|p| p.is_none()) {
+                    let run: Vec<(f64, f64)> = run.iter().flatten().copied().collect();
+                    for pts in dashes(&run, |p| to_px.px(p), DASH_PX, GAP_PX) {
+                        prims.push(Prim::Line { pts, color });
+                    }
+                }
+            } else {
+                push_lines(prims, &pts, color, !markers);
+            }
+            if markers {
+                for at in pts.iter().flatten() {
+                    prims.push(Prim::Marker {
+                        at: *at,
+                        marker,
+                        color,
+                        filled: true,
+                    });
+                }
+            }
+        }
+        XyStyle::Points => push_thinned(prims, &pts, marker, color, to_px),
+    }
+}
+
+/// Scatter markers, thinned: a marker whose grid cell of 2.5 px (half its radius)
+/// already holds one of the same series adds almost nothing visible, so it is dropped
+/// and a 100 000-point scatter stays a small SVG that looks the same.
+fn push_thinned(
+    prims: &mut Vec<Prim>,
+    pts: &[Option<(f64, f64)>],
+    marker: Marker,
+    color: RGBColor,
+    to_px: PxMap,
+) {
+    let mut seen = std::collections::HashSet::new();
+    for &at in pts.iter().flatten() {
+        let (px, py) = to_px.px(at);
+        let cell = ((px / THIN_PX).floor() as i64, (py / THIN_PX).floor() as i64);
+        if !seen.insert(cell) {
+            continue;
+        }
+        prims.push(Prim::Marker {
+            at,
+            marker,
+            color,
+            filled: true,
+        });
+    }
 }
 
 // ---------------------------------------------------------------------------------------

@@ -3,12 +3,12 @@
 //! chart of the error against the length with the ±MPE lines as the standard draws them,
 //! plus the acceptance limits ±(MPE − w) where a guard band applies.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 
 use super::ReportError;
+use super::md::Md;
 use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::predicted::{VirtualMeasurement, VirtualTest};
 use crate::acceptance::{DecisionRule, Mpe, Rule};
@@ -129,6 +129,14 @@ pub fn write_iso10360_report(
 ) -> Result<Vec<PathBuf>, ReportError> {
     create(dir)?;
     let mut files = vec![dir.join("report.md")];
+    files.push(measured_csv(dir, r)?);
+    files.extend(e0_chart(dir, r, rule)?);
+    super::write_text(&files[0], &measured_markdown(source, r))?;
+    Ok(files)
+}
+
+/// `measurements.csv` of a measured test: one row per measurement with its verdict.
+fn measured_csv(dir: &Path, r: &TestResult) -> Result<PathBuf, ReportError> {
     let csv = dir.join("measurements.csv");
     let m = &r.measurements;
     let mut df = DataFrame::new(
@@ -175,27 +183,59 @@ pub fn write_iso10360_report(
     )
     .map_err(|e| crate::table::format_err(&csv, e))?;
     crate::table::write_frame(&csv, &mut df)?;
-    files.push(csv);
-    files.extend(e0_chart(dir, r, rule)?);
+    Ok(csv)
+}
 
-    let mut md = String::new();
-    let _ = writeln!(md, "# {} — length measurement error test\n", r.standard);
-    let _ = writeln!(md, "Test file: `{source}`\n");
-    let _ = writeln!(
-        md,
-        "**ConformityVerdict: {}** (E0: {}{})\n",
+/// `report.md` of a measured test, section by section.
+fn measured_markdown(source: &str, r: &TestResult) -> String {
+    let mut md = Md::new();
+    md.heading(
+        1,
+        format_args!("{} — length measurement error test", r.standard),
+    );
+    measured_summary(&mut md, source, r);
+    md.heading(2, "Deviations from the standard's design");
+    if r.deviations.is_empty() {
+        md.para("None: 7 positions × 5 test lengths × 3 repetitions.");
+    } else {
+        md.bullets(&r.deviations).nl();
+    }
+    md.heading(2, "Positions")
+        .table_aligned(["position", "max \\|E0\\| / µm", "verdict"], "lrl");
+    for p in &r.positions {
+        md.row([
+            p.position.to_string(),
+            format!("{:.3}", p.max_abs_e0_um),
+            p.verdict.to_string(),
+        ]);
+    }
+    measured_worst(&mut md, r);
+    measured_r0(&mut md, r);
+    md.nl()
+        .heading(2, "Chart")
+        .para("![E0 against L](e0_vs_length.png)")
+        .line(
+            "E0 of every measurement against its calibrated length, one marker per position; the solid lines are ±MPE_E0(L), the dashed ones (when drawn) the acceptance limits ±(MPE − w) of the decision rule.",
+        );
+    md.finish()
+}
+
+/// The test file, the verdict and its statement, the counts and the MPE.
+fn measured_summary(md: &mut Md, source: &str, r: &TestResult) {
+    md.para(format_args!("Test file: `{source}`"));
+    md.para(format_args!(
+        "**ConformityVerdict: {}** (E0: {}{})",
         r.verdict,
         r.verdict_e0,
         r.verdict_r0
             .map(|v| format!(", R0: {v}"))
             .unwrap_or_default()
-    );
-    let _ = writeln!(md, "{}\n", r.statement);
+    ));
+    md.para(&r.statement);
     let s = &r.summary;
-    let _ = writeln!(
-        md,
+    md.para(format_args!(
         "{} measurements, {} positions, {} test lengths; largest |E0| {:.3} µm, largest R0 \
-         {:.3} µm; E0 verdicts: {} pass, {} indeterminate, {} fail.\n",
+         {:.3} µm; E0 verdicts: {} pass, {} indeterminate, {} fail.",
         s.measurements,
         s.positions,
         s.gauges,
@@ -204,72 +244,71 @@ pub fn write_iso10360_report(
         s.counts.pass,
         s.counts.indeterminate,
         s.counts.fail
-    );
-    let _ = writeln!(
-        md,
-        "MPE_E0(L) = {} µm (L in mm){}.\n",
+    ));
+    md.para(format_args!(
+        "MPE_E0(L) = {} µm (L in mm){}.",
         r.mpe.formula,
         r.mpl_r0_um
             .map(|m| format!("; MPL_R0 = {m} µm"))
             .unwrap_or_default()
+    ));
+}
+
+/// The ten measurements nearest their MPE (by |E0|/MPE).
+fn measured_worst(md: &mut Md, r: &TestResult) {
+    md.nl().heading(2, "Worst results").table_aligned(
+        [
+            "row",
+            "position",
+            "gauge",
+            "rep.",
+            "L / mm",
+            "E0 / µm",
+            "MPE / µm",
+            "U / µm",
+            "verdict",
+        ],
+        "rlrrrrrrl",
     );
-    md.push_str("## Deviations from the standard's design\n\n");
-    if r.deviations.is_empty() {
-        md.push_str("None: 7 positions × 5 test lengths × 3 repetitions.\n\n");
-    } else {
-        for d in &r.deviations {
-            let _ = writeln!(md, "- {d}");
-        }
-        md.push('\n');
-    }
-    md.push_str("## Positions\n\n| position | max \\|E0\\| / µm | verdict |\n|---|---:|---|\n");
-    for p in &r.positions {
-        let _ = writeln!(
-            md,
-            "| {} | {:.3} | {} |",
-            p.position, p.max_abs_e0_um, p.verdict
-        );
-    }
-    md.push_str("\n## Worst results\n\n| row | position | gauge | rep. | L / mm | E0 / µm | MPE / µm | U / µm | verdict |\n|---:|---|---:|---:|---:|---:|---:|---:|---|\n");
     let mut worst: Vec<_> = r.measurements.iter().collect();
     worst.sort_by(|a, b| {
         (b.e0_um.abs() / b.mpe_um.max(1e-12)).total_cmp(&(a.e0_um.abs() / a.mpe_um.max(1e-12)))
     });
     for m in worst.iter().take(10) {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {:.4} | {:.3} | {:.3} | {:.3} | {} |",
-            m.row,
-            m.position,
-            m.gauge,
-            m.repetition,
-            m.calibrated_mm,
-            m.e0_um,
-            m.mpe_um,
-            m.u_um,
-            m.verdict
-        );
+        md.row([
+            m.row.to_string(),
+            m.position.to_string(),
+            m.gauge.to_string(),
+            m.repetition.to_string(),
+            format!("{:.4}", m.calibrated_mm),
+            format!("{:.3}", m.e0_um),
+            format!("{:.3}", m.mpe_um),
+            format!("{:.3}", m.u_um),
+            m.verdict.to_string(),
+        ]);
     }
-    md.push_str("\n## Repeatability range R0\n\n| position | gauge | L / mm | rows | R0 / µm | verdict |\n|---|---:|---:|---|---:|---|\n");
+}
+
+/// The repeatability range of each position and length.
+fn measured_r0(md: &mut Md, r: &TestResult) {
+    md.nl().heading(2, "Repeatability range R0").table_aligned(
+        ["position", "gauge", "L / mm", "rows", "R0 / µm", "verdict"],
+        "lrrlrl",
+    );
     for g in &r.gauges {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.4} | {} | {:.3} | {} |",
-            g.position,
-            g.gauge,
-            g.calibrated_mm,
+        md.row([
+            g.position.to_string(),
+            g.gauge.to_string(),
+            format!("{:.4}", g.calibrated_mm),
             g.rows
                 .iter()
                 .map(|x| x.to_string())
                 .collect::<Vec<_>>()
                 .join(", "),
-            g.r0_um,
-            g.verdict_r0.map_or("not judged", |v| v.as_str())
-        );
+            format!("{:.3}", g.r0_um),
+            g.verdict_r0.map_or("not judged", |v| v.as_str()).into(),
+        ]);
     }
-    md.push_str("\n## Chart\n\n![E0 against L](e0_vs_length.png)\n\nE0 of every measurement against its calibrated length, one marker per position; the solid lines are ±MPE_E0(L), the dashed ones (when drawn) the acceptance limits ±(MPE − w) of the decision rule.\n");
-    super::write_text(&files[0], &md)?;
-    Ok(files)
 }
 
 fn virtual_rows(ms: &[VirtualMeasurement]) -> Vec<&VirtualMeasurement> {
@@ -286,12 +325,30 @@ pub fn write_virtual_report(
 ) -> Result<Vec<PathBuf>, ReportError> {
     create(dir)?;
     let mut files = vec![dir.join("report.md")];
-    let csv = dir.join("measurements.csv");
     let before = virtual_rows(&t.measurements);
     let after: Option<Vec<&VirtualMeasurement>> = t
         .compensated
         .as_ref()
         .map(|c| virtual_rows(&c.measurements));
+    files.push(virtual_csv(dir, &before, after.as_deref())?);
+    files.extend(virtual_chart(dir, t, &before, after.as_deref())?);
+    super::write_text(
+        &files[0],
+        &virtual_markdown(model, t, &before, after.as_deref()),
+    )?;
+    Ok(files)
+}
+
+/// `measurements.csv` of a virtual test: one row per test length, before and (when
+/// predicted) after compensation.
+fn virtual_csv(
+    dir: &Path,
+    before: &[&VirtualMeasurement],
+    after: Option<&[&VirtualMeasurement]>,
+) -> Result<PathBuf, ReportError> {
+    let csv = dir.join("measurements.csv");
+    let f64s =
+        |f: &dyn Fn(&VirtualMeasurement) -> f64| before.iter().map(|m| f(m)).collect::<Vec<_>>();
     let mut cols = vec![
         Column::new(
             "position".into(),
@@ -304,31 +361,16 @@ pub fn write_virtual_report(
             "gauge".into(),
             before.iter().map(|m| m.gauge as u64).collect::<Vec<_>>(),
         ),
-        Column::new(
-            "length_mm".into(),
-            before.iter().map(|m| m.length_mm).collect::<Vec<_>>(),
-        ),
+        Column::new("length_mm".into(), f64s(&|m| m.length_mm)),
     ];
     for (k, name) in ["x1_mm", "y1_mm", "z1_mm"].iter().enumerate() {
-        cols.push(Column::new(
-            (*name).into(),
-            before.iter().map(|m| m.p1_mm[k]).collect::<Vec<_>>(),
-        ));
+        cols.push(Column::new((*name).into(), f64s(&|m| m.p1_mm[k])));
     }
     for (k, name) in ["x2_mm", "y2_mm", "z2_mm"].iter().enumerate() {
-        cols.push(Column::new(
-            (*name).into(),
-            before.iter().map(|m| m.p2_mm[k]).collect::<Vec<_>>(),
-        ));
+        cols.push(Column::new((*name).into(), f64s(&|m| m.p2_mm[k])));
     }
-    cols.push(Column::new(
-        "e_um".into(),
-        before.iter().map(|m| m.e_um).collect::<Vec<_>>(),
-    ));
-    cols.push(Column::new(
-        "sigma_um".into(),
-        before.iter().map(|m| m.sigma_um).collect::<Vec<_>>(),
-    ));
+    cols.push(Column::new("e_um".into(), f64s(&|m| m.e_um)));
+    cols.push(Column::new("sigma_um".into(), f64s(&|m| m.sigma_um)));
     cols.push(Column::new(
         "mpe_um".into(),
         before.iter().map(|m| m.mpe_um).collect::<Vec<_>>(),
@@ -344,7 +386,7 @@ pub fn write_virtual_report(
             .map(|m| m.verdict.map(|v| v.as_str()))
             .collect::<Vec<_>>(),
     ));
-    if let Some(a) = &after {
+    if let Some(a) = after {
         cols.push(Column::new(
             "e_after_um".into(),
             a.iter().map(|m| m.e_um).collect::<Vec<_>>(),
@@ -359,8 +401,16 @@ pub fn write_virtual_report(
     let mut df =
         DataFrame::new(before.len(), cols).map_err(|e| crate::table::format_err(&csv, e))?;
     crate::table::write_frame(&csv, &mut df)?;
-    files.push(csv);
+    Ok(csv)
+}
 
+/// E against L of a virtual test, before and after compensation, with ±MPE when given.
+fn virtual_chart(
+    dir: &Path,
+    t: &VirtualTest,
+    before: &[&VirtualMeasurement],
+    after: Option<&[&VirtualMeasurement]>,
+) -> Result<Vec<PathBuf>, ReportError> {
     let l_max = before.iter().map(|m| m.length_mm).fold(0.0, f64::max) * 1.05;
     let mut series = vec![XySeries {
         name: "predicted E (model)".into(),
@@ -368,7 +418,7 @@ pub fn write_virtual_report(
         y: before.iter().map(|m| m.e_um).collect(),
         style: XyStyle::Points,
     }];
-    if let Some(a) = &after {
+    if let Some(a) = after {
         series.push(XySeries {
             name: "after compensation".into(),
             x: a.iter().map(|m| m.length_mm).collect(),
@@ -380,42 +430,66 @@ pub fn write_virtual_report(
         series.push(mpe_series(mpe, l_max, 1.0, "+MPE_E0(L)", 0, false));
         series.push(mpe_series(mpe, l_max, -1.0, "−MPE_E0(L)", 0, false));
     }
-    files.extend(plot::xy(
+    Ok(plot::xy(
         &dir.join("e_vs_length"),
         "ISO 10360-2 predicted from the volumetric model",
         "L / mm",
         "E / µm",
         &series,
-    )?);
+    )?)
+}
 
-    let mut md = String::new();
-    let _ = writeln!(md, "# {} predicted — the virtual test\n", t.standard);
-    let _ = writeln!(
-        md,
-        "Model: `{model}` (topology {}, residual `{}`); plan: {}; volume [{:?}, {:?}] mm.\n",
-        t.topology, t.model_residual, t.plan, t.volume_mm[0], t.volume_mm[1]
+/// `report.md` of a virtual test, section by section.
+fn virtual_markdown(
+    model: &str,
+    t: &VirtualTest,
+    before: &[&VirtualMeasurement],
+    after: Option<&[&VirtualMeasurement]>,
+) -> String {
+    let mut md = Md::new();
+    md.heading(
+        1,
+        format_args!("{} predicted — the virtual test", t.standard),
     );
+    virtual_summary(&mut md, model, t);
+    virtual_positions(&mut md, t);
+    virtual_lengths(&mut md, before, after);
+    md.nl()
+        .heading(2, "Chart")
+        .para("![E against L](e_vs_length.png)")
+        .line(
+            "The predicted error of each test length against its length (repetitions are identical), with ±MPE_E0(L) when given.",
+        );
+    md.finish()
+}
+
+/// The model and plan, the warnings, the predicted verdict and the largest errors.
+fn virtual_summary(md: &mut Md, model: &str, t: &VirtualTest) {
+    md.para(format_args!(
+        "Model: `{model}` (topology {}, residual `{}`); plan: {}; volume [{:?}, {:?}] mm.",
+        t.topology, t.model_residual, t.plan, t.volume_mm[0], t.volume_mm[1]
+    ));
     for w in &t.warnings {
-        let _ = writeln!(md, "> **Warning:** {w}\n");
+        md.para(format_args!("> **Warning:** {w}"));
     }
     match (t.verdict, &t.statement) {
         (Some(v), Some(s)) => {
-            let _ = writeln!(
-                md,
-                "**Predicted verdict: {v}**{}\n",
+            md.para(format_args!(
+                "**Predicted verdict: {v}**{}",
                 t.compensated
                     .as_ref()
                     .and_then(|c| c.verdict)
                     .map(|a| format!("; after compensation: **{a}**"))
                     .unwrap_or_default()
-            );
-            let _ = writeln!(md, "{s}\n");
+            ));
+            md.para(s);
         }
-        _ => md.push_str("No MPE given: the errors are predicted, not judged.\n\n"),
+        _ => {
+            md.para("No MPE given: the errors are predicted, not judged.");
+        }
     }
-    let _ = writeln!(
-        md,
-        "Largest |E| {:.3} µm{}. E is the geometric part of E0 only (no probing error, repeatability or thermal state); σ is the model's one-sigma.\n",
+    md.para(format_args!(
+        "Largest |E| {:.3} µm{}. E is the geometric part of E0 only (no probing error, repeatability or thermal state); σ is the model's one-sigma.",
         t.max_abs_e_um,
         t.compensated
             .as_ref()
@@ -424,73 +498,76 @@ pub fn write_virtual_report(
                 c.max_abs_e_um, c.table_points
             ))
             .unwrap_or_default()
-    );
-    md.push_str("## Positions\n\n");
+    ));
+}
+
+/// The largest error per position, before and (when predicted) after compensation.
+fn virtual_positions(md: &mut Md, t: &VirtualTest) {
+    md.heading(2, "Positions");
     let after_pos = t.compensated.as_ref().map(|c| &c.positions);
+    let mut header = vec!["position", "max \\|E\\| / µm", "σ / µm", "gauge", "verdict"];
+    let mut align = String::from("lrrrl");
     if after_pos.is_some() {
-        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict | after: max \\|E\\| / µm | verdict |\n|---|---:|---:|---:|---|---:|---|\n");
-    } else {
-        md.push_str("| position | max \\|E\\| / µm | σ / µm | gauge | verdict |\n|---|---:|---:|---:|---|\n");
+        header.extend(["after: max \\|E\\| / µm", "verdict"]);
+        align.push_str("rl");
     }
+    md.table_aligned(header, &align);
     for (i, p) in t.positions.iter().enumerate() {
-        let v = p.verdict.map_or("—", |v| v.as_str());
-        match after_pos.and_then(|a| a.get(i)) {
-            Some(a) => {
-                let _ = writeln!(
-                    md,
-                    "| {} | {:.3} | {:.3} | {} | {} | {:.3} | {} |",
-                    p.position,
-                    p.max_abs_e_um,
-                    p.sigma_um,
-                    p.gauge,
-                    v,
-                    a.max_abs_e_um,
-                    a.verdict.map_or("—", |v| v.as_str())
-                );
-            }
-            None => {
-                let _ = writeln!(
-                    md,
-                    "| {} | {:.3} | {:.3} | {} | {} |",
-                    p.position, p.max_abs_e_um, p.sigma_um, p.gauge, v
-                );
-            }
+        let mut cells = vec![
+            p.position.to_string(),
+            format!("{:.3}", p.max_abs_e_um),
+            format!("{:.3}", p.sigma_um),
+            p.gauge.to_string(),
+            p.verdict.map_or("—", |v| v.as_str()).to_string(),
+        ];
+        if let Some(a) = after_pos.and_then(|a| a.get(i)) {
+            cells.push(format!("{:.3}", a.max_abs_e_um));
+            cells.push(a.verdict.map_or("—", |v| v.as_str()).to_string());
         }
+        md.row(cells);
     }
-    md.push_str("\n## Test lengths\n\n| position | gauge | L / mm | E / µm | σ / µm | MPE / µm | U / µm | verdict |");
+}
+
+/// One row per test length, before and (when predicted) after compensation.
+fn virtual_lengths(
+    md: &mut Md,
+    before: &[&VirtualMeasurement],
+    after: Option<&[&VirtualMeasurement]>,
+) {
+    let mut header = vec![
+        "position",
+        "gauge",
+        "L / mm",
+        "E / µm",
+        "σ / µm",
+        "MPE / µm",
+        "U / µm",
+        "verdict",
+    ];
+    let mut align = String::from("lrrrrrrl");
     if after.is_some() {
-        md.push_str(" after: E / µm | verdict |");
+        header.extend(["after: E / µm", "verdict"]);
+        align.push_str("rl");
     }
-    md.push_str("\n|---|---:|---:|---:|---:|---:|---:|---|");
-    if after.is_some() {
-        md.push_str("---:|---|");
-    }
-    md.push('\n');
+    md.nl()
+        .heading(2, "Test lengths")
+        .table_aligned(header, &align);
+    let o = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
     for (i, m) in before.iter().enumerate() {
-        let o = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-        let _ = write!(
-            md,
-            "| {} | {} | {:.3} | {:.3} | {:.3} | {} | {} | {} |",
-            m.position,
-            m.gauge,
-            m.length_mm,
-            m.e_um,
-            m.sigma_um,
+        let mut cells = vec![
+            m.position.to_string(),
+            m.gauge.to_string(),
+            format!("{:.3}", m.length_mm),
+            format!("{:.3}", m.e_um),
+            format!("{:.3}", m.sigma_um),
             o(m.mpe_um),
             o(m.u_um),
-            m.verdict.map_or("—", |v| v.as_str())
-        );
-        if let Some(a) = after.as_ref().and_then(|a| a.get(i)) {
-            let _ = write!(
-                md,
-                " {:.3} | {} |",
-                a.e_um,
-                a.verdict.map_or("—", |v| v.as_str())
-            );
+            m.verdict.map_or("—", |v| v.as_str()).to_string(),
+        ];
+        if let Some(a) = after.and_then(|a| a.get(i)) {
+            cells.push(format!("{:.3}", a.e_um));
+            cells.push(a.verdict.map_or("—", |v| v.as_str()).to_string());
         }
-        md.push('\n');
+        md.row(cells);
     }
-    md.push_str("\n## Chart\n\n![E against L](e_vs_length.png)\n\nThe predicted error of each test length against its length (repetitions are identical), with ±MPE_E0(L) when given.\n");
-    super::write_text(&files[0], &md)?;
-    Ok(files)
 }

@@ -253,25 +253,21 @@ pub const TARGET_HEADER: [&str; 10] = [
     "target i", "P_i / mm", "x̄_i↑", "x̄_i↓", "B_i", "2s_i↑", "2s_i↓", "R_i↑", "R_i↓", "R_i",
 ];
 
-/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k).
-pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
-    let d = decimals(stats);
-    let f = |v: f64| format!("{v:.d$}");
-    let o = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
-    let u = budget.expanded();
-    let (l, t) = (u.along_travel_um, u.at_one_target_um);
-    let s = stats;
-    let v = &s.vdi;
-    // symbol, name, ↑, ↓, bidirectional, U
-    type Row = (
-        &'static str,
-        &'static str,
-        Option<f64>,
-        Option<f64>,
-        f64,
-        f64,
-    );
-    let rows: [Row; 12] = [
+/// An axis value as the certificate lists it: symbol, name, ↑, ↓, bidirectional, and
+/// which expanded uncertainty applies (`true`: along the travel, `false`: at one target).
+type AxisValue = (
+    &'static str,
+    &'static str,
+    Option<f64>,
+    Option<f64>,
+    f64,
+    bool,
+);
+
+/// ISO 230-2's axis values.
+fn iso_values(s: &AxisStats) -> [AxisValue; 6] {
+    let (l, t) = (true, false);
+    [
         (
             "E",
             "systematic positional deviation",
@@ -313,6 +309,14 @@ pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
             s.mean_reversal_um,
             t,
         ),
+    ]
+}
+
+/// VDI/DGQ 3441's values.
+fn vdi_values(s: &AxisStats) -> [AxisValue; 6] {
+    let (l, t) = (true, false);
+    let v = &s.vdi;
+    [
         (
             "P",
             "VDI/DGQ 3441 position uncertainty",
@@ -361,16 +365,30 @@ pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
             v.u_mean_um,
             t,
         ),
-    ];
-    rows.iter()
-        .map(|&(sym, name, up, down, bi, uu)| {
+    ]
+}
+
+/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k).
+pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
+    let d = decimals(stats);
+    let f = |v: f64| format!("{v:.d$}");
+    let o = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
+    let u = budget.expanded();
+    iso_values(stats)
+        .into_iter()
+        .chain(vdi_values(stats))
+        .map(|(sym, name, up, down, bi, travel)| {
             vec![
                 sym.to_string(),
                 name.to_string(),
                 o(up),
                 o(down),
                 f(bi),
-                f(uu),
+                f(if travel {
+                    u.along_travel_um
+                } else {
+                    u.at_one_target_um
+                }),
             ]
         })
         .collect()
@@ -390,11 +408,27 @@ pub fn render_with(
     if data.lines.is_empty() {
         return Err(CertificateError::NoLines(data.source.to_string()));
     }
-    let info = data.info;
     let mut flow = Flow {
         doc: Doc::new("Calibration certificate: positioning accuracy (ISO 230-2)")?,
         y: PAGE_H - MARGIN,
     };
+    title(&mut flow);
+    certificate_fields(&mut flow, data);
+    instruments(&mut flow, data.info);
+    environment(&mut flow, data);
+    for (k, line) in data.lines.iter().enumerate() {
+        line_pages(&mut flow, data.axis, k, line);
+    }
+    if let Some(c) = conformity {
+        conformity::section(&mut flow, data, c);
+    }
+    signatures(&mut flow);
+    footers(&mut flow, data.info);
+    Ok(flow.doc.finish()?)
+}
+
+/// The title and the standards the certificate follows.
+fn title(flow: &mut Flow) {
     flow.y -= 16.0;
     flow.doc.text(
         MARGIN,
@@ -411,8 +445,12 @@ pub fn render_with(
         Weight::Regular,
         "ISO 230-2:2014 (GB/T 17421.2-2016), VDI/DGQ 3441; uncertainty after ISO/TR 230-9 and the GUM",
     );
+}
+
+/// The certificate's fields: who, what, when, and which session.
+fn certificate_fields(flow: &mut Flow, data: &CertificateData) {
+    let info = data.info;
     let l = Align::Left;
-    let r = Align::Right;
     flow.heading("Certificate", 11.0);
     let field = |name: &str, v: &Option<String>| vec![name.to_string(), blank(v)];
     let lines_text = data
@@ -433,7 +471,11 @@ pub fn render_with(
         vec!["Session".into(), data.source.to_string()],
     ];
     flow.table(&["field", "value"], &fields, &[l, l], BODY);
+}
 
+/// The instruments and their calibrations.
+fn instruments(flow: &mut Flow, info: &CertificateInfo) {
+    let l = Align::Left;
     flow.heading("Instruments", 11.0);
     let s = &info.sensors;
     let instruments: Vec<Vec<String>> = [
@@ -455,7 +497,12 @@ pub fn render_with(
         &[l, l, l, l],
         BODY,
     );
+}
 
+/// The air and material temperatures over the test, and the sign convention.
+fn environment(flow: &mut Flow, data: &CertificateData) {
+    let l = Align::Left;
+    let r = Align::Right;
     flow.heading("Environment over the test", 11.0);
     type Col = (&'static str, fn(&SessionRow) -> Option<f64>);
     let cols: [Col; 5] = [
@@ -484,77 +531,80 @@ pub fn render_with(
          ↑ positive approach, ↓ negative approach; s with n − 1.",
         BODY - 1.0,
     );
+}
 
-    for (k, line) in data.lines.iter().enumerate() {
-        flow.doc.new_page();
-        flow.y = PAGE_H - MARGIN;
-        let stats = line.stats;
-        flow.heading(
-            &format!(
-                "Line {} at ({}, {}) mm — axis {}",
-                k + 1,
-                mm(line.line_mm.0),
-                mm(line.line_mm.1),
-                data.axis
-            ),
-            12.0,
-        );
-        let n_up = stats.targets.iter().map(|t| t.n_up).min().unwrap_or(0);
-        let n_down = stats.targets.iter().map(|t| t.n_down).min().unwrap_or(0);
-        flow.paragraph(
-            &format!(
-                "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
-                stats.targets.len()
-            ),
-            BODY,
-        );
-        flow.table(
-            &TARGET_HEADER,
-            &target_rows(stats),
-            &[r, r, r, r, r, r, r, r, r, r],
-            BODY - 1.0,
-        );
-        let u = line.budget.expanded();
-        let u_head = format!("U (k = {})", u.k);
-        flow.table(
-            &["symbol", "axis value", "↑", "↓", "bidirectional", &u_head],
-            &axis_rows(stats, line.budget),
-            &[l, l, r, r, r, r],
-            BODY - 1.0,
-        );
-        flow.paragraph(STANDARDS_NOTE, BODY - 2.0);
-        chart(&mut flow, stats, data.axis);
-        flow.heading("Measurement uncertainty", 11.0);
-        let d = decimals(stats);
-        let budget: Vec<Vec<String>> = budget_rows(line.budget, d)
-            .into_iter()
-            .map(|b| vec![b.name, b.input, b.sensitivity, b.u, b.u_travel_um])
-            .collect();
-        flow.table(
-            &["influence", "u(x_i)", "c_i", "u_i", "over travel / µm"],
-            &budget,
-            &[l, r, r, r, r],
-            BODY - 1.0,
-        );
-        flow.paragraph(
-            &format!(
-                "u_rel = {:.4} ppm (length terms), u_read = {:.d$} µm (reading terms). \
-                 U = k·√((u_rel·L)² + 2·u_read²): {:.d$} µm over the {} mm travel (E, M, A, P, \
-                 Pa), {:.d$} µm at one target (R, B, Ps, U). k = {}.",
-                line.budget.u_rel_ppm,
-                line.budget.u_read_um,
-                u.along_travel_um,
-                mm(u.travel_mm),
-                u.at_one_target_um,
-                u.k
-            ),
-            BODY - 1.0,
-        );
-    }
+/// One line's pages: its targets, axis values, chart and uncertainty budget.
+fn line_pages(flow: &mut Flow, axis: &str, k: usize, line: &LineResult) {
+    let l = Align::Left;
+    let r = Align::Right;
+    flow.doc.new_page();
+    flow.y = PAGE_H - MARGIN;
+    let stats = line.stats;
+    flow.heading(
+        &format!(
+            "Line {} at ({}, {}) mm — axis {}",
+            k + 1,
+            mm(line.line_mm.0),
+            mm(line.line_mm.1),
+            axis
+        ),
+        12.0,
+    );
+    let n_up = stats.targets.iter().map(|t| t.n_up).min().unwrap_or(0);
+    let n_down = stats.targets.iter().map(|t| t.n_down).min().unwrap_or(0);
+    flow.paragraph(
+        &format!(
+            "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
+            stats.targets.len()
+        ),
+        BODY,
+    );
+    flow.table(
+        &TARGET_HEADER,
+        &target_rows(stats),
+        &[r, r, r, r, r, r, r, r, r, r],
+        BODY - 1.0,
+    );
+    let u = line.budget.expanded();
+    let u_head = format!("U (k = {})", u.k);
+    flow.table(
+        &["symbol", "axis value", "↑", "↓", "bidirectional", &u_head],
+        &axis_rows(stats, line.budget),
+        &[l, l, r, r, r, r],
+        BODY - 1.0,
+    );
+    flow.paragraph(STANDARDS_NOTE, BODY - 2.0);
+    chart(flow, stats, axis);
+    flow.heading("Measurement uncertainty", 11.0);
+    let d = decimals(stats);
+    let budget: Vec<Vec<String>> = budget_rows(line.budget, d)
+        .into_iter()
+        .map(|b| vec![b.name, b.input, b.sensitivity, b.u, b.u_travel_um])
+        .collect();
+    flow.table(
+        &["influence", "u(x_i)", "c_i", "u_i", "over travel / µm"],
+        &budget,
+        &[l, r, r, r, r],
+        BODY - 1.0,
+    );
+    flow.paragraph(
+        &format!(
+            "u_rel = {:.4} ppm (length terms), u_read = {:.d$} µm (reading terms). \
+             U = k·√((u_rel·L)² + 2·u_read²): {:.d$} µm over the {} mm travel (E, M, A, P, \
+             Pa), {:.d$} µm at one target (R, B, Ps, U). k = {}.",
+            line.budget.u_rel_ppm,
+            line.budget.u_read_um,
+            u.along_travel_um,
+            mm(u.travel_mm),
+            u.at_one_target_um,
+            u.k
+        ),
+        BODY - 1.0,
+    );
+}
 
-    if let Some(c) = conformity {
-        conformity::section(&mut flow, data, c);
-    }
+/// The signature lines, on the last page.
+fn signatures(flow: &mut Flow) {
     flow.need(90.0);
     flow.heading("Signatures", 11.0);
     flow.y -= 36.0;
@@ -567,7 +617,10 @@ pub fn render_with(
         flow.doc
             .text(x, flow.y - 11.0, BODY - 1.0, Weight::Regular, label);
     }
+}
 
+/// `Certificate N · page i of n` at the foot of every page.
+fn footers(flow: &mut Flow, info: &CertificateInfo) {
     let pages = flow.doc.page_count();
     let number = blank(&info.certificate_number);
     for p in 0..pages {
@@ -581,7 +634,6 @@ pub fn render_with(
             &footer,
         );
     }
-    Ok(flow.doc.finish()?)
 }
 
 /// Writes the certificate to `path`.
@@ -627,43 +679,86 @@ fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
         Weight::Bold,
         &format!("Positional deviation along {axis} (ISO 230-2)"),
     );
-    let (x0, x1) = (MARGIN + 42.0, PAGE_W - MARGIN - 8.0);
-    let (y1, y0) = (flow.y - 10.0, flow.y - 10.0 - h);
     let mut t: Vec<&TargetStats> = stats.targets.iter().collect();
     t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
-    let bands = |s: &TargetStats| {
-        [
-            s.mean_up_um + 2.0 * s.s_up_um,
-            s.mean_up_um - 2.0 * s.s_up_um,
-            s.mean_down_um + 2.0 * s.s_down_um,
-            s.mean_down_um - 2.0 * s.s_down_um,
-        ]
-    };
-    let ys: Vec<f64> = t.iter().flat_map(|s| bands(s)).collect();
-    let (mut ylo, mut yhi) = (
-        ys.iter().copied().fold(f64::INFINITY, f64::min),
-        ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-    );
-    let pad = ((yhi - ylo) * 0.08).max(1e-6);
-    ylo -= pad;
-    yhi += pad;
-    let (plo, phi) = (
-        t.first().map_or(0.0, |s| s.position_mm),
-        t.last().map_or(1.0, |s| s.position_mm),
-    );
-    let xpad = ((phi - plo) * 0.04).max(1e-6);
-    let (xlo, xhi) = (plo - xpad, phi + xpad);
-    let px = |x: f64| x0 + ((x - xlo) / (xhi - xlo)) as f32 * (x1 - x0);
-    let py = |y: f64| y0 + ((y - ylo) / (yhi - ylo)) as f32 * (y1 - y0);
-    flow.doc.rect(x0, y0, x1 - x0, y1 - y0, 0.6, INK);
-    let yt = ticks(ylo, yhi, 6);
+    let b = ChartBox::new(&t, flow.y - 10.0, h);
+    chart_grid(&mut flow.doc, &b, &t);
+    chart_series(&mut flow.doc, &b, &t);
+    flow.y = chart_legend(&mut flow.doc, &b);
+}
+
+/// The chart's area on the page (points) and the data range it shows.
+struct ChartBox {
+    x0: f32,
+    x1: f32,
+    y0: f32,
+    y1: f32,
+    xlo: f64,
+    xhi: f64,
+    ylo: f64,
+    yhi: f64,
+}
+
+impl ChartBox {
+    /// A box `h` high with its top at `top`, over the targets' positions and their
+    /// x̄ ± 2s bands, padded.
+    fn new(t: &[&TargetStats], top: f32, h: f32) -> Self {
+        let (x0, x1) = (MARGIN + 42.0, PAGE_W - MARGIN - 8.0);
+        let (y1, y0) = (top, top - h);
+        let bands = |s: &TargetStats| {
+            [
+                s.mean_up_um + 2.0 * s.s_up_um,
+                s.mean_up_um - 2.0 * s.s_up_um,
+                s.mean_down_um + 2.0 * s.s_down_um,
+                s.mean_down_um - 2.0 * s.s_down_um,
+            ]
+        };
+        let ys: Vec<f64> = t.iter().flat_map(|s| bands(s)).collect();
+        let (mut ylo, mut yhi) = (
+            ys.iter().copied().fold(f64::INFINITY, f64::min),
+            ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
+        let pad = ((yhi - ylo) * 0.08).max(1e-6);
+        ylo -= pad;
+        yhi += pad;
+        let (plo, phi) = (
+            t.first().map_or(0.0, |s| s.position_mm),
+            t.last().map_or(1.0, |s| s.position_mm),
+        );
+        let xpad = ((phi - plo) * 0.04).max(1e-6);
+        Self {
+            x0,
+            x1,
+            y0,
+            y1,
+            xlo: plo - xpad,
+            xhi: phi + xpad,
+            ylo,
+            yhi,
+        }
+    }
+
+    fn px(&self, x: f64) -> f32 {
+        self.x0 + ((x - self.xlo) / (self.xhi - self.xlo)) as f32 * (self.x1 - self.x0)
+    }
+
+    fn py(&self, y: f64) -> f32 {
+        self.y0 + ((y - self.ylo) / (self.yhi - self.ylo)) as f32 * (self.y1 - self.y0)
+    }
+}
+
+/// The frame, the grid with its labels, a tick at each target along both edges, and
+/// the zero line.
+fn chart_grid(doc: &mut Doc, b: &ChartBox, t: &[&TargetStats]) {
+    let (x0, x1, y0, y1) = (b.x0, b.x1, b.y0, b.y1);
+    doc.rect(x0, y0, x1 - x0, y1 - y0, 0.6, INK);
+    let yt = ticks(b.ylo, b.yhi, 6);
     let step = if yt.len() > 1 { yt[1] - yt[0] } else { 1.0 };
     let yd = (-step.log10().floor()).max(0.0) as usize;
     for v in &yt {
-        let y = py(*v);
-        flow.doc
-            .polyline(&[(x0, y), (x1, y)], 0.2, (0.85, 0.85, 0.85), None);
-        flow.doc.text_right(
+        let y = b.py(*v);
+        doc.polyline(&[(x0, y), (x1, y)], 0.2, (0.85, 0.85, 0.85), None);
+        doc.text_right(
             x0 - 3.0,
             y - 2.5,
             7.0,
@@ -671,12 +766,12 @@ fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
             &format!("{v:.yd$}"),
         );
     }
-    let xt = ticks(xlo, xhi, 8);
+    let xt = ticks(b.xlo, b.xhi, 8);
     let xs = if xt.len() > 1 { xt[1] - xt[0] } else { 1.0 };
     let xd = (-xs.log10().floor()).max(0.0) as usize;
     for v in &xt {
-        flow.doc.text_centre(
-            px(*v),
+        doc.text_centre(
+            b.px(*v),
             y0 - 10.0,
             7.0,
             Weight::Regular,
@@ -684,17 +779,22 @@ fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
         );
     }
     // Targets marked: a tick at each target position along both edges.
-    for s in &t {
-        let x = px(s.position_mm);
-        flow.doc.polyline(&[(x, y0), (x, y0 + 5.0)], 0.8, INK, None);
-        flow.doc.polyline(&[(x, y1), (x, y1 - 5.0)], 0.8, INK, None);
+    for s in t {
+        let x = b.px(s.position_mm);
+        doc.polyline(&[(x, y0), (x, y0 + 5.0)], 0.8, INK, None);
+        doc.polyline(&[(x, y1), (x, y1 - 5.0)], 0.8, INK, None);
     }
-    if ylo < 0.0 && yhi > 0.0 {
-        flow.doc
-            .polyline(&[(x0, py(0.0)), (x1, py(0.0))], 0.5, GREY, None);
+    if b.ylo < 0.0 && b.yhi > 0.0 {
+        doc.polyline(&[(x0, b.py(0.0)), (x1, b.py(0.0))], 0.5, GREY, None);
     }
+}
+
+/// Per direction: the mean deviations solid with a dot at each target, x̄ ± 2s dashed.
+fn chart_series(doc: &mut Doc, b: &ChartBox, t: &[&TargetStats]) {
     let series = |f: &dyn Fn(&TargetStats) -> f64| -> Vec<(f32, f32)> {
-        t.iter().map(|s| (px(s.position_mm), py(f(s)))).collect()
+        t.iter()
+            .map(|s| (b.px(s.position_mm), b.py(f(s))))
+            .collect()
     };
     let dash = Some([3.5, 2.5]);
     for (colour, mean, hi, lo) in [
@@ -711,23 +811,26 @@ fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
             series(&|s| s.mean_down_um - 2.0 * s.s_down_um),
         ),
     ] {
-        flow.doc.polyline(&mean, 1.2, colour, None);
-        flow.doc.polyline(&hi, 0.8, colour, dash);
-        flow.doc.polyline(&lo, 0.8, colour, dash);
+        doc.polyline(&mean, 1.2, colour, None);
+        doc.polyline(&hi, 0.8, colour, dash);
+        doc.polyline(&lo, 0.8, colour, dash);
         for &(x, y) in &mean {
-            flow.doc.dot(x, y, 1.8, colour);
+            doc.dot(x, y, 1.8, colour);
         }
     }
-    // Axis titles and the legend below the chart.
-    flow.doc.text_centre(
+}
+
+/// The axis titles and the legend below the chart; returns where the text continues.
+fn chart_legend(doc: &mut Doc, b: &ChartBox) -> f32 {
+    let (x0, x1, y0, y1) = (b.x0, b.x1, b.y0, b.y1);
+    doc.text_centre(
         (x0 + x1) / 2.0,
         y0 - 21.0,
         7.5,
         Weight::Regular,
         "target position P_i / mm",
     );
-    flow.doc
-        .text(MARGIN, y1 + 3.0, 7.5, Weight::Regular, "x / µm");
+    doc.text(MARGIN, y1 + 3.0, 7.5, Weight::Regular, "x / µm");
     let ly = y0 - 34.0;
     let mut lx = x0;
     for (colour, label, dashed) in [
@@ -736,16 +839,16 @@ fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
         (DOWN, "mean x̄↓", false),
         (DOWN, "x̄↓ ± 2s↓", true),
     ] {
-        flow.doc.polyline(
+        doc.polyline(
             &[(lx, ly + 2.5), (lx + 22.0, ly + 2.5)],
             if dashed { 0.8 } else { 1.2 },
             colour,
             dashed.then_some([3.5, 2.5]),
         );
-        flow.doc.text(lx + 26.0, ly, 7.5, Weight::Regular, label);
-        lx += 26.0 + flow.doc.width(label, 7.5, Weight::Regular) + 18.0;
+        doc.text(lx + 26.0, ly, 7.5, Weight::Regular, label);
+        lx += 26.0 + doc.width(label, 7.5, Weight::Regular) + 18.0;
     }
-    flow.y = ly - 10.0;
+    ly - 10.0
 }
 
 #[cfg(test)]

@@ -4,7 +4,7 @@
 //! numbers, the effects found with their σ, what the test cannot separate, the residual
 //! before and after, and the comparison with a volumetric model when given).
 
-use std::fmt::Write as _;
+use super::md::Md;
 use std::path::Path;
 
 use super::ReportError;
@@ -107,17 +107,14 @@ pub fn write_report(
 
 /// The Markdown report.
 pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
-    let mut md = String::new();
-    let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
-    let _ = writeln!(
-        md,
-        "# Circular test (ISO 230-4) — plane {}\n",
-        d.plane.as_str()
-    );
-    let _ = writeln!(
-        md,
+    let mut md = Md::new();
+    md.heading(
+        1,
+        format_args!("Circular test (ISO 230-4) — plane {}", d.plane.as_str()),
+    )
+    .para(format_args!(
         "Trace `{}`: radius {} mm, feed {} mm/min, arc {}° from {}°, directions {}; {} samples \
-         fitted.\n",
+         fitted.",
         test.trace.display(),
         d.radius_mm,
         d.feed_mm_per_min,
@@ -129,11 +126,23 @@ pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
             .collect::<Vec<_>>()
             .join(" and "),
         d.samples_fitted
-    );
-    let _ = writeln!(md, "![polar plot](polar.png)\n");
+    ))
+    .para("![polar plot](polar.png)");
+    iso_numbers(&mut md, d);
+    diagnosis(&mut md, d);
+    cannot_separate(&mut md, d);
+    if let Some(link) = &d.link {
+        against_model(&mut md, link);
+    }
+    md.finish()
+}
+
+/// The ISO 230-4 numbers of the nominal arc.
+fn iso_numbers(md: &mut Md, d: &CircularDiagnosis) {
+    let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3}"));
     let iso = &d.iso230_4;
-    let _ = writeln!(md, "## ISO 230-4 numbers (µm, nominal arc, unfiltered)\n");
-    let _ = writeln!(md, "| quantity | value |\n|---|---|");
+    md.heading(2, "ISO 230-4 numbers (µm, nominal arc, unfiltered)")
+        .table(["quantity", "value"]);
     for (name, v) in [
         ("G ccw (circular deviation)", iso.g_ccw_um),
         ("G cw (circular deviation)", iso.g_cw_um),
@@ -143,90 +152,107 @@ pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
         ("F max (radial deviation)", Some(iso.f_max_um)),
         ("F min (radial deviation)", Some(iso.f_min_um)),
     ] {
-        let _ = writeln!(md, "| {name} | {} |", f(v));
+        md.row([name.to_string(), f(v)]);
     }
-    let _ = writeln!(
-        md,
-        "\n## Diagnosis: {}\n",
-        match d.verdict {
-            crate::circular::CircularVerdict::Consistent =>
-                "consistent (setup terms and noise explain the trace)",
-            crate::circular::CircularVerdict::ErrorsFound => "errors found",
-        }
+}
+
+/// The verdict, the residual before and after, and the machine errors found.
+fn diagnosis(md: &mut Md, d: &CircularDiagnosis) {
+    md.nl().heading(
+        2,
+        format_args!(
+            "Diagnosis: {}",
+            match d.verdict {
+                crate::circular::CircularVerdict::Consistent =>
+                    "consistent (setup terms and noise explain the trace)",
+                crate::circular::CircularVerdict::ErrorsFound => "errors found",
+            }
+        ),
     );
-    let _ = writeln!(
-        md,
+    md.para(format_args!(
         "Residual rms {:.3} µm about the least-squares circle before, {:.3} µm after the setup \
-         terms and the effects below (noise σ {:.3} µm).\n",
+         terms and the effects below (noise σ {:.3} µm).",
         d.rms_before_um, d.rms_after_um, d.sigma_um
-    );
-    if !d.effects.is_empty() {
-        let _ = writeln!(
-            md,
-            "| effect | axis | parameters (± one-sigma) | explains (µm rms) | where |\n|---|---|---|---|---|"
-        );
-        for e in &d.effects {
-            let params = e
-                .effect
-                .params()
-                .iter()
-                .filter_map(|(n, v)| {
-                    v.as_f64()
-                        .map(|v| format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0)))
-                })
-                .collect::<Vec<_>>()
-                .join(", ");
-            let _ = writeln!(
-                md,
-                "| {} | {} | {params} | {:.3} | {} |",
-                e.effect.id(),
-                e.axis.slot.label(d.plane),
-                e.explains_um,
-                e.where_
-            );
-        }
-        md.push('\n');
+    ));
+    if d.effects.is_empty() {
+        return;
     }
-    let _ = writeln!(md, "## What this test cannot separate\n");
+    md.table([
+        "effect",
+        "axis",
+        "parameters (± one-sigma)",
+        "explains (µm rms)",
+        "where",
+    ]);
+    for e in &d.effects {
+        let params = e
+            .effect
+            .params()
+            .iter()
+            .filter_map(|(n, v)| {
+                v.as_f64()
+                    .map(|v| format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0)))
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        md.row([
+            e.effect.id().to_string(),
+            e.axis.slot.label(d.plane).to_string(),
+            params,
+            format!("{:.3}", e.explains_um),
+            e.where_.to_string(),
+        ]);
+    }
+    md.nl();
+}
+
+/// The combinations the test leaves open, and the setup terms.
+fn cannot_separate(md: &mut Md, d: &CircularDiagnosis) {
+    md.heading(2, "What this test cannot separate");
     for u in &d.unidentifiable {
-        let _ = writeln!(md, "- {}: {}", u.ids.join(" / "), u.why);
+        md.bullet(format_args!("{}: {}", u.ids.join(" / "), u.why));
         for (k, v) in &u.params {
             let s = u.uncertainty.get(k).copied().unwrap_or(0.0);
-            let _ = writeln!(md, "  - {k} = {v:.3} ± {s:.3}");
+            md.line(format_args!("  - {k} = {v:.3} ± {s:.3}"));
         }
     }
-    let _ = writeln!(
-        md,
-        "\nSetup (not machine errors): centring offset ({:.3}, {:.3}) µm, radius offset {:.3} µm.",
+    md.nl().line(format_args!(
+        "Setup (not machine errors): centring offset ({:.3}, {:.3}) µm, radius offset {:.3} µm.",
         d.setup.centre_offset_um[0], d.setup.centre_offset_um[1], d.setup.radius_offset_um
-    );
-    if let Some(link) = &d.link {
-        let _ = writeln!(
-            md,
-            "\n## Against the volumetric model `{}`\n\nThe circle the model implies at centre \
+    ));
+}
+
+/// The circle a volumetric model implies, term by term against the ballbar's.
+fn against_model(md: &mut Md, link: &crate::circular::link::Link) {
+    md.nl()
+        .heading(
+            2,
+            format_args!("Against the volumetric model `{}`", link.model.display()),
+        )
+        .para(format_args!(
+            "The circle the model implies at centre \
              ({}, {}, {}) mm, fitted in this test's conventions (rms after the setup terms \
-             {:.3} µm):\n",
-            link.model.display(),
-            link.centre_mm[0],
-            link.centre_mm[1],
-            link.centre_mm[2],
-            link.predicted_rms_um
-        );
-        let _ = writeln!(
-            md,
-            "| term | axis | predicted | ballbar | ballbar − predicted |\n|---|---|---|---|---|"
-        );
-        for r in &link.rows {
-            let measured = match (r.measured, r.measured_sigma) {
-                (Some(m), Some(s)) => format!("{m:.3} ± {s:.3}"),
-                _ => "not significant".to_string(),
-            };
-            let _ = writeln!(
-                md,
-                "| {} ({}) | {} | {:.3} | {measured} | {:.3} |",
-                r.id, r.param, r.axis, r.predicted, r.difference
-            );
-        }
+             {:.3} µm):",
+            link.centre_mm[0], link.centre_mm[1], link.centre_mm[2], link.predicted_rms_um
+        ))
+        .table([
+            "term",
+            "axis",
+            "predicted",
+            "ballbar",
+            "ballbar − predicted",
+        ]);
+    for r in &link.rows {
+        let measured = match (r.measured, r.measured_sigma) {
+            (Some(m), Some(s)) => format!("{m:.3} ± {s:.3}"),
+            _ => "not significant".to_string(),
+        };
+        md.row([
+            format!("{} ({})", r.id, r.param),
+            r.axis.to_string(),
+            format!("{:.3}", r.predicted),
+            measured,
+            format!("{:.3}", r.difference),
+        ]);
     }
-    md
 }

@@ -2,7 +2,7 @@
 //! diagnosed from its recorded and simulated sessions alone, and an index comparing what
 //! was found with the hidden truth.
 
-use std::fmt::Write as _;
+use super::md::Md;
 use std::path::Path;
 
 use super::ReportError;
@@ -53,19 +53,29 @@ fn json_number(v: f64) -> String {
 /// and `truth.json`) into `out/<case>/`, and writes `out/README.md`, the index.
 pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, ReportError> {
     let mut names: Vec<String> = std::fs::read_dir(cases)
-        .map_err(io_err(cases, FileOp::Write))?
+        .map_err(io_err(cases, FileOp::Read))?
         .filter_map(|e| e.ok())
         .filter(|e| e.path().join("recorded.parquet").is_file())
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    let mut index = String::from(
-        "# Diagnosis of the concealed-effect cases\n\nRegenerate with `errmap report-concealed` \
-         (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
-         `simulated.parquet`; the hidden truth comes from `truth.json`.\n\n\
-         | case | hidden | found | parameters found (± 1σ) | hidden parameters | RMS before → after µm | noise σ µm |\n\
-         |---|---|---|---|---|---|---|\n",
-    );
+    let mut index = Md::new();
+    index
+        .heading(1, "Diagnosis of the concealed-effect cases")
+        .para(
+            "Regenerate with `errmap report-concealed` \
+             (cases from `errmap gen-concealed`). The diagnosis saw only `recorded.parquet` and \
+             `simulated.parquet`; the hidden truth comes from `truth.json`.",
+        )
+        .table([
+            "case",
+            "hidden",
+            "found",
+            "parameters found (± 1σ)",
+            "hidden parameters",
+            "RMS before → after µm",
+            "noise σ µm",
+        ]);
     let mut outcomes = Vec::new();
     for name in &names {
         let dir = cases.join(name);
@@ -105,9 +115,8 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
             })
             .collect();
         let hidden = hidden_params(&truth);
-        let _ = writeln!(
-            index,
-            "| [{name}]({name}/report.md) | {} | {} | {} | {} | {:.4} → {:.4} | {} |",
+        index.row([
+            format!("[{name}]({name}/report.md)"),
             if hidden.is_empty() {
                 "nothing".to_string()
             } else {
@@ -121,10 +130,9 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
             },
             params.join("; "),
             hidden.join("; "),
-            d.rms_before_um,
-            d.rms_after_um,
-            json_number(truth.sizes.noise_um)
-        );
+            format!("{:.4} → {:.4}", d.rms_before_um, d.rms_after_um),
+            json_number(truth.sizes.noise_um),
+        ]);
         outcomes.push(CaseOutcome {
             name: name.clone(),
             verdict: d.verdict,
@@ -132,6 +140,6 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         });
     }
     let index_path = out.join("README.md");
-    super::write_text(&index_path, &index)?;
+    super::write_text(&index_path, index.as_str())?;
     Ok(outcomes)
 }

@@ -3,14 +3,14 @@
 //! follows, and the broad periodogram). Charts show at most [`MAX_POINTS`] points per
 //! series (an evenly spaced subset). O(n).
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::base::FileOp;
-use crate::base::error::io_err;
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
+use super::md::Md;
+use crate::base::FileOp;
+use crate::base::error::io_err;
 use crate::diagnose::{Diagnosis, GroupStat, Verdict};
 
 /// Most points drawn per series.
@@ -67,46 +67,99 @@ pub fn write_report(
     environment: Option<&str>,
 ) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
-    let s = &d.series;
-    let ax = d.axis.to_lowercase();
     let mut files: Vec<PathBuf> = Vec::new();
     let mut figs: Vec<(String, String)> = Vec::new();
-    let all: Vec<usize> = (0..s.x_mm.len()).collect();
+    residual_charts(d, dir, &mut files, &mut figs)?;
+    effect_charts(d, dir, &mut files, &mut figs)?;
+    periodogram_chart(d, dir, &mut files, &mut figs)?;
 
-    if !all.is_empty() {
-        let stem = dir.join("residual_vs_x");
-        let p = plot::xy(
-            &stem,
-            "Residual recorded − simulated against position",
-            &format!("{ax} / mm"),
-            "residual / µm",
-            &[
-                points("before (about its mean)", &s.x_mm, &s.before_um, &all),
-                points("after the found effects", &s.x_mm, &s.after_um, &all),
-            ],
-        )?;
-        figs.push((
-            "Residual against position".into(),
-            "residual_vs_x.png".into(),
-        ));
-        files.extend(p);
-        let stem = dir.join("residual_vs_time");
-        let p = plot::xy(
-            &stem,
-            "Residual recorded − simulated against time",
-            "t / s",
-            "residual / µm",
-            &[
-                points("before (about its mean)", &s.t_s, &s.before_um, &all),
-                points("after the found effects", &s.t_s, &s.after_um, &all),
-            ],
-        )?;
-        figs.push((
-            "Residual against time".into(),
-            "residual_vs_time.png".into(),
-        ));
-        files.extend(p);
+    let mut md = Md::new();
+    markdown(&mut md, d, &figs);
+    // The measurement that separates effects these data could not tell apart, ready for
+    // `errmap simulate --plan` (one plan file; the first when there are several).
+    if let Some(sp) = d.separating_plans.first() {
+        let path = dir.join("separating-plan.toml");
+        super::write_bytes(&path, sp.plan_toml.as_bytes())?;
+        md.nl()
+            .heading(
+                2,
+                format_args!(
+                    "Decided by physics: {} rather than {}",
+                    sp.chosen.as_str(),
+                    sp.other.as_str()
+                ),
+            )
+            .para(format_args!("{}.", sp.basis))
+            .line("The measurement that separates them is in `separating-plan.toml`.");
+        files.push(path);
     }
+    if let Some(m) = &d.static_map {
+        md.nl().heading(2, "Static part taken from the recording").line(format_args!(
+            "No simulation: the map and the reversal are the recording's own ({} levels, {} of them dwell means per line, target and direction; the dwell map spans {:.3} µm; reversal ē↑ − ē↓ {:.3} µm on average over {} targets, spanning {:.3} µm). The effects above are what is left.",
+            m.groups,
+            m.dwell_groups,
+            m.map_span_um,
+            m.mean_reversal_um,
+            m.targets_with_reversal,
+            m.reversal_span_um
+        ));
+    }
+    if let Some(env) = environment {
+        md.nl().raw(env);
+    }
+    let path = dir.join("report.md");
+    super::write_text(&path, md.as_str())?;
+    files.insert(0, path);
+    Ok(files)
+}
+
+/// The residual before and after the found effects, against position and against time
+/// (none for an empty recording).
+fn residual_charts(
+    d: &Diagnosis,
+    dir: &Path,
+    files: &mut Vec<PathBuf>,
+    figs: &mut Vec<(String, String)>,
+) -> Result<(), ReportError> {
+    let s = &d.series;
+    let all: Vec<usize> = (0..s.x_mm.len()).collect();
+    if all.is_empty() {
+        return Ok(());
+    }
+    let ax = d.axis.to_lowercase();
+    let against = [
+        ("x", "position", format!("{ax} / mm"), &s.x_mm),
+        ("time", "time", "t / s".to_string(), &s.t_s),
+    ];
+    for (stem, what, x_label, x) in against {
+        files.extend(plot::xy(
+            &dir.join(format!("residual_vs_{stem}")),
+            &format!("Residual recorded − simulated against {what}"),
+            &x_label,
+            "residual / µm",
+            &[
+                points("before (about its mean)", x, &s.before_um, &all),
+                points("after the found effects", x, &s.after_um, &all),
+            ],
+        )?);
+        figs.push((
+            format!("Residual against {what}"),
+            format!("residual_vs_{stem}.png"),
+        ));
+    }
+    Ok(())
+}
+
+/// One chart per found effect: the residual without the other effects against the
+/// covariate the effect follows, with the fitted effect (per group when it has groups).
+fn effect_charts(
+    d: &Diagnosis,
+    dir: &Path,
+    files: &mut Vec<PathBuf>,
+    figs: &mut Vec<(String, String)>,
+) -> Result<(), ReportError> {
+    let s = &d.series;
+    let all: Vec<usize> = (0..s.x_mm.len()).collect();
     for (k, e) in s.effects.iter().enumerate() {
         let mut series = Vec::new();
         if e.groups.is_empty() {
@@ -136,68 +189,44 @@ pub fn write_report(
             }
         }
         let name = format!("effect_{}_{}", k + 1, slug(e.id.as_str()));
-        let p = plot::xy(
+        files.extend(plot::xy(
             &dir.join(&name),
             &format!("{}: residual without the other effects", e.id),
             &e.covariate_label,
             "partial residual / µm",
             &series,
-        )?;
+        )?);
         figs.push((format!("Effect {}: {}", k + 1, e.id), format!("{name}.png")));
-        files.extend(p);
     }
-    if !s.broad_period_mm.is_empty() {
-        let idx: Vec<usize> = (0..s.broad_period_mm.len()).collect();
-        let p = plot::xy(
-            &dir.join("periodogram"),
-            "Broad periodogram of the residual (last search)",
-            "period / mm",
-            "Δχ² of a sine",
-            &[curve(
-                "Lomb–Scargle",
-                &s.broad_period_mm,
-                &s.broad_power,
-                &idx,
-            )],
-        )?;
-        figs.push(("Broad periodogram".into(), "periodogram.png".into()));
-        files.extend(p);
-    }
+    Ok(())
+}
 
-    let mut md = markdown(d, &figs);
-    // The measurement that separates effects these data could not tell apart, ready for
-    // `errmap simulate --plan` (one plan file; the first when there are several).
-    if let Some(sp) = d.separating_plans.first() {
-        let path = dir.join("separating-plan.toml");
-        super::write_bytes(&path, sp.plan_toml.as_bytes())?;
-        md.push_str(&format!(
-            "\n## Decided by physics: {} rather than {}\n\n{}.\n\nThe measurement that separates them is in `separating-plan.toml`.\n",
-            sp.chosen.as_str(),
-            sp.other.as_str(),
-            sp.basis
-        ));
-        files.push(path);
+/// The broad periodogram of the last search, when there was one.
+fn periodogram_chart(
+    d: &Diagnosis,
+    dir: &Path,
+    files: &mut Vec<PathBuf>,
+    figs: &mut Vec<(String, String)>,
+) -> Result<(), ReportError> {
+    let s = &d.series;
+    if s.broad_period_mm.is_empty() {
+        return Ok(());
     }
-    if let Some(m) = &d.static_map {
-        let _ = write!(
-            md,
-            "\n## Static part taken from the recording\n\nNo simulation: the map and the reversal are the recording's own ({} levels, {} of them dwell means per line, target and direction; the dwell map spans {:.3} µm; reversal ē↑ − ē↓ {:.3} µm on average over {} targets, spanning {:.3} µm). The effects above are what is left.\n",
-            m.groups,
-            m.dwell_groups,
-            m.map_span_um,
-            m.mean_reversal_um,
-            m.targets_with_reversal,
-            m.reversal_span_um
-        );
-    }
-    if let Some(env) = environment {
-        md.push('\n');
-        md.push_str(env);
-    }
-    let path = dir.join("report.md");
-    super::write_text(&path, &md)?;
-    files.insert(0, path);
-    Ok(files)
+    let idx: Vec<usize> = (0..s.broad_period_mm.len()).collect();
+    files.extend(plot::xy(
+        &dir.join("periodogram"),
+        "Broad periodogram of the residual (last search)",
+        "period / mm",
+        "Δχ² of a sine",
+        &[curve(
+            "Lomb–Scargle",
+            &s.broad_period_mm,
+            &s.broad_power,
+            &idx,
+        )],
+    )?);
+    figs.push(("Broad periodogram".into(), "periodogram.png".into()));
+    Ok(())
 }
 
 /// ISO 230-2 figures of one line, µm.
@@ -255,214 +284,248 @@ pub fn iso_effect(recorded: &[errmap_drivers::SessionRow], d: &Diagnosis) -> Iso
 /// Appends the [`IsoEffect`] table to `dir/report.md`.
 pub fn append_iso_effect(dir: &Path, e: &IsoEffect) -> Result<(), ReportError> {
     let path = dir.join("report.md");
-    let mut md = std::fs::read_to_string(&path).map_err(io_err(&path, FileOp::Read))?;
-    md.push_str("\n## ISO 230-2 figures with the found effects removed\n\n");
-    md.push_str("The static part (map and reversal) is the recording's own; the found effects (drift, air, feed, periodic terms) are taken out of every row and the figures computed again.\n\n");
-    md.push_str("| line (mm) | | B | B̄ | R | R↑ | R↓ | E | M | A |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    let md = std::fs::read_to_string(&path).map_err(io_err(&path, FileOp::Read))?;
+    let mut out = Md::new();
+    out.raw(md).nl()
+        .heading(2, "ISO 230-2 figures with the found effects removed")
+        .para("The static part (map and reversal) is the recording's own; the found effects (drift, air, feed, periodic terms) are taken out of every row and the figures computed again.")
+        // The label column's header is a single space, which `Md::table` does not write.
+        .line("| line (mm) | | B | B̄ | R | R↑ | R↓ | E | M | A |")
+        .line("|---|---|---|---|---|---|---|---|---|---|");
     for (label, set) in [
         ("measured", &e.measured),
         ("effects removed", &e.effects_removed),
     ] {
         for f in set {
-            let _ = writeln!(
-                md,
-                "| {}, {} | {label} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
-                f.line_mm[0],
-                f.line_mm[1],
-                f.b_um,
-                f.mean_reversal_um,
-                f.r_um,
-                f.r_up_um,
-                f.r_down_um,
-                f.e_um,
-                f.m_um,
-                f.a_um
+            let mut cells = vec![
+                format!("{}, {}", f.line_mm[0], f.line_mm[1]),
+                label.to_string(),
+            ];
+            cells.extend(
+                [
+                    f.b_um,
+                    f.mean_reversal_um,
+                    f.r_um,
+                    f.r_up_um,
+                    f.r_down_um,
+                    f.e_um,
+                    f.m_um,
+                    f.a_um,
+                ]
+                .iter()
+                .map(|v| format!("{v:.3}")),
             );
+            out.row(cells);
         }
     }
-    super::write_text(&path, &md)
+    super::write_text(&path, out.as_str())
 }
 
-fn table(out: &mut String, title: &str, rows: &[GroupStat]) {
+/// A table of group means before and after the found effects, under a bold title; none
+/// when there are no groups.
+fn table(md: &mut Md, title: &str, rows: &[GroupStat]) {
     if rows.is_empty() {
         return;
     }
-    let _ = writeln!(out, "\n**{title}**\n");
-    let _ = writeln!(
-        out,
-        "| group | rows | mean before µm | z | mean after µm | z after |"
-    );
-    let _ = writeln!(out, "|---|---|---|---|---|---|");
+    md.nl().para(format_args!("**{title}**")).table([
+        "group",
+        "rows",
+        "mean before µm",
+        "z",
+        "mean after µm",
+        "z after",
+    ]);
     for r in rows {
         let flag = if r.z.abs() > 5.0 { " **" } else { "" };
-        let _ = writeln!(
-            out,
-            "| {} | {} | {:+.4}{flag} | {:.1} | {:+.4} | {:.1} |",
-            r.label, r.rows, r.mean_um, r.z, r.mean_after_um, r.z_after
-        );
+        md.row([
+            r.label.to_string(),
+            r.rows.to_string(),
+            format!("{:+.4}{flag}", r.mean_um),
+            format!("{:.1}", r.z),
+            format!("{:+.4}", r.mean_after_um),
+            format!("{:.1}", r.z_after),
+        ]);
     }
 }
 
-fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
-    let mut o = String::new();
-    let _ = writeln!(o, "# Missing-physics diagnosis\n");
+/// The diagnosis's `report.md` up to its figures, section by section.
+fn markdown(md: &mut Md, d: &Diagnosis, figs: &[(String, String)]) {
+    md.heading(1, "Missing-physics diagnosis");
+    summary(md, d);
+    found_effects(md, d);
+    if !d.ambiguities.is_empty() {
+        md.nl()
+            .heading(2, "Ambiguities and refused effects")
+            .bullets(&d.ambiguities);
+    }
+    if !d.design_notes.is_empty() {
+        md.nl()
+            .heading(2, "Limits of this data set")
+            .bullets(&d.design_notes);
+    }
+    where_significant(md, d);
+    model_selection(md, d);
+    md.nl().heading(2, "Figures");
+    for (title, file) in figs {
+        md.para(format_args!("![{title}]({file})"));
+    }
+}
+
+/// The verdict and the table of RMS, noise and row counts.
+fn summary(md: &mut Md, d: &Diagnosis) {
     let verdict = if d.verdict == Verdict::Consistent {
         "**consistent** — the residual is explained by noise alone"
     } else {
         "**missing physics** — the simulation leaves out what follows"
     };
-    let _ = writeln!(o, "Verdict: {verdict}.\n");
-    let _ = writeln!(o, "| quantity | value |\n|---|---|");
-    let _ = writeln!(o, "| measured axis | {} |", d.axis);
-    let _ = writeln!(
-        o,
-        "| RMS before (recorded − simulated) | {:.4} µm |",
-        d.rms_before_um
-    );
-    let _ = writeln!(
-        o,
-        "| RMS before, about its mean | {:.4} µm |",
-        d.rms_before_centred_um
-    );
-    let _ = writeln!(
-        o,
-        "| RMS after the found effects | {:.4} µm |",
-        d.rms_after_um
-    );
-    let _ = writeln!(
-        o,
-        "| same, cross-validated (each {} held out) | {:.4} µm |",
-        d.cv_folds, d.cv_rms_after_um
-    );
-    let _ = writeln!(o, "| noise σ (pooled) | {:.4} µm |", d.noise_sigma_um);
+    md.para(format_args!("Verdict: {verdict}."))
+        .table(["quantity", "value"]);
     let m = &d.matching;
-    let _ = writeln!(
-        o,
-        "| rows: recorded / simulated / matched / used | {} / {} / {} / {} |",
-        m.recorded_rows, m.simulated_rows, m.matched_rows, m.used_rows
-    );
-    let _ = writeln!(
-        o,
-        "| left out: only recorded / only simulated / flagged / duplicate keys / non-finite / other axis | {} / {} / {} / {} / {} / {} |",
-        m.only_in_recorded,
-        m.only_in_simulated,
-        m.flagged_rows,
-        m.duplicate_keys,
-        m.non_finite_rows,
-        m.other_axis_rows
-    );
+    let rows = [
+        ("measured axis".to_string(), d.axis.to_string()),
+        (
+            "RMS before (recorded − simulated)".into(),
+            format!("{:.4} µm", d.rms_before_um),
+        ),
+        (
+            "RMS before, about its mean".into(),
+            format!("{:.4} µm", d.rms_before_centred_um),
+        ),
+        (
+            "RMS after the found effects".into(),
+            format!("{:.4} µm", d.rms_after_um),
+        ),
+        (
+            format!("same, cross-validated (each {} held out)", d.cv_folds),
+            format!("{:.4} µm", d.cv_rms_after_um),
+        ),
+        (
+            "noise σ (pooled)".into(),
+            format!("{:.4} µm", d.noise_sigma_um),
+        ),
+        (
+            "rows: recorded / simulated / matched / used".into(),
+            format!(
+                "{} / {} / {} / {}",
+                m.recorded_rows, m.simulated_rows, m.matched_rows, m.used_rows
+            ),
+        ),
+        (
+            "left out: only recorded / only simulated / flagged / duplicate keys / non-finite / other axis".into(),
+            format!(
+                "{} / {} / {} / {} / {} / {}",
+                m.only_in_recorded,
+                m.only_in_simulated,
+                m.flagged_rows,
+                m.duplicate_keys,
+                m.non_finite_rows,
+                m.other_axis_rows
+            ),
+        ),
+    ];
+    for (q, v) in rows {
+        md.row([q, v]);
+    }
+}
 
-    let _ = writeln!(o, "\n## Found effects\n");
+/// Each found effect: what it explains, its parameters (± one sigma) and where it acts.
+fn found_effects(md: &mut Md, d: &Diagnosis) {
+    md.nl().heading(2, "Found effects");
     if d.effects.is_empty() {
-        let _ = writeln!(o, "None.");
+        md.line("None.");
     }
     for (k, e) in d.effects.iter().enumerate() {
-        let _ = writeln!(
-            o,
-            "### {}. `{}` — explains {:.4} µm RMS\n",
-            k + 1,
-            e.id(),
-            e.explains_um
+        md.heading(
+            3,
+            format_args!(
+                "{}. `{}` — explains {:.4} µm RMS",
+                k + 1,
+                e.id(),
+                e.explains_um
+            ),
         );
         for (name, v) in &e.effect.params_by_name() {
             match (v.as_f64(), e.uncertainty.get(name)) {
                 (Some(x), Some(s)) if *s > 0.0 => {
-                    let _ = writeln!(o, "- {name} = {x:.6} ± {s:.6}");
+                    md.bullet(format_args!("{name} = {x:.6} ± {s:.6}"))
                 }
-                (Some(x), _) => {
-                    let _ = writeln!(o, "- {name} = {x} (fixed)");
-                }
-                _ => {
-                    let _ = writeln!(o, "- {name} = {v}");
-                }
-            }
+                (Some(x), _) => md.bullet(format_args!("{name} = {x} (fixed)")),
+                _ => md.bullet(format_args!("{name} = {v}")),
+            };
         }
-        let _ = writeln!(o, "\nWhere: {}\n", e.where_);
+        md.nl().para(format_args!("Where: {}", e.where_));
     }
-    if !d.ambiguities.is_empty() {
-        let _ = writeln!(o, "\n## Ambiguities and refused effects\n");
-        for a in &d.ambiguities {
-            let _ = writeln!(o, "- {a}");
-        }
-    }
-    if !d.design_notes.is_empty() {
-        let _ = writeln!(o, "\n## Limits of this data set\n");
-        for a in &d.design_notes {
-            let _ = writeln!(o, "- {a}");
-        }
-    }
+}
 
+/// Where the residual is significant: the findings, the group tables, the correlations
+/// and the periodogram's peaks.
+fn where_significant(md: &mut Md, d: &Diagnosis) {
     let l = &d.locate;
-    let _ = writeln!(o, "\n## Where the residual is significant\n");
-    for f in &l.findings {
-        let _ = writeln!(o, "- {f}");
-    }
+    md.nl()
+        .heading(2, "Where the residual is significant")
+        .bullets(&l.findings);
     if let Some(u) = &l.unexplained {
-        let _ = writeln!(o, "- **left after the model:** {u}");
+        md.bullet(format_args!("**left after the model:** {u}"));
     }
-    let _ = writeln!(
-        o,
-        "\nGroup means are weighted (1/σ² of the noise groups); z = mean / standard error; ** marks |z| > 5."
+    md.nl().line(
+        "Group means are weighted (1/σ² of the noise groups); z = mean / standard error; ** marks |z| > 5.",
     );
-    table(&mut o, "Along the axis", &l.along_x);
-    table(&mut o, "Per line", &l.per_line);
-    table(&mut o, "Per run", &l.per_run);
-    table(&mut o, "Per direction", &l.per_direction);
-    table(&mut o, "Direction-signed, per feed", &l.per_feed_signed);
-    table(&mut o, "Over time", &l.over_time);
-    let _ = writeln!(
-        o,
-        "\n**Correlations**\n\n| covariate | ρ before | ρ after |\n|---|---|---|"
-    );
+    table(md, "Along the axis", &l.along_x);
+    table(md, "Per line", &l.per_line);
+    table(md, "Per run", &l.per_run);
+    table(md, "Per direction", &l.per_direction);
+    table(md, "Direction-signed, per feed", &l.per_feed_signed);
+    table(md, "Over time", &l.over_time);
+    md.nl()
+        .para("**Correlations**")
+        .table(["covariate", "ρ before", "ρ after"]);
     for c in &l.correlations {
-        let _ = writeln!(
-            o,
-            "| {} | {:+.3} | {:+.3} |",
-            c.covariate, c.before, c.after
-        );
+        md.row([
+            c.covariate.to_string(),
+            format!("{:+.3}", c.before),
+            format!("{:+.3}", c.after),
+        ]);
     }
-    let _ = writeln!(
-        o,
-        "\n**Periodogram peaks** (weighted Lomb–Scargle over the exact positions)\n\n| period µm | searched as | Δχ² |\n|---|---|---|"
-    );
+    md.nl()
+        .para("**Periodogram peaks** (weighted Lomb–Scargle over the exact positions)")
+        .table(["period µm", "searched as", "Δχ²"]);
     for p in &l.spectral_peaks {
-        let _ = writeln!(
-            o,
-            "| {:.5} | {} | {:.1} |",
-            p.period_um, p.source, p.delta_chi2
-        );
+        md.row([
+            format!("{:.5}", p.period_um),
+            p.source.to_string(),
+            format!("{:.1}", p.delta_chi2),
+        ]);
     }
+}
 
-    let _ = writeln!(o, "\n## Model selection\n");
-    let _ = writeln!(
-        o,
-        "Forward selection by BIC = n·ln(χ²/n) + k·ln n, backward check, leave-one-{}-out cross-validation, then the determinedness rule. ΔBIC of every testable effect against the final model (found: the cost of removing it; not found: the change when adding it):\n",
+/// How the effects were selected: ΔBIC of every candidate, the selection's log and the
+/// noise per group.
+fn model_selection(md: &mut Md, d: &Diagnosis) {
+    md.nl().heading(2, "Model selection").para(format_args!(
+        "Forward selection by BIC = n·ln(χ²/n) + k·ln n, backward check, leave-one-{}-out cross-validation, then the determinedness rule. ΔBIC of every testable effect against the final model (found: the cost of removing it; not found: the change when adding it):",
         d.cv_folds
-    );
-    let _ = writeln!(o, "| effect | found | ΔBIC |\n|---|---|---|");
+    ));
+    md.table(["effect", "found", "ΔBIC"]);
     for c in &d.candidates {
-        let _ = writeln!(
-            o,
-            "| {} | {} | {:+.1} |",
+        md.row([
             c.label(),
-            if c.found { "yes" } else { "no" },
-            c.delta_bic
-        );
+            if c.found { "yes" } else { "no" }.into(),
+            format!("{:+.1}", c.delta_bic),
+        ]);
     }
-    let _ = writeln!(o);
+    md.nl();
     for s in &d.selection_log {
-        let _ = writeln!(o, "1. {s}");
+        // Markdown numbers a list of `1.` items itself.
+        md.line(format_args!("1. {s}"));
     }
-    let _ = writeln!(
-        o,
-        "\n**Noise per group**\n\n| group | rows | σ µm |\n|---|---|---|"
-    );
+    md.nl()
+        .para("**Noise per group**")
+        .table(["group", "rows", "σ µm"]);
     for g in &d.noise_groups {
-        let _ = writeln!(o, "| {} | {} | {:.4} |", g.group, g.rows, g.sigma_um);
+        md.row([
+            g.group.to_string(),
+            g.rows.to_string(),
+            format!("{:.4}", g.sigma_um),
+        ]);
     }
-    let _ = writeln!(o, "\n## Figures\n");
-    for (title, file) in figs {
-        let _ = writeln!(o, "![{title}]({file})\n");
-    }
-    o
 }

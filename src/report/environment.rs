@@ -2,6 +2,7 @@
 
 use errmap_drivers::SessionRow;
 
+use super::md::Md;
 use crate::session::environment::{EnvironmentStats, Range};
 
 /// The environment of a session in words and a table (markdown): air and material
@@ -13,9 +14,9 @@ pub fn environment_summary(rows: &[SessionRow]) -> String {
 
 /// [`environment_summary`] from statistics gathered row by row.
 pub fn environment_text(e: &EnvironmentStats) -> String {
-    use std::fmt::Write as _;
-    let mut s =
-        String::from("## Environment\n\n| quantity | min | mean | max |\n|---|---|---|---|\n");
+    let mut md = Md::new();
+    md.heading(2, "Environment")
+        .table(["quantity", "min", "mean", "max"]);
     let items: [(&str, &Range); 5] = [
         ("air temperature °C", &e.air_temp_c),
         ("air pressure hPa", &e.air_pressure_hpa),
@@ -25,50 +26,47 @@ pub fn environment_text(e: &EnvironmentStats) -> String {
     ];
     for (name, f) in items {
         match f.min_mean_max() {
-            Some((lo, m, hi)) => {
-                let _ = writeln!(s, "| {name} | {lo:.3} | {m:.3} | {hi:.3} |");
-            }
-            None => {
-                let _ = writeln!(s, "| {name} | — | — | — |");
-            }
-        }
+            Some((lo, m, hi)) => md.row([
+                name.to_string(),
+                format!("{lo:.3}"),
+                format!("{m:.3}"),
+                format!("{hi:.3}"),
+            ]),
+            None => md.row([name, "—", "—", "—"]),
+        };
     }
-    let uncompensated = e.rows_without_air;
+    md.nl();
     match e.n_air.min_mean_max() {
-        Some((lo, m, hi)) => {
-            let _ = writeln!(
-                s,
-                "\nRefraction: every laser length was compensated with the modified Edlén equation \
-                 (Birch & Downs 1994) at the row's own air temperature, pressure and humidity (HeNe \
-                 633 nm): n − 1 from {:.3} to {:.3} ppm (mean {:.3} ppm), a {:.3} ppm span.",
-                (lo - 1.0) * 1e6,
-                (hi - 1.0) * 1e6,
-                (m - 1.0) * 1e6,
-                (hi - lo) * 1e6
-            );
+        Some((lo, m, hi)) => md.line(format_args!(
+            "Refraction: every laser length was compensated with the modified Edlén equation \
+             (Birch & Downs 1994) at the row's own air temperature, pressure and humidity (HeNe \
+             633 nm): n − 1 from {:.3} to {:.3} ppm (mean {:.3} ppm), a {:.3} ppm span.",
+            (lo - 1.0) * 1e6,
+            (hi - 1.0) * 1e6,
+            (m - 1.0) * 1e6,
+            (hi - lo) * 1e6
+        )),
+        None => {
+            md.line("Refraction: no air data; laser lengths are in vacuum wavelengths (n = 1).")
         }
-        None => s.push_str(
-            "\nRefraction: no air data; laser lengths are in vacuum wavelengths (n = 1).\n",
-        ),
-    }
+    };
+    let uncompensated = e.rows_without_air;
     if uncompensated > 0 {
-        let _ = writeln!(
-            s,
-            "\n{uncompensated} rows came before the first ENV frame and carry no air compensation (n = 1)."
-        );
+        md.nl().line(format_args!(
+            "{uncompensated} rows came before the first ENV frame and carry no air compensation (n = 1)."
+        ));
     }
     if let Some((_, m, _)) = e.scale_temp_c.min_mean_max() {
         let len = e.max_scale_mm;
-        let _ = writeln!(
-            s,
-            "\nNormalisation to 20 °C (ISO 1): the errors above are as measured, not normalised. \
+        md.nl().line(format_args!(
+            "Normalisation to 20 °C (ISO 1): the errors above are as measured, not normalised. \
              The scale was on average {:+.3} K from 20 °C; for a steel scale (11.5 ppm/K) that is \
              {:+.3} µm over the {:.0} mm travel — the size of the correction a normalisation would \
              apply, and why a thermal model of the scale belongs in the machine model.",
             m - 20.0,
             -11.5 * (m - 20.0) * len * 1e-3,
             len
-        );
+        ));
     }
-    s
+    md.finish()
 }

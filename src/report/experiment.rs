@@ -1,23 +1,22 @@
 //! The fuzzy-interpolation paper's simulation's report (`fuzzy-sim`): its outcome in words and a table, beside the paper's
 //! figures.
 
+use super::md::Md;
 use crate::evaluate::experiment::{FuzzySimResult, MethodStats};
 
 /// The simulation's outcome in words and a table, beside the paper's figures.
 pub fn markdown(r: &FuzzySimResult) -> String {
-    use std::fmt::Write as _;
     let c = &r.config;
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# Fuzzy vs trilinear vs cubic spline on random node errors (Agbegha, Guo and Bai 2011)\n"
-    );
-    let _ = writeln!(
-        s,
+    let mut md = Md::new();
+    md.heading(
+        1,
+        "Fuzzy vs trilinear vs cubic spline on random node errors (Agbegha, Guo and Bai 2011)",
+    )
+    .para(format_args!(
         "Grid: {n}×{n}×{n} cells of {cell} mm ({nodes}³ nodes); node errors and target errors drawn \
          independently from U[−{a}, {a}] mm; one random target in each of {t} random cells; {trials} \
          trials from seed {seed}; fuzzy σ = {sigma} of the cell. Regenerate with \
-         `errmap fuzzy-sim --seed {seed} --trials {trials}`.\n",
+         `errmap fuzzy-sim --seed {seed} --trials {trials}`.",
         n = c.cells_per_axis,
         cell = c.cell_mm,
         nodes = c.cells_per_axis + 1,
@@ -26,36 +25,36 @@ pub fn markdown(r: &FuzzySimResult) -> String {
         trials = c.trials,
         seed = c.seed,
         sigma = c.fuzzy_sigma
-    );
-    let _ = writeln!(
-        s,
-        "| method | max mm (first trial) | mean mm (first trial) | max mm (mean over trials) | mean mm (mean over trials) | paper max mm |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    ))
+    .table([
+        "method",
+        "max mm (first trial)",
+        "mean mm (first trial)",
+        "max mm (mean over trials)",
+        "mean mm (mean over trials)",
+        "paper max mm",
+    ]);
     for m in &r.methods {
-        let _ = writeln!(
-            s,
-            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {} |",
-            m.method,
-            m.first_max_mm,
-            m.first_mean_mm,
-            m.mean_of_max_mm,
-            m.mean_of_mean_mm,
+        md.row([
+            m.method.to_string(),
+            format!("{:.4}", m.first_max_mm),
+            format!("{:.4}", m.first_mean_mm),
+            format!("{:.4}", m.mean_of_max_mm),
+            format!("{:.4}", m.mean_of_mean_mm),
             m.paper_max_mm
                 .map(|v| format!("{v:.3}"))
-                .unwrap_or_default()
-        );
+                .unwrap_or_default(),
+        ]);
     }
-    let _ = writeln!(
-        s,
-        "\nThe paper's ordering (fuzzy < spline < trilinear) held in {:.0} % of trials for the max error \
+    md.nl().para(format_args!(
+        "The paper's ordering (fuzzy < spline < trilinear) held in {:.0} % of trials for the max error \
          and {:.0} % for the mean error; fuzzy had the smallest max error in {:.0} % and the smallest mean \
-         error in {:.0} % of trials.\n",
+         error in {:.0} % of trials.",
         100.0 * r.paper_order_max_fraction,
         100.0 * r.paper_order_mean_fraction,
         100.0 * r.fuzzy_best_max_fraction,
         100.0 * r.fuzzy_best_mean_fraction
-    );
+    ));
     let mut ranked: Vec<&MethodStats> = r.methods.iter().collect();
     ranked.sort_by(|a, b| a.mean_of_max_mm.total_cmp(&b.mean_of_max_mm));
     let ranking: Vec<String> = ranked
@@ -63,10 +62,9 @@ pub fn markdown(r: &FuzzySimResult) -> String {
         .map(|m| format!("{} {:.4}", m.method, m.mean_of_max_mm))
         .collect();
     let pos = |name: &str| ranked.iter().position(|m| m.method == name).unwrap_or(0);
-    let _ = writeln!(
-        s,
+    md.para(format_args!(
         "Observed ranking by the max error (mean over trials, mm): {}. The paper's claim that fuzzy is \
-         best {}; its claim that the spline beats trilinear {}.\n",
+         best {}; its claim that the spline beats trilinear {}.",
         ranking.join(" < "),
         if pos("fuzzy") == 0 {
             "holds"
@@ -78,9 +76,8 @@ pub fn markdown(r: &FuzzySimResult) -> String {
         } else {
             "does not hold"
         }
-    );
-    let _ = writeln!(
-        s,
+    ));
+    md.line(format_args!(
         "Why the numbers differ from the paper: with target errors independent of the node errors, the \
          best possible prediction is the distribution's mean, 0, with E|e| = {half} mm and a max over {t} \
          targets near {a} mm; a method does better the more it averages the corners. The fuzzy \
@@ -93,6 +90,6 @@ pub fn markdown(r: &FuzzySimResult) -> String {
         half = c.amplitude_mm / 2.0,
         t = c.target_cells,
         a = c.amplitude_mm
-    );
-    s
+    ));
+    md.finish()
 }

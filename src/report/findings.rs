@@ -9,6 +9,16 @@ impl Comparison {
     /// Plain-words findings for an engineer deciding how many nodes to measure next time.
     pub fn findings(&self) -> Vec<String> {
         let mut out = Vec::new();
+        self.coverage_findings(&mut out);
+        self.ranking_findings(&mut out);
+        self.paper_findings(&mut out);
+        self.uncertainty_findings(&mut out);
+        self.sampling_findings(&mut out);
+        out
+    }
+
+    /// Where the test points lie, what was not fitted, and what the grid's shape allows.
+    fn coverage_findings(&self, out: &mut Vec<String>) {
         let n_test = self.extrapolated.len();
         let outside = self.extrapolated.iter().filter(|e| **e).count();
         let within = if self.grid.is_some() {
@@ -43,6 +53,10 @@ impl Comparison {
         if let Some(grid) = &self.grid {
             out.extend(grid_findings(grid, &self.test));
         }
+    }
+
+    /// Ties for the best test RMS, and the cross-validation's pick against the test points' best.
+    fn ranking_findings(&self, out: &mut Vec<String>) {
         let rec = self.recommended_row();
         let best_idx = self.best_on_test();
         let best = &self.rows[best_idx];
@@ -75,6 +89,12 @@ impl Comparison {
             self.rank_by(self.recommended, |r| r.rms_um),
             self.rows.len()
         ));
+    }
+
+    /// Where each of the paper's orders ranks, on the test points and by cross-validation.
+    fn paper_findings(&self, out: &mut Vec<String>) {
+        let n_test = self.extrapolated.len();
+        let outside = self.extrapolated.iter().filter(|e| **e).count();
         for p in &self.paper {
             let Some(idx) = self.find(&Method::Lagrange(p.order)) else {
                 continue;
@@ -104,6 +124,10 @@ impl Comparison {
                 outside
             ));
         }
+    }
+
+    /// How well the models' σ covers the test errors.
+    fn uncertainty_findings(&self, out: &mut Vec<String>) {
         for r in &self.rows {
             if r.sigma_kind != Some(SigmaKind::Model) {
                 continue;
@@ -136,6 +160,10 @@ impl Comparison {
                 100.0 * w2
             ));
         }
+    }
+
+    /// Axes the grid does not resolve, and the paper's columns that cannot be reproduced.
+    fn sampling_findings(&self, out: &mut Vec<String>) {
         if let Some(a) = &self.advice {
             for (k, name) in ["x", "y", "z"].iter().enumerate() {
                 let (l, d) = (a.length_scales_mm[k], a.spacing_mm[k]);
@@ -166,7 +194,6 @@ impl Comparison {
                 }
             ));
         }
-        out
     }
 }
 

@@ -5,7 +5,6 @@
 //! ([`ReportWriter::machine`]); their sections wait in a scratch file, so the writer
 //! holds no more than one machine.
 
-use std::fmt::Write as _;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -16,6 +15,7 @@ use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
+use super::md::Md;
 
 /// At most this many machines in the fleet figure (the riskiest).
 pub const FLEET_FIGURE_MAX: usize = 40;
@@ -120,62 +120,74 @@ impl ReportWriter {
     }
 }
 
+/// The report's head: the date and ledger, the control chart's method, the fleet ranked.
 fn head_section(head: &Head, fleet: &[FleetEntry]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "# Calibration history\n");
-    let _ = writeln!(
-        s,
-        "As of {}, horizon {} days. Ledger: {} records, {} current, {} superseded.\n",
-        head.as_of,
-        head.horizon_days,
-        head.ledger.records,
-        head.ledger.current,
-        head.ledger.superseded
-    );
-    let _ = writeln!(
-        s,
-        "Control chart: {} ({}), λ = {}, limits ±{}σ√v_k around the mean of the first {} points of \
-         each segment; σ from moving ranges pooled over the machine's axes. Risk: the probability \
-         that the trend line is above the tolerance at the horizon.\n",
-        head.chart.method,
-        head.chart.standard,
-        head.chart.lambda,
-        head.chart.l,
-        head.chart.baseline
-    );
-    let _ = writeln!(
-        s,
-        "## Fleet\n\n| rank | machine | risk | advice |\n|---|---|---|---|"
-    );
+    let mut md = Md::new();
+    md.heading(1, "Calibration history")
+        .para(format_args!(
+            "As of {}, horizon {} days. Ledger: {} records, {} current, {} superseded.",
+            head.as_of,
+            head.horizon_days,
+            head.ledger.records,
+            head.ledger.current,
+            head.ledger.superseded
+        ))
+        .para(format_args!(
+            "Control chart: {} ({}), λ = {}, limits ±{}σ√v_k around the mean of the first {} points of \
+             each segment; σ from moving ranges pooled over the machine's axes. Risk: the probability \
+             that the trend line is above the tolerance at the horizon.",
+            head.chart.method,
+            head.chart.standard,
+            head.chart.lambda,
+            head.chart.l,
+            head.chart.baseline
+        ))
+        .heading(2, "Fleet")
+        .table(["rank", "machine", "risk", "advice"]);
     for (i, f) in fleet.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {:.3} | {} |",
-            i + 1,
-            f.id,
-            f.risk,
-            f.advice.as_str()
-        );
+        md.row([
+            (i + 1).to_string(),
+            f.id.to_string(),
+            format!("{:.3}", f.risk),
+            f.advice.as_str().to_string(),
+        ]);
     }
-    s.push('\n');
-    s
+    md.nl();
+    md.finish()
 }
 
 /// A machine's section of `report.md`.
 pub fn machine_section(m: &MachineReport) -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, "## {} — {}\n", m.id, m.advice.as_str());
-    let _ = writeln!(
-        s,
-        "Site: {}. Current records: {}. Recalibrate by: {}.\n",
-        m.site.as_deref().unwrap_or("—"),
-        m.records,
-        m.recalibrate_by.as_deref().unwrap_or("—")
-    );
-    let _ = writeln!(
-        s,
-        "| axis | parameter | n | last | tolerance | rate /year ± σ | EWMA centre | σ | alarms | exceeds tolerance | 95 % interval | risk |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
-    );
+    let mut md = Md::new();
+    md.heading(2, format_args!("{} — {}", m.id, m.advice.as_str()))
+        .para(format_args!(
+            "Site: {}. Current records: {}. Recalibrate by: {}.",
+            m.site.as_deref().unwrap_or("—"),
+            m.records,
+            m.recalibrate_by.as_deref().unwrap_or("—")
+        ));
+    series_table(&mut md, m);
+    pairs_table(&mut md, m);
+    md.nl();
+    md.finish()
+}
+
+/// One row per series: its last value, trend, chart and risk.
+fn series_table(md: &mut Md, m: &MachineReport) {
+    md.table([
+        "axis",
+        "parameter",
+        "n",
+        "last",
+        "tolerance",
+        "rate /year ± σ",
+        "EWMA centre",
+        "σ",
+        "alarms",
+        "exceeds tolerance",
+        "95 % interval",
+        "risk",
+    ]);
     for a in &m.axes {
         for p in &a.parameters {
             let rate = match (p.rate_per_year, p.rate_sigma) {
@@ -190,55 +202,58 @@ pub fn machine_section(m: &MachineReport) -> String {
                 ),
                 None => "—".into(),
             };
-            let _ = writeln!(
-                s,
-                "| {} | {} ({}) | {} | {:.3} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                a.axis,
-                p.name,
-                p.unit,
-                p.n,
-                p.last,
+            md.row([
+                a.axis.to_string(),
+                format!("{} ({})", p.name, p.unit),
+                p.n.to_string(),
+                format!("{:.3}", p.last),
                 opt(p.tolerance, 3),
                 rate,
                 opt(p.center, 3),
                 opt(p.sigma, 3),
-                p.alarms.len(),
-                p.exceeds_tolerance_at.as_deref().unwrap_or("—"),
+                p.alarms.len().to_string(),
+                p.exceeds_tolerance_at.as_deref().unwrap_or("—").to_string(),
                 iv,
-                opt(p.risk, 3)
-            );
+                opt(p.risk, 3),
+            ]);
         }
     }
-    let pairs: Vec<String> = m
+}
+
+/// The as-found / as-left pairs of an adjustment, when the machine had one.
+fn pairs_table(md: &mut Md, m: &MachineReport) {
+    let pairs: Vec<[String; 6]> = m
         .axes
         .iter()
         .flat_map(|a| {
             a.parameters.iter().flat_map(move |p| {
                 p.pairs.iter().map(move |q| {
-                    format!(
-                        "| {} | {} | {} | {} | {} | {:.3} |",
-                        a.axis,
-                        p.name,
-                        q.as_found_at.as_deref().unwrap_or("—"),
+                    [
+                        a.axis.to_string(),
+                        p.name.to_string(),
+                        q.as_found_at.as_deref().unwrap_or("—").to_string(),
                         opt(q.as_found, 3),
-                        q.as_left_at,
-                        q.as_left
-                    )
+                        q.as_left_at.to_string(),
+                        format!("{:.3}", q.as_left),
+                    ]
                 })
             })
         })
         .collect();
-    if !pairs.is_empty() {
-        let _ = writeln!(
-            s,
-            "\nAs-found / as-left:\n\n| axis | parameter | as found at | as found | as left at | as left |\n|---|---|---|---|---|---|"
-        );
-        for p in pairs {
-            let _ = writeln!(s, "{p}");
-        }
+    if pairs.is_empty() {
+        return;
     }
-    s.push('\n');
-    s
+    md.nl().para("As-found / as-left:").table([
+        "axis",
+        "parameter",
+        "as found at",
+        "as found",
+        "as left at",
+        "as left",
+    ]);
+    for p in pairs {
+        md.row(p);
+    }
 }
 
 /// The machine's riskiest series (the first in axis and parameter order on ties).
@@ -267,15 +282,54 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
         .map(|s| time::parse_utc(&s.at).unwrap_or(0))
         .collect();
     let origin = t.first().copied().unwrap_or(0);
-    let year = 365.25 * 86_400.0;
-    let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / year).collect();
+    let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / YEAR_S).collect();
+    let mut series = chart_series(axis, p, &x);
+    series.extend(alarm_series(p, &x));
+    let x_end = x.last().copied().unwrap_or(0.0);
+    series.extend(trend_and_tolerance(p, origin, x_end));
+    let first = p.series.first().map(|s| &s.at[..10]).unwrap_or("");
+    Ok(plot::xy(
+        stem,
+        &format!(
+            "{} — {axis} {} ({}), advice {}",
+            m.id,
+            p.name,
+            p.unit,
+            m.advice.as_str()
+        ),
+        &format!("years since {first}"),
+        &format!("{} ({})", p.name, p.unit),
+        &series,
+    )?)
+}
+
+/// Seconds in a (Julian) year: the figures' time axis is in years.
+const YEAR_S: f64 = 365.25 * 86_400.0;
+
+/// A line in palette colour `colour`, dashed or solid, without markers.
+fn styled(name: String, x: Vec<f64>, y: Vec<f64>, colour: usize, dashed: bool) -> XySeries {
+    XySeries {
+        name,
+        x,
+        y,
+        style: XyStyle::Styled {
+            colour,
+            dashed,
+            markers: false,
+        },
+    }
+}
+
+/// The series itself with markers, its EWMA, and the EWMA's control limits (the lower
+/// one unnamed, so the legend lists the limits once).
+fn chart_series(axis: &str, p: &ParameterReport, x: &[f64]) -> Vec<XySeries> {
     let col = |f: fn(&crate::history::report::SeriesPoint) -> Option<f64>| -> Vec<f64> {
         p.series.iter().map(|s| f(s).unwrap_or(f64::NAN)).collect()
     };
-    let mut series = vec![
+    vec![
         XySeries {
             name: format!("{axis} {}", p.name),
-            x: x.clone(),
+            x: x.to_vec(),
             y: p.series.iter().map(|s| s.value).collect(),
             style: XyStyle::Styled {
                 colour: 0,
@@ -283,37 +337,14 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
                 markers: true,
             },
         },
-        XySeries {
-            name: "EWMA".into(),
-            x: x.clone(),
-            y: col(|s| s.ewma),
-            style: XyStyle::Styled {
-                colour: 1,
-                dashed: false,
-                markers: false,
-            },
-        },
-        XySeries {
-            name: "EWMA limits".into(),
-            x: x.clone(),
-            y: col(|s| s.ucl),
-            style: XyStyle::Styled {
-                colour: 2,
-                dashed: true,
-                markers: false,
-            },
-        },
-        XySeries {
-            name: "".into(),
-            x: x.clone(),
-            y: col(|s| s.lcl),
-            style: XyStyle::Styled {
-                colour: 2,
-                dashed: true,
-                markers: false,
-            },
-        },
-    ];
+        styled("EWMA".into(), x.to_vec(), col(|s| s.ewma), 1, false),
+        styled("EWMA limits".into(), x.to_vec(), col(|s| s.ucl), 2, true),
+        styled("".into(), x.to_vec(), col(|s| s.lcl), 2, true),
+    ]
+}
+
+/// The points that raised an alarm, when any did.
+fn alarm_series(p: &ParameterReport, x: &[f64]) -> Option<XySeries> {
     let alarm_x: Vec<f64> = p
         .alarms
         .iter()
@@ -334,56 +365,40 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
                 .map(|s| s.value)
         })
         .collect();
-    if !alarm_x.is_empty() {
-        series.push(XySeries {
-            name: "alarm".into(),
-            x: alarm_x,
-            y: alarm_y,
-            style: XyStyle::Points,
-        });
-    }
-    let x_end = x.last().copied().unwrap_or(0.0);
+    (!alarm_x.is_empty()).then(|| XySeries {
+        name: "alarm".into(),
+        x: alarm_x,
+        y: alarm_y,
+        style: XyStyle::Points,
+    })
+}
+
+/// The trend line from the start of its fit to the last point, and the tolerance, each
+/// when there is one.
+fn trend_and_tolerance(p: &ParameterReport, origin: i64, x_end: f64) -> Vec<XySeries> {
+    let mut series = Vec::new();
     if let Some((o, tr)) = &p.fit {
-        let shift = (*o - origin) as f64 / year;
+        let shift = (*o - origin) as f64 / YEAR_S;
         let x0 = shift;
         let line = |xx: f64| tr.y_mean + tr.slope * (xx - shift - tr.t_mean);
-        series.push(XySeries {
-            name: format!("trend {:+.3}/year", tr.slope),
-            x: vec![x0, x_end],
-            y: vec![line(x0), line(x_end)],
-            style: XyStyle::Styled {
-                colour: 3,
-                dashed: false,
-                markers: false,
-            },
-        });
+        series.push(styled(
+            format!("trend {:+.3}/year", tr.slope),
+            vec![x0, x_end],
+            vec![line(x0), line(x_end)],
+            3,
+            false,
+        ));
     }
     if let Some(tol) = p.tolerance {
-        series.push(XySeries {
-            name: "tolerance".into(),
-            x: vec![0.0, x_end.max(1e-3)],
-            y: vec![tol, tol],
-            style: XyStyle::Styled {
-                colour: 4,
-                dashed: true,
-                markers: false,
-            },
-        });
+        series.push(styled(
+            "tolerance".into(),
+            vec![0.0, x_end.max(1e-3)],
+            vec![tol, tol],
+            4,
+            true,
+        ));
     }
-    let first = p.series.first().map(|s| &s.at[..10]).unwrap_or("");
-    Ok(plot::xy(
-        stem,
-        &format!(
-            "{} — {axis} {} ({}), advice {}",
-            m.id,
-            p.name,
-            p.unit,
-            m.advice.as_str()
-        ),
-        &format!("years since {first}"),
-        &format!("{} ({})", p.name, p.unit),
-        &series,
-    )?)
+    series
 }
 
 /// `<stem>.png`/`.svg`: the riskiest machines' risk.

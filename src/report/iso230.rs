@@ -1,10 +1,10 @@
 //! The ISO 230-2 / VDI/DGQ 3441 report section and its deviation chart, from the numbers
 //! of [`crate::session::iso230`].
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::ReportError;
+use super::md::Md;
 use crate::base::FileOp;
 use crate::base::error::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
@@ -51,31 +51,36 @@ pub fn markdown_with_uncertainty(
 ) -> String {
     let d = decimals(stats);
     let f = |v: f64| format!("{v:.d$}");
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "## Positioning accuracy of axis {axis_name} (ISO 230-2)\n"
-    );
-    let _ = writeln!(
-        s,
+    let mut md = Md::new();
+    md.heading(
+        2,
+        format_args!("Positioning accuracy of axis {axis_name} (ISO 230-2)"),
+    )
+    .para(
         "Positional deviations x = P_ij − P_i (laser − indicated) = −e, µm, where e = indicated \
          − reference is errmap's error. ↑ is an approach in the positive direction, ↓ in the \
-         negative one. s uses n − 1.\n"
+         negative one. s uses n − 1.",
     );
+    target_table(&mut md, stats, &f);
+    md.nl();
+    axis_values(&mut md, stats, u, &f);
+    vdi_and_notes(&mut md, stats, u, &f);
+    md.finish()
+}
+
+/// One row per target: its means, reversal, spreads and repeatabilities.
+fn target_table(md: &mut Md, stats: &AxisStats, f: &dyn Fn(f64) -> String) {
     let header = [
         "target i", "P_i mm", "n↑", "n↓", "x̄_i↑", "x̄_i↓", "B_i", "2s_i↑", "2s_i↓", "R_i↑", "R_i↓",
         "R_i",
     ];
-    let _ = writeln!(s, "| {} |", header.join(" | "));
-    let _ = writeln!(s, "|{}", "---:|".repeat(header.len()));
+    md.table_aligned(header, &"r".repeat(header.len()));
     for t in &stats.targets {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            t.target,
-            t.position_mm,
-            t.n_up,
-            t.n_down,
+        md.row([
+            t.target.to_string(),
+            t.position_mm.to_string(),
+            t.n_up.to_string(),
+            t.n_down.to_string(),
             f(t.mean_up_um),
             f(t.mean_down_um),
             f(t.reversal_um),
@@ -83,19 +88,31 @@ pub fn markdown_with_uncertainty(
             f(2.0 * t.s_down_um),
             f(t.repeat_up_um),
             f(t.repeat_down_um),
-            f(t.repeat_bidir_um)
-        );
+            f(t.repeat_bidir_um),
+        ]);
     }
+}
 
-    let (u_col, u_head, u_rule) = match u {
-        Some(u) => (Some(u), format!(" U (k = {}) |", u.k), "---:|".to_string()),
-        None => (None, String::new(), String::new()),
-    };
-    let _ = writeln!(
-        s,
-        "\n| axis value | symbol | ↑ | ↓ | bidirectional |{u_head}"
-    );
-    let _ = writeln!(s, "|---|---|---:|---:|---:|{u_rule}");
+/// The axis values E, M, A, R, B and B̄, with U beside each when it is given.
+fn axis_values(
+    md: &mut Md,
+    stats: &AxisStats,
+    u: Option<&StatUncertainty>,
+    f: &dyn Fn(f64) -> String,
+) {
+    let mut header = vec![
+        "axis value".to_string(),
+        "symbol".into(),
+        "↑".into(),
+        "↓".into(),
+        "bidirectional".into(),
+    ];
+    let mut align = String::from("llrrr");
+    if let Some(u) = u {
+        header.push(format!("U (k = {})", u.k));
+        align.push('r');
+    }
+    md.table_aligned(header, &align);
     let travel = |u: &StatUncertainty| u.along_travel_um;
     let target = |u: &StatUncertainty| u.at_one_target_um;
     type Row<'a> = (
@@ -151,20 +168,31 @@ pub fn markdown_with_uncertainty(
     ];
     let cell = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
     for (name, symbol, up, down, bi, which) in rows {
-        let u_cell = u_col.map_or_else(String::new, |u| format!(" {} |", f(which(u))));
-        let _ = writeln!(
-            s,
-            "| {name} | {symbol} | {} | {} | {} |{u_cell}",
+        let mut cells = vec![
+            name.to_string(),
+            symbol.to_string(),
             cell(up),
             cell(down),
-            f(bi)
-        );
+            f(bi),
+        ];
+        if let Some(u) = u {
+            cells.push(f(which(u)));
+        }
+        md.row(cells);
     }
+}
 
+/// The VDI/DGQ 3441 values, the expanded uncertainty in words, and a note when the test
+/// has fewer runs than the standard's cycle.
+fn vdi_and_notes(
+    md: &mut Md,
+    stats: &AxisStats,
+    u: Option<&StatUncertainty>,
+    f: &dyn Fn(f64) -> String,
+) {
     let v = &stats.vdi;
-    let _ = writeln!(
-        s,
-        "\nVDI/DGQ 3441 (±3s scatter, Ps_i = 6 (s_i↑ + s_i↓)/2, U_i = |B_i|): position \
+    md.nl().line(format_args!(
+        "VDI/DGQ 3441 (±3s scatter, Ps_i = 6 (s_i↑ + s_i↓)/2, U_i = |B_i|): position \
          uncertainty P = {} µm, position deviation Pa = {} µm, position scatter \
          Ps max = {} µm (mean {} µm), reversal span U max = {} µm (mean {} µm).",
         f(v.p_um),
@@ -173,17 +201,16 @@ pub fn markdown_with_uncertainty(
         f(v.ps_mean_um),
         f(v.u_max_um),
         f(v.u_mean_um)
-    );
+    ));
     if let Some(u) = u {
-        let _ = writeln!(
-            s,
-            "\nExpanded uncertainty (k = {}): U = {} µm for E, M, A, P and Pa (over the {} mm \
+        md.nl().line(format_args!(
+            "Expanded uncertainty (k = {}): U = {} µm for E, M, A, P and Pa (over the {} mm \
              travel), U = {} µm for R, B, Ps and U (at one target).",
             u.k,
             f(u.along_travel_um),
             u.travel_mm,
             f(u.at_one_target_um)
-        );
+        ));
     }
     let n_min = stats
         .targets
@@ -192,13 +219,11 @@ pub fn markdown_with_uncertainty(
         .min()
         .unwrap_or(0);
     if n_min < 5 {
-        let _ = writeln!(
-            s,
-            "\nNote: at least one target has fewer than the 5 runs per direction of ISO 230-2's \
+        md.nl().line(format_args!(
+            "Note: at least one target has fewer than the 5 runs per direction of ISO 230-2's \
              standard test cycle (fewest: {n_min})."
-        );
+        ));
     }
-    s
 }
 
 /// Deviation chart in the style of ISO 230-2 certificates: one colour per direction
@@ -264,24 +289,29 @@ pub fn write_session_report(
     dir: &Path,
 ) -> Result<PathBuf, ReportError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
-    let mut md = format!(
-        "# ISO 230-2 positioning statistics\n\nSession: `{source}`; axis {axis}; {} line(s).\n\n",
-        iso.len()
-    );
-    md.push_str(environment);
-    md.push('\n');
+    let mut md = Md::new();
+    md.heading(1, "ISO 230-2 positioning statistics")
+        .para(format_args!(
+            "Session: `{source}`; axis {axis}; {} line(s).",
+            iso.len()
+        ))
+        .line(environment);
     for (k, (line, stats)) in iso.iter().enumerate() {
-        let _ = write!(md, "## Line {} at ({}, {}) mm\n\n", k + 1, line.0, line.1);
+        md.heading(
+            2,
+            format_args!("Line {} at ({}, {}) mm", k + 1, line.0, line.1),
+        );
         let budget = budgets.get(k);
         let u = budget.map(Budget::expanded);
-        md.push_str(
-            &markdown_with_uncertainty(stats, axis, u.as_ref())
+        // The section's own headings go one level down, under the line's.
+        md.raw(
+            markdown_with_uncertainty(stats, axis, u.as_ref())
                 .replace("\n## ", "\n### ")
                 .replacen("## ", "### ", 1),
         );
         if let Some(b) = budget {
-            md.push('\n');
-            md.push_str(&super::uncertainty::budget_markdown(b, decimals(stats)));
+            md.nl()
+                .raw(super::uncertainty::budget_markdown(b, decimals(stats)));
         }
         let stem = dir.join(format!("line{}", k + 1));
         plot(
@@ -289,9 +319,10 @@ pub fn write_session_report(
             &stem,
             &format!("Axis {axis}, line ({}, {}) mm", line.0, line.1),
         )?;
-        let _ = write!(md, "\n![line {}](line{}.png)\n\n", k + 1, k + 1);
+        md.nl()
+            .para(format_args!("![line {}](line{}.png)", k + 1, k + 1));
     }
     let p = dir.join("report.md");
-    super::write_text(&p, &md)?;
+    super::write_text(&p, md.as_str())?;
     Ok(p)
 }

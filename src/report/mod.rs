@@ -16,6 +16,7 @@
 //! | [`experiment`] | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
 //! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
 //! | [`history`] | the calibration history report (`history report --report`) |
+//! | [`md`] | nothing itself: the Markdown writer the reports are written with |
 //! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
 //!
 //! Every file is written through [`write_text`] or [`write_json`]: checked by [`finite`],
@@ -41,6 +42,7 @@ pub mod finite;
 pub mod history;
 pub mod iso230;
 pub mod json;
+pub mod md;
 pub mod uncertainty;
 pub mod volumetric;
 

@@ -1,7 +1,7 @@
 //! The measurement-uncertainty budget as a table, and the note on which positioning
 //! standards errmap evaluates, from the numbers of [`crate::session::uncertainty`].
 
-use std::fmt::Write as _;
+use super::md::Md;
 
 use crate::session::uncertainty::{Budget, Kind};
 
@@ -55,7 +55,6 @@ fn sig(v: f64) -> String {
 /// expanded uncertainties.
 pub fn budget_markdown(budget: &Budget, decimals: usize) -> String {
     let c = &budget.conditions;
-    let mut s = String::from("#### Measurement uncertainty (ISO/TR 230-9, GUM)\n\n");
     let air = if c.air_measured {
         format!(
             "mean air {:.2} °C, {:.2} hPa, {:.1} %RH",
@@ -71,28 +70,29 @@ pub fn budget_markdown(budget: &Budget, decimals: usize) -> String {
         || "no material temperature recorded (expansion term 0)".to_string(),
         |t| format!("mean material temperature {t:.2} °C"),
     );
-    let _ = writeln!(
-        s,
-        "Travel {} mm; {air}; {material}. Length terms in ppm of the distance compared, \
-         reading terms in µm; the last column is each term over the travel.\n",
-        c.travel_mm
-    );
-    let _ = writeln!(
-        s,
-        "| influence | u(x_i) | sensitivity c_i | u_i | u_i over the travel, µm |"
-    );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|");
-    for r in budget_rows(budget, decimals) {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} |",
-            r.name, r.input, r.sensitivity, r.u, r.u_travel_um
+    let mut md = Md::new();
+    md.heading(4, "Measurement uncertainty (ISO/TR 230-9, GUM)")
+        .para(format_args!(
+            "Travel {} mm; {air}; {material}. Length terms in ppm of the distance compared, \
+             reading terms in µm; the last column is each term over the travel.",
+            c.travel_mm
+        ))
+        .table_aligned(
+            [
+                "influence",
+                "u(x_i)",
+                "sensitivity c_i",
+                "u_i",
+                "u_i over the travel, µm",
+            ],
+            "lrrrr",
         );
+    for r in budget_rows(budget, decimals) {
+        md.row([r.name, r.input, r.sensitivity, r.u, r.u_travel_um]);
     }
     let u = budget.expanded();
-    let _ = writeln!(
-        s,
-        "\nCombined: u_rel = {} ppm (length terms), u_read = {:.decimals$} µm (reading terms); \
+    md.nl().line(format_args!(
+        "Combined: u_rel = {} ppm (length terms), u_read = {:.decimals$} µm (reading terms); \
          u_c = √((u_rel·L)² + 2·u_read²) = {:.decimals$} µm over the travel, {:.decimals$} µm \
          at one target; U = k·u_c with k = {}: {:.decimals$} µm and {:.decimals$} µm.",
         sig(budget.u_rel_ppm),
@@ -102,8 +102,8 @@ pub fn budget_markdown(budget: &Budget, decimals: usize) -> String {
         u.k,
         u.along_travel_um,
         u.at_one_target_um
-    );
-    s
+    ));
+    md.finish()
 }
 
 /// Which positioning standards the statistics stand for, and which could not be sourced.

@@ -4,10 +4,10 @@
 //! time), `model.json` (what `predict` reads) and one
 //! figure per identified component with its one-sigma band (`E_XX.png`/`.svg` …).
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use super::ReportError;
+use super::md::Md;
 use crate::base::FileOp;
 use crate::base::error::io_err;
 use crate::plot::{XySeries, XyStyle, xy};
@@ -19,10 +19,27 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
     let model = dir.join("model.json");
     super::write_json(&model, &id.doc(positions, true))?;
 
-    let mut md = String::new();
-    let n_id = id.fit.identified.iter().filter(|f| **f).count();
-    let _ = writeln!(md, "# Volumetric errors — topology {}\n", id.topology);
-    let model = match &id.smoothing {
+    let mut md = Md::new();
+    md.heading(
+        1,
+        format_args!("Volumetric errors — topology {}", id.topology),
+    );
+    summary(&mut md, id);
+    scale_temperature(&mut md, id);
+    found_effects(&mut md, id);
+    components(&mut md, id, positions, dir);
+    squareness(&mut md, id);
+    undetermined(&mut md, id);
+    degree_by_cv(&mut md, id);
+    residual_per_line(&mut md, id, dir);
+    let path = dir.join("report.md");
+    super::write_text(&path, md.as_str())?;
+    Ok(())
+}
+
+/// How the components were modelled, in a phrase.
+fn model_words(id: &Identification) -> String {
+    match &id.smoothing {
         Some(sm) => format!(
             "Components as tables at knots with a roughness penalty, smoothing by {}{}",
             sm.criterion,
@@ -44,13 +61,18 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
                 " (chosen by leave-one-line-out cross-validation)"
             }
         ),
-    };
-    let _ = writeln!(
-        md,
-        "{} lines, {} targets. {model}. RMS residual {:.4} µm \
-         (√(χ²/ν) = {:.3}, ν = {:.1}; rows {}). **{} of 21 errors identified.**\n",
+    }
+}
+
+/// The fit in one paragraph, the gauge convention and the residual's verdict.
+fn summary(md: &mut Md, id: &Identification) {
+    let n_id = id.fit.identified.iter().filter(|f| **f).count();
+    md.para(format_args!(
+        "{} lines, {} targets. {}. RMS residual {:.4} µm \
+         (√(χ²/ν) = {:.3}, ν = {:.1}; rows {}). **{} of 21 errors identified.**",
         id.lines,
         id.targets,
+        model_words(id),
         id.rms_residual_um,
         id.sigma0,
         id.dof,
@@ -60,13 +82,12 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
             "equally weighted"
         },
         n_id
-    );
-    let _ = writeln!(md, "**Gauge convention.** {GAUGE}.\n");
-    let _ = writeln!(
-        md,
+    ));
+    md.para(format_args!("**Gauge convention.** {GAUGE}."));
+    md.para(format_args!(
         "**Residual.** Verdict `{}`. What remains after the fit{} against the noise: {} test, \
          z = {:.2} ({}; above 3.09 it is an `unexplained` effect). A drift in time or a single \
-         bad line is not yet named.\n",
+         bad line is not yet named.",
         id.residual.verdict,
         if id.thermal.as_ref().is_some_and(|t| t.kept) {
             " and the scales' expansion"
@@ -80,63 +101,85 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
         } else {
             "noise"
         }
-    );
-    if let Some(th) = &id.thermal {
-        let words = match (th.alpha_ppm_per_k, th.sigma_ppm_per_k) {
-            (Some(a), Some(s)) if th.kept => format!(
-                "α = {a:.3} ± {s:.3} ppm/K (|α|/σ = {:.1} > 3): kept; the components below are \
-                 **at 20 °C**",
-                a.abs() / s
-            ),
-            (Some(a), Some(s)) => {
-                format!("α = {a:.3} ± {s:.3} ppm/K, not significant (|α|/σ ≤ 3): not fitted")
-            }
-            _ => "α is not determined (the temperature did not change enough between lines \
-                  along the same axes): not fitted; the positioning components are those at the \
-                  campaign's temperature"
-                .to_string(),
-        };
-        let _ = writeln!(
-            md,
-            "**Scale temperature.** scale_temp_c {:.2}–{:.2} °C over the campaign; {words}.\n",
-            th.temp_c[0], th.temp_c[1]
-        );
-    }
-    if !id.residual.effects.is_empty() {
-        let _ = writeln!(
-            md,
-            "| effect | parameters | one-sigma | explains (µm) | where |\n|---|---|---|---|---|"
-        );
-        for e in &id.residual.effects {
-            let params: Vec<String> = e
-                .effect
-                .params_by_name()
-                .iter()
-                .map(|(k, v)| format!("{k} = {v}"))
-                .collect();
-            let sig: Vec<String> = e
-                .uncertainty_by_name()
-                .iter()
-                .map(|(k, v)| format!("{k}: {v:.3}"))
-                .collect();
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {:.3} | {} |",
-                e.id(),
-                params.join(", "),
-                sig.join(", "),
-                e.explains_um,
-                e.where_
-            );
+    ));
+}
+
+/// The scales' expansion coefficient, when the campaign recorded their temperature.
+fn scale_temperature(md: &mut Md, id: &Identification) {
+    let Some(th) = &id.thermal else {
+        return;
+    };
+    let words = match (th.alpha_ppm_per_k, th.sigma_ppm_per_k) {
+        (Some(a), Some(s)) if th.kept => format!(
+            "α = {a:.3} ± {s:.3} ppm/K (|α|/σ = {:.1} > 3): kept; the components below are \
+             **at 20 °C**",
+            a.abs() / s
+        ),
+        (Some(a), Some(s)) => {
+            format!("α = {a:.3} ± {s:.3} ppm/K, not significant (|α|/σ ≤ 3): not fitted")
         }
-        let _ = writeln!(md);
+        _ => "α is not determined (the temperature did not change enough between lines \
+              along the same axes): not fitted; the positioning components are those at the \
+              campaign's temperature"
+            .to_string(),
+    };
+    md.para(format_args!(
+        "**Scale temperature.** scale_temp_c {:.2}–{:.2} °C over the campaign; {words}.",
+        th.temp_c[0], th.temp_c[1]
+    ));
+}
+
+/// The effects the residual's analysis named, one row each.
+fn found_effects(md: &mut Md, id: &Identification) {
+    if id.residual.effects.is_empty() {
+        return;
     }
-    let _ = writeln!(md, "## Components\n");
-    let _ = writeln!(
-        md,
-        "| component | role | identified | max abs value | max σ | unit | figure |"
-    );
-    let _ = writeln!(md, "|---|---|---|---|---|---|---|");
+    md.table([
+        "effect",
+        "parameters",
+        "one-sigma",
+        "explains (µm)",
+        "where",
+    ]);
+    for e in &id.residual.effects {
+        let params: Vec<String> = e
+            .effect
+            .params_by_name()
+            .iter()
+            .map(|(k, v)| format!("{k} = {v}"))
+            .collect();
+        let sig: Vec<String> = e
+            .uncertainty_by_name()
+            .iter()
+            .map(|(k, v)| format!("{k}: {v:.3}"))
+            .collect();
+        md.row([
+            e.id().to_string(),
+            params.join(", "),
+            sig.join(", "),
+            format!("{:.3}", e.explains_um),
+            e.where_.to_string(),
+        ]);
+    }
+    md.nl();
+}
+
+/// The unit of a component's values.
+fn unit(c: &Component) -> &'static str {
+    if c.is_rotation() { "µrad" } else { "µm" }
+}
+
+/// One row per component, drawing each identified one with its one-sigma band.
+fn components(md: &mut Md, id: &Identification, positions: usize, dir: &Path) {
+    md.heading(2, "Components").table([
+        "component",
+        "role",
+        "identified",
+        "max abs value",
+        "max σ",
+        "unit",
+        "figure",
+    ]);
     for c in Component::all() {
         let pos = id.positions(c.axis, positions);
         let vals: Option<Vec<(f64, f64)>> = pos
@@ -145,50 +188,11 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
             .collect();
         let (v, s, fig) = match &vals {
             Some(v) => {
-                let stem = dir.join(c.name());
                 let y: Vec<f64> = v.iter().map(|x| x.0).collect();
-                let series = vec![
-                    XySeries {
-                        name: c.name(),
-                        x: pos.clone(),
-                        y: y.clone(),
-                        style: XyStyle::Line,
-                    },
-                    XySeries {
-                        name: "+1σ".into(),
-                        x: pos.clone(),
-                        y: v.iter().map(|x| x.0 + x.1).collect(),
-                        style: XyStyle::Line,
-                    },
-                    XySeries {
-                        name: "−1σ".into(),
-                        x: pos.clone(),
-                        y: v.iter().map(|x| x.0 - x.1).collect(),
-                        style: XyStyle::Line,
-                    },
-                ];
-                let axis = ['x', 'y', 'z'][c.axis];
-                let drawn = xy(
-                    &stem,
-                    &format!(
-                        "{} ({} of {})",
-                        c.name(),
-                        c.role(),
-                        axis.to_ascii_uppercase()
-                    ),
-                    &format!("{axis} (mm)"),
-                    &format!(
-                        "{} ({})",
-                        c.name(),
-                        if c.is_rotation() { "µrad" } else { "µm" }
-                    ),
-                    &series,
-                )
-                .is_ok();
                 (
                     format!("{:.4}", y.iter().fold(0.0f64, |a, b| a.max(b.abs()))),
                     format!("{:.4}", v.iter().fold(0.0f64, |a, b| a.max(b.1))),
-                    if drawn {
+                    if component_figure(&c, &pos, v, dir) {
                         format!("[png]({}.png)", c.name())
                     } else {
                         String::new()
@@ -197,86 +201,102 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
             }
             None => ("—".into(), "—".into(), String::new()),
         };
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {v} | {s} | {} | {fig} |",
+        md.row([
+            c.name(),
+            c.role().to_string(),
+            if vals.is_some() { "yes" } else { "**no**" }.into(),
+            v,
+            s,
+            unit(&c).into(),
+            fig,
+        ]);
+    }
+}
+
+/// Draws one component (value, ±1σ) along its axis; whether the figure was written.
+fn component_figure(c: &Component, pos: &[f64], v: &[(f64, f64)], dir: &Path) -> bool {
+    let band = |name: &str, y: Vec<f64>| XySeries {
+        name: name.into(),
+        x: pos.to_vec(),
+        y,
+        style: XyStyle::Line,
+    };
+    let series = vec![
+        band(&c.name(), v.iter().map(|x| x.0).collect()),
+        band("+1σ", v.iter().map(|x| x.0 + x.1).collect()),
+        band("−1σ", v.iter().map(|x| x.0 - x.1).collect()),
+    ];
+    let axis = ['x', 'y', 'z'][c.axis];
+    xy(
+        &dir.join(c.name()),
+        &format!(
+            "{} ({} of {})",
             c.name(),
             c.role(),
-            if vals.is_some() { "yes" } else { "**no**" },
-            if c.is_rotation() { "µrad" } else { "µm" }
-        );
-    }
-    let _ = writeln!(
-        md,
-        "\n## Squareness\n\n| error | value (µrad) | σ (µrad) |\n|---|---|---|"
-    );
+            axis.to_ascii_uppercase()
+        ),
+        &format!("{axis} (mm)"),
+        &format!("{} ({})", c.name(), unit(c)),
+        &series,
+    )
+    .is_ok()
+}
+
+/// The three squareness errors.
+fn squareness(md: &mut Md, id: &Identification) {
+    md.nl()
+        .heading(2, "Squareness")
+        .table(["error", "value (µrad)", "σ (µrad)"]);
     for (i, name) in SQUARENESS.iter().enumerate() {
         match id.fit.squareness(i) {
-            Some((v, s)) => {
-                let _ = writeln!(md, "| {name} | {v:.3} | {s:.3} |");
-            }
-            None => {
-                let _ = writeln!(md, "| {name} | not identified | — |");
-            }
-        }
+            Some((v, s)) => md.row([name.to_string(), format!("{v:.3}"), format!("{s:.3}")]),
+            None => md.row([*name, "not identified", "—"]),
+        };
     }
-    let _ = writeln!(md, "\n## What the lines cannot determine\n");
+}
+
+/// The combinations the lines leave open, and what would measure them.
+fn undetermined(md: &mut Md, id: &Identification) {
+    md.nl().heading(2, "What the lines cannot determine");
     if id.unidentified.is_empty() {
-        let _ = writeln!(md, "Nothing: the lines determine all 21 errors.");
+        md.line("Nothing: the lines determine all 21 errors.");
     } else {
-        let _ = writeln!(md, "| components | what to measure |\n|---|---|");
+        md.table(["components", "what to measure"]);
         for u in &id.unidentified {
-            let _ = writeln!(md, "| {} | {} |", u.components.join(", "), u.why);
+            md.row([u.components.join(", "), u.why.to_string()]);
         }
     }
-    if !id.cv.is_empty() {
-        let _ = writeln!(
-            md,
-            "\n## Degree by cross-validation\n\n| degree | CV RMS (weighted) | identified |\n|---|---|---|"
+}
+
+/// The cross-validation that chose the polynomial degree, when it ran.
+fn degree_by_cv(md: &mut Md, id: &Identification) {
+    if id.cv.is_empty() {
+        return;
+    }
+    md.nl().heading(2, "Degree by cross-validation").table([
+        "degree",
+        "CV RMS (weighted)",
+        "identified",
+    ]);
+    for s in &id.cv {
+        md.row([
+            s.degree.to_string(),
+            format!("{:.4}", s.cv_rms_um),
+            s.identified.to_string(),
+        ]);
+    }
+}
+
+/// The residual against time (a figure, when the lines are timed) and per line.
+fn residual_per_line(md: &mut Md, id: &Identification, dir: &Path) {
+    md.nl().heading(2, "Residual per line");
+    if residual_time_figure(id, dir) {
+        md.para(
+            "Against the campaign's time: [png](residual_time.png) (a trend from line to \
+             line is a drift or a warming scale the fit left out).",
         );
-        for s in &id.cv {
-            let _ = writeln!(
-                md,
-                "| {} | {:.4} | {} |",
-                s.degree, s.cv_rms_um, s.identified
-            );
-        }
     }
-    let _ = writeln!(md, "\n## Residual per line\n");
-    // Against time: a scale warming or a drift shows as a trend from line to line.
-    let timed: Vec<(f64, f64)> = id
-        .residuals
-        .iter()
-        .flat_map(|l| l.t_s.iter().zip(&l.r_um))
-        .filter_map(|(t, r)| t.map(|t| (t / 3600.0, *r)))
-        .collect();
-    if !timed.is_empty() {
-        let series = vec![XySeries {
-            name: "residual".into(),
-            x: timed.iter().map(|p| p.0).collect(),
-            y: timed.iter().map(|p| p.1).collect(),
-            style: XyStyle::Points,
-        }];
-        if xy(
-            &dir.join("residual_time"),
-            "Residual against time",
-            "t (h)",
-            "residual (µm)",
-            &series,
-        )
-        .is_ok()
-        {
-            let _ = writeln!(
-                md,
-                "Against the campaign's time: [png](residual_time.png) (a trend from line to \
-                 line is a drift or a warming scale the fit left out).\n"
-            );
-        }
-    }
-    let _ = writeln!(
-        md,
-        "| line | targets | RMS (µm) | max abs (µm) | mean t (s) |\n|---|---|---|---|---|"
-    );
+    md.table(["line", "targets", "RMS (µm)", "max abs (µm)", "mean t (s)"]);
     for l in &id.residuals {
         let rms = crate::base::stats::rms(&l.r_um).unwrap_or(0.0);
         let max = l.r_um.iter().fold(0.0f64, |a, b| a.max(b.abs()));
@@ -286,14 +306,40 @@ pub fn write_report(id: &Identification, positions: usize, dir: &Path) -> Result
         } else {
             format!("{:.0}", ts.iter().sum::<f64>() / ts.len() as f64)
         };
-        let _ = writeln!(
-            md,
-            "| {} | {} | {rms:.4} | {max:.4} | {t} |",
-            l.line,
-            l.r_um.len()
-        );
+        md.row([
+            l.line.to_string(),
+            l.r_um.len().to_string(),
+            format!("{rms:.4}"),
+            format!("{max:.4}"),
+            t,
+        ]);
     }
-    let path = dir.join("report.md");
-    super::write_text(&path, &md)?;
-    Ok(())
+}
+
+/// Draws the residual against time: a scale warming or a drift shows as a trend from
+/// line to line. Whether the figure was written (not when no line is timed).
+fn residual_time_figure(id: &Identification, dir: &Path) -> bool {
+    let timed: Vec<(f64, f64)> = id
+        .residuals
+        .iter()
+        .flat_map(|l| l.t_s.iter().zip(&l.r_um))
+        .filter_map(|(t, r)| t.map(|t| (t / 3600.0, *r)))
+        .collect();
+    if timed.is_empty() {
+        return false;
+    }
+    let series = vec![XySeries {
+        name: "residual".into(),
+        x: timed.iter().map(|p| p.0).collect(),
+        y: timed.iter().map(|p| p.1).collect(),
+        style: XyStyle::Points,
+    }];
+    xy(
+        &dir.join("residual_time"),
+        "Residual against time",
+        "t (h)",
+        "residual (µm)",
+        &series,
+    )
+    .is_ok()
 }
