@@ -706,7 +706,8 @@ fn bar_prims(
 
 /// Generic x–y chart: several series, each with its own x values, drawn as points or lines.
 ///
-/// A legend names the series. Errors: empty `series`, a series whose `x` and `y` lengths
+/// A legend names the series; a series with an empty name has no entry (the second of
+/// a pair of limit lines drawn alike). Errors: empty `series`, a series whose `x` and `y` lengths
 /// differ, or no point with both coordinates finite. Individual series may be empty.
 pub fn xy(
     stem: &Path,
@@ -743,6 +744,7 @@ pub fn xy(
     let legend: Vec<LegendEntry> = series
         .iter()
         .enumerate()
+        .filter(|(_, s)| !s.name.is_empty())
         .map(|(k, s)| LegendEntry {
             label: s.name.clone(),
             sample: xy_sample(k, s.style),

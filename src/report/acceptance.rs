@@ -224,7 +224,7 @@ fn measured_markdown(source: &str, r: &TestResult) -> String {
 fn measured_summary(md: &mut Md, source: &str, r: &TestResult) {
     md.para(format_args!("Test file: `{source}`"));
     md.para(format_args!(
-        "**ConformityVerdict: {}** (E0: {}{})",
+        "**Verdict: {}** (E0: {}{})",
         r.verdict,
         r.verdict_e0,
         r.verdict_r0

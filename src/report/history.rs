@@ -204,7 +204,7 @@ fn series_table(md: &mut Md, m: &MachineReport) {
             };
             md.row([
                 a.axis.to_string(),
-                format!("{} ({})", p.name, p.unit),
+                format!("{} ({})", p.name, display_unit(&p.unit)),
                 p.n.to_string(),
                 format!("{:.3}", p.last),
                 opt(p.tolerance, 3),
@@ -294,11 +294,11 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
             "{} — {axis} {} ({}), advice {}",
             m.id,
             p.name,
-            p.unit,
+            display_unit(&p.unit),
             m.advice.as_str()
         ),
         &format!("years since {first}"),
-        &format!("{} ({})", p.name, p.unit),
+        &format!("{} ({})", p.name, display_unit(&p.unit)),
         &series,
     )?)
 }
@@ -399,6 +399,14 @@ fn trend_and_tolerance(p: &ParameterReport, origin: i64, x_end: f64) -> Vec<XySe
         ));
     }
     series
+}
+
+/// A unit as a reader expects it: the ledger stores micrometres as ASCII `um`.
+fn display_unit(unit: &str) -> &str {
+    match unit {
+        "um" => "µm",
+        other => other,
+    }
 }
 
 /// `<stem>.png`/`.svg`: the riskiest machines' risk.
