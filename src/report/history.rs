@@ -382,7 +382,7 @@ fn trend_and_tolerance(p: &ParameterReport, origin: i64, x_end: f64) -> Vec<XySe
         let x0 = shift;
         let line = |xx: f64| tr.y_mean + tr.slope * (xx - shift - tr.t_mean);
         series.push(styled(
-            format!("trend {:+.3}/year", tr.slope),
+            format!("trend {:+.3} {}/year", tr.slope, display_unit(&p.unit)),
             vec![x0, x_end],
             vec![line(x0), line(x_end)],
             3,

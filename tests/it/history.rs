@@ -20,7 +20,7 @@ use errmap::history::tolerance::Tolerances;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
-use crate::util::{bin, errmap, errmap_cmd, reference_row, stderr, tempdir};
+use crate::util::{bin, errmap, errmap_cmd, reference_row, root, stderr, tempdir};
 
 /// A one-axis session: `lines` (the two other coordinates, mm), 6 targets 0…500 mm,
 /// 3 runs each way, 2 samples per dwell; the error grows `slope_um_per_m` along the axis,
@@ -867,7 +867,20 @@ fn all_scenarios(ledger_for: &mut dyn FnMut(&str) -> String, dir: &Path) -> serd
     fleet_ledger(&fleet, &d);
     let r = fleet_report(&fleet, &d, "report");
     check_fleet(&r);
+    readme_figure(&d.join("report"));
     r
+}
+
+/// With `ERRMAP_README_FIGURES=DIR`, the drifting machine's chart (F2) is copied to
+/// `DIR/F2.png`: the README's picture of a machine's history comes from this fleet
+/// (`ERRMAP_README_FIGURES=reports/history cargo test --test it sqlite_ledger`).
+fn readme_figure(report: &Path) {
+    let Some(dir) = std::env::var_os("ERRMAP_README_FIGURES") else {
+        return;
+    };
+    let dir = root().join(dir);
+    std::fs::create_dir_all(&dir).expect("figure dir");
+    std::fs::copy(report.join("F2.png"), dir.join("F2.png")).expect("copy F2.png");
 }
 
 #[test]
