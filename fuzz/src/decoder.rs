@@ -5,7 +5,7 @@ use errmap_drivers::frame::DeviceId;
 use errmap_drivers::{Hello, SessionDecoder, SessionRow};
 
 /// Panics unless every value is finite; `what` names the values.
-pub fn finite(what: &str, values: &[f64]) {
+pub(super) fn finite(what: &str, values: &[f64]) {
     assert!(
         values.iter().all(|v| v.is_finite()),
         "{what}: a reader returned a non-finite value: {values:?}"
@@ -13,7 +13,7 @@ pub fn finite(what: &str, values: &[f64]) {
 }
 
 /// Panics unless every value of a decoded row is finite.
-pub fn session_row_finite(r: &SessionRow) {
+pub(super) fn session_row_finite(r: &SessionRow) {
     let optional = [
         r.feed_mm_s,
         r.x_mm,
@@ -50,7 +50,7 @@ fn given_hello() -> Hello {
 
 /// Decodes `data` whole and in two chunks split where its first byte says; the rows must
 /// agree and be finite. Then once more with a device description given from the start.
-pub fn run(data: &[u8]) -> bool {
+pub(super) fn run(data: &[u8]) -> bool {
     if let Ok((rows, _, _)) = errmap_drivers::decode_all_with_hello(data, given_hello()) {
         rows.iter().for_each(session_row_finite);
     }

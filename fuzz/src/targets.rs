@@ -23,7 +23,7 @@ use decoder::session_row_finite;
 /// A fuzz target: its name (the corpus folder `fuzz/corpus/NAME/`) and the file
 /// extension its bytes are written with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Target {
+pub(super) enum Target {
     /// The wire-protocol session decoder (a raw capture).
     Decoder,
     /// An error table (CSV), read and checked for a grid.
@@ -49,7 +49,7 @@ pub enum Target {
 }
 
 impl Target {
-    pub const ALL: [Target; 10] = [
+    pub(super) const ALL: [Target; 10] = [
         Target::Decoder,
         Target::ErrorTable,
         Target::SessionTable,
@@ -62,7 +62,7 @@ impl Target {
         Target::ControllerTable,
     ];
 
-    pub fn name(self) -> &'static str {
+    pub(super) fn name(self) -> &'static str {
         match self {
             Target::Decoder => "decoder",
             Target::ErrorTable => "error_table",
@@ -77,7 +77,7 @@ impl Target {
         }
     }
 
-    pub fn from_name(name: &str) -> Option<Target> {
+    pub(super) fn from_name(name: &str) -> Option<Target> {
         Target::ALL.into_iter().find(|t| t.name() == name)
     }
 
@@ -92,7 +92,7 @@ impl Target {
     /// Runs the target on `data`; panics on a broken promise (see the module docs).
     /// Returns whether the reader accepted the bytes (the decoder: gave a row), which the
     /// corpus test uses to check that every seed reaches past the door.
-    pub fn run(self, data: &[u8]) -> bool {
+    pub(super) fn run(self, data: &[u8]) -> bool {
         match self {
             Target::Decoder => decoder::run(data),
             Target::ImportSession => import_session(data),

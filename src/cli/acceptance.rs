@@ -13,13 +13,13 @@ use errmap::acceptance::tolerance::Tolerances;
 use errmap::acceptance::{DecisionRule, Mpe, Rule, decide};
 
 /// `--rule`: a rule name from the library's list.
-pub fn rule() -> impl TypedValueParser<Value = Rule> {
+pub(crate) fn rule() -> impl TypedValueParser<Value = Rule> {
     PossibleValuesParser::new(Rule::ALL.map(Rule::name)).try_map(|s| s.parse::<Rule>())
 }
 
 /// The decision-rule flags every judging command takes.
 #[derive(Debug, Clone, Default, Args)]
-pub struct RuleArgs {
+pub(crate) struct RuleArgs {
     /// Decision rule: iso14253 (ISO 14253-1:2017 default, guard band U, pass / fail /
     /// indeterminate), simple (ILAC-G8 simple acceptance, w = 0), guard (ILAC-G8
     /// binary statement with guard band w = r·U).
@@ -32,7 +32,7 @@ pub struct RuleArgs {
 
 impl RuleArgs {
     /// The rule these flags give, over `file`'s (a tolerance file's own rule).
-    pub fn resolve(&self, file: Option<DecisionRule>) -> Result<DecisionRule> {
+    pub(crate) fn resolve(&self, file: Option<DecisionRule>) -> Result<DecisionRule> {
         let base = file.unwrap_or_default();
         let rule = self.rule.unwrap_or(base.rule);
         let r = self.guard_fraction.unwrap_or(base.guard_fraction);
@@ -41,13 +41,13 @@ impl RuleArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct AcceptanceArgs {
+pub(crate) struct AcceptanceArgs {
     #[command(subcommand)]
     pub command: AcceptanceCommand,
 }
 
 #[derive(Debug, Subcommand)]
-pub enum AcceptanceCommand {
+pub(crate) enum AcceptanceCommand {
     /// Judge results against limits (CSV: id, value, u, lower, upper).
     Decide(DecideArgs),
     /// ISO 10360-2:2009 length measurement error test from a measured file.
@@ -55,7 +55,7 @@ pub enum AcceptanceCommand {
 }
 
 #[derive(Debug, Args)]
-pub struct DecideArgs {
+pub(crate) struct DecideArgs {
     /// Results (CSV or Parquet): id, value, u (expanded uncertainty), lower, upper.
     pub values: PathBuf,
     #[command(flatten)]
@@ -65,7 +65,7 @@ pub struct DecideArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct Iso10360Args {
+pub(crate) struct Iso10360Args {
     /// The test (CSV or Parquet, one row per measurement).
     pub test: PathBuf,
     /// MPE_E0(L): `A+L/K`, `min(A+L/K,B)` or `B` (µm, L in mm).
@@ -93,7 +93,7 @@ pub struct Iso10360Args {
 }
 
 #[derive(Debug, Args)]
-pub struct VirtualArgs {
+pub(crate) struct VirtualArgs {
     /// MODEL.json from `volumetric identify --out` (or a machine-model TOML: the truth).
     #[arg(long)]
     pub model: PathBuf,
@@ -122,7 +122,7 @@ pub struct VirtualArgs {
     pub json: bool,
 }
 
-pub fn acceptance_cmd(a: AcceptanceArgs) -> Result<()> {
+pub(crate) fn acceptance_cmd(a: AcceptanceArgs) -> Result<()> {
     match a.command {
         AcceptanceCommand::Decide(a) => decide_cmd(a),
         AcceptanceCommand::Iso10360(a) => iso10360_cmd(a),
@@ -212,7 +212,7 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
     Ok(())
 }
 
-pub fn virtual_cmd(a: VirtualArgs) -> Result<()> {
+pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", &a.model)];
     inputs.extend(a.plan.as_deref().map(|p| ("--plan", p)));
     if let Some(dir) = &a.report {
@@ -270,7 +270,7 @@ pub fn virtual_cmd(a: VirtualArgs) -> Result<()> {
 
 /// `--tolerances` of `table` and `certificate`: the file read before anything is
 /// written, and the rule the flags and the file give.
-pub fn tolerances(
+pub(crate) fn tolerances(
     path: Option<&Path>,
     rule: &RuleArgs,
 ) -> Result<Option<(Tolerances, DecisionRule)>> {

@@ -47,7 +47,7 @@ fn faults(a: &FaultArgs) -> Result<Faults> {
 
 /// Serves a simulated stream on a fresh pty: prints the path on stdout, streams, lingers.
 /// Gives up when no host reads for `stall_s` seconds (0: waits for ever).
-pub fn serve_stream(
+pub(crate) fn serve_stream(
     stream: &SimStream,
     speed: f64,
     linger_s: f64,
@@ -63,7 +63,7 @@ pub fn serve_stream(
     Ok(written)
 }
 
-pub fn serve_sim(a: ServeSimArgs) -> Result<()> {
+pub(crate) fn serve_sim(a: ServeSimArgs) -> Result<()> {
     install_ctrlc();
     let faults = faults(&a.faults)?;
     let (stream, _) = errmap::sim::simulate_stream(&a.model, a.plan.as_deref(), &faults)?;
@@ -109,7 +109,7 @@ fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
 
 /// How a capture shows itself while it runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Display {
+pub(crate) enum Display {
     /// A progress line on stderr when it is a terminal.
     Progress,
     /// The live view (`super::view`) on the terminal.
@@ -117,7 +117,7 @@ pub enum Display {
 }
 
 /// Captures from a serial port into `out`; returns the capture's end.
-pub fn capture_from_port(
+pub(crate) fn capture_from_port(
     port: &str,
     baud: u32,
     paths: &SessionPaths,
@@ -156,7 +156,7 @@ pub fn capture_from_port(
     Ok(cap)
 }
 
-pub fn capture_cmd(a: CaptureArgs) -> Result<()> {
+pub(crate) fn capture_cmd(a: CaptureArgs) -> Result<()> {
     install_ctrlc();
     let paths = SessionPaths::new(&a.out, a.format.extension());
     let config = CaptureConfig {
@@ -228,7 +228,7 @@ fn file(p: &Path) -> String {
         .unwrap_or_default()
 }
 
-pub fn replay_cmd(a: ReplayArgs) -> Result<()> {
+pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
     let mut inputs = vec![("RAW", a.raw.as_path())];
     if let Some(h) = &a.hello_from {
         inputs.push(("--hello-from", h.as_path()));
@@ -275,7 +275,7 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
     Ok(errmap::sim::job::session_file(p)?)
 }
 
-pub fn table_cmd(a: TableArgs) -> Result<()> {
+pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
     let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
     let conformity = match &tolerances {
@@ -330,7 +330,7 @@ pub fn table_cmd(a: TableArgs) -> Result<()> {
 }
 
 /// A session reduced to an error table, with ISO 230-2 statistics per line.
-pub struct Reduced {
+pub(crate) struct Reduced {
     pub table: errmap::table::ErrorTable,
     pub summary: session::ReductionSummary,
     pub iso: Vec<((f64, f64), iso230::AxisStats)>,
@@ -340,7 +340,11 @@ pub struct Reduced {
 
 /// Reduces a session (table or capture directory) to the error table `out`, with the
 /// ISO 230-2 report in `report` when given; says what it did on stderr.
-pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> Result<Reduced> {
+pub(crate) fn reduce_session(
+    session_arg: &Path,
+    out: &Path,
+    report: Option<&Path>,
+) -> Result<Reduced> {
     let path = session_file(session_arg)?;
     super::guard::refuse_aliases(&[("--out", out)], &[("SESSION", &path)])?;
     if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {
@@ -420,7 +424,7 @@ pub fn reduce_session(session_arg: &Path, out: &Path, report: Option<&Path>) -> 
     })
 }
 
-pub fn ports() -> Result<()> {
+pub(crate) fn ports() -> Result<()> {
     let ports = list_ports()?;
     if ports.is_empty() {
         eprintln!("no serial ports found");

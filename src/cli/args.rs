@@ -15,7 +15,7 @@ use super::values::{
 };
 
 #[derive(Debug, Args)]
-pub struct ExportArgs {
+pub(crate) struct ExportArgs {
     /// Error table to fit (with --bidirectional: a session table or capture directory).
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
@@ -126,7 +126,7 @@ pub struct ExportArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct DiagnoseArgs {
+pub(crate) struct DiagnoseArgs {
     /// The recorded session (table, or a capture directory).
     #[arg(long)]
     pub recorded: PathBuf,
@@ -158,7 +158,7 @@ pub struct DiagnoseArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// Query points.
     #[arg(long, default_value_t = 1_000_000, value_parser = bench_points)]
     pub points: usize,
@@ -184,7 +184,7 @@ pub struct BenchArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct ReportConcealedArgs {
+pub(crate) struct ReportConcealedArgs {
     #[arg(long, default_value = "datasets/concealed")]
     pub cases: PathBuf,
     #[arg(long, default_value = "reports/diagnosis")]
@@ -192,7 +192,7 @@ pub struct ReportConcealedArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct GenConcealedArgs {
+pub(crate) struct GenConcealedArgs {
     #[arg(long, default_value = "datasets/concealed")]
     pub out: PathBuf,
     /// Table 1, the nominal machine's error map.
@@ -201,7 +201,7 @@ pub struct GenConcealedArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct SimulateArgs {
+pub(crate) struct SimulateArgs {
     /// Machine model (TOML).
     #[arg(long)]
     pub model: PathBuf,
@@ -220,7 +220,7 @@ pub struct SimulateArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct FaultArgs {
+pub(crate) struct FaultArgs {
     /// Probability per frame of a burst of garbage bytes before it.
     #[arg(long, default_value_t = 0.0, value_parser = probability)]
     pub garbage: f64,
@@ -242,7 +242,7 @@ pub struct FaultArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct ServeSimArgs {
+pub(crate) struct ServeSimArgs {
     /// Machine model (TOML).
     #[arg(long)]
     pub model: PathBuf,
@@ -267,7 +267,7 @@ pub struct ServeSimArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct CaptureArgs {
+pub(crate) struct CaptureArgs {
     /// Serial device path (e.g. /dev/ttyUSB0, or the path serve-sim prints).
     #[arg(long)]
     pub port: String,
@@ -296,7 +296,7 @@ pub struct CaptureArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct ReplayArgs {
+pub(crate) struct ReplayArgs {
     /// Raw capture file.
     pub raw: PathBuf,
     /// Session table to write (CSV or Parquet).
@@ -312,7 +312,7 @@ pub struct ReplayArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct TableArgs {
+pub(crate) struct TableArgs {
     /// Session table, or a session directory written by capture.
     pub session: PathBuf,
     /// Error table to write (CSV or Parquet).
@@ -332,14 +332,14 @@ pub struct TableArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct DemoArgs {
+pub(crate) struct DemoArgs {
     /// Directory for the demo's reports.
     #[arg(long, default_value = "reports/demo")]
     pub out: PathBuf,
 }
 
 #[derive(Debug, Args)]
-pub struct ModelArgs {
+pub(crate) struct ModelArgs {
     /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
     #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
@@ -353,7 +353,7 @@ pub struct ModelArgs {
 
 impl ModelArgs {
     /// The registry's settings these flags give.
-    pub fn settings(&self) -> errmap::interp::MethodSettings {
+    pub(crate) fn settings(&self) -> errmap::interp::MethodSettings {
         errmap::interp::MethodSettings {
             fuzzy_sigma: self.fuzzy_sigma,
             gp_kernel: self.gp_kernel,
@@ -362,7 +362,7 @@ impl ModelArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct FitArgs {
+pub(crate) struct FitArgs {
     /// Error table (CSV or Parquet): x_mm,y_mm,z_mm,e_um.
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
@@ -389,7 +389,7 @@ pub struct FitArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct CompareArgs {
+pub(crate) struct CompareArgs {
     /// Error table to fit (CSV or Parquet).
     pub table: PathBuf,
     /// Test points with measured e_um (CSV or Parquet); `paper_MxNxQ` columns are compared too.
@@ -413,7 +413,7 @@ pub struct CompareArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct FuzzySimArgs {
+pub(crate) struct FuzzySimArgs {
     /// Seed of the first trial's random node and target errors.
     #[arg(long, default_value_t = 2013)]
     pub seed: u64,

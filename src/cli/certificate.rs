@@ -13,7 +13,7 @@ use super::acquisition::session_file;
 
 /// Arguments of `errmap certificate`.
 #[derive(Debug, Args)]
-pub struct CertificateArgs {
+pub(crate) struct CertificateArgs {
     /// Session table (CSV/Parquet) or a capture directory holding one.
     pub session: PathBuf,
     /// Info TOML: lab, operator, customer, machine, instruments, date of test, and
@@ -31,7 +31,7 @@ pub struct CertificateArgs {
     pub rule: super::acceptance::RuleArgs,
 }
 
-pub fn certificate_cmd(a: CertificateArgs) -> Result<()> {
+pub(crate) fn certificate_cmd(a: CertificateArgs) -> Result<()> {
     let path = session_file(&a.session)?;
     let mut inputs = vec![("SESSION", path.as_path())];
     inputs.extend(a.info.as_deref().map(|p| ("--info", p)));

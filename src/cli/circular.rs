@@ -10,13 +10,13 @@ use errmap::circular::simulate::{MachineModel, simulate, write_test};
 use errmap::circular::{DiagnoseConfig, diagnose, link::link, read_test};
 
 #[derive(Debug, Args)]
-pub struct CircularArgs {
+pub(crate) struct CircularArgs {
     #[command(subcommand)]
     pub command: CircularCommand,
 }
 
 #[derive(Debug, Subcommand)]
-pub enum CircularCommand {
+pub(crate) enum CircularCommand {
     /// ISO 230-4 numbers of a ballbar test and the machine errors behind its trace.
     Diagnose(DiagnoseArgs),
     /// Simulate a ballbar test (a trace and its TOML) from a machine model.
@@ -24,7 +24,7 @@ pub enum CircularCommand {
 }
 
 #[derive(Debug, Args)]
-pub struct DiagnoseArgs {
+pub(crate) struct DiagnoseArgs {
     /// The trace (.csv or .parquet); its metadata TOML lies beside it.
     pub trace: PathBuf,
     /// Write the report (circular.json, report.md, polar.png/.svg) into this directory.
@@ -43,7 +43,7 @@ pub struct DiagnoseArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct SimulateArgs {
+pub(crate) struct SimulateArgs {
     /// The machine model (TOML, e.g. datasets/circular/machine.toml).
     #[arg(long)]
     pub model: PathBuf,
@@ -52,7 +52,7 @@ pub struct SimulateArgs {
     pub out: PathBuf,
 }
 
-pub fn circular_cmd(a: CircularArgs) -> Result<()> {
+pub(crate) fn circular_cmd(a: CircularArgs) -> Result<()> {
     match a.command {
         CircularCommand::Diagnose(a) => diagnose_cmd(a),
         CircularCommand::Simulate(a) => simulate_cmd(a),

@@ -97,7 +97,7 @@ impl DemoInputs {
 /// The whole pipeline on built-in data: the simulated board on a pseudo-terminal →
 /// capture → error table (+ ISO 230-2) → comparison against the simulated truth; then the
 /// paper's Table 1 → Table 2 comparison; then a simulated volumetric laser campaign.
-pub fn demo(a: DemoArgs) -> Result<()> {
+pub(crate) fn demo(a: DemoArgs) -> Result<()> {
     let inputs = DemoInputs::write(&a.out)?;
 
     eprintln!("errmap demo [1/6]: simulated board (machine.toml) on a pseudo-terminal → capture");

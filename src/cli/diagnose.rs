@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use errmap::diagnose::Diagnosis;
 use errmap::report::diagnosis::{IsoEffect, append_iso_effect, iso_effect, write_report};
-pub use errmap::sim::job::Against;
+pub(crate) use errmap::sim::job::Against;
 use errmap::sim::job::DiagnoseJob;
 
 use super::args::DiagnoseArgs;
 
-pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
+pub(crate) fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     let against = match (&a.simulated, &a.model) {
         (Some(s), _) => Against::Simulated(s.clone()),
         (None, Some(m)) => Against::Model(m.clone()),
@@ -39,7 +39,7 @@ pub fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
 /// Diagnoses a recorded session (table or capture directory) against a simulation and
 /// writes the report into `report` (with `updated-model.toml` when diagnosed against a
 /// model).
-pub fn run_diagnosis(
+pub(crate) fn run_diagnosis(
     recorded: &Path,
     against: &Against,
     report: &Path,
@@ -60,7 +60,7 @@ pub fn run_diagnosis(
 /// recordings are thinned to it uniformly in time); with nothing to diagnose against,
 /// also the ISO 230-2 figures with the found effects removed (written into the report).
 /// The work is [`DiagnoseJob::run`]; this writes its report and says what it did.
-pub fn run_diagnosis_with(
+pub(crate) fn run_diagnosis_with(
     recorded: &Path,
     against: &Against,
     report: &Path,
@@ -114,7 +114,7 @@ pub fn run_diagnosis_with(
 }
 
 /// The diagnosis in a few lines on stderr.
-pub fn print_summary(d: &Diagnosis, report: &Path) -> Result<()> {
+pub(crate) fn print_summary(d: &Diagnosis, report: &Path) -> Result<()> {
     eprintln!(
         "diagnose: {} — RMS {:.4} µm before, {:.4} µm after ({:.4} µm cross-validated by run); report in {}",
         d.verdict,
@@ -166,7 +166,7 @@ fn relative_to(path: &Path, base: &Path) -> PathBuf {
 
 /// Diagnoses every case under `cases` into `out/<case>/`, with an index comparing found
 /// and hidden effects (`errmap report-concealed`).
-pub fn report_concealed(cases: &Path, out: &Path) -> Result<()> {
+pub(crate) fn report_concealed(cases: &Path, out: &Path) -> Result<()> {
     for c in errmap::report::concealed::write_concealed(cases, out)? {
         eprintln!(
             "report-concealed: {}: {} {:?}",

@@ -37,34 +37,34 @@ use errmap::base::error::io_err;
 /// into a quiet exit with [`STDOUT_CLOSED_STATUS`].
 #[derive(Debug, thiserror::Error)]
 #[error("stdout was closed by its reader")]
-pub struct StdoutClosed;
+pub(crate) struct StdoutClosed;
 
 /// A usage error found after clap: flags that do not go together, or one that another
 /// needs. `main` prints it as clap prints its own and exits 2, as `docs/cli.md`
 /// asks of every usage error.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
-pub struct Usage(pub String);
+pub(crate) struct Usage(pub String);
 
 /// A [`Usage`] error, for `return Err(usage(…))` and `ok_or_else`.
-pub fn usage(message: impl Into<String>) -> anyhow::Error {
+pub(crate) fn usage(message: impl Into<String>) -> anyhow::Error {
     Usage(message.into()).into()
 }
 
 /// Exit status for a closed stdout: 128 + SIGPIPE (13), the shell's status of a program
 /// ended by the signal.
-pub const STDOUT_CLOSED_STATUS: u8 = 141;
+pub(crate) const STDOUT_CLOSED_STATUS: u8 = 141;
 
 /// Exit status of a run ended by SIGINT, SIGTERM or SIGHUP after its temporary files
 /// were removed: 128 + SIGINT (2), what a shell reports for an interrupted program.
-pub const INTERRUPTED_STATUS: i32 = 130;
+pub(crate) const INTERRUPTED_STATUS: i32 = 130;
 
 /// The stop flag of a command that ends gracefully on an interrupt (capture, serve-sim).
 static GRACEFUL: OnceLock<&'static AtomicBool> = OnceLock::new();
 
 /// Makes the first interrupt set `flag` (the command then stops and finishes its files)
 /// instead of ending the run; a second one ends it as [`on_signals`] says.
-pub fn stop_on_interrupt(flag: &'static AtomicBool) {
+pub(crate) fn stop_on_interrupt(flag: &'static AtomicBool) {
     let _ = GRACEFUL.set(flag);
 }
 
@@ -73,7 +73,7 @@ pub fn stop_on_interrupt(flag: &'static AtomicBool) {
 /// otherwise remove every temporary output file or directory still on disk
 /// (`errmap::table::remove_temporaries`) and exit with [`INTERRUPTED_STATUS`]. An
 /// interrupted run leaves what was there before, and nothing else.
-pub fn on_signals() {
+pub(crate) fn on_signals() {
     let _ = ctrlc::set_handler(|| {
         if let Some(flag) = GRACEFUL.get()
             && !flag.swap(true, Ordering::SeqCst)
@@ -90,7 +90,7 @@ pub fn on_signals() {
 /// or a `println!` that escaped [`print_stdout`]) ends the run quietly with
 /// [`STDOUT_CLOSED_STATUS`] after removing temporary files, instead of exit 101. The
 /// binary's own `eprintln!` never panics (`main.rs`).
-pub fn quiet_on_closed_output() {
+pub(crate) fn quiet_on_closed_output() {
     let previous = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         let payload = info
@@ -109,7 +109,7 @@ pub fn quiet_on_closed_output() {
 
 /// Prints `text` and a newline on stdout and flushes it. A closed pipe is
 /// [`StdoutClosed`]; any other failure an error naming stdout.
-pub fn print_stdout(text: &str) -> Result<()> {
+pub(crate) fn print_stdout(text: &str) -> Result<()> {
     write_line(&mut std::io::stdout().lock(), text)
 }
 
@@ -128,14 +128,14 @@ fn write_line(out: &mut impl Write, text: &str) -> Result<()> {
 /// Prints `value` as one line of JSON on stdout, like [`print_stdout`], after
 /// `errmap::report::json_text` has checked that it holds no NaN or ±inf (which
 /// serde_json would print as `null`: a bug reported, not a document printed).
-pub fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> {
+pub(crate) fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> {
     let text = errmap::report::json_text(Path::new("stdout"), value, false)?;
     print_stdout(&text)
 }
 
 /// Writes `bytes` to `path` whole or not at all (a temporary file beside it, renamed into
 /// place: `errmap::table::write_atomically`).
-pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     errmap::table::write_atomically::<errmap::table::TableError>(path, |f| {
         f.write_all(bytes)
             .map_err(|e| io_err(path, FileOp::Write)(e).into())
@@ -147,7 +147,7 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 /// written whole or not at all: `fill` writes a temporary sibling (same parent, so the
 /// same relative paths), renamed to `dir` on success and removed on error. An existing
 /// directory may hold the user's own files, so it is written in place.
-pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
     if dir.exists() {
         return fill(dir);
     }
@@ -179,10 +179,10 @@ pub fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Res
 /// a 96 000-node grid ran over a minute with nothing shown), drawn only when stderr is a
 /// terminal; cleared when dropped.
 #[derive(Debug)]
-pub struct Busy(Option<indicatif::ProgressBar>);
+pub(crate) struct Busy(Option<indicatif::ProgressBar>);
 
 /// Starts a [`Busy`] spinner saying `message`.
-pub fn busy(message: impl Into<String>) -> Busy {
+pub(crate) fn busy(message: impl Into<String>) -> Busy {
     use std::io::IsTerminal;
     if !std::io::stderr().is_terminal() {
         return Busy(None);
@@ -205,13 +205,13 @@ impl Drop for Busy {
 }
 
 /// The cores of this machine (1 if unknown).
-pub fn cores() -> usize {
+pub(crate) fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, usize::from)
 }
 
 /// A `--threads` value for the library: 0 stays 0 (all cores), a count above the
 /// machine's cores is capped at them with a warning on stderr.
-pub fn threads(flag: &str, requested: usize) -> usize {
+pub(crate) fn threads(flag: &str, requested: usize) -> usize {
     let cores = cores();
     if requested > cores {
         eprintln!(
@@ -226,7 +226,7 @@ pub fn threads(flag: &str, requested: usize) -> usize {
 /// Refuses when an output (flag, path) is the same file as an input (flag, path): same
 /// device and inode. Outputs that do not exist yet cannot be inputs. Two outputs on one
 /// path are refused first, as a usage error ([`distinct_outputs`]).
-pub fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<()> {
+pub(crate) fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<()> {
     distinct_outputs(outputs)?;
     for &(out_flag, out) in outputs {
         let Some(out_id) = file_id(out) else { continue };
@@ -250,7 +250,7 @@ pub fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
 /// or `d/../p` and `p`, are one path), and by device and inode when both exist (hard
 /// links). Devices and pipes (`/dev/null` twice) are not files that one output could
 /// destroy, and are allowed.
-pub fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<()> {
+pub(crate) fn distinct_outputs(outputs: &[(&str, &Path)]) -> Result<()> {
     for (i, &(flag_a, a)) in outputs.iter().enumerate() {
         for &(flag_b, b) in &outputs[i + 1..] {
             let same_path = matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y);

@@ -15,13 +15,13 @@ use errmap::history::{self, Ledger, MachineId, NewRecord, State, Supersede, time
 use super::guard;
 
 #[derive(Debug, Args)]
-pub struct HistoryArgs {
+pub(crate) struct HistoryArgs {
     #[command(subcommand)]
     pub command: HistoryCommand,
 }
 
 #[derive(Debug, Subcommand)]
-pub enum HistoryCommand {
+pub(crate) enum HistoryCommand {
     /// Record a session (its ISO 230-2 statistics per line) or a volumetric model.
     Add(AddArgs),
     /// Trends, EWMA charts, tolerance forecasts, advice and the fleet ranking.
@@ -48,7 +48,7 @@ fn days(s: &str) -> Result<f64, String> {
 }
 
 #[derive(Debug, Args)]
-pub struct AddArgs {
+pub(crate) struct AddArgs {
     /// A session table (.csv, .parquet), a capture's session directory, or a volumetric
     /// model (.json from `volumetric identify --out`).
     pub result: PathBuf,
@@ -79,7 +79,7 @@ pub struct AddArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct ReportArgs {
+pub(crate) struct ReportArgs {
     /// The ledger: a SQLite file or postgres://user@host[:port]/db.
     #[arg(long)]
     pub ledger: String,
@@ -104,7 +104,7 @@ pub struct ReportArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct VerifyArgs {
+pub(crate) struct VerifyArgs {
     /// The ledger: a SQLite file or postgres://user@host[:port]/db.
     #[arg(long)]
     pub ledger: String,
@@ -113,7 +113,7 @@ pub struct VerifyArgs {
     pub json: bool,
 }
 
-pub fn history_cmd(a: HistoryArgs) -> Result<()> {
+pub(crate) fn history_cmd(a: HistoryArgs) -> Result<()> {
     match a.command {
         HistoryCommand::Add(a) => add(a),
         HistoryCommand::Report(a) => report(a),
@@ -299,7 +299,9 @@ fn verify(a: VerifyArgs) -> Result<()> {
 }
 
 /// The ledger benchmark: SQLite in a temporary directory, and PostgreSQL when given.
-pub fn bench(a: &super::args::BenchArgs) -> Result<Vec<errmap::bench::history::HistoryBench>> {
+pub(crate) fn bench(
+    a: &super::args::BenchArgs,
+) -> Result<Vec<errmap::bench::history::HistoryBench>> {
     let dir = tempfile_dir()?;
     let sqlite = dir.join("bench.sqlite");
     let _ = std::fs::remove_file(&sqlite);
@@ -328,7 +330,7 @@ fn tempfile_dir() -> Result<PathBuf> {
 /// `<out>/history/lab.sqlite`, writes the report to `<out>/history/report/` and prints
 /// its first lines on stderr. The ledger is the demo's own output and is made anew on
 /// every run (a real ledger is never removed).
-pub fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) -> Result<()> {
+pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) -> Result<()> {
     let dir = out.join("history");
     if dir.exists() {
         std::fs::remove_dir_all(&dir)

@@ -20,7 +20,7 @@ use super::values::{self, CompTypeArg};
 
 /// `--format` of import.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ImportFormatArg {
+pub(crate) enum ImportFormatArg {
     /// Decide by content (never by file name).
     Auto,
     /// API XD laser `.pos` "Linear Data Table".
@@ -50,7 +50,7 @@ pub enum ImportFormatArg {
 }
 
 #[derive(Debug, Args)]
-pub struct ImportArgs {
+pub(crate) struct ImportArgs {
     /// The file to read.
     pub file: PathBuf,
     #[arg(long, value_enum, default_value = "auto")]
@@ -91,14 +91,14 @@ pub struct ImportArgs {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ErrorUnitArg {
+pub(crate) enum ErrorUnitArg {
     Um,
     Mm,
     Inch,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ErrorSignArg {
+pub(crate) enum ErrorSignArg {
     /// reference − indicated (ISO 230-2 deviation): e = −value.
     ReferenceMinusIndicated,
     /// indicated − reference (errmap's error): e = +value.
@@ -233,7 +233,7 @@ fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {
     Ok(())
 }
 
-pub fn import_cmd(a: ImportArgs) -> Result<()> {
+pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
     // Flags first (usage errors, exit 2), then the file.
     let csv = match a.format {
         ImportFormatArg::Csv => Some(csv_options(&a)?),
@@ -329,7 +329,7 @@ pub fn import_cmd(a: ImportArgs) -> Result<()> {
 
 /// The flags of `export SESSION --existing TABLE` (taken from `ExportArgs`).
 #[derive(Debug)]
-pub struct ExistingArgs<'a> {
+pub(crate) struct ExistingArgs<'a> {
     pub session: &'a std::path::Path,
     pub existing: &'a std::path::Path,
     pub format: TableFormatChoice,
@@ -342,7 +342,7 @@ pub struct ExistingArgs<'a> {
 
 /// The table formats `--existing` updates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TableFormatChoice {
+pub(crate) enum TableFormatChoice {
     Fagor8055,
     Fagor8065,
     Linuxcnc,
@@ -354,7 +354,7 @@ pub enum TableFormatChoice {
 
 /// `export SESSION --existing TABLE --format F --out NEW`: the table updated by the
 /// session's residual, in the table's own layout.
-pub fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
+pub(crate) fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
     let tf = match a.format {
         TableFormatChoice::Fagor8055 => TableFormat::Fagor8055 {
             units: length_only(a.units, true, "a Fagor 8055 table")?,
@@ -415,7 +415,7 @@ pub fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
 
 /// `export`'s hook: `Some` when `--existing` is given (the update) or a Fagor format is
 /// asked for without it (refused: errmap writes Fagor tables only by updating one).
-pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
+pub(crate) fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
     use super::values::ExportFormatArg as F;
     let choice = match a.format {
         F::Fagor8055 => Some(TableFormatChoice::Fagor8055),
@@ -456,7 +456,7 @@ pub fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
 /// `export --format fagor-8055|fagor-8065` (from a model or a session's means): the axis
 /// letter and the unit (`--units`; the 8055's checked by [`existing_or_refuse`] before,
 /// the 8065's mm unless `--units inch`).
-pub fn fagor_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
+pub(crate) fn fagor_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
     let inch = a.units.as_deref().is_some_and(|u| u.starts_with("in"));
     let letter = a
         .axis_name

@@ -23,30 +23,30 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-pub mod acceptance;
-pub mod acquisition;
-pub mod args;
-pub mod certificate;
-pub mod circular;
-pub mod demo;
-pub mod diagnose;
-pub mod guard;
-pub mod history;
-pub mod import;
-pub mod model;
-pub mod plan;
-pub mod step;
-pub mod stream;
-pub mod values;
-pub mod view;
-pub mod volumetric;
+pub(crate) mod acceptance;
+pub(crate) mod acquisition;
+pub(crate) mod args;
+pub(crate) mod certificate;
+pub(crate) mod circular;
+pub(crate) mod demo;
+pub(crate) mod diagnose;
+pub(crate) mod guard;
+pub(crate) mod history;
+pub(crate) mod import;
+pub(crate) mod model;
+pub(crate) mod plan;
+pub(crate) mod step;
+pub(crate) mod stream;
+pub(crate) mod values;
+pub(crate) mod view;
+pub(crate) mod volumetric;
 
 use args::*;
 
 /// Measure and model the volumetric error of coordinate measuring machines.
 #[derive(Debug, Parser)]
 #[command(name = "errmap", version, about)]
-pub struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
 }
@@ -54,7 +54,7 @@ pub struct Cli {
 // Parsed once per run: the size of the largest variant (export's flags) costs nothing.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub(crate) enum Command {
     /// Run the whole pipeline on built-in data and write the reports.
     Demo(DemoArgs),
     /// Fit one model to an error table and predict at points.
@@ -113,7 +113,7 @@ pub enum Command {
     Acceptance(acceptance::AcceptanceArgs),
 }
 
-pub fn main() -> ExitCode {
+pub(crate) fn main() -> ExitCode {
     guard::quiet_on_closed_output();
     guard::on_signals();
     let cli = Cli::parse();

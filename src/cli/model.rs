@@ -84,7 +84,7 @@ fn fit_table(
     })
 }
 
-pub fn fit(a: FitArgs) -> Result<()> {
+pub(crate) fn fit(a: FitArgs) -> Result<()> {
     if let Some(out) = &a.out {
         super::guard::refuse_aliases(
             &[("--out", out)],
@@ -290,7 +290,7 @@ fn scattered_methods(
     }
 }
 
-pub fn compare_cmd(a: CompareArgs) -> Result<()> {
+pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
     let table = ErrorTable::read(&a.table)?;
     let test = ErrorTable::read(&a.test)?;
     let busy = super::guard::busy(format!(
@@ -346,7 +346,7 @@ pub fn compare_cmd(a: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn print_summary(c: &compare::Comparison, dir: &Path) {
+pub(crate) fn print_summary(c: &compare::Comparison, dir: &Path) {
     let rec = c.recommended_row();
     eprintln!(
         "{} models compared on {} test points ({} extrapolated).",
@@ -415,7 +415,7 @@ fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
     }
 }
 
-pub fn export_cmd(a: ExportArgs) -> Result<()> {
+pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{Extrapolation, LineSpec, VolumeSpec, write_grid};
     if let Some(r) = super::import::existing_or_refuse(&a) {
         return r;
@@ -514,7 +514,7 @@ pub fn export_cmd(a: ExportArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let model = errmap::sim::physics::MachineModel::read(&a.model)?;
     let map_table = model.error_map.as_ref().map(|m| m.table.clone());
     let mut inputs = vec![("--model", a.model.as_path()), ("--plan", a.plan.as_path())];
@@ -549,7 +549,7 @@ pub fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
+pub(crate) fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
     let config = FuzzySimConfig {
         seed: a.seed,
         trials: a.trials.max(1),

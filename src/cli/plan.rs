@@ -11,7 +11,7 @@ use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
 use super::values;
 
 #[derive(Debug, Args)]
-pub struct PlanArgs {
+pub(crate) struct PlanArgs {
     /// The tested axis: x, y or z.
     #[arg(long, value_parser = values::axis())]
     pub axis: Axis,
@@ -85,7 +85,7 @@ fn line_coordinates(axis: Axis, at: &values::LineAt) -> Result<[f64; 2]> {
     Ok([others[0], others[1]])
 }
 
-pub fn plan_cmd(a: PlanArgs) -> Result<()> {
+pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
     let (axis, dialect) = (a.axis, a.dialect);
     let mut outputs = vec![("--out", a.out.as_path())];
     outputs.extend(a.program.as_deref().map(|p| ("--program", p)));

@@ -10,7 +10,7 @@ use errmap::drivers::longrun::write_long_capture;
 
 /// `errmap gen-capture --mb N --out FILE`.
 #[derive(Debug, Args)]
-pub struct GenCaptureArgs {
+pub(crate) struct GenCaptureArgs {
     /// Size of the capture, MB (10⁶ bytes); the last line's session is written whole.
     #[arg(long, default_value_t = 200.0)]
     pub mb: f64,
@@ -25,7 +25,7 @@ pub struct GenCaptureArgs {
     pub sample_hz: f64,
 }
 
-pub fn gen_capture(a: GenCaptureArgs) -> Result<()> {
+pub(crate) fn gen_capture(a: GenCaptureArgs) -> Result<()> {
     if !(a.mb.is_finite() && a.mb > 0.0 && a.mb <= 1e6) {
         return Err(super::guard::usage(format!(
             "--mb is a size in MB in (0, 10⁶], not {}",

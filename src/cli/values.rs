@@ -21,24 +21,24 @@ use errmap::volumetric::identify::MAX_DEGREE;
 use errmap::volumetric::{Component, Topology};
 
 /// `--method`: a name from the method registry.
-pub fn method_name() -> impl TypedValueParser<Value = MethodName> {
+pub(crate) fn method_name() -> impl TypedValueParser<Value = MethodName> {
     PossibleValuesParser::new(MethodName::ALL.map(MethodName::as_str))
         .try_map(|s| s.parse::<MethodName>())
 }
 
 /// `--axis`: x, y or z (either case).
-pub fn axis() -> impl TypedValueParser<Value = Axis> {
+pub(crate) fn axis() -> impl TypedValueParser<Value = Axis> {
     PossibleValuesParser::new(Axis::ALL.map(|a| PossibleValue::new(a.lower()).alias(a.upper())))
         .try_map(|s| s.parse::<Axis>())
 }
 
 /// `--dialect` of plan: a part-program dialect from the library's list.
-pub fn dialect() -> impl TypedValueParser<Value = Dialect> {
+pub(crate) fn dialect() -> impl TypedValueParser<Value = Dialect> {
     PossibleValuesParser::new(Dialect::ALL.map(Dialect::name)).try_map(|s| s.parse::<Dialect>())
 }
 
 /// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).
-pub fn kernel() -> impl TypedValueParser<Value = Kernel> {
+pub(crate) fn kernel() -> impl TypedValueParser<Value = Kernel> {
     PossibleValuesParser::new([
         PossibleValue::new("matern52").alias("matern"),
         PossibleValue::new("se").alias("squared-exponential"),
@@ -52,7 +52,7 @@ fn parsed<T: FromStr>(s: &str, kind: &str) -> Result<T, String> {
 }
 
 /// Seconds: finite and not negative (a `Duration` is built from it).
-pub fn seconds(s: &str) -> Result<f64, String> {
+pub(crate) fn seconds(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number of seconds")?;
     if !v.is_finite() || v < 0.0 {
         return Err(format!("`{s}`: seconds must be finite and ≥ 0"));
@@ -65,7 +65,7 @@ pub fn seconds(s: &str) -> Result<f64, String> {
 
 /// A speed factor: finite, within 10⁻³…10⁶ (playback intervals divided by it become
 /// `Duration`s, which a speed of 10⁻³⁰⁰ would overflow).
-pub fn positive(s: &str) -> Result<f64, String> {
+pub(crate) fn positive(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !v.is_finite() || v <= 0.0 {
         return Err(format!("`{s}` must be finite and > 0"));
@@ -77,7 +77,7 @@ pub fn positive(s: &str) -> Result<f64, String> {
 }
 
 /// A length, mm or µm: finite, > 0, at most 10⁶ (`--step`, `--grating-period-um`).
-pub fn length(s: &str) -> Result<f64, String> {
+pub(crate) fn length(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v > 0.0 && v <= 1e6) {
         return Err(format!("`{s}` must be a finite length > 0 and ≤ 10⁶"));
@@ -86,10 +86,10 @@ pub fn length(s: &str) -> Result<f64, String> {
 }
 
 /// The largest coordinate a flag takes, mm (issue 17's physical bound on positions).
-pub const MAX_COORDINATE_MM: f64 = 1e6;
+pub(crate) const MAX_COORDINATE_MM: f64 = 1e6;
 
 /// A coordinate, mm: finite, within ±10⁶ (`--start`, `--end`, `--reference`, `--from`).
-pub fn coordinate(s: &str) -> Result<f64, String> {
+pub(crate) fn coordinate(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v.abs() <= MAX_COORDINATE_MM) {
         return Err(format!("`{s}` must be a finite coordinate within ±10⁶ mm"));
@@ -98,7 +98,7 @@ pub fn coordinate(s: &str) -> Result<f64, String> {
 }
 
 /// A length that may be 0, mm: finite, 0 … 10⁶ (`--overrun`).
-pub fn non_negative_length(s: &str) -> Result<f64, String> {
+pub(crate) fn non_negative_length(s: &str) -> Result<f64, String> {
     let v = coordinate(s)?;
     if v < 0.0 {
         return Err(format!("`{s}` must be ≥ 0"));
@@ -107,7 +107,7 @@ pub fn non_negative_length(s: &str) -> Result<f64, String> {
 }
 
 /// A feed, mm/s: finite, > 0, ≤ 10⁶.
-pub fn feed(s: &str) -> Result<f64, String> {
+pub(crate) fn feed(s: &str) -> Result<f64, String> {
     let v = coordinate(s)?;
     if v <= 0.0 {
         return Err(format!("`{s}`: a feed must be > 0 mm/s"));
@@ -117,7 +117,7 @@ pub fn feed(s: &str) -> Result<f64, String> {
 
 /// A fraction of an interval in [0, 0.5) (plan's `--random-offset`: the inner targets
 /// then stay in order).
-pub fn offset_fraction(s: &str) -> Result<f64, String> {
+pub(crate) fn offset_fraction(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !(0.0..0.5).contains(&v) {
         return Err(format!("`{s}` is not a fraction in [0, 0.5)"));
@@ -126,7 +126,7 @@ pub fn offset_fraction(s: &str) -> Result<f64, String> {
 }
 
 /// A point PX,PY,PZ, mm: three coordinates (`--probe`, volumetric export's `--at`).
-pub fn point3(s: &str) -> Result<[f64; 3], String> {
+pub(crate) fn point3(s: &str) -> Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
         .map(coordinate)
@@ -143,19 +143,19 @@ pub fn point3(s: &str) -> Result<[f64; 3], String> {
 
 /// `--siemens-axis`: a SINUMERIK machine-axis name (checked by the exporter's rule, so
 /// that a bad name is a usage error before any table is read).
-pub fn siemens_axis(s: &str) -> Result<String, String> {
+pub(crate) fn siemens_axis(s: &str) -> Result<String, String> {
     errmap::export::siemens::check_axis_name(s).map_err(|e| e.to_string())?;
     Ok(s.to_string())
 }
 
 /// volumetric `--topology`: a permutation of XYZ.
-pub fn topology(s: &str) -> Result<Topology, String> {
+pub(crate) fn topology(s: &str) -> Result<Topology, String> {
     s.parse::<Topology>().map_err(|e| e.to_string())
 }
 
 /// volumetric `--degree`: `auto`, `auto-each` or a whole number 1 … [`MAX_DEGREE`]
 /// (kept as written; `volumetric.rs` maps it).
-pub fn degree(s: &str) -> Result<String, String> {
+pub(crate) fn degree(s: &str) -> Result<String, String> {
     match s.trim() {
         "auto" | "auto-each" => Ok(s.trim().to_string()),
         d => {
@@ -166,7 +166,7 @@ pub fn degree(s: &str) -> Result<String, String> {
 }
 
 /// volumetric `--max-degree`: 1 … [`MAX_DEGREE`].
-pub fn max_degree(s: &str) -> Result<usize, String> {
+pub(crate) fn max_degree(s: &str) -> Result<usize, String> {
     component_degree_value(s)
 }
 
@@ -182,7 +182,7 @@ fn component_degree_value(d: &str) -> Result<usize, String> {
 }
 
 /// volumetric `--component-degree E_XX=5,E_CX=2` → {component index: degree}.
-pub fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, String> {
+pub(crate) fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, String> {
     let mut out = BTreeMap::new();
     for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (name, d) = part
@@ -197,7 +197,7 @@ pub fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, String> {
 }
 
 /// A probability: finite, within 0 … 1 (`--garbage`, `--bit-flips`, `--drop-frames`).
-pub fn probability(s: &str) -> Result<f64, String> {
+pub(crate) fn probability(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !(0.0..=1.0).contains(&v) {
         return Err(format!("`{s}` is not a probability in [0, 1]"));
@@ -206,7 +206,7 @@ pub fn probability(s: &str) -> Result<f64, String> {
 }
 
 /// The fuzzy membership width σ, a fraction of the cell: finite, > 0, ≤ 100.
-pub fn fuzzy_width(s: &str) -> Result<f64, String> {
+pub(crate) fn fuzzy_width(s: &str) -> Result<f64, String> {
     let v: f64 = parsed(s, "a number")?;
     if !(v.is_finite() && v > 0.0 && v <= 100.0) {
         return Err(format!("`{s}`: σ must be finite, > 0 and ≤ 100 cells"));
@@ -216,7 +216,7 @@ pub fn fuzzy_width(s: &str) -> Result<f64, String> {
 
 /// A count of at least 2 and at most the export's sample bound (`--max-points`, volumetric
 /// export's `--points`: a compensation table needs two points).
-pub fn at_least_two(s: &str) -> Result<usize, String> {
+pub(crate) fn at_least_two(s: &str) -> Result<usize, String> {
     count_within(s, 2, errmap::export::MAX_SAMPLES)
 }
 
@@ -234,22 +234,22 @@ fn count_within(s: &str, lo: usize, hi: usize) -> Result<usize, String> {
 /// 10⁹ allocated 24 GB).
 ///
 /// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::identify::MAX_REPORT_POSITIONS
-pub fn report_positions(s: &str) -> Result<usize, String> {
+pub(crate) fn report_positions(s: &str) -> Result<usize, String> {
     count_within(s, 2, errmap::volumetric::identify::MAX_REPORT_POSITIONS)
 }
 
 /// bench `--points`: 1 … 10⁷ query points (240 MB of coordinates and results).
-pub fn bench_points(s: &str) -> Result<usize, String> {
+pub(crate) fn bench_points(s: &str) -> Result<usize, String> {
     count_within(s, 1, 10_000_000)
 }
 
 /// fuzzy-sim `--trials`: 1 … 10⁵.
-pub fn trials(s: &str) -> Result<usize, String> {
+pub(crate) fn trials(s: &str) -> Result<usize, String> {
     count_within(s, 1, 100_000)
 }
 
 /// A baud rate of a serial line: 50 … 10 000 000.
-pub fn baud(s: &str) -> Result<u32, String> {
+pub(crate) fn baud(s: &str) -> Result<u32, String> {
     let v: u32 = parsed(s, "a whole number")?;
     if !(50..=10_000_000).contains(&v) {
         return Err(format!("`{s}` is not a baud rate (50 … 10 000 000)"));
@@ -259,7 +259,7 @@ pub fn baud(s: &str) -> Result<u32, String> {
 
 /// `--beam-loss START:END`: a window of session seconds, 0 ≤ START < END ≤ 10⁹.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Window(pub f64, pub f64);
+pub(crate) struct Window(pub f64, pub f64);
 
 impl FromStr for Window {
     type Err = String;
@@ -279,7 +279,7 @@ impl FromStr for Window {
 
 /// `--order`: Lagrange degrees `MxNxQ`, or `auto` (chosen by cross-validation).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum OrderArg {
+pub(crate) enum OrderArg {
     Auto,
     Degrees(Order),
 }
@@ -298,7 +298,7 @@ impl FromStr for OrderArg {
 /// `--orders` of compare: `all` admissible orders, `auto` (the cross-validated one), or
 /// a comma list like `4x1x2,2x1x2`.
 #[derive(Debug, Clone, PartialEq)]
-pub enum OrdersArg {
+pub(crate) enum OrdersArg {
     All,
     Auto,
     List(Vec<Order>),
@@ -335,7 +335,7 @@ impl fmt::Display for OrdersArg {
 
 /// `--at`: the fixed coordinates of a line, `y=1,z=200` (mm); empty for none.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct LineAt(pub Vec<(Axis, f64)>);
+pub(crate) struct LineAt(pub Vec<(Axis, f64)>);
 
 impl FromStr for LineAt {
     type Err = String;
@@ -373,7 +373,7 @@ impl FromStr for LineAt {
 
 /// `--format` of export.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ExportFormatArg {
+pub(crate) enum ExportFormatArg {
     /// LinuxCNC compensation file (a line).
     Linuxcnc,
     /// Siemens 840D encoder/leadscrew compensation (a line).
@@ -419,14 +419,14 @@ impl From<CompTypeArg> for LinuxCncCompType {
 
 /// `--format` of capture: the session table's format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum SessionFormat {
+pub(crate) enum SessionFormat {
     Csv,
     Parquet,
 }
 
 impl SessionFormat {
     /// The file extension.
-    pub fn extension(self) -> &'static str {
+    pub(crate) fn extension(self) -> &'static str {
         match self {
             SessionFormat::Csv => "csv",
             SessionFormat::Parquet => "parquet",

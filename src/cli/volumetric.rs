@@ -15,7 +15,7 @@ use errmap::volumetric::{
 };
 
 #[derive(Debug, Subcommand)]
-pub enum VolumetricCommand {
+pub(crate) enum VolumetricCommand {
     /// Simulate a laser campaign: a line table from a machine model and a plan.
     Simulate(SimulateArgs),
     /// A line table from captured sessions: every (line position, run, direction) of an
@@ -37,7 +37,7 @@ pub enum VolumetricCommand {
 }
 
 #[derive(Debug, Args)]
-pub struct ProgramArgs {
+pub(crate) struct ProgramArgs {
     /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
     #[arg(long)]
     pub plan: PathBuf,
@@ -50,13 +50,13 @@ pub struct ProgramArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct VolumetricArgs {
+pub(crate) struct VolumetricArgs {
     #[command(subcommand)]
     pub command: VolumetricCommand,
 }
 
 #[derive(Debug, Args)]
-pub struct SimulateArgs {
+pub(crate) struct SimulateArgs {
     /// Volumetric machine model (TOML, e.g. datasets/volumetric/model.toml).
     #[arg(long)]
     pub model: PathBuf,
@@ -69,7 +69,7 @@ pub struct SimulateArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct LinesArgs {
+pub(crate) struct LinesArgs {
     /// Session tables (CSV/Parquet) or capture directories, one axis each; the line
     /// positions come from the sessions' MARK frames.
     #[arg(required = true)]
@@ -83,7 +83,7 @@ pub struct LinesArgs {
 }
 
 #[derive(Debug, Args)]
-pub struct IdentifyArgs {
+pub(crate) struct IdentifyArgs {
     /// The line table (.csv or .parquet).
     pub lines: PathBuf,
     /// Kinematic chain from the workpiece to the probe, a permutation of XYZ (YXZ: a
@@ -122,7 +122,7 @@ pub struct IdentifyArgs {
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("what").required(true).args(["lines", "grid"])))]
-pub struct PredictArgs {
+pub(crate) struct PredictArgs {
     /// MODEL.json from `identify --out`, or a machine-model TOML (the truth, σ = 0).
     #[arg(long)]
     pub model: PathBuf,
@@ -145,7 +145,7 @@ pub struct PredictArgs {
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("what").required(true).multiple(true).args(["twincat", "axis_tables"])))]
-pub struct ExportArgs {
+pub(crate) struct ExportArgs {
     /// MODEL.json from `identify --out` (or the report's model.json).
     #[arg(long)]
     pub model: PathBuf,
@@ -168,7 +168,7 @@ pub struct ExportArgs {
 
 /// The 1-D formats of `volumetric export --axis-tables`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum AxisTableFormat {
+pub(crate) enum AxisTableFormat {
     /// `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
     Csv,
     /// A LinuxCNC COMP_FILE of type 0 (the positions actually reached).
@@ -177,7 +177,7 @@ pub enum AxisTableFormat {
     Siemens,
 }
 
-pub fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
+pub(crate) fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
     match a.command {
         VolumetricCommand::Simulate(a) => simulate_cmd(a),
         VolumetricCommand::Lines(a) => lines_cmd(a),
@@ -400,7 +400,7 @@ fn print_summary(id: &Identification) {
 /// (degree by cross-validation) with the report, `model.json` included, in
 /// `OUT/volumetric/`, the summary printed, and the TwinCAT component tables exported
 /// (`volcomp_twincat.csv`). Returns the identification.
-pub fn demo_step(out: &Path) -> Result<Identification> {
+pub(crate) fn demo_step(out: &Path) -> Result<Identification> {
     let dir = out.join("volumetric");
     let inputs = dir.join("inputs");
     std::fs::create_dir_all(&inputs)

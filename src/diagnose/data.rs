@@ -92,7 +92,7 @@ pub(crate) struct Obs {
 }
 
 impl Obs {
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.r.len()
     }
 }

@@ -43,7 +43,7 @@ pub(crate) enum Kind {
 
 impl Kind {
     /// The contract's id.
-    pub fn id(self) -> EffectId {
+    pub(super) fn id(self) -> EffectId {
         match self {
             Kind::ScaleFactor => EffectId::ScaleFactor,
             Kind::Reversal => EffectId::Reversal,
@@ -58,7 +58,7 @@ impl Kind {
     }
 
     /// The id with the Abbe offset axis, for messages.
-    pub fn label(self, obs: &Obs) -> String {
+    pub(super) fn label(self, obs: &Obs) -> String {
         match self.offset_axis(obs) {
             Some(a) => format!("abbe (offset along {})", a.lower()),
             None => self.id().as_str().to_string(),
@@ -66,7 +66,7 @@ impl Kind {
     }
 
     /// The axis an Abbe term's offset lies along (`None` for every other effect).
-    pub fn offset_axis(self, obs: &Obs) -> Option<crate::base::Axis> {
+    pub(super) fn offset_axis(self, obs: &Obs) -> Option<crate::base::Axis> {
         match self {
             Kind::Abbe(k) => Some(obs.c_axes[k as usize]),
             _ => None,
@@ -77,7 +77,7 @@ impl Kind {
     /// fewer assumptions or covariates comes first (a pitch error before a temperature
     /// effect, a direction-only offset before one that needs the feed, a measured
     /// covariate before a free function of time).
-    pub fn preference(self) -> u8 {
+    pub(super) fn preference(self) -> u8 {
         match self {
             Kind::ScaleFactor => 0,
             Kind::Reversal => 1,
@@ -92,7 +92,7 @@ impl Kind {
     }
 
     /// What the effect's signature follows, in words.
-    pub fn follows(self, obs: &Obs) -> String {
+    pub(super) fn follows(self, obs: &Obs) -> String {
         match self {
             Kind::ScaleFactor => "x (proportional to position)".into(),
             Kind::Reversal => "the direction of travel".into(),
@@ -139,7 +139,7 @@ pub(crate) enum Variant {
 
 impl Variant {
     /// Number of nonlinear parameters.
-    pub fn nonlinear(&self) -> usize {
+    pub(super) fn nonlinear(&self) -> usize {
         usize::from(matches!(
             self,
             Variant::DriftExp { .. } | Variant::Periodic { .. }

@@ -79,7 +79,7 @@ impl Engine {
     /// A registry for the data `y` with weights `w` and folds; `y` is used as given, or
     /// relative to a static map when `group` gives every row's group (see the module
     /// docs).
-    pub fn new(
+    pub(super) fn new(
         mut y: Vec<f64>,
         w: Vec<f64>,
         fold: Vec<usize>,
@@ -116,30 +116,30 @@ impl Engine {
         e
     }
 
-    pub fn n(&self) -> usize {
+    pub(super) fn n(&self) -> usize {
         self.n
     }
 
-    pub fn y(&self) -> &[f64] {
+    pub(super) fn y(&self) -> &[f64] {
         &self.y
     }
 
-    pub fn w(&self) -> &[f64] {
+    pub(super) fn w(&self) -> &[f64] {
         &self.w
     }
 
-    pub fn col(&self, id: usize) -> &[f64] {
+    pub(super) fn col(&self, id: usize) -> &[f64] {
         &self.cols[id]
     }
 
     /// Number of static-map groups beyond the constant (0 without a map): parameters
     /// the within transform has absorbed, for the degrees of freedom.
-    pub fn absorbed(&self) -> usize {
+    pub(super) fn absorbed(&self) -> usize {
         self.map.as_ref().map_or(0, MapGroups::absorbed)
     }
 
     /// `v` relative to the static map (unchanged without one).
-    pub fn project(&self, mut v: Vec<f64>) -> Vec<f64> {
+    pub(super) fn project(&self, mut v: Vec<f64>) -> Vec<f64> {
         if let Some(m) = &self.map {
             let before: f64 = v.iter().zip(&self.w).map(|(a, w)| w * a * a).sum();
             m.apply(&mut v, &self.w);
@@ -152,7 +152,7 @@ impl Engine {
     }
 
     /// Registers a column (length n) and returns its id.
-    pub fn add(&mut self, v: Vec<f64>) -> usize {
+    pub(super) fn add(&mut self, v: Vec<f64>) -> usize {
         debug_assert_eq!(v.len(), self.n);
         let v = self.project(v);
         self.cols.push(v);
@@ -193,13 +193,13 @@ impl Engine {
     }
 
     /// Weighted least squares on the registered columns `ids` (in this order).
-    pub fn fit(&mut self, ids: &[usize]) -> Fit {
+    pub(super) fn fit(&mut self, ids: &[usize]) -> Fit {
         self.fit_with(ids, &[])
     }
 
     /// Weighted least squares on the registered columns `ids` followed by the unregistered
     /// trial columns `extra` (each of length n).
-    pub fn fit_with(&mut self, ids: &[usize], extra: &[&[f64]]) -> Fit {
+    pub(super) fn fit_with(&mut self, ids: &[usize], extra: &[&[f64]]) -> Fit {
         let projected: Vec<Vec<f64>>;
         let extra: Vec<&[f64]> = if self.map.is_some() {
             projected = extra.iter().map(|c| self.project(c.to_vec())).collect();
@@ -256,7 +256,7 @@ impl Engine {
     /// Leave-one-fold-out cross-validation of the registered columns `ids`: for every
     /// fold, fit on the others (the independent columns of the full fit) and score the
     /// held-out rows. O(folds · k³) once the memo is filled.
-    pub fn cv(&mut self, ids: &[usize]) -> Cv {
+    pub(super) fn cv(&mut self, ids: &[usize]) -> Cv {
         let full = self.fit(ids);
         let k = ids.len();
         let mut gf = vec![vec![vec![0.0; k]; k]; self.nfolds];
@@ -316,7 +316,7 @@ impl Engine {
 
     /// Weighted squared norm of the part of column `col` that the columns `base` do not
     /// explain (its residual after regressing it on them).
-    pub fn unexplained(&mut self, base: &[usize], col: usize) -> f64 {
+    pub(super) fn unexplained(&mut self, base: &[usize], col: usize) -> f64 {
         let k = base.len();
         let mut g = vec![vec![0.0; k]; k];
         let mut gy = vec![0.0; k];
@@ -332,12 +332,12 @@ impl Engine {
         solve(&g, &gy, cc).chi2
     }
 
-    pub fn fold(&self) -> &[usize] {
+    pub(super) fn fold(&self) -> &[usize] {
         &self.fold
     }
 
     /// Fitted values Σ coef·column over registered ids.
-    pub fn predict(&self, ids: &[usize], coef: &[f64]) -> Vec<f64> {
+    pub(super) fn predict(&self, ids: &[usize], coef: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; self.n];
         for (&id, &c) in ids.iter().zip(coef) {
             if c != 0.0 {
@@ -361,7 +361,7 @@ pub(crate) struct MapGroups {
 
 impl MapGroups {
     /// Parameters the map takes beyond the constant.
-    pub fn absorbed(&self) -> usize {
+    pub(super) fn absorbed(&self) -> usize {
         let used: std::collections::BTreeSet<usize> = self.group.iter().copied().collect();
         let lin = used.iter().filter(|&&g| self.linear[g]).count();
         (used.len() + lin).saturating_sub(1)
@@ -369,7 +369,7 @@ impl MapGroups {
 
     /// `v` minus its weighted fit by the map (the within transform): per group its mean,
     /// or its straight line in x for a linear group.
-    pub fn apply(&self, v: &mut [f64], w: &[f64]) {
+    pub(super) fn apply(&self, v: &mut [f64], w: &[f64]) {
         let ng = self.linear.len();
         let (mut s0, mut sx) = (vec![0.0; ng], vec![0.0; ng]);
         for (k, &g) in self.group.iter().enumerate() {

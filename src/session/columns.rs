@@ -84,7 +84,7 @@ impl Optional {
 /// A batch of session rows as columns, in `SessionRow::COLUMNS` order (see the module
 /// docs).
 #[derive(Debug, Default)]
-pub struct Columns {
+pub(crate) struct Columns {
     run: Vec<i64>,
     sample: Vec<i64>,
     t_s: Vec<f64>,
@@ -165,7 +165,7 @@ const MIN_MAX: [bool; 19] = [
 
 impl Columns {
     /// The rows of `rows`, as columns.
-    pub fn from_rows(rows: &[SessionRow]) -> Self {
+    pub(crate) fn from_rows(rows: &[SessionRow]) -> Self {
         let mut c = Columns::default();
         for r in rows {
             c.push(r);
@@ -174,7 +174,7 @@ impl Columns {
     }
 
     /// Appends one row.
-    pub fn push(&mut self, r: &SessionRow) {
+    pub(crate) fn push(&mut self, r: &SessionRow) {
         self.run.push(i64::from(r.run));
         self.sample.push(r.sample);
         self.t_s.push(r.t_s);
@@ -197,12 +197,12 @@ impl Columns {
     }
 
     /// Rows held.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.run.len()
     }
 
     /// Whether no row is held.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.run.is_empty()
     }
 
@@ -299,7 +299,7 @@ impl Columns {
 
     /// The columns as a polars `DataFrame` with the spec's column names and order;
     /// leaves the batch empty.
-    pub fn take_frame(&mut self) -> PolarsResult<DataFrame> {
+    pub(crate) fn take_frame(&mut self) -> PolarsResult<DataFrame> {
         let n = self.len();
         let columns = SessionRow::COLUMNS
             .iter()
@@ -314,7 +314,7 @@ impl Columns {
 
 /// A session table's Parquet file, written one row group per [`ParquetSink::write`] (see
 /// the module docs).
-pub struct ParquetSink<W: Write> {
+pub(crate) struct ParquetSink<W: Write> {
     writer: FileWriter<W>,
     options: WriteOptions,
     zstd: Zstd,
@@ -405,7 +405,7 @@ impl<W: Write> std::fmt::Debug for ParquetSink<W> {
 
 impl<W: Write> ParquetSink<W> {
     /// Starts the file: its magic bytes now, the schema with the footer.
-    pub fn new(out: W) -> PolarsResult<Self> {
+    pub(crate) fn new(out: W) -> PolarsResult<Self> {
         let schema = Columns::default()
             .take_frame()?
             .schema()
@@ -424,7 +424,7 @@ impl<W: Write> ParquetSink<W> {
     }
 
     /// Writes `columns` as one row group (nothing when it holds no row) and empties it.
-    pub fn write(&mut self, columns: &mut Columns) -> PolarsResult<()> {
+    pub(crate) fn write(&mut self, columns: &mut Columns) -> PolarsResult<()> {
         if columns.is_empty() {
             return Ok(());
         }
@@ -465,7 +465,7 @@ impl<W: Write> ParquetSink<W> {
     }
 
     /// Writes the footer and hands the output back (to flush or sync it).
-    pub fn finish(mut self) -> PolarsResult<W> {
+    pub(crate) fn finish(mut self) -> PolarsResult<W> {
         self.writer.end(None)?;
         Ok(self.writer.into_inner())
     }

@@ -69,7 +69,7 @@ impl Engine {
 
 /// The factor on REML's λ of the tables campaign terms are scored against: nearly the
 /// unpenalised fit (a penalty at rounding level only keeps the factorisation defined).
-pub const NEAR_LS: f64 = 1e-6;
+pub(super) const NEAR_LS: f64 = 1e-6;
 
 /// One component model fitted with the campaign terms on top: what the selection compares.
 pub(crate) struct Outcome {
@@ -168,10 +168,10 @@ pub(crate) fn evaluate(
 /// Factors by which REML's smoothing parameters are relaxed, in turn, when the residual
 /// of the tables at knots fails the test: ever rougher tables, down to nearly the
 /// unpenalised table (interpolation of the knots' values).
-pub const RELAX: [f64; 6] = [1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-6];
+pub(super) const RELAX: [f64; 6] = [1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-6];
 /// How many degrees above the chosen one a polynomial fit whose residual fails the test
 /// tries (within [`MAX_DEGREE`]), when the degree was chosen (`auto`, `auto-each`).
-pub const RICHER_DEGREES: usize = 4;
+pub(super) const RICHER_DEGREES: usize = 4;
 
 /// A component model ready to evaluate.
 pub(crate) struct Model {

@@ -56,7 +56,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use super::identify::Design;
 
 /// Most Fellner–Schall steps.
-pub const MAX_ITER: usize = 30;
+pub(super) const MAX_ITER: usize = 30;
 /// Converged when no λ changes by more than this factor's log.
 const TOL_LOG: f64 = 0.1;
 /// λ_c stays within [1/LAMBDA_FLOOR, LAMBDA_SPAN] × tr(AᵀA)_c / tr(S_c): above, the
@@ -246,7 +246,7 @@ impl Penalty {
     /// components ([`group`]: positioning, straightness, rotation), then one per
     /// component, each capped at its group's (see the module docs: a component whose
     /// lines show no roughness is not declared smoother than its kind).
-    pub fn reml(&self, d: &Design, n_lines: usize) -> Vec<f64> {
+    pub(crate) fn reml(&self, d: &Design, n_lines: usize) -> Vec<f64> {
         let nm = Normal::of(d);
         let groups: Vec<usize> = self.blocks.iter().map(|b| group(b.component)).collect();
         let pooled = self.fellner_schall(&nm, d, n_lines, &self.lambda, &groups, None);
@@ -340,7 +340,7 @@ impl Penalty {
     /// What the campaign terms are scored against: the tables with λ × `relax` (a tiny
     /// factor: nearly the unpenalised least squares, without its SVD). The residual r,
     /// ν = rows − lines − tr(H⁻¹AᵀA), and g ↦ g − A·H⁻¹Aᵀg by the Cholesky factor.
-    pub fn residualiser<'a>(
+    pub(crate) fn residualiser<'a>(
         &self,
         d: &'a Design,
         n_lines: usize,
@@ -365,7 +365,7 @@ impl Penalty {
 
     /// The fit at `lambda` with the posterior covariance; `known_noise` when rows are
     /// weighted by a stated σ (then φ = max(1, χ²/ν)).
-    pub fn fit(
+    pub(crate) fn fit(
         &self,
         d: &Design,
         lambda: &[f64],

@@ -4,7 +4,7 @@ use errmap::diagnose::Diagnosis;
 
 /// A diagnosis in words for assertion messages: verdict, effects, ambiguities, design
 /// notes and the selection log.
-pub fn diagnosis_text(d: &Diagnosis) -> String {
+pub(crate) fn diagnosis_text(d: &Diagnosis) -> String {
     let mut s = format!(
         "verdict {} rms {:.4} → {:.4} (cv {:.4}), noise {:.4}\n",
         d.verdict, d.rms_before_um, d.rms_after_um, d.cv_rms_after_um, d.noise_sigma_um

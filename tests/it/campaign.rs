@@ -37,7 +37,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-pub mod cases;
+pub(crate) mod cases;
 
 use cases::{Case, Expect, Rng, make_case};
 
@@ -57,7 +57,7 @@ fn env_num(name: &str, default: u64) -> u64 {
 }
 
 /// The inputs every case starts from (absolute paths).
-pub struct Fixtures {
+pub(crate) struct Fixtures {
     pub table1: PathBuf,
     pub table2: PathBuf,
     pub table_parquet: PathBuf,

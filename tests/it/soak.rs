@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 /// A plan of `runs` runs on 4 lines × 5 targets with 5 s dwells at 200 Hz: 1 000 dwells
 /// and ~10⁶ samples for 25 runs (≈ 5 300 s of board time).
-pub fn soak_plan(runs: u32) -> String {
+pub(crate) fn soak_plan(runs: u32) -> String {
     format!(
         "axis = \"X\"\nlines_mm = [[1.0, 200.0], [400.0, 200.0], [1.0, 500.0], [400.0, 500.0]]\n\
          targets_mm = [0.0, 200.0, 400.0, 600.0, 800.0]\nruns = {runs}\nfeed_mm_s = 1000.0\n\

@@ -9,27 +9,27 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The repository root (the `errmap` package directory).
-pub fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 /// The `errmap` binary this build made.
-pub fn bin() -> &'static str {
+pub(crate) fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_errmap")
 }
 
 /// A file of `datasets/`, as an absolute path.
-pub fn dataset(name: &str) -> PathBuf {
+pub(crate) fn dataset(name: &str) -> PathBuf {
     root().join("datasets").join(name)
 }
 
 /// Runs `errmap args` in the repository root and waits for it.
-pub fn errmap(args: &[&str]) -> Output {
+pub(crate) fn errmap(args: &[&str]) -> Output {
     errmap_in(&root(), args)
 }
 
 /// Runs `errmap args` in `dir` and waits for it.
-pub fn errmap_in(dir: &Path, args: &[&str]) -> Output {
+pub(crate) fn errmap_in(dir: &Path, args: &[&str]) -> Output {
     errmap_cmd()
         .current_dir(dir)
         .args(args)
@@ -39,24 +39,24 @@ pub fn errmap_in(dir: &Path, args: &[&str]) -> Output {
 
 /// The `errmap` binary as a command to complete (arguments, standard streams, spawn),
 /// for a test that pipes, kills or runs it in parallel.
-pub fn errmap_cmd() -> Command {
+pub(crate) fn errmap_cmd() -> Command {
     Command::new(bin())
 }
 
 /// A command's standard error as text.
-pub fn stderr(o: &Output) -> String {
+pub(crate) fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 /// The one JSON document a successful command printed (the test fails with the
 /// command's standard error otherwise).
-pub fn json(o: &Output) -> serde_json::Value {
+pub(crate) fn json(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "{}", stderr(o));
     serde_json::from_slice(&o.stdout).expect("one JSON document on stdout")
 }
 
 /// A path as the `&str` an argument list takes.
-pub fn s(p: &Path) -> &str {
+pub(crate) fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
@@ -64,7 +64,7 @@ pub fn s(p: &Path) -> &str {
 /// and part at 20 °C, 1013.25 hPa, 50 % RH, feed 100 mm/s, no flag): the laser reads the
 /// scale minus the error. Run, sample number and time are the caller's
 /// (`SessionRow { run, sample, t_s, ..reference_row(…) }`).
-pub fn reference_row(
+pub(crate) fn reference_row(
     axis: errmap::drivers::Axis,
     direction: i8,
     target: i32,
@@ -96,7 +96,7 @@ pub fn reference_row(
 }
 
 /// A fresh temporary directory, removed when dropped.
-pub fn tempdir() -> tempfile::TempDir {
+pub(crate) fn tempdir() -> tempfile::TempDir {
     tempfile::tempdir().expect("tempdir")
 }
 
@@ -104,13 +104,13 @@ pub fn tempdir() -> tempfile::TempDir {
 /// third-party positioning tests (the ecmc motion-control framework's published test
 /// logs), kept beside the repository in `../shared/data/real_iso230/converted/` and
 /// not distributed with it.
-pub fn real_records_dir() -> PathBuf {
+pub(crate) fn real_records_dir() -> PathBuf {
     root().join("../shared/data/real_iso230/converted")
 }
 
 /// The real record `name`, or `None` after printing which file the test needs and where
 /// it looked (the test then skips).
-pub fn real_record(name: &str) -> Option<PathBuf> {
+pub(crate) fn real_record(name: &str) -> Option<PathBuf> {
     let p = real_records_dir().join(name);
     if p.is_file() {
         Some(p)

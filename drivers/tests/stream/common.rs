@@ -7,9 +7,9 @@ use errmap_drivers::frame::{
 use errmap_drivers::{Decoder, Event, SessionDecoder, SessionEvent};
 use proptest::prelude::*;
 
-pub const LAMBDA_FM: u32 = 632_991_354;
+pub(crate) const LAMBDA_FM: u32 = 632_991_354;
 
-pub fn hello(axis: u8) -> Frame {
+pub(crate) fn hello(axis: u8) -> Frame {
     Frame::Hello(Hello {
         protocol_version: 1,
         device_id: DeviceId::from_text("SIM-BENCH-01"),
@@ -22,7 +22,7 @@ pub fn hello(axis: u8) -> Frame {
     })
 }
 
-pub fn sample(t_us: u64, index: u32, scale: i32, laser: i32, flags: u8) -> Frame {
+pub(crate) fn sample(t_us: u64, index: u32, scale: i32, laser: i32, flags: u8) -> Frame {
     Frame::Sample(Sample {
         t_us,
         index,
@@ -33,7 +33,7 @@ pub fn sample(t_us: u64, index: u32, scale: i32, laser: i32, flags: u8) -> Frame
     })
 }
 
-pub fn env(t_us: u64, air_temp_mc: i32, pressure_pa: u32, rh_permille: u16) -> Frame {
+pub(crate) fn env(t_us: u64, air_temp_mc: i32, pressure_pa: u32, rh_permille: u16) -> Frame {
     Frame::Env(Env {
         t_us,
         air_temp_mc,
@@ -42,7 +42,7 @@ pub fn env(t_us: u64, air_temp_mc: i32, pressure_pa: u32, rh_permille: u16) -> F
     })
 }
 
-pub fn material(t_us: u64, temps_mc: &[i32]) -> Frame {
+pub(crate) fn material(t_us: u64, temps_mc: &[i32]) -> Frame {
     Frame::Material(Material {
         t_us,
         temps_mc: temps_mc.to_vec(),
@@ -50,7 +50,7 @@ pub fn material(t_us: u64, temps_mc: &[i32]) -> Frame {
 }
 
 #[allow(clippy::too_many_arguments)]
-pub fn mark(
+pub(crate) fn mark(
     t_us: u64,
     kind: u8,
     direction: i8,
@@ -72,7 +72,7 @@ pub fn mark(
     })
 }
 
-pub fn raw_ab(t_us: u64, states: &[u8]) -> Frame {
+pub(crate) fn raw_ab(t_us: u64, states: &[u8]) -> Frame {
     Frame::RawAb(RawAb {
         t_us,
         period_us: 10,
@@ -80,7 +80,7 @@ pub fn raw_ab(t_us: u64, states: &[u8]) -> Frame {
     })
 }
 
-pub fn text(s: &str) -> Frame {
+pub(crate) fn text(s: &str) -> Frame {
     Frame::Text(Text {
         text: s.to_owned(),
         lossy: false,
@@ -89,7 +89,7 @@ pub fn text(s: &str) -> Frame {
 
 /// Builds a byte stream, numbering frames with consecutive seqs.
 #[derive(Debug, Default)]
-pub struct Stream {
+pub(crate) struct Stream {
     pub bytes: Vec<u8>,
     pub seq: u16,
     /// (offset, length) of every frame pushed.
@@ -97,14 +97,14 @@ pub struct Stream {
 }
 
 impl Stream {
-    pub fn new(start_seq: u16) -> Self {
+    pub(crate) fn new(start_seq: u16) -> Self {
         Stream {
             seq: start_seq,
             ..Stream::default()
         }
     }
 
-    pub fn frame(&mut self, f: &Frame) -> &mut Self {
+    pub(crate) fn frame(&mut self, f: &Frame) -> &mut Self {
         let bytes = encode(f, self.seq).expect("valid test frame");
         self.frames.push((self.bytes.len(), bytes.len()));
         self.bytes.extend_from_slice(&bytes);
@@ -113,19 +113,19 @@ impl Stream {
     }
 
     /// Pretend `n` frames were sent but lost.
-    pub fn lose(&mut self, n: u16) -> &mut Self {
+    pub(crate) fn lose(&mut self, n: u16) -> &mut Self {
         self.seq = self.seq.wrapping_add(n);
         self
     }
 
-    pub fn raw(&mut self, bytes: &[u8]) -> &mut Self {
+    pub(crate) fn raw(&mut self, bytes: &[u8]) -> &mut Self {
         self.bytes.extend_from_slice(bytes);
         self
     }
 }
 
 /// Decode `bytes` pushed in chunks of the given sizes (cycled; 0 means 1), then finish.
-pub fn decode_chunked(bytes: &[u8], chunks: &[usize]) -> (Vec<Event>, Decoder) {
+pub(crate) fn decode_chunked(bytes: &[u8], chunks: &[usize]) -> (Vec<Event>, Decoder) {
     let mut d = Decoder::new();
     let mut out = Vec::new();
     let mut rest = bytes;
@@ -145,7 +145,7 @@ pub fn decode_chunked(bytes: &[u8], chunks: &[usize]) -> (Vec<Event>, Decoder) {
 }
 
 /// Session-decode `bytes` split at the given cut points (sorted, deduplicated here).
-pub fn session_split(bytes: &[u8], cuts: &[usize]) -> (Vec<SessionEvent>, SessionDecoder) {
+pub(crate) fn session_split(bytes: &[u8], cuts: &[usize]) -> (Vec<SessionEvent>, SessionDecoder) {
     let mut cuts: Vec<usize> = cuts.iter().map(|&c| c.min(bytes.len())).collect();
     cuts.sort_unstable();
     cuts.dedup();
@@ -161,7 +161,7 @@ pub fn session_split(bytes: &[u8], cuts: &[usize]) -> (Vec<SessionEvent>, Sessio
 }
 
 /// Rows of a session decode of the whole stream at once.
-pub fn rows(
+pub(crate) fn rows(
     bytes: &[u8],
 ) -> (
     Vec<errmap_drivers::SessionRow>,
@@ -172,7 +172,7 @@ pub fn rows(
 }
 
 /// The frames (with seq) among events.
-pub fn frames_of(events: &[Event]) -> Vec<(u16, Frame)> {
+pub(crate) fn frames_of(events: &[Event]) -> Vec<(u16, Frame)> {
     events
         .iter()
         .filter_map(|e| match e {
@@ -183,7 +183,7 @@ pub fn frames_of(events: &[Event]) -> Vec<(u16, Frame)> {
 }
 
 /// Sum of the lengths of the valid frames among events.
-pub fn frame_bytes(events: &[Event]) -> u64 {
+pub(crate) fn frame_bytes(events: &[Event]) -> u64 {
     events
         .iter()
         .map(|e| match e {
@@ -194,7 +194,7 @@ pub fn frame_bytes(events: &[Event]) -> u64 {
 }
 
 /// Every valid frame of protocol version 1.
-pub fn arb_frame() -> impl Strategy<Value = Frame> {
+pub(crate) fn arb_frame() -> impl Strategy<Value = Frame> {
     let hello = (
         any::<u8>(),
         any::<[u8; 16]>(),
@@ -267,7 +267,7 @@ pub fn arb_frame() -> impl Strategy<Value = Frame> {
 }
 
 /// Session-like frames (mostly SAMPLEs with a plausible HELLO), for stream-level tests.
-pub fn arb_session_frame() -> impl Strategy<Value = Frame> {
+pub(crate) fn arb_session_frame() -> impl Strategy<Value = Frame> {
     prop_oneof![
         8 => (any::<u32>(), -100_000i32..100_000, -100_000i32..100_000, prop_oneof![3 => Just(0u8), 1 => any::<u8>()])
             .prop_map(|(i, s, l, f)| sample(u64::from(i) * 1000, i, s, l, f)),

@@ -16,7 +16,7 @@ use ratatui::widgets::{Axis, Block, Borders, Chart, Dataset, GraphType, Paragrap
 use super::state::{self, Counter, Reading, ViewState};
 
 /// A health counter stays highlighted this long after it moved, s.
-pub const FRESH_S: f64 = 3.0;
+pub(crate) const FRESH_S: f64 = 3.0;
 
 /// The chart's colours, one per pass (cycled).
 const PALETTE: [Color; 8] = [
@@ -31,7 +31,7 @@ const PALETTE: [Color; 8] = [
 ];
 
 /// Draws `s`; the chart from `chart` (a paused chart) or from `s`.
-pub fn draw(f: &mut Frame, s: &ViewState, paused: Option<&state::Chart>) {
+pub(crate) fn draw(f: &mut Frame, s: &ViewState, paused: Option<&state::Chart>) {
     let [top, body] = Layout::vertical([Constraint::Length(1), Constraint::Min(0)]).areas(f.area());
     f.render_widget(Paragraph::new(title(s, paused.is_some())), top);
     let [left, right] =
@@ -102,7 +102,7 @@ fn opt(v: Option<f64>, prec: usize, unit: &str) -> String {
 
 /// The refractive index the decoder used for this row's laser length: the modified
 /// Edlén equation at the row's air values and the HELLO's wavelength, 1 before any ENV.
-pub fn n_air(s: &ViewState, r: &Reading) -> Option<f64> {
+pub(crate) fn n_air(s: &ViewState, r: &Reading) -> Option<f64> {
     let h = s.hello?;
     match (r.air_temp_c, r.air_pressure_hpa, r.air_rh_pct) {
         (Some(t), Some(p), Some(rh)) => Some(refractive_index(

@@ -11,10 +11,10 @@
 //! Keys: `q` or Ctrl-C stop the capture cleanly (the session is written as on any stop);
 //! `p` or space pause the chart (the readings and counters go on).
 
-pub mod draw;
+pub(crate) mod draw;
 #[cfg(test)]
-pub mod snapshot;
-pub mod state;
+pub(crate) mod snapshot;
+pub(crate) mod state;
 
 use std::cell::RefCell;
 use std::io::{Stderr, stderr};
@@ -37,18 +37,18 @@ use ratatui::backend::CrosstermBackend;
 use state::{Chart, ViewState};
 
 /// Shortest time between two drawings, and between two state copies: ≤ 10 Hz.
-pub const FRAME: Duration = Duration::from_millis(100);
+pub(crate) const FRAME: Duration = Duration::from_millis(100);
 
 /// A one-slot mailbox holding the newest value: the writer replaces, the reader takes.
 /// Neither waits: a busy slot makes [`Latest::offer`] skip this value (a newer one follows).
 #[derive(Debug, Default)]
-pub struct Latest<T> {
+pub(crate) struct Latest<T> {
     slot: Mutex<Option<T>>,
 }
 
 impl<T> Latest<T> {
     /// Puts `v` in the slot unless the other side holds it right now; whether it did.
-    pub fn offer(&self, v: T) -> bool {
+    pub(crate) fn offer(&self, v: T) -> bool {
         match self.slot.try_lock() {
             Ok(mut g) => {
                 *g = Some(v);
@@ -59,7 +59,7 @@ impl<T> Latest<T> {
     }
 
     /// The newest value, if one came since the last take.
-    pub fn take(&self) -> Option<T> {
+    pub(crate) fn take(&self) -> Option<T> {
         self.slot.lock().ok()?.take()
     }
 }
@@ -72,7 +72,7 @@ type Term = Terminal<CrosstermBackend<Stderr>>;
 struct Screen;
 
 /// The terminal, ready for the live view ([`open`]).
-pub struct Live {
+pub(crate) struct Live {
     screen: Screen,
     term: Term,
 }
@@ -85,7 +85,7 @@ impl std::fmt::Debug for Live {
 
 /// Takes the terminal (raw mode, alternate screen on stderr) for [`capture`]; an error
 /// leaves it as it was, and the caller captures without the view.
-pub fn open() -> Result<Live> {
+pub(crate) fn open() -> Result<Live> {
     enable_raw_mode().context("cannot put the terminal in raw mode")?;
     let screen = Screen;
     execute!(stderr(), EnterAlternateScreen).context("cannot open the alternate screen")?;
@@ -111,7 +111,7 @@ impl Drop for Screen {
 
 /// Captures from `source` into `paths` with the live view on the terminal (see the module
 /// docs). `stop` is the capture's stop flag (Ctrl-C's too); `q` sets it.
-pub fn capture(
+pub(crate) fn capture(
     live: Live,
     source: &mut dyn ByteSource,
     paths: &SessionPaths,

@@ -23,8 +23,8 @@ use ratatui::buffer::Buffer;
 use ratatui::style::{Color, Modifier};
 
 /// Cell size, pixels.
-pub const CELL_W: u32 = 9;
-pub const CELL_H: u32 = 18;
+pub(crate) const CELL_W: u32 = 9;
+pub(crate) const CELL_H: u32 = 18;
 const FONT_PX: f64 = 15.0;
 const FAMILY: &str = "monospace";
 
@@ -55,7 +55,7 @@ fn register_mono() -> Result<()> {
 }
 
 /// xterm's default palette for the 16 named colours; `None` for the terminal's default.
-pub fn rgb(c: Color) -> Option<RGBColor> {
+pub(crate) fn rgb(c: Color) -> Option<RGBColor> {
     let named = |i: u8| {
         const XTERM: [(u8, u8, u8); 16] = [
             (0x00, 0x00, 0x00),
@@ -112,7 +112,7 @@ pub fn rgb(c: Color) -> Option<RGBColor> {
 }
 
 /// The dot offsets (column, row) of a Braille cell, from its code point.
-pub fn braille_dots(ch: char) -> Option<Vec<(u32, u32)>> {
+pub(crate) fn braille_dots(ch: char) -> Option<Vec<(u32, u32)>> {
     let bits = u32::from(ch).checked_sub(0x2800).filter(|b| *b < 0x100)?;
     const DOTS: [(u32, u32); 8] = [
         (0, 0),
@@ -135,7 +135,7 @@ pub fn braille_dots(ch: char) -> Option<Vec<(u32, u32)>> {
 
 /// Renders `buf` into a PNG at `path` (`CELL_W` × `CELL_H` pixels a cell), written to a
 /// temporary sibling and renamed into place.
-pub fn write_png(buf: &Buffer, path: &Path) -> Result<()> {
+pub(crate) fn write_png(buf: &Buffer, path: &Path) -> Result<()> {
     let (w, h) = size(buf);
     let partial = errmap::table::temporary(path);
     let drawn = (|| {
@@ -153,7 +153,7 @@ pub fn write_png(buf: &Buffer, path: &Path) -> Result<()> {
 }
 
 /// The picture's size in pixels.
-pub fn size(buf: &Buffer) -> (u32, u32) {
+pub(crate) fn size(buf: &Buffer) -> (u32, u32) {
     (
         u32::from(buf.area.width) * CELL_W,
         u32::from(buf.area.height) * CELL_H,
@@ -161,7 +161,7 @@ pub fn size(buf: &Buffer) -> (u32, u32) {
 }
 
 /// Paints `buf` onto `root`, which is [`size`] pixels.
-pub fn paint<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, buf: &Buffer) -> Result<()> {
+pub(crate) fn paint<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, buf: &Buffer) -> Result<()> {
     register_mono()?;
     let area = buf.area;
     let err = |e: &dyn std::fmt::Display| anyhow!("drawing the screenshot: {e}");
@@ -245,7 +245,7 @@ pub fn paint<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, buf: &Buffer) ->
 /// The arms (left, right, up, down) of a box-drawing character, drawn as lines through
 /// the cell's middle so that borders join from cell to cell as on a terminal (light,
 /// heavy, double and rounded forms alike).
-pub fn box_arms(ch: char) -> Option<[bool; 4]> {
+pub(crate) fn box_arms(ch: char) -> Option<[bool; 4]> {
     Some(match ch {
         '─' | '━' | '═' => [true, true, false, false],
         '│' | '┃' | '║' => [false, false, true, true],
@@ -263,6 +263,6 @@ pub fn box_arms(ch: char) -> Option<[bool; 4]> {
 }
 
 /// Top-left pixel of the 2 × 2 dot (column `cx`, row `cy`) of a Braille cell at (`px`, `py`).
-pub fn dot_origin(px: i32, py: i32, cx: u32, cy: u32) -> (i32, i32) {
+pub(crate) fn dot_origin(px: i32, py: i32, cx: u32, cy: u32) -> (i32, i32) {
     (px + 2 + 4 * cx as i32, py + 2 + 4 * cy as i32)
 }

@@ -13,13 +13,13 @@ use errmap::drivers::problem::ProblemKind;
 use errmap::drivers::{Problem, SessionEvent, SessionRow};
 
 /// Passes (run × direction) kept for the chart and the targets table.
-pub const MAX_TRACES: usize = 8;
+pub(crate) const MAX_TRACES: usize = 8;
 /// Targets kept per pass (a plan has tens; more would not be readable anyway).
-pub const MAX_TARGETS: usize = 256;
+pub(crate) const MAX_TARGETS: usize = 256;
 
 /// The latest row's readings.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Reading {
+pub(crate) struct Reading {
     pub t_s: f64,
     pub run: u32,
     pub direction: i8,
@@ -38,7 +38,7 @@ pub struct Reading {
 
 /// Running sums of the clean samples dwelling at one target.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct TargetMean {
+pub(crate) struct TargetMean {
     pub n: u64,
     sum_pos: f64,
     sum_err: f64,
@@ -52,19 +52,19 @@ impl TargetMean {
     }
 
     /// Mean position, mm (NaN before the first sample).
-    pub fn position_mm(&self) -> f64 {
+    pub(crate) fn position_mm(&self) -> f64 {
         self.sum_pos / self.n as f64
     }
 
     /// Mean error, µm.
-    pub fn error_um(&self) -> f64 {
+    pub(crate) fn error_um(&self) -> f64 {
         self.sum_err / self.n as f64
     }
 }
 
 /// One pass: a run in one direction, with its targets' captured means.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Trace {
+pub(crate) struct Trace {
     pub run: u32,
     pub direction: i8,
     pub targets: BTreeMap<i32, TargetMean>,
@@ -72,12 +72,12 @@ pub struct Trace {
 
 impl Trace {
     /// "run 2 +" / "run 2 −".
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         format!("run {} {}", self.run, direction_sign(self.direction))
     }
 
     /// (mean position, mean error) per target, in target order.
-    pub fn points(&self) -> Vec<(f64, f64)> {
+    pub(crate) fn points(&self) -> Vec<(f64, f64)> {
         self.targets
             .values()
             .filter(|m| m.n > 0)
@@ -87,7 +87,7 @@ impl Trace {
 }
 
 /// "+", "−" or "0".
-pub fn direction_sign(d: i8) -> &'static str {
+pub(crate) fn direction_sign(d: i8) -> &'static str {
     match d.signum() {
         1 => "+",
         -1 => "−",
@@ -97,7 +97,7 @@ pub fn direction_sign(d: i8) -> &'static str {
 
 /// One counter of the decoder's health, with when it last moved.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Counter {
+pub(crate) struct Counter {
     pub count: u64,
     /// Capture time (s, from the progress clock) of the last increase.
     pub changed_at_s: Option<f64>,
@@ -115,7 +115,7 @@ impl Counter {
 /// The decoder's health as the view shows it (counted from the problem events, so the
 /// counts at the end equal the session's decoder statistics).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Health {
+pub(crate) struct Health {
     pub crc_failures: Counter,
     /// Losses of alignment (one per run of skipped bytes).
     pub resyncs: Counter,
@@ -132,7 +132,7 @@ pub struct Health {
 
 /// Everything the live view draws.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct ViewState {
+pub(crate) struct ViewState {
     pub hello: Option<Hello>,
     pub latest: Option<Reading>,
     pub rows: u64,
@@ -150,7 +150,7 @@ pub struct ViewState {
 
 impl ViewState {
     /// Takes one decoder event (rows, problems, HELLOs; TEXT lines are not shown).
-    pub fn event(&mut self, e: &SessionEvent) {
+    pub(crate) fn event(&mut self, e: &SessionEvent) {
         match e {
             SessionEvent::Row(r) => self.row(r),
             SessionEvent::Problem(p) => self.problem(p),
@@ -160,7 +160,7 @@ impl ViewState {
     }
 
     /// The capture loop's clock and byte count.
-    pub fn progress(&mut self, bytes: u64, elapsed_s: f64) {
+    pub(crate) fn progress(&mut self, bytes: u64, elapsed_s: f64) {
         self.bytes = bytes;
         self.elapsed_s = elapsed_s;
     }
@@ -255,7 +255,7 @@ impl ViewState {
     }
 
     /// The current pass, if inside a run.
-    pub fn current(&self) -> Option<&Trace> {
+    pub(crate) fn current(&self) -> Option<&Trace> {
         let r = self.latest?;
         self.traces
             .back()
@@ -263,7 +263,7 @@ impl ViewState {
     }
 
     /// The chart's data: one series of (position, mean error) per pass.
-    pub fn chart(&self) -> Chart {
+    pub(crate) fn chart(&self) -> Chart {
         Chart {
             series: self
                 .traces
@@ -281,13 +281,13 @@ impl ViewState {
 /// The chart's series, kept apart so a paused chart can hold still while the readings
 /// go on.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Chart {
+pub(crate) struct Chart {
     pub series: Vec<Series>,
 }
 
 /// One pass on the chart.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct Series {
+pub(crate) struct Series {
     /// "run 2 −".
     pub label: String,
     /// (mean position mm, mean error µm) per target, in target order.
@@ -297,7 +297,7 @@ pub struct Series {
 impl Chart {
     /// ((x min, x max), (y min, y max)) over every point, padded so single points and
     /// flat lines still get an axis; None when there is no point.
-    pub fn bounds(&self) -> Option<((f64, f64), (f64, f64))> {
+    pub(crate) fn bounds(&self) -> Option<((f64, f64), (f64, f64))> {
         let mut pts = self.series.iter().flat_map(|s| s.points.iter());
         let first = pts.next()?;
         let (mut x, mut y) = ((first.0, first.0), (first.1, first.1));

@@ -210,7 +210,7 @@ fn nonlinear(terms: &[Term]) -> usize {
 
 impl<'a> Selector<'a> {
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
+    pub(super) fn new(
         obs: &'a Obs,
         cfg: &'a DiagnoseConfig,
         y: Vec<f64>,
@@ -265,7 +265,7 @@ impl<'a> Selector<'a> {
         }
     }
 
-    pub fn untestable(&self) -> &[String] {
+    pub(super) fn untestable(&self) -> &[String] {
         &self.cols.untestable
     }
 
@@ -540,7 +540,7 @@ impl<'a> Selector<'a> {
         cv_pred
     }
 
-    pub fn run(mut self) -> Outcome {
+    pub(super) fn run(mut self) -> Outcome {
         let (mut terms, fitted) = self.select_with_restarts();
 
         // 5. Too small to matter.

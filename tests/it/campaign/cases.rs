@@ -7,10 +7,10 @@ use super::Fixtures;
 
 /// xorshift64*, seeded per case by splitmix64 of (seed, case): case `i` of a seed is the
 /// same whatever ran before it.
-pub struct Rng(u64);
+pub(crate) struct Rng(u64);
 
 impl Rng {
-    pub fn new(seed: u64, case: u64) -> Self {
+    pub(crate) fn new(seed: u64, case: u64) -> Self {
         let mut z = seed
             .wrapping_mul(0x9e37_79b9_7f4a_7c15)
             .wrapping_add(case.wrapping_mul(0xbf58_476d_1ce4_e5b9))
@@ -20,16 +20,16 @@ impl Rng {
         Rng((z ^ (z >> 31)) | 1)
     }
     /// The generator from a raw state (made odd: never the all-zero state).
-    pub fn from_state(state: u64) -> Self {
+    pub(crate) fn from_state(state: u64) -> Self {
         Rng(state | 1)
     }
-    pub fn next(&mut self) -> u64 {
+    pub(crate) fn next(&mut self) -> u64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
         self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
     }
-    pub fn below(&mut self, n: usize) -> usize {
+    pub(crate) fn below(&mut self, n: usize) -> usize {
         (self.next() % n.max(1) as u64) as usize
     }
     fn pick<T: Copy>(&mut self, items: &[T]) -> T {
@@ -42,7 +42,7 @@ impl Rng {
 
 /// What a run may end with.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Expect {
+pub(crate) enum Expect {
     /// A data mutation: 0 (accepted, with finite outputs) or 1 (refused).
     Data,
     /// Must be refused as bad input: exit 1.
@@ -56,7 +56,7 @@ pub enum Expect {
 }
 
 #[derive(Debug)]
-pub struct Case {
+pub(crate) struct Case {
     pub label: String,
     pub args: Vec<String>,
     /// On a nonzero exit stderr names one of these (a file name or a flag).
@@ -133,7 +133,11 @@ fn cut(rng: &mut Rng, text: &str) -> (String, String) {
 }
 
 /// A mutated CSV text, what was done, and whether the reader must refuse it.
-pub fn mutate_csv(rng: &mut Rng, text: &str, repeats_refused: bool) -> (String, String, bool) {
+pub(crate) fn mutate_csv(
+    rng: &mut Rng,
+    text: &str,
+    repeats_refused: bool,
+) -> (String, String, bool) {
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     if lines.len() < 3 {
         return (text.to_string(), "unchanged (too short)".into(), false);
@@ -238,7 +242,7 @@ pub fn mutate_csv(rng: &mut Rng, text: &str, repeats_refused: bool) -> (String, 
 }
 
 /// Byte-level damage for binary inputs (raw captures, Parquet) and any text.
-pub fn mutate_bytes(rng: &mut Rng, data: &[u8]) -> (Vec<u8>, String) {
+pub(crate) fn mutate_bytes(rng: &mut Rng, data: &[u8]) -> (Vec<u8>, String) {
     let mut v = data.to_vec();
     let n = v.len().max(1);
     let at = rng.below(n).min(v.len());
@@ -338,7 +342,7 @@ const TOML_VALUES: [&str; 16] = [
 ];
 
 /// A mutated TOML (or JSON) text, what was done, and whether the loader must refuse it.
-pub fn mutate_toml(rng: &mut Rng, text: &str, json: bool) -> (String, String, bool) {
+pub(crate) fn mutate_toml(rng: &mut Rng, text: &str, json: bool) -> (String, String, bool) {
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
     let span = |l: &str| match json {
         true => l.find(':').map(|c| (c + 1, l.len())),
@@ -524,7 +528,7 @@ fn text_case(
 }
 
 /// One case of the campaign: a mutated input or flag, and the command that reads it.
-pub fn make_case(rng: &mut Rng, f: &Fixtures, d: &Path) -> Case {
+pub(crate) fn make_case(rng: &mut Rng, f: &Fixtures, d: &Path) -> Case {
     let binary = |rng: &mut Rng, base: &Path, name: &str| {
         let (b, what) = mutate_bytes(rng, &std::fs::read(base).expect("read fixture"));
         let p = d.join(name);

@@ -10,7 +10,7 @@ use errmap::circular::{CircularVerdict, DiagnoseConfig, Plane, diagnose};
 use super::{main_param, model};
 
 /// One example of every effect, on each slot it may take.
-pub fn every_effect() -> Vec<(Effect, Slot)> {
+pub(super) fn every_effect() -> Vec<(Effect, Slot)> {
     let mut out = Vec::new();
     for slot in [Slot::A, Slot::B] {
         out.push((Effect::Backlash { b_um: 6.0 }, slot));

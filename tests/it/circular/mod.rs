@@ -16,7 +16,7 @@ use errmap::circular::simulate::{MachineModel, SimEffect};
 use errmap::circular::{Plane, Sense, TestMeta};
 
 /// A test setup: R = 50 mm, F = 2000 mm/min, 100 Hz, 360° with 45° overshoot.
-pub fn meta(plane: Plane) -> TestMeta {
+pub(crate) fn meta(plane: Plane) -> TestMeta {
     TestMeta {
         plane,
         radius_mm: 50.0,
@@ -34,7 +34,12 @@ pub fn meta(plane: Plane) -> TestMeta {
     }
 }
 
-pub fn model(plane: Plane, effects: &[(Effect, Slot)], noise_um: f64, seed: u64) -> MachineModel {
+pub(crate) fn model(
+    plane: Plane,
+    effects: &[(Effect, Slot)],
+    noise_um: f64,
+    seed: u64,
+) -> MachineModel {
     MachineModel {
         meta: meta(plane),
         directions: vec![Sense::Ccw, Sense::Cw],
@@ -50,7 +55,7 @@ pub fn model(plane: Plane, effects: &[(Effect, Slot)], noise_um: f64, seed: u64)
 }
 
 /// The parameter of an effect the tests check, with a name.
-pub fn main_param(e: &Effect) -> (ParamName, f64) {
+pub(crate) fn main_param(e: &Effect) -> (ParamName, f64) {
     match *e {
         Effect::Backlash { b_um } => (ParamName::BUm, b_um),
         Effect::ReversalSpike { h_um, .. } => (ParamName::HUm, h_um),
