@@ -459,12 +459,11 @@ impl ValueScale {
         let linear = if log {
             None
         } else {
-            Some(padded_range(
-                vmin.min(0.0),
-                vmax.max(0.0),
-                vmin < 0.0,
-                vmax > 0.0,
-            )?)
+            let (lo, hi) = padded_range(vmin.min(0.0), vmax.max(0.0), vmin < 0.0, vmax > 0.0)?;
+            // Bars of values that are all ≥ 0 stand on the axis' lower end even when every
+            // one is 0 (a fleet whose risks are all 0), not mid-way on a ±1 axis.
+            let lo = if vmin >= 0.0 { lo.max(0.0) } else { lo };
+            Some((lo, hi))
         };
         Ok(Self {
             log,
@@ -1099,6 +1098,10 @@ mod tests {
             let paths = bars(&stem, &title, "RMS / µm", labels, &values, markers, log)?;
             check_outputs(&paths, &stem, &title)?;
         }
+        // Bars that are all 0 stand on an axis from 0, not on −1…1.
+        let zero = ValueScale::of(&[0.0, 0.0], None, false)?;
+        let (lo, hi) = zero.linear.ok_or("a linear axis")?;
+        assert!(lo == 0.0 && hi > 0.0, "{lo} … {hi}");
         // log_y with a negative value falls back to a linear axis; a single bar works too.
         let stem = dir.path().join("signed");
         let paths = bars(
