@@ -59,10 +59,7 @@ impl Kind {
 
     /// The id with the Abbe offset axis, for messages.
     pub(super) fn label(self, obs: &Obs) -> String {
-        match self.offset_axis(obs) {
-            Some(a) => format!("abbe (offset along {})", a.lower()),
-            None => self.id().as_str().to_string(),
-        }
+        super::outcome::effect_label(self.id(), self.offset_axis(obs))
     }
 
     /// The axis an Abbe term's offset lies along (`None` for every other effect).

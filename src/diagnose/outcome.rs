@@ -121,10 +121,16 @@ pub struct CandidateScore {
 impl CandidateScore {
     /// The effect as reports name it: the id, with the offset axis for abbe.
     pub fn label(&self) -> String {
-        match self.offset_axis {
-            Some(a) => format!("{} (offset along {})", self.effect, a.lower()),
-            None => self.effect.to_string(),
-        }
+        effect_label(self.effect, self.offset_axis)
+    }
+}
+
+/// An effect as messages and reports name it: its id, with the axis an Abbe offset lies
+/// along (`abbe (offset along y)`).
+pub(super) fn effect_label(effect: EffectId, offset_axis: Option<Axis>) -> String {
+    match offset_axis {
+        Some(a) => format!("{effect} (offset along {})", a.lower()),
+        None => effect.to_string(),
     }
 }
 
