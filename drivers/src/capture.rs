@@ -6,8 +6,10 @@
 //!
 //! The capture ends when the source ends (a file), the host asks it to stop (Ctrl-C sets
 //! the stop flag), no byte arrives for the idle timeout, the duration limit passes, or the
-//! port vanishes. A vanished port is reported as [`CaptureEnd::Vanished`] with everything
-//! received so far: the caller writes a valid session and then reports the error.
+//! port closes. A port the board closes after its last run ended (no run open) is the
+//! ordinary end of a capture, [`CaptureEnd::Closed`]. A port that vanishes inside a run,
+//! or before any run ended, is [`CaptureEnd::Vanished`] with everything received so far:
+//! the caller writes a valid session and then reports the error.
 //!
 //! A capture that started after the device's power-up has no HELLO, and without one no
 //! SAMPLE can be converted. So when no usable HELLO has arrived [`HELLO_WAIT`] after the
@@ -74,7 +76,13 @@ pub enum CaptureEnd {
     Idle,
     /// The duration limit passed.
     Duration,
-    /// The port went away.
+    /// The board closed the port after its last run ended (no run open): a complete
+    /// capture.
+    Closed {
+        /// Runs the board closed with a run-end MARK.
+        runs: u32,
+    },
+    /// The port went away inside a run (or before any run ended).
     Vanished(String),
 }
 
@@ -188,133 +196,220 @@ pub fn capture_to(
     stop: &AtomicBool,
     progress: &mut dyn FnMut(&Progress),
 ) -> Result<Captured, CaptureError> {
-    let start = Instant::now();
-    let mut decoder = SessionDecoder::new();
-    let mut n_rows = 0u64;
-    let mut failed: Option<SinkError> = None;
+    let mut run = CaptureRun::new(raw, sink, config);
     let mut buf = vec![0u8; config.read_buf.max(1)];
-    let (mut bytes, mut fsyncs) = (0u64, 0u64);
-    let mut last_sync = Instant::now();
-    let mut last_byte = Instant::now();
-    let mut last_progress = Instant::now();
-    let mut dirty = false;
-    let mut max_run = 0u32;
-    let mut hello_asked = false;
-    let sync =
-        |raw: &mut File, sink: &mut dyn RowSink, fsyncs: &mut u64| -> Result<(), CaptureError> {
-            raw.flush().map_err(CaptureError::Raw)?;
-            raw.sync_data().map_err(CaptureError::Raw)?;
-            *fsyncs += 1;
-            sink.flush().map_err(CaptureError::Rows)
-        };
     let end = loop {
-        if stop.load(Ordering::Relaxed) {
-            break CaptureEnd::Stopped;
-        }
-        if config.max_duration.is_some_and(|d| start.elapsed() >= d) {
-            break CaptureEnd::Duration;
-        }
-        if config
-            .idle_timeout
-            .is_some_and(|d| last_byte.elapsed() >= d)
-        {
-            break CaptureEnd::Idle;
+        if let Some(end) = run.limit_reached(stop) {
+            break end;
         }
         let n = match source.read_bytes(&mut buf) {
             Ok(ReadOutcome::Data(n)) => n,
             Ok(ReadOutcome::TimedOut) => 0,
             Ok(ReadOutcome::Eof) => break CaptureEnd::EndOfSource,
-            Err(TransportError::Vanished { path, source }) => {
-                break CaptureEnd::Vanished(format!("{path}: {source}"));
-            }
+            Err(TransportError::Vanished { path, source }) => break run.port_gone(path, source),
             Err(e) => {
                 // Keep what we have on disk before giving up.
-                sync(raw, sink, &mut fsyncs)?;
+                run.sync()?;
                 return Err(CaptureError::Transport(e));
             }
         };
         if n > 0 {
-            last_byte = Instant::now();
-            // The promise: bytes are on disk (in the file) before they are decoded.
-            raw.write_all(&buf[..n]).map_err(CaptureError::Raw)?;
-            dirty = true;
-            bytes += n as u64;
-            let mut run_ended = false;
-            decoder.push_with(&buf[..n], &mut |e| {
-                if let SessionEvent::Row(r) = &e {
-                    if r.run < max_run || (r.run == 0 && max_run > 0) {
-                        run_ended = true;
-                    }
-                    max_run = max_run.max(r.run);
-                    n_rows += 1;
-                }
-                if failed.is_none()
-                    && let Err(e) = sink.event(e)
-                {
-                    failed = Some(e);
-                }
-            });
-            if let Some(e) = failed.take() {
-                sync(raw, sink, &mut fsyncs)?;
-                return Err(CaptureError::Rows(e));
-            }
-            if run_ended && dirty {
-                sync(raw, sink, &mut fsyncs)?;
-                last_sync = Instant::now();
-                dirty = false;
-            }
+            run.take(&buf[..n])?;
         }
-        if !hello_asked && start.elapsed() >= HELLO_WAIT && decoder.builder().scaling().is_none() {
-            hello_asked = true;
+        run.ask_hello_once(source);
+        run.sync_when_due()?;
+        run.report(progress, false);
+    };
+    run.finish(end, progress)
+}
+
+/// The state of one capture between reads: the decoder, the counters and the clocks.
+struct CaptureRun<'a> {
+    raw: &'a mut File,
+    sink: &'a mut dyn RowSink,
+    config: &'a CaptureConfig,
+    decoder: SessionDecoder,
+    start: Instant,
+    last_sync: Instant,
+    last_byte: Instant,
+    last_progress: Instant,
+    rows: u64,
+    bytes: u64,
+    fsyncs: u64,
+    max_run: u32,
+    dirty: bool,
+    hello_asked: bool,
+    failed: Option<SinkError>,
+}
+
+impl<'a> CaptureRun<'a> {
+    fn new(raw: &'a mut File, sink: &'a mut dyn RowSink, config: &'a CaptureConfig) -> Self {
+        let now = Instant::now();
+        CaptureRun {
+            raw,
+            sink,
+            config,
+            decoder: SessionDecoder::new(),
+            start: now,
+            last_sync: now,
+            last_byte: now,
+            last_progress: now,
+            rows: 0,
+            bytes: 0,
+            fsyncs: 0,
+            max_run: 0,
+            dirty: false,
+            hello_asked: false,
+            failed: None,
+        }
+    }
+
+    /// The stop flag, the duration limit and the idle timeout, in that order.
+    fn limit_reached(&self, stop: &AtomicBool) -> Option<CaptureEnd> {
+        if stop.load(Ordering::Relaxed) {
+            return Some(CaptureEnd::Stopped);
+        }
+        if self
+            .config
+            .max_duration
+            .is_some_and(|d| self.start.elapsed() >= d)
+        {
+            return Some(CaptureEnd::Duration);
+        }
+        if self
+            .config
+            .idle_timeout
+            .is_some_and(|d| self.last_byte.elapsed() >= d)
+        {
+            return Some(CaptureEnd::Idle);
+        }
+        None
+    }
+
+    /// The port went away: the board closing it after its last run ended is the end of a
+    /// complete capture; a port lost inside a run (or before any run ended) is not.
+    fn port_gone(&self, path: String, source: std::io::Error) -> CaptureEnd {
+        let b = self.decoder.builder();
+        if !b.run_open() && b.runs_ended() > 0 {
+            CaptureEnd::Closed {
+                runs: b.runs_ended(),
+            }
+        } else {
+            CaptureEnd::Vanished(format!("{path}: {source}"))
+        }
+    }
+
+    /// Bytes read: on disk first, then decoded; a run's end syncs the file.
+    fn take(&mut self, bytes: &[u8]) -> Result<(), CaptureError> {
+        self.last_byte = Instant::now();
+        // The promise: bytes are on disk (in the file) before they are decoded.
+        self.raw.write_all(bytes).map_err(CaptureError::Raw)?;
+        self.dirty = true;
+        self.bytes += bytes.len() as u64;
+        let mut run_ended = false;
+        let (max_run, rows, failed, sink) = (
+            &mut self.max_run,
+            &mut self.rows,
+            &mut self.failed,
+            &mut *self.sink,
+        );
+        self.decoder.push_with(bytes, &mut |e| {
+            if let SessionEvent::Row(r) = &e {
+                if r.run < *max_run || (r.run == 0 && *max_run > 0) {
+                    run_ended = true;
+                }
+                *max_run = (*max_run).max(r.run);
+                *rows += 1;
+            }
+            if failed.is_none()
+                && let Err(e) = sink.event(e)
+            {
+                *failed = Some(e);
+            }
+        });
+        if let Some(e) = self.failed.take() {
+            self.sync()?;
+            return Err(CaptureError::Rows(e));
+        }
+        if run_ended && self.dirty {
+            self.sync()?;
+        }
+        Ok(())
+    }
+
+    /// Asks once for a HELLO when none usable has come after [`HELLO_WAIT`].
+    fn ask_hello_once(&mut self, source: &mut dyn ByteSource) {
+        if !self.hello_asked
+            && self.start.elapsed() >= HELLO_WAIT
+            && self.decoder.builder().scaling().is_none()
+        {
+            self.hello_asked = true;
             // Best effort: a port that takes no bytes still gives what it sends.
             let _ = source.send(HELLO_REQUEST);
         }
-        if dirty && last_sync.elapsed() >= config.fsync_every {
-            sync(raw, sink, &mut fsyncs)?;
-            last_sync = Instant::now();
-            dirty = false;
+    }
+
+    fn sync_when_due(&mut self) -> Result<(), CaptureError> {
+        if self.dirty && self.last_sync.elapsed() >= self.config.fsync_every {
+            self.sync()?;
         }
-        if last_progress.elapsed() >= config.progress_every {
-            last_progress = Instant::now();
+        Ok(())
+    }
+
+    /// The raw file to disk, then the sink's flush.
+    fn sync(&mut self) -> Result<(), CaptureError> {
+        self.raw.flush().map_err(CaptureError::Raw)?;
+        self.raw.sync_data().map_err(CaptureError::Raw)?;
+        self.fsyncs += 1;
+        self.last_sync = Instant::now();
+        self.dirty = false;
+        self.sink.flush().map_err(CaptureError::Rows)
+    }
+
+    fn report(&mut self, progress: &mut dyn FnMut(&Progress), now: bool) {
+        if now || self.last_progress.elapsed() >= self.config.progress_every {
+            self.last_progress = Instant::now();
             progress(&Progress {
-                bytes,
-                samples: n_rows,
-                runs: max_run,
-                elapsed_s: start.elapsed().as_secs_f64(),
-                problems: problems(&decoder.stats()),
+                bytes: self.bytes,
+                samples: self.rows,
+                runs: self.max_run,
+                elapsed_s: self.start.elapsed().as_secs_f64(),
+                problems: problems(&self.decoder.stats()),
             });
         }
-    };
-    decoder.finish_with(&mut |e| {
-        if matches!(e, SessionEvent::Row(_)) {
-            n_rows += 1;
-        }
-        if failed.is_none()
-            && let Err(e) = sink.event(e)
-        {
-            failed = Some(e);
-        }
-    });
-    sync(raw, sink, &mut fsyncs)?;
-    if let Some(e) = failed {
-        return Err(CaptureError::Rows(e));
     }
-    let stats = decoder.stats();
-    progress(&Progress {
-        bytes,
-        samples: n_rows,
-        runs: max_run,
-        elapsed_s: start.elapsed().as_secs_f64(),
-        problems: problems(&stats),
-    });
-    Ok(Captured {
-        rows: n_rows,
-        stats,
-        hello: decoder.hello().copied(),
-        end,
-        bytes,
-        fsyncs,
-    })
+
+    /// The decoder's tail, the last sync and the last progress report.
+    fn finish(
+        mut self,
+        end: CaptureEnd,
+        progress: &mut dyn FnMut(&Progress),
+    ) -> Result<Captured, CaptureError> {
+        let (rows, failed, sink) = (&mut self.rows, &mut self.failed, &mut *self.sink);
+        self.decoder.finish_with(&mut |e| {
+            if matches!(e, SessionEvent::Row(_)) {
+                *rows += 1;
+            }
+            if failed.is_none()
+                && let Err(e) = sink.event(e)
+            {
+                *failed = Some(e);
+            }
+        });
+        self.sync()?;
+        if let Some(e) = self.failed.take() {
+            return Err(CaptureError::Rows(e));
+        }
+        self.report(progress, true);
+        Ok(Captured {
+            rows: self.rows,
+            stats: self.decoder.stats(),
+            hello: self.decoder.hello().copied(),
+            end,
+            bytes: self.bytes,
+            fsyncs: self.fsyncs,
+        })
+    }
 }
 
 #[cfg(test)]
@@ -407,5 +502,69 @@ mod tests {
         let (rows, stats, _) = crate::decode_all(&body);
         assert!(rows.is_empty());
         assert_eq!(stats.unconverted_samples, samples as u64);
+    }
+
+    /// Hands its bytes over in one read, then reports the port gone.
+    struct Closing(Option<Vec<u8>>);
+
+    impl ByteSource for Closing {
+        fn read_bytes(&mut self, buf: &mut [u8]) -> Result<ReadOutcome, TransportError> {
+            match self.0.take() {
+                Some(b) => {
+                    buf[..b.len()].copy_from_slice(&b);
+                    Ok(ReadOutcome::Data(b.len()))
+                }
+                None => Err(TransportError::Vanished {
+                    path: "/dev/pts/test".into(),
+                    source: std::io::Error::from_raw_os_error(5),
+                }),
+            }
+        }
+    }
+
+    fn end_after(bytes: Vec<u8>) -> CaptureEnd {
+        let raw_path = std::env::temp_dir().join(format!(
+            "errmap-closing-{}-{}.bin",
+            std::process::id(),
+            bytes.len()
+        ));
+        let mut raw = File::create(&raw_path).expect("raw");
+        let config = CaptureConfig {
+            read_buf: bytes.len() + 64,
+            ..CaptureConfig::default()
+        };
+        let cap = capture(
+            &mut Closing(Some(bytes)),
+            &mut raw,
+            &config,
+            &AtomicBool::new(false),
+            &mut |_| {},
+        )
+        .expect("captures");
+        let _ = std::fs::remove_file(&raw_path);
+        cap.end
+    }
+
+    #[test]
+    fn a_port_closed_after_the_last_run_ended_is_complete_and_inside_a_run_vanished() {
+        let plan = Plan {
+            targets_mm: vec![0.0, 50.0],
+            runs: 2,
+            dwell_s: 0.1,
+            ..Plan::default()
+        };
+        let stream =
+            simulate(&plan, &Device::default(), &Faults::default(), &mut Zero).expect("simulates");
+        let all: Vec<u8> = stream.frames.iter().flat_map(|f| f.bytes.clone()).collect();
+        assert_eq!(end_after(all.clone()), CaptureEnd::Closed { runs: 2 });
+        // Cut in the middle of the second run: the port vanished.
+        let half: Vec<u8> = stream.frames[..stream.frames.len() * 3 / 4]
+            .iter()
+            .flat_map(|f| f.bytes.clone())
+            .collect();
+        assert!(matches!(end_after(half), CaptureEnd::Vanished(_)));
+        // Before any run ended (the HELLO alone): vanished too.
+        let hello = stream.frames[0].bytes.clone();
+        assert!(matches!(end_after(hello), CaptureEnd::Vanished(_)));
     }
 }

@@ -241,6 +241,8 @@ struct MarkState {
     direction: i8,
     /// Target index while dwelling, else −1.
     target: i32,
+    /// Runs closed by a run-end MARK so far.
+    runs_ended: u32,
 }
 
 /// A SAMPLE waiting for its scaling (HELLO) and origin.
@@ -345,6 +347,16 @@ impl SessionBuilder {
     /// The scaling in force.
     pub fn scaling(&self) -> Option<&Scaling> {
         self.scaling.as_ref()
+    }
+
+    /// Whether a run is open: a run-start MARK arrived and its run-end MARK has not.
+    pub fn run_open(&self) -> bool {
+        self.marks.in_run
+    }
+
+    /// How many runs a run-end MARK has closed so far.
+    pub fn runs_ended(&self) -> u32 {
+        self.marks.runs_ended
     }
 
     /// Rows held back (waiting for a HELLO or a clean SAMPLE).
@@ -503,7 +515,12 @@ impl SessionBuilder {
         st.direction = m.direction.signum();
         match kind {
             MarkKind::RunStart => st.in_run = true,
-            MarkKind::RunEnd => st.in_run = false,
+            MarkKind::RunEnd => {
+                if st.in_run {
+                    st.runs_ended = st.runs_ended.saturating_add(1);
+                }
+                st.in_run = false;
+            }
             MarkKind::TargetReached => st.target = i32::from(m.target),
             MarkKind::TargetLeft => st.target = -1,
             MarkKind::Reversal => {}

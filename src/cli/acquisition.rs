@@ -107,6 +107,34 @@ fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
     super::guard::write_file(path, s.as_bytes())
 }
 
+/// Serves `stream` on a fresh pseudo-terminal from a thread (at `speed`× real time) and
+/// captures it from there through the serial-port code: the simulated board's end to end.
+pub(crate) fn capture_simulated(
+    stream: SimStream,
+    speed: f64,
+    baud: u32,
+    paths: &SessionPaths,
+    config: &CaptureConfig,
+    display: Display,
+) -> Result<errmap::drivers::capture::Captured> {
+    let (tx, rx) = std::sync::mpsc::channel::<String>();
+    let server = std::thread::spawn(move || {
+        serve_stream(&stream, speed, 1.5, 30.0, |path| {
+            let _ = tx.send(path.to_string());
+        })
+    });
+    let port = rx.recv().context("the simulated board did not start")?;
+    eprintln!("capture: simulated board on {port} ({speed}× real time)");
+    let cap = capture_from_port(&port, baud, paths, config, display)?;
+    match server.join() {
+        Ok(r) => {
+            r?;
+        }
+        Err(_) => bail!("the simulated board's thread failed"),
+    }
+    Ok(cap)
+}
+
 /// How a capture shows itself while it runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Display {
@@ -170,7 +198,15 @@ pub(crate) fn capture_cmd(a: CaptureArgs) -> Result<()> {
     } else {
         Display::LiveView
     };
-    let cap = capture_from_port(&a.port, a.baud, &paths, &config, display)?;
+    let cap = match (&a.simulate, &a.port) {
+        (Some(model), _) => {
+            let (stream, _) =
+                errmap::sim::simulate_stream(model, a.plan.as_deref(), &Faults::default())?;
+            capture_simulated(stream, a.speed, a.baud, &paths, &config, display)?
+        }
+        (None, Some(port)) => capture_from_port(port, a.baud, &paths, &config, display)?,
+        (None, None) => bail!("capture needs --port or --simulate"),
+    };
     let s = &cap.stats;
     eprintln!(
         "capture: {} bytes, {} rows, {} frames; CRC failures {}, resyncs {} ({} bytes skipped), seq gaps {} ({} frames lost), wraps {}/{}, flagged samples {}, truncated tail {} bytes",
@@ -213,11 +249,17 @@ pub(crate) fn capture_cmd(a: CaptureArgs) -> Result<()> {
             .with_context(|| format!("cannot read {}", paths.json.display()))?;
         super::guard::print_stdout(&json)?;
     }
-    if let CaptureEnd::Vanished(why) = &cap.end {
-        bail!(
+    match &cap.end {
+        CaptureEnd::Vanished(why) => bail!(
             "the port vanished during the capture ({why}); everything received is in {} and the session table was written",
             paths.dir.display()
-        );
+        ),
+        CaptureEnd::Closed { runs } => eprintln!(
+            "capture: complete: the board closed the port after its last run ended ({runs} runs, {} rows)",
+            cap.rows
+        ),
+        CaptureEnd::EndOfSource | CaptureEnd::Stopped | CaptureEnd::Idle | CaptureEnd::Duration => {
+        }
     }
     Ok(())
 }

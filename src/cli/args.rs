@@ -269,8 +269,22 @@ pub(crate) struct ServeSimArgs {
 #[derive(Debug, Args)]
 pub(crate) struct CaptureArgs {
     /// Serial device path (e.g. /dev/ttyUSB0, or the path serve-sim prints).
-    #[arg(long)]
-    pub port: String,
+    #[arg(
+        long,
+        required_unless_present = "simulate",
+        conflicts_with = "simulate"
+    )]
+    pub port: Option<String>,
+    /// No board: serve this simulated machine (a machine model, TOML) on a pseudo-terminal
+    /// and capture from it through the same serial-port code, in one command.
+    #[arg(long, value_name = "MODEL")]
+    pub simulate: Option<PathBuf>,
+    /// With --simulate: the measurement plan (TOML); a built-in 11-target X plan without it.
+    #[arg(long, requires = "simulate")]
+    pub plan: Option<PathBuf>,
+    /// With --simulate: playback speed of the simulated board (1 = real time).
+    #[arg(long, default_value_t = 10.0, value_parser = positive, requires = "simulate")]
+    pub speed: f64,
     /// Session directory (created; an existing capture there is never overwritten).
     #[arg(long)]
     pub out: PathBuf,

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 
 use errmap::evaluate::compare::{self, DEFAULT_MAX_DEGREE};
 use errmap::interp::{Method, MethodSettings};
@@ -160,32 +160,20 @@ fn capture_step(inputs: &DemoInputs, session_dir: &Path) -> Result<errmap::sim::
     let baud = errmap::sim::physics::MachineModel::read(&inputs.model)?
         .device
         .baud;
-    let (tx, rx) = std::sync::mpsc::channel::<String>();
-    let server = std::thread::spawn(move || {
-        acquisition::serve_stream(&stream, 10.0, 1.5, 30.0, |path| {
-            let _ = tx.send(path.to_string());
-        })
-    });
-    let port = rx.recv().context("the simulated device did not start")?;
-    eprintln!("  device on {port} (10× real time)");
+    eprintln!("  the board on a pseudo-terminal, 10× real time");
     let paths = errmap::acquire::SessionPaths::new(session_dir, "csv");
     let config = errmap::drivers::capture::CaptureConfig {
         idle_timeout: Some(std::time::Duration::from_millis(800)),
         ..Default::default()
     };
-    let cap = acquisition::capture_from_port(
-        &port,
+    let cap = acquisition::capture_simulated(
+        stream,
+        10.0,
         baud,
         &paths,
         &config,
         acquisition::Display::Progress,
     )?;
-    match server.join() {
-        Ok(r) => {
-            r?;
-        }
-        Err(_) => bail!("the simulated device thread failed"),
-    }
     eprintln!(
         "  captured {} bytes, {} rows, {} CRC failures → {}",
         cap.bytes,

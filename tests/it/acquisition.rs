@@ -190,13 +190,20 @@ fn sigkill_mid_capture_loses_nothing_that_was_flushed() {
 }
 
 #[test]
-fn a_vanishing_port_ends_the_capture_with_a_clear_error_and_a_valid_session() {
+fn a_port_vanishing_inside_a_run_ends_the_capture_with_a_clear_error_and_a_valid_session() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("session");
-    // No linger: the device closes its end as soon as the stream is sent.
-    let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 20.0, 0.0);
-    let o = capture(&port, &out, &[]).output().expect("capture runs");
+    // Real time: the stream lasts ~28 s; the board is killed 2 s in, inside a run.
+    let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 1.0, 1.0);
+    let cap = capture(&port, &out, &["--no-view"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("capture runs");
+    std::thread::sleep(Duration::from_secs(2));
+    let _ = sim.kill();
     let _ = sim.wait();
+    let o = cap.wait_with_output().expect("capture ends");
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("vanished") && err.contains(&port), "{err}");
@@ -214,6 +221,80 @@ fn a_vanishing_port_ends_the_capture_with_a_clear_error_and_a_valid_session() {
         std::fs::read(&replayed).expect("r"),
         std::fs::read(out.join("session.csv")).expect("c")
     );
+}
+
+/// The README's first capture: serve-sim and capture with their default flags. The board
+/// closes the port after its last run ended: a complete capture, exit 0, every sample.
+#[test]
+fn the_board_closing_the_port_after_its_last_run_is_a_complete_capture() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("session");
+    let mut sim = Command::new(bin())
+        .args(["serve-sim", "--model"])
+        .arg(root().join("datasets/sim/model.toml"))
+        .arg("--plan")
+        .arg(root().join("datasets/sim/plan.toml"))
+        .args(["--speed", "20"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("serve-sim starts");
+    let mut port = String::new();
+    BufReader::new(sim.stdout.take().expect("stdout"))
+        .read_line(&mut port)
+        .expect("serve-sim prints its path");
+    let o = capture(port.trim(), &out, &[])
+        .output()
+        .expect("capture runs");
+    assert!(sim.wait().expect("serve-sim ends").success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("capture: complete"), "{err}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("session.json")).expect("json"))
+            .expect("valid JSON");
+    assert_eq!(json["end"]["reason"], "closed", "{json}");
+    let (expected, _) = errmap::sim::simulate_stream(
+        &root().join("datasets/sim/model.toml"),
+        Some(&root().join("datasets/sim/plan.toml")),
+        &Default::default(),
+    )
+    .expect("same simulation in-process");
+    let rows = read_session(&out.join("session.csv")).expect("session table");
+    assert_eq!(rows.len(), expected.truth.len(), "every sample arrives");
+}
+
+/// `capture --simulate` serves the board and captures it in one command.
+#[test]
+fn capture_simulate_serves_and_captures_in_one_command() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("session");
+    let o = Command::new(bin())
+        .args(["capture", "--simulate"])
+        .arg(root().join("datasets/sim/model.toml"))
+        .arg("--plan")
+        .arg(root().join("datasets/sim/plan.toml"))
+        .args(["--speed", "20", "--out"])
+        .arg(&out)
+        .output()
+        .expect("capture runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let rows = read_session(&out.join("session.csv")).expect("session table");
+    let (expected, _) = errmap::sim::simulate_stream(
+        &root().join("datasets/sim/model.toml"),
+        Some(&root().join("datasets/sim/plan.toml")),
+        &Default::default(),
+    )
+    .expect("same simulation in-process");
+    assert_eq!(rows.len(), expected.truth.len());
+    // Neither or both of --port and --simulate is a usage error.
+    let o = Command::new(bin())
+        .args(["capture", "--out"])
+        .arg(dir.path().join("x"))
+        .output()
+        .expect("runs");
+    assert_eq!(o.status.code(), Some(2));
 }
 
 #[test]
