@@ -572,7 +572,8 @@ fn position(axis: Axis, s: f64, l: [f64; 2]) -> [f64; 3] {
     }
 }
 
-/// Generates the whole stream of a plan.
+/// Generates the whole stream of a plan: the HELLO and a greeting, then the plan's steps
+/// (dwells, moves, MARKs) with the periodic SAMPLE, ENV and MATERIAL frames between them.
 pub fn simulate(
     plan: &Plan,
     device: &Device,
@@ -601,21 +602,6 @@ pub fn simulate(
         dropped: 0,
         us_per_byte: 10.0e6 / f64::from(device.baud),
     };
-    let res_mm = f64::from(device.count_resolution_pm) * 1e-9;
-    let lambda_um = f64::from(device.laser_wavelength_fm) * 1e-9;
-    let laser_count_mm =
-        lambda_um * 1e-3 / (f64::from(device.optical_fold) * f64::from(device.edges_per_fringe));
-    let offset = faults
-        .counters_near_wrap
-        .map_or(0i64, |d| i64::from(i32::MAX) - i64::from(d));
-    let dt = 1.0 / plan.sample_hz;
-    let mut motion_rng = StdRng::seed_from_u64(plan.seed);
-    // Drawn only when the board jitters, so that a board without jitter gives the same
-    // stream as before the term existed.
-    let mut jitter_rng = StdRng::seed_from_u64(plan.seed ^ 0x6a09_e667_f3bc_c908);
-    let jitter_s = device.latch_jitter_us * 1e-6;
-    let env_period = device.env_period_s.max(dt);
-
     b.send(&Frame::Hello(hello), 0.0, false);
     b.send(
         &Frame::Text(Text {
@@ -625,218 +611,329 @@ pub fn simulate(
         0.0,
         false,
     );
-
-    let mut t = 0.0f64; // session seconds of the next event
-    let mut next_sample = 0.0f64;
-    let mut next_env = 0.0f64;
-    let mut index: u32 = 0;
-    let mut overruns = 0usize;
-    let mut pending_overrun = false;
-    let mut pos = 0.0f64;
-    let mut line = 0usize;
-    let (mut run, mut dir, mut target) = (0u32, 0i8, -1i32);
-    let mut in_run = false;
-    let mut last_laser: Option<i64> = None;
-    let mut truth_log = Vec::new();
-
-    // Emits the periodic frames and samples in [t, until), the carriage at pos(t').
-    let mut advance = |b: &mut Board,
-                       t: f64,
-                       until: f64,
-                       motion: &dyn Fn(f64) -> (f64, f64),
-                       st: (u32, i8, i32, f64, usize)| {
-        let (run, dir, target, feed, line) = st;
-        loop {
-            let next = next_sample.min(next_env);
-            if next >= until {
-                break;
-            }
-            let mut tt = next;
-            let mut t_us = tt * 1e6;
-            if next_env <= next_sample {
-                let env = truth.environment(tt);
-                b.send(
-                    &Frame::Env(Env {
-                        t_us: t_us.round() as u64,
-                        air_temp_mc: (env.air_temp_c * 1000.0).round() as i32,
-                        pressure_pa: (env.air_pressure_hpa * 100.0).round().max(0.0) as u32,
-                        rh_permille: (env.air_rh_pct * 10.0).round().clamp(0.0, 1000.0) as u16,
-                    }),
-                    t_us,
-                    false,
-                );
-                b.send(
-                    &Frame::Material(Material {
-                        t_us: t_us.round() as u64,
-                        temps_mc: vec![
-                            (env.scale_temp_c * 1000.0).round() as i32,
-                            (env.part_temp_c * 1000.0).round() as i32,
-                        ],
-                    }),
-                    t_us,
-                    false,
-                );
-                next_env += env_period;
-                continue;
-            }
-            if jitter_s > 0.0 {
-                // Interrupt latency, inside this step of the plan.
-                let late = jitter_rng
-                    .random_range(0.0..jitter_s)
-                    .min((until - tt) * 0.999);
-                tt += late.max(0.0);
-                t_us = tt * 1e6;
-            }
-            let (s, speed) = motion(tt - t);
-            let p = position(plan.axis, s, plan.lines_mm[line]);
-            let q = TruthQuery {
-                t_s: tt,
-                pos_mm: p,
-                direction: dir,
-                feed_mm_s: feed,
-                speed_mm_s: speed,
-                run,
-                target,
-            };
-            let e_um = truth.error_um(&q);
-            let air = truth.true_air(tt);
-            let n_air = edlen::refractive_index(
-                lambda_um,
-                air.air_temp_c,
-                air.air_pressure_hpa * 100.0,
-                air.air_rh_pct,
-            );
-            // Actual displacement from home = indicated − error.
-            let actual_mm = s - e_um * 1e-3;
-            let scale = (s / res_mm).round() as i64 + offset;
-            let mut laser = (actual_mm * n_air / laser_count_mm).round() as i64 + offset;
-            let mut flags = 0u8;
-            if let Some((a, z)) = faults.beam_loss_s
-                && tt >= a
-                && tt < z
-            {
-                flags |= SampleFlags::BEAM_LOW;
-                laser = last_laser.unwrap_or(laser);
-            }
-            if pending_overrun {
-                flags |= SampleFlags::OVERRUN;
-            }
-            let sample = Sample {
-                t_us: t_us.round() as u64,
-                index,
-                scale_count: scale as i32,
-                laser_count: laser as i32,
-                flags: SampleFlags(flags),
-                trigger_code: 0,
-            };
-            let sent = b.send(&Frame::Sample(sample), t_us, true);
-            if sent {
-                pending_overrun = false;
-            } else {
-                overruns += 1;
-                pending_overrun = true;
-            }
-            last_laser = Some(laser);
-            truth_log.push(TruthSample {
-                index,
-                t_s: tt,
-                pos_mm: p,
-                error_um: e_um,
-                run,
-                direction: dir,
-                target,
-                sent,
-            });
-            index = index.wrapping_add(1);
-            next_sample += dt;
-        }
-    };
-
+    let mut sampler = Sampler::new(plan, device, faults);
+    let mut carriage = Carriage::new(plan.seed);
     for step in steps(plan) {
-        match step {
-            Step::Dwell(secs) => {
-                let st = (if in_run { run } else { 0 }, dir, target, 0.0, line);
-                // The controller ends a dwell on its own clock, not on the board's timer
-                // tick: a random extra wait of up to one sample period, so that moves start
-                // at any phase of the timer (a real board is not phase-locked to motion).
-                let secs = secs + motion_rng.random_range(0.0..dt);
-                let here = pos;
-                advance(&mut b, t, t + secs, &move |_| (here, 0.0), st);
-                t += secs;
-            }
-            Step::Move(to, d) => {
-                let dist = (to - pos).abs();
-                if dist > 0.0 {
-                    let feed = feed_of(plan, run);
-                    let st = (
-                        if in_run { run } else { 0 },
-                        if in_run { dir } else { 0 },
-                        -1,
-                        feed,
-                        line,
-                    );
-                    let here = pos;
-                    let profile = Trapezoid::new(dist, feed, plan.accel_mm_s2);
-                    let sign = f64::from(d);
-                    let dur = profile.duration();
-                    advance(
-                        &mut b,
-                        t,
-                        t + dur,
-                        &move |tau| {
-                            let (s, v) = profile.at(tau);
-                            (here + sign * s, v)
-                        },
-                        st,
-                    );
-                    t += dur;
-                    pos = to;
-                }
-            }
-            Step::Line(l) => line = l,
-            Step::Mark(kind, d, r, tgt) => {
-                let (l1, l2) = b.line_um(line);
-                match kind {
-                    MarkKind::RunStart => {
-                        in_run = true;
-                        run = r;
-                        target = -1;
-                    }
-                    MarkKind::RunEnd => {
-                        in_run = false;
-                        target = -1;
-                    }
-                    MarkKind::TargetReached => target = tgt,
-                    MarkKind::TargetLeft => target = -1,
-                    MarkKind::Reversal => {}
-                }
-                dir = if in_run { d } else { 0 };
-                b.send(
-                    &Frame::Mark(Mark {
-                        t_us: (t * 1e6).round() as u64,
-                        kind_code: kind.code(),
-                        direction: d,
-                        run: r as u16,
-                        target: tgt.max(0) as u16,
-                        feed_um_s: (feed_of(plan, r) * 1000.0).round() as u32,
-                        line_first_um: l1,
-                        line_second_um: l2,
-                    }),
-                    t * 1e6,
-                    false,
-                );
-            }
-        }
+        carriage.step(step, &mut b, &mut sampler, truth);
     }
     let dropped = b.dropped;
     Ok(SimStream {
         hello,
         frames: b.frames,
-        truth: truth_log,
-        overruns,
+        truth: sampler.truth_log,
+        overruns: sampler.overruns,
         dropped,
-        duration_s: t,
+        duration_s: carriage.t,
     })
+}
+
+/// The run state a sample is labelled with: (run, direction, target, feed mm/s, line).
+type RunState = (u32, i8, i32, f64, usize);
+
+/// The carriage and the controller's run state, stepping through the plan.
+struct Carriage {
+    /// Session seconds of the next event.
+    t: f64,
+    pos: f64,
+    line: usize,
+    run: u32,
+    dir: i8,
+    target: i32,
+    in_run: bool,
+    motion_rng: StdRng,
+}
+
+impl Carriage {
+    fn new(seed: u64) -> Self {
+        Carriage {
+            t: 0.0,
+            pos: 0.0,
+            line: 0,
+            run: 0,
+            dir: 0,
+            target: -1,
+            in_run: false,
+            motion_rng: StdRng::seed_from_u64(seed),
+        }
+    }
+
+    fn step(&mut self, step: Step, b: &mut Board, sampler: &mut Sampler, truth: &mut dyn Truth) {
+        match step {
+            Step::Dwell(secs) => self.dwell(secs, b, sampler, truth),
+            Step::Move(to, d) => self.move_to(to, d, b, sampler, truth),
+            Step::Line(l) => self.line = l,
+            Step::Mark(kind, d, r, tgt) => self.mark(kind, d, r, tgt, b),
+        }
+    }
+
+    fn dwell(&mut self, secs: f64, b: &mut Board, sampler: &mut Sampler, truth: &mut dyn Truth) {
+        let st = (
+            if self.in_run { self.run } else { 0 },
+            self.dir,
+            self.target,
+            0.0,
+            self.line,
+        );
+        // The controller ends a dwell on its own clock, not on the board's timer tick: a
+        // random extra wait of up to one sample period, so that moves start at any phase
+        // of the timer (a real board is not phase-locked to motion).
+        let secs = secs + self.motion_rng.random_range(0.0..sampler.dt);
+        let here = self.pos;
+        sampler.advance(b, truth, self.t, self.t + secs, &move |_| (here, 0.0), st);
+        self.t += secs;
+    }
+
+    fn move_to(
+        &mut self,
+        to: f64,
+        d: i8,
+        b: &mut Board,
+        sampler: &mut Sampler,
+        truth: &mut dyn Truth,
+    ) {
+        let dist = (to - self.pos).abs();
+        if dist <= 0.0 {
+            return;
+        }
+        let feed = feed_of(b.plan, self.run);
+        let st = (
+            if self.in_run { self.run } else { 0 },
+            if self.in_run { self.dir } else { 0 },
+            -1,
+            feed,
+            self.line,
+        );
+        let here = self.pos;
+        let profile = Trapezoid::new(dist, feed, b.plan.accel_mm_s2);
+        let sign = f64::from(d);
+        let dur = profile.duration();
+        let motion = move |tau| {
+            let (s, v) = profile.at(tau);
+            (here + sign * s, v)
+        };
+        sampler.advance(b, truth, self.t, self.t + dur, &motion, st);
+        self.t += dur;
+        self.pos = to;
+    }
+
+    fn mark(&mut self, kind: MarkKind, d: i8, r: u32, tgt: i32, b: &mut Board) {
+        let (l1, l2) = b.line_um(self.line);
+        match kind {
+            MarkKind::RunStart => {
+                self.in_run = true;
+                self.run = r;
+                self.target = -1;
+            }
+            MarkKind::RunEnd => {
+                self.in_run = false;
+                self.target = -1;
+            }
+            MarkKind::TargetReached => self.target = tgt,
+            MarkKind::TargetLeft => self.target = -1,
+            MarkKind::Reversal => {}
+        }
+        self.dir = if self.in_run { d } else { 0 };
+        b.send(
+            &Frame::Mark(Mark {
+                t_us: (self.t * 1e6).round() as u64,
+                kind_code: kind.code(),
+                direction: d,
+                run: r as u16,
+                target: tgt.max(0) as u16,
+                feed_um_s: (feed_of(b.plan, r) * 1000.0).round() as u32,
+                line_first_um: l1,
+                line_second_um: l2,
+            }),
+            self.t * 1e6,
+            false,
+        );
+    }
+}
+
+/// The board's periodic frames: SAMPLEs at the sample rate, ENV and MATERIAL at the
+/// environment period, and the truth of every sample.
+struct Sampler<'a> {
+    plan: &'a Plan,
+    faults: &'a Faults,
+    dt: f64,
+    env_period: f64,
+    jitter_s: f64,
+    res_mm: f64,
+    lambda_um: f64,
+    laser_count_mm: f64,
+    offset: i64,
+    // Drawn only when the board jitters, so that a board without jitter gives the same
+    // stream as before the term existed.
+    jitter_rng: StdRng,
+    next_sample: f64,
+    next_env: f64,
+    index: u32,
+    overruns: usize,
+    pending_overrun: bool,
+    last_laser: Option<i64>,
+    truth_log: Vec<TruthSample>,
+}
+
+impl<'a> Sampler<'a> {
+    fn new(plan: &'a Plan, device: &Device, faults: &'a Faults) -> Self {
+        let dt = 1.0 / plan.sample_hz;
+        let lambda_um = f64::from(device.laser_wavelength_fm) * 1e-9;
+        Sampler {
+            plan,
+            faults,
+            dt,
+            env_period: device.env_period_s.max(dt),
+            jitter_s: device.latch_jitter_us * 1e-6,
+            res_mm: f64::from(device.count_resolution_pm) * 1e-9,
+            lambda_um,
+            laser_count_mm: lambda_um * 1e-3
+                / (f64::from(device.optical_fold) * f64::from(device.edges_per_fringe)),
+            offset: faults
+                .counters_near_wrap
+                .map_or(0i64, |d| i64::from(i32::MAX) - i64::from(d)),
+            jitter_rng: StdRng::seed_from_u64(plan.seed ^ 0x6a09_e667_f3bc_c908),
+            next_sample: 0.0,
+            next_env: 0.0,
+            index: 0,
+            overruns: 0,
+            pending_overrun: false,
+            last_laser: None,
+            truth_log: Vec::new(),
+        }
+    }
+
+    /// Emits the periodic frames and samples in [t, until), the carriage at motion(t' − t).
+    fn advance(
+        &mut self,
+        b: &mut Board,
+        truth: &mut dyn Truth,
+        t: f64,
+        until: f64,
+        motion: &dyn Fn(f64) -> (f64, f64),
+        st: RunState,
+    ) {
+        loop {
+            let next = self.next_sample.min(self.next_env);
+            if next >= until {
+                break;
+            }
+            if self.next_env <= self.next_sample {
+                self.environment(b, truth, next);
+                continue;
+            }
+            let mut tt = next;
+            if self.jitter_s > 0.0 {
+                // Interrupt latency, inside this step of the plan.
+                let late = self
+                    .jitter_rng
+                    .random_range(0.0..self.jitter_s)
+                    .min((until - tt) * 0.999);
+                tt += late.max(0.0);
+            }
+            self.sample(b, truth, tt, motion(tt - t), st);
+            self.next_sample += self.dt;
+        }
+    }
+
+    /// The ENV and MATERIAL frames at `tt`.
+    fn environment(&mut self, b: &mut Board, truth: &mut dyn Truth, tt: f64) {
+        let t_us = tt * 1e6;
+        let env = truth.environment(tt);
+        b.send(
+            &Frame::Env(Env {
+                t_us: t_us.round() as u64,
+                air_temp_mc: (env.air_temp_c * 1000.0).round() as i32,
+                pressure_pa: (env.air_pressure_hpa * 100.0).round().max(0.0) as u32,
+                rh_permille: (env.air_rh_pct * 10.0).round().clamp(0.0, 1000.0) as u16,
+            }),
+            t_us,
+            false,
+        );
+        b.send(
+            &Frame::Material(Material {
+                t_us: t_us.round() as u64,
+                temps_mc: vec![
+                    (env.scale_temp_c * 1000.0).round() as i32,
+                    (env.part_temp_c * 1000.0).round() as i32,
+                ],
+            }),
+            t_us,
+            false,
+        );
+        self.next_env += self.env_period;
+    }
+
+    /// One SAMPLE latched at `tt` with the carriage at `(s, speed)`, and its truth.
+    fn sample(
+        &mut self,
+        b: &mut Board,
+        truth: &mut dyn Truth,
+        tt: f64,
+        (s, speed): (f64, f64),
+        (run, dir, target, feed, line): RunState,
+    ) {
+        let t_us = tt * 1e6;
+        let p = position(self.plan.axis, s, self.plan.lines_mm[line]);
+        let q = TruthQuery {
+            t_s: tt,
+            pos_mm: p,
+            direction: dir,
+            feed_mm_s: feed,
+            speed_mm_s: speed,
+            run,
+            target,
+        };
+        let e_um = truth.error_um(&q);
+        let air = truth.true_air(tt);
+        let n_air = edlen::refractive_index(
+            self.lambda_um,
+            air.air_temp_c,
+            air.air_pressure_hpa * 100.0,
+            air.air_rh_pct,
+        );
+        // Actual displacement from home = indicated − error.
+        let actual_mm = s - e_um * 1e-3;
+        let scale = (s / self.res_mm).round() as i64 + self.offset;
+        let mut laser = (actual_mm * n_air / self.laser_count_mm).round() as i64 + self.offset;
+        let mut flags = 0u8;
+        if let Some((a, z)) = self.faults.beam_loss_s
+            && tt >= a
+            && tt < z
+        {
+            flags |= SampleFlags::BEAM_LOW;
+            laser = self.last_laser.unwrap_or(laser);
+        }
+        if self.pending_overrun {
+            flags |= SampleFlags::OVERRUN;
+        }
+        let sample = Sample {
+            t_us: t_us.round() as u64,
+            index: self.index,
+            scale_count: scale as i32,
+            laser_count: laser as i32,
+            flags: SampleFlags(flags),
+            trigger_code: 0,
+        };
+        let sent = b.send(&Frame::Sample(sample), t_us, true);
+        if sent {
+            self.pending_overrun = false;
+        } else {
+            self.overruns += 1;
+            self.pending_overrun = true;
+        }
+        self.last_laser = Some(laser);
+        self.truth_log.push(TruthSample {
+            index: self.index,
+            t_s: tt,
+            pos_mm: p,
+            error_um: e_um,
+            run,
+            direction: dir,
+            target,
+            sent,
+        });
+        self.index = self.index.wrapping_add(1);
+    }
 }
 
 #[cfg(test)]
