@@ -14,7 +14,7 @@ use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
 use errmap::session::{self, iso230, uncertainty};
 
-use super::args::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
+use super::args::{CaptureArgs, FaultArgs, PortsArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
@@ -294,7 +294,6 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
     if a.json {
         super::guard::print_json(&errmap::report::json::ReplayJson {
             stats: &stats,
-            rows,
             // The process's resident high-water mark (Linux), MB: memory stays bounded.
             peak_rss_mb: acquire::measure::peak_rss_mb(),
         })?;
@@ -466,8 +465,11 @@ pub(crate) fn reduce_session(
     })
 }
 
-pub(crate) fn ports() -> Result<()> {
+pub(crate) fn ports(a: PortsArgs) -> Result<()> {
     let ports = list_ports()?;
+    if a.json {
+        return super::guard::print_json(&ports);
+    }
     if ports.is_empty() {
         eprintln!("no serial ports found");
     }

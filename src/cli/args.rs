@@ -267,6 +267,13 @@ pub(crate) struct ServeSimArgs {
 }
 
 #[derive(Debug, Args)]
+pub(crate) struct PortsArgs {
+    /// Print the ports as a JSON array of {"name", "kind"} on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
 pub(crate) struct CaptureArgs {
     /// Serial device path (e.g. /dev/ttyUSB0, or the path serve-sim prints).
     #[arg(

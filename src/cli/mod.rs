@@ -72,7 +72,7 @@ pub(crate) enum Command {
     /// Reduce a session table to an error table (with ISO 230-2 statistics).
     Table(TableArgs),
     /// List the serial ports of this system.
-    Ports,
+    Ports(PortsArgs),
     /// Simulate a session from a machine model and a measurement plan.
     Simulate(SimulateArgs),
     /// Regenerate the concealed-effect cases (recorded/simulated pairs). Developer command.
@@ -159,7 +159,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Capture(a) => acquisition::capture_cmd(a),
         Command::Replay(a) => acquisition::replay_cmd(a),
         Command::Table(a) => acquisition::table_cmd(a),
-        Command::Ports => acquisition::ports(),
+        Command::Ports(a) => acquisition::ports(a),
         Command::Simulate(a) => model::simulate_cmd(a),
         Command::Diagnose(a) => diagnose::diagnose_cmd(a),
         Command::Export(a) => model::export_cmd(a),

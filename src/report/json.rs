@@ -118,13 +118,12 @@ pub struct DiagnoseJson<'a> {
     pub iso230: Option<&'a super::diagnosis::IsoEffect>,
 }
 
-/// The JSON document of `replay --json`: the decoder's counts, the rows written and the
-/// process's resident high-water mark.
+/// The JSON document of `replay --json`: the decoder's counts (`rows` among them, the rows
+/// written) and the process's resident high-water mark.
 #[derive(Debug, Serialize)]
 pub struct ReplayJson<'a> {
     #[serde(flatten)]
     pub stats: &'a errmap_drivers::DecoderStats,
-    pub rows: u64,
     /// MB (Linux; None elsewhere).
     pub peak_rss_mb: Option<f64>,
 }
