@@ -60,6 +60,7 @@ pub(crate) struct DecideArgs {
     pub values: PathBuf,
     #[command(flatten)]
     pub rule: RuleArgs,
+    /// Print the decisions as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -88,6 +89,8 @@ pub(crate) struct Iso10360Args {
     /// Write report.md, measurements.csv and the E0 chart here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Print the evaluation (every measurement, E0, R0, the verdicts) as one JSON document
+    /// on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -97,7 +100,8 @@ pub(crate) struct VirtualArgs {
     /// MODEL.json from `volumetric identify --out` (or a machine-model TOML: the truth).
     #[arg(long)]
     pub model: PathBuf,
-    /// Plan (TOML); the default 7 × 5 × 3 plan over the model's measured range without.
+    /// Plan (TOML). Without it, the default plan: 7 positions × 5 lengths × 3 repetitions
+    /// over the model's measured range.
     #[arg(long)]
     pub plan: Option<PathBuf>,
     /// MPE_E0(L): `A+L/K`, `min(A+L/K,B)` or `B` (µm, L in mm).
@@ -118,6 +122,8 @@ pub(crate) struct VirtualArgs {
     /// Write report.md, measurements.csv and the chart here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Print the predicted test (every measurement and the verdicts, before and after
+    /// compensation) as one JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }

@@ -119,6 +119,8 @@ pub(crate) struct ExportArgs {
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]
     pub forbid_extrapolation: bool,
+    /// The compensation table to write (never one of the inputs; with --existing, a new
+    /// file beside the old one).
     #[arg(long)]
     pub out: PathBuf,
     #[command(flatten)]

@@ -53,6 +53,7 @@ pub(crate) enum ImportFormatArg {
 pub(crate) struct ImportArgs {
     /// The file to read.
     pub file: PathBuf,
+    /// The file's format (decided by its content with `auto`, never by its name).
     #[arg(long, value_enum, default_value = "auto")]
     pub format: ImportFormatArg,
     /// The session table (positioning tests) or error table (controller tables) to

@@ -219,4 +219,42 @@ mod tests {
         let e = anyhow::anyhow!("inner").context("outer");
         assert_eq!(super::message(&e), "outer: inner");
     }
+
+    /// Every flag and argument a user can see says what it is, in a whole sentence (issue
+    /// 35: `export --out` and `--json` had no help, one help text stopped mid-sentence).
+    #[test]
+    fn every_visible_argument_has_a_whole_help_text() {
+        use clap::CommandFactory;
+        // clap drops a one-line help's final period, so a sentence cut short shows as a
+        // help ending in a word that needs another after it.
+        const DANGLING: [&str; 12] = [
+            "without", "with", "and", "or", "the", "of", "to", "a", "an", "by", "for", "in",
+        ];
+        fn walk(cmd: &clap::Command, path: &str, missing: &mut Vec<String>) {
+            for a in cmd.get_arguments() {
+                let id = a.get_id().as_str();
+                if a.is_hide_set() || id == "help" || id == "version" {
+                    continue;
+                }
+                let help = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+                let help = help.trim();
+                if help.is_empty() {
+                    missing.push(format!("{path} {id}: no help"));
+                } else if let Some(last) = help.split_whitespace().last()
+                    && DANGLING.contains(&last)
+                {
+                    missing.push(format!("{path} {id}: stops mid-sentence: {help}"));
+                }
+            }
+            for sub in cmd.get_subcommands() {
+                if sub.is_hide_set() {
+                    continue;
+                }
+                walk(sub, &format!("{path} {}", sub.get_name()), missing);
+            }
+        }
+        let mut missing = Vec::new();
+        walk(&super::Cli::command(), "errmap", &mut missing);
+        assert!(missing.is_empty(), "{}", missing.join("\n"));
+    }
 }
