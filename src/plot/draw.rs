@@ -353,11 +353,20 @@ pub(super) fn draw_prim<DB: DrawingBackend>(
             draw_bar(root, [pa, pb], *color, t)?;
         }
         Prim::Line { pts, color } => {
-            plot.draw(&PathElement::new(
-                pts.clone(),
-                color.stroke_width(t.upx(LINE_W)),
-            ))
-            .map_err(de)?;
+            let style = color.stroke_width(t.upx(LINE_W));
+            if t.bitmap {
+                // The bitmap backend joins a thick polyline's segments with unlimited
+                // miters: at a sharp turn (a periodogram's spikes) the join shoots far
+                // past the point, outside the plot frame. Segment by segment there are
+                // no joins to overshoot.
+                for seg in pts.windows(2) {
+                    plot.draw(&PathElement::new(seg.to_vec(), style))
+                        .map_err(de)?;
+                }
+            } else {
+                plot.draw(&PathElement::new(pts.clone(), style))
+                    .map_err(de)?;
+            }
         }
         Prim::Zero { a, b } => {
             plot.draw(&PathElement::new(

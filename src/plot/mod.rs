@@ -1187,6 +1187,78 @@ mod tests {
         Ok(())
     }
 
+    /// The rows and columns of the pixels in `colour` left of column `max_col`: (top,
+    /// bottom, left, right).
+    fn colour_extent(png: &Path, colour: [u8; 3], max_col: usize) -> Option<[usize; 4]> {
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(png).ok()?));
+        let mut reader = decoder.read_info().ok()?;
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).ok()?;
+        let channels = info.color_type.samples();
+        let mut ext: Option<[usize; 4]> = None;
+        for row in 0..info.height as usize {
+            for col in 0..(info.width as usize).min(max_col) {
+                let i = (row * info.width as usize + col) * channels;
+                if buf[i..i + 3] == colour {
+                    let e = ext.get_or_insert([row, row, col, col]);
+                    e[0] = e[0].min(row);
+                    e[1] = e[1].max(row);
+                    e[2] = e[2].min(col);
+                    e[3] = e[3].max(col);
+                }
+            }
+        }
+        ext
+    }
+
+    /// Issue 35: the periodogram's spikes were drawn far outside the plot frame (the
+    /// bitmap backend's miter joins). A spiky trace reaches no higher or lower than a
+    /// plain line through its extreme values on the same axes.
+    #[test]
+    fn a_spiky_trace_stays_inside_its_frame() -> TestResult {
+        let dir = temp_dir("spiky")?;
+        // A periodogram's shape: periods 60/k of a uniform frequency grid, crowded at the
+        // short end, with powers jumping between 0 and 14 from one to the next.
+        let x: Vec<f64> = (1..=2000).map(|k| 60.0 / f64::from(k)).collect();
+        let y: Vec<f64> = (1..=2000u32)
+            .map(|k| f64::from((k * 7919) % 1000) / 1000.0 * 14.0)
+            .collect();
+        let spiky = xy(
+            &dir.path().join("spiky"),
+            "spikes",
+            "period / mm",
+            "power",
+            &[xy_series("trace", x.clone(), y, XyStyle::Line)],
+        )?;
+        let plain = xy(
+            &dir.path().join("plain"),
+            "spikes",
+            "period / mm",
+            "power",
+            &[xy_series(
+                "trace",
+                vec![x[1999], 30.0, x[0]],
+                vec![0.0, 14.0, 0.0],
+                XyStyle::Line,
+            )],
+        )?;
+        let c = PALETTE[0];
+        let colour = [c.0, c.1, c.2];
+        // Left of the legend, which stands right of the plot area.
+        let max_col = WIDTH as usize * 3 / 4;
+        let frame = colour_extent(&plain[0], colour, max_col).ok_or("no plain trace")?;
+        let trace = colour_extent(&spiky[0], colour, max_col).ok_or("no spiky trace")?;
+        assert!(
+            trace[0] + 2 >= frame[0] && trace[1] <= frame[1] + 2,
+            "the spiky trace spans rows {}..{}, the values {}..{}",
+            trace[0],
+            trace[1],
+            frame[0],
+            frame[1]
+        );
+        Ok(())
+    }
+
     #[test]
     fn stem_with_dots_and_missing_directories() -> TestResult {
         let dir = temp_dir("stem")?;
