@@ -20,6 +20,10 @@ use plotters::style::FontStyle;
 /// The side of the square image, pixels.
 pub const SIZE: u32 = 800;
 
+/// The chart's height, pixels: the title and notes above the rings, the angle labels all
+/// inside the picture (the 270° label was cut off at the foot of an 800 px square).
+pub const HEIGHT: u32 = 860;
+
 /// One trace of the plot: (angle rad, dr µm) in order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PolarTrace {
@@ -52,10 +56,19 @@ pub fn colour(k: usize) -> (u8, u8, u8) {
 
 /// The geometry: centre (px), nominal radius (px), pixels per µm.
 pub fn layout(um_per_div: f64) -> ((f64, f64), f64, f64) {
-    let centre = (SIZE as f64 / 2.0, SIZE as f64 / 2.0 + 30.0);
+    let centre = (SIZE as f64 / 2.0, 470.0);
     let r_px = 220.0;
     // Four rings inside and outside the nominal circle, 32 px apart.
     (centre, r_px, 32.0 / um_per_div)
+}
+
+/// The top left corner of the label of the spoke at `deg` degrees (13 px type: about
+/// 30 × 14 px).
+fn angle_label_origin(deg: u32, um_per_div: f64) -> (i32, i32) {
+    let ((cx, cy), r_px, _) = layout(um_per_div);
+    let rl = r_px + 4.0 * 32.0 + 12.0 + 14.0;
+    let t = f64::from(deg).to_radians();
+    ((cx + rl * t.cos()) as i32 - 12, (cy - rl * t.sin()) as i32 - 7)
 }
 
 /// The pixel of (angle, dr): angle 0 to the right, 90° up.
@@ -89,13 +102,13 @@ pub fn polar(stem: &Path, chart: &PolarChart) -> Result<Vec<PathBuf>, PlotError>
         })?;
     }
     whole(&png, |p| {
-        let root = BitMapBackend::new(p, (SIZE, SIZE)).into_drawing_area();
-        draw(&root, chart)?;
+        let root = BitMapBackend::new(p, (SIZE, HEIGHT)).into_drawing_area();
+        draw(&root, chart, true)?;
         root.present().map_err(de)
     })?;
     whole(&svg, |p| {
-        let root = SVGBackend::new(p, (SIZE, SIZE)).into_drawing_area();
-        draw(&root, chart)?;
+        let root = SVGBackend::new(p, (SIZE, HEIGHT)).into_drawing_area();
+        draw(&root, chart, false)?;
         root.present().map_err(de)
     })?;
     Ok(vec![png, svg])
@@ -104,6 +117,7 @@ pub fn polar(stem: &Path, chart: &PolarChart) -> Result<Vec<PathBuf>, PlotError>
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &PolarChart,
+    bitmap: bool,
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(de)?;
     let text = RGBColor(0x22, 0x22, 0x22);
@@ -151,20 +165,16 @@ fn draw<DB: DrawingBackend>(
             grid.stroke_width(1),
         ))
         .map_err(de)?;
-        let rl = r1 + 14.0;
         root.draw(&Text::new(
             format!("{d}°"),
-            (
-                (cx + rl * t.cos()) as i32 - 12,
-                (cy - rl * t.sin()) as i32 - 7,
-            ),
+            angle_label_origin(d, chart.um_per_div),
             style(13.0),
         ))
         .map_err(de)?;
     }
     root.draw(&Text::new(
         format!("{} µm/div", chart.um_per_div),
-        (20, SIZE as i32 - 30),
+        (20, HEIGHT as i32 - 30),
         style(14.0),
     ))
     .map_err(de)?;
@@ -188,17 +198,26 @@ fn draw<DB: DrawingBackend>(
             .filter(|p| p.0.is_finite() && p.1.is_finite())
             .map(|&p| px(p))
             .collect();
-        root.draw(&PathElement::new(pts, c.stroke_width(3)))
-            .map_err(de)?;
-        let y = SIZE as i32 - 60 + 18 * k as i32 - 18;
+        if bitmap {
+            // Segment by segment: the bitmap backend's miter joins of a thick polyline
+            // draw spikes at every sharp turn of a noisy trace that are not in the data.
+            for seg in pts.windows(2) {
+                root.draw(&PathElement::new(seg.to_vec(), c.stroke_width(3)))
+                    .map_err(de)?;
+            }
+        } else {
+            root.draw(&PathElement::new(pts, c.stroke_width(3)))
+                .map_err(de)?;
+        }
+        let y = HEIGHT as i32 - 60 + 18 * k as i32 - 18;
         root.draw(&PathElement::new(
-            vec![(SIZE as i32 - 200, y + 7), (SIZE as i32 - 170, y + 7)],
+            vec![(SIZE as i32 - 110, y + 7), (SIZE as i32 - 80, y + 7)],
             c.stroke_width(3),
         ))
         .map_err(de)?;
         root.draw(&Text::new(
             t.name.clone(),
-            (SIZE as i32 - 160, y),
+            (SIZE as i32 - 70, y),
             style(14.0),
         ))
         .map_err(de)?;
@@ -209,4 +228,23 @@ fn draw<DB: DrawingBackend>(
             .map_err(de)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 35: "270°" was cut off at the foot of the picture and "90°" ran into the
+    /// notes under the title. Every angle label lies inside the picture, below the title
+    /// and two lines of notes.
+    #[test]
+    fn every_angle_label_is_inside_the_picture_and_clear_of_the_notes() {
+        let notes_bottom = 40 + 18 + 16;
+        for d in (0..360).step_by(30) {
+            let (x, y) = angle_label_origin(d, 5.0);
+            let (w, h) = (32, 15);
+            assert!(x >= 0 && x + w <= SIZE as i32, "{d}°: x {x}");
+            assert!(y >= notes_bottom && y + h <= HEIGHT as i32 - 4, "{d}°: y {y}");
+        }
+    }
 }
