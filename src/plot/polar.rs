@@ -68,7 +68,10 @@ fn angle_label_origin(deg: u32, um_per_div: f64) -> (i32, i32) {
     let ((cx, cy), r_px, _) = layout(um_per_div);
     let rl = r_px + 4.0 * 32.0 + 12.0 + 14.0;
     let t = f64::from(deg).to_radians();
-    ((cx + rl * t.cos()) as i32 - 12, (cy - rl * t.sin()) as i32 - 7)
+    (
+        (cx + rl * t.cos()) as i32 - 12,
+        (cy - rl * t.sin()) as i32 - 7,
+    )
 }
 
 /// The pixel of (angle, dr): angle 0 to the right, 90° up.
@@ -244,7 +247,10 @@ mod tests {
             let (x, y) = angle_label_origin(d, 5.0);
             let (w, h) = (32, 15);
             assert!(x >= 0 && x + w <= SIZE as i32, "{d}°: x {x}");
-            assert!(y >= notes_bottom && y + h <= HEIGHT as i32 - 4, "{d}°: y {y}");
+            assert!(
+                y >= notes_bottom && y + h <= HEIGHT as i32 - 4,
+                "{d}°: y {y}"
+            );
         }
     }
 }

@@ -322,7 +322,28 @@ pub fn write_session_report(
         md.nl()
             .para(format_args!("![line {}](line{}.png)", k + 1, k + 1));
     }
+    remove_stale_line_figures(dir, iso.len())?;
     let p = dir.join("report.md");
     super::write_text(&p, md.as_str())?;
     Ok(p)
+}
+
+/// A report folder used again for a session with fewer lines: the figures of the lines
+/// this report no longer has (`lineN.png`/`.svg`, N past `lines`) are the report's own
+/// earlier output, and would be read as this session's. Only those names are removed.
+fn remove_stale_line_figures(dir: &Path, lines: usize) -> Result<(), ReportError> {
+    for n in lines + 1.. {
+        let mut any = false;
+        for ext in ["png", "svg"] {
+            let f = dir.join(format!("line{n}.{ext}"));
+            if f.is_file() {
+                std::fs::remove_file(&f).map_err(io_err(&f, FileOp::Write))?;
+                any = true;
+            }
+        }
+        if !any {
+            return Ok(());
+        }
+    }
+    Ok(())
 }

@@ -529,3 +529,59 @@ fn plot_writes_png_and_svg() -> Result<(), Box<dyn std::error::Error>> {
     }
     Ok(())
 }
+
+/// Issue 35: `table` into a report folder used before for a session with more lines left
+/// the earlier lines' figures there, read as this session's. They are gone; the report's
+/// own figures and anything else in the folder stay.
+#[test]
+fn a_reused_report_folder_keeps_no_figures_of_an_earlier_session() {
+    use crate::util::{dataset, errmap};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let report = dir.path().join("r");
+    let s = |p: &std::path::Path| p.to_str().expect("utf8").to_string();
+    let four = errmap(&[
+        "table",
+        &s(&dataset("physics/example-session.parquet")),
+        "--out",
+        &s(&dir.path().join("e4.csv")),
+        "--report",
+        &s(&report),
+    ]);
+    assert!(
+        four.status.success(),
+        "{}",
+        String::from_utf8_lossy(&four.stderr)
+    );
+    assert!(report.join("line4.png").exists());
+    std::fs::write(report.join("notes.txt"), "mine").expect("a file of the user's");
+    let one = dir.path().join("s.csv");
+    let o = errmap(&[
+        "import",
+        &s(&dataset("examples/x-axis.pos")),
+        "--out",
+        &s(&one),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = errmap(&[
+        "table",
+        &s(&one),
+        "--out",
+        &s(&dir.path().join("e1.csv")),
+        "--report",
+        &s(&report),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(report.join("line1.png").exists() && report.join("line1.svg").exists());
+    for n in 2..=4 {
+        for ext in ["png", "svg"] {
+            assert!(
+                !report.join(format!("line{n}.{ext}")).exists(),
+                "line{n}.{ext} is stale"
+            );
+        }
+    }
+    assert_eq!(
+        std::fs::read_to_string(report.join("notes.txt")).expect("kept"),
+        "mine"
+    );
+}
