@@ -398,9 +398,9 @@ fn test_points(md: &mut Md, c: &Comparison, feat: &[usize]) {
     for (k, p) in c.test.points.iter().enumerate() {
         let mut cells = vec![
             format!("P{}", k + 1),
-            format!("{}", p.x_mm),
-            format!("{}", p.y_mm),
-            format!("{}", p.z_mm),
+            coordinate(p.x_mm),
+            coordinate(p.y_mm),
+            coordinate(p.z_mm),
             format!("{:.4}", p.e_um),
             if c.extrapolated[k] { "yes" } else { "no" }.into(),
         ];
@@ -572,4 +572,12 @@ fn figures_and_method(md: &mut Md) {
          out at a time.",
         crate::interp::fuzzy::DEFAULT_SIGMA
     ));
+}
+
+/// A test point's coordinate, mm: to 0.1 µm, trailing zeros dropped (`200`, `1.2424`,
+/// `220.7686`), not the 17 digits of a simulated point's binary value.
+fn coordinate(v_mm: f64) -> String {
+    let s = format!("{v_mm:.4}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
 }
