@@ -235,7 +235,7 @@ fn measured_vs_predicted_figure(
         &dir.join("measured_vs_predicted"),
         "Measured vs predicted error at the test points",
         "test point",
-        "error e (µm)",
+        "error e / µm",
         &categories,
         &series,
         &c.extrapolated,
@@ -263,7 +263,7 @@ fn cv_figure(
             "{} CV RMS per model (bars) and test RMS (markers)",
             capitalise(c.recommended_row().cv.scheme.label())
         ),
-        "RMS (µm)",
+        "RMS / µm",
         &shown
             .iter()
             .map(|&i| c.rows[i].method.label())

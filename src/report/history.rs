@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use crate::base::FileOp;
 use crate::base::error::io_err;
-use crate::history::report::{FleetEntry, Head, MachineReport, ParameterReport};
+use crate::history::report::{Advice, FleetEntry, Head, MachineReport, ParameterReport};
 use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};
 
@@ -106,7 +106,8 @@ impl ReportWriter {
         let path = self.dir.join("report.md");
         super::write_text(&path, &md)?;
         let _ = std::fs::remove_file(&self.scratch_path);
-        if self.figures && !fleet.is_empty() {
+        // A ranking by risk with every risk 0 ranks nothing: no chart.
+        if self.figures && fleet.iter().any(|f| f.risk > 0.0) {
             fleet_figure(&self.dir.join("fleet"), fleet)?;
         }
         let count = |a: &str| fleet.iter().filter(|f| f.advice.as_str() == a).count();
@@ -276,6 +277,11 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
     let Some((axis, p)) = riskiest(m) else {
         return Ok(Vec::new());
     };
+    if p.series.len() < 2 {
+        // One visit: no trend, no chart to read; a lone point on an invented time axis
+        // says nothing the report's table does not.
+        return Ok(Vec::new());
+    }
     let t: Vec<i64> = p
         .series
         .iter()
@@ -291,14 +297,14 @@ pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, Re
     Ok(plot::xy(
         stem,
         &format!(
-            "{} — {axis} {} ({}), advice {}",
+            "{} — {axis} {} ({}): {}",
             m.id,
             p.name,
             display_unit(&p.unit),
-            m.advice.as_str()
+            advice_words(m.advice)
         ),
         &format!("years since {first}"),
-        &format!("{} ({})", p.name, display_unit(&p.unit)),
+        &format!("{} / {}", p.name, display_unit(&p.unit)),
         &series,
     )?)
 }
@@ -409,12 +415,23 @@ fn display_unit(unit: &str) -> &str {
     }
 }
 
+/// What a chart or a label says of a machine's advice, in words (the JSON keeps
+/// [`Advice::as_str`]'s identifiers).
+fn advice_words(a: Advice) -> &'static str {
+    match a {
+        Advice::OutOfTolerance => "out of tolerance",
+        Advice::Recalibrate => "recalibrate",
+        Advice::Investigate => "investigate",
+        Advice::Ok => "in order",
+    }
+}
+
 /// `<stem>.png`/`.svg`: the riskiest machines' risk.
 pub fn fleet_figure(stem: &Path, fleet: &[FleetEntry]) -> Result<Vec<PathBuf>, ReportError> {
     let top = &fleet[..fleet.len().min(FLEET_FIGURE_MAX)];
     let labels: Vec<String> = top
         .iter()
-        .map(|f| format!("{} ({})", f.id, f.advice.as_str()))
+        .map(|f| format!("{} ({})", f.id, advice_words(f.advice)))
         .collect();
     let values: Vec<f64> = top.iter().map(|f| f.risk).collect();
     Ok(plot::bars(

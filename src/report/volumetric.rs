@@ -235,8 +235,8 @@ fn component_figure(c: &Component, pos: &[f64], v: &[(f64, f64)], dir: &Path) ->
             c.role(),
             axis.to_ascii_uppercase()
         ),
-        &format!("{axis} (mm)"),
-        &format!("{} ({})", c.name(), unit(c)),
+        &format!("{axis} / mm"),
+        &format!("{} / {}", c.name(), unit(c)),
         &series,
     )
     .is_ok()
@@ -337,8 +337,8 @@ fn residual_time_figure(id: &Identification, dir: &Path) -> bool {
     xy(
         &dir.join("residual_time"),
         "Residual against time",
-        "t (h)",
-        "residual (µm)",
+        "t / h",
+        "residual / µm",
         &series,
     )
     .is_ok()
