@@ -194,10 +194,10 @@ fn dashes(
 
 /// Category chart like a paper's "measured vs predicted per test point".
 ///
-/// The x axis holds the `categories` (e.g. `"P1"`…`"P7"`); each series is drawn as a line
-/// with markers, one value per category, with optional one-sigma error bars (then the
-/// series are spread slightly sideways so that the bars do not hide one another). A legend
-/// names the series.
+/// The x axis holds the `categories` (e.g. `"P1"`…`"P7"`); each series is drawn as
+/// markers, one value per category, with optional one-sigma error bars (then the series are
+/// spread slightly sideways so that the bars do not hide one another). The categories are
+/// separate points, not a path: no line joins them. A legend names the series.
 ///
 /// `highlight` marks categories (e.g. extrapolated test points): they get a shaded band
 /// and hollow markers, and the legend gets an entry `highlight_label`. Pass an empty slice
@@ -206,7 +206,7 @@ fn dashes(
 /// Errors: empty `categories` or `series`, a series (or its errors, or `highlight`) whose
 /// length differs from `categories`, or no finite value at all.
 #[allow(clippy::too_many_arguments)]
-pub fn category_lines(
+pub fn category_points(
     stem: &Path,
     title: &str,
     x_label: &str,
@@ -244,10 +244,7 @@ pub fn category_lines(
             let (color, marker) = series_look(k);
             LegendEntry {
                 label: s.name.clone(),
-                sample: Sample::Line {
-                    color,
-                    marker: Some(marker),
-                },
+                sample: Sample::Marker { color, marker },
             }
         })
         .collect();
@@ -319,8 +316,8 @@ fn highlight_bands(n: usize, hl: &dyn Fn(usize) -> bool) -> Vec<Prim> {
     prims
 }
 
-/// Every series' line, then its error bars and markers (hollow on highlighted
-/// categories), each series shifted sideways a little when error bars would overlap.
+/// Every series' error bars and markers (hollow on highlighted categories), each series
+/// shifted sideways a little when error bars would overlap.
 fn category_series_prims(prims: &mut Vec<Prim>, series: &[Series], hl: &dyn Fn(usize) -> bool) {
     let m = series.len();
     let dodge = if m > 1 && series.iter().any(|s| s.y_err.is_some()) {
@@ -328,16 +325,6 @@ fn category_series_prims(prims: &mut Vec<Prim>, series: &[Series], hl: &dyn Fn(u
     } else {
         0.0
     };
-    for (k, s) in series.iter().enumerate() {
-        let (color, _) = series_look(k);
-        let dx = (k as f64 - (m - 1) as f64 / 2.0) * dodge;
-        let pts: Vec<Option<(f64, f64)>> =
-            s.y.iter()
-                .enumerate()
-                .map(|(i, &y)| y.is_finite().then_some((i as f64 + dx, y)))
-                .collect();
-        push_lines(prims, &pts, color, false);
-    }
     for (k, s) in series.iter().enumerate() {
         let (color, marker) = series_look(k);
         let dx = (k as f64 - (m - 1) as f64 / 2.0) * dodge;
@@ -1007,7 +994,7 @@ mod tests {
     }
 
     #[test]
-    fn category_lines_renders() -> TestResult {
+    fn category_points_renders() -> TestResult {
         let dir = temp_dir("category")?;
         let stem = dir.path().join("measured_vs_predicted");
         let title = "Measured vs predicted, lagrange 4×1×2";
@@ -1024,7 +1011,7 @@ mod tests {
             ),
         ];
         let hl = [false, false, false, false, false, true, true];
-        let paths = category_lines(
+        let paths = category_points(
             &stem,
             title,
             "test point",
@@ -1049,19 +1036,19 @@ mod tests {
     }
 
     #[test]
-    fn category_lines_handles_many_series_and_degenerate_values() -> TestResult {
+    fn category_points_handles_many_series_and_degenerate_values() -> TestResult {
         let dir = temp_dir("category-many")?;
         // Twelve series, all values equal: palette wraps, the range must not collapse.
         let s: Vec<Series> = (0..12)
             .map(|k| series(&format!("series {k}"), vec![5.0; 3], None))
             .collect();
         let stem = dir.path().join("flat");
-        let paths = category_lines(&stem, "Flat", "", "", &points(3), &s, &[], "")?;
+        let paths = category_points(&stem, "Flat", "", "", &points(3), &s, &[], "")?;
         check_outputs(&paths, &stem, "Flat")?;
         // One category, one point, all zero.
         let stem = dir.path().join("single");
         let one = [series("zero", vec![0.0], Some(vec![0.0]))];
-        let paths = category_lines(&stem, "Single", "x", "y", &points(1), &one, &[true], "hl")?;
+        let paths = category_points(&stem, "Single", "x", "y", &points(1), &one, &[true], "hl")?;
         check_outputs(&paths, &stem, "Single")?;
         Ok(())
     }
@@ -1318,12 +1305,12 @@ mod tests {
         let ok = [series("s", vec![1.0, 2.0], None)];
         let cats = points(2);
 
-        let r = category_lines(&stem, "t", "x", "y", &[], &ok, &[], "");
+        let r = category_points(&stem, "t", "x", "y", &[], &ok, &[], "");
         assert!(matches!(r, Err(PlotError::Empty("categories"))), "{r:?}");
-        let r = category_lines(&stem, "t", "x", "y", &cats, &[], &[], "");
+        let r = category_points(&stem, "t", "x", "y", &cats, &[], &[], "");
         assert!(matches!(r, Err(PlotError::Empty("series"))), "{r:?}");
         let short = [series("short", vec![1.0], None)];
-        let r = category_lines(&stem, "t", "x", "y", &cats, &short, &[], "");
+        let r = category_points(&stem, "t", "x", "y", &cats, &short, &[], "");
         assert!(
             matches!(
                 r,
@@ -1336,12 +1323,12 @@ mod tests {
             "{r:?}"
         );
         let bad_err = [series("e", vec![1.0, 2.0], Some(vec![0.1]))];
-        let r = category_lines(&stem, "t", "x", "y", &cats, &bad_err, &[], "");
+        let r = category_points(&stem, "t", "x", "y", &cats, &bad_err, &[], "");
         assert!(matches!(r, Err(PlotError::LengthMismatch { .. })), "{r:?}");
-        let r = category_lines(&stem, "t", "x", "y", &cats, &ok, &[true], "");
+        let r = category_points(&stem, "t", "x", "y", &cats, &ok, &[true], "");
         assert!(matches!(r, Err(PlotError::LengthMismatch { .. })), "{r:?}");
         let nan = [series("nan", vec![f64::NAN, f64::INFINITY], None)];
-        let r = category_lines(&stem, "t", "x", "y", &cats, &nan, &[], "");
+        let r = category_points(&stem, "t", "x", "y", &cats, &nan, &[], "");
         assert!(matches!(r, Err(PlotError::NoFiniteValues)), "{r:?}");
 
         let r = bars(&stem, "t", "y", &[], &[], None, false);

@@ -231,7 +231,7 @@ fn measured_vs_predicted_figure(
             y_err,
         });
     }
-    Ok(plot::category_lines(
+    Ok(plot::category_points(
         &dir.join("measured_vs_predicted"),
         "Measured vs predicted error at the test points",
         "test point",
