@@ -215,16 +215,21 @@ fn components(md: &mut Md, id: &Identification, positions: usize, dir: &Path) {
 
 /// Draws one component (value, ±1σ) along its axis; whether the figure was written.
 fn component_figure(c: &Component, pos: &[f64], v: &[(f64, f64)], dir: &Path) -> bool {
-    let band = |name: &str, y: Vec<f64>| XySeries {
+    let line = |name: &str, y: Vec<f64>, dashed: bool| XySeries {
         name: name.into(),
         x: pos.to_vec(),
         y,
-        style: XyStyle::Line,
+        style: XyStyle::Styled {
+            colour: usize::from(dashed),
+            dashed,
+            markers: false,
+        },
     };
+    // The band's two edges alike, one legend entry for both.
     let series = vec![
-        band(&c.name(), v.iter().map(|x| x.0).collect()),
-        band("+1σ", v.iter().map(|x| x.0 + x.1).collect()),
-        band("−1σ", v.iter().map(|x| x.0 - x.1).collect()),
+        line(&c.name(), v.iter().map(|x| x.0).collect(), false),
+        line("±1σ", v.iter().map(|x| x.0 + x.1).collect(), true),
+        line("", v.iter().map(|x| x.0 - x.1).collect(), true),
     ];
     let axis = ['x', 'y', 'z'][c.axis];
     xy(
