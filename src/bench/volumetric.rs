@@ -14,12 +14,12 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::volumetric::model::Component;
-use crate::volumetric::simulate::{Plan, PlannedLine, preset};
+use crate::volumetric::Component;
 use crate::volumetric::{
     ComponentFn, Degree, FitState, IdentifyConfig, LineTable, Machine, Predictor, Topology,
     identify, simulate,
 };
+use crate::volumetric::{Plan, PlannedLine, preset};
 
 /// Lines of the benchmark campaign.
 pub const LINES: usize = 60;
@@ -207,7 +207,7 @@ mod tests {
                 }
             }
             for (q, sq) in gauge.squareness_urad.iter().enumerate() {
-                let d = crate::volumetric::model::squareness_effect(q, *p);
+                let d = crate::volumetric::squareness_effect(q, *p);
                 for i in 0..3 {
                     want[i] += sq * d[i];
                 }

@@ -17,7 +17,7 @@ use errmap::export::{Ends, LinuxCncCompType};
 use errmap::interp::gp::Kernel;
 use errmap::interp::{MethodName, Order};
 use errmap::sim::program::Dialect;
-use errmap::volumetric::identify::MAX_DEGREE;
+use errmap::volumetric::MAX_DEGREE;
 use errmap::volumetric::{Component, Topology};
 
 /// `--method`: a name from the method registry.
@@ -233,9 +233,9 @@ fn count_within(s: &str, lo: usize, hi: usize) -> Result<usize, String> {
 /// volumetric identify `--positions`: 2 … [`MAX_REPORT_POSITIONS`] per component (issue 28:
 /// 10⁹ allocated 24 GB).
 ///
-/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::identify::MAX_REPORT_POSITIONS
+/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::MAX_REPORT_POSITIONS
 pub(crate) fn report_positions(s: &str) -> Result<usize, String> {
-    count_within(s, 2, errmap::volumetric::identify::MAX_REPORT_POSITIONS)
+    count_within(s, 2, errmap::volumetric::MAX_REPORT_POSITIONS)
 }
 
 /// bench `--points`: 1 … 10⁷ query points (240 MB of coordinates and results).

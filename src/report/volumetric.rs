@@ -96,7 +96,7 @@ fn summary(md: &mut Md, id: &Identification) {
         },
         id.residual.test,
         id.residual.z,
-        if id.residual.z > crate::volumetric::identify::Z_MISSING {
+        if id.residual.z > crate::volumetric::Z_MISSING {
             "not noise"
         } else {
             "noise"

@@ -22,10 +22,10 @@ use crate::diagnose::FoundEffect;
 
 /// Relative tolerance on singular values (after column equilibration) below which a
 /// direction of the design is taken as undetermined.
-pub const RANK_TOL: f64 = 1e-8;
+pub(crate) const RANK_TOL: f64 = 1e-8;
 /// A component is undetermined when any of its parameters has a null-space weight above
 /// this (rows of an orthonormal null-space basis, equilibrated coordinates).
-pub const NULL_TOL: f64 = 1e-6;
+pub(crate) const NULL_TOL: f64 = 1e-6;
 
 /// The highest polynomial degree of a component (a fixed degree, `auto`'s maximum, a
 /// per-component degree). Beyond it a line of the usual 11–21 targets determines nothing

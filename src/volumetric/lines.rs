@@ -24,11 +24,11 @@ use crate::table::{
 };
 
 /// Tolerance on |u| − 1 and on the agreement of u between rows of a line.
-pub const UNIT_TOL: f64 = 1e-6;
+pub(crate) const UNIT_TOL: f64 = 1e-6;
 /// How far a target may lie off its line, mm.
-pub const OFF_LINE_TOL_MM: f64 = 1e-3;
+pub(crate) const OFF_LINE_TOL_MM: f64 = 1e-3;
 /// Fewest distinct targets of a line.
-pub const MIN_TARGETS: usize = 3;
+pub(crate) const MIN_TARGETS: usize = 3;
 
 /// One row of a line table.
 #[derive(Debug, Clone, PartialEq)]

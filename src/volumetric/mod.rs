@@ -99,32 +99,39 @@
 //! machine geometry calibration", CIRP Annals 37/1 (1988). ISO 10360-2 (length
 //! measurement error along lines).
 
-pub mod basis;
-pub mod campaign;
+mod basis;
+mod campaign;
 mod choice;
-pub mod compensation;
-pub mod degree;
-pub mod doc;
+mod compensation;
+mod degree;
+mod doc;
 mod error;
-pub mod from_session;
-pub mod identifiability;
-pub mod identify;
-pub mod lines;
-pub mod model;
-pub mod predict;
-pub mod residual;
-pub mod simulate;
+mod from_session;
+mod identifiability;
+mod identify;
+mod lines;
+mod model;
+mod predict;
+mod residual;
+mod simulate;
 mod smooth;
-pub mod spline;
-pub mod thermal;
+mod spline;
+mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth};
+pub use compensation::{
+    ComponentTables, axis_positions, component_tables, positioning_profile, render_twincat,
+};
 pub use error::VolumetricError;
-pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
+pub use from_session::SessionLines;
+pub use identify::{
+    Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS, Z_MISSING,
+    identify,
+};
 pub use lines::{Line, LineTable, Target};
-pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology};
-pub use predict::{Prediction, Predictor};
-pub use simulate::{Plan, PlanFile, PlannedLine, ThermalHistory, simulate};
+pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology, squareness_effect};
+pub use predict::{Prediction, Predictor, write_grid, write_predictions};
+pub use simulate::{MAX_READINGS, Plan, PlanFile, PlannedLine, ThermalHistory, preset, simulate};
 pub use thermal::ThermalTest;
 
 /// The gauge convention in words (also in the JSON and the report).

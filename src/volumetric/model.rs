@@ -57,7 +57,7 @@ use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order};
 use crate::table::{ErrorPoint, ErrorTable};
 
 /// Axis letters in index order.
-pub const AXES: [char; 3] = ['X', 'Y', 'Z'];
+pub(crate) const AXES: [char; 3] = ['X', 'Y', 'Z'];
 /// The six kinds of component: translations along X, Y, Z and rotations A, B, C.
 const KINDS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
 
@@ -235,7 +235,7 @@ pub fn squareness_effect(i: usize, pos_mm: [f64; 3]) -> [f64; 3] {
     }
 }
 
-pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -243,7 +243,7 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

@@ -33,7 +33,7 @@ pub struct Prediction {
 }
 
 /// The error vector at a point and its one-sigma, µm.
-pub type VectorPrediction = ([f64; 3], [f64; 3]);
+pub(crate) type VectorPrediction = ([f64; 3], [f64; 3]);
 
 /// What predicts: an identified fit, or a known machine.
 #[derive(Debug)]

@@ -210,10 +210,10 @@ fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
 }
 
 /// The smallest extent of a preset's volume along an axis, mm.
-pub const MIN_EXTENT_MM: f64 = 1e-3;
+pub(crate) const MIN_EXTENT_MM: f64 = 1e-3;
 
 /// The slowest feed of a plan, mm/s.
-pub const MIN_FEED_MM_S: f64 = 1e-3;
+pub(crate) const MIN_FEED_MM_S: f64 = 1e-3;
 
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
@@ -419,7 +419,7 @@ impl PlanFile {
 pub const MAX_READINGS: u64 = 200_000;
 
 /// Names of the presets.
-pub const PRESETS: [&str; 2] = ["zhang22", "rich"];
+pub(crate) const PRESETS: [&str; 2] = ["zhang22", "rich"];
 /// Refuses a plan without lines, with more readings than a campaign may have (checked
 /// before any target is made) or with a line name used twice.
 fn check_lines(path: &Path, lines: &[PlannedLine]) -> Result<(), VolumetricError> {

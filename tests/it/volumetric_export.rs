@@ -6,9 +6,9 @@
 
 use std::path::Path;
 
-use errmap::volumetric::compensation::{component_tables, positioning_profile, render_twincat};
-use errmap::volumetric::model::{Component, squareness_effect};
+use errmap::volumetric::{Component, squareness_effect};
 use errmap::volumetric::{Degree, IdentifyConfig, LineTable, Predictor, identify, simulate};
+use errmap::volumetric::{component_tables, positioning_profile, render_twincat};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
