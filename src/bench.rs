@@ -253,21 +253,21 @@ pub fn diagnosis_seconds(rows: usize) -> Option<(usize, f64)> {
     if !table1.is_file() {
         return None;
     }
-    let base = crate::sim::concealed::plan();
+    let base = crate::sim::concealed_plan();
     // The plan gives ~13 000 rows at 20 Hz; scale the rate for the requested size.
     let plan = errmap_drivers::sim::Plan {
         sample_hz: 20.0 * rows as f64 / 13_000.0,
         ..base
     };
-    let nominal = crate::sim::concealed::nominal(&table1, 1);
+    let nominal = crate::sim::concealed_nominal(&table1, 1);
     let mut hidden = nominal.clone();
-    hidden.reversal = Some(crate::sim::physics::Reversal {
+    hidden.reversal = Some(crate::sim::Reversal {
         enabled: true,
         b_um: 1.0,
     });
     let model_path = root.join("datasets/model.toml");
-    let recorded = crate::sim::physics::simulate_session(&hidden, &model_path, &plan, true).ok()?;
-    let simulated = crate::sim::physics::simulate_rows(&nominal, &model_path, &recorded).ok()?;
+    let recorded = crate::sim::simulate_session(&hidden, &model_path, &plan, true).ok()?;
+    let simulated = crate::sim::simulate_rows(&nominal, &model_path, &recorded).ok()?;
     let t = Instant::now();
     crate::diagnose::diagnose(
         &recorded,

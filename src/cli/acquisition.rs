@@ -272,7 +272,7 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
 
 /// A session argument: a table file, or a capture directory holding one.
 pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
-    Ok(errmap::sim::job::session_file(p)?)
+    Ok(errmap::sim::session_file(p)?)
 }
 
 pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {

@@ -157,9 +157,7 @@ fn capture_step(inputs: &DemoInputs, session_dir: &Path) -> Result<errmap::sim::
     }
     let (stream, truth) =
         errmap::sim::simulate_stream(&inputs.machine, Some(&inputs.plan), &Default::default())?;
-    let baud = errmap::sim::physics::MachineModel::read(&inputs.model)?
-        .device
-        .baud;
+    let baud = errmap::sim::MachineModel::read(&inputs.model)?.device.baud;
     let (tx, rx) = std::sync::mpsc::channel::<String>();
     let server = std::thread::spawn(move || {
         acquisition::serve_stream(&stream, 10.0, 1.5, 30.0, |path| {

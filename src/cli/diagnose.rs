@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use errmap::diagnose::Diagnosis;
 use errmap::report::diagnosis::{IsoEffect, append_iso_effect, iso_effect, write_report};
-pub(crate) use errmap::sim::job::Against;
-use errmap::sim::job::DiagnoseJob;
+pub(crate) use errmap::sim::Against;
+use errmap::sim::DiagnoseJob;
 
 use super::args::DiagnoseArgs;
 

@@ -192,9 +192,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::ReportConcealed(a) => diagnose::report_concealed(&a.cases, &a.out),
         Command::GenConcealed(a) => {
             // A new output directory appears whole or not at all.
-            let dirs = guard::into_new_dir(&a.out, |d| {
-                Ok(errmap::sim::concealed::write_all(d, &a.table1)?)
-            })?;
+            let dirs =
+                guard::into_new_dir(&a.out, |d| Ok(errmap::sim::write_concealed(d, &a.table1)?))?;
             eprintln!(
                 "gen-concealed: {} cases under {}",
                 dirs.len(),

@@ -515,7 +515,7 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
 }
 
 pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    let model = errmap::sim::physics::MachineModel::read(&a.model)?;
+    let model = errmap::sim::MachineModel::read(&a.model)?;
     let map_table = model.error_map.as_ref().map(|m| m.table.clone());
     let mut inputs = vec![("--model", a.model.as_path()), ("--plan", a.plan.as_path())];
     if let Some(t) = &map_table {
@@ -527,13 +527,8 @@ pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     }
     super::guard::refuse_aliases(&outputs, &inputs)?;
     let plan = errmap::sim::read_plan(Some(&a.plan))?;
-    let (stream, _) = errmap::sim::physics::simulate_plan(
-        &model,
-        &a.model,
-        &plan,
-        &Default::default(),
-        !a.no_noise,
-    )?;
+    let (stream, _) =
+        errmap::sim::simulate_plan(&model, &a.model, &plan, &Default::default(), !a.no_noise)?;
     let bytes = stream.bytes();
     if let Some(raw) = &a.raw {
         super::guard::write_file(raw, &bytes)?;

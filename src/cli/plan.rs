@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use errmap::base::Axis;
 use errmap::sim::program::{self, Dialect, ProgramOptions};
-use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
+use errmap::sim::{Spacing, TestPlan, TestPlanConfig};
 
 use super::values;
 

@@ -101,7 +101,7 @@ pub fn session_file(p: &Path) -> Result<PathBuf, JobError> {
 }
 
 /// The grating period in a capture directory's `session.json` (the board's hello), µm.
-pub fn grating_from_capture(session: &Path) -> Option<f64> {
+pub(crate) fn grating_from_capture(session: &Path) -> Option<f64> {
     #[derive(Deserialize)]
     struct Hello {
         grating_period_nm: f64,

@@ -14,17 +14,29 @@
 //! | [`error`] | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
 
-pub(crate) mod bounds;
-pub mod concealed;
-pub mod error;
-pub mod job;
-pub mod physics;
-pub mod plan;
+mod bounds;
+mod concealed;
+mod error;
+mod job;
+mod physics;
+mod plan;
 pub mod program;
-pub mod testplan;
+mod testplan;
 pub mod update;
 
+pub(crate) use bounds::check_numbers;
+pub use concealed::{
+    Case, Generated, Truth as ConcealedTruth, cases as concealed_cases,
+    generate as generate_concealed, nominal as concealed_nominal, plan as concealed_plan,
+    write_all as write_concealed,
+};
 pub use error::SimError;
-pub use physics::{MachineModel, PhysicsTruth, simulate_plan, simulate_rows, simulate_session};
+pub use job::{Against, DiagnoseJob, session_file};
+pub use physics::{
+    Abbe, ColouredNoise, History, LatchDelay, MachineModel, Outliers, PeriodicScale, PhysicsTruth,
+    Refraction, Reversal, Scale, ScaleFactor, ThermalDrift, simulate_plan, simulate_rows,
+    simulate_session,
+};
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
+pub use testplan::{Spacing, TestPlan, TestPlanConfig};
 pub use update::apply_found_effects;

@@ -57,12 +57,12 @@ use crate::base::Axis;
 
 /// Targets are rounded to this (the least input increment of Fanuc IS-B), mm; the
 /// rounding is done as k/1000.
-pub const TARGET_RESOLUTION_MM: f64 = 1e-3;
+pub(crate) const TARGET_RESOLUTION_MM: f64 = 1e-3;
 
 /// errmap's cap on targets per line and on runs, so that a mistyped value cannot
 /// produce a program of millions of blocks.
-pub const MAX_TARGETS: usize = 10_000;
-pub const MAX_RUNS: u32 = 1_000;
+pub(crate) const MAX_TARGETS: usize = 10_000;
+pub(crate) const MAX_RUNS: u32 = 1_000;
 
 /// How the targets are spaced.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,7 +112,7 @@ fn bad(flag: &'static str, message: impl Into<String>) -> TestPlanError {
     }
 }
 
-pub use crate::base::Direction;
+pub(crate) use crate::base::Direction;
 
 /// One step of the standard test cycle, after the move to [`TestPlan::start_point_mm`].
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -410,8 +410,7 @@ impl Machine {
 
     /// Reads and validates a machine-model TOML file.
     pub fn read(path: &Path) -> Result<Machine, VolumetricError> {
-        let file: MachineFile =
-            read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
+        let file: MachineFile = read_toml::<_, VolumetricError>(path, crate::sim::check_numbers)?;
         file.validate(path)
     }
 }

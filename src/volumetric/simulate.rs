@@ -217,7 +217,7 @@ pub(crate) const MIN_FEED_MM_S: f64 = 1e-3;
 
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
-        let f: PlanFile = read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
+        let f: PlanFile = read_toml::<_, VolumetricError>(path, crate::sim::check_numbers)?;
         f.validate(path)
     }
 

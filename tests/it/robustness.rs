@@ -950,10 +950,10 @@ mod never_panics {
             std::fs::create_dir_all(model.parent().expect("dir")).expect("mkdir");
             std::fs::copy(dataset("table1.csv"), dir.path().join("table1.csv")).expect("copy");
             std::fs::write(&model, out.join("\n")).expect("write");
-            if let Ok(m) = errmap::sim::physics::MachineModel::read(&model) {
+            if let Ok(m) = errmap::sim::MachineModel::read(&model) {
                 let plan = errmap::sim::read_plan(Some(Path::new(&dataset("sim/plan.toml"))))
                     .expect("plan");
-                if let Ok(rows) = errmap::sim::physics::simulate_session(&m, &model, &plan, false) {
+                if let Ok(rows) = errmap::sim::simulate_session(&m, &model, &plan, false) {
                     // Finite, and physical: the example's effects are µm, not the metres a
                     // NaN turned into (`ppm = nan` gave laser_mm = 0 on every row).
                     prop_assert!(rows.iter().all(|r| r.error_um.is_finite()

@@ -10,7 +10,7 @@ use std::process::Command;
 use errmap::base::Axis;
 use errmap::sim::PlanSpec;
 use errmap::sim::program::{self, Dialect, ProgramError, ProgramOptions};
-use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
+use errmap::sim::{Spacing, TestPlan, TestPlanConfig};
 
 /// The outside check's plan: `--axis x --from 0 --to 800 --targets 21 --runs 5
 /// --overrun 5 --dwell-s 2 --feed-mm-s 25 --at y=1,z=200 --random-offset 0.1 --seed 7`.
@@ -215,8 +215,8 @@ fn the_plan_toml_reads_back_and_the_simulated_session_stops_at_its_targets() {
     assert_eq!(spec.overrun_mm, 5.0);
     let sim_plan = spec.plan(&path).expect("plan");
 
-    let model = errmap::sim::concealed::nominal(&root().join("datasets/table1.csv"), 1);
-    let rows = errmap::sim::physics::simulate_session(
+    let model = errmap::sim::concealed_nominal(&root().join("datasets/table1.csv"), 1);
+    let rows = errmap::sim::simulate_session(
         &model,
         &root().join("datasets/model.toml"),
         &sim_plan,
