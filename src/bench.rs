@@ -10,7 +10,7 @@
 pub mod history;
 pub mod volumetric;
 
-use crate::base::stats::median;
+use crate::base::median;
 use std::time::Instant;
 
 use rand::rngs::StdRng;

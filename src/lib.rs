@@ -196,7 +196,7 @@
 //! with a bundled font:
 //!
 //! ```
-//! use errmap::base::{Axis, stats::rms};
+//! use errmap::base::{Axis, rms};
 //! use errmap::plot::{XySeries, XyStyle, xy};
 //!
 //! assert_eq!("y".parse::<Axis>()?, Axis::Y);

@@ -31,7 +31,7 @@ use super::AcceptanceError;
 use super::mpe::Mpe;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::interp::Method;
 use crate::volumetric::component_tables;
 use crate::volumetric::{

@@ -27,7 +27,7 @@ use super::AcceptanceError;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::base::Axis;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::session::iso230::AxisStats;
 use crate::session::uncertainty::StatUncertainty;
 

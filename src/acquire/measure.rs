@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::{AcquireError, replay};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::session::{BATCH_ROWS, Reducer, for_each_batch};
 
 /// What [`stream_bench`] measured.

@@ -25,7 +25,7 @@ use errmap_drivers::frame::Hello;
 use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
 use crate::session::SessionWriter;
 use crate::table::TableError;

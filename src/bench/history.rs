@@ -13,7 +13,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::base::stats::{gaussian, median};
+use crate::base::{gaussian, median};
 use crate::history::report::{ReportConfig, Run};
 use crate::history::tolerance::Tolerances;
 use crate::history::{

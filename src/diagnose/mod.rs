@@ -128,7 +128,7 @@ pub fn remove_found(recorded: &[SessionRow], d: &Diagnosis) -> Vec<SessionRow> {
 use words::fixed;
 
 /// HeNe vacuum wavelength, µm (the one constant of `base::consts`).
-pub use crate::base::consts::HENE_WAVELENGTH_UM;
+pub use crate::base::HENE_WAVELENGTH_UM;
 
 /// Most rows of a recording `errmap diagnose` holds by default (`--max-rows`): longer
 /// sessions are thinned uniformly in time to every 2ᵏ-th device sample

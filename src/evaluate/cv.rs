@@ -21,7 +21,7 @@ use crate::interp::gp::Gp;
 use crate::interp::{InterpError, Method, Order};
 use crate::table::{Axis, Grid};
 
-pub use crate::base::stats::rms;
+pub use crate::base::rms;
 
 /// How the fitting table was split.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -10,7 +10,7 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
 use super::HistoryError;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileOp};
 use crate::session::{self, iso230, uncertainty};
 

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use super::ReportError;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::circular::iso::nominal_samples;
 use crate::circular::{CircularDiagnosis, CircularTest, Sense};
 use crate::plot::polar::{PolarChart, PolarTrace, polar};

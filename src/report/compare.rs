@@ -11,7 +11,7 @@ use super::findings::group_by_reason;
 use super::json::finite;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::evaluate::compare::{Comparison, SigmaKind};
 use crate::evaluate::cv::CvScheme;
 use crate::interp::Method;
@@ -423,7 +423,7 @@ fn test_points(md: &mut Md, c: &Comparison, feat: &[usize]) {
             .zip(&c.test.points)
             .filter_map(|(v, p)| v.map(|v| v - p.e_um))
             .collect();
-        cells.push(opt(crate::base::stats::rms(&r), 4));
+        cells.push(opt(crate::base::rms(&r), 4));
     }
     cells.extend(feat.iter().map(|&i| format!("{:.4}", c.rows[i].rms_um)));
     md.row(cells);

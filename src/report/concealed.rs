@@ -9,7 +9,7 @@ use super::ReportError;
 use super::diagnosis::write_report;
 use crate::base::EffectId;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::diagnose::{DiagnoseConfig, Verdict, diagnose};
 use crate::session::read_session;
 use crate::sim::ConcealedTruth;

@@ -10,7 +10,7 @@ use crate::plot::{self, XySeries, XyStyle};
 use super::ReportError;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::diagnose::{Diagnosis, GroupStat, Verdict};
 
 /// Most points drawn per series.

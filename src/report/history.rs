@@ -9,7 +9,7 @@ use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::history::report::{FleetEntry, Head, MachineReport, ParameterReport};
 use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use super::ReportError;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
 use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::{Budget, StatUncertainty};

@@ -24,7 +24,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{FileError, FileOp};
 use crate::plot::PlotError;
 use crate::table::TableError;

@@ -54,7 +54,7 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use polars::prelude::*;
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{Axis, FileOp};
 use crate::table::{
     Cells, TableError, column_cells, optional_column_cells, parse_cell, read_frame, required_cell,
@@ -323,7 +323,7 @@ fn frame_rows_at(
 
 /// Every number of a session row inside its physical range ([`crate::base::limits`]).
 fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableError> {
-    use crate::base::limits::{
+    use crate::base::{
         Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
     };
     let cells: [(&str, Option<f64>, Bound); 13] = [

@@ -32,17 +32,17 @@
 //! where the values are used ([`super::physics`], the board's plan validation); misspelt
 //! keys are refused by serde (`deny_unknown_fields`) before this walk.
 //!
-//! [`TEMPERATURE_C`]: crate::base::limits::TEMPERATURE_C
-//! [`PRESSURE_HPA`]: crate::base::limits::PRESSURE_HPA
-//! [`HUMIDITY_PCT`]: crate::base::limits::HUMIDITY_PCT
-//! [`FEED_MM_S`]: crate::base::limits::FEED_MM_S
-//! [`TIME_S`]: crate::base::limits::TIME_S
-//! [`POSITION_MM`]: crate::base::limits::POSITION_MM
-//! [`ERROR_UM`]: crate::base::limits::ERROR_UM
+//! [`TEMPERATURE_C`]: crate::base::TEMPERATURE_C
+//! [`PRESSURE_HPA`]: crate::base::PRESSURE_HPA
+//! [`HUMIDITY_PCT`]: crate::base::HUMIDITY_PCT
+//! [`FEED_MM_S`]: crate::base::FEED_MM_S
+//! [`TIME_S`]: crate::base::TIME_S
+//! [`POSITION_MM`]: crate::base::POSITION_MM
+//! [`ERROR_UM`]: crate::base::ERROR_UM
 
 use std::path::Path;
 
-use crate::base::limits::{
+use crate::base::{
     Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
 };
 
@@ -178,7 +178,7 @@ fn rule(keys: &[&str]) -> Bound {
 pub(crate) fn check_numbers(path: &Path, text: &str) -> Result<(), ConfigError> {
     let table: toml::Table = text
         .parse()
-        .map_err(|e: toml::de::Error| crate::base::error::parse_error(path, &e))?;
+        .map_err(|e: toml::de::Error| crate::base::parse_error(path, &e))?;
     let mut keys = Vec::new();
     walk_table(&table, &mut keys).map_err(|(key, problem)| ConfigError::key(path, key, problem))
 }

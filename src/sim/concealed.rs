@@ -12,8 +12,8 @@
 //! reads it) and a README saying what is hidden and how big it is.
 
 use crate::base::effect::{Drift, Effect, ParamValue};
-use crate::base::error::io_err;
-use crate::base::stats::peak_to_peak;
+use crate::base::io_err;
+use crate::base::peak_to_peak;
 use crate::base::vocabulary::EffectId;
 use crate::base::{ConfigError, FileOp};
 use std::collections::BTreeMap;

@@ -45,9 +45,9 @@ use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
-use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
-use crate::base::error::read_toml;
-use crate::base::stats::gaussian;
+use crate::base::HENE_WAVELENGTH_UM as HENE_UM;
+use crate::base::gaussian;
+use crate::base::read_toml;
 use crate::base::{Axis, ConfigError};
 use crate::interp::{
     Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy,

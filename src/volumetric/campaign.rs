@@ -281,7 +281,7 @@ pub(crate) fn t_words(t: f64) -> String {
 /// The effect of a chosen term, from its fitted value and σ (joint fit).
 pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> FoundEffect {
     let contribution: Vec<f64> = c.col.iter().map(|g| value * g).collect();
-    let explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
+    let explains_um = crate::base::rms(&contribution).unwrap_or(0.0);
     let mut uncertainty = BTreeMap::new();
     let (effect, where_) = match c.term {
         Term::Drift => {

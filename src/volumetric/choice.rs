@@ -146,7 +146,7 @@ pub(crate) fn evaluate(
             r_um: v.iter().map(|x| x.2).collect(),
         });
     }
-    let rms_residual_um = crate::base::stats::rms(&all_r).unwrap_or(0.0);
+    let rms_residual_um = crate::base::rms(&all_r).unwrap_or(0.0);
     let z = residual_test(
         &residuals,
         weighted.then_some((solved.chi2, solved.dof)),

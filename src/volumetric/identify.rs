@@ -628,7 +628,7 @@ pub(crate) fn thermal_fit(
         return (test, None);
     }
     let contribution: Vec<f64> = col.centred.iter().map(|g| alpha * g).collect();
-    test.explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
+    test.explains_um = crate::base::rms(&contribution).unwrap_or(0.0);
     (test, Some(solved))
 }
 

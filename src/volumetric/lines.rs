@@ -17,7 +17,7 @@ use polars::prelude::*;
 
 use super::error::VolumetricError;
 use super::model::dot;
-use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
+use crate::base::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
 use crate::table::{
     Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
     required_cell, text_or_number_cells, write_frame,

@@ -52,7 +52,7 @@ use std::str::FromStr;
 use serde::Deserialize;
 
 use super::error::{VolumetricError, config_err};
-use crate::base::error::read_toml;
+use crate::base::read_toml;
 use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order};
 use crate::table::{ErrorPoint, ErrorTable};
 

@@ -18,7 +18,7 @@ use super::identify::FitState;
 use super::lines::LineTable;
 use super::model::{Component, Machine, SQUARENESS, squareness_effect};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 
 /// One predicted row.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -56,8 +56,8 @@ use serde::Deserialize;
 use super::error::{VolumetricError, config_err};
 use super::lines::{Line, LineTable, Target};
 use super::model::{AXES, Machine};
-use crate::base::error::read_toml;
-use crate::base::stats::gaussian;
+use crate::base::gaussian;
+use crate::base::read_toml;
 
 /// The plan file as written.
 #[derive(Debug, Clone, Deserialize)]

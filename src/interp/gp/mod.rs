@@ -86,7 +86,7 @@ use std::fmt;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::base::limits::{ERROR_UM, POSITION_MM};
+use crate::base::{ERROR_UM, POSITION_MM};
 use crate::interp::Interpolator;
 use crate::table::ErrorPoint;
 
