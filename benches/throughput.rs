@@ -12,8 +12,8 @@ use std::sync::LazyLock;
 use divan::counter::{BytesCount, ItemsCount};
 use divan::{Bencher, black_box};
 use errmap::bench::{gp_points, random_grid, random_points, synthetic_capture};
-use errmap::interp::gp::{Gp, GpConfig};
-use errmap::interp::{Method, Order, fuzzy, predict_parallel};
+use errmap::interp::{DEFAULT_FUZZY_SIGMA, Method, Order, predict_parallel};
+use errmap::interp::{Gp, GpConfig};
 use errmap::table::Grid;
 
 fn main() {
@@ -43,7 +43,7 @@ fn evaluate(bencher: Bencher, method: Method, threads: usize) {
 }
 
 const FUZZY: Method = Method::Fuzzy {
-    sigma: fuzzy::DEFAULT_SIGMA,
+    sigma: DEFAULT_FUZZY_SIGMA,
 };
 
 #[divan::bench_group(sample_count = 20)]

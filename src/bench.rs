@@ -17,7 +17,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::interp::{Method, Order, fuzzy, predict_parallel};
+use crate::interp::{DEFAULT_FUZZY_SIGMA, Method, Order, predict_parallel};
 use crate::table::Grid;
 
 /// One interpolation result.
@@ -57,7 +57,7 @@ pub struct BenchReport {
     pub volumetric: Option<volumetric::VolumetricBench>,
     /// Replay and table on a generated long capture: MB/s and peak RSS (None: the
     /// measurement failed).
-    pub stream: Option<crate::acquire::measure::StreamBench>,
+    pub stream: Option<crate::acquire::StreamBench>,
     /// The calibration ledger at plant scale, per backend ([`history`]; filled by the
     /// binary, which owns the ledger's location).
     pub history: Vec<history::HistoryBench>,
@@ -139,7 +139,7 @@ pub fn methods() -> Vec<Method> {
         Method::Lagrange(Order([2, 2, 2])),
         Method::Lagrange(Order([4, 4, 4])),
         Method::Fuzzy {
-            sigma: fuzzy::DEFAULT_SIGMA,
+            sigma: DEFAULT_FUZZY_SIGMA,
         },
     ]
 }
@@ -219,7 +219,7 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         decode_bytes: capture.len(),
         extra,
         volumetric,
-        stream: crate::acquire::measure::stream_bench(STREAM_BENCH_MB).ok(),
+        stream: crate::acquire::stream_bench(STREAM_BENCH_MB).ok(),
         history: Vec::new(),
     }
 }
@@ -241,7 +241,7 @@ pub fn gp_points(n: usize) -> Vec<crate::table::ErrorPoint> {
 pub fn gp_fit_seconds(n: usize) -> Option<f64> {
     let points = gp_points(n);
     let t = Instant::now();
-    crate::interp::gp::Gp::fit(&points, &crate::interp::gp::GpConfig::default()).ok()?;
+    crate::interp::Gp::fit(&points, &crate::interp::GpConfig::default()).ok()?;
     Some(t.elapsed().as_secs_f64())
 }
 

@@ -11,7 +11,9 @@
 //! - `session.json` — the device's HELLO, the decoder statistics (spec shape, with the
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
-pub mod measure;
+mod measure;
+
+pub use measure::{StreamBench, peak_rss_mb, stream_bench};
 
 use std::fs::{File, OpenOptions};
 use std::io::Read;

@@ -151,7 +151,7 @@ pub fn run(ledger_spec: &str, machines: usize, tests: usize) -> Result<HistoryBe
     }
     let report_s = start.elapsed().as_secs_f64();
     let report_peak_rss_mb = if rss_reset {
-        crate::acquire::measure::peak_rss_mb()
+        crate::acquire::peak_rss_mb()
     } else {
         None
     };

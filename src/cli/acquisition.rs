@@ -12,7 +12,7 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::session::{self, iso230, uncertainty};
+use errmap::session::{self, uncertainty};
 
 use super::args::{CaptureArgs, FaultArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
@@ -254,7 +254,7 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
             stats: &stats,
             rows,
             // The process's resident high-water mark (Linux), MB: memory stays bounded.
-            peak_rss_mb: acquire::measure::peak_rss_mb(),
+            peak_rss_mb: acquire::peak_rss_mb(),
         })?;
     } else {
         eprintln!(
@@ -333,7 +333,7 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
 pub(crate) struct Reduced {
     pub table: errmap::table::ErrorTable,
     pub summary: session::ReductionSummary,
-    pub iso: Vec<((f64, f64), iso230::AxisStats)>,
+    pub iso: Vec<((f64, f64), session::AxisStats)>,
     /// The uncertainty budget of each line of `iso` (default configuration).
     pub budgets: Vec<errmap::session::uncertainty::Budget>,
 }
@@ -355,7 +355,7 @@ pub(crate) fn reduce_session(
     }
     // One pass in batches: memory bounded by a batch and the dwell accumulators.
     let mut reducer = session::Reducer::new();
-    let mut environment = session::environment::EnvironmentStats::default();
+    let mut environment = session::EnvironmentStats::default();
     session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use errmap::evaluate::compare::{self, DEFAULT_MAX_DEGREE};
+use errmap::evaluate::{self, DEFAULT_MAX_DEGREE};
 use errmap::interp::{Method, MethodSettings};
 use errmap::table::ErrorTable;
 
@@ -26,7 +26,7 @@ fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
     let test_points = ErrorTable::read(test)?;
     let grid = fitting.grid()?;
     let methods = Method::defaults(&grid, DEFAULT_MAX_DEGREE, &MethodSettings::default());
-    let comparison = compare::compare_where_possible(&fitting, &grid, &test_points, &methods)
+    let comparison = evaluate::compare_where_possible(&fitting, &grid, &test_points, &methods)
         .with_context(|| format!("{}: comparison failed", table.display()))?;
     let command = format!(
         "errmap compare {} --test {} --report {}",

@@ -14,7 +14,7 @@ use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
 use errmap::export::{Ends, LinuxCncCompType};
-use errmap::interp::gp::Kernel;
+use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
 use errmap::sim::program::Dialect;
 use errmap::volumetric::MAX_DEGREE;

@@ -200,7 +200,7 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
     super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
     let mut acc = errmap::volumetric::SessionLines::new();
     for f in &files {
-        errmap::session::stream::for_each_batch(f, 1 << 16, &mut |rows| {
+        errmap::session::for_each_batch(f, 1 << 16, &mut |rows| {
             rows.iter().for_each(|r| acc.push(r));
             Ok(())
         })?;

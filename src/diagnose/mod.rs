@@ -81,7 +81,7 @@ mod effects;
 mod engine;
 mod error;
 mod explain;
-pub mod locate;
+mod locate;
 mod outcome;
 mod select;
 mod spectral;

@@ -23,12 +23,12 @@
 //! - C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for Machine Learning* (2006).
 
 mod cells;
-pub mod fuzzy;
-pub mod gp;
-pub mod lagrange;
+mod fuzzy;
+mod gp;
+mod lagrange;
 mod method;
-pub mod spline;
-pub mod trilinear;
+mod spline;
+mod trilinear;
 
 use std::fmt;
 use std::str::FromStr;
@@ -37,7 +37,12 @@ use crate::table::Axis;
 
 pub use cells::Locator;
 pub(crate) use cells::{eval_cells, locators};
+pub use fuzzy::{DEFAULT_SIGMA as DEFAULT_FUZZY_SIGMA, Fuzzy, high_weight};
+pub use gp::{Gp, GpConfig, GpError, GpHyper, Kernel, MAX_POINTS as GP_MAX_POINTS};
+pub use lagrange::{Lagrange, MAX_DEGREE, admissible_orders};
 pub use method::{FitError, Method, MethodError, MethodName, MethodSettings, UnknownMethod};
+pub use spline::{Spline, natural_second_derivatives};
+pub use trilinear::Trilinear;
 
 /// What a fitted model can do: predict the error (µm) at a position (mm).
 pub trait Interpolator: Send + Sync + fmt::Debug {

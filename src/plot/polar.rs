@@ -18,7 +18,7 @@ use super::text::{font, fonts_ready};
 use plotters::style::FontStyle;
 
 /// The side of the square image, pixels.
-pub const SIZE: u32 = 800;
+pub(crate) const SIZE: u32 = 800;
 
 /// One trace of the plot: (angle rad, dr µm) in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -51,7 +51,7 @@ pub fn colour(k: usize) -> (u8, u8, u8) {
 }
 
 /// The geometry: centre (px), nominal radius (px), pixels per µm.
-pub fn layout(um_per_div: f64) -> ((f64, f64), f64, f64) {
+pub(crate) fn layout(um_per_div: f64) -> ((f64, f64), f64, f64) {
     let centre = (SIZE as f64 / 2.0, SIZE as f64 / 2.0 + 30.0);
     let r_px = 220.0;
     // Four rings inside and outside the nominal circle, 32 px apart.

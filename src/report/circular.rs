@@ -12,7 +12,7 @@ use crate::base::FileOp;
 use crate::base::io_err;
 use crate::circular::iso::nominal_samples;
 use crate::circular::{CircularDiagnosis, CircularTest, Sense};
-use crate::plot::polar::{PolarChart, PolarTrace, polar};
+use crate::plot::{PolarChart, PolarTrace, polar};
 
 /// The palette colour of each direction in the polar plot.
 pub const CCW_COLOUR: usize = 0;

@@ -8,8 +8,8 @@ use super::md::Md;
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
-use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::{Budget, StatUncertainty};
+use crate::session::{AxisStats, TargetStats};
 
 /// Decimals (of µm) to print a line's statistics with: three significant digits of the
 /// smallest non-zero spread the test measured (the axis values `B`, `R`, `E`, `M`, `A` and

@@ -32,13 +32,15 @@
 //! on every line and the nodes form a grid.
 
 pub(crate) mod columns;
-pub mod environment;
-pub mod iso230;
+mod environment;
+mod iso230;
 mod reduce;
-pub mod stream;
+mod stream;
 pub mod uncertainty;
 
 pub(crate) use columns::{Columns, ParquetSink};
+pub use environment::{EnvironmentStats, Range};
+pub use iso230::{AxisStats, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats};
 pub use reduce::{
     LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
     line_key, lines,

@@ -90,7 +90,7 @@ const TARGETS: Bound = Bound {
 /// The polynomial degree of a component table (the Lagrange method's own limit).
 const DEGREE: Bound = Bound {
     lo: 0.0,
-    hi: crate::interp::lagrange::MAX_DEGREE as f64,
+    hi: crate::interp::MAX_DEGREE as f64,
     unit: "",
     what: "a polynomial degree",
 };

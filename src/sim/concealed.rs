@@ -59,7 +59,7 @@ pub fn nominal(table1: &Path, seed: u64) -> MachineModel {
             table: table1.to_path_buf(),
             method: "spline".into(),
             order: None,
-            fuzzy_sigma: crate::interp::fuzzy::DEFAULT_SIGMA,
+            fuzzy_sigma: crate::interp::DEFAULT_FUZZY_SIGMA,
         }),
         ..MachineModel::default()
     };

@@ -50,7 +50,7 @@ use crate::base::gaussian;
 use crate::base::read_toml;
 use crate::base::{Axis, ConfigError};
 use crate::interp::{
-    Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy,
+    DEFAULT_FUZZY_SIGMA, Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod,
 };
 use crate::table::ErrorTable;
 
@@ -205,7 +205,7 @@ fn default_method() -> String {
     "spline".into()
 }
 fn default_sigma() -> f64 {
-    fuzzy::DEFAULT_SIGMA
+    DEFAULT_FUZZY_SIGMA
 }
 
 /// Per-axis polynomials, µm: e = Σ_axis Σ_k c_k·(p_axis/1000)^k (coordinates in metres

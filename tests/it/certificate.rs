@@ -11,7 +11,7 @@ use std::process::Command;
 use errmap::report::certificate::{
     self, CertificateData, LineResult, axis_rows, info::CertificateInfo, mm, target_rows,
 };
-use errmap::session::iso230::AxisStats;
+use errmap::session::AxisStats;
 use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
 use errmap::session::{self, read_session};
 

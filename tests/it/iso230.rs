@@ -2,10 +2,9 @@
 //! (and re-done independently in Python from the standard's formulas), the sign
 //! convention, and the error cases.
 
+use errmap::base::Direction;
 use errmap::report::iso230::{markdown, plot};
-use errmap::session::iso230::{
-    AxisStats, Direction, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats,
-};
+use errmap::session::{AxisStats, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats};
 
 /// Known answers are exact to rounding: a few ulps of values of order 10 µm.
 const TOL_UM: f64 = 1e-12;

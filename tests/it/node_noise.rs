@@ -5,7 +5,7 @@
 //! 95 % within ±2σ) where the homoscedastic model is not.
 
 use errmap::base::gaussian;
-use errmap::interp::gp::{Gp, GpConfig};
+use errmap::interp::{Gp, GpConfig};
 use errmap::session::error_table;
 use errmap::table::{ErrorPoint, ErrorTable};
 use errmap_drivers::{Axis, SessionRow};

@@ -2,7 +2,7 @@
 
 use errmap::circular::simulate::simulate;
 use errmap::circular::{DiagnoseConfig, Plane, diagnose};
-use errmap::plot::polar::{colour, pixel};
+use errmap::plot::{colour, pixel};
 use errmap::report::circular::{CCW_COLOUR, CW_COLOUR, chart, write_report};
 
 use super::model;
