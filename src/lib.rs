@@ -187,7 +187,7 @@
 //! use errmap::evaluate::{FuzzySimConfig, run_fuzzy_sim};
 //!
 //! let result = run_fuzzy_sim(&FuzzySimConfig { trials: 2, ..FuzzySimConfig::default() })?;
-//! let markdown = errmap::report::experiment::markdown(&result);
+//! let markdown = errmap::report::experiment_markdown(&result);
 //! assert!(markdown.starts_with("# Fuzzy vs trilinear vs cubic spline"));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -250,7 +250,7 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
         );
     }
     if a.json {
-        super::guard::print_json(&errmap::report::json::ReplayJson {
+        super::guard::print_json(&errmap::report::ReplayJson {
             stats: &stats,
             rows,
             // The process's resident high-water mark (Linux), MB: memory stays bounded.
@@ -297,7 +297,7 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
         None => None,
     };
     if a.json {
-        use errmap::report::json::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
+        use errmap::report::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
         let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
         let lines = reduced
             .iso
@@ -400,10 +400,10 @@ pub(crate) fn reduce_session(
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
-        let environment = errmap::report::environment::environment_text(&environment);
+        let environment = errmap::report::environment_text(&environment);
         // A new report directory appears whole or not at all.
         let p = super::guard::into_new_dir(dir, |d| {
-            errmap::report::iso230::write_session_report(
+            errmap::report::write_session_report(
                 &path.display().to_string(),
                 &axis,
                 &environment,

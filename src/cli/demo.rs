@@ -34,7 +34,7 @@ fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
         test.display(),
         report.display()
     );
-    errmap::report::write_report(&comparison, report, &command)?;
+    errmap::report::write_compare_report(&comparison, report, &command)?;
     print_summary(&comparison, report);
     Ok(())
 }

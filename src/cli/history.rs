@@ -221,7 +221,7 @@ fn report(a: ReportArgs) -> Result<()> {
     let dir = a.report.clone();
     let n = run.machines();
     let summary = guard::into_new_dir(&dir, |d| {
-        let mut writer = errmap::report::history::ReportWriter::new(d)?;
+        let mut writer = errmap::report::HistoryReportWriter::new(d)?;
         let mut first = true;
         while let Some(m) = run.next_machine()? {
             writer.machine(&m)?;
@@ -371,7 +371,7 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
         },
     )?;
     let head = run.head().clone();
-    let mut writer = errmap::report::history::ReportWriter::new(&report_dir)?;
+    let mut writer = errmap::report::HistoryReportWriter::new(&report_dir)?;
     while let Some(m) = run.next_machine()? {
         writer.machine(&m)?;
     }

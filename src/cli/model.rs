@@ -333,7 +333,7 @@ pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
         false => None,
     };
     super::guard::into_new_dir(&a.report, |dir| {
-        Ok(report::write_report(&comparison, dir, &command)?)
+        Ok(report::write_compare_report(&comparison, dir, &command)?)
     })?;
     if let Some(text) = json {
         super::guard::print_stdout(&text)?;
@@ -549,7 +549,7 @@ pub(crate) fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
         ..FuzzySimConfig::default()
     };
     let result = evaluate::run_fuzzy_sim(&config)?;
-    let md = errmap::report::experiment::markdown(&result);
+    let md = errmap::report::experiment_markdown(&result);
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
             Ok(errmap::report::write_text(&d.join("report.md"), &md)?)

@@ -338,7 +338,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         .or(a.report.as_deref())
         .or(a.json.then_some(Path::new("stdout")));
     if let Some(path) = first_output {
-        errmap::report::finite::check_json(path, &doc)?;
+        errmap::report::check_json(path, &doc)?;
     }
     if let Some(out) = &a.out {
         let text = errmap::report::json_text(out, &doc, true)?;
@@ -346,7 +346,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     }
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
-            Ok(errmap::report::volumetric::write_report(
+            Ok(errmap::report::write_volumetric_report(
                 &id,
                 config.positions,
                 d,
@@ -428,7 +428,7 @@ pub(crate) fn demo_step(out: &Path) -> Result<Identification> {
     let table = LineTable::read(&lines, true)?;
     let config = IdentifyConfig::new(machine.topology);
     let id = identify(&table, &config)?;
-    errmap::report::volumetric::write_report(&id, config.positions, &dir)?;
+    errmap::report::write_volumetric_report(&id, config.positions, &dir)?;
     print_summary(&id);
     eprintln!("  report → {}", dir.join("report.md").display());
     let tables = errmap::volumetric::component_tables(&id.fit, 21)
@@ -496,7 +496,7 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
     errmap::volumetric::write_grid(out, &points, &errors)?;
     if a.json {
-        super::guard::print_json(&errmap::report::json::GridJson::new(&points, &errors))?;
+        super::guard::print_json(&errmap::report::GridJson::new(&points, &errors))?;
     }
     eprintln!(
         "volumetric predict: error vector at {} points → {}",

@@ -14,7 +14,7 @@ use crate::base::io_err;
 use crate::diagnose::{Diagnosis, GroupStat, Verdict};
 
 /// Most points drawn per series.
-pub const MAX_POINTS: usize = 4000;
+pub(crate) const MAX_POINTS: usize = 4000;
 
 fn thin(idx: &[usize]) -> Vec<usize> {
     if idx.len() <= MAX_POINTS {

@@ -44,7 +44,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
 
 /// [`markdown`], with the expanded uncertainty `U` beside each axis value when `u` is given
 /// (see [`crate::session::uncertainty`]).
-pub fn markdown_with_uncertainty(
+pub(crate) fn markdown_with_uncertainty(
     stats: &AxisStats,
     axis_name: &str,
     u: Option<&StatUncertainty>,

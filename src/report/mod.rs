@@ -29,26 +29,46 @@ use crate::base::{FileError, FileOp};
 use crate::plot::PlotError;
 use crate::table::TableError;
 
-pub mod acceptance;
+mod acceptance;
 pub mod certificate;
-pub mod circular;
-pub mod compare;
-pub mod concealed;
-pub mod diagnosis;
-pub mod environment;
-pub mod experiment;
-pub(crate) mod findings;
-pub mod finite;
-pub mod history;
-pub mod iso230;
-pub mod json;
-pub mod md;
-pub mod uncertainty;
-pub mod volumetric;
+mod circular;
+mod compare;
+mod concealed;
+mod diagnosis;
+mod environment;
+mod experiment;
+mod findings;
+mod finite;
+mod history;
+mod iso230;
+mod json;
+mod md;
+mod uncertainty;
+mod volumetric;
 
-pub use compare::write_report;
+pub use acceptance::{write_iso10360_report, write_virtual_report};
+pub use circular::{
+    CCW_COLOUR, CW_COLOUR, chart as circular_chart, write_report as write_circular_report,
+};
+pub use compare::write_report as write_compare_report;
+pub use concealed::write_concealed;
+pub use diagnosis::{
+    IsoEffect, append_iso_effect, iso_effect, write_report as write_diagnosis_report,
+};
+pub use environment::{environment_summary, environment_text};
+pub use experiment::markdown as experiment_markdown;
 pub use findings::group_by_reason;
-pub use json::{CompareJson, CompareJsonRow, MethodJson, RefusedJson};
+pub use finite::check_json;
+pub use history::ReportWriter as HistoryReportWriter;
+pub use iso230::{
+    decimals as iso230_decimals, markdown as iso230_markdown, plot as iso230_plot,
+    write_session_report,
+};
+pub use json::{
+    CompareJson, CompareJsonRow, DiagnoseJson, GB_T_17421_2, GridJson, MethodJson, RefusedJson,
+    ReplayJson, TableJson, TableLineJson, TableUncertaintyJson,
+};
+pub use volumetric::write_report as write_volumetric_report;
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]

@@ -188,7 +188,7 @@ fn nanometre_record_keeps_its_digits_in_the_certificate() -> TestResult {
         return Ok(());
     };
     let c = compute(&p)?;
-    assert_eq!(errmap::report::iso230::decimals(&c.iso[0].1), 4);
+    assert_eq!(errmap::report::iso230_decimals(&c.iso[0].1), 4);
     if !(have("pdftotext") && have("pdftoppm")) {
         return Ok(());
     }
