@@ -7,8 +7,14 @@
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
 
-pub mod history;
-pub mod volumetric;
+mod history;
+mod volumetric;
+
+pub use history::{HistoryBench, run as run_history};
+pub use volumetric::{
+    campaign as volumetric_campaign, config as volumetric_config,
+    grid_points as volumetric_grid_points,
+};
 
 use crate::base::median;
 use std::time::Instant;

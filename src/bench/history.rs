@@ -170,7 +170,7 @@ pub fn run(ledger_spec: &str, machines: usize, tests: usize) -> Result<HistoryBe
 }
 
 /// The measurements as a Markdown table (empty when there are none).
-pub fn markdown(h: &[HistoryBench]) -> String {
+pub(crate) fn markdown(h: &[HistoryBench]) -> String {
     if h.is_empty() {
         return String::new();
     }

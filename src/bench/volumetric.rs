@@ -22,11 +22,11 @@ use crate::volumetric::{
 use crate::volumetric::{Plan, PlannedLine, preset};
 
 /// Lines of the benchmark campaign.
-pub const LINES: usize = 60;
+pub(crate) const LINES: usize = 60;
 /// Targets per line.
-pub const TARGETS: usize = 21;
+pub(crate) const TARGETS: usize = 21;
 /// Grid nodes per axis of the predicted vector map.
-pub const GRID: usize = 41;
+pub(crate) const GRID: usize = 41;
 
 const VOLUME: [[f64; 3]; 2] = [[0.0, 0.0, 0.0], [800.0, 600.0, 400.0]];
 
@@ -132,7 +132,7 @@ pub fn config(degree: Option<usize>) -> IdentifyConfig {
 }
 
 /// Runs the volumetric benchmark; `time` measures a closure (median seconds).
-pub fn run(time: &mut dyn FnMut(&mut dyn FnMut()) -> f64) -> Option<VolumetricBench> {
+pub(crate) fn run(time: &mut dyn FnMut(&mut dyn FnMut()) -> f64) -> Option<VolumetricBench> {
     let (_, table) = campaign(1);
     let default = config(None);
     let fixed = config(Some(3));
