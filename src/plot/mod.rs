@@ -65,7 +65,7 @@ mod render;
 mod scale;
 mod text;
 
-pub use error::PlotError;
+pub use error::{DrawFailure, PlotError};
 pub use polar::{PolarChart, PolarTrace, colour, pixel, polar};
 pub use text::register_fonts;
 

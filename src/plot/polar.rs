@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use super::draw::{PALETTE, de};
-use super::error::PlotError;
+use super::error::{DrawFailure, PlotError};
 use super::render::{whole, with_suffix};
 use super::text::{font, fonts_ready};
 use plotters::style::FontStyle;
@@ -104,7 +104,7 @@ pub fn polar(stem: &Path, chart: &PolarChart) -> Result<Vec<PathBuf>, PlotError>
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &PolarChart,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     root.fill(&WHITE).map_err(de)?;
     let text = RGBColor(0x22, 0x22, 0x22);
     let grid = RGBColor(0xd0, 0xd0, 0xd0);
