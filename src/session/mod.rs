@@ -347,7 +347,7 @@ fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableE
         if let Some(v) = value {
             bound
                 .check(v)
-                .map_err(|problem| bad(path, row0, column, problem))?;
+                .map_err(|problem| bad(path, row0, column, problem.to_string()))?;
         }
     }
     Ok(())

@@ -162,7 +162,7 @@ impl ErrorTable {
                 let bound = if k < 3 { POSITION_MM } else { ERROR_UM };
                 bound
                     .check(v[k])
-                    .map_err(|problem| out_of_range(path, r, names[k], problem))?;
+                    .map_err(|problem| out_of_range(path, r, names[k], problem.to_string()))?;
             }
             let n = match &n_cells {
                 Some(c) => match parse_cell(path, c, r, "n")? {

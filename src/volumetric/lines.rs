@@ -310,7 +310,7 @@ impl LineColumns {
             if let Some(x) = value
                 && let Err(problem) = bound_of(name).check(x)
             {
-                return Err(bad(path, row, name, problem));
+                return Err(bad(path, row, name, problem.to_string()));
             }
         }
         let u = [v[3], v[4], v[5]];
