@@ -482,7 +482,7 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
     type Tables = (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]);
     let (topology, positions, values): Tables = match &model.predictor {
         Predictor::Fit(f) => {
-            let t = component_tables(f, n)?;
+            let t = component_tables(f, n).map_err(|e| e.to_string())?;
             (t.topology, t.positions_mm, t.values)
         }
         Predictor::Machine(m) => {
@@ -676,7 +676,10 @@ impl VirtualRun<'_> {
                         .predictor
                         .predict_grid(&[g.p1, g.p2], g.probe)
                         .err()
-                        .unwrap_or_else(|| "a component the lines did not determine".into());
+                        .map_or_else(
+                            || "a component the lines did not determine".into(),
+                            |e| e.to_string(),
+                        );
                     return Err(self.err(format!(
                         "position `{}`, gauge {} cannot be predicted: {why}",
                         self.plan.positions[g.position].id, g.gauge

@@ -188,7 +188,7 @@ pub(crate) fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, Strin
         let (name, d) = part
             .split_once('=')
             .ok_or_else(|| format!("`{part}` is not NAME=DEGREE (e.g. E_XX=3)"))?;
-        let c: Component = name.trim().parse()?;
+        let c: Component = name.trim().parse().map_err(|e| format!("{e}"))?;
         if out.insert(c.index(), component_degree_value(d)?).is_some() {
             return Err(format!("{} is given twice", c.name()));
         }

@@ -122,7 +122,9 @@ pub use basis::{Basis, BasisKind, GaugeTruth};
 pub use compensation::{
     ComponentTables, axis_positions, component_tables, positioning_profile, render_twincat,
 };
-pub use error::VolumetricError;
+pub use error::{
+    ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
+};
 pub use from_session::SessionLines;
 pub use identify::{
     Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS, Z_MISSING,

@@ -13,7 +13,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::doc::ModelDoc;
-use super::error::{VolumetricError, config_err};
+use super::error::{Undetermined, VolumetricError, config_err};
 use super::identify::FitState;
 use super::lines::LineTable;
 use super::model::{Component, Machine, SQUARENESS, squareness_effect};
@@ -114,7 +114,7 @@ impl Predictor {
         &self,
         points: &[[f64; 3]],
         probe_mm: [f64; 3],
-    ) -> Result<Vec<VectorPrediction>, String> {
+    ) -> Result<Vec<VectorPrediction>, Undetermined> {
         match self {
             Predictor::Machine(m) => Ok(points
                 .iter()
@@ -122,10 +122,7 @@ impl Predictor {
                 .collect()),
             Predictor::Fit(f) => {
                 if let Some(missing) = grid_blockers(f) {
-                    return Err(format!(
-                        "the error vector needs {missing}, which the lines did not determine \
-                         (see `unidentified` in the model)"
-                    ));
+                    return Err(Undetermined::Vector { missing });
                 }
                 Ok(grid_vectors(f, points, probe_mm))
             }

@@ -53,7 +53,7 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Deserialize;
 
-use super::error::{VolumetricError, config_err};
+use super::error::{UnknownPreset, VolumetricError, config_err};
 use super::lines::{Line, LineTable, Target};
 use super::model::{AXES, Machine};
 use crate::base::gaussian;
@@ -335,7 +335,8 @@ impl PlanFile {
         if !p.is_finite() {
             return Err(config_err(path, "probe_offset_mm", "not finite"));
         }
-        preset(name, vol, self.targets, p, self.runs).map_err(|m| config_err(path, "preset", m))
+        preset(name, vol, self.targets, p, self.runs)
+            .map_err(|m| config_err(path, "preset", m.to_string()))
     }
 
     /// `[[line]]` table `i` (0-based) as a planned line, `n_before` lines already planned
@@ -620,7 +621,7 @@ pub fn preset(
     targets: usize,
     probe: f64,
     runs: u32,
-) -> Result<Vec<PlannedLine>, String> {
+) -> Result<Vec<PlannedLine>, UnknownPreset> {
     let [lo, hi] = vol;
     let mid: [f64; 3] = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
     let mut b = PresetBox {
@@ -636,10 +637,10 @@ pub fn preset(
         "zhang22" => b.zhang22(),
         "rich" => b.rich(),
         other => {
-            return Err(format!(
-                "unknown preset `{other}` (presets: {})",
-                PRESETS.join(", ")
-            ));
+            return Err(UnknownPreset {
+                name: other.to_string(),
+                known: PRESETS.to_vec(),
+            });
         }
     }
     Ok(b.out)
