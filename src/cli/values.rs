@@ -290,7 +290,10 @@ impl FromStr for OrderArg {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.trim() {
             "auto" => Ok(OrderArg::Auto),
-            other => other.parse::<Order>().map(OrderArg::Degrees),
+            other => other
+                .parse::<Order>()
+                .map(OrderArg::Degrees)
+                .map_err(|e| e.to_string()),
         }
     }
 }
@@ -315,7 +318,8 @@ impl FromStr for OrdersArg {
                 .split(',')
                 .map(str::parse::<Order>)
                 .collect::<Result<Vec<_>, _>>()
-                .map(OrdersArg::List),
+                .map(OrdersArg::List)
+                .map_err(|e| e.to_string()),
         }
     }
 }

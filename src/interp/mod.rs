@@ -77,23 +77,35 @@ impl fmt::Display for Order {
 }
 
 impl FromStr for Order {
-    type Err = String;
+    type Err = BadOrder;
     /// Parses `4x1x2` (also `4×1×2` or `4,1,2`).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let parts: Vec<&str> = s.split(['x', 'X', '×', ',']).map(str::trim).collect();
         if parts.len() != 3 {
-            return Err(format!(
-                "order `{s}` must be three degrees MxNxQ, e.g. 4x1x2"
-            ));
+            return Err(BadOrder::NotThree {
+                text: s.to_string(),
+            });
         }
         let mut o = [0usize; 3];
         for (slot, part) in o.iter_mut().zip(&parts) {
-            *slot = part
-                .parse()
-                .map_err(|_| format!("order `{s}`: `{part}` is not a whole number"))?;
+            *slot = part.parse().map_err(|_| BadOrder::NotWhole {
+                text: s.to_string(),
+                part: part.to_string(),
+            })?;
         }
         Ok(Order(o))
     }
+}
+
+/// Text that is not an [`Order`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum BadOrder {
+    /// Not three parts.
+    #[error("order `{text}` must be three degrees MxNxQ, e.g. 4x1x2")]
+    NotThree { text: String },
+    /// A part that is not a whole number.
+    #[error("order `{text}`: `{part}` is not a whole number")]
+    NotWhole { text: String, part: String },
 }
 
 /// Why a model cannot be fitted.
