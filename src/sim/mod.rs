@@ -38,5 +38,5 @@ pub use physics::{
     simulate_session,
 };
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
-pub use testplan::{Spacing, TestPlan, TestPlanConfig};
+pub use testplan::{PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError};
 pub use update::apply_found_effects;
