@@ -76,10 +76,12 @@ pub(crate) fn run_diagnosis_with(
         max_rows,
     };
     let out = job.run()?;
-    if let Some(note) = &out.thinning {
+    let mut d = out.diagnosis;
+    if let Some(t) = &out.thinning {
+        let note = t.note("--max-rows");
         eprintln!("diagnose: {note}");
+        d.design_notes.push(note);
     }
-    let d = out.diagnosis;
     let iso = matches!(against, Against::Nothing).then(|| iso_effect(&out.recorded_rows, &d));
     // Every report carries the session's environment.
     let environment = errmap::report::environment_summary(&out.recorded_rows);

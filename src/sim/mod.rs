@@ -31,7 +31,7 @@ pub use concealed::{
     write_all as write_concealed,
 };
 pub use error::SimError;
-pub use job::{Against, DiagnoseJob, session_file};
+pub use job::{Against, DiagnoseJob, DiagnoseOutcome, JobError, Thinning, session_file};
 pub use physics::{
     Abbe, ColouredNoise, History, LatchDelay, MachineModel, Outliers, PeriodicScale, PhysicsTruth,
     Refraction, Reversal, Scale, ScaleFactor, ThermalDrift, simulate_plan, simulate_rows,
