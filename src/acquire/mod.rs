@@ -50,9 +50,8 @@ pub enum AcquireError {
     },
     #[error("{path}: no valid frame in {bytes} bytes (is this a raw capture?)")]
     NoFrames { path: PathBuf, bytes: usize },
-    #[error(
-        "{path} already exists: a capture never overwrites an earlier one; choose another --out"
-    )]
+    /// The capture's raw file exists already (the CLI adds which flag names another).
+    #[error("{path} already exists: a capture never overwrites an earlier one")]
     Exists { path: PathBuf },
 }
 

@@ -139,7 +139,7 @@ pub(crate) fn main() -> ExitCode {
 fn message(e: &anyhow::Error) -> String {
     let mut text = String::new();
     for cause in e.chain() {
-        let c = cause.to_string();
+        let c = in_flags(cause);
         if text.is_empty() {
             text = c;
         } else if !text.contains(&c) {
@@ -147,6 +147,15 @@ fn message(e: &anyhow::Error) -> String {
         }
     }
     text
+}
+
+/// A library error in the command line's words: where the library's message stops at its
+/// own terms, the flag that would change the outcome is added.
+fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
+    if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
+        return format!("{cause}; choose another --out");
+    }
+    cause.to_string()
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -217,5 +226,17 @@ mod tests {
         assert_eq!(m, "t.csv: cannot read: entity not found");
         let e = anyhow::anyhow!("inner").context("outer");
         assert_eq!(super::message(&e), "outer: inner");
+    }
+
+    /// The library says a capture never overwrites; the command line adds its flag.
+    #[test]
+    fn an_existing_capture_names_the_out_flag() {
+        let e = anyhow::Error::from(errmap::acquire::AcquireError::Exists {
+            path: "s/raw.bin".into(),
+        });
+        assert_eq!(
+            super::message(&e),
+            "s/raw.bin already exists: a capture never overwrites an earlier one; choose another --out"
+        );
     }
 }
