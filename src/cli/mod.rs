@@ -155,6 +155,11 @@ fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
     if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
         return format!("{cause}; choose another --out");
     }
+    if let Some(errmap::volumetric::VolumetricError::NoFit { .. }) = cause.downcast_ref() {
+        return format!(
+            "{cause}: write the model with `errmap volumetric identify … --out MODEL.json`"
+        );
+    }
     cause.to_string()
 }
 
@@ -226,6 +231,18 @@ mod tests {
         assert_eq!(m, "t.csv: cannot read: entity not found");
         let e = anyhow::anyhow!("inner").context("outer");
         assert_eq!(super::message(&e), "outer: inner");
+    }
+
+    /// A model without a fit: the command line says which command writes one.
+    #[test]
+    fn a_model_without_a_fit_names_the_command_that_writes_one() {
+        let e = anyhow::Error::from(errmap::volumetric::VolumetricError::NoFit {
+            path: "m.json".into(),
+        });
+        assert_eq!(
+            super::message(&e),
+            "m.json: fit: missing: write the model with `errmap volumetric identify … --out MODEL.json`"
+        );
     }
 
     /// The library says a capture never overwrites; the command line adds its flag.

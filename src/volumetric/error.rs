@@ -32,6 +32,10 @@ pub enum VolumetricError {
     Fit { file: String, message: String },
     #[error(transparent)]
     Table(#[from] TableError),
+    /// A model document without a fit: not written by the identification (the CLI adds
+    /// the command that writes one).
+    #[error("{path}: fit: missing")]
+    NoFit { path: PathBuf },
 }
 
 /// Why the lines cannot carry a fit; the caller names the line table.

@@ -12,7 +12,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::doc::ModelDoc;
+use super::doc::{DocProblem, ModelDoc};
 use super::error::{Undetermined, VolumetricError, config_err};
 use super::identify::FitState;
 use super::lines::LineTable;
@@ -58,7 +58,12 @@ impl Predictor {
             serde_json::from_str(&text).map_err(|e| config_err(path, "file", e.to_string()))?;
         let fit = doc
             .check()
-            .map_err(|p| config_err(path, p.key, p.message))?
+            .map_err(|p| match p {
+                DocProblem::NoFit => VolumetricError::NoFit {
+                    path: path.to_path_buf(),
+                },
+                DocProblem::Bad { key, message } => config_err(path, key, message),
+            })?
             .clone();
         Ok(Predictor::Fit(fit))
     }
