@@ -3,7 +3,7 @@
 //!
 //! Interpolation: a 41×41×41 grid of random errors and 10⁶ random query points inside it,
 //! each method at one thread and at all threads. Fit: a 21×21×21 table. Decoder: a
-//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Volumetric: [`volumetric`]. Timings are wall-clock medians
+//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Volumetric: `volumetric`. Timings are wall-clock medians
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
 
@@ -59,12 +59,12 @@ pub struct BenchReport {
     /// Extra measurements (name → seconds), e.g. the GP fit and the diagnosis.
     pub extra: Vec<(String, f64)>,
     /// Volumetric identification of a 60-line campaign and the 41³ vector map
-    /// ([`volumetric`]).
+    /// (`volumetric`).
     pub volumetric: Option<volumetric::VolumetricBench>,
     /// Replay and table on a generated long capture: MB/s and peak RSS (None: the
     /// measurement failed).
     pub stream: Option<crate::acquire::StreamBench>,
-    /// The calibration ledger at plant scale, per backend ([`history`]; filled by the
+    /// The calibration ledger at plant scale, per backend (`history`; filled by the
     /// binary, which owns the ledger's location).
     pub history: Vec<history::HistoryBench>,
 }

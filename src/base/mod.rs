@@ -5,14 +5,14 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`axis`] | the one [`Axis`] of the library (error-table columns, messages, indices) and the one [`Direction`] of approach |
-//! | [`stats`] | rms, median, centred rms, peak-to-peak, the Gaussian generator |
+//! | `axis` | the one [`Axis`] of the library (error-table columns, messages, indices) and the one [`Direction`] of approach |
+//! | `stats` | rms, median, centred rms, peak-to-peak, the Gaussian generator |
 //! | [`vocabulary`] | the diagnosis vocabulary: effect ids and parameter names, spelt once; the one [`Verdict`] |
 //! | [`effect`] | the vocabulary's payload: one typed [`Effect`] per id, in the contract's JSON shape |
-//! | [`optim`] | L-BFGS and golden-section minimisers |
-//! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
-//! | [`limits`] | the physical ranges every reader checks its numbers against |
-//! | [`error`] | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
+//! | `optim` | L-BFGS and golden-section minimisers |
+//! | `consts` | physical constants used in more than one stage (the HeNe wavelength) |
+//! | `limits` | the physical ranges every reader checks its numbers against |
+//! | `error` | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
 
 mod axis;
 mod consts;

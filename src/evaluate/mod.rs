@@ -4,9 +4,9 @@
 //!
 //! | module | computes |
 //! |---|---|
-//! | [`cv`] | leave-one-plane-out (grids) and leave-one-out (GP) cross-validation |
-//! | [`compare`] | the comparison like the paper's Table 2, the recommendation, sampling advice |
-//! | [`experiment`] | the fuzzy-interpolation paper's simulation (Agbegha, Guo and Bai 2011: fuzzy vs trilinear vs spline on random errors) |
+//! | `cv` | leave-one-plane-out (grids) and leave-one-out (GP) cross-validation |
+//! | `compare` | the comparison like the paper's Table 2, the recommendation, sampling advice |
+//! | `experiment` | the fuzzy-interpolation paper's simulation (Agbegha, Guo and Bai 2011: fuzzy vs trilinear vs spline on random errors) |
 
 mod compare;
 mod cv;

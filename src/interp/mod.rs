@@ -3,11 +3,11 @@
 //!
 //! | method | module | fit cost | evaluation cost per point | reference |
 //! |---|---|---|---|---|
-//! | Lagrange m×n×q | [`lagrange`] | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | Zhang Mei 2013, Eq. P_{m,n,q} |
-//! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 1–4 |
-//! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | Agbegha, Guo and Bai 2011, Eqs. 5–7 |
-//! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 8–13 |
-//! | Gaussian process (kriging) | [`gp`] | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
+//! | Lagrange m×n×q | `lagrange` | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | Zhang Mei 2013, Eq. P_{m,n,q} |
+//! | trilinear | `trilinear` | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 1–4 |
+//! | tricubic natural spline | `spline` | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | Agbegha, Guo and Bai 2011, Eqs. 5–7 |
+//! | fuzzy (Gaussian memberships) | `fuzzy` | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 8–13 |
+//! | Gaussian process (kriging) | `gp` | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
 //!
 //! N is the number of grid nodes. Every method evaluates outside the grid too (the rule
 //! is in each module's docs) and the caller is told by [`Interpolator::outside`], so

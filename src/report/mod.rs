@@ -3,23 +3,23 @@
 //!
 //! | module | writes |
 //! |---|---|
-//! | [`compare`] | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
-//! | [`concealed`] | the concealed-case report and index (`reports/diagnosis/`) |
-//! | [`findings`] | a comparison's findings in plain words |
-//! | [`json`] | the `compare --json` document |
-//! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | `compare` | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
+//! | `concealed` | the concealed-case report and index (`reports/diagnosis/`) |
+//! | `findings` | a comparison's findings in plain words |
+//! | `json` | the `compare --json` document |
+//! | `iso230` | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
 //! | [`certificate`] | the calibration certificate PDF (`errmap certificate`), with its statement of conformity when tolerances are given |
-//! | [`acceptance`] | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
-//! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
-//! | [`environment`] | a session's air and material temperatures in words and a table |
-//! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
-//! | [`experiment`] | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
-//! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
-//! | [`history`] | the calibration history report (`history report --report`) |
-//! | [`md`] | nothing itself: the Markdown writer the reports are written with |
-//! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
+//! | `acceptance` | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
+//! | `uncertainty` | the measurement-uncertainty budget table and the standards note |
+//! | `environment` | a session's air and material temperatures in words and a table |
+//! | `diagnosis` | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
+//! | `experiment` | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
+//! | `volumetric` | the volumetric identification report (`volumetric identify --report`) |
+//! | `history` | the calibration history report (`history report --report`) |
+//! | `md` | nothing itself: the Markdown writer the reports are written with |
+//! | `finite` | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
 //!
-//! Every file is written through [`write_text`] or [`write_json`]: checked by [`finite`],
+//! Every file is written through [`write_text`] or [`write_json`]: checked by `finite`,
 //! then written whole or not at all (`table::write_atomically`).
 
 use std::path::{Path, PathBuf};
@@ -95,7 +95,7 @@ pub enum ReportError {
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
-    /// A NaN or ±inf reached a writer ([`finite`]): a bug in errmap, not in the input.
+    /// A NaN or ±inf reached a writer (`finite`): a bug in errmap, not in the input.
     #[error(
         "{path}: {value} at {at}: a non-finite number reached the output, which is a bug in \
          errmap (the readers refuse such values); nothing was written, please report it"

@@ -4,14 +4,14 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`physics`] | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
-//! | [`plan`] | measurement-plan files, simulating a stream, test points with the truth |
-//! | [`testplan`] | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
+//! | `physics` | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
+//! | `plan` | measurement-plan files, simulating a stream, test points with the truth |
+//! | `testplan` | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
 //! | [`program`] | part programs for a test plan (LinuxCNC, Fanuc, Siemens 840D, Heidenhain) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
-//! | [`job`] | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
-//! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
-//! | [`error`] | [`SimError`] |
+//! | `job` | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
+//! | `concealed` | the concealed-effect cases of `datasets/concealed/` |
+//! | `error` | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
 
 mod bounds;

@@ -749,8 +749,8 @@ pub fn simulate_session(
 
 /// The model's noiseless error at every row of a recording, relative to its value at the
 /// recording's first clean row (the counters' origin), as `simulate` would have given
-/// for the same plan: the "simulated" side of a diagnosis against a machine model. Rows outside runs after
-/// the first MARK are left out (their line position is unknown).
+/// for the same plan: the "simulated" side of a diagnosis against a machine model. Rows
+/// outside runs after the first MARK are left out (their line position is unknown).
 pub fn simulate_rows(
     model: &MachineModel,
     model_path: &Path,
