@@ -12,8 +12,8 @@ use std::sync::LazyLock;
 use divan::counter::{BytesCount, ItemsCount};
 use divan::{Bencher, black_box};
 use errmap::bench::{gp_points, random_grid, random_points, synthetic_capture};
-use errmap::interp::gp::{Gp, GpConfig};
-use errmap::interp::{Method, Order, fuzzy, predict_parallel};
+use errmap::interp::{DEFAULT_FUZZY_SIGMA, Method, Order, predict_parallel};
+use errmap::interp::{Gp, GpConfig};
 use errmap::table::Grid;
 
 fn main() {
@@ -43,7 +43,7 @@ fn evaluate(bencher: Bencher, method: Method, threads: usize) {
 }
 
 const FUZZY: Method = Method::Fuzzy {
-    sigma: fuzzy::DEFAULT_SIGMA,
+    sigma: DEFAULT_FUZZY_SIGMA,
 };
 
 #[divan::bench_group(sample_count = 20)]
@@ -133,27 +133,27 @@ fn decode_rows(b: Bencher) {
 /// at knots, smoothing by REML), with σ and identifiability.
 #[divan::bench(sample_count = 5)]
 fn volumetric_identify_default(b: Bencher) {
-    let (_, table) = errmap::bench::volumetric::campaign(1);
-    let config = errmap::bench::volumetric::config(None);
+    let (_, table) = errmap::bench::volumetric_campaign(1);
+    let config = errmap::bench::volumetric_config(None);
     b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
 }
 
 /// Volumetric identification with polynomials of a fixed degree 3.
 #[divan::bench(sample_count = 5)]
 fn volumetric_identify_degree3(b: Bencher) {
-    let (_, table) = errmap::bench::volumetric::campaign(1);
-    let config = errmap::bench::volumetric::config(Some(3));
+    let (_, table) = errmap::bench::volumetric_campaign(1);
+    let config = errmap::bench::volumetric_config(Some(3));
     b.bench_local(|| errmap::volumetric::identify(black_box(&table), &config).is_ok());
 }
 
 /// The error vector with σ at 41³ points from the default model, points per second.
 #[divan::bench(sample_count = 5)]
 fn volumetric_vector_map(b: Bencher) {
-    let (_, table) = errmap::bench::volumetric::campaign(1);
-    let id = errmap::volumetric::identify(&table, &errmap::bench::volumetric::config(None))
+    let (_, table) = errmap::bench::volumetric_campaign(1);
+    let id = errmap::volumetric::identify(&table, &errmap::bench::volumetric_config(None))
         .expect("the benchmark campaign identifies");
     let model = errmap::volumetric::Predictor::Fit(id.fit);
-    let points = errmap::bench::volumetric::grid_points();
+    let points = errmap::bench::volumetric_grid_points();
     b.counter(ItemsCount::new(points.len()))
         .bench_local(|| model.predict_grid(black_box(&points), [0.0; 3]).is_ok());
 }

@@ -3,21 +3,27 @@
 //!
 //! Interpolation: a 41×41×41 grid of random errors and 10⁶ random query points inside it,
 //! each method at one thread and at all threads. Fit: a 21×21×21 table. Decoder: a
-//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Volumetric: [`volumetric`]. Timings are wall-clock medians
+//! synthetic capture of simulated SAMPLE/MARK/ENV frames. Volumetric: `volumetric`. Timings are wall-clock medians
 //! of at least 3 repetitions and 0.3 s per measurement; run a release build
 //! (`cargo run --release -- bench`).
 
-pub mod history;
-pub mod volumetric;
+mod history;
+mod volumetric;
 
-use crate::base::stats::median;
+pub use history::{HistoryBench, run as run_history};
+pub use volumetric::{
+    campaign as volumetric_campaign, config as volumetric_config,
+    grid_points as volumetric_grid_points,
+};
+
+use crate::base::median;
 use std::time::Instant;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::interp::{Method, Order, fuzzy, predict_parallel};
+use crate::interp::{DEFAULT_FUZZY_SIGMA, Method, Order, predict_parallel};
 use crate::table::Grid;
 
 /// One interpolation result.
@@ -53,12 +59,12 @@ pub struct BenchReport {
     /// Extra measurements (name → seconds), e.g. the GP fit and the diagnosis.
     pub extra: Vec<(String, f64)>,
     /// Volumetric identification of a 60-line campaign and the 41³ vector map
-    /// ([`volumetric`]).
+    /// (`volumetric`).
     pub volumetric: Option<volumetric::VolumetricBench>,
     /// Replay and table on a generated long capture: MB/s and peak RSS (None: the
     /// measurement failed).
-    pub stream: Option<crate::acquire::measure::StreamBench>,
-    /// The calibration ledger at plant scale, per backend ([`history`]; filled by the
+    pub stream: Option<crate::acquire::StreamBench>,
+    /// The calibration ledger at plant scale, per backend (`history`; filled by the
     /// binary, which owns the ledger's location).
     pub history: Vec<history::HistoryBench>,
 }
@@ -139,7 +145,7 @@ pub fn methods() -> Vec<Method> {
         Method::Lagrange(Order([2, 2, 2])),
         Method::Lagrange(Order([4, 4, 4])),
         Method::Fuzzy {
-            sigma: fuzzy::DEFAULT_SIGMA,
+            sigma: DEFAULT_FUZZY_SIGMA,
         },
     ]
 }
@@ -219,7 +225,7 @@ pub fn run(config: &BenchConfig) -> BenchReport {
         decode_bytes: capture.len(),
         extra,
         volumetric,
-        stream: crate::acquire::measure::stream_bench(STREAM_BENCH_MB).ok(),
+        stream: crate::acquire::stream_bench(STREAM_BENCH_MB).ok(),
         history: Vec::new(),
     }
 }
@@ -241,7 +247,7 @@ pub fn gp_points(n: usize) -> Vec<crate::table::ErrorPoint> {
 pub fn gp_fit_seconds(n: usize) -> Option<f64> {
     let points = gp_points(n);
     let t = Instant::now();
-    crate::interp::gp::Gp::fit(&points, &crate::interp::gp::GpConfig::default()).ok()?;
+    crate::interp::Gp::fit(&points, &crate::interp::GpConfig::default()).ok()?;
     Some(t.elapsed().as_secs_f64())
 }
 
@@ -253,21 +259,21 @@ pub fn diagnosis_seconds(rows: usize) -> Option<(usize, f64)> {
     if !table1.is_file() {
         return None;
     }
-    let base = crate::sim::concealed::plan();
+    let base = crate::sim::concealed_plan();
     // The plan gives ~13 000 rows at 20 Hz; scale the rate for the requested size.
     let plan = errmap_drivers::sim::Plan {
         sample_hz: 20.0 * rows as f64 / 13_000.0,
         ..base
     };
-    let nominal = crate::sim::concealed::nominal(&table1, 1);
+    let nominal = crate::sim::concealed_nominal(&table1, 1);
     let mut hidden = nominal.clone();
-    hidden.reversal = Some(crate::sim::physics::Reversal {
+    hidden.reversal = Some(crate::sim::Reversal {
         enabled: true,
         b_um: 1.0,
     });
     let model_path = root.join("datasets/model.toml");
-    let recorded = crate::sim::physics::simulate_session(&hidden, &model_path, &plan, true).ok()?;
-    let simulated = crate::sim::physics::simulate_rows(&nominal, &model_path, &recorded).ok()?;
+    let recorded = crate::sim::simulate_session(&hidden, &model_path, &plan, true).ok()?;
+    let simulated = crate::sim::simulate_rows(&nominal, &model_path, &recorded).ok()?;
     let t = Instant::now();
     crate::diagnose::diagnose(
         &recorded,

@@ -122,7 +122,7 @@
 //!     }
 //! }
 //! let grid = ErrorTable::from_points("affine", points).grid()?;
-//! let cv = errmap::evaluate::cv::leave_one_plane_out(&grid, &Method::Trilinear)?;
+//! let cv = errmap::evaluate::leave_one_plane_out(&grid, &Method::Trilinear)?;
 //! assert!(cv.rms_um < 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -184,10 +184,10 @@
 //! simulation, run for two trials and written as Markdown:
 //!
 //! ```
-//! use errmap::evaluate::experiment::{FuzzySimConfig, run};
+//! use errmap::evaluate::{FuzzySimConfig, run_fuzzy_sim};
 //!
-//! let result = run(&FuzzySimConfig { trials: 2, ..FuzzySimConfig::default() })?;
-//! let markdown = errmap::report::experiment::markdown(&result);
+//! let result = run_fuzzy_sim(&FuzzySimConfig { trials: 2, ..FuzzySimConfig::default() })?;
+//! let markdown = errmap::report::experiment_markdown(&result);
 //! assert!(markdown.starts_with("# Fuzzy vs trilinear vs cubic spline"));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -196,7 +196,7 @@
 //! with a bundled font:
 //!
 //! ```
-//! use errmap::base::{Axis, stats::rms};
+//! use errmap::base::{Axis, rms};
 //! use errmap::plot::{XySeries, XyStyle, xy};
 //!
 //! assert_eq!("y".parse::<Axis>()?, Axis::Y);

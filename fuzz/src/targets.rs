@@ -168,7 +168,7 @@ impl Target {
                     .map(|l| l.targets as u64 * u64::from(l.runs))
                     .sum();
                 assert!(
-                    readings <= errmap::volumetric::simulate::MAX_READINGS,
+                    readings <= errmap::volumetric::MAX_READINGS,
                     "a plan of {readings} readings accepted"
                 );
                 true

@@ -10,7 +10,7 @@
 //! of the error field leaves E unchanged, so the identification's gauge does not matter.
 //!
 //! **After compensation** (`compensated`): the controller subtracts, at the tool point
-//! (probe offset 0), the component tables of [`compensation::component_tables`] sampled at
+//! (probe offset 0), the component tables of [`component_tables`] sampled at
 //! `n` positions per axis and interpolated linearly. What remains of a test length is
 //! E_after = E − E_table with E_table the same projection of the tables' error vector at
 //! P1 and P2 with p = 0: the tables' interpolation error and the angular errors times the
@@ -31,9 +31,9 @@ use super::AcceptanceError;
 use super::mpe::Mpe;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::interp::Method;
-use crate::volumetric::compensation;
+use crate::volumetric::component_tables;
 use crate::volumetric::{
     Component, ComponentFn, Line, LineTable, Machine, Predictor, Target, Topology,
 };
@@ -482,7 +482,7 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
     type Tables = (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]);
     let (topology, positions, values): Tables = match &model.predictor {
         Predictor::Fit(f) => {
-            let t = compensation::component_tables(f, n)?;
+            let t = component_tables(f, n).map_err(|e| e.to_string())?;
             (t.topology, t.positions_mm, t.values)
         }
         Predictor::Machine(m) => {
@@ -676,7 +676,10 @@ impl VirtualRun<'_> {
                         .predictor
                         .predict_grid(&[g.p1, g.p2], g.probe)
                         .err()
-                        .unwrap_or_else(|| "a component the lines did not determine".into());
+                        .map_or_else(
+                            || "a component the lines did not determine".into(),
+                            |e| e.to_string(),
+                        );
                     return Err(self.err(format!(
                         "position `{}`, gauge {} cannot be predicted: {why}",
                         self.plan.positions[g.position].id, g.gauge

@@ -27,8 +27,8 @@ use super::AcceptanceError;
 use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::base::Axis;
 use crate::base::FileOp;
-use crate::base::error::io_err;
-use crate::session::iso230::AxisStats;
+use crate::base::io_err;
+use crate::session::AxisStats;
 use crate::session::uncertainty::StatUncertainty;
 
 /// How close a `[[line]]`'s `line_mm` must be to a session line's, mm.

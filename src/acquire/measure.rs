@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use super::{AcquireError, replay};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::session::{BATCH_ROWS, Reducer, for_each_batch};
 
 /// What [`stream_bench`] measured.
@@ -38,7 +38,7 @@ pub struct StreamBench {
 }
 
 /// Resets the resident high-water mark; false where Linux's `clear_refs` is unavailable.
-pub fn reset_peak_rss() -> bool {
+pub(crate) fn reset_peak_rss() -> bool {
     std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 

@@ -11,7 +11,9 @@
 //! - `session.json` — the device's HELLO, the decoder statistics (spec shape, with the
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
-pub mod measure;
+mod measure;
+
+pub use measure::{StreamBench, peak_rss_mb, stream_bench};
 
 use std::fs::{File, OpenOptions};
 use std::io::Read;
@@ -25,7 +27,7 @@ use errmap_drivers::frame::Hello;
 use errmap_drivers::{ByteSource, DecoderStats, SessionDecoder, SessionEvent};
 use serde::Serialize;
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
 use crate::session::SessionWriter;
 use crate::table::TableError;
@@ -48,9 +50,8 @@ pub enum AcquireError {
     },
     #[error("{path}: no valid frame in {bytes} bytes (is this a raw capture?)")]
     NoFrames { path: PathBuf, bytes: usize },
-    #[error(
-        "{path} already exists: a capture never overwrites an earlier one; choose another --out"
-    )]
+    /// The capture's raw file exists already (the CLI adds which flag names another).
+    #[error("{path} already exists: a capture never overwrites an earlier one")]
     Exists { path: PathBuf },
 }
 

@@ -188,7 +188,7 @@ impl ConfigError {
 
 /// Reads the TOML file at `path` into `T`: read once, parsed (unknown keys refused where
 /// `T` says so), then `check` run over the text (the simulator's physical ranges,
-/// `sim::bounds::check_numbers`, for machine models and plans), so that a value
+/// `sim::check_numbers`, for machine models and plans), so that a value
 /// serde would take, such as `nan` or `1e308`, is refused with its key.
 ///
 /// This is the one function in `base` that touches the file system: the errors it
@@ -279,7 +279,7 @@ mod tests {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("model.toml");
         std::fs::write(&path, "[scale_factor]\nppm = nan\n").expect("write");
-        match crate::sim::physics::MachineModel::read(&path) {
+        match crate::sim::MachineModel::read(&path) {
             Err(crate::sim::SimError::Config(e)) => {
                 assert_eq!(e.key_path(), Some("scale_factor.ppm"));
             }

@@ -36,18 +36,38 @@ impl Bound {
         v.is_finite() && self.lo <= v && v <= self.hi
     }
 
-    /// `Ok` inside the range, else why not, in words for a message.
-    pub fn check(&self, v: f64) -> Result<(), String> {
+    /// `Ok` inside the range, else why not (its words are for a message).
+    pub fn check(&self, v: f64) -> Result<(), OutOfBound> {
         if self.contains(v) {
             Ok(())
         } else if !v.is_finite() {
-            Err(format!("value {v} is not finite"))
+            Err(OutOfBound::NotFinite { value: v })
         } else {
-            Err(format!(
-                "value {v:e} is outside the physical range of {self}"
-            ))
+            Err(OutOfBound::Outside {
+                value: v,
+                bound: *self,
+            })
         }
     }
+}
+
+/// A value [`Bound::check`] refused. The caller says where it stood (file, key, row).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum OutOfBound {
+    /// NaN or infinite.
+    #[error("value {value} is not finite")]
+    NotFinite {
+        /// The value refused.
+        value: f64,
+    },
+    /// Finite, but beyond the physical range.
+    #[error("value {value:e} is outside the physical range of {bound}")]
+    Outside {
+        /// The value refused.
+        value: f64,
+        /// The range it left.
+        bound: Bound,
+    },
 }
 
 impl fmt::Display for Bound {
@@ -134,12 +154,17 @@ mod tests {
         assert!(TEMPERATURE_C.contains(20.0));
         assert!(!TEMPERATURE_C.contains(-273.15));
         let m = ERROR_UM.check(1e308).expect_err("refused");
-        assert!(m.contains("1e308") && m.contains("µm"), "{m}");
-        assert!(
-            TIME_S
-                .check(f64::INFINITY)
-                .expect_err("refused")
-                .contains("not finite")
+        assert_eq!(
+            m,
+            OutOfBound::Outside {
+                value: 1e308,
+                bound: ERROR_UM
+            }
         );
+        let m = m.to_string();
+        assert!(m.contains("1e308") && m.contains("µm"), "{m}");
+        let m = TIME_S.check(f64::INFINITY).expect_err("refused");
+        assert!(matches!(m, OutOfBound::NotFinite { value } if value.is_infinite()));
+        assert!(m.to_string().contains("not finite"));
     }
 }

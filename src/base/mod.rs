@@ -5,25 +5,32 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`axis`] | the one [`Axis`] of the library (error-table columns, messages, indices) and the one [`Direction`] of approach |
-//! | [`stats`] | rms, median, centred rms, peak-to-peak, the Gaussian generator |
+//! | `axis` | the one [`Axis`] of the library (error-table columns, messages, indices) and the one [`Direction`] of approach |
+//! | `stats` | rms, median, centred rms, peak-to-peak, the Gaussian generator |
 //! | [`vocabulary`] | the diagnosis vocabulary: effect ids and parameter names, spelt once; the one [`Verdict`] |
 //! | [`effect`] | the vocabulary's payload: one typed [`Effect`] per id, in the contract's JSON shape |
-//! | [`optim`] | L-BFGS and golden-section minimisers |
-//! | [`consts`] | physical constants used in more than one stage (the HeNe wavelength) |
-//! | [`limits`] | the physical ranges every reader checks its numbers against |
-//! | [`error`] | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
+//! | `optim` | L-BFGS and golden-section minimisers |
+//! | `consts` | physical constants used in more than one stage (the HeNe wavelength) |
+//! | `limits` | the physical ranges every reader checks its numbers against |
+//! | `error` | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
 
-pub mod axis;
-pub mod consts;
+mod axis;
+mod consts;
 pub mod effect;
-pub mod error;
-pub mod limits;
-pub mod optim;
-pub mod stats;
+mod error;
+mod limits;
+mod optim;
+mod stats;
 pub mod vocabulary;
 
 pub use axis::{Axis, Direction};
+pub use consts::HENE_WAVELENGTH_UM;
 pub use effect::{Drift, Effect, ParamValue};
-pub use error::{ConfigError, FileError, FileOp, Location};
+pub use error::{ConfigError, FileError, FileOp, Location, io_err, parse_error, read_toml};
+pub use limits::{
+    Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, OutOfBound, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C,
+    TIME_S, UNCERTAINTY_UM,
+};
+pub use optim::{golden, lbfgs};
+pub use stats::{centred_rms, gaussian, median, peak_to_peak, rms};
 pub use vocabulary::{EffectId, ParamName, Verdict};

@@ -13,7 +13,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::base::stats::{gaussian, median};
+use crate::base::{gaussian, median};
 use crate::history::report::{ReportConfig, Run};
 use crate::history::tolerance::Tolerances;
 use crate::history::{
@@ -151,7 +151,7 @@ pub fn run(ledger_spec: &str, machines: usize, tests: usize) -> Result<HistoryBe
     }
     let report_s = start.elapsed().as_secs_f64();
     let report_peak_rss_mb = if rss_reset {
-        crate::acquire::measure::peak_rss_mb()
+        crate::acquire::peak_rss_mb()
     } else {
         None
     };
@@ -170,7 +170,7 @@ pub fn run(ledger_spec: &str, machines: usize, tests: usize) -> Result<HistoryBe
 }
 
 /// The measurements as a Markdown table (empty when there are none).
-pub fn markdown(h: &[HistoryBench]) -> String {
+pub(crate) fn markdown(h: &[HistoryBench]) -> String {
     if h.is_empty() {
         return String::new();
     }

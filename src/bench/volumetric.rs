@@ -14,19 +14,19 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::volumetric::model::Component;
-use crate::volumetric::simulate::{Plan, PlannedLine, preset};
+use crate::volumetric::Component;
 use crate::volumetric::{
     ComponentFn, Degree, FitState, IdentifyConfig, LineTable, Machine, Predictor, Topology,
     identify, simulate,
 };
+use crate::volumetric::{Plan, PlannedLine, preset};
 
 /// Lines of the benchmark campaign.
-pub const LINES: usize = 60;
+pub(crate) const LINES: usize = 60;
 /// Targets per line.
-pub const TARGETS: usize = 21;
+pub(crate) const TARGETS: usize = 21;
 /// Grid nodes per axis of the predicted vector map.
-pub const GRID: usize = 41;
+pub(crate) const GRID: usize = 41;
 
 const VOLUME: [[f64; 3]; 2] = [[0.0, 0.0, 0.0], [800.0, 600.0, 400.0]];
 
@@ -132,7 +132,7 @@ pub fn config(degree: Option<usize>) -> IdentifyConfig {
 }
 
 /// Runs the volumetric benchmark; `time` measures a closure (median seconds).
-pub fn run(time: &mut dyn FnMut(&mut dyn FnMut()) -> f64) -> Option<VolumetricBench> {
+pub(crate) fn run(time: &mut dyn FnMut(&mut dyn FnMut()) -> f64) -> Option<VolumetricBench> {
     let (_, table) = campaign(1);
     let default = config(None);
     let fixed = config(Some(3));
@@ -207,7 +207,7 @@ mod tests {
                 }
             }
             for (q, sq) in gauge.squareness_urad.iter().enumerate() {
-                let d = crate::volumetric::model::squareness_effect(q, *p);
+                let d = crate::volumetric::squareness_effect(q, *p);
                 for i in 0..3 {
                     want[i] += sq * d[i];
                 }

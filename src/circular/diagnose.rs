@@ -447,7 +447,7 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
         };
         let lo = (u_best - reach * step).max(u_lo);
         let hi = (u_best + reach * step).min(u_hi);
-        let u = crate::base::optim::golden(lo, hi, 18, joint).0;
+        let u = crate::base::golden(lo, hi, 18, joint).0;
         set[k].nl = to_nl(u);
     }
 }

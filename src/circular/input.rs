@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::error::{CircularError, key_err, parse_toml};
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{Axis, FileOp};
 use crate::table::TableError;
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};

@@ -70,7 +70,9 @@ pub fn predicted_trace(
             p
         })
         .collect();
-    let e = predictor.predict_grid(&pts, [0.0; 3])?;
+    let e = predictor
+        .predict_grid(&pts, [0.0; 3])
+        .map_err(|e| e.to_string())?;
     Ok(thetas
         .iter()
         .zip(&e)

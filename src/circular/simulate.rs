@@ -43,8 +43,8 @@ use super::error::{CircularError, key_err, parse_toml};
 use super::input::{CircularTest, Run, Sense, TestMeta, meta_path};
 use super::signature::{Slot, slots};
 use crate::base::FileOp;
-use crate::base::error::io_err;
-use crate::base::stats::gaussian;
+use crate::base::gaussian;
+use crate::base::io_err;
 use crate::base::{Effect, EffectId, ParamValue};
 
 /// The setup of a simulated test.

@@ -192,8 +192,7 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
     if let Some(dir) = &a.report {
         let source = a.test.display().to_string();
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::acceptance::write_iso10360_report(d, &source, &r, &config.rule)
-                .map_err(Into::into)
+            errmap::report::write_iso10360_report(d, &source, &r, &config.rule).map_err(Into::into)
         })?;
         eprintln!("acceptance iso10360: report in {}", dir.display());
     }
@@ -250,7 +249,7 @@ pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
     if let Some(dir) = &a.report {
         let source = a.model.display().to_string();
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::acceptance::write_virtual_report(d, &source, &t).map_err(Into::into)
+            errmap::report::write_virtual_report(d, &source, &t).map_err(Into::into)
         })?;
         eprintln!("volumetric iso10360: report in {}", dir.display());
     }

@@ -12,7 +12,7 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::session::{self, iso230, uncertainty};
+use errmap::session::{self, uncertainty};
 
 use super::args::{CaptureArgs, FaultArgs, PortsArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
@@ -292,10 +292,10 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
         );
     }
     if a.json {
-        super::guard::print_json(&errmap::report::json::ReplayJson {
+        super::guard::print_json(&errmap::report::ReplayJson {
             stats: &stats,
             // The process's resident high-water mark (Linux), MB: memory stays bounded.
-            peak_rss_mb: acquire::measure::peak_rss_mb(),
+            peak_rss_mb: acquire::peak_rss_mb(),
         })?;
     } else {
         eprintln!(
@@ -313,7 +313,7 @@ pub(crate) fn replay_cmd(a: ReplayArgs) -> Result<()> {
 
 /// A session argument: a table file, or a capture directory holding one.
 pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
-    Ok(errmap::sim::job::session_file(p)?)
+    Ok(errmap::sim::session_file(p)?)
 }
 
 pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
@@ -338,7 +338,7 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
         None => None,
     };
     if a.json {
-        use errmap::report::json::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
+        use errmap::report::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
         let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
         let lines = reduced
             .iso
@@ -374,7 +374,7 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
 pub(crate) struct Reduced {
     pub table: errmap::table::ErrorTable,
     pub summary: session::ReductionSummary,
-    pub iso: Vec<((f64, f64), iso230::AxisStats)>,
+    pub iso: Vec<((f64, f64), session::AxisStats)>,
     /// The uncertainty budget of each line of `iso` (default configuration).
     pub budgets: Vec<errmap::session::uncertainty::Budget>,
 }
@@ -396,7 +396,7 @@ pub(crate) fn reduce_session(
     }
     // One pass in batches: memory bounded by a batch and the dwell accumulators.
     let mut reducer = session::Reducer::new();
-    let mut environment = session::environment::EnvironmentStats::default();
+    let mut environment = session::EnvironmentStats::default();
     session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);
@@ -441,10 +441,10 @@ pub(crate) fn reduce_session(
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
-        let environment = errmap::report::environment::environment_text(&environment);
+        let environment = errmap::report::environment_text(&environment);
         // A new report directory appears whole or not at all.
         let p = super::guard::into_new_dir(dir, |d| {
-            errmap::report::iso230::write_session_report(
+            errmap::report::write_session_report(
                 &path.display().to_string(),
                 &axis,
                 &environment,

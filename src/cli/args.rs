@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 use errmap::base::Axis;
-use errmap::evaluate::compare::DEFAULT_MAX_DEGREE;
-use errmap::interp::gp::Kernel;
-use errmap::interp::{MethodName, fuzzy};
+use errmap::evaluate::DEFAULT_MAX_DEGREE;
+use errmap::interp::Kernel;
+use errmap::interp::{DEFAULT_FUZZY_SIGMA, MethodName};
 
 use super::values::{
     CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
@@ -364,7 +364,7 @@ pub(crate) struct DemoArgs {
 #[derive(Debug, Args)]
 pub(crate) struct ModelArgs {
     /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
-    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
+    #[arg(long, default_value_t = DEFAULT_FUZZY_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Highest Lagrange degree per axis tried by `auto`/`all`.
     #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
@@ -444,7 +444,7 @@ pub(crate) struct FuzzySimArgs {
     #[arg(long, default_value_t = 200, value_parser = trials)]
     pub trials: usize,
     /// Fuzzy membership width σ as a fraction of the cell size (0 < σ).
-    #[arg(long, default_value_t = fuzzy::DEFAULT_SIGMA, value_parser = fuzzy_width)]
+    #[arg(long, default_value_t = DEFAULT_FUZZY_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Write a markdown report here.
     #[arg(long)]

@@ -76,9 +76,9 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         })?;
         d.link = Some(link(model, &test.meta, centre, &d)?);
     }
-    errmap::report::finite::check_json(Path::new("circular.json"), &d)?;
+    errmap::report::check_json(Path::new("circular.json"), &d)?;
     super::guard::into_new_dir(&a.report, |dir| {
-        errmap::report::circular::write_report(&test, &d, dir)?;
+        errmap::report::write_circular_report(&test, &d, dir)?;
         Ok(())
     })?;
     if a.json {

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
-use errmap::evaluate::compare::{self, DEFAULT_MAX_DEGREE};
+use errmap::evaluate::{self, DEFAULT_MAX_DEGREE};
 use errmap::interp::{Method, MethodSettings};
 use errmap::table::ErrorTable;
 
@@ -26,7 +26,7 @@ fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
     let test_points = ErrorTable::read(test)?;
     let grid = fitting.grid()?;
     let methods = Method::defaults(&grid, DEFAULT_MAX_DEGREE, &MethodSettings::default());
-    let comparison = compare::compare_where_possible(&fitting, &grid, &test_points, &methods)
+    let comparison = evaluate::compare_where_possible(&fitting, &grid, &test_points, &methods)
         .with_context(|| format!("{}: comparison failed", table.display()))?;
     let command = format!(
         "errmap compare {} --test {} --report {}",
@@ -34,7 +34,7 @@ fn demo_compare(table: &Path, test: &Path, report: &Path) -> Result<()> {
         test.display(),
         report.display()
     );
-    errmap::report::write_report(&comparison, report, &command)?;
+    errmap::report::write_compare_report(&comparison, report, &command)?;
     print_summary(&comparison, report);
     Ok(())
 }
@@ -157,9 +157,7 @@ fn capture_step(inputs: &DemoInputs, session_dir: &Path) -> Result<errmap::sim::
     }
     let (stream, truth) =
         errmap::sim::simulate_stream(&inputs.machine, Some(&inputs.plan), &Default::default())?;
-    let baud = errmap::sim::physics::MachineModel::read(&inputs.model)?
-        .device
-        .baud;
+    let baud = errmap::sim::MachineModel::read(&inputs.model)?.device.baud;
     eprintln!("  the board on a pseudo-terminal, 10× real time");
     let paths = errmap::acquire::SessionPaths::new(session_dir, "csv");
     let config = errmap::drivers::capture::CaptureConfig {

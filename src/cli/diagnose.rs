@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use errmap::diagnose::Diagnosis;
-use errmap::report::diagnosis::{IsoEffect, append_iso_effect, iso_effect, write_report};
-pub(crate) use errmap::sim::job::Against;
-use errmap::sim::job::DiagnoseJob;
+use errmap::report::{IsoEffect, append_iso_effect, iso_effect, write_diagnosis_report};
+pub(crate) use errmap::sim::Against;
+use errmap::sim::DiagnoseJob;
 
 use super::args::DiagnoseArgs;
 
@@ -26,7 +26,7 @@ pub(crate) fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
         usize::try_from(a.max_rows).unwrap_or(usize::MAX),
     )?;
     if a.json {
-        super::guard::print_json(&errmap::report::json::DiagnoseJson {
+        super::guard::print_json(&errmap::report::DiagnoseJson {
             diagnosis: &d,
             iso230: iso.as_ref(),
         })?;
@@ -76,17 +76,19 @@ pub(crate) fn run_diagnosis_with(
         max_rows,
     };
     let out = job.run()?;
-    if let Some(note) = &out.thinning {
+    let mut d = out.diagnosis;
+    if let Some(t) = &out.thinning {
+        let note = t.note("--max-rows");
         eprintln!("diagnose: {note}");
+        d.design_notes.push(note);
     }
-    let d = out.diagnosis;
     let iso = matches!(against, Against::Nothing).then(|| iso_effect(&out.recorded_rows, &d));
     // Every report carries the session's environment.
-    let environment = errmap::report::environment::environment_summary(&out.recorded_rows);
+    let environment = errmap::report::environment_summary(&out.recorded_rows);
     // A new report directory appears whole or not at all (guard::into_new_dir); the
     // temporary one is a sibling, so the model's relative table path is the same.
     let notes = super::guard::into_new_dir(report, |dir| {
-        write_report(&d, dir, Some(&environment))?;
+        write_diagnosis_report(&d, dir, Some(&environment))?;
         if let Some(iso) = &iso {
             append_iso_effect(dir, iso)?;
         }
@@ -167,7 +169,7 @@ fn relative_to(path: &Path, base: &Path) -> PathBuf {
 /// Diagnoses every case under `cases` into `out/<case>/`, with an index comparing found
 /// and hidden effects (`errmap report-concealed`).
 pub(crate) fn report_concealed(cases: &Path, out: &Path) -> Result<()> {
-    for c in errmap::report::concealed::write_concealed(cases, out)? {
+    for c in errmap::report::write_concealed(cases, out)? {
         eprintln!(
             "report-concealed: {}: {} {:?}",
             c.name, c.verdict, c.effects

@@ -31,7 +31,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
 use errmap::base::FileOp;
-use errmap::base::error::io_err;
+use errmap::base::io_err;
 
 /// The error [`print_stdout`] returns when the reader of stdout has gone; `main` turns it
 /// into a quiet exit with [`STDOUT_CLOSED_STATUS`].

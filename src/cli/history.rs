@@ -221,7 +221,7 @@ fn report(a: ReportArgs) -> Result<()> {
     let dir = a.report.clone();
     let n = run.machines();
     let summary = guard::into_new_dir(&dir, |d| {
-        let mut writer = errmap::report::history::ReportWriter::new(d)?;
+        let mut writer = errmap::report::HistoryReportWriter::new(d)?;
         let mut first = true;
         while let Some(m) = run.next_machine()? {
             writer.machine(&m)?;
@@ -299,21 +299,19 @@ fn verify(a: VerifyArgs) -> Result<()> {
 }
 
 /// The ledger benchmark: SQLite in a temporary directory, and PostgreSQL when given.
-pub(crate) fn bench(
-    a: &super::args::BenchArgs,
-) -> Result<Vec<errmap::bench::history::HistoryBench>> {
+pub(crate) fn bench(a: &super::args::BenchArgs) -> Result<Vec<errmap::bench::HistoryBench>> {
     let dir = tempfile_dir()?;
     let sqlite = dir.join("bench.sqlite");
     let _ = std::fs::remove_file(&sqlite);
     let mut out = Vec::new();
     let (m, t) = (a.history_machines.max(1), a.history_tests.max(1));
     eprintln!("bench: calibration ledger, {m} machines × {t} tests × 3 axes on SQLite …");
-    let r = errmap::bench::history::run(&sqlite.display().to_string(), m, t);
+    let r = errmap::bench::run_history(&sqlite.display().to_string(), m, t);
     let _ = std::fs::remove_dir_all(&dir);
     out.push(r?);
     if let Some(url) = &a.history_postgres {
         eprintln!("bench: … and on PostgreSQL");
-        out.push(errmap::bench::history::run(url, m, t)?);
+        out.push(errmap::bench::run_history(url, m, t)?);
     }
     Ok(out)
 }
@@ -371,7 +369,7 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
         },
     )?;
     let head = run.head().clone();
-    let mut writer = errmap::report::history::ReportWriter::new(&report_dir)?;
+    let mut writer = errmap::report::HistoryReportWriter::new(&report_dir)?;
     while let Some(m) = run.next_machine()? {
         writer.machine(&m)?;
     }

@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use errmap::base::Axis;
 use errmap::base::FileOp;
-use errmap::base::error::io_err;
+use errmap::base::io_err;
 use errmap::import::csv::ErrorUnit;
 use errmap::import::{
     self, ColumnMap, CsvOptions, ErrorSign, ImportOptions, LengthUnit, PressureUnit, SessionFormat,

@@ -139,7 +139,7 @@ pub(crate) fn main() -> ExitCode {
 fn message(e: &anyhow::Error) -> String {
     let mut text = String::new();
     for cause in e.chain() {
-        let c = cause.to_string();
+        let c = in_flags(cause);
         if text.is_empty() {
             text = c;
         } else if !text.contains(&c) {
@@ -147,6 +147,20 @@ fn message(e: &anyhow::Error) -> String {
         }
     }
     text
+}
+
+/// A library error in the command line's words: where the library's message stops at its
+/// own terms, the flag that would change the outcome is added.
+fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
+    if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
+        return format!("{cause}; choose another --out");
+    }
+    if let Some(errmap::volumetric::VolumetricError::NoFit { .. }) = cause.downcast_ref() {
+        return format!(
+            "{cause}: write the model with `errmap volumetric identify … --out MODEL.json`"
+        );
+    }
+    cause.to_string()
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -192,9 +206,8 @@ fn run(cli: Cli) -> Result<()> {
         Command::ReportConcealed(a) => diagnose::report_concealed(&a.cases, &a.out),
         Command::GenConcealed(a) => {
             // A new output directory appears whole or not at all.
-            let dirs = guard::into_new_dir(&a.out, |d| {
-                Ok(errmap::sim::concealed::write_all(d, &a.table1)?)
-            })?;
+            let dirs =
+                guard::into_new_dir(&a.out, |d| Ok(errmap::sim::write_concealed(d, &a.table1)?))?;
             eprintln!(
                 "gen-concealed: {} cases under {}",
                 dirs.len(),
@@ -256,5 +269,29 @@ mod tests {
         let mut missing = Vec::new();
         walk(&super::Cli::command(), "errmap", &mut missing);
         assert!(missing.is_empty(), "{}", missing.join("\n"));
+    }
+
+    /// A model without a fit: the command line says which command writes one.
+    #[test]
+    fn a_model_without_a_fit_names_the_command_that_writes_one() {
+        let e = anyhow::Error::from(errmap::volumetric::VolumetricError::NoFit {
+            path: "m.json".into(),
+        });
+        assert_eq!(
+            super::message(&e),
+            "m.json: fit: missing: write the model with `errmap volumetric identify … --out MODEL.json`"
+        );
+    }
+
+    /// The library says a capture never overwrites; the command line adds its flag.
+    #[test]
+    fn an_existing_capture_names_the_out_flag() {
+        let e = anyhow::Error::from(errmap::acquire::AcquireError::Exists {
+            path: "s/raw.bin".into(),
+        });
+        assert_eq!(
+            super::message(&e),
+            "s/raw.bin already exists: a capture never overwrites an earlier one; choose another --out"
+        );
     }
 }

@@ -4,8 +4,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use errmap::evaluate::compare;
-use errmap::evaluate::experiment::{self, FuzzySimConfig};
+use errmap::evaluate::{self, FuzzySimConfig};
 use errmap::interp::{Method, MethodError, MethodName};
 use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
@@ -26,7 +25,7 @@ fn method_of(
         Some(OrderArg::Degrees(o)) => Some(o),
         Some(OrderArg::Auto) if name.takes_order() => {
             let grid = grid.context("--order auto needs a grid table")?;
-            Some(compare::auto_order(grid, model.max_degree)?.0)
+            Some(evaluate::auto_order(grid, model.max_degree)?.0)
         }
         Some(OrderArg::Auto) => {
             return Err(super::guard::usage(format!(
@@ -48,7 +47,7 @@ fn method_of(
 struct Fitted {
     method: Method,
     model: Box<dyn errmap::interp::Interpolator>,
-    extent: compare::Extent,
+    extent: evaluate::Extent,
 }
 
 /// Reads `path` and fits the method named `name`: the Gaussian process to the nodes as
@@ -78,8 +77,8 @@ fn fit_table(
         method,
         model: fitted,
         extent: match &grid {
-            Some(g) => compare::Extent::of_grid(g),
-            None => compare::Extent::of_points(&table),
+            Some(g) => evaluate::Extent::of_grid(g),
+            None => evaluate::Extent::of_points(&table),
         },
     })
 }
@@ -230,14 +229,12 @@ fn compare_methods(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
 /// The Lagrange models of `compare --orders`.
 fn lagrange_orders(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Method>> {
     Ok(match &a.orders {
-        OrdersArg::All => {
-            errmap::interp::lagrange::admissible_orders(grid.shape(), a.model.max_degree)
-                .into_iter()
-                .map(Method::Lagrange)
-                .collect()
-        }
+        OrdersArg::All => errmap::interp::admissible_orders(grid.shape(), a.model.max_degree)
+            .into_iter()
+            .map(Method::Lagrange)
+            .collect(),
         OrdersArg::Auto => vec![Method::Lagrange(
-            compare::auto_order(grid, a.model.max_degree)?.0,
+            evaluate::auto_order(grid, a.model.max_degree)?.0,
         )],
         OrdersArg::List(orders) => {
             let mut out = Vec::new();
@@ -258,7 +255,7 @@ fn lagrange_orders(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
 fn scattered_methods(
     a: &CompareArgs,
     missing: &errmap::table::TableError,
-) -> Result<(Vec<Method>, compare::Refusals)> {
+) -> Result<(Vec<Method>, evaluate::Refusals)> {
     let why = format!("a full grid is needed ({missing})");
     match &a.methods {
         Some(names) => {
@@ -302,14 +299,14 @@ pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
         Ok(grid) => {
             let methods = compare_methods(&a, &grid)?;
             if a.methods.is_some() {
-                compare::compare(&table, &grid, &test, &methods)
+                evaluate::compare(&table, &grid, &test, &methods)
             } else {
-                compare::compare_where_possible(&table, &grid, &test, &methods)
+                evaluate::compare_where_possible(&table, &grid, &test, &methods)
             }
         }
         Err(e @ errmap::table::TableError::MissingNode { .. }) => {
             let (methods, refused) = scattered_methods(&a, &e)?;
-            compare::compare_scattered(&table, &test, &methods, refused)
+            evaluate::compare_scattered(&table, &test, &methods, refused)
         }
         Err(e) => return Err(e.into()),
     }
@@ -336,7 +333,7 @@ pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
         false => None,
     };
     super::guard::into_new_dir(&a.report, |dir| {
-        Ok(report::write_report(&comparison, dir, &command)?)
+        Ok(report::write_compare_report(&comparison, dir, &command)?)
     })?;
     if let Some(text) = json {
         super::guard::print_stdout(&text)?;
@@ -346,7 +343,7 @@ pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-pub(crate) fn print_summary(c: &compare::Comparison, dir: &Path) {
+pub(crate) fn print_summary(c: &evaluate::Comparison, dir: &Path) {
     let rec = c.recommended_row();
     eprintln!(
         "{} models compared on {} test points ({} extrapolated).",
@@ -515,7 +512,7 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
 }
 
 pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    let model = errmap::sim::physics::MachineModel::read(&a.model)?;
+    let model = errmap::sim::MachineModel::read(&a.model)?;
     let map_table = model.error_map.as_ref().map(|m| m.table.clone());
     let mut inputs = vec![("--model", a.model.as_path()), ("--plan", a.plan.as_path())];
     if let Some(t) = &map_table {
@@ -527,13 +524,8 @@ pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     }
     super::guard::refuse_aliases(&outputs, &inputs)?;
     let plan = errmap::sim::read_plan(Some(&a.plan))?;
-    let (stream, _) = errmap::sim::physics::simulate_plan(
-        &model,
-        &a.model,
-        &plan,
-        &Default::default(),
-        !a.no_noise,
-    )?;
+    let (stream, _) =
+        errmap::sim::simulate_plan(&model, &a.model, &plan, &Default::default(), !a.no_noise)?;
     let bytes = stream.bytes();
     if let Some(raw) = &a.raw {
         super::guard::write_file(raw, &bytes)?;
@@ -556,8 +548,8 @@ pub(crate) fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
         fuzzy_sigma: a.fuzzy_sigma,
         ..FuzzySimConfig::default()
     };
-    let result = experiment::run(&config)?;
-    let md = errmap::report::experiment::markdown(&result);
+    let result = evaluate::run_fuzzy_sim(&config)?;
+    let md = errmap::report::experiment_markdown(&result);
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
             Ok(errmap::report::write_text(&d.join("report.md"), &md)?)

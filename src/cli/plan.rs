@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::Args;
 use errmap::base::Axis;
 use errmap::sim::program::{self, Dialect, ProgramOptions};
-use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
+use errmap::sim::{PlanField, Spacing, TestPlan, TestPlanConfig};
 
 use super::values;
 
@@ -109,7 +109,7 @@ pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
         seed: a.seed,
     })
     // Every field of the configuration is a flag, named in the error: a usage error.
-    .map_err(|e| super::guard::usage(e.to_string()))?;
+    .map_err(|e| super::guard::usage(e.render(plan_flag)))?;
     let text = match &a.program {
         Some(_) => Some(program::render(
             &plan,
@@ -136,4 +136,20 @@ pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
         eprintln!("plan: {dialect} program → {}", path.display());
     }
     Ok(())
+}
+
+/// The `errmap plan` flag of each field of the test plan's configuration.
+fn plan_flag(field: PlanField) -> &'static str {
+    match field {
+        PlanField::FromMm => "--from",
+        PlanField::ToMm => "--to",
+        PlanField::Targets => "--targets",
+        PlanField::Interval => "--interval",
+        PlanField::Runs => "--runs",
+        PlanField::RandomOffset => "--random-offset",
+        PlanField::OverrunMm => "--overrun",
+        PlanField::DwellS => "--dwell-s",
+        PlanField::FeedMmS => "--feed-mm-s",
+        PlanField::LineMm => "--at",
+    }
 }

@@ -14,10 +14,10 @@ use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
 use errmap::export::{Ends, LinuxCncCompType};
-use errmap::interp::gp::Kernel;
+use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
 use errmap::sim::program::Dialect;
-use errmap::volumetric::identify::MAX_DEGREE;
+use errmap::volumetric::MAX_DEGREE;
 use errmap::volumetric::{Component, Topology};
 
 /// `--method`: a name from the method registry.
@@ -188,7 +188,7 @@ pub(crate) fn component_degrees(s: &str) -> Result<BTreeMap<usize, usize>, Strin
         let (name, d) = part
             .split_once('=')
             .ok_or_else(|| format!("`{part}` is not NAME=DEGREE (e.g. E_XX=3)"))?;
-        let c: Component = name.trim().parse()?;
+        let c: Component = name.trim().parse().map_err(|e| format!("{e}"))?;
         if out.insert(c.index(), component_degree_value(d)?).is_some() {
             return Err(format!("{} is given twice", c.name()));
         }
@@ -233,9 +233,9 @@ fn count_within(s: &str, lo: usize, hi: usize) -> Result<usize, String> {
 /// volumetric identify `--positions`: 2 … [`MAX_REPORT_POSITIONS`] per component (issue 28:
 /// 10⁹ allocated 24 GB).
 ///
-/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::identify::MAX_REPORT_POSITIONS
+/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::MAX_REPORT_POSITIONS
 pub(crate) fn report_positions(s: &str) -> Result<usize, String> {
-    count_within(s, 2, errmap::volumetric::identify::MAX_REPORT_POSITIONS)
+    count_within(s, 2, errmap::volumetric::MAX_REPORT_POSITIONS)
 }
 
 /// bench `--points`: 1 … 10⁷ query points (240 MB of coordinates and results).
@@ -290,7 +290,10 @@ impl FromStr for OrderArg {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.trim() {
             "auto" => Ok(OrderArg::Auto),
-            other => other.parse::<Order>().map(OrderArg::Degrees),
+            other => other
+                .parse::<Order>()
+                .map(OrderArg::Degrees)
+                .map_err(|e| e.to_string()),
         }
     }
 }
@@ -315,7 +318,8 @@ impl FromStr for OrdersArg {
                 .split(',')
                 .map(str::parse::<Order>)
                 .collect::<Result<Vec<_>, _>>()
-                .map(OrdersArg::List),
+                .map(OrdersArg::List)
+                .map_err(|e| e.to_string()),
         }
     }
 }

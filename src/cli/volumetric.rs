@@ -11,7 +11,7 @@ use clap::{Args, Subcommand};
 use super::values;
 use errmap::volumetric::{
     BasisKind, Degree, Identification, IdentifyConfig, LineTable, Machine, PlanFile, Predictor,
-    Topology, identify, predict, simulate,
+    Topology, identify, simulate,
 };
 
 #[derive(Debug, Subcommand)]
@@ -198,9 +198,9 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     let inputs: Vec<(&str, &Path)> = files.iter().map(|f| ("SESSION", f.as_path())).collect();
     super::guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
-    let mut acc = errmap::volumetric::from_session::SessionLines::new();
+    let mut acc = errmap::volumetric::SessionLines::new();
     for f in &files {
-        errmap::session::stream::for_each_batch(f, 1 << 16, &mut |rows| {
+        errmap::session::for_each_batch(f, 1 << 16, &mut |rows| {
             rows.iter().for_each(|r| acc.push(r));
             Ok(())
         })?;
@@ -338,7 +338,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         .or(a.report.as_deref())
         .or(a.json.then_some(Path::new("stdout")));
     if let Some(path) = first_output {
-        errmap::report::finite::check_json(path, &doc)?;
+        errmap::report::check_json(path, &doc)?;
     }
     if let Some(out) = &a.out {
         let text = errmap::report::json_text(out, &doc, true)?;
@@ -346,7 +346,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     }
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
-            Ok(errmap::report::volumetric::write_report(
+            Ok(errmap::report::write_volumetric_report(
                 &id,
                 config.positions,
                 d,
@@ -428,15 +428,15 @@ pub(crate) fn demo_step(out: &Path) -> Result<Identification> {
     let table = LineTable::read(&lines, true)?;
     let config = IdentifyConfig::new(machine.topology);
     let id = identify(&table, &config)?;
-    errmap::report::volumetric::write_report(&id, config.positions, &dir)?;
+    errmap::report::write_volumetric_report(&id, config.positions, &dir)?;
     print_summary(&id);
     eprintln!("  report → {}", dir.join("report.md").display());
-    let tables = errmap::volumetric::compensation::component_tables(&id.fit, 21)
+    let tables = errmap::volumetric::component_tables(&id.fit, 21)
         .map_err(|m| anyhow::anyhow!("{}: {m}", lines.display()))?;
     let twincat = dir.join("volcomp_twincat.csv");
     write_text(
         &twincat,
-        &errmap::volumetric::compensation::render_twincat(&tables, &lines.display().to_string()),
+        &errmap::volumetric::render_twincat(&tables, &lines.display().to_string()),
     )?;
     eprintln!(
         "  TwinCAT 3 CNC (TF5280) ISG CSV component tables → {}",
@@ -457,7 +457,7 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
         let table = LineTable::read(lines, false)?;
         let preds = model.predict_lines(&table);
         if let Some(out) = &a.out {
-            predict::write_predictions(out, &preds)?;
+            errmap::volumetric::write_predictions(out, &preds)?;
         }
         let undetermined = preds.iter().filter(|p| p.e_um.is_none()).count();
         if undetermined > 0 {
@@ -494,9 +494,9 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
     let errors = model
         .predict_grid(&points, probe)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
-    predict::write_grid(out, &points, &errors)?;
+    errmap::volumetric::write_grid(out, &points, &errors)?;
     if a.json {
-        super::guard::print_json(&errmap::report::json::GridJson::new(&points, &errors))?;
+        super::guard::print_json(&errmap::report::GridJson::new(&points, &errors))?;
     }
     eprintln!(
         "volumetric predict: error vector at {} points → {}",
@@ -508,7 +508,9 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
 
 fn export_cmd(a: ExportArgs) -> Result<()> {
     use errmap::export::{ExportFormat, LinuxCncCompType, SIEMENS_808D_MAX_POINTS, Sampled};
-    use errmap::volumetric::compensation;
+    use errmap::volumetric::{
+        axis_positions, component_tables, positioning_profile, render_twincat,
+    };
     let fit = match Predictor::read(&a.model)? {
         Predictor::Fit(f) => f,
         Predictor::Machine(_) => bail!(
@@ -520,9 +522,9 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         super::guard::refuse_aliases(&[("--twincat", out)], &[("--model", &a.model)])?;
     }
     if let Some(out) = &a.twincat {
-        let tables = compensation::component_tables(&fit, a.points)
+        let tables = component_tables(&fit, a.points)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
-        let text = compensation::render_twincat(&tables, &a.model.display().to_string());
+        let text = render_twincat(&tables, &a.model.display().to_string());
         write_text(out, &text)?;
         eprintln!(
             "volumetric export: TwinCAT 3 CNC ISG CSV component tables ({} positions per axis) → {}",
@@ -535,8 +537,8 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for axis in errmap::base::Axis::ALL {
             let k = axis.index();
-            let positions = compensation::axis_positions(&fit, k, a.points);
-            let profile = compensation::positioning_profile(&fit, k, at, &positions)
+            let positions = axis_positions(&fit, k, a.points);
+            let profile = positioning_profile(&fit, k, at, &positions)
                 .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
             let sampled = Sampled {
                 axis,

@@ -6,7 +6,7 @@
 //! rows are filled by linear interpolation in time from the rows that have them; a column
 //! empty on every row makes the effects that need it untestable (said in the report).
 
-pub(crate) use crate::base::stats::median;
+pub(crate) use crate::base::median;
 use std::collections::{BTreeMap, HashMap};
 
 use errmap_drivers::{Axis, SessionRow};

@@ -14,7 +14,7 @@
 //! | spectrum (`spectral`) | weighted Lomb–Scargle with a floating mean over the exact x of the moving rows: narrow windows around P, P/2, P/4 and broad scans of periods 0.5 mm – L/10 and 4 P – 0.5 mm; a periodic term needs Δχ² ≥ max(25, 2·ln(N/0.01)) on the moving rows, N the independent frequencies searched | ≤ 2·[`DiagnoseConfig::spectral_budget`] row·frequencies |
 //! | fit (`engine`) | weighted least squares on memoised cross products; an ordered Cholesky gives the rank and the dependent columns | O(n·k) per new column, then O(k³) per fit |
 //! | select (`select`) | forward BIC with variants, τ profiled jointly, backward BIC, swap moves, leave-one-run-out CV, determinedness and plausibility with restart, ambiguity | O(effects² · k³) fits + O(n·k) per nonlinear trial |
-//! | locate ([`locate`]) | weighted group means along x, per line, run, direction, feed, over time; correlations; periodogram peaks; structure left after the model | O(n) |
+//! | locate (`locate`) | weighted group means along x, per line, run, direction, feed, over time; correlations; periodogram peaks; structure left after the model | O(n) |
 //! | report (in the `report` stage: `report/diagnosis.rs`) | Markdown + PNG/SVG charts | O(n) |
 //!
 //! **Honesty rules.** An effect is reported only when (1) it lowers BIC by at least
@@ -66,7 +66,7 @@
 //! | `effects` | the vocabulary as regressors, parameters, the measurement that separates two effects |
 //! | `spectral` | weighted Lomb–Scargle periodogram with a floating mean |
 //! | `select` | model selection: forward and backward BIC, cross-validation, final checks, ambiguity |
-//! | [`locate`] | where the residual is significant, which covariates it follows |
+//! | `locate` | where the residual is significant, which covariates it follows |
 //! | `explain` | the selection's outcome as a [`Diagnosis`]: `where` texts, ambiguities, chart series |
 //! | `words` | numbers and lists in words |
 //! | [`synth`] | seeded synthetic sessions for tests |
@@ -81,7 +81,7 @@ mod effects;
 mod engine;
 mod error;
 mod explain;
-pub mod locate;
+mod locate;
 mod outcome;
 mod select;
 mod spectral;
@@ -128,7 +128,7 @@ pub fn remove_found(recorded: &[SessionRow], d: &Diagnosis) -> Vec<SessionRow> {
 use words::fixed;
 
 /// HeNe vacuum wavelength, µm (the one constant of `base::consts`).
-pub use crate::base::consts::HENE_WAVELENGTH_UM;
+pub use crate::base::HENE_WAVELENGTH_UM;
 
 /// Most rows of a recording `errmap diagnose` holds by default (`--max-rows`): longer
 /// sessions are thinned uniformly in time to every 2ᵏ-th device sample

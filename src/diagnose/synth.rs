@@ -13,7 +13,7 @@
 //! (time-correlated) noise and occasional outliers ([`SynthNoise::untidy`]).
 
 use crate::base::effect::{Drift, Effect};
-use crate::base::stats::gaussian;
+use crate::base::gaussian;
 use crate::base::vocabulary::EffectId;
 use std::f64::consts::TAU;
 
@@ -21,7 +21,7 @@ use errmap_drivers::{Axis, SessionRow, edlen};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use crate::base::consts::HENE_WAVELENGTH_UM;
+use crate::base::HENE_WAVELENGTH_UM;
 
 /// The measurement plan.
 #[derive(Debug, Clone, PartialEq)]

@@ -9,7 +9,7 @@
 //! looks at the test points.
 
 use crate::evaluate::cv::{CvResult, leave_one_out_gp, leave_one_plane_out, rms};
-use crate::interp::{InterpError, Interpolator, Method, Order, lagrange::admissible_orders};
+use crate::interp::{InterpError, Interpolator, Method, Order, admissible_orders};
 use crate::table::{ErrorTable, Grid};
 
 pub use crate::table::Extent;
@@ -71,19 +71,18 @@ pub struct SamplingAdvice {
 pub type Refusals = Vec<(String, String)>;
 
 /// Number of next nodes the advice proposes.
-pub const ADVICE_NODES: usize = 5;
+pub(crate) const ADVICE_NODES: usize = 5;
 
 /// Sampling advice from a Gaussian process fitted with the default configuration: `gp`
 /// when the caller has one, else fitted here to the table.
 fn sampling_advice(
     table: &ErrorTable,
     extent: &Extent,
-    gp: Option<crate::interp::gp::Gp>,
+    gp: Option<crate::interp::Gp>,
 ) -> Option<SamplingAdvice> {
     let gp = match gp {
         Some(gp) => gp,
-        None => crate::interp::gp::Gp::fit(&table.points, &crate::interp::gp::GpConfig::default())
-            .ok()?,
+        None => crate::interp::Gp::fit(&table.points, &crate::interp::GpConfig::default()).ok()?,
     };
     let h = gp.hyper();
     // Candidates: a 9-point lattice per axis over the table's volume.
@@ -240,15 +239,15 @@ pub fn compare_scattered(
                 method: method.name(),
             });
         };
-        let config = crate::interp::gp::GpConfig {
+        let config = crate::interp::GpConfig {
             kernel,
-            ..crate::interp::gp::GpConfig::default()
+            ..crate::interp::GpConfig::default()
         };
-        let gp = crate::interp::gp::Gp::fit(&table.points, &config)
+        let gp = crate::interp::Gp::fit(&table.points, &config)
             .map_err(|e| InterpError::Gp(e.to_string()))?;
         let cv = leave_one_out_gp(&gp, &values);
         rows.push(ModelRow::evaluate(*method, &gp, cv, test));
-        if config == crate::interp::gp::GpConfig::default() {
+        if config == crate::interp::GpConfig::default() {
             default_gp = Some(gp);
         }
     }

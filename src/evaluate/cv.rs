@@ -17,11 +17,11 @@
 
 use serde::Serialize;
 
-use crate::interp::gp::Gp;
+use crate::interp::Gp;
 use crate::interp::{InterpError, Method, Order};
 use crate::table::{Axis, Grid};
 
-pub use crate::base::stats::rms;
+pub(crate) use crate::base::rms;
 
 /// How the fitting table was split.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -144,7 +144,7 @@ impl CvResult {
 /// others in closed form ([`Gp::leave_one_out`]), the hyperparameters held at their fit
 /// to all nodes (so the error is slightly optimistic; refitting them per fold would cost
 /// n full fits). `values` are the fitted errors in fit order.
-pub fn leave_one_out_gp(gp: &Gp, values: &[f64]) -> CvResult {
+pub(crate) fn leave_one_out_gp(gp: &Gp, values: &[f64]) -> CvResult {
     let r: Vec<f64> = gp
         .leave_one_out()
         .iter()

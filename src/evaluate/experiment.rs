@@ -19,11 +19,11 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use crate::interp::{InterpError, Method, fuzzy};
+use crate::interp::{DEFAULT_FUZZY_SIGMA, InterpError, Method};
 use crate::table::Grid;
 
 /// The paper's reported maximum position errors, mm (Agbegha, Guo and Bai 2011, Section IV).
-pub const PAPER_MAX_MM: [(&str, f64); 3] =
+pub(crate) const PAPER_MAX_MM: [(&str, f64); 3] =
     [("fuzzy", 0.026), ("spline", 0.033), ("trilinear", 0.044)];
 
 /// Settings of the simulation.
@@ -51,7 +51,7 @@ impl Default for FuzzySimConfig {
             target_cells: 20,
             trials: 200,
             seed: 2013,
-            fuzzy_sigma: fuzzy::DEFAULT_SIGMA,
+            fuzzy_sigma: DEFAULT_FUZZY_SIGMA,
         }
     }
 }

@@ -10,9 +10,9 @@ use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
 use super::HistoryError;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileOp};
-use crate::session::{self, iso230, uncertainty};
+use crate::session::{self, uncertainty};
 
 /// The squareness components (a value and a σ, µrad).
 pub const SQUARENESS: [&str; 3] = ["E_C0Y", "E_B0Z", "E_A0Z"];
@@ -230,7 +230,7 @@ pub fn ingest(result: &Path) -> Result<Ingested, HistoryError> {
 /// computes them (flagged samples left out), with U along the travel (k = 2).
 pub fn session_content(path: &Path) -> Result<(Content, Vec<String>), HistoryError> {
     let mut reducer = session::Reducer::new();
-    let mut environment = session::environment::EnvironmentStats::default();
+    let mut environment = session::EnvironmentStats::default();
     session::for_each_batch(path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);
@@ -297,7 +297,7 @@ pub fn session_content(path: &Path) -> Result<(Content, Vec<String>), HistoryErr
 }
 
 /// E, E↑, E↓, A, B, R, M of one line, in [`PARAMETERS`] order.
-pub fn values(s: &iso230::AxisStats) -> [f64; 7] {
+pub fn values(s: &session::AxisStats) -> [f64; 7] {
     [
         s.e_um,
         s.e_up_um,

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::HistoryError;
 use super::ingest::PARAMETERS;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileOp};
 
 /// Upper limits by (machine or none, axis or none, parameter).

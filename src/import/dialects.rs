@@ -87,7 +87,7 @@ fn point(
 }
 
 fn check_point(line: usize, position_mm: f64, e: &[f64]) -> Result<(), At> {
-    use crate::base::limits::{ERROR_UM, POSITION_MM};
+    use crate::base::{ERROR_UM, POSITION_MM};
     POSITION_MM
         .check(position_mm)
         .map_err(|m| At::new(line, format!("position: {m}")))?;

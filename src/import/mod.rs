@@ -300,9 +300,7 @@ impl Reading {
     /// Refuses, at `line`, a value outside the session table's physical ranges
     /// ([`crate::base::limits`]), as `read_session` would on the written file.
     pub fn check(&self, line: usize) -> Result<(), At> {
-        use crate::base::limits::{
-            ERROR_UM, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C,
-        };
+        use crate::base::{ERROR_UM, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C};
         let checks = [
             ("target position", POSITION_MM.check(self.target_mm)),
             ("indicated position", POSITION_MM.check(self.scale_mm)),

@@ -231,7 +231,7 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
 /// Refuses, at `line`, a point outside errmap's physical ranges (positions ±10⁶ mm,
 /// errors ±10⁶ µm).
 fn in_range(line: usize, position_mm: f64, e_um: &[f64]) -> Result<(), At> {
-    use crate::base::limits::{ERROR_UM, POSITION_MM};
+    use crate::base::{ERROR_UM, POSITION_MM};
     POSITION_MM
         .check(position_mm)
         .map_err(|m| At::new(line, format!("position: {m}")))?;

@@ -3,11 +3,11 @@
 //!
 //! | method | module | fit cost | evaluation cost per point | reference |
 //! |---|---|---|---|---|
-//! | Lagrange m×n×q | [`lagrange`] | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | Zhang Mei 2013, Eq. P_{m,n,q} |
-//! | trilinear | [`trilinear`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 1–4 |
-//! | tricubic natural spline | [`spline`] | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | Agbegha, Guo and Bai 2011, Eqs. 5–7 |
-//! | fuzzy (Gaussian memberships) | [`fuzzy`] | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 8–13 |
-//! | Gaussian process (kriging) | [`gp`] | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
+//! | Lagrange m×n×q | `lagrange` | O(N) barycentric weights | O(m² + n² + q²) weights + (m+1)(n+1)(q+1) terms | Zhang Mei 2013, Eq. P_{m,n,q} |
+//! | trilinear | `trilinear` | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 1–4 |
+//! | tricubic natural spline | `spline` | 7 tridiagonal sweeps over the grid, O(N) | 3 interval searches + 64 terms | Agbegha, Guo and Bai 2011, Eqs. 5–7 |
+//! | fuzzy (Gaussian memberships) | `fuzzy` | none | 3 interval searches + 8 terms | Agbegha, Guo and Bai 2011, Eqs. 8–13 |
+//! | Gaussian process (kriging) | `gp` | O(N³) per likelihood evaluation, ~10 starts | O(N) mean, O(N²) σ | Rasmussen & Williams 2006 |
 //!
 //! N is the number of grid nodes. Every method evaluates outside the grid too (the rule
 //! is in each module's docs) and the caller is told by [`Interpolator::outside`], so
@@ -23,12 +23,12 @@
 //! - C. E. Rasmussen and C. K. I. Williams, *Gaussian Processes for Machine Learning* (2006).
 
 mod cells;
-pub mod fuzzy;
-pub mod gp;
-pub mod lagrange;
+mod fuzzy;
+mod gp;
+mod lagrange;
 mod method;
-pub mod spline;
-pub mod trilinear;
+mod spline;
+mod trilinear;
 
 use std::fmt;
 use std::str::FromStr;
@@ -37,7 +37,12 @@ use crate::table::Axis;
 
 pub use cells::Locator;
 pub(crate) use cells::{eval_cells, locators};
+pub use fuzzy::{DEFAULT_SIGMA as DEFAULT_FUZZY_SIGMA, Fuzzy, high_weight};
+pub use gp::{Gp, GpConfig, GpError, GpHyper, Kernel, MAX_POINTS as GP_MAX_POINTS};
+pub use lagrange::{Lagrange, MAX_DEGREE, admissible_orders};
 pub use method::{FitError, Method, MethodError, MethodName, MethodSettings, UnknownMethod};
+pub use spline::{Spline, natural_second_derivatives};
+pub use trilinear::Trilinear;
 
 /// What a fitted model can do: predict the error (µm) at a position (mm).
 pub trait Interpolator: Send + Sync + fmt::Debug {
@@ -72,23 +77,35 @@ impl fmt::Display for Order {
 }
 
 impl FromStr for Order {
-    type Err = String;
+    type Err = BadOrder;
     /// Parses `4x1x2` (also `4×1×2` or `4,1,2`).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let parts: Vec<&str> = s.split(['x', 'X', '×', ',']).map(str::trim).collect();
         if parts.len() != 3 {
-            return Err(format!(
-                "order `{s}` must be three degrees MxNxQ, e.g. 4x1x2"
-            ));
+            return Err(BadOrder::NotThree {
+                text: s.to_string(),
+            });
         }
         let mut o = [0usize; 3];
         for (slot, part) in o.iter_mut().zip(&parts) {
-            *slot = part
-                .parse()
-                .map_err(|_| format!("order `{s}`: `{part}` is not a whole number"))?;
+            *slot = part.parse().map_err(|_| BadOrder::NotWhole {
+                text: s.to_string(),
+                part: part.to_string(),
+            })?;
         }
         Ok(Order(o))
     }
+}
+
+/// Text that is not an [`Order`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum BadOrder {
+    /// Not three parts.
+    #[error("order `{text}` must be three degrees MxNxQ, e.g. 4x1x2")]
+    NotThree { text: String },
+    /// A part that is not a whole number.
+    #[error("order `{text}`: `{part}` is not a whole number")]
+    NotWhole { text: String, part: String },
 }
 
 /// Why a model cannot be fitted.

@@ -9,6 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use super::error::DrawFailure;
 use super::scale::{Axis, HEIGHT, MARGIN_TOP, WIDTH};
 use super::text::{LEGEND_SIZE, fit_text, font, text_width};
 
@@ -75,8 +76,8 @@ pub(super) fn push_lines(
     }
 }
 
-pub(super) fn de<E: Display>(e: E) -> String {
-    e.to_string()
+pub(super) fn de<E: Display>(e: E) -> DrawFailure {
+    DrawFailure::new(e)
 }
 
 /// Everything about a chart except the data drawn inside the plot area. Sizes are in
@@ -218,7 +219,7 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
     t: Target,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     let (w, _) = area.dim_in_pixel();
     let top = t.px(f64::from(MARGIN_TOP));
     let right = w as i32 - t.px(LEGEND_RIGHT);
@@ -339,7 +340,7 @@ pub(super) fn draw_prim<DB: DrawingBackend>(
     frame: &Frame,
     prim: &Prim,
     t: Target,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     match prim {
         Prim::Band { x0, x1 } => {
             plot.draw(&Rectangle::new(
@@ -415,7 +416,7 @@ fn draw_bar<DB: DrawingBackend>(
     corners: [(i32, i32); 2],
     color: RGBColor,
     t: Target,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     let RGBColor(r, g, b) = color;
     let edge = RGBColor(
         (f64::from(r) * 0.7) as u8,
@@ -437,7 +438,7 @@ fn draw_marker<DB: DrawingBackend>(
     color: RGBColor,
     filled: bool,
     t: Target,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     let r = t.px(MARKER_R);
     let fill = if filled {
         color.filled()
@@ -445,7 +446,7 @@ fn draw_marker<DB: DrawingBackend>(
         WHITE.filled()
     };
     let edge = color.stroke_width(t.upx(if filled { 1.0 } else { 2.0 }));
-    let outline = |pts: Vec<(i32, i32)>| -> Result<(), String> {
+    let outline = |pts: Vec<(i32, i32)>| -> Result<(), DrawFailure> {
         let mut closed = pts.clone();
         if let Some(&first) = pts.first() {
             closed.push(first);

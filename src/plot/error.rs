@@ -37,11 +37,30 @@ pub enum PlotError {
     #[error("the bundled DejaVu fonts could not be registered with plotters")]
     Fonts,
     /// Drawing or writing an output file failed.
-    #[error("drawing {path} failed: {message}")]
+    #[error("drawing {path} failed: {source}")]
     Draw {
         /// The file being drawn.
         path: PathBuf,
-        /// plotters' error, as text.
-        message: String,
+        /// What plotters or the file system reported.
+        #[source]
+        source: DrawFailure,
     },
+}
+
+/// What plotters or the file system reported while a figure was drawn or put in place;
+/// [`PlotError::Draw`] names the file. Kept as text: plotters' errors are generic over
+/// the drawing backend and borrow from it.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub struct DrawFailure {
+    message: String,
+}
+
+impl DrawFailure {
+    /// The report of a backend or of the file system.
+    pub(crate) fn new(e: impl std::fmt::Display) -> Self {
+        Self {
+            message: e.to_string(),
+        }
+    }
 }

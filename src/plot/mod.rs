@@ -60,12 +60,13 @@
 
 mod draw;
 mod error;
-pub mod polar;
+mod polar;
 mod render;
 mod scale;
 mod text;
 
-pub use error::PlotError;
+pub use error::{DrawFailure, PlotError};
+pub use polar::{PolarChart, PolarTrace, colour, pixel, polar};
 pub use text::register_fonts;
 
 use std::path::{Path, PathBuf};

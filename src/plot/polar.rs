@@ -12,17 +12,17 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use super::draw::{PALETTE, de};
-use super::error::PlotError;
+use super::error::{DrawFailure, PlotError};
 use super::render::{whole, with_suffix};
 use super::text::{font, fonts_ready};
 use plotters::style::FontStyle;
 
 /// The side of the square image, pixels.
-pub const SIZE: u32 = 800;
+pub(crate) const SIZE: u32 = 800;
 
 /// The chart's height, pixels: the title and notes above the rings, the angle labels all
 /// inside the picture (the 270° label was cut off at the foot of an 800 px square).
-pub const HEIGHT: u32 = 860;
+pub(crate) const HEIGHT: u32 = 860;
 
 /// One trace of the plot: (angle rad, dr µm) in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -55,7 +55,7 @@ pub fn colour(k: usize) -> (u8, u8, u8) {
 }
 
 /// The geometry: centre (px), nominal radius (px), pixels per µm.
-pub fn layout(um_per_div: f64) -> ((f64, f64), f64, f64) {
+pub(crate) fn layout(um_per_div: f64) -> ((f64, f64), f64, f64) {
     let centre = (SIZE as f64 / 2.0, 470.0);
     let r_px = 220.0;
     // Four rings inside and outside the nominal circle, 32 px apart.
@@ -121,7 +121,7 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     chart: &PolarChart,
     bitmap: bool,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     root.fill(&WHITE).map_err(de)?;
     let text = RGBColor(0x22, 0x22, 0x22);
     let grid = RGBColor(0xd0, 0xd0, 0xd0);

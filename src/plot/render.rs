@@ -10,7 +10,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use super::draw::{Frame, Prim, TEXT, Target, de, draw_legend, draw_prim};
-use super::error::PlotError;
+use super::error::{DrawFailure, PlotError};
 use super::scale::{MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP, TITLE_HEIGHT, WIDTH};
 use super::text::{DESC_SIZE, TICK_SIZE, TITLE_SIZE, fit_text};
 
@@ -56,16 +56,16 @@ pub(super) fn write_both(
 /// kept for the backend); `plot` imports nothing of the crate, so it builds the name.
 pub(super) fn whole(
     path: &Path,
-    draw: impl FnOnce(&Path) -> Result<(), String>,
+    draw: impl FnOnce(&Path) -> Result<(), DrawFailure>,
 ) -> Result<(), PlotError> {
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
     let ext = path.extension().unwrap_or_default().to_string_lossy();
     let tmp = path.with_file_name(format!(".{stem}.{}.tmp.{ext}", std::process::id()));
     let result = draw(&tmp)
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()))
-        .map_err(|message| PlotError::Draw {
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(DrawFailure::new))
+        .map_err(|source| PlotError::Draw {
             path: path.to_path_buf(),
-            message,
+            source,
         });
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -73,7 +73,7 @@ pub(super) fn whole(
     result
 }
 
-fn write_png(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), String> {
+fn write_png(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), DrawFailure> {
     let ss = SUPERSAMPLE;
     let (bw, bh) = (WIDTH * ss, frame.height * ss);
     let mut big = vec![0u8; bw as usize * bh as usize * 3];
@@ -95,7 +95,7 @@ fn write_png(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), String> {
     out.present().map_err(de)
 }
 
-fn write_svg(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), String> {
+fn write_svg(path: &Path, frame: &Frame, prims: &[Prim]) -> Result<(), DrawFailure> {
     let root = SVGBackend::new(path, (WIDTH, frame.height)).into_drawing_area();
     let t = Target {
         s: 1.0,
@@ -135,7 +135,7 @@ fn render<DB: DrawingBackend>(
     frame: &Frame,
     prims: &[Prim],
     t: Target,
-) -> Result<(), String> {
+) -> Result<(), DrawFailure> {
     root.fill(&WHITE).map_err(de)?;
     let (w, _) = root.dim_in_pixel();
     let title_h = t.upx(f64::from(TITLE_HEIGHT));

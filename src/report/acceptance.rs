@@ -13,7 +13,7 @@ use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::predicted::{VirtualMeasurement, VirtualTest};
 use crate::acceptance::{DecisionRule, Mpe, Rule};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::plot::{self, XySeries, XyStyle};
 
 fn create(dir: &Path) -> Result<(), ReportError> {

@@ -23,8 +23,8 @@ use self::pdf::{Doc, PAGE_H, PAGE_W, PdfError, Rgb, Weight};
 use super::iso230::decimals;
 use super::uncertainty::{STANDARDS_NOTE, budget_rows};
 use crate::acceptance::tolerance::Conformity;
-use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::Budget;
+use crate::session::{AxisStats, TargetStats};
 
 const MARGIN: f32 = 48.0;
 const BODY: f32 = 9.0;

@@ -9,17 +9,17 @@ use std::path::Path;
 
 use super::ReportError;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::circular::iso::nominal_samples;
 use crate::circular::{CircularDiagnosis, CircularTest, Sense};
-use crate::plot::polar::{PolarChart, PolarTrace, polar};
+use crate::plot::{PolarChart, PolarTrace, polar};
 
 /// The palette colour of each direction in the polar plot.
 pub const CCW_COLOUR: usize = 0;
 pub const CW_COLOUR: usize = 3;
 
 /// A round µm-per-division that fits `max_um` in four divisions.
-pub fn um_per_div(max_um: f64) -> f64 {
+pub(crate) fn um_per_div(max_um: f64) -> f64 {
     let want = (max_um / 3.5).max(1e-3);
     let decade = 10f64.powf(want.log10().floor());
     [1.0, 2.0, 5.0, 10.0]
@@ -106,7 +106,7 @@ pub fn write_report(
 }
 
 /// The Markdown report.
-pub fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
+pub(crate) fn markdown(test: &CircularTest, d: &CircularDiagnosis) -> String {
     let mut md = Md::new();
     md.heading(
         1,

@@ -11,9 +11,9 @@ use super::findings::group_by_reason;
 use super::json::finite;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
-use crate::evaluate::compare::{Comparison, SigmaKind};
-use crate::evaluate::cv::CvScheme;
+use crate::base::io_err;
+use crate::evaluate::CvScheme;
+use crate::evaluate::{Comparison, SigmaKind};
 use crate::interp::Method;
 use crate::plot;
 use crate::table::{TableError, write_frame};
@@ -423,7 +423,7 @@ fn test_points(md: &mut Md, c: &Comparison, feat: &[usize]) {
             .zip(&c.test.points)
             .filter_map(|(v, p)| v.map(|v| v - p.e_um))
             .collect();
-        cells.push(opt(crate::base::stats::rms(&r), 4));
+        cells.push(opt(crate::base::rms(&r), 4));
     }
     cells.extend(feat.iter().map(|&i| format!("{:.4}", c.rows[i].rms_um)));
     md.row(cells);
@@ -465,7 +465,7 @@ fn paper_columns(md: &mut Md, c: &Comparison) {
 
 /// The Gaussian process's correlation lengths against the node spacing, and the nodes
 /// it would measure next.
-fn sampling_advice(md: &mut Md, a: &crate::evaluate::compare::SamplingAdvice) {
+fn sampling_advice(md: &mut Md, a: &crate::evaluate::SamplingAdvice) {
     md.nl().heading(2, "Sampling advice (Gaussian process)").para(format_args!(
         "A {} Gaussian process fitted to the table (signal σ {:.3} µm, noise σ {:.3} µm) gives the \
          error's correlation length per axis; where it is shorter than the node spacing, the grid \
@@ -570,7 +570,7 @@ fn figures_and_method(md: &mut Md) {
          has no planes: only the Gaussian process (kriging, Matérn 5/2 or squared-exponential kernel, \
          hyperparameters by maximum likelihood) is fitted, and it is cross-validated leaving one node \
          out at a time.",
-        crate::interp::fuzzy::DEFAULT_SIGMA
+        crate::interp::DEFAULT_FUZZY_SIGMA
     ));
 }
 

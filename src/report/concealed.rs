@@ -9,10 +9,10 @@ use super::ReportError;
 use super::diagnosis::write_report;
 use crate::base::EffectId;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::diagnose::{DiagnoseConfig, Verdict, diagnose};
 use crate::session::read_session;
-use crate::sim::concealed::Truth;
+use crate::sim::ConcealedTruth;
 
 /// What one case came to, for the caller's progress lines.
 #[derive(Debug, Clone)]
@@ -24,7 +24,7 @@ pub struct CaseOutcome {
 
 /// The hidden effects' parameters as the index shows them: ids sorted by name, as in
 /// `truth.json`, each with its parameters by name (numbers as the JSON writes them).
-fn hidden_params(truth: &Truth) -> Vec<String> {
+fn hidden_params(truth: &ConcealedTruth) -> Vec<String> {
     let mut effects: Vec<_> = truth.effects.iter().collect();
     effects.sort_by_key(|e| e.id().as_str());
     effects
@@ -81,7 +81,7 @@ pub fn write_concealed(cases: &Path, out: &Path) -> Result<Vec<CaseOutcome>, Rep
         let dir = cases.join(name);
         let recorded = read_session(&dir.join("recorded.parquet"))?;
         let simulated = read_session(&dir.join("simulated.parquet"))?;
-        let truth = Truth::read(&dir.join("truth.json"))?;
+        let truth = ConcealedTruth::read(&dir.join("truth.json"))?;
         let d = diagnose(
             &recorded,
             &simulated,

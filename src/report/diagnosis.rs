@@ -10,11 +10,11 @@ use crate::plot::{self, XySeries, XyStyle};
 use super::ReportError;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::diagnose::{Diagnosis, GroupStat, Verdict};
 
 /// Most points drawn per series.
-pub const MAX_POINTS: usize = 4000;
+pub(crate) const MAX_POINTS: usize = 4000;
 
 fn thin(idx: &[usize]) -> Vec<usize> {
     if idx.len() <= MAX_POINTS {

@@ -3,7 +3,7 @@
 use errmap_drivers::SessionRow;
 
 use super::md::Md;
-use crate::session::environment::{EnvironmentStats, Range};
+use crate::session::{EnvironmentStats, Range};
 
 /// The environment of a session in words and a table (markdown): air and material
 /// temperatures over the session, the refraction compensation the laser lengths used, and

@@ -2,7 +2,7 @@
 //! figures.
 
 use super::md::Md;
-use crate::evaluate::experiment::{FuzzySimResult, MethodStats};
+use crate::evaluate::{FuzzySimResult, MethodStats};
 
 /// The simulation's outcome in words and a table, beside the paper's figures.
 pub fn markdown(r: &FuzzySimResult) -> String {

@@ -1,7 +1,7 @@
 //! Findings in plain words about a comparison: what the grid's shape, the test points and
 //! the cross-validation mean for an engineer deciding how many nodes to measure next time.
 
-use crate::evaluate::compare::{Comparison, SigmaKind};
+use crate::evaluate::{Comparison, SigmaKind};
 use crate::interp::Method;
 use crate::table::{ErrorTable, Grid};
 

@@ -40,7 +40,7 @@ pub fn check_json<T: Serialize + ?Sized>(path: &Path, value: &T) -> Result<(), R
 }
 
 /// Refuses Markdown holding a non-finite number (see the module docs).
-pub fn check_markdown(path: &Path, md: &str) -> Result<(), ReportError> {
+pub(crate) fn check_markdown(path: &Path, md: &str) -> Result<(), ReportError> {
     for (k, line) in md.lines().enumerate() {
         // Outside code spans: the even-numbered pieces between backticks.
         for piece in line.split('`').step_by(2) {

@@ -9,7 +9,7 @@ use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::history::report::{Advice, FleetEntry, Head, MachineReport, ParameterReport};
 use crate::history::time;
 use crate::plot::{self, XySeries, XyStyle};
@@ -18,7 +18,7 @@ use super::ReportError;
 use super::md::Md;
 
 /// At most this many machines in the fleet figure (the riskiest).
-pub const FLEET_FIGURE_MAX: usize = 40;
+pub(crate) const FLEET_FIGURE_MAX: usize = 40;
 
 fn opt(v: Option<f64>, digits: usize) -> String {
     v.map(|x| format!("{x:.digits$}"))
@@ -158,7 +158,7 @@ fn head_section(head: &Head, fleet: &[FleetEntry]) -> String {
 }
 
 /// A machine's section of `report.md`.
-pub fn machine_section(m: &MachineReport) -> String {
+pub(crate) fn machine_section(m: &MachineReport) -> String {
     let mut md = Md::new();
     md.heading(2, format_args!("{} — {}", m.id, m.advice.as_str()))
         .para(format_args!(
@@ -273,7 +273,7 @@ fn riskiest(m: &MachineReport) -> Option<(&str, &ParameterReport)> {
 
 /// `<stem>.png`/`.svg`: the riskiest series, its EWMA and limits, alarms, trend and
 /// tolerance, against years since its first point.
-pub fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, ReportError> {
+pub(crate) fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathBuf>, ReportError> {
     let Some((axis, p)) = riskiest(m) else {
         return Ok(Vec::new());
     };
@@ -427,7 +427,7 @@ fn advice_words(a: Advice) -> &'static str {
 }
 
 /// `<stem>.png`/`.svg`: the riskiest machines' risk.
-pub fn fleet_figure(stem: &Path, fleet: &[FleetEntry]) -> Result<Vec<PathBuf>, ReportError> {
+pub(crate) fn fleet_figure(stem: &Path, fleet: &[FleetEntry]) -> Result<Vec<PathBuf>, ReportError> {
     let top = &fleet[..fleet.len().min(FLEET_FIGURE_MAX)];
     let labels: Vec<String> = top
         .iter()

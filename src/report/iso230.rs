@@ -6,10 +6,10 @@ use std::path::{Path, PathBuf};
 use super::ReportError;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
-use crate::session::iso230::{AxisStats, TargetStats};
 use crate::session::uncertainty::{Budget, StatUncertainty};
+use crate::session::{AxisStats, TargetStats};
 
 /// Decimals (of µm) to print a line's statistics with: three significant digits of the
 /// smallest non-zero spread the test measured (the axis values `B`, `R`, `E`, `M`, `A` and
@@ -44,7 +44,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
 
 /// [`markdown`], with the expanded uncertainty `U` beside each axis value when `u` is given
 /// (see [`crate::session::uncertainty`]).
-pub fn markdown_with_uncertainty(
+pub(crate) fn markdown_with_uncertainty(
     stats: &AxisStats,
     axis_name: &str,
     u: Option<&StatUncertainty>,

@@ -4,8 +4,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use crate::evaluate::compare::{Comparison, SigmaKind};
-use crate::evaluate::cv::CvScheme;
+use crate::evaluate::CvScheme;
+use crate::evaluate::{Comparison, SigmaKind};
 use crate::interp::Method;
 
 /// The JSON document of `compare --json` (`docs/cli.md`, with extra keys).
@@ -135,7 +135,7 @@ pub struct TableLineJson<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conformity: Option<Option<&'a crate::acceptance::tolerance::LineConformity>>,
     pub gb_t_17421_2: &'static str,
-    pub iso230: &'a crate::session::iso230::AxisStats,
+    pub iso230: &'a crate::session::AxisStats,
     pub line_mm: [f64; 2],
     pub uncertainty: TableUncertaintyJson<'a>,
 }

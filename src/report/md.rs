@@ -12,13 +12,13 @@ use std::fmt::{Display, Write as _};
 
 /// A Markdown document being written.
 #[derive(Debug, Default, Clone)]
-pub struct Md {
+pub(crate) struct Md {
     s: String,
 }
 
 /// How a table column is aligned, written in the rule under its header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Align {
+pub(crate) enum Align {
     /// `---`: the renderer's default (left).
     Default,
     /// `---:`
@@ -38,70 +38,58 @@ impl From<char> for Align {
 
 impl Md {
     /// An empty document.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// The text written so far.
-    pub fn finish(self) -> String {
+    pub(crate) fn finish(self) -> String {
         self.s
     }
 
     /// The text written so far, borrowed (to write it out without giving up the writer).
-    pub fn as_str(&self) -> &str {
+    pub(crate) fn as_str(&self) -> &str {
         &self.s
     }
 
     /// Writes `text` as it is, with no newline: for the few places where a line is
     /// assembled from parts.
-    pub fn raw(&mut self, text: impl Display) -> &mut Self {
+    pub(crate) fn raw(&mut self, text: impl Display) -> &mut Self {
         // Writing into a String cannot fail.
         let _ = write!(self.s, "{text}");
         self
     }
 
     /// One line of text.
-    pub fn line(&mut self, text: impl Display) -> &mut Self {
+    pub(crate) fn line(&mut self, text: impl Display) -> &mut Self {
         self.raw(text).nl()
     }
 
     /// A line break (an empty line after a line, a line end after [`Md::raw`]).
-    pub fn nl(&mut self) -> &mut Self {
+    pub(crate) fn nl(&mut self) -> &mut Self {
         self.s.push('\n');
         self
     }
 
-    /// Ends the current block with a blank line unless it ends with one already (or the
-    /// document is empty).
-    pub fn gap(&mut self) -> &mut Self {
-        if !self.s.is_empty() && !self.s.ends_with("\n\n") {
-            if !self.s.ends_with('\n') {
-                self.s.push('\n');
-            }
-            self.s.push('\n');
-        }
-        self
-    }
-
     /// A heading of `level` (1 = `#`) and the blank line after it.
-    pub fn heading(&mut self, level: usize, text: impl Display) -> &mut Self {
+    pub(crate) fn heading(&mut self, level: usize, text: impl Display) -> &mut Self {
         self.s.push_str(&"#".repeat(level));
         self.s.push(' ');
         self.raw(text).nl().nl()
     }
 
     /// A paragraph and the blank line after it.
-    pub fn para(&mut self, text: impl Display) -> &mut Self {
+    pub(crate) fn para(&mut self, text: impl Display) -> &mut Self {
         self.raw(text).nl().nl()
     }
 
     /// One item of a bullet list (`- text`).
-    pub fn bullet(&mut self, text: impl Display) -> &mut Self {
+    pub(crate) fn bullet(&mut self, text: impl Display) -> &mut Self {
         self.raw("- ").line(text)
     }
 
     /// A bullet list, one item per element.
-    pub fn bullets<T: Display>(&mut self, items: impl IntoIterator<Item = T>) -> &mut Self {
+    pub(crate) fn bullets<T: Display>(&mut self, items: impl IntoIterator<Item = T>) -> &mut Self {
         for item in items {
             self.bullet(item);
         }
@@ -109,26 +97,16 @@ impl Md {
     }
 
     /// A numbered list (`1. text`), one item per element.
-    pub fn numbered<T: Display>(&mut self, items: impl IntoIterator<Item = T>) -> &mut Self {
+    pub(crate) fn numbered<T: Display>(&mut self, items: impl IntoIterator<Item = T>) -> &mut Self {
         for (k, item) in items.into_iter().enumerate() {
             self.line(format_args!("{}. {item}", k + 1));
         }
         self
     }
 
-    /// A fenced code block; `info` is the fence's language tag (may be empty).
-    pub fn code(&mut self, info: &str, body: &str) -> &mut Self {
-        self.line(format_args!("```{info}"));
-        self.raw(body);
-        if !body.is_empty() && !body.ends_with('\n') {
-            self.nl();
-        }
-        self.line("```")
-    }
-
     /// A table's header and its rule with every column in the default alignment; rows
     /// follow with [`Md::row`].
-    pub fn table<T: Display>(&mut self, header: impl IntoIterator<Item = T>) -> &mut Self {
+    pub(crate) fn table<T: Display>(&mut self, header: impl IntoIterator<Item = T>) -> &mut Self {
         let header: Vec<String> = header.into_iter().map(|h| h.to_string()).collect();
         let align = "l".repeat(header.len());
         self.table_aligned(header, &align)
@@ -136,7 +114,7 @@ impl Md {
 
     /// A table's header and its rule, column `k` aligned as character `k` of `align`
     /// says: `r` right (`---:`), anything else the default (`---`).
-    pub fn table_aligned<T: Display>(
+    pub(crate) fn table_aligned<T: Display>(
         &mut self,
         header: impl IntoIterator<Item = T>,
         align: &str,
@@ -153,18 +131,13 @@ impl Md {
     }
 
     /// One table row: `| a | b |`, the cells as the caller formatted them.
-    pub fn row<T: Display>(&mut self, cells: impl IntoIterator<Item = T>) -> &mut Self {
+    pub(crate) fn row<T: Display>(&mut self, cells: impl IntoIterator<Item = T>) -> &mut Self {
         self.s.push('|');
         for c in cells {
             self.raw(format_args!(" {c} |"));
         }
         self.nl()
     }
-}
-
-/// `|` escaped for a table cell, so text from an input file cannot split a cell.
-pub fn escape_cell(text: &str) -> String {
-    text.replace('|', "\\|")
 }
 
 #[cfg(test)]
@@ -188,13 +161,6 @@ mod tests {
             md.finish(),
             "# Title\n\nRegenerate with `x`.\n\n- one\n- 2\n\n## Next\n\na line\n\n## Last\n\nend\n\n"
         );
-    }
-
-    #[test]
-    fn a_gap_after_raw_text_ends_the_line_first() {
-        let mut md = Md::new();
-        md.gap().raw("partial").gap().line("next");
-        assert_eq!(md.finish(), "partial\n\nnext\n");
     }
 
     #[test]
@@ -224,17 +190,14 @@ mod tests {
     }
 
     #[test]
-    fn lists_and_code() {
+    fn lists() {
         let mut md = Md::new();
-        md.bullets(["a", "b"])
-            .numbered(["x", "y"])
-            .code("sh", "run");
-        assert_eq!(md.finish(), "- a\n- b\n1. x\n2. y\n```sh\nrun\n```\n");
+        md.bullets(["a", "b"]).numbered(["x", "y"]);
+        assert_eq!(md.finish(), "- a\n- b\n1. x\n2. y\n");
     }
 
     #[test]
-    fn cells_escape_the_pipe_only_when_asked() {
-        assert_eq!(escape_cell("a|b"), "a\\|b");
+    fn cells_are_written_as_given() {
         let mut md = Md::new();
         md.row(["a|b"]);
         assert_eq!(md.finish(), "| a|b |\n");

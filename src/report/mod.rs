@@ -3,52 +3,72 @@
 //!
 //! | module | writes |
 //! |---|---|
-//! | [`compare`] | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
-//! | [`concealed`] | the concealed-case report and index (`reports/diagnosis/`) |
-//! | [`findings`] | a comparison's findings in plain words |
-//! | [`json`] | the `compare --json` document |
-//! | [`iso230`] | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
+//! | `compare` | the comparison report (`report.md`, CSVs, figures) of `compare --report` |
+//! | `concealed` | the concealed-case report and index (`reports/diagnosis/`) |
+//! | `findings` | a comparison's findings in plain words |
+//! | `json` | the `compare --json` document |
+//! | `iso230` | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
 //! | [`certificate`] | the calibration certificate PDF (`errmap certificate`), with its statement of conformity when tolerances are given |
-//! | [`acceptance`] | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
-//! | [`uncertainty`] | the measurement-uncertainty budget table and the standards note |
-//! | [`environment`] | a session's air and material temperatures in words and a table |
-//! | [`diagnosis`] | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
-//! | [`experiment`] | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
-//! | [`volumetric`] | the volumetric identification report (`volumetric identify --report`) |
-//! | [`history`] | the calibration history report (`history report --report`) |
-//! | [`md`] | nothing itself: the Markdown writer the reports are written with |
-//! | [`finite`] | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
+//! | `acceptance` | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
+//! | `uncertainty` | the measurement-uncertainty budget table and the standards note |
+//! | `environment` | a session's air and material temperatures in words and a table |
+//! | `diagnosis` | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
+//! | `experiment` | the fuzzy-interpolation simulation's report (`fuzzy-sim`) |
+//! | `volumetric` | the volumetric identification report (`volumetric identify --report`) |
+//! | `history` | the calibration history report (`history report --report`) |
+//! | `md` | nothing itself: the Markdown writer the reports are written with |
+//! | `finite` | the guard of every writer here: no NaN or ±inf leaves in Markdown or JSON |
 //!
-//! Every file is written through [`write_text`] or [`write_json`]: checked by [`finite`],
+//! Every file is written through [`write_text`] or [`write_json`]: checked by `finite`,
 //! then written whole or not at all (`table::write_atomically`).
 
 use std::path::{Path, PathBuf};
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{FileError, FileOp};
 use crate::plot::PlotError;
 use crate::table::TableError;
 
-pub mod acceptance;
+mod acceptance;
 pub mod certificate;
-pub mod circular;
-pub mod compare;
-pub mod concealed;
-pub mod diagnosis;
-pub mod environment;
-pub mod experiment;
-pub(crate) mod findings;
-pub mod finite;
-pub mod history;
-pub mod iso230;
-pub mod json;
-pub mod md;
-pub mod uncertainty;
-pub mod volumetric;
+mod circular;
+mod compare;
+mod concealed;
+mod diagnosis;
+mod environment;
+mod experiment;
+mod findings;
+mod finite;
+mod history;
+mod iso230;
+mod json;
+mod md;
+mod uncertainty;
+mod volumetric;
 
-pub use compare::write_report;
+pub use acceptance::{write_iso10360_report, write_virtual_report};
+pub use circular::{
+    CCW_COLOUR, CW_COLOUR, chart as circular_chart, write_report as write_circular_report,
+};
+pub use compare::write_report as write_compare_report;
+pub use concealed::write_concealed;
+pub use diagnosis::{
+    IsoEffect, append_iso_effect, iso_effect, write_report as write_diagnosis_report,
+};
+pub use environment::{environment_summary, environment_text};
+pub use experiment::markdown as experiment_markdown;
 pub use findings::group_by_reason;
-pub use json::{CompareJson, CompareJsonRow, MethodJson, RefusedJson};
+pub use finite::check_json;
+pub use history::ReportWriter as HistoryReportWriter;
+pub use iso230::{
+    decimals as iso230_decimals, markdown as iso230_markdown, plot as iso230_plot,
+    write_session_report,
+};
+pub use json::{
+    CompareJson, CompareJsonRow, DiagnoseJson, GB_T_17421_2, GridJson, MethodJson, RefusedJson,
+    ReplayJson, TableJson, TableLineJson, TableUncertaintyJson,
+};
+pub use volumetric::write_report as write_volumetric_report;
 
 /// Why a report could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -75,7 +95,7 @@ pub enum ReportError {
     /// A chart could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
-    /// A NaN or ±inf reached a writer ([`finite`]): a bug in errmap, not in the input.
+    /// A NaN or ±inf reached a writer (`finite`): a bug in errmap, not in the input.
     #[error(
         "{path}: {value} at {at}: a non-finite number reached the output, which is a bug in \
          errmap (the readers refuse such values); nothing was written, please report it"

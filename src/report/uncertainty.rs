@@ -8,7 +8,7 @@ use crate::session::uncertainty::{Budget, Kind};
 /// One row of the budget as printed: influence, input, sensitivity, contribution in its own
 /// unit, and the contribution in µm over the travel. Shared by the markdown and the PDF.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BudgetRow {
+pub(crate) struct BudgetRow {
     /// The influence.
     pub name: String,
     /// The input's standard uncertainty with its unit.
@@ -22,7 +22,7 @@ pub struct BudgetRow {
 }
 
 /// The budget's rows, µm to `decimals` places.
-pub fn budget_rows(budget: &Budget, decimals: usize) -> Vec<BudgetRow> {
+pub(crate) fn budget_rows(budget: &Budget, decimals: usize) -> Vec<BudgetRow> {
     let travel = budget.conditions.travel_mm;
     budget
         .contributions
@@ -53,7 +53,7 @@ fn sig(v: f64) -> String {
 
 /// The budget as a markdown section: the test conditions, the table, the combined and
 /// expanded uncertainties.
-pub fn budget_markdown(budget: &Budget, decimals: usize) -> String {
+pub(crate) fn budget_markdown(budget: &Budget, decimals: usize) -> String {
     let c = &budget.conditions;
     let air = if c.air_measured {
         format!(
@@ -107,7 +107,7 @@ pub fn budget_markdown(budget: &Budget, decimals: usize) -> String {
 }
 
 /// Which positioning standards the statistics stand for, and which could not be sourced.
-pub const STANDARDS_NOTE: &str = "Standards: ISO 230-2:2014 (the formulas are those of the \
+pub(crate) const STANDARDS_NOTE: &str = "Standards: ISO 230-2:2014 (the formulas are those of the \
 2006 edition too). GB/T 17421.2-2016 carries ISO 230-2 (its published scope is that of ISO \
 230-2:2006: uncertainty per ISO/TR 230-9:2005, Annex A uncertainty, Annex B step cycle), so \
 its values are the ISO 230-2 values above. VDI/DGQ 3441 as stated. JIS B 6192 and ASME B5.54's \

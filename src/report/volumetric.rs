@@ -9,7 +9,7 @@ use std::path::Path;
 use super::ReportError;
 use super::md::Md;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::plot::{XySeries, XyStyle, xy};
 use crate::volumetric::{Component, GAUGE, Identification, SQUARENESS};
 
@@ -96,7 +96,7 @@ fn summary(md: &mut Md, id: &Identification) {
         },
         id.residual.test,
         id.residual.z,
-        if id.residual.z > crate::volumetric::identify::Z_MISSING {
+        if id.residual.z > crate::volumetric::Z_MISSING {
             "not noise"
         } else {
             "noise"
@@ -303,7 +303,7 @@ fn residual_per_line(md: &mut Md, id: &Identification, dir: &Path) {
     }
     md.table(["line", "targets", "RMS (µm)", "max abs (µm)", "mean t (s)"]);
     for l in &id.residuals {
-        let rms = crate::base::stats::rms(&l.r_um).unwrap_or(0.0);
+        let rms = crate::base::rms(&l.r_um).unwrap_or(0.0);
         let max = l.r_um.iter().fold(0.0f64, |a, b| a.max(b.abs()));
         let ts: Vec<f64> = l.t_s.iter().flatten().copied().collect();
         let t = if ts.is_empty() {

@@ -5,7 +5,7 @@
 
 use errmap_drivers::SessionRow;
 
-use crate::base::consts::HENE_WAVELENGTH_UM;
+use crate::base::HENE_WAVELENGTH_UM;
 
 /// Minimum, sum and count of one quantity (the mean is sum / n, summed in row order).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -106,7 +106,7 @@ use serde::{Deserialize, Serialize};
 /// this (1 nm); anything further apart is [`IsoError::InconsistentPosition`].
 pub const POSITION_TOL_MM: f64 = 1e-6;
 
-pub use crate::base::Direction;
+pub(crate) use crate::base::Direction;
 
 /// One approach to one target: errmap's error there, as measured.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

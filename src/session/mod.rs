@@ -32,13 +32,15 @@
 //! on every line and the nodes form a grid.
 
 pub(crate) mod columns;
-pub mod environment;
-pub mod iso230;
+mod environment;
+mod iso230;
 mod reduce;
-pub mod stream;
+mod stream;
 pub mod uncertainty;
 
 pub(crate) use columns::{Columns, ParquetSink};
+pub use environment::{EnvironmentStats, Range};
+pub use iso230::{AxisStats, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats};
 pub use reduce::{
     LineKey, Reducer, ReductionError, ReductionSummary, error_table, iso_by_line, iso_observations,
     line_key, lines,
@@ -54,7 +56,7 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use polars::prelude::*;
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{Axis, FileOp};
 use crate::table::{
     Cells, TableError, column_cells, optional_column_cells, parse_cell, read_frame, required_cell,
@@ -323,7 +325,7 @@ fn frame_rows_at(
 
 /// Every number of a session row inside its physical range ([`crate::base::limits`]).
 fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableError> {
-    use crate::base::limits::{
+    use crate::base::{
         Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
     };
     let cells: [(&str, Option<f64>, Bound); 13] = [
@@ -345,7 +347,7 @@ fn check_ranges(path: &Path, row0: usize, row: &SessionRow) -> Result<(), TableE
         if let Some(v) = value {
             bound
                 .check(v)
-                .map_err(|problem| bad(path, row0, column, problem))?;
+                .map_err(|problem| bad(path, row0, column, problem.to_string()))?;
         }
     }
     Ok(())

@@ -40,7 +40,7 @@ use polars::prelude::*;
 use super::columns::{Columns, ParquetSink};
 use super::{SampleSet, frame_rows, frame_rows_into};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::table::{TableError, format_err, is_parquet};
 
 /// Rows per batch (and per Parquet row group) of the streaming writer and reader.

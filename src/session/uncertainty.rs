@@ -88,7 +88,7 @@ use errmap_drivers::edlen::refractive_index;
 use serde::{Deserialize, Serialize};
 
 use super::iso230::AxisStats;
-use crate::base::consts::HENE_WAVELENGTH_UM;
+use crate::base::HENE_WAVELENGTH_UM;
 
 /// Reference temperature of dimensional measurements (ISO 1), °C.
 pub const REFERENCE_TEMP_C: f64 = 20.0;

@@ -32,17 +32,17 @@
 //! where the values are used ([`super::physics`], the board's plan validation); misspelt
 //! keys are refused by serde (`deny_unknown_fields`) before this walk.
 //!
-//! [`TEMPERATURE_C`]: crate::base::limits::TEMPERATURE_C
-//! [`PRESSURE_HPA`]: crate::base::limits::PRESSURE_HPA
-//! [`HUMIDITY_PCT`]: crate::base::limits::HUMIDITY_PCT
-//! [`FEED_MM_S`]: crate::base::limits::FEED_MM_S
-//! [`TIME_S`]: crate::base::limits::TIME_S
-//! [`POSITION_MM`]: crate::base::limits::POSITION_MM
-//! [`ERROR_UM`]: crate::base::limits::ERROR_UM
+//! [`TEMPERATURE_C`]: crate::base::TEMPERATURE_C
+//! [`PRESSURE_HPA`]: crate::base::PRESSURE_HPA
+//! [`HUMIDITY_PCT`]: crate::base::HUMIDITY_PCT
+//! [`FEED_MM_S`]: crate::base::FEED_MM_S
+//! [`TIME_S`]: crate::base::TIME_S
+//! [`POSITION_MM`]: crate::base::POSITION_MM
+//! [`ERROR_UM`]: crate::base::ERROR_UM
 
 use std::path::Path;
 
-use crate::base::limits::{
+use crate::base::{
     Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S,
 };
 
@@ -90,7 +90,7 @@ const TARGETS: Bound = Bound {
 /// The polynomial degree of a component table (the Lagrange method's own limit).
 const DEGREE: Bound = Bound {
     lo: 0.0,
-    hi: crate::interp::lagrange::MAX_DEGREE as f64,
+    hi: crate::interp::MAX_DEGREE as f64,
     unit: "",
     what: "a polynomial degree",
 };
@@ -178,7 +178,7 @@ fn rule(keys: &[&str]) -> Bound {
 pub(crate) fn check_numbers(path: &Path, text: &str) -> Result<(), ConfigError> {
     let table: toml::Table = text
         .parse()
-        .map_err(|e: toml::de::Error| crate::base::error::parse_error(path, &e))?;
+        .map_err(|e: toml::de::Error| crate::base::parse_error(path, &e))?;
     let mut keys = Vec::new();
     walk_table(&table, &mut keys).map_err(|(key, problem)| ConfigError::key(path, key, problem))
 }
@@ -226,7 +226,7 @@ fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Resul
             None => rule(keys),
         };
         if let Err(problem) = bound.check(x) {
-            return Err((shown, problem));
+            return Err((shown, problem.to_string()));
         }
     }
     Ok(())
@@ -236,31 +236,40 @@ fn walk<'a>(v: &'a toml::Value, keys: &mut Vec<&'a str>, shown: String) -> Resul
 mod tests {
     use super::*;
 
-    fn check(text: &str) -> Result<(), String> {
-        check_numbers(Path::new("m.toml"), text).map_err(|e| e.to_string())
+    fn check(text: &str) -> Result<(), ConfigError> {
+        check_numbers(Path::new("m.toml"), text)
     }
 
     #[test]
     fn nan_inf_and_out_of_range_values_are_refused_by_key() {
-        let e = check("[scale_factor]\nppm = nan\n").expect_err("nan");
+        let e = check("[scale_factor]\nppm = nan\n")
+            .expect_err("nan")
+            .to_string();
         assert!(
             e.contains("m.toml") && e.contains("scale_factor.ppm"),
             "{e}"
         );
         let e = check("[environment.air_temp_c]\nkind = \"constant\"\nvalue = -273.15\n")
-            .expect_err("absolute zero");
+            .expect_err("absolute zero")
+            .to_string();
         assert!(
             e.contains("environment.air_temp_c.value") && e.contains("°C"),
             "{e}"
         );
-        let e = check("[thermal_drift]\ntau_s = inf\n").expect_err("inf");
+        let e = check("[thermal_drift]\ntau_s = inf\n")
+            .expect_err("inf")
+            .to_string();
         assert!(e.contains("thermal_drift.tau_s"), "{e}");
-        let e = check("targets_mm = [0.0, 1e308]\n").expect_err("far");
+        let e = check("targets_mm = [0.0, 1e308]\n")
+            .expect_err("far")
+            .to_string();
         assert!(e.contains("targets_mm[1]") && e.contains("mm"), "{e}");
-        let e = check("sample_hz = 5e-324\n").expect_err("denormal rate");
+        let e = check("sample_hz = 5e-324\n")
+            .expect_err("denormal rate")
+            .to_string();
         assert!(e.contains("sample_hz"), "{e}");
         let e = check("[environment.air_pressure_hpa]\nkind = \"table\"\nt_s = [0.0, 1.0]\nvalue = [1013.0, 5.0]\n")
-            .expect_err("pressure");
+            .expect_err("pressure").to_string();
         assert!(e.contains("air_pressure_hpa.value[1]"), "{e}");
     }
 
@@ -268,7 +277,9 @@ mod tests {
     #[test]
     fn integers_are_checked_like_floats() {
         for v in ["1000000000000000000", "1e18"] {
-            let e = check(&format!("[squareness_urad]\nE_C0Y = {v}\n")).expect_err(v);
+            let e = check(&format!("[squareness_urad]\nE_C0Y = {v}\n"))
+                .expect_err(v)
+                .to_string();
             assert!(e.contains("squareness_urad.E_C0Y"), "{e}");
         }
         for bad in [
@@ -276,10 +287,12 @@ mod tests {
             "targets = 9223372036854775807\n",
             "[[line]]\ntargets = 100000\n",
         ] {
-            let e = check(bad).expect_err(bad);
+            let e = check(bad).expect_err(bad).to_string();
             assert!(e.contains("runs") || e.contains("targets"), "{e}");
         }
-        let e = check("[device]\nlaser_wavelength_fm = 632991354000\n").expect_err("a metre");
+        let e = check("[device]\nlaser_wavelength_fm = 632991354000\n")
+            .expect_err("a metre")
+            .to_string();
         assert!(e.contains("laser_wavelength_fm"), "{e}");
         check("seed = 18446744073709551615\n").expect_err("beyond i64: TOML's own limit");
         check("seed = 9223372036854775807\n[device]\nlaser_wavelength_fm = 632991354\nbaud = 115200\nfifo_bytes = 4096\n")

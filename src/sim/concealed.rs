@@ -12,8 +12,8 @@
 //! reads it) and a README saying what is hidden and how big it is.
 
 use crate::base::effect::{Drift, Effect, ParamValue};
-use crate::base::error::io_err;
-use crate::base::stats::peak_to_peak;
+use crate::base::io_err;
+use crate::base::peak_to_peak;
 use crate::base::vocabulary::EffectId;
 use crate::base::{ConfigError, FileOp};
 use std::collections::BTreeMap;
@@ -59,7 +59,7 @@ pub fn nominal(table1: &Path, seed: u64) -> MachineModel {
             table: table1.to_path_buf(),
             method: "spline".into(),
             order: None,
-            fuzzy_sigma: crate::interp::fuzzy::DEFAULT_SIGMA,
+            fuzzy_sigma: crate::interp::DEFAULT_FUZZY_SIGMA,
         }),
         ..MachineModel::default()
     };

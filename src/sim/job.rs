@@ -57,8 +57,9 @@ pub struct DiagnoseOutcome {
     pub recorded_rows: Vec<SessionRow>,
     /// The diagnosis (with a design note when the rows were thinned).
     pub diagnosis: Diagnosis,
-    /// The note on thinning, when the rows were thinned.
-    pub thinning: Option<String>,
+    /// How the rows were thinned, when they were: the caller adds its
+    /// [`Thinning::note`] to the diagnosis' design notes.
+    pub thinning: Option<Thinning>,
     /// With a model: the model with the found effects written in, and a note per effect.
     pub updated: Option<(MachineModel, Vec<String>)>,
 }
@@ -101,7 +102,7 @@ pub fn session_file(p: &Path) -> Result<PathBuf, JobError> {
 }
 
 /// The grating period in a capture directory's `session.json` (the board's hello), µm.
-pub fn grating_from_capture(session: &Path) -> Option<f64> {
+pub(crate) fn grating_from_capture(session: &Path) -> Option<f64> {
     #[derive(Deserialize)]
     struct Hello {
         grating_period_nm: f64,
@@ -118,6 +119,35 @@ pub fn grating_from_capture(session: &Path) -> Option<f64> {
     let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
     let s: SessionJson = serde_json::from_str(&text).ok()?;
     Some(s.hello.grating_period_nm / 1000.0)
+}
+
+/// A recording longer than the row budget, thinned uniformly in time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Thinning {
+    /// The session table read.
+    pub path: PathBuf,
+    /// Its rows.
+    pub total_rows: u64,
+    /// The budget ([`DiagnoseJob::max_rows`]).
+    pub max_rows: usize,
+    /// Every `stride`-th device sample was kept.
+    pub stride: i64,
+    /// The rows diagnosed.
+    pub kept_rows: usize,
+}
+
+impl Thinning {
+    /// The note for the diagnosis, the budget called `budget` (the CLI passes its flag).
+    pub fn note(&self, budget: &str) -> String {
+        format!(
+            "{}: {} rows, more than {budget} {}: diagnosed on the device samples whose index is a multiple of {} ({} rows, uniformly in time)",
+            self.path.display(),
+            self.total_rows,
+            self.max_rows,
+            self.stride,
+            self.kept_rows
+        )
+    }
 }
 
 impl DiagnoseJob {
@@ -152,7 +182,7 @@ impl DiagnoseJob {
             max_dead_path_mm: self.max_dead_path_mm,
             ..DiagnoseConfig::default()
         };
-        let mut d = match &simulated {
+        let d = match &simulated {
             Some(sim) => diagnose(&recorded_rows, sim, &config),
             None => diagnose_recorded(&recorded_rows, &config),
         }
@@ -160,18 +190,13 @@ impl DiagnoseJob {
             path: rec_path.clone(),
             source,
         })?;
-        let thinning = (stride > 1).then(|| {
-            format!(
-                "{}: {} rows, more than --max-rows {}: diagnosed on the device samples whose index is a multiple of {stride} ({} rows, uniformly in time)",
-                rec_path.display(),
-                thinned.total,
-                self.max_rows,
-                recorded_rows.len()
-            )
+        let thinning = (stride > 1).then(|| Thinning {
+            path: rec_path.clone(),
+            total_rows: thinned.total,
+            max_rows: self.max_rows,
+            stride,
+            kept_rows: recorded_rows.len(),
         });
-        if let Some(note) = &thinning {
-            d.design_notes.push(note.clone());
-        }
         if let Some((name, value)) = first_non_finite(&d) {
             return Err(JobError::NonFinite {
                 path: rec_path,

@@ -4,27 +4,39 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`physics`] | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
-//! | [`plan`] | measurement-plan files, simulating a stream, test points with the truth |
-//! | [`testplan`] | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
+//! | `physics` | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
+//! | `plan` | measurement-plan files, simulating a stream, test points with the truth |
+//! | `testplan` | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
 //! | [`program`] | part programs for a test plan (LinuxCNC, Fanuc, Siemens 840D, Heidenhain) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
-//! | [`job`] | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
-//! | [`concealed`] | the concealed-effect cases of `datasets/concealed/` |
-//! | [`error`] | [`SimError`] |
+//! | `job` | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
+//! | `concealed` | the concealed-effect cases of `datasets/concealed/` |
+//! | `error` | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
 
-pub(crate) mod bounds;
-pub mod concealed;
-pub mod error;
-pub mod job;
-pub mod physics;
-pub mod plan;
+mod bounds;
+mod concealed;
+mod error;
+mod job;
+mod physics;
+mod plan;
 pub mod program;
-pub mod testplan;
+mod testplan;
 pub mod update;
 
+pub(crate) use bounds::check_numbers;
+pub use concealed::{
+    Case, Generated, Truth as ConcealedTruth, cases as concealed_cases,
+    generate as generate_concealed, nominal as concealed_nominal, plan as concealed_plan,
+    write_all as write_concealed,
+};
 pub use error::SimError;
-pub use physics::{MachineModel, PhysicsTruth, simulate_plan, simulate_rows, simulate_session};
+pub use job::{Against, DiagnoseJob, DiagnoseOutcome, JobError, Thinning, session_file};
+pub use physics::{
+    Abbe, ColouredNoise, History, LatchDelay, MachineModel, Outliers, PeriodicScale, PhysicsTruth,
+    Refraction, Reversal, Scale, ScaleFactor, ThermalDrift, simulate_plan, simulate_rows,
+    simulate_session,
+};
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
+pub use testplan::{PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError};
 pub use update::apply_found_effects;

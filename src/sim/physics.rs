@@ -45,12 +45,12 @@ use rand::{Rng, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
-use crate::base::consts::HENE_WAVELENGTH_UM as HENE_UM;
-use crate::base::error::read_toml;
-use crate::base::stats::gaussian;
+use crate::base::HENE_WAVELENGTH_UM as HENE_UM;
+use crate::base::gaussian;
+use crate::base::read_toml;
 use crate::base::{Axis, ConfigError};
 use crate::interp::{
-    Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod, fuzzy,
+    DEFAULT_FUZZY_SIGMA, Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod,
 };
 use crate::table::ErrorTable;
 
@@ -130,24 +130,29 @@ impl History {
         }
     }
 
-    fn check(&self, what: &str) -> Result<(), String> {
+    fn check(&self, path: &Path, what: &str) -> Result<(), ConfigError> {
         match self {
             History::Table { t_s, value } => {
                 if t_s.len() != value.len() || t_s.is_empty() {
-                    return Err(format!(
-                        "{what}: t_s and value must have the same non-zero length"
+                    return Err(ConfigError::file(
+                        path,
+                        format!("{what}: t_s and value must have the same non-zero length"),
                     ));
                 }
                 if t_s.windows(2).any(|w| w[1] <= w[0]) {
-                    return Err(format!(
-                        "{what}: t_s must be strictly increasing (a repeated time has two values)"
+                    return Err(ConfigError::file(
+                        path,
+                        format!(
+                            "{what}: t_s must be strictly increasing (a repeated time has two values)"
+                        ),
                     ));
                 }
                 Ok(())
             }
-            History::Cycle { period_s, .. } if *period_s <= 0.0 => {
-                Err(format!("{what}: period_s must be positive"))
-            }
+            History::Cycle { period_s, .. } if *period_s <= 0.0 => Err(ConfigError::file(
+                path,
+                format!("{what}: period_s must be positive"),
+            )),
             _ => Ok(()),
         }
     }
@@ -205,7 +210,7 @@ fn default_method() -> String {
     "spline".into()
 }
 fn default_sigma() -> f64 {
-    fuzzy::DEFAULT_SIGMA
+    DEFAULT_FUZZY_SIGMA
 }
 
 /// Per-axis polynomials, µm: e = Σ_axis Σ_k c_k·(p_axis/1000)^k (coordinates in metres
@@ -407,7 +412,7 @@ impl MachineModel {
         {
             map.table = path.parent().unwrap_or(Path::new(".")).join(&map.table);
         }
-        m.check().map_err(|e| config_err(path, e))?;
+        m.check(path)?;
         Ok(m)
     }
 
@@ -417,17 +422,19 @@ impl MachineModel {
         super::concealed::write_whole(path, &text)
     }
 
-    fn check(&self) -> Result<(), String> {
+    /// Refuses a value the simulator cannot use; the message names the key.
+    fn check(&self, path: &Path) -> Result<(), ConfigError> {
+        let bad = |message: String| Err(ConfigError::file(path, message));
         // The diagnosis takes the scale's grating period from here when no capture says it
         // (campaign seed 72: a 0 reached it and was blamed on the session).
         if self.device.grating_period_nm == 0 {
-            return Err(
+            return bad(
                 "device.grating_period_nm = 0 must be positive (the scale's grating period, nm)"
                     .into(),
             );
         }
         if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
-            return Err(format!("noise_um = {} must be ≥ 0", self.noise_um));
+            return bad(format!("noise_um = {} must be ≥ 0", self.noise_um));
         }
         let h = &self.environment;
         for (name, hist) in [
@@ -437,17 +444,17 @@ impl MachineModel {
             ("environment.scale_temp_c", &h.scale_temp_c),
             ("environment.part_temp_c", &h.part_temp_c),
         ] {
-            hist.check(name)?;
+            hist.check(path, name)?;
         }
         if let Some(c) = &self.coloured_noise {
             if !(c.sigma_um.is_finite() && c.sigma_um >= 0.0) {
-                return Err(format!(
+                return bad(format!(
                     "coloured_noise.sigma_um = {} must be ≥ 0",
                     c.sigma_um
                 ));
             }
             if !(c.tau_s.is_finite() && c.tau_s > 0.0) {
-                return Err(format!(
+                return bad(format!(
                     "coloured_noise.tau_s = {} must be positive",
                     c.tau_s
                 ));
@@ -455,26 +462,26 @@ impl MachineModel {
         }
         if let Some(o) = &self.outliers {
             if !(0.0..=0.1).contains(&o.probability) {
-                return Err(format!(
+                return bad(format!(
                     "outliers.probability = {} must be within 0 … 0.1",
                     o.probability
                 ));
             }
             if !(o.sigma_um.is_finite() && o.sigma_um >= 0.0) {
-                return Err(format!("outliers.sigma_um = {} must be ≥ 0", o.sigma_um));
+                return bad(format!("outliers.sigma_um = {} must be ≥ 0", o.sigma_um));
             }
         }
         if let Some(p) = &self.periodic_scale
             && p.enabled
             && (p.period_um.is_nan() || p.period_um <= 0.0)
         {
-            return Err("periodic_scale.period_um must be positive".into());
+            return bad("periodic_scale.period_um must be positive".into());
         }
         if let Some(d) = &self.thermal_drift
             && let Some(tau) = d.tau_s
             && (tau.is_nan() || tau <= 0.0)
         {
-            return Err("thermal_drift.tau_s must be positive".into());
+            return bad("thermal_drift.tau_s must be positive".into());
         }
         Ok(())
     }
@@ -742,8 +749,8 @@ pub fn simulate_session(
 
 /// The model's noiseless error at every row of a recording, relative to its value at the
 /// recording's first clean row (the counters' origin), as `simulate` would have given
-/// for the same plan: the "simulated" side of `diagnose --model`. Rows outside runs after
-/// the first MARK are left out (their line position is unknown).
+/// for the same plan: the "simulated" side of a diagnosis against a machine model. Rows
+/// outside runs after the first MARK are left out (their line position is unknown).
 pub fn simulate_rows(
     model: &MachineModel,
     model_path: &Path,

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::SimError;
 use super::physics::{MachineModel, PhysicsTruth, simulate_plan};
-use crate::base::error::read_toml;
+use crate::base::read_toml;
 use crate::base::{Axis, ConfigError};
 use crate::table::ErrorTable;
 

@@ -57,12 +57,12 @@ use crate::base::Axis;
 
 /// Targets are rounded to this (the least input increment of Fanuc IS-B), mm; the
 /// rounding is done as k/1000.
-pub const TARGET_RESOLUTION_MM: f64 = 1e-3;
+pub(crate) const TARGET_RESOLUTION_MM: f64 = 1e-3;
 
 /// errmap's cap on targets per line and on runs, so that a mistyped value cannot
 /// produce a program of millions of blocks.
-pub const MAX_TARGETS: usize = 10_000;
-pub const MAX_RUNS: u32 = 1_000;
+pub(crate) const MAX_TARGETS: usize = 10_000;
+pub(crate) const MAX_RUNS: u32 = 1_000;
 
 /// How the targets are spaced.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,23 +96,81 @@ pub struct TestPlanConfig {
     pub seed: u64,
 }
 
-/// Why a test plan cannot be made. `flag` names the `errmap plan` flag (the same word,
-/// with `_` for `-`, as the config field).
+/// Why a test plan cannot be made: the field of [`TestPlanConfig`] at fault and the
+/// problem. Displayed with the config's field names; [`TestPlanError::render`] takes
+/// other names for the fields (the command line's flags).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{flag}: {message}")]
+#[error("{}", self.render(PlanField::name))]
 pub struct TestPlanError {
-    pub flag: &'static str,
-    pub message: String,
+    pub field: PlanField,
+    pub problem: PlanProblem,
 }
 
-fn bad(flag: &'static str, message: impl Into<String>) -> TestPlanError {
-    TestPlanError {
-        flag,
-        message: message.into(),
+/// A field of [`TestPlanConfig`] (the spacing's two kinds apart).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanField {
+    FromMm,
+    ToMm,
+    Targets,
+    Interval,
+    Runs,
+    RandomOffset,
+    OverrunMm,
+    DwellS,
+    FeedMmS,
+    LineMm,
+}
+
+impl PlanField {
+    /// The field's name in [`TestPlanConfig`].
+    pub fn name(self) -> &'static str {
+        match self {
+            PlanField::FromMm => "from_mm",
+            PlanField::ToMm => "to_mm",
+            PlanField::Targets => "targets",
+            PlanField::Interval => "interval",
+            PlanField::Runs => "runs",
+            PlanField::RandomOffset => "random_offset",
+            PlanField::OverrunMm => "overrun_mm",
+            PlanField::DwellS => "dwell_s",
+            PlanField::FeedMmS => "feed_mm_s",
+            PlanField::LineMm => "line_mm",
+        }
     }
 }
 
-pub use crate::base::Direction;
+/// What is wrong with a field's value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PlanProblem {
+    /// `from_mm` is not below `to_mm`.
+    EmptyRange { from_mm: f64, to_mm: f64 },
+    /// The value refused, in words that name no other field.
+    Refused(String),
+}
+
+impl TestPlanError {
+    /// The message with every field called by `name`.
+    pub fn render(&self, name: impl Fn(PlanField) -> &'static str) -> String {
+        let problem = match &self.problem {
+            PlanProblem::EmptyRange { from_mm, to_mm } => format!(
+                "the range {from_mm} … {to_mm} mm is empty: {} must be less than {}",
+                name(PlanField::FromMm),
+                name(PlanField::ToMm)
+            ),
+            PlanProblem::Refused(message) => message.clone(),
+        };
+        format!("{}: {problem}", name(self.field))
+    }
+}
+
+fn bad(field: PlanField, message: impl Into<String>) -> TestPlanError {
+    TestPlanError {
+        field,
+        problem: PlanProblem::Refused(message.into()),
+    }
+}
+
+pub(crate) use crate::base::Direction;
 
 /// One step of the standard test cycle, after the move to [`TestPlan::start_point_mm`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -160,7 +218,7 @@ fn round_target(x: f64) -> f64 {
 }
 
 impl TestPlanConfig {
-    /// Checks every input; the error names the flag.
+    /// Checks every input; the error names the field.
     pub fn validate(&self) -> Result<(), TestPlanError> {
         let finite = |flag, v: f64| {
             if v.is_finite() {
@@ -169,33 +227,33 @@ impl TestPlanConfig {
                 Err(bad(flag, format!("{v} is not a finite number")))
             }
         };
-        finite("--from", self.from_mm)?;
-        finite("--to", self.to_mm)?;
+        finite(PlanField::FromMm, self.from_mm)?;
+        finite(PlanField::ToMm, self.to_mm)?;
         if self.from_mm >= self.to_mm {
-            return Err(bad(
-                "--to",
-                format!(
-                    "the range {} … {} mm is empty: --from must be less than --to",
-                    self.from_mm, self.to_mm
-                ),
-            ));
+            return Err(TestPlanError {
+                field: PlanField::ToMm,
+                problem: PlanProblem::EmptyRange {
+                    from_mm: self.from_mm,
+                    to_mm: self.to_mm,
+                },
+            });
         }
         match self.spacing {
             Spacing::Targets(m) if !(2..=MAX_TARGETS).contains(&m) => {
                 return Err(bad(
-                    "--targets",
+                    PlanField::Targets,
                     format!("{m} targets: between 2 and {MAX_TARGETS}, ends included"),
                 ));
             }
             Spacing::Interval(q) if !(q.is_finite() && q > 0.0) => {
                 return Err(bad(
-                    "--interval",
+                    PlanField::Interval,
                     format!("{q} mm must be a positive length"),
                 ));
             }
             Spacing::Interval(q) if (self.to_mm - self.from_mm) / q >= MAX_TARGETS as f64 => {
                 return Err(bad(
-                    "--interval",
+                    PlanField::Interval,
                     format!("{q} mm gives more than {MAX_TARGETS} targets"),
                 ));
             }
@@ -203,13 +261,13 @@ impl TestPlanConfig {
         }
         if !(1..=MAX_RUNS).contains(&self.runs) {
             return Err(bad(
-                "--runs",
+                PlanField::Runs,
                 format!("{} runs: between 1 and {MAX_RUNS}", self.runs),
             ));
         }
         if !(self.random_offset.is_finite() && (0.0..0.5).contains(&self.random_offset)) {
             return Err(bad(
-                "--random-offset",
+                PlanField::RandomOffset,
                 format!(
                     "{} is a fraction of the interval in [0, 0.5), so that the targets stay in order",
                     self.random_offset
@@ -217,16 +275,16 @@ impl TestPlanConfig {
             ));
         }
         for (flag, v, unit) in [
-            ("--overrun", self.overrun_mm, "mm"),
-            ("--dwell-s", self.dwell_s, "s"),
-            ("--feed-mm-s", self.feed_mm_s, "mm/s"),
+            (PlanField::OverrunMm, self.overrun_mm, "mm"),
+            (PlanField::DwellS, self.dwell_s, "s"),
+            (PlanField::FeedMmS, self.feed_mm_s, "mm/s"),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(bad(flag, format!("{v} {unit} must be positive and finite")));
             }
         }
         for v in self.line_mm {
-            finite("--at", v)?;
+            finite(PlanField::LineMm, v)?;
         }
         Ok(())
     }
@@ -251,8 +309,8 @@ impl TestPlan {
         if p < 10.0 * TARGET_RESOLUTION_MM {
             return Err(bad(
                 match config.spacing {
-                    Spacing::Targets(_) => "--targets",
-                    Spacing::Interval(_) => "--interval",
+                    Spacing::Targets(_) => PlanField::Targets,
+                    Spacing::Interval(_) => PlanField::Interval,
                 },
                 format!(
                     "the interval {p} mm is below 0.01 mm; targets are written to {TARGET_RESOLUTION_MM} mm"
@@ -277,7 +335,7 @@ impl TestPlan {
         // when f is close to 0.5; check rather than assume.
         if let Some(w) = targets_mm.windows(2).find(|w| w[1] <= w[0]) {
             return Err(bad(
-                "--random-offset",
+                PlanField::RandomOffset,
                 format!(
                     "targets {} and {} mm are not in order after rounding to 1 µm; use a smaller fraction",
                     w[0], w[1]

@@ -9,7 +9,7 @@ use polars::prelude::*;
 
 use super::{ErrorPoint, TableError};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 
 pub(crate) fn format_err(path: &Path, e: impl fmt::Display) -> TableError {
     TableError::Format {

@@ -104,7 +104,7 @@ const REQUIRED: [&str; 4] = ["x_mm", "y_mm", "z_mm", "e_um"];
 /// a typing error, and the interpolators' divisions by the spacing would overflow.
 pub const MIN_NODE_SPACING_MM: f64 = 1e-6;
 
-use crate::base::limits::{ERROR_UM, POSITION_MM};
+use crate::base::{ERROR_UM, POSITION_MM};
 
 /// A cell outside its physical range ([`crate::base::limits`]).
 fn out_of_range(path: &Path, row0: usize, column: &str, problem: String) -> TableError {
@@ -162,7 +162,7 @@ impl ErrorTable {
                 let bound = if k < 3 { POSITION_MM } else { ERROR_UM };
                 bound
                     .check(v[k])
-                    .map_err(|problem| out_of_range(path, r, names[k], problem))?;
+                    .map_err(|problem| out_of_range(path, r, names[k], problem.to_string()))?;
             }
             let n = match &n_cells {
                 Some(c) => match parse_cell(path, c, r, "n")? {

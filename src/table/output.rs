@@ -33,7 +33,7 @@ use std::sync::Mutex;
 use polars::prelude::*;
 
 use super::TableError;
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{FileError, FileOp};
 
 /// Every temporary name handed out by [`temporary`] in this process.

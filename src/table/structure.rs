@@ -33,7 +33,7 @@ use polars::prelude::{ArrowDataType, DataFrame, ParquetReader, SerReader};
 use super::TableError;
 use super::frame::format_err;
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 
 /// Refuses a repeated name among `names` (the first repeated one, with its count).
 fn unique_names<'a>(path: &Path, names: impl Iterator<Item = &'a str>) -> Result<(), TableError> {

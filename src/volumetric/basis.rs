@@ -87,7 +87,7 @@ fn moment(lo: f64, hi: f64, n: i32) -> f64 {
 }
 
 /// Least-squares slope of ξ^d on [lo, hi] (uniform weight), 0 on an empty range.
-pub fn ls_slope(lo: f64, hi: f64, d: i32) -> f64 {
+pub(crate) fn ls_slope(lo: f64, hi: f64, d: i32) -> f64 {
     let var = moment(lo, hi, 2) - moment(lo, hi, 1).powi(2);
     if var <= 1e-15 {
         return 0.0;

@@ -45,13 +45,13 @@ use crate::base::vocabulary::ParamName;
 use crate::diagnose::FoundEffect;
 
 /// The t above which a common drift is kept (two-sided p ≈ 0.001).
-pub const DRIFT_T: f64 = 3.29;
+pub(crate) const DRIFT_T: f64 = 3.29;
 /// The family-wise two-sided p of the bad-line search.
-pub const LINE_FAMILY_P: f64 = 0.001;
+pub(crate) const LINE_FAMILY_P: f64 = 0.001;
 /// |g⊥|/|g| below which a term cannot be told from the 21 errors.
-pub const SEPARABLE: f64 = 1e-6;
+pub(crate) const SEPARABLE: f64 = 1e-6;
 /// At most this many campaign terms.
-pub const MAX_TERMS: usize = 3;
+pub(crate) const MAX_TERMS: usize = 3;
 
 /// One campaign term and its column.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,7 +70,7 @@ struct Candidate {
 
 /// The t threshold for one of `n` lines at family-wise p [`LINE_FAMILY_P`] (Bonferroni,
 /// two-sided): the standard normal quantile of 1 − p/(2n).
-pub fn line_threshold(n: usize) -> f64 {
+pub(crate) fn line_threshold(n: usize) -> f64 {
     normal_upper_quantile(LINE_FAMILY_P / (2.0 * n.max(1) as f64))
 }
 
@@ -281,7 +281,7 @@ pub(crate) fn t_words(t: f64) -> String {
 /// The effect of a chosen term, from its fitted value and σ (joint fit).
 pub(crate) fn effect(table: &LineTable, c: &Chosen, value: f64, sigma: f64) -> FoundEffect {
     let contribution: Vec<f64> = c.col.iter().map(|g| value * g).collect();
-    let explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
+    let explains_um = crate::base::rms(&contribution).unwrap_or(0.0);
     let mut uncertainty = BTreeMap::new();
     let (effect, where_) = match c.term {
         Term::Drift => {

@@ -7,6 +7,7 @@ use nalgebra::DMatrix;
 
 use super::basis::Basis;
 use super::campaign;
+use super::error::Unfit;
 use super::identifiability::suggest;
 use super::identify::{
     Design, LineResidual, Solved, Unidentified, augment, decompose, design, identified_flags,
@@ -32,7 +33,7 @@ pub(crate) enum Engine {
 }
 
 impl Engine {
-    pub(crate) fn solve(&self, d: &Design, n_lines: usize) -> Result<Solved, String> {
+    pub(crate) fn solve(&self, d: &Design, n_lines: usize) -> Result<Solved, Unfit> {
         match self {
             Engine::LeastSquares => solve(d, n_lines),
             Engine::Penalised { pen, known_noise } => {
@@ -90,7 +91,7 @@ pub(crate) fn evaluate(
     thermal_col: Option<&thermal::ThermalColumn>,
     row_w: &[f64],
     weighted: bool,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, Unfit> {
     let n_lines = table.lines.len();
     let plain = engine.solve(d, n_lines)?;
     let (thermal, joint) = match thermal_col {
@@ -146,7 +147,7 @@ pub(crate) fn evaluate(
             r_um: v.iter().map(|x| x.2).collect(),
         });
     }
-    let rms_residual_um = crate::base::stats::rms(&all_r).unwrap_or(0.0);
+    let rms_residual_um = crate::base::rms(&all_r).unwrap_or(0.0);
     let z = residual_test(
         &residuals,
         weighted.then_some((solved.chi2, solved.dof)),

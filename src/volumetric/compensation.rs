@@ -55,6 +55,7 @@
 
 use std::fmt::Write as _;
 
+use super::error::Undetermined;
 use super::identify::FitState;
 use super::model::{AXES, Component, SQUARENESS, Topology};
 
@@ -95,13 +96,12 @@ fn undetermined(fit: &FitState) -> Vec<String> {
 /// The component tables at `n` positions per axis, the squareness folded into the
 /// straightness of Y (in x) and Z (in x and y). Errors naming the components the lines
 /// did not determine.
-pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, String> {
+pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, Undetermined> {
     let missing = undetermined(fit);
     if !missing.is_empty() {
-        return Err(format!(
-            "the compensation needs {}, which the lines did not determine",
-            missing.join(", ")
-        ));
+        return Err(Undetermined::Compensation {
+            components: missing,
+        });
     }
     let sq: Vec<f64> = (0..3)
         .map(|i| fit.squareness(i).map_or(0.0, |v| v.0))
@@ -115,9 +115,11 @@ pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, Str
             let mut row = [0.0; 6];
             for (kind, slot) in row.iter_mut().enumerate() {
                 let c = Component { axis: k, kind };
-                let (v, s) = fit
-                    .component(c.index(), a)
-                    .ok_or_else(|| format!("{} is not determined", c.name()))?;
+                let (v, s) =
+                    fit.component(c.index(), a)
+                        .ok_or_else(|| Undetermined::Component {
+                            component: c.name(),
+                        })?;
                 *slot = v;
                 max_sigma[k][kind] = max_sigma[k][kind].max(s);
             }
@@ -201,7 +203,7 @@ pub fn positioning_profile(
     k: usize,
     at_mm: [f64; 3],
     positions: &[f64],
-) -> Result<Vec<(f64, f64)>, String> {
+) -> Result<Vec<(f64, f64)>, Undetermined> {
     positions
         .iter()
         .map(|&a| {
@@ -209,12 +211,9 @@ pub fn positioning_profile(
             p[k] = a;
             let rows = fit.basis.effect_rows(p, [0.0; 3]);
             let g: Vec<f64> = rows[k].iter().map(|v| -v).collect();
-            fit.functional(&g).ok_or_else(|| {
-                format!(
-                    "the positioning error of {} at {a} mm depends on components the lines did \
-                     not determine",
-                    AXES[k]
-                )
+            fit.functional(&g).ok_or(Undetermined::Positioning {
+                axis: AXES[k],
+                at_mm: a,
             })
         })
         .collect()

@@ -34,9 +34,9 @@ use super::lines::LineTable;
 use super::model::{Component, Topology};
 
 /// Least relative drop of the CV sum of squares that justifies a higher degree.
-pub const RAISE_GAIN: f64 = 0.01;
+pub(crate) const RAISE_GAIN: f64 = 0.01;
 /// Most coordinate-descent sweeps over the 18 components.
-pub const MAX_SWEEPS: usize = 3;
+pub(crate) const MAX_SWEEPS: usize = 3;
 
 /// What the per-component search did (JSON `cv_each`).
 #[derive(Debug, Clone, Serialize, Deserialize)]

@@ -70,11 +70,13 @@ pub struct ModelDoc<R = ResidualVerdict> {
     pub unidentified: Vec<Unidentified>,
 }
 
-/// What is wrong with a read document: the key and the problem.
+/// What is wrong with a read document: it holds no fit, or a key and the problem.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DocProblem {
-    pub key: &'static str,
-    pub message: String,
+pub enum DocProblem {
+    /// No `fit`: the document is not an identified model.
+    NoFit,
+    /// A key and what is wrong with it.
+    Bad { key: &'static str, message: String },
 }
 
 impl<R> ModelDoc<R> {
@@ -82,14 +84,8 @@ impl<R> ModelDoc<R> {
     /// knot vectors of at least 3 increasing knots with 0 among them), every number
     /// finite.
     pub fn check(&self) -> Result<&FitState, DocProblem> {
-        let problem = |key, message: String| DocProblem { key, message };
-        let fit = self.fit.as_ref().ok_or_else(|| {
-            problem(
-                "fit",
-                "missing: write the model with `errmap volumetric identify … --out MODEL.json`"
-                    .into(),
-            )
-        })?;
+        let problem = |key, message: String| DocProblem::Bad { key, message };
+        let fit = self.fit.as_ref().ok_or(DocProblem::NoFit)?;
         let b = &fit.basis;
         match &b.knots_mm {
             Some(knots) => {

@@ -12,7 +12,7 @@ use super::basis::{Basis, BasisKind};
 use super::choice::{
     Engine, Model, Outcome, RELAX, RICHER_DEGREES, evaluate, poly_model, relaxed, spline_model,
 };
-use super::error::VolumetricError;
+use super::error::{Unfit, VolumetricError};
 use super::lines::LineTable;
 use super::model::{Component, Topology};
 pub use super::residual::Z_MISSING;
@@ -22,10 +22,10 @@ use crate::diagnose::FoundEffect;
 
 /// Relative tolerance on singular values (after column equilibration) below which a
 /// direction of the design is taken as undetermined.
-pub const RANK_TOL: f64 = 1e-8;
+pub(crate) const RANK_TOL: f64 = 1e-8;
 /// A component is undetermined when any of its parameters has a null-space weight above
 /// this (rows of an orthonormal null-space basis, equilibrated coordinates).
-pub const NULL_TOL: f64 = 1e-6;
+pub(crate) const NULL_TOL: f64 = 1e-6;
 
 /// The highest polynomial degree of a component (a fixed degree, `auto`'s maximum, a
 /// per-component degree). Beyond it a line of the usual 11–21 targets determines nothing
@@ -512,15 +512,16 @@ pub(crate) struct Solved {
 }
 
 /// θ = V Σ⁻¹ Uᵀ e on the determined subspace, the covariance σ₀²·V Σ⁻² Vᵀ, the null space.
-pub(crate) fn solve(d: &Design, n_lines: usize) -> Result<Solved, String> {
+pub(crate) fn solve(d: &Design, n_lines: usize) -> Result<Solved, Unfit> {
     let dec = decompose(&d.a);
     let rank = dec.sv_range.len();
     let rows = d.a.nrows();
     if rows <= rank + n_lines {
-        return Err(format!(
-            "{rows} targets on {n_lines} lines leave no degree of freedom for {rank} determined \
-             parameters and {n_lines} line constants; measure more targets or lower the degree"
-        ));
+        return Err(Unfit::NoFreedom {
+            rows,
+            lines: n_lines,
+            rank,
+        });
     }
     let dof = (rows - rank - n_lines) as f64;
     let ut_e = dec.u_range.transpose() * &d.e;
@@ -628,7 +629,7 @@ pub(crate) fn thermal_fit(
         return (test, None);
     }
     let contribution: Vec<f64> = col.centred.iter().map(|g| alpha * g).collect();
-    test.explains_um = crate::base::stats::rms(&contribution).unwrap_or(0.0);
+    test.explains_um = crate::base::rms(&contribution).unwrap_or(0.0);
     (test, Some(solved))
 }
 
@@ -646,7 +647,7 @@ struct FitInputs<'a> {
 
 impl FitInputs<'_> {
     /// Fits and tests model `m` ([`evaluate`]).
-    fn evaluate(&self, m: &Model) -> Result<Outcome, String> {
+    fn evaluate(&self, m: &Model) -> Result<Outcome, Unfit> {
         evaluate(
             self.table,
             &m.d,
@@ -890,7 +891,9 @@ pub fn identify(
         cv,
         cv_each,
     } = first_model(&inp)?;
-    let first_outcome = inp.evaluate(&first).map_err(|m| fit_err(table, m))?;
+    let first_outcome = inp
+        .evaluate(&first)
+        .map_err(|m| fit_err(table, m.to_string()))?;
     let mut chosen: Option<(Model, Outcome)> = None;
     let mut tried = match config.basis {
         BasisKind::Spline => "tables at knots with REML smoothing".to_string(),

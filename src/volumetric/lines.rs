@@ -17,18 +17,18 @@ use polars::prelude::*;
 
 use super::error::VolumetricError;
 use super::model::dot;
-use crate::base::limits::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
+use crate::base::{Bound, ERROR_UM, POSITION_MM, TEMPERATURE_C, TIME_S, UNCERTAINTY_UM};
 use crate::table::{
     Cells, TableError, column_cells, format_err, optional_column_cells, parse_cell, read_frame,
     required_cell, text_or_number_cells, write_frame,
 };
 
 /// Tolerance on |u| − 1 and on the agreement of u between rows of a line.
-pub const UNIT_TOL: f64 = 1e-6;
+pub(crate) const UNIT_TOL: f64 = 1e-6;
 /// How far a target may lie off its line, mm.
-pub const OFF_LINE_TOL_MM: f64 = 1e-3;
+pub(crate) const OFF_LINE_TOL_MM: f64 = 1e-3;
 /// Fewest distinct targets of a line.
-pub const MIN_TARGETS: usize = 3;
+pub(crate) const MIN_TARGETS: usize = 3;
 
 /// One row of a line table.
 #[derive(Debug, Clone, PartialEq)]
@@ -310,7 +310,7 @@ impl LineColumns {
             if let Some(x) = value
                 && let Err(problem) = bound_of(name).check(x)
             {
-                return Err(bad(path, row, name, problem));
+                return Err(bad(path, row, name, problem.to_string()));
             }
         }
         let u = [v[3], v[4], v[5]];

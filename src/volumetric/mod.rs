@@ -5,21 +5,21 @@
 //!
 //! | module | does | cost |
 //! |---|---|---|
-//! | [`model`] | topology, components, lever arms, E(x, y, z; p), the machine-model TOML | O(18) per point |
-//! | [`lines`] | line tables (CSV/Parquet): read, validate, write | O(rows · lines) |
-//! | [`basis`] | the linear parameterisation (polynomials or tables at knots) with the gauge built in | O(params) per row |
-//! | [`spline`] | tables at knots: knots from the lines, hat functions, the roughness penalty | O(knots) per value |
+//! | `model` | topology, components, lever arms, E(x, y, z; p), the machine-model TOML | O(18) per point |
+//! | `lines` | line tables (CSV/Parquet): read, validate, write | O(rows · lines) |
+//! | `basis` | the linear parameterisation (polynomials or tables at knots) with the gauge built in | O(params) per row |
+//! | `spline` | tables at knots: knots from the lines, hat functions, the roughness penalty | O(knots) per value |
 //! | `smooth` | the penalised fit: REML smoothing per component, posterior covariance, Birge ratio | O(params³) per REML step |
 //! | `choice` | the component models compared and their evaluation with the campaign terms | one fit per model tried |
-//! | [`residual`] | the residual's test against the noise, the lines that carry a failing one | O(rows) |
-//! | [`doc`] | `model.json` / `--json` as one typed document, written and read back | O(params²) |
-//! | [`identify`] | least squares, σ bands, identifiability, degree by CV, scale expansion, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
-//! | [`identifiability`] | which line would determine an undetermined component | one small SVD per candidate |
-//! | [`predict`] | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
-//! | [`simulate`] | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
-//! | [`compensation`] | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
-//! | [`degree`] | a degree per component by leave-one-line-out CV (coordinate descent) | ≈ 18·(max − 1) CV fits a sweep |
-//! | [`thermal`] | the scale-expansion column, its t-test and its effect | one more SVD of the design |
+//! | `residual` | the residual's test against the noise, the lines that carry a failing one | O(rows) |
+//! | `doc` | `model.json` / `--json` as one typed document, written and read back | O(params²) |
+//! | `identify` | least squares, σ bands, identifiability, degree by CV, scale expansion, residual test | SVD O(rows · params²); CV one Cholesky O(params³) per line and degree |
+//! | `identifiability` | which line would determine an undetermined component | one small SVD per candidate |
+//! | `predict` | along lines (relative to each line's first row) and over a grid | O(params²) per point with σ |
+//! | `simulate` | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
+//! | `compensation` | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
+//! | `degree` | a degree per component by leave-one-line-out CV (coordinate descent) | ≈ 18·(max − 1) CV fits a sweep |
+//! | `thermal` | the scale-expansion column, its t-test and its effect | one more SVD of the design |
 //!
 //! # Model and signs
 //!
@@ -33,13 +33,13 @@
 //!
 //! The default component model is a piecewise-linear table at knots with a roughness
 //! penalty, the smoothing of each component chosen by REML and the covariance the
-//! Bayesian posterior's, inflated by the Birge ratio ([`spline`], `smooth`); when its
+//! Bayesian posterior's, inflated by the Birge ratio (`spline`, `smooth`); when its
 //! residual fails the test below, rougher tables are tried before anything is called
 //! unexplained ([`identify::identify`]). The polynomial basis (`--basis poly`) is
 //! described next; its identifiability analysis also decides what the tables determine.
 //!
 //! Linear least squares: each component a polynomial in ξ = a/L_k without constant term
-//! ([`basis`]), each squareness a constant, one free constant per line. The line constants
+//! (`basis`), each squareness a constant, one free constant per line. The line constants
 //! are eliminated exactly by centring each line's rows (weighted mean); rows are weighted
 //! by 1/s_um when every row has `s_um`, otherwise equally; columns are equilibrated to
 //! unit norm. The equilibrated design's SVD gives the solution (pseudo-inverse on the
@@ -50,12 +50,12 @@
 //! (its rows of the orthonormal null basis below [`identify::NULL_TOL`] = 1e−6); then its
 //! estimate and σ do not depend on how the undetermined directions are resolved.
 //! Unidentified components are reported with `values`/`sigma` null, grouped by the
-//! simplest line of a catalogue whose addition determines them ([`identifiability`]).
+//! simplest line of a catalogue whose addition determines them (`identifiability`).
 //! A straightness component of degree D has the basis ξ²…ξ^max(D,2) (slope removed), so a
 //! straightness that no line sees is never "identified as zero".
 //!
 //! **Degree.** One global degree D (1 = linear, …), or per component (fixed, or
-//! `auto-each`: each component's own by the same cross-validation, [`degree`]); `auto` fits
+//! `auto-each`: each component's own by the same cross-validation, `degree`); `auto` fits
 //! D = 1 … max (default 4) and scores each by leave-one-line-out cross-validation (each
 //! held-out line's profile predicted by the other lines, its constant refitted), over the
 //! lines every degree can predict, among degrees determining at least what D = 1
@@ -81,7 +81,7 @@
 //!
 //! When every row has `scale_temp_c`, the scales' expansion during the campaign is
 //! fitted jointly with the 21 errors (one more design column, one α for the three
-//! scales) and kept when |α̂| > 3σ_α ([`thermal`]); then the components are those at
+//! scales) and kept when |α̂| > 3σ_α (`thermal`); then the components are those at
 //! 20 °C and `residual.effects` carries `scale_thermal_expansion` (`cli-contract.md`'s
 //! vocabulary and shape), verdict `missing_physics`. What remains is tested against the
 //! noise: with `s_um` on every row, the weighted χ² against its degrees of freedom
@@ -90,7 +90,7 @@
 //! makes the verdict `missing_physics`; otherwise the residual is `consistent`. Before
 //! that test, a drift of the readings in time (`thermal_drift`) and a single line whose
 //! readings scale against the others (`scale_factor`, the line named) are searched for,
-//! and fitted jointly with the 21 errors when significant ([`campaign`]).
+//! and fitted jointly with the 21 errors when significant (`campaign`).
 //!
 //! # References
 //!
@@ -99,32 +99,41 @@
 //! machine geometry calibration", CIRP Annals 37/1 (1988). ISO 10360-2 (length
 //! measurement error along lines).
 
-pub mod basis;
-pub mod campaign;
+mod basis;
+mod campaign;
 mod choice;
-pub mod compensation;
-pub mod degree;
-pub mod doc;
+mod compensation;
+mod degree;
+mod doc;
 mod error;
-pub mod from_session;
-pub mod identifiability;
-pub mod identify;
-pub mod lines;
-pub mod model;
-pub mod predict;
-pub mod residual;
-pub mod simulate;
+mod from_session;
+mod identifiability;
+mod identify;
+mod lines;
+mod model;
+mod predict;
+mod residual;
+mod simulate;
 mod smooth;
-pub mod spline;
-pub mod thermal;
+mod spline;
+mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth};
-pub use error::VolumetricError;
-pub use identify::{Degree, FitState, Identification, IdentifyConfig, identify};
+pub use compensation::{
+    ComponentTables, axis_positions, component_tables, positioning_profile, render_twincat,
+};
+pub use error::{
+    ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
+};
+pub use from_session::SessionLines;
+pub use identify::{
+    Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS, Z_MISSING,
+    identify,
+};
 pub use lines::{Line, LineTable, Target};
-pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology};
-pub use predict::{Prediction, Predictor};
-pub use simulate::{Plan, PlanFile, PlannedLine, ThermalHistory, simulate};
+pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology, squareness_effect};
+pub use predict::{Prediction, Predictor, write_grid, write_predictions};
+pub use simulate::{MAX_READINGS, Plan, PlanFile, PlannedLine, ThermalHistory, preset, simulate};
 pub use thermal::ThermalTest;
 
 /// The gauge convention in words (also in the JSON and the report).

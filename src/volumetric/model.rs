@@ -51,13 +51,13 @@ use std::str::FromStr;
 
 use serde::Deserialize;
 
-use super::error::{VolumetricError, config_err};
-use crate::base::error::read_toml;
+use super::error::{ComponentTableError, UnknownComponent, VolumetricError, config_err};
+use crate::base::read_toml;
 use crate::interp::{Interpolator, Method, MethodName, MethodSettings, Order};
 use crate::table::{ErrorPoint, ErrorTable};
 
 /// Axis letters in index order.
-pub const AXES: [char; 3] = ['X', 'Y', 'Z'];
+pub(crate) const AXES: [char; 3] = ['X', 'Y', 'Z'];
 /// The six kinds of component: translations along X, Y, Z and rotations A, B, C.
 const KINDS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
 
@@ -214,11 +214,11 @@ impl Component {
 }
 
 impl FromStr for Component {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownComponent;
+    fn from_str(s: &str) -> Result<Self, UnknownComponent> {
         Component::all()
             .find(|c| c.name() == s.trim())
-            .ok_or_else(|| format!("unknown component `{s}`"))
+            .ok_or_else(|| UnknownComponent(s.to_string()))
     }
 }
 
@@ -235,7 +235,7 @@ pub fn squareness_effect(i: usize, pos_mm: [f64; 3]) -> [f64; 3] {
     }
 }
 
-pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -243,7 +243,7 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -285,13 +285,12 @@ impl ComponentFn {
         positions_mm: &[f64],
         values: &[f64],
         method: Method,
-    ) -> Result<ComponentFn, String> {
+    ) -> Result<ComponentFn, ComponentTableError> {
         if positions_mm.len() != values.len() {
-            return Err(format!(
-                "{} positions but {} values",
-                positions_mm.len(),
-                values.len()
-            ));
+            return Err(ComponentTableError::Lengths {
+                positions: positions_mm.len(),
+                values: values.len(),
+            });
         }
         let mut pairs: Vec<(f64, f64)> = positions_mm
             .iter()
@@ -300,18 +299,16 @@ impl ComponentFn {
             .collect();
         pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
         if pairs.windows(2).any(|w| w[0].0 == w[1].0) {
-            return Err("a position is repeated".into());
+            return Err(ComponentTableError::Repeated);
         }
         if pairs.len() < 2 {
-            return Err("a table needs at least 2 positions".into());
+            return Err(ComponentTableError::TooFew);
         }
         let Some(&(_, v0)) = pairs.iter().find(|p| p.0 == 0.0) else {
-            return Err("the positions must include 0 (components are zero at 0)".into());
+            return Err(ComponentTableError::NoZero);
         };
         if v0 != 0.0 {
-            return Err(format!(
-                "the value at 0 mm is {v0}; components are zero at their reference position 0"
-            ));
+            return Err(ComponentTableError::NotZeroAtZero { value: v0 });
         }
         let points = pairs
             .iter()
@@ -319,8 +316,10 @@ impl ComponentFn {
             .collect();
         let grid = ErrorTable::from_points("component table", points)
             .grid()
-            .map_err(|e| e.to_string())?;
-        let interp = method.fit(&grid).map_err(|e| e.to_string())?;
+            .map_err(|e| ComponentTableError::Interpolation(e.to_string()))?;
+        let interp = method
+            .fit(&grid)
+            .map_err(|e| ComponentTableError::Interpolation(e.to_string()))?;
         Ok(ComponentFn::Table { method, interp })
     }
 }
@@ -410,8 +409,7 @@ impl Machine {
 
     /// Reads and validates a machine-model TOML file.
     pub fn read(path: &Path) -> Result<Machine, VolumetricError> {
-        let file: MachineFile =
-            read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
+        let file: MachineFile = read_toml::<_, VolumetricError>(path, crate::sim::check_numbers)?;
         file.validate(path)
     }
 }
@@ -551,7 +549,8 @@ impl MachineFile {
                     let order = spec.degree.map(|d| Order([d, 0, 0]));
                     let method = Method::from_name(name, order, &MethodSettings::default())
                         .map_err(|e| config_err(path, format!("{k}.method"), e.to_string()))?;
-                    ComponentFn::table(pos, val, method).map_err(|e| config_err(path, &k, e))?
+                    ComponentFn::table(pos, val, method)
+                        .map_err(|e| config_err(path, &k, e.to_string()))?
                 }
                 _ => {
                     return Err(config_err(

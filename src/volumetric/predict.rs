@@ -12,13 +12,13 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::doc::ModelDoc;
-use super::error::{VolumetricError, config_err};
+use super::doc::{DocProblem, ModelDoc};
+use super::error::{Undetermined, VolumetricError, config_err};
 use super::identify::FitState;
 use super::lines::LineTable;
 use super::model::{Component, Machine, SQUARENESS, squareness_effect};
 use crate::base::FileOp;
-use crate::base::error::io_err;
+use crate::base::io_err;
 
 /// One predicted row.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -33,7 +33,7 @@ pub struct Prediction {
 }
 
 /// The error vector at a point and its one-sigma, µm.
-pub type VectorPrediction = ([f64; 3], [f64; 3]);
+pub(crate) type VectorPrediction = ([f64; 3], [f64; 3]);
 
 /// What predicts: an identified fit, or a known machine.
 #[derive(Debug)]
@@ -58,7 +58,12 @@ impl Predictor {
             serde_json::from_str(&text).map_err(|e| config_err(path, "file", e.to_string()))?;
         let fit = doc
             .check()
-            .map_err(|p| config_err(path, p.key, p.message))?
+            .map_err(|p| match p {
+                DocProblem::NoFit => VolumetricError::NoFit {
+                    path: path.to_path_buf(),
+                },
+                DocProblem::Bad { key, message } => config_err(path, key, message),
+            })?
             .clone();
         Ok(Predictor::Fit(fit))
     }
@@ -114,7 +119,7 @@ impl Predictor {
         &self,
         points: &[[f64; 3]],
         probe_mm: [f64; 3],
-    ) -> Result<Vec<VectorPrediction>, String> {
+    ) -> Result<Vec<VectorPrediction>, Undetermined> {
         match self {
             Predictor::Machine(m) => Ok(points
                 .iter()
@@ -122,10 +127,7 @@ impl Predictor {
                 .collect()),
             Predictor::Fit(f) => {
                 if let Some(missing) = grid_blockers(f) {
-                    return Err(format!(
-                        "the error vector needs {missing}, which the lines did not determine \
-                         (see `unidentified` in the model)"
-                    ));
+                    return Err(Undetermined::Vector { missing });
                 }
                 Ok(grid_vectors(f, points, probe_mm))
             }

@@ -23,7 +23,7 @@ pub struct Carrier {
 
 /// The lines carrying most of the residual (largest sum of squares first, until 80 % of
 /// it or five lines).
-pub fn carriers(res: &[LineResidual]) -> Vec<Carrier> {
+pub(crate) fn carriers(res: &[LineResidual]) -> Vec<Carrier> {
     let total: f64 = res.iter().flat_map(|l| &l.r_um).map(|r| r * r).sum();
     if total.is_nan() || total <= 0.0 {
         return Vec::new();

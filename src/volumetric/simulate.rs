@@ -53,11 +53,11 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Deserialize;
 
-use super::error::{VolumetricError, config_err};
+use super::error::{UnknownPreset, VolumetricError, config_err};
 use super::lines::{Line, LineTable, Target};
 use super::model::{AXES, Machine};
-use crate::base::error::read_toml;
-use crate::base::stats::gaussian;
+use crate::base::gaussian;
+use crate::base::read_toml;
 
 /// The plan file as written.
 #[derive(Debug, Clone, Deserialize)]
@@ -210,14 +210,14 @@ fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
 }
 
 /// The smallest extent of a preset's volume along an axis, mm.
-pub const MIN_EXTENT_MM: f64 = 1e-3;
+pub(crate) const MIN_EXTENT_MM: f64 = 1e-3;
 
 /// The slowest feed of a plan, mm/s.
-pub const MIN_FEED_MM_S: f64 = 1e-3;
+pub(crate) const MIN_FEED_MM_S: f64 = 1e-3;
 
 impl PlanFile {
     pub fn read(path: &Path) -> Result<Plan, VolumetricError> {
-        let f: PlanFile = read_toml::<_, VolumetricError>(path, crate::sim::bounds::check_numbers)?;
+        let f: PlanFile = read_toml::<_, VolumetricError>(path, crate::sim::check_numbers)?;
         f.validate(path)
     }
 
@@ -335,7 +335,8 @@ impl PlanFile {
         if !p.is_finite() {
             return Err(config_err(path, "probe_offset_mm", "not finite"));
         }
-        preset(name, vol, self.targets, p, self.runs).map_err(|m| config_err(path, "preset", m))
+        preset(name, vol, self.targets, p, self.runs)
+            .map_err(|m| config_err(path, "preset", m.to_string()))
     }
 
     /// `[[line]]` table `i` (0-based) as a planned line, `n_before` lines already planned
@@ -419,7 +420,7 @@ impl PlanFile {
 pub const MAX_READINGS: u64 = 200_000;
 
 /// Names of the presets.
-pub const PRESETS: [&str; 2] = ["zhang22", "rich"];
+pub(crate) const PRESETS: [&str; 2] = ["zhang22", "rich"];
 /// Refuses a plan without lines, with more readings than a campaign may have (checked
 /// before any target is made) or with a line name used twice.
 fn check_lines(path: &Path, lines: &[PlannedLine]) -> Result<(), VolumetricError> {
@@ -620,7 +621,7 @@ pub fn preset(
     targets: usize,
     probe: f64,
     runs: u32,
-) -> Result<Vec<PlannedLine>, String> {
+) -> Result<Vec<PlannedLine>, UnknownPreset> {
     let [lo, hi] = vol;
     let mid: [f64; 3] = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
     let mut b = PresetBox {
@@ -636,10 +637,10 @@ pub fn preset(
         "zhang22" => b.zhang22(),
         "rich" => b.rich(),
         other => {
-            return Err(format!(
-                "unknown preset `{other}` (presets: {})",
-                PRESETS.join(", ")
-            ));
+            return Err(UnknownPreset {
+                name: other.to_string(),
+                known: PRESETS.to_vec(),
+            });
         }
     }
     Ok(b.out)

@@ -53,6 +53,7 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
+use super::error::Unfit;
 use super::identify::Design;
 
 /// Most Fellner–Schall steps.
@@ -371,11 +372,9 @@ impl Penalty {
         lambda: &[f64],
         n_lines: usize,
         known_noise: bool,
-    ) -> Result<Smoothed, String> {
+    ) -> Result<Smoothed, Unfit> {
         let nm = Normal::of(d);
-        let chol = self
-            .factor(&nm.g, lambda)
-            .ok_or_else(|| "the penalised normal equations are singular".to_string())?;
+        let chol = self.factor(&nm.g, lambda).ok_or(Unfit::Singular)?;
         let theta_s = chol.solve(&nm.b);
         let hinv = spd_inverse(&chol);
         let res_w = &d.e - &d.a * &theta_s;
@@ -395,11 +394,11 @@ impl Penalty {
         let rows = d.a.nrows() as f64;
         let dof = rows - n_lines as f64 - edf;
         if dof <= 0.5 {
-            return Err(format!(
-                "{} targets on {n_lines} lines leave no degree of freedom for {edf:.1} \
-                 effective parameters and {n_lines} line constants; measure more targets",
-                d.a.nrows()
-            ));
+            return Err(Unfit::NoFreedomPenalised {
+                rows: d.a.nrows(),
+                lines: n_lines,
+                edf,
+            });
         }
         let ratio = chi2 / dof;
         let phi = if known_noise { ratio.max(1.0) } else { ratio };

@@ -36,7 +36,7 @@
 //! zero second differences, so R sees the reported function exactly.
 
 /// At most this many intervals per axis (the thinning distance is range / this).
-pub const MAX_INTERVALS: usize = 24;
+pub(crate) const MAX_INTERVALS: usize = 24;
 
 /// Index of the knot at 0 and of the knot farthest from 0.
 fn anchors(knots: &[f64]) -> (usize, usize) {
@@ -54,7 +54,7 @@ fn anchors(knots: &[f64]) -> (usize, usize) {
 }
 
 /// The knots whose value is a parameter, in parameter order.
-pub fn free_knots(knots: &[f64], straightness: bool) -> Vec<usize> {
+pub(crate) fn free_knots(knots: &[f64], straightness: bool) -> Vec<usize> {
     let (z, f) = anchors(knots);
     (0..knots.len())
         .filter(|&j| j != z && !(straightness && j == f))
@@ -62,13 +62,13 @@ pub fn free_knots(knots: &[f64], straightness: bool) -> Vec<usize> {
 }
 
 /// Number of parameters of a component on these knots.
-pub fn count(knots: &[f64], straightness: bool) -> usize {
+pub(crate) fn count(knots: &[f64], straightness: bool) -> usize {
     let fixed = if straightness { 2 } else { 1 };
     knots.len().saturating_sub(fixed)
 }
 
 /// The segment of `a` (clamped to the end segments) and the weight of its right knot.
-pub fn segment(knots: &[f64], a: f64) -> (usize, f64) {
+pub(crate) fn segment(knots: &[f64], a: f64) -> (usize, f64) {
     let n = knots.len();
     if n < 2 {
         return (0, 0.0);
@@ -81,7 +81,7 @@ pub fn segment(knots: &[f64], a: f64) -> (usize, f64) {
 
 /// Least-squares slope (per mm) of each hat function over [t_0, t_{K−1}], uniform
 /// weight: cov(a, φ_j)/var(a), the integrals exact per segment.
-pub fn hat_slopes(knots: &[f64]) -> Vec<f64> {
+pub(crate) fn hat_slopes(knots: &[f64]) -> Vec<f64> {
     let n = knots.len();
     let mut slopes = vec![0.0; n];
     if n < 2 {
@@ -108,7 +108,7 @@ pub fn hat_slopes(knots: &[f64]) -> Vec<f64> {
 }
 
 /// The component's basis functions at `a_mm` into `out` (cleared by the caller).
-pub fn functions_into(knots: &[f64], straightness: bool, a_mm: f64, out: &mut Vec<f64>) {
+pub(crate) fn functions_into(knots: &[f64], straightness: bool, a_mm: f64, out: &mut Vec<f64>) {
     let free = free_knots(knots, straightness);
     out.resize(free.len(), 0.0);
     let (s, w) = segment(knots, a_mm);
@@ -131,7 +131,7 @@ pub fn functions_into(knots: &[f64], straightness: bool, a_mm: f64, out: &mut Ve
 /// The component's basis as sparse entries: the two hat values (parameter index, value)
 /// and, for a straightness, the coefficient of its slope functional Σ_j β_j·v_j (which
 /// the caller carries as one more quantity): −a.
-pub fn sparse(knots: &[f64], straightness: bool, a_mm: f64) -> ([(usize, f64); 2], f64) {
+pub(crate) fn sparse(knots: &[f64], straightness: bool, a_mm: f64) -> ([(usize, f64); 2], f64) {
     let (z, f) = anchors(knots);
     let (s, w) = segment(knots, a_mm);
     let param = |j: usize| -> Option<usize> {
@@ -158,7 +158,7 @@ pub fn sparse(knots: &[f64], straightness: bool, a_mm: f64) -> ([(usize, f64); 2
 
 /// The roughness penalty of a component in its parameters (count × count, row by row),
 /// in the normalised coordinate ξ = a/`scale_mm`.
-pub fn penalty(knots: &[f64], straightness: bool, scale_mm: f64) -> Vec<Vec<f64>> {
+pub(crate) fn penalty(knots: &[f64], straightness: bool, scale_mm: f64) -> Vec<Vec<f64>> {
     let free = free_knots(knots, straightness);
     let m = free.len();
     let mut pos = vec![usize::MAX; knots.len()];
@@ -192,14 +192,14 @@ pub fn penalty(knots: &[f64], straightness: bool, scale_mm: f64) -> Vec<Vec<f64>
 
 /// The rank of [`penalty`]: intervals − 1, less one for the straight line through 0 that
 /// a positioning or angular table leaves unpenalised.
-pub fn penalty_rank(knots: &[f64], straightness: bool) -> usize {
+pub(crate) fn penalty_rank(knots: &[f64], straightness: bool) -> usize {
     let rows = knots.len().saturating_sub(2);
     let params = count(knots, straightness);
     rows.min(params)
 }
 
 /// Knots for one axis from the positions measured while it moves, within `range`.
-pub fn knots(measured_mm: &[f64], range: [f64; 2]) -> Vec<f64> {
+pub(crate) fn knots(measured_mm: &[f64], range: [f64; 2]) -> Vec<f64> {
     let [lo, hi] = range;
     let span = hi - lo;
     if span <= 0.0 {

@@ -40,7 +40,7 @@ use crate::base::vocabulary::ParamName;
 use crate::diagnose::FoundEffect;
 
 /// The t threshold above which the scale-expansion term is kept.
-pub const THERMAL_T: f64 = 3.0;
+pub(crate) const THERMAL_T: f64 = 3.0;
 
 /// The design column of α (per ppm/K), µm, before weighting: row order of the table.
 pub(crate) struct ThermalColumn {

@@ -13,14 +13,14 @@ mod against_truth {
     use errmap::base::effect::ParamValue;
     use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
     use errmap::session::read_session;
-    use errmap::sim::concealed::Truth;
+    use errmap::sim::ConcealedTruth;
     use errmap::sim::{MachineModel, apply_found_effects, simulate_rows};
 
     use crate::util::root;
 
     struct Case {
         dir: PathBuf,
-        truth: Truth,
+        truth: ConcealedTruth,
         diagnosis: Diagnosis,
     }
 
@@ -28,7 +28,7 @@ mod against_truth {
         let dir = root().join("datasets/concealed").join(name);
         let recorded = read_session(&dir.join("recorded.parquet")).expect("recorded");
         let simulated = read_session(&dir.join("simulated.parquet")).expect("simulated");
-        let truth = Truth::read(&dir.join("truth.json")).expect("truth");
+        let truth = ConcealedTruth::read(&dir.join("truth.json")).expect("truth");
         let config = DiagnoseConfig {
             grating_period_um: Some(20.0),
             ..DiagnoseConfig::default()
@@ -201,13 +201,13 @@ mod by_name {
     use crate::common::diagnosis_text;
     use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
     use errmap::session::read_session;
-    use errmap::sim::concealed::Truth;
+    use errmap::sim::ConcealedTruth;
 
     fn dir() -> PathBuf {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/concealed")
     }
 
-    fn case(name: &str) -> Option<(Diagnosis, Truth)> {
+    fn case(name: &str) -> Option<(Diagnosis, ConcealedTruth)> {
         let d = dir().join(name);
         if !d.join("recorded.parquet").exists() {
             eprintln!("skipping {name}: {} not found", d.display());
@@ -215,7 +215,7 @@ mod by_name {
         }
         let rec = read_session(&d.join("recorded.parquet")).ok()?;
         let sim = read_session(&d.join("simulated.parquet")).ok()?;
-        let truth = Truth::read(&d.join("truth.json")).ok()?;
+        let truth = ConcealedTruth::read(&d.join("truth.json")).ok()?;
         let cfg = DiagnoseConfig {
             grating_period_um: Some(20.0),
             ..DiagnoseConfig::default()
@@ -330,10 +330,10 @@ mod by_name {
         };
         let mut fails = Vec::new();
         let mut total = 0;
-        for case in errmap::sim::concealed::cases() {
+        for case in errmap::sim::concealed_cases() {
             for seed in 0..seeds {
                 total += 1;
-                let g = match errmap::sim::concealed::generate(&case, &table1, 1000 + seed) {
+                let g = match errmap::sim::generate_concealed(&case, &table1, 1000 + seed) {
                     Ok(g) => g,
                     Err(e) => panic!("{}: {e}", case.name),
                 };

@@ -313,7 +313,7 @@ fn recorded_only_on_the_real_b02_record() {
         "σ {sr} against the cluster-robust {robust}\n{text}"
     );
 
-    let iso = errmap::report::diagnosis::iso_effect(&rows, &d);
+    let iso = errmap::report::iso_effect(&rows, &d);
     let (before, after) = (&iso.measured[0], &iso.effects_removed[0]);
     assert!(after.r_um < before.r_um - 5.0, "{iso:?}");
     assert!((after.b_um - before.b_um).abs() < 1.0, "{iso:?}");

@@ -3,7 +3,7 @@
 use errmap::base::{Axis, Drift, Effect};
 use errmap::diagnose::synth::{Synth, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose};
-use errmap::report::diagnosis::write_report;
+use errmap::report::write_diagnosis_report;
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -229,7 +229,7 @@ fn report_has_markdown_and_charts() -> TestResult {
     .expect("a positioning pair");
     let d = diagnose(&out.recorded, &out.simulated, &cfg())?;
     let dir = tempfile::tempdir()?;
-    let files = write_report(&d, dir.path(), None)?;
+    let files = write_diagnosis_report(&d, dir.path(), None)?;
     assert!(files[0].ends_with("report.md"));
     for f in &files {
         assert!(f.exists(), "{}", f.display());

@@ -529,9 +529,7 @@ fn a_simulated_cmms_iso10360_test_gives_its_known_e0_r0_and_verdicts() -> TestRe
     let mut rng = StdRng::seed_from_u64(25);
     let m = random_machine(topo("YXZ"), &mut rng);
     let noise: Vec<f64> = (0..105)
-        .map(|i| {
-            0.15 * errmap::base::stats::gaussian(&mut rng) + if i % 50 == 7 { 1.0 } else { 0.0 }
-        })
+        .map(|i| 0.15 * errmap::base::gaussian(&mut rng) + if i % 50 == 7 { 1.0 } else { 0.0 })
         .collect();
     let (csv, truth) = simulated_test(&m, &noise);
     let dir = tempfile::tempdir()?;

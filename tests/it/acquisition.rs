@@ -10,7 +10,7 @@ use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use errmap::session::{error_table, read_session};
-use errmap::sim::physics::{MachineModel, PhysicsTruth};
+use errmap::sim::{MachineModel, PhysicsTruth};
 use errmap::table::ErrorTable;
 
 /// Starts serve-sim and returns it with the pty path it printed.

@@ -11,7 +11,7 @@ use std::process::Command;
 use errmap::report::certificate::{
     self, CertificateData, LineResult, axis_rows, info::CertificateInfo, mm, target_rows,
 };
-use errmap::session::iso230::AxisStats;
+use errmap::session::AxisStats;
 use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
 use errmap::session::{self, read_session};
 
@@ -188,7 +188,7 @@ fn nanometre_record_keeps_its_digits_in_the_certificate() -> TestResult {
         return Ok(());
     };
     let c = compute(&p)?;
-    assert_eq!(errmap::report::iso230::decimals(&c.iso[0].1), 4);
+    assert_eq!(errmap::report::iso230_decimals(&c.iso[0].1), 4);
     if !(have("pdftotext") && have("pdftoppm")) {
         return Ok(());
     }

@@ -1,11 +1,11 @@
 //! The fuzzy-interpolation paper's simulation (Agbegha, Guo and Bai 2011): checks which of
 //! its claims hold (seeded, many trials).
 
-use errmap::evaluate::experiment::{FuzzySimConfig, run};
+use errmap::evaluate::{FuzzySimConfig, run_fuzzy_sim};
 
 #[test]
 fn fuzzy_beats_trilinear_and_spline_on_random_node_errors_but_spline_does_not_beat_trilinear() {
-    let r = run(&FuzzySimConfig {
+    let r = run_fuzzy_sim(&FuzzySimConfig {
         trials: 100,
         ..FuzzySimConfig::default()
     })
@@ -46,7 +46,7 @@ fn the_simulation_is_reproducible_from_its_seed() {
         trials: 3,
         ..FuzzySimConfig::default()
     };
-    let a = run(&c).expect("runs");
-    let b = run(&c).expect("runs");
+    let a = run_fuzzy_sim(&c).expect("runs");
+    let b = run_fuzzy_sim(&c).expect("runs");
     assert_eq!(format!("{a:?}"), format!("{b:?}"));
 }

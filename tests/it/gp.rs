@@ -6,7 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use errmap::interp::Interpolator;
-use errmap::interp::gp::{Gp, GpConfig, GpError, GpHyper, Kernel};
+use errmap::interp::{Gp, GpConfig, GpError, GpHyper, Kernel};
 use errmap::table::{ErrorPoint, ErrorTable, Grid};
 use nalgebra::{Cholesky, DMatrix};
 use rand::rngs::StdRng;
@@ -487,8 +487,8 @@ fn leave_one_out_matches_refitting_without_each_node() {
 /// test error and calibration come out sensibly against the exact field.
 #[test]
 fn compare_on_scattered_nodes_predicts_the_field() {
-    use errmap::evaluate::compare::compare_scattered;
-    use errmap::evaluate::cv::CvScheme;
+    use errmap::evaluate::CvScheme;
+    use errmap::evaluate::compare_scattered;
     use errmap::interp::Method;
     let mut rng = StdRng::seed_from_u64(5);
     let box_mm = [600.0, 400.0, 300.0];

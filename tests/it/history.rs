@@ -11,7 +11,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::Instant;
 
 use errmap::base::Axis;
-use errmap::base::stats::gaussian;
+use errmap::base::gaussian;
 use errmap::drivers::SessionRow;
 use errmap::history::ledger::{MachineRows, RawPoint};
 use errmap::history::report::{ReportConfig, machine_report};

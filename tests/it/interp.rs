@@ -1,8 +1,8 @@
 //! Known-answer tests for the interpolators (seeded; tolerances stated per test).
 
 use approx::assert_relative_eq;
-use errmap::interp::fuzzy::high_weight;
-use errmap::interp::spline::natural_second_derivatives;
+use errmap::interp::high_weight;
+use errmap::interp::natural_second_derivatives;
 use errmap::interp::{InterpError, Method, Order};
 use errmap::table::{Axis, Grid};
 use nalgebra::{DMatrix, DVector};

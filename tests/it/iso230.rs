@@ -2,10 +2,9 @@
 //! (and re-done independently in Python from the standard's formulas), the sign
 //! convention, and the error cases.
 
-use errmap::report::iso230::{markdown, plot};
-use errmap::session::iso230::{
-    AxisStats, Direction, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats,
-};
+use errmap::base::Direction;
+use errmap::report::{iso230_markdown, iso230_plot};
+use errmap::session::{AxisStats, IsoError, Observation, POSITION_TOL_MM, TargetStats, axis_stats};
 
 /// Known answers are exact to rounding: a few ulps of values of order 10 µm.
 const TOL_UM: f64 = 1e-12;
@@ -469,7 +468,7 @@ fn a_run_repeated_in_one_direction_is_an_error() {
 #[test]
 fn markdown_has_the_table_the_symbols_and_the_sign_convention() {
     let s = stats_of(&three_targets());
-    let md = markdown(&s, "X");
+    let md = iso230_markdown(&s, "X");
     for needle in [
         "axis X",
         "x = P_ij − P_i",
@@ -492,7 +491,7 @@ fn markdown_has_the_table_the_symbols_and_the_sign_convention() {
     assert!(!md.contains("fewer than the 5 runs"), "{md}");
     // A short test is flagged.
     let short = stats_of(&target(1, 0.0, &[1.0, 2.0], &[1.0, 2.0, 3.0]));
-    assert!(markdown(&short, "Y").contains("fewest: 2"));
+    assert!(iso230_markdown(&short, "Y").contains("fewest: 2"));
 }
 
 #[test]
@@ -513,7 +512,7 @@ fn plot_writes_png_and_svg() -> Result<(), Box<dyn std::error::Error>> {
     let dir = tempfile::tempdir()?;
     let stem = dir.path().join("iso230_x");
     let s = stats_of(&three_targets());
-    let paths = plot(&s, &stem, "Axis X, ISO 230-2 deviations")?;
+    let paths = iso230_plot(&s, &stem, "Axis X, ISO 230-2 deviations")?;
     assert_eq!(paths.len(), 2);
     assert!(paths[0].ends_with("iso230_x.png") && paths[1].ends_with("iso230_x.svg"));
     let png = std::fs::read(&paths[0])?;

@@ -247,7 +247,7 @@ fn the_checker_sees_imports() {
         ["interp", "table", "report"]
     );
     assert_eq!(
-        crate_refs("let g = crate::interp::gp::Gp::fit(crate::table::x);"),
+        crate_refs("let g = crate::interp::Gp::fit(crate::table::x);"),
         ["interp", "table"]
     );
     assert!(crate_refs("use super::x; // no crate path").is_empty());

@@ -4,8 +4,8 @@
 //! noise, calibrated on held-out nodes of simulated campaigns (mean z² near 1, about
 //! 95 % within ±2σ) where the homoscedastic model is not.
 
-use errmap::base::stats::gaussian;
-use errmap::interp::gp::{Gp, GpConfig};
+use errmap::base::gaussian;
+use errmap::interp::{Gp, GpConfig};
 use errmap::session::error_table;
 use errmap::table::{ErrorPoint, ErrorTable};
 use errmap_drivers::{Axis, SessionRow};

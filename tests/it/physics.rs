@@ -5,7 +5,7 @@
 use crate::util::root;
 use std::path::{Path, PathBuf};
 
-use errmap::sim::physics::{
+use errmap::sim::{
     Abbe, History, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale,
     ScaleFactor, ThermalDrift, simulate_rows, simulate_session,
 };
@@ -13,14 +13,14 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::edlen::refractive_index;
 
 fn base() -> (MachineModel, PathBuf) {
-    let m = errmap::sim::concealed::nominal(&root().join("datasets/table1.csv"), 1);
+    let m = errmap::sim::concealed_nominal(&root().join("datasets/table1.csv"), 1);
     (m, root().join("datasets/model.toml"))
 }
 
 fn recorded(m: &MachineModel, path: &Path) -> Vec<SessionRow> {
     let plan = errmap_drivers::sim::Plan {
         runs: 2,
-        ..errmap::sim::concealed::plan()
+        ..errmap::sim::concealed_plan()
     };
     simulate_session(m, path, &plan, false).expect("simulates")
 }

@@ -472,7 +472,7 @@ fn odd_parquet_column_types_are_refused_by_name() {
 
 #[test]
 fn gp_refuses_more_nodes_than_its_limit_naming_the_alternative() {
-    use errmap::interp::gp::{Gp, GpConfig, GpError, MAX_POINTS};
+    use errmap::interp::{GP_MAX_POINTS as MAX_POINTS, Gp, GpConfig, GpError};
     use errmap::table::ErrorPoint;
     let n = MAX_POINTS + 1;
     let points: Vec<ErrorPoint> = (0..n)
@@ -632,7 +632,7 @@ fn a_scattered_table_is_not_expanded_to_its_n_cubed_grid() {
 #[test]
 fn grid_nodes_a_denormal_apart_are_refused_and_the_gp_fits_them() {
     use errmap::interp::Interpolator;
-    use errmap::interp::gp::{Gp, GpConfig};
+    use errmap::interp::{Gp, GpConfig};
     use errmap::table::{ErrorPoint, ErrorTable, TableError};
     let mut points = Vec::new();
     for (x, y, z) in [
@@ -819,7 +819,7 @@ fn out_of_range_flag_values_exit_2_before_any_work() {
 
 #[test]
 fn order_auto_refuses_grids_beyond_its_bound_at_once() {
-    use errmap::evaluate::compare::{AUTO_ORDER_MAX_NODES, auto_order};
+    use errmap::evaluate::{AUTO_ORDER_MAX_NODES, auto_order};
     use errmap::interp::InterpError;
     use errmap::table::{ErrorPoint, ErrorTable};
     let mut points = Vec::new();
@@ -950,10 +950,10 @@ mod never_panics {
             std::fs::create_dir_all(model.parent().expect("dir")).expect("mkdir");
             std::fs::copy(dataset("table1.csv"), dir.path().join("table1.csv")).expect("copy");
             std::fs::write(&model, out.join("\n")).expect("write");
-            if let Ok(m) = errmap::sim::physics::MachineModel::read(&model) {
+            if let Ok(m) = errmap::sim::MachineModel::read(&model) {
                 let plan = errmap::sim::read_plan(Some(Path::new(&dataset("sim/plan.toml"))))
                     .expect("plan");
-                if let Ok(rows) = errmap::sim::physics::simulate_session(&m, &model, &plan, false) {
+                if let Ok(rows) = errmap::sim::simulate_session(&m, &model, &plan, false) {
                     // Finite, and physical: the example's effects are µm, not the metres a
                     // NaN turned into (`ppm = nan` gave laser_mm = 0 on every row).
                     prop_assert!(rows.iter().all(|r| r.error_um.is_finite()

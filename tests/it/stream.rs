@@ -372,7 +372,7 @@ fn the_streamed_reduction_matches_the_two_pass_error_table_on_recorded_sessions(
 #[test]
 fn the_streaming_benchmark_reduces_a_generated_capture_to_its_known_nodes() {
     // One line session (~3.3 MB at 1 kHz): one line × 11 targets.
-    let b = errmap::acquire::measure::stream_bench(1.0).expect("bench");
+    let b = errmap::acquire::stream_bench(1.0).expect("bench");
     assert!(b.capture_bytes >= 1_000_000);
     assert!(b.rows > 100_000, "{} rows", b.rows);
     assert_eq!(b.nodes, 11);

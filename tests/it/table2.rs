@@ -75,13 +75,13 @@ fn paper_orders_needing_unpublished_nodes_are_refused() {
 /// folds' for the others — recomputed here fold by fold.
 #[test]
 fn interpolators_get_their_cross_validated_rms_as_sigma() {
-    use errmap::evaluate::compare::{SigmaKind, compare};
+    use errmap::evaluate::{SigmaKind, compare};
     let t1 = table("table1.csv");
     let t2 = table("table2.csv");
     let grid = t1.grid().expect("grid");
     let methods = [
         Method::Trilinear,
-        Method::Gp(errmap::interp::gp::Kernel::Matern52),
+        Method::Gp(errmap::interp::Kernel::Matern52),
     ];
     let c = compare(&t1, &grid, &t2, &methods).expect("compares");
     let tri = &c.rows[0];

@@ -10,7 +10,7 @@ use std::process::Command;
 use errmap::base::Axis;
 use errmap::sim::PlanSpec;
 use errmap::sim::program::{self, Dialect, ProgramError, ProgramOptions};
-use errmap::sim::testplan::{Spacing, TestPlan, TestPlanConfig};
+use errmap::sim::{PlanField, Spacing, TestPlan, TestPlanConfig};
 
 /// The outside check's plan: `--axis x --from 0 --to 800 --targets 21 --runs 5
 /// --overrun 5 --dwell-s 2 --feed-mm-s 25 --at y=1,z=200 --random-offset 0.1 --seed 7`.
@@ -108,91 +108,125 @@ fn an_interval_splits_the_range_into_equal_intervals_no_longer_than_it() {
 }
 
 #[test]
-fn bad_inputs_are_refused_naming_the_flag() {
-    let cases: Vec<(&str, TestPlanConfig)> = vec![
+fn bad_inputs_are_refused_naming_the_field() {
+    let cases: Vec<(PlanField, TestPlanConfig)> = vec![
         (
-            "--to",
+            PlanField::ToMm,
             TestPlanConfig {
                 to_mm: 0.0,
                 ..outside_check()
             },
         ),
         (
-            "--from",
+            PlanField::FromMm,
             TestPlanConfig {
                 from_mm: f64::NAN,
                 ..outside_check()
             },
         ),
         (
-            "--targets",
+            PlanField::Targets,
             TestPlanConfig {
                 spacing: Spacing::Targets(1),
                 ..outside_check()
             },
         ),
         (
-            "--interval",
+            PlanField::Interval,
             TestPlanConfig {
                 spacing: Spacing::Interval(-3.0),
                 ..outside_check()
             },
         ),
         (
-            "--random-offset",
+            PlanField::RandomOffset,
             TestPlanConfig {
                 random_offset: 0.5,
                 ..outside_check()
             },
         ),
         (
-            "--random-offset",
+            PlanField::RandomOffset,
             TestPlanConfig {
                 random_offset: -0.1,
                 ..outside_check()
             },
         ),
         (
-            "--feed-mm-s",
+            PlanField::FeedMmS,
             TestPlanConfig {
                 feed_mm_s: f64::INFINITY,
                 ..outside_check()
             },
         ),
         (
-            "--dwell-s",
+            PlanField::DwellS,
             TestPlanConfig {
                 dwell_s: 0.0,
                 ..outside_check()
             },
         ),
         (
-            "--overrun",
+            PlanField::OverrunMm,
             TestPlanConfig {
                 overrun_mm: -1.0,
                 ..outside_check()
             },
         ),
         (
-            "--runs",
+            PlanField::Runs,
             TestPlanConfig {
                 runs: 0,
                 ..outside_check()
             },
         ),
         (
-            "--at",
+            PlanField::LineMm,
             TestPlanConfig {
                 line_mm: [f64::NAN, 0.0],
                 ..outside_check()
             },
         ),
     ];
-    for (flag, config) in cases {
-        let e = TestPlan::generate(config.clone()).expect_err(flag);
-        assert_eq!(e.flag, flag, "{config:?}: {e}");
-        assert!(e.to_string().starts_with(flag), "{e}");
+    for (field, config) in cases {
+        let e = TestPlan::generate(config.clone()).expect_err(field.name());
+        assert_eq!(e.field, field, "{config:?}: {e}");
+        assert!(e.to_string().starts_with(field.name()), "{e}");
     }
+    // The library's words name the fields; the command line names its flags instead.
+    let e = TestPlan::generate(TestPlanConfig {
+        to_mm: 0.0,
+        ..outside_check()
+    })
+    .expect_err("empty range");
+    assert_eq!(
+        e.to_string(),
+        "to_mm: the range 0 … 0 mm is empty: from_mm must be less than to_mm"
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let o = errmap_in(
+        dir.path(),
+        &[
+            "plan",
+            "--axis",
+            "x",
+            "--from",
+            "5",
+            "--to",
+            "1",
+            "--targets",
+            "3",
+            "--out",
+            "p.toml",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr)
+            .contains("--to: the range 5 … 1 mm is empty: --from must be less than --to"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 #[test]
@@ -215,8 +249,8 @@ fn the_plan_toml_reads_back_and_the_simulated_session_stops_at_its_targets() {
     assert_eq!(spec.overrun_mm, 5.0);
     let sim_plan = spec.plan(&path).expect("plan");
 
-    let model = errmap::sim::concealed::nominal(&root().join("datasets/table1.csv"), 1);
-    let rows = errmap::sim::physics::simulate_session(
+    let model = errmap::sim::concealed_nominal(&root().join("datasets/table1.csv"), 1);
+    let rows = errmap::sim::simulate_session(
         &model,
         &root().join("datasets/model.toml"),
         &sim_plan,

@@ -5,7 +5,7 @@
 
 use crate::util::root;
 
-use errmap::sim::physics::{ColouredNoise, MachineModel, Outliers, simulate_plan};
+use errmap::sim::{ColouredNoise, MachineModel, Outliers, simulate_plan};
 use errmap_drivers::frame::Axis as WireAxis;
 use errmap_drivers::sim::{Faults, Plan, Truth, TruthQuery};
 

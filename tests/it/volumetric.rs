@@ -317,7 +317,7 @@ fn axis_parallel_lines_without_probe_offsets_leave_exactly_the_expected_errors_u
                 for tg in &mut l.targets {
                     tg.e_um = Some(
                         m.line_error_um(tg.pos_mm, l.u, l.probe_mm)
-                            + 0.1 * errmap::base::stats::gaussian(&mut noise),
+                            + 0.1 * errmap::base::gaussian(&mut noise),
                     );
                 }
                 l

@@ -6,9 +6,9 @@
 
 use std::path::Path;
 
-use errmap::volumetric::compensation::{component_tables, positioning_profile, render_twincat};
-use errmap::volumetric::model::{Component, squareness_effect};
+use errmap::volumetric::{Component, squareness_effect};
 use errmap::volumetric::{Degree, IdentifyConfig, LineTable, Predictor, identify, simulate};
+use errmap::volumetric::{component_tables, positioning_profile, render_twincat};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
@@ -129,7 +129,9 @@ fn undetermined_components_refuse_the_export() {
     cfg.degree = Degree::Fixed(2);
     cfg.basis = errmap::volumetric::BasisKind::Poly;
     let id = identify(&table, &cfg).expect("identify");
-    let err = component_tables(&id.fit, 5).expect_err("undetermined");
+    let err = component_tables(&id.fit, 5)
+        .expect_err("undetermined")
+        .to_string();
     assert!(err.contains("E_YX") && err.contains("E_C0Y"), "{err}");
     // Positioning along X at the origin is determined by these lines, so its profile is.
     let pos = [0.0, 400.0, 800.0];

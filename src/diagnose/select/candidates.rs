@@ -139,7 +139,7 @@ impl Selector<'_> {
                 && base_bic - e.bic >= self.cfg.min_delta_bic
                 && let Err(why) = self.periodic_support(resid, &s, &c)
             {
-                e.undetermined = Some(why);
+                e.undetermined = Some(why.to_string());
             }
             e.cand = Cand::Trial(vec![s, c]);
             evals.push(e);

@@ -16,6 +16,28 @@ use crate::diagnose::words::fixed;
 
 use super::{FittedTerm, Selector, Term, ids_of};
 
+/// Why a periodic term is not reported as a scale's periodic error
+/// ([`Selector::periodic_support`]).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub(super) enum Unsupported {
+    /// The moving rows alone do not carry it: its Δχ² there is below the need.
+    #[error("not supported by the moving samples alone (Δχ² = {gain:.1} < {need:.1})")]
+    Moving { gain: f64, need: f64 },
+    /// Its amplitude in one third of the axis disagrees with the whole.
+    #[error(
+        "its amplitude is not uniform along the axis ({part_um:.4} ± {sigma_um:.4} µm at {}–{} mm against {whole_um:.4} µm overall)",
+        fixed(*.from_mm, 0),
+        fixed(*.to_mm, 0)
+    )]
+    NotUniform {
+        part_um: f64,
+        sigma_um: f64,
+        from_mm: f64,
+        to_mm: f64,
+        whole_um: f64,
+    },
+}
+
 /// The sampling pitch (mm) of which `period_mm` is a sub-multiple s/k (k = 1‥64, within
 /// 1 %), if any.
 pub(super) fn lattice_alias(period_mm: f64, lattices: &[f64]) -> Option<f64> {
@@ -96,7 +118,7 @@ impl Selector<'_> {
         resid: &[f64],
         s: &[f64],
         c: &[f64],
-    ) -> Result<(), String> {
+    ) -> Result<(), Unsupported> {
         let w = self.engine.w();
         let n = resid.len();
         let whole = small_fit(resid, w, &[s, c], None);
@@ -110,9 +132,7 @@ impl Selector<'_> {
             let gain = (base - with.chi2) / s2;
             let need = self.moving_support_chi2();
             if gain < need {
-                return Err(format!(
-                    "not supported by the moving samples alone (Δχ² = {gain:.1} < {need:.1})"
-                ));
+                return Err(Unsupported::Moving { gain, need });
             }
         }
         let (lo, hi) = self
@@ -144,11 +164,13 @@ impl Selector<'_> {
             let sd = var.max(0.0).sqrt();
             let tol = 3.0 * sd;
             if ap + tol < 0.5 * amp || ap - tol > 2.0 * amp {
-                return Err(format!(
-                    "its amplitude is not uniform along the axis ({ap:.4} ± {sd:.4} µm at {}–{} mm against {amp:.4} µm overall)",
-                    fixed(a, 0),
-                    fixed(b.min(hi), 0)
-                ));
+                return Err(Unsupported::NotUniform {
+                    part_um: ap,
+                    sigma_um: sd,
+                    from_mm: a,
+                    to_mm: b.min(hi),
+                    whole_um: amp,
+                });
             }
         }
         Ok(())
@@ -177,7 +199,7 @@ impl Selector<'_> {
                     self.engine.col(f.term.cols[1]),
                 );
                 if let Err(why) = self.periodic_support(&without, s, c) {
-                    return Some((i, why));
+                    return Some((i, why.to_string()));
                 }
             }
             let why = effects::undetermined(&f.params, cfg.max_relative_uncertainty)

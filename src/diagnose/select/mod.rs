@@ -60,7 +60,7 @@ use super::data::Obs;
 use super::effects::{self, Columns, Kind, Param, Variant};
 use super::engine::{CONST, Engine, Fit, bic};
 use super::spectral;
-pub(crate) use crate::base::stats::centred_rms;
+pub(crate) use crate::base::centred_rms;
 
 use checks::lattice_alias;
 pub(crate) use decide::Decision;

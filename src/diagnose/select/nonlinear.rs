@@ -5,7 +5,7 @@
 //!
 //! Called from `candidates` and from the passes in `mod.rs`; calls no other file of `select`.
 
-use crate::base::optim::golden;
+use crate::base::golden;
 use crate::diagnose::effects::{self, Variant};
 use crate::diagnose::engine::{CONST, solve};
 use crate::diagnose::spectral;

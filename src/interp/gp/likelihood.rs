@@ -8,7 +8,7 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 use super::{GpConfig, Kernel, NUGGET};
-use crate::base::optim::lbfgs;
+use crate::base::lbfgs;
 
 /// L-BFGS iterations per start.
 const MAX_ITERATIONS: usize = 200;

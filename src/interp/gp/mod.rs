@@ -86,7 +86,7 @@ use std::fmt;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
-use crate::base::limits::{ERROR_UM, POSITION_MM};
+use crate::base::{ERROR_UM, POSITION_MM};
 use crate::interp::Interpolator;
 use crate::table::ErrorPoint;
 
@@ -94,7 +94,7 @@ pub use kernel::Kernel;
 use likelihood::{Objective, forward_substitute, inverse_lower};
 
 /// The fewest points [`Gp::fit`] accepts.
-pub const MIN_POINTS: usize = 3;
+pub(crate) const MIN_POINTS: usize = 3;
 
 /// The most points [`Gp::fit`] and [`Gp::with_hyper`] accept: the fit is O(n³) per
 /// likelihood evaluation (about 30 s for 500 points in a release build, minutes beyond)

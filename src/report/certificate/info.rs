@@ -28,7 +28,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::base::error::io_err;
+use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
 use crate::session::uncertainty::{UncertaintyConfig, UncertaintyError};
 
@@ -135,7 +135,7 @@ impl CertificateInfo {
     /// Parses and validates info TOML text; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<CertificateInfo, InfoError> {
         let info: CertificateInfo =
-            toml::from_str(text).map_err(|e| crate::base::error::parse_error(path, &e))?;
+            toml::from_str(text).map_err(|e| crate::base::parse_error(path, &e))?;
         let invalid =
             |key: &str, message: String| InfoError::from(ConfigError::key(path, key, message));
         let s = &info.sensors;

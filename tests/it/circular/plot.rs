@@ -2,8 +2,8 @@
 
 use errmap::circular::simulate::simulate;
 use errmap::circular::{DiagnoseConfig, Plane, diagnose};
-use errmap::plot::polar::{colour, pixel};
-use errmap::report::circular::{CCW_COLOUR, CW_COLOUR, chart, write_report};
+use errmap::plot::{colour, pixel};
+use errmap::report::{CCW_COLOUR, CW_COLOUR, circular_chart, write_circular_report};
 
 use super::model;
 use crate::util::tempdir;
@@ -39,7 +39,7 @@ fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
     let test = simulate(&m);
     let d = diagnose(&test, &DiagnoseConfig::default());
     let dir = tempdir();
-    write_report(&test, &d, dir.path()).expect("test set-up");
+    write_circular_report(&test, &d, dir.path()).expect("test set-up");
     assert!(dir.path().join("polar.svg").exists());
     let (w, _, px) = read_png(&dir.path().join("polar.png"));
     let at = |(x, y): (i32, i32)| {
@@ -51,7 +51,7 @@ fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
             && (c.1 as i32 - want.1 as i32).abs() < 40
             && (c.2 as i32 - want.2 as i32).abs() < 40
     };
-    let ch = chart(&test, &d);
+    let ch = circular_chart(&test, &d);
     let div = ch.um_per_div;
     // v·dt/2 = (2000/60)·3/2 = 50 µm: ccw at +50 µm·sin 2θ, cw at −50 µm·sin 2θ.
     for deg in [45.0f64, 135.0, 225.0, 315.0] {
