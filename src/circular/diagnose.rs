@@ -21,11 +21,12 @@
 //! Subset fits run on the Gram matrix of unit-norm columns (pseudo-inverse by SVD), so
 //! the elimination costs O(k³) per trial after one O(n·k²) product.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
 use super::effects::{CircularEffect, CircularId, Kind, Sampling, Scan, Wording};
+use super::fit::{Fit, Products, fit_columns, fit_subset};
 use super::input::{CircularTest, Plane, Sense};
 use super::iso::{Iso230_4, common_lsc, evaluate};
 use super::signature::{AxisOrPlane, Geometry, Point, Slot, points, setup_columns};
@@ -212,88 +213,6 @@ impl Data {
     }
 }
 
-/// A linear least-squares fit on a set of columns through their Gram matrix.
-struct Fit {
-    /// Coefficients in the columns' own units.
-    coef: Vec<f64>,
-    rss: f64,
-    /// (XᵀX)⁻¹ in the columns' own units (pseudo-inverse).
-    inv: DMatrix<f64>,
-    rank: usize,
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
-    let cols: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
-    let k = cols.len();
-    let norms: Vec<f64> = cols
-        .iter()
-        .map(|c| {
-            let n = dot(c, c).sqrt();
-            if n > 1e-300 { n } else { 0.0 }
-        })
-        .collect();
-    let mut g = DMatrix::zeros(k, k);
-    let mut b = DVector::zeros(k);
-    for i in 0..k {
-        if norms[i] == 0.0 {
-            continue;
-        }
-        b[i] = dot(cols[i], y) / norms[i];
-        for j in i..k {
-            if norms[j] == 0.0 {
-                continue;
-            }
-            let v = dot(cols[i], cols[j]) / (norms[i] * norms[j]);
-            g[(i, j)] = v;
-            g[(j, i)] = v;
-        }
-    }
-    let svd = g.clone().svd(true, true);
-    let tol = 1e-10 * svd.singular_values.max().max(1e-300);
-    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
-    let pinv = svd
-        .pseudo_inverse(tol)
-        .unwrap_or_else(|_| DMatrix::zeros(k, k));
-    let cs = &pinv * &b;
-    let coef: Vec<f64> = (0..k)
-        .map(|i| {
-            if norms[i] > 0.0 {
-                cs[i] / norms[i]
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    // The residual itself, not yᵀy − bᵀc (which cancels badly when the columns are
-    // nearly dependent).
-    let mut r = y.to_vec();
-    for (col, c) in cols.iter().zip(&coef) {
-        if *c != 0.0 {
-            for (ri, v) in r.iter_mut().zip(col.iter()) {
-                *ri -= c * v;
-            }
-        }
-    }
-    let rss = dot(&r, &r);
-    let mut inv = pinv;
-    for i in 0..k {
-        for j in 0..k {
-            let s = norms[i] * norms[j];
-            inv[(i, j)] = if s > 0.0 { inv[(i, j)] / s } else { 0.0 };
-        }
-    }
-    Fit {
-        coef,
-        rss,
-        inv,
-        rank,
-    }
-}
-
 /// The candidate effects for the directions present, each scanned parameter's search
 /// set for this test's sampling.
 fn candidates(both: bool, sampling: &Sampling) -> Vec<Cand> {
@@ -341,6 +260,41 @@ fn sampling(test: &CircularTest) -> Sampling {
 fn profile_rss(data: &Data, resid: &[f64], c: &Cand) -> f64 {
     let cols = data.cand_cols(c);
     fit_columns(&cols, resid).rss
+}
+
+/// The samples averaged `stride` at a time within each run (angle, times since the
+/// reversals, residual): the coarse scan of a parameter whose shortest period spans many
+/// samples needs no more, and costs `stride` times less.
+fn binned(data: &Data, resid: &[f64], stride: usize) -> (Data, Vec<f64>) {
+    let mut out = Data {
+        pts: Vec::new(),
+        dr: Vec::new(),
+        nominal: Vec::new(),
+        g: data.g,
+    };
+    let mut r_out = Vec::new();
+    let mut start = 0;
+    while start < data.n() {
+        // A bin ends at `stride` samples or where the run (its sense) changes.
+        let s = data.pts[start].s;
+        let mut end = start + 1;
+        while end < data.n() && end - start < stride && data.pts[end].s == s {
+            end += 1;
+        }
+        let m = (end - start) as f64;
+        let mean = |f: &dyn Fn(usize) -> f64| (start..end).map(f).sum::<f64>() / m;
+        out.pts.push(Point::at(
+            mean(&|i| data.pts[i].theta),
+            s,
+            mean(&|i| data.pts[i].dt_a_s),
+            mean(&|i| data.pts[i].dt_b_s),
+        ));
+        out.dr.push(mean(&|i| data.dr[i]));
+        out.nominal.push(true);
+        r_out.push(mean(&|i| resid[i]));
+        start = end;
+    }
+    (out, r_out)
 }
 
 /// Every candidate's columns, computed once.
@@ -402,12 +356,24 @@ fn tune(data: &Data, set: &mut [Cand], scan: bool) {
         let (u_lo, u_hi, to_nl) = (sc.lo, sc.hi, sc.to_nl);
         let setup = data.setup_cols();
         let cached = cache(data, set);
+        let fixed = assemble(&setup, &cached, Some(k), &[]);
+        let products = Products::of(&fixed, &data.dr);
         let joint = |u: f64| {
             let extra = data.cand_cols(&Cand { nl: to_nl(u), ..c });
-            fit_columns(&assemble(&setup, &cached, Some(k), &extra), &data.dr).rss
+            let extra: Vec<&[f64]> = extra.iter().map(|c| c.as_slice()).collect();
+            let p = products.extended(&fixed, &extra, &data.dr);
+            let mut cols = fixed.clone();
+            cols.extend(&extra);
+            let all: Vec<usize> = (0..cols.len()).collect();
+            fit_subset(&cols, &all, &p, &data.dr).rss
         };
         let mut u_best = if c.nl > 0.0 { (sc.from_nl)(c.nl) } else { u_lo };
         if let Some(resid) = &resid {
+            let coarse = (!sc.joint && sc.stride > 1).then(|| binned(data, resid, sc.stride));
+            let (scan_data, scan_resid) = match &coarse {
+                Some((d, r)) => (d, r.as_slice()),
+                None => (data, resid.as_slice()),
+            };
             let count = ((u_hi - u_lo) / sc.step).ceil().max(1.0) as usize;
             let mut best = f64::INFINITY;
             for i in 0..=count {
@@ -415,7 +381,7 @@ fn tune(data: &Data, set: &mut [Cand], scan: bool) {
                 let rss = if sc.joint {
                     joint(u)
                 } else {
-                    profile_rss(data, resid, &Cand { nl: to_nl(u), ..c })
+                    profile_rss(scan_data, scan_resid, &Cand { nl: to_nl(u), ..c })
                 };
                 if rss < best {
                     best = rss;
@@ -501,29 +467,57 @@ pub fn diagnose(test: &CircularTest, cfg: &DiagnoseConfig) -> CircularDiagnosis 
     let full = fit_columns(&design(&data, &set), &data.dr);
     let dof = n.saturating_sub(full.rank).max(1) as f64;
     let sigma2_full = (full.rss / dof).max(1e-30);
-    // Backward elimination.
-    loop {
-        if set.is_empty() {
-            break;
+    set = eliminate(&data, set, sigma2_full, cfg.chi2_threshold);
+    tune(&data, &mut set, false);
+    finish(test, &data, &set, both)
+}
+
+/// Backward elimination: the candidate whose removal raises χ² least is removed while
+/// that rise is below `threshold`. The candidates' columns do not change meanwhile, so
+/// their products are computed once and each trial fit is a subset of them.
+fn eliminate(data: &Data, mut set: Vec<Cand>, sigma2: f64, threshold: f64) -> Vec<Cand> {
+    let setup = data.setup_cols();
+    let cached = cache(data, &set);
+    let all = assemble(&setup, &cached, None, &[]);
+    let products = Products::of(&all, &data.dr);
+    // Each candidate's columns in `all`, in order.
+    let mut at = setup.len();
+    let mut ranges: Vec<std::ops::Range<usize>> = cached
+        .iter()
+        .map(|cols| {
+            at += cols.len();
+            at - cols.len()..at
+        })
+        .collect();
+    let columns = |ranges: &[std::ops::Range<usize>], skip: Option<usize>| -> Vec<usize> {
+        let mut idx: Vec<usize> = (0..setup.len()).collect();
+        for (k, r) in ranges.iter().enumerate() {
+            if Some(k) != skip {
+                idx.extend(r.clone());
+            }
         }
-        let setup = data.setup_cols();
-        let cached = cache(&data, &set);
-        let rss_now = fit_columns(&assemble(&setup, &cached, None, &[]), &data.dr).rss;
+        idx
+    };
+    while !set.is_empty() {
+        let rss_now = fit_subset(&all, &columns(&ranges, None), &products, &data.dr).rss;
         let (k, rise) = (0..set.len())
             .map(|k| {
-                let less = assemble(&setup, &cached, Some(k), &[]);
-                (k, fit_columns(&less, &data.dr).rss - rss_now)
+                let less = columns(&ranges, Some(k));
+                (
+                    k,
+                    fit_subset(&all, &less, &products, &data.dr).rss - rss_now,
+                )
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("set is not empty");
-        if rise / sigma2_full < cfg.chi2_threshold {
+        if rise / sigma2 < threshold {
             set.remove(k);
+            ranges.remove(k);
         } else {
             break;
         }
     }
-    tune(&data, &mut set, false);
-    finish(test, &data, &set, both)
+    set
 }
 
 /// The final fit of a candidate set: its design columns and linear fit, where each

@@ -21,8 +21,9 @@ use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_
 
 /// The most samples a test may have, both runs together: checked before a simulated test
 /// is allocated and before a trace's rows are read. A ballbar sampling at 1 kHz round a
-/// 150 mm radius at 1 000 mm/min, overshoots included, takes about 75 000 samples a run.
-pub const MAX_SAMPLES: usize = 1_000_000;
+/// 150 mm radius at 1 000 mm/min, overshoots included, takes about 75 000 samples a run;
+/// the diagnosis costs about 40 µs a sample in the test profile (docs/circular-test.md).
+pub const MAX_SAMPLES: usize = 500_000;
 /// The largest nominal radius, mm: longer than any ballbar with its extensions.
 pub const MAX_RADIUS_MM: f64 = 2000.0;
 /// The fastest contouring feed, mm/min (2 m/s).

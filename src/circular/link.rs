@@ -138,12 +138,7 @@ pub fn link(
     let g = Geometry::of(meta);
     let pts: Vec<Point> = thetas
         .iter()
-        .map(|&theta| Point {
-            theta,
-            s: 1.0,
-            dt_a_s: 0.0,
-            dt_b_s: 0.0,
-        })
+        .map(|&theta| Point::at(theta, 1.0, 0.0, 0.0))
         .collect();
     let mut cols: Vec<Vec<f64>> = (0..3)
         .map(|k| pts.iter().map(|p| setup_columns(p)[k]).collect())

@@ -8,6 +8,7 @@
 //! | [`effects`] | the circular vocabulary: one file per effect (its signature, its simulated term, its bounds, its words) |
 //! | [`signature`] | the samples as the signatures see them, the setup terms, dr(θ) of an effect |
 //! | [`diagnose`] | the joint linear fit, significance, identifiability, the result |
+//! | `fit` | the least-squares fits on subsets of one set of columns, its products computed once |
 //! | [`simulate`] | a machine model (TOML) → a trace and its TOML, from the physics |
 //! | [`link`] | the circle an identified volumetric model implies, compared |
 //!
@@ -18,6 +19,7 @@
 pub mod diagnose;
 pub mod effects;
 mod error;
+mod fit;
 pub mod input;
 pub mod iso;
 pub mod link;

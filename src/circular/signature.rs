@@ -70,8 +70,10 @@ impl Serialize for AxisOrPlane {
 /// What one sample contributes to the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Point {
-    /// Commanded angle, rad.
+    /// Commanded angle, rad, and its cosine and sine (computed once).
     pub theta: f64,
+    pub cos_theta: f64,
+    pub sin_theta: f64,
     /// +1 ccw, −1 cw.
     pub s: f64,
     /// Seconds since the run last passed a reversal of A (θ = kπ) and of B (θ = π/2 + kπ).
@@ -91,6 +93,21 @@ impl Geometry {
         Geometry {
             radius_mm: meta.radius_mm,
             v_mm_per_s: meta.v_mm_per_s(),
+        }
+    }
+}
+
+impl Point {
+    /// The point at angle θ of a run of sense `s`, `dt_a_s` and `dt_b_s` after the last
+    /// reversals of A and B.
+    pub fn at(theta: f64, s: f64, dt_a_s: f64, dt_b_s: f64) -> Point {
+        Point {
+            theta,
+            cos_theta: theta.cos(),
+            sin_theta: theta.sin(),
+            s,
+            dt_a_s,
+            dt_b_s,
         }
     }
 }
@@ -122,12 +139,7 @@ pub fn points(run: &Run, meta: &TestMeta) -> Vec<Point> {
     };
     theta
         .iter()
-        .map(|&th| Point {
-            theta: th,
-            s,
-            dt_a_s: since(th, 0.0),
-            dt_b_s: since(th, FRAC_PI_2),
-        })
+        .map(|&th| Point::at(th, s, since(th, 0.0), since(th, FRAC_PI_2)))
         .collect()
 }
 
@@ -149,7 +161,7 @@ fn interp(xs: &[f64], y: &[f64], x: f64, s: f64) -> f64 {
 
 /// The setup terms' columns at a point: 1, cos θ, sin θ.
 pub fn setup_columns(p: &Point) -> [f64; 3] {
-    [1.0, p.theta.cos(), p.theta.sin()]
+    [1.0, p.cos_theta, p.sin_theta]
 }
 
 /// The radial signature of an effect (with its parameters) on `slot` at a point, µm: its

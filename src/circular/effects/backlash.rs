@@ -30,7 +30,7 @@ impl Family for Backlash {
     const PARAMS: &'static [P] = &[P::BUm];
 
     fn columns(slot: Slot, _nl: f64, p: &Point, _g: &Geometry) -> [f64; 2] {
-        let (c, s_) = (p.theta.cos(), p.theta.sin());
+        let (c, s_) = (p.cos_theta, p.sin_theta);
         match slot {
             Slot::A => [p.s * 0.5 * sgn(s_) * c, 0.0],
             Slot::B | Slot::Plane => [-p.s * 0.5 * sgn(c) * s_, 0.0],

@@ -3,7 +3,9 @@
 //!
 //! Signature: A: a·sin(2πR cos θ/P + φ)·cos θ; B: a·sin(2πR sin θ/P + φ)·sin θ. It is fitted
 //! as two linear columns (coefficients a·cos φ and a·sin φ) for a period P scanned
-//! uniformly in 1/P between max(2 mm, 8 × the travel per sample) and R/2.
+//! uniformly in 1/P between max(2 mm, 8 × the travel per sample) and R/2; where the
+//! samples are denser than eight per 2 mm the coarse scan averages them in bins of an
+//! eighth of the shortest period (the refinement uses every sample).
 
 use std::f64::consts::{PI, TAU};
 
@@ -42,7 +44,11 @@ impl Family for CyclicError {
 
     fn scan(sampling: &Sampling) -> Option<Scan> {
         let r = sampling.radius_mm;
-        let p_min = (8.0 * r * sampling.dtheta_rad).max(2.0);
+        // At least eight samples a period: the shortest period searched, and how many
+        // samples the coarse scan may average while keeping eight a period.
+        let per_sample_mm = r * sampling.dtheta_rad;
+        let p_min = (8.0 * per_sample_mm).max(2.0);
+        let stride = (p_min / (8.0 * per_sample_mm)).floor();
         let p_max = (r / 2.0).max(p_min * 1.5);
         let (lo, hi) = (1.0 / p_max, 1.0 / p_min);
         Some(Scan {
@@ -51,6 +57,11 @@ impl Family for CyclicError {
             step: 0.3 / (TAU * r),
             reach: 1.0,
             joint: false,
+            stride: if stride.is_finite() && stride >= 1.0 {
+                stride as usize
+            } else {
+                1
+            },
             start: 2.0 / (lo + hi),
             to_nl: |u| 1.0 / u,
             from_nl: |nl| 1.0 / nl,
@@ -59,8 +70,8 @@ impl Family for CyclicError {
 
     fn columns(slot: Slot, nl: f64, p: &Point, g: &Geometry) -> [f64; 2] {
         let q = match slot {
-            Slot::A => p.theta.cos(),
-            Slot::B | Slot::Plane => p.theta.sin(),
+            Slot::A => p.cos_theta,
+            Slot::B | Slot::Plane => p.sin_theta,
         };
         let u = TAU * g.radius_mm * q / nl;
         [u.sin() * q, u.cos() * q]

@@ -31,8 +31,8 @@ impl Family for LateralPlay {
 
     fn columns(slot: Slot, _nl: f64, p: &Point, _g: &Geometry) -> [f64; 2] {
         match slot {
-            Slot::A => [-p.s * 0.5 * p.theta.sin().abs(), 0.0],
-            Slot::B | Slot::Plane => [p.s * 0.5 * p.theta.cos().abs(), 0.0],
+            Slot::A => [-p.s * 0.5 * p.sin_theta.abs(), 0.0],
+            Slot::B | Slot::Plane => [p.s * 0.5 * p.cos_theta.abs(), 0.0],
         }
     }
 

@@ -383,6 +383,9 @@ pub struct Scan {
     pub reach: f64,
     /// Scan on the joint fit of every candidate (else on the residual of the linear ones).
     pub joint: bool,
+    /// A scan on the residual may average this many consecutive samples (the shortest
+    /// period searched still spans eight averaged samples); 1: every sample.
+    pub stride: usize,
     /// The parameter before any scan.
     pub start: f64,
     /// u → the parameter, and back.

@@ -50,6 +50,7 @@ impl Family for ReversalSpike {
             reach: 2.0,
             // Few steps: scan on the joint fit (a spike and a backlash overlap).
             joint: true,
+            stride: 1,
             start: (tau_ms.0 * tau_ms.1).sqrt(),
             to_nl: f64::exp,
             from_nl: f64::ln,
@@ -58,8 +59,8 @@ impl Family for ReversalSpike {
 
     fn columns(slot: Slot, nl: f64, p: &Point, _g: &Geometry) -> [f64; 2] {
         match slot {
-            Slot::A => [(-p.dt_a_s * 1e3 / nl).exp() * p.theta.cos().abs(), 0.0],
-            Slot::B | Slot::Plane => [(-p.dt_b_s * 1e3 / nl).exp() * p.theta.sin().abs(), 0.0],
+            Slot::A => [(-p.dt_a_s * 1e3 / nl).exp() * p.cos_theta.abs(), 0.0],
+            Slot::B | Slot::Plane => [(-p.dt_b_s * 1e3 / nl).exp() * p.sin_theta.abs(), 0.0],
         }
     }
 

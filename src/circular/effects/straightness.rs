@@ -30,8 +30,8 @@ impl Family for Straightness {
 
     fn columns(slot: Slot, _nl: f64, p: &Point, _g: &Geometry) -> [f64; 2] {
         match slot {
-            Slot::A => [p.theta.sin().powi(3), 0.0],
-            Slot::B | Slot::Plane => [p.theta.cos().powi(3), 0.0],
+            Slot::A => [p.sin_theta.powi(3), 0.0],
+            Slot::B | Slot::Plane => [p.cos_theta.powi(3), 0.0],
         }
     }
 
