@@ -2,6 +2,7 @@
 //! every effect (known answers in every plane), the random concealed-effect campaign,
 //! the polar plot read back, the CLI.
 
+mod bounds;
 mod campaign;
 mod cli;
 mod effects;
