@@ -169,7 +169,7 @@ pub fn simulate(model: &MachineModel) -> Result<CircularTest, CircularError> {
     let meta = &model.meta;
     let per_run = samples_per_run(meta);
     let total = per_run * model.directions.len() as f64;
-    if !(total <= MAX_SAMPLES as f64) {
+    if total.is_nan() || total > MAX_SAMPLES as f64 {
         return Err(CircularError::TooManySamples {
             samples: total,
             max: MAX_SAMPLES,

@@ -285,8 +285,11 @@ pub struct Kind {
     pub scan: fn(&Sampling) -> Option<Scan>,
     pub columns: fn(Slot, f64, &Point, &Geometry) -> [f64; 2],
     from_params: fn(&Params<'_>) -> Result<CircularEffect, EffectParamError>,
-    pub from_fit: fn(&[f64], f64, &DMatrix<f64>) -> (CircularEffect, Vec<(ParamName, f64)>),
+    pub from_fit: FromFit,
 }
+
+/// [`Family::from_fit`] of an effect, its result as a [`CircularEffect`].
+pub type FromFit = fn(&[f64], f64, &DMatrix<f64>) -> (CircularEffect, Vec<(ParamName, f64)>);
 
 impl fmt::Debug for Kind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

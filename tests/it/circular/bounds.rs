@@ -92,36 +92,46 @@ fn implausible_radius_feed_rate_noise_and_effect_are_refused_by_key() {
     }
 }
 
+/// `circular diagnose` of the trace `csv` beside the example's TOML fails with exit 1; its
+/// message.
+fn diagnose_refused(dir: &Path, csv: &str) -> String {
+    let trace = dir.join("t.csv");
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/circular/xy.toml"),
+        dir.join("t.toml"),
+    )
+    .expect("test set-up");
+    std::fs::write(&trace, csv).expect("test set-up");
+    let o = errmap(&[
+        "circular",
+        "diagnose",
+        s(&trace),
+        "--report",
+        s(&dir.join("r")),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(s(&trace)), "{err}");
+    err
+}
+
 /// Issue 40 item 6: a trace's dr of 10⁹ µm was diagnosed; it is refused by line and
 /// column.
 #[test]
 fn a_radial_deviation_of_a_kilometre_is_refused_by_line_and_column() {
     let dir = tempdir();
-    let trace = dir.path().join("t.csv");
-    let toml = concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/circular/xy.toml");
-    std::fs::copy(toml, dir.path().join("t.toml")).expect("test set-up");
     let csv = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/datasets/circular/xy.csv"
     ))
     .expect("the example trace");
     let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
-    let cells: Vec<&str> = lines[5].split(',').collect();
     let header: Vec<&str> = lines[0].split(',').collect();
     let dr = header.iter().position(|h| *h == "dr_um").expect("dr_um");
-    let mut row: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+    let mut row: Vec<String> = lines[5].split(',').map(str::to_string).collect();
     row[dr] = "1e9".into();
     lines[5] = row.join(",");
-    std::fs::write(&trace, lines.join("\n") + "\n").expect("test set-up");
-    let o = errmap(&[
-        "circular",
-        "diagnose",
-        s(&trace),
-        "--report",
-        s(&dir.path().join("r")),
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = diagnose_refused(dir.path(), &(lines.join("\n") + "\n"));
     assert!(
         err.contains("line 6") && err.contains("dr_um") && err.contains("plausible"),
         "{err}"
@@ -133,26 +143,11 @@ fn a_radial_deviation_of_a_kilometre_is_refused_by_line_and_column() {
 #[test]
 fn a_trace_of_more_samples_than_a_test_may_have_is_refused() {
     let dir = tempdir();
-    let trace = dir.path().join("t.csv");
-    std::fs::copy(
-        concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/circular/xy.toml"),
-        dir.path().join("t.toml"),
-    )
-    .expect("test set-up");
     let mut text = String::from("run,direction,angle_deg,dr_um\n");
     for i in 0..500_001 {
         text.push_str(&format!("1,1,{},0\n", f64::from(i) * 1e-3));
     }
-    std::fs::write(&trace, text).expect("test set-up");
-    let o = errmap(&[
-        "circular",
-        "diagnose",
-        s(&trace),
-        "--report",
-        s(&dir.path().join("r")),
-    ]);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = diagnose_refused(dir.path(), &text);
     assert!(
         err.contains("500001 rows") && err.contains("500000"),
         "{err}"
