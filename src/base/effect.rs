@@ -1,7 +1,8 @@
 //! The vocabulary's payload: one [`Effect`] per effect id, its parameters typed and named
 //! with their units. A positioning diagnosis, the concealed cases' truth, the simulator's
-//! model update, the volumetric campaign's own faults and the circular test all speak
-//! through this one type, so a parameter cannot be missing, misspelt or silently 0.
+//! model update and the volumetric campaign's own faults all speak through this one type,
+//! so a parameter cannot be missing, misspelt or silently 0. The circular test's effects
+//! are a family apart (`circular::effects`), read through the same [`Params`] checks.
 //!
 //! On disk an effect keeps the contract's shape, `{"id": …, "params": {name: value}}`,
 //! the parameters in the order of their names; [`Effect::from_params`] is the way back and
@@ -25,11 +26,8 @@ pub enum Drift {
     Linear { rate_um_per_s: f64 },
 }
 
-/// One effect of the vocabulary with its parameters (units in the names).
-///
-/// The first ten are the positioning vocabulary (a linear axis measured by a laser against
-/// its scale); the last eight are the circular test's (ISO 230-4), where the axis or the
-/// plane they act on is carried beside the effect.
+/// One effect of the positioning vocabulary with its parameters (units in the names): a
+/// linear axis measured by a laser against its scale.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Effect {
     /// The scale expands with its temperature about its fixed point `x0_mm`.
@@ -65,26 +63,6 @@ pub enum Effect {
     },
     /// Structure in the residual that no vocabulary effect explains, by its RMS.
     Unexplained { rms_um: f64 },
-    /// Circular test: the axis lags half its lost motion behind the motion.
-    Backlash { b_um: f64 },
-    /// Circular test: a spike after each reversal, decaying with `tau_ms`.
-    ReversalSpike { h_um: f64, tau_ms: f64 },
-    /// Circular test: the other axis shifts by half the play when this one reverses.
-    LateralPlay { p_um: f64 },
-    /// Circular test: a cyclic error of the axis' screw or scale.
-    CyclicError {
-        amplitude_um: f64,
-        period_mm: f64,
-        phase_rad: f64,
-    },
-    /// Circular test: the moving axis' path bows by `bow_um` at its centre.
-    Straightness { bow_um: f64 },
-    /// Circular test: the plane's first axis lags its command `dt_ms` more than the second.
-    ServoMismatch { dt_ms: f64 },
-    /// Circular test: the two axes' scales differ by `ppm`.
-    ScaleMismatch { ppm: f64 },
-    /// Circular test: the angle between the plane's axes is 90° − `urad`.
-    Squareness { urad: f64 },
 }
 
 /// A parameter's value: a number, or the axis an Abbe offset lies along.
@@ -145,41 +123,66 @@ impl fmt::Display for ParamValue {
 }
 
 /// Why parameters do not make an effect: the one that is missing, unknown or of the wrong
-/// kind, by name.
+/// kind, by name (`id` is the contract's id, of either family).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum EffectParamError {
     #[error("effect `{id}`: parameter `{param}` is missing")]
-    Missing { id: EffectId, param: ParamName },
+    Missing { id: &'static str, param: ParamName },
     #[error("effect `{id}`: `{param}` is not one of its parameters ({list})")]
     Unknown {
-        id: EffectId,
+        id: &'static str,
         param: String,
         list: String,
     },
     #[error("effect `{id}`: `{param}` must be {want}")]
     Kind {
-        id: EffectId,
+        id: &'static str,
         param: ParamName,
         want: &'static str,
     },
 }
 /// An effect's parameters as read from a document, with the checks every field needs:
 /// known names, numbers where numbers go, an axis where an axis goes.
-struct Params<'a> {
-    id: EffectId,
+#[derive(Debug, Clone, Copy)]
+pub struct Params<'a> {
+    id: &'static str,
+    names: &'static [ParamName],
     params: &'a BTreeMap<String, ParamValue>,
 }
 
-impl Params<'_> {
+impl<'a> Params<'a> {
+    /// The parameters `params` of the effect `id`, whose parameters are `names`; a name
+    /// that is not one of them is refused, listing them.
+    pub fn new(
+        id: &'static str,
+        names: &'static [ParamName],
+        params: &'a BTreeMap<String, ParamValue>,
+    ) -> Result<Self, EffectParamError> {
+        let p = Params { id, names, params };
+        p.check_known()?;
+        Ok(p)
+    }
+
+    /// How many parameters were given.
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+
+    /// Whether none was given.
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
     /// Refuses a parameter the effect does not have, listing those it has.
     fn check_known(&self) -> Result<(), EffectParamError> {
         let id = self.id;
-        let known = |n: &str| EffectId::param_names(id).iter().any(|p| p.as_str() == n);
+        let known = |n: &str| self.names.iter().any(|p| p.as_str() == n);
         if let Some(bad) = self.params.keys().find(|k| !known(k)) {
             return Err(EffectParamError::Unknown {
                 id,
                 param: bad.clone(),
-                list: EffectId::param_names(id)
+                list: self
+                    .names
                     .iter()
                     .map(|p| p.as_str())
                     .collect::<Vec<_>>()
@@ -190,7 +193,7 @@ impl Params<'_> {
     }
 
     /// An optional number.
-    fn opt(&self, name: ParamName) -> Result<Option<f64>, EffectParamError> {
+    pub fn opt(&self, name: ParamName) -> Result<Option<f64>, EffectParamError> {
         match self.params.get(name.as_str()) {
             None => Ok(None),
             Some(ParamValue::Number(v)) => Ok(Some(*v)),
@@ -203,7 +206,7 @@ impl Params<'_> {
     }
 
     /// A required number.
-    fn num(&self, name: ParamName) -> Result<f64, EffectParamError> {
+    pub fn num(&self, name: ParamName) -> Result<f64, EffectParamError> {
         self.opt(name)?.ok_or(EffectParamError::Missing {
             id: self.id,
             param: name,
@@ -211,7 +214,7 @@ impl Params<'_> {
     }
 
     /// A required axis.
-    fn axis(&self, name: ParamName) -> Result<Axis, EffectParamError> {
+    pub fn axis(&self, name: ParamName) -> Result<Axis, EffectParamError> {
         match self.params.get(name.as_str()) {
             Some(ParamValue::Axis(a)) => Ok(*a),
             Some(ParamValue::Number(_)) => Err(EffectParamError::Kind {
@@ -230,7 +233,7 @@ impl Params<'_> {
     /// tau_s), never both.
     fn drift(&self) -> Result<Drift, EffectParamError> {
         Ok(match self.opt(P::RateUmPerS)? {
-            Some(rate_um_per_s) if self.params.len() == 1 => Drift::Linear { rate_um_per_s },
+            Some(rate_um_per_s) if self.len() == 1 => Drift::Linear { rate_um_per_s },
             Some(_) => {
                 return Err(EffectParamError::Unknown {
                     id: self.id,
@@ -277,14 +280,6 @@ impl Effect {
             Effect::DeadPath { .. } => EffectId::DeadPath,
             Effect::Refraction { .. } => EffectId::Refraction,
             Effect::Unexplained { .. } => EffectId::Unexplained,
-            Effect::Backlash { .. } => EffectId::Backlash,
-            Effect::ReversalSpike { .. } => EffectId::ReversalSpike,
-            Effect::LateralPlay { .. } => EffectId::LateralPlay,
-            Effect::CyclicError { .. } => EffectId::CyclicError,
-            Effect::Straightness { .. } => EffectId::Straightness,
-            Effect::ServoMismatch { .. } => EffectId::ServoMismatch,
-            Effect::ScaleMismatch { .. } => EffectId::ScaleMismatch,
-            Effect::Squareness { .. } => EffectId::Squareness,
         }
     }
 
@@ -296,7 +291,7 @@ impl Effect {
                 alpha_ppm_per_k,
                 x0_mm,
             } => vec![(P::AlphaPpmPerK, N(alpha_ppm_per_k)), (P::X0Mm, N(x0_mm))],
-            Effect::ScaleFactor { ppm } | Effect::ScaleMismatch { ppm } => vec![(P::Ppm, N(ppm))],
+            Effect::ScaleFactor { ppm } => vec![(P::Ppm, N(ppm))],
             Effect::Abbe {
                 offset_axis,
                 theta0_urad,
@@ -338,23 +333,6 @@ impl Effect {
                 .chain(ppm_per_hpa.map(|v| (P::PpmPerHpa, N(v))))
                 .collect(),
             Effect::Unexplained { rms_um } => vec![(P::RmsUm, N(rms_um))],
-            Effect::Backlash { b_um } => vec![(P::BUm, N(b_um))],
-            Effect::ReversalSpike { h_um, tau_ms } => {
-                vec![(P::HUm, N(h_um)), (P::TauMs, N(tau_ms))]
-            }
-            Effect::LateralPlay { p_um } => vec![(P::PUm, N(p_um))],
-            Effect::CyclicError {
-                amplitude_um,
-                period_mm,
-                phase_rad,
-            } => vec![
-                (P::AmplitudeUm, N(amplitude_um)),
-                (P::PeriodMm, N(period_mm)),
-                (P::PhaseRad, N(phase_rad)),
-            ],
-            Effect::Straightness { bow_um } => vec![(P::BowUm, N(bow_um))],
-            Effect::ServoMismatch { dt_ms } => vec![(P::DtMs, N(dt_ms))],
-            Effect::Squareness { urad } => vec![(P::Urad, N(urad))],
         };
         out.shrink_to_fit();
         out
@@ -382,8 +360,7 @@ impl Effect {
         id: EffectId,
         params: &BTreeMap<String, ParamValue>,
     ) -> Result<Effect, EffectParamError> {
-        let p = Params { id, params };
-        p.check_known()?;
+        let p = Params::new(id.as_str(), id.param_names(), params)?;
         let opt = |name: ParamName| p.opt(name);
         let num = |name: ParamName| p.num(name);
         Ok(match id {
@@ -417,27 +394,6 @@ impl Effect {
             EffectId::Unexplained => Effect::Unexplained {
                 rms_um: num(P::RmsUm)?,
             },
-            EffectId::Backlash => Effect::Backlash { b_um: num(P::BUm)? },
-            EffectId::ReversalSpike => Effect::ReversalSpike {
-                h_um: num(P::HUm)?,
-                tau_ms: num(P::TauMs)?,
-            },
-            EffectId::LateralPlay => Effect::LateralPlay { p_um: num(P::PUm)? },
-            EffectId::CyclicError => Effect::CyclicError {
-                amplitude_um: num(P::AmplitudeUm)?,
-                period_mm: num(P::PeriodMm)?,
-                phase_rad: num(P::PhaseRad)?,
-            },
-            EffectId::Straightness => Effect::Straightness {
-                bow_um: num(P::BowUm)?,
-            },
-            EffectId::ServoMismatch => Effect::ServoMismatch {
-                dt_ms: num(P::DtMs)?,
-            },
-            EffectId::ScaleMismatch => Effect::ScaleMismatch { ppm: num(P::Ppm)? },
-            EffectId::Squareness => Effect::Squareness {
-                urad: num(P::Urad)?,
-            },
         })
     }
 
@@ -455,31 +411,6 @@ impl Effect {
             map.insert(P::OffsetAxis.as_str().into(), ParamValue::Axis(a));
         }
         Effect::from_params(id, &map)
-    }
-
-    /// Whether this is one of the circular test's effects (ISO 230-4), which act on a
-    /// plane, not on a linear axis measured by a laser.
-    pub fn is_circular(&self) -> bool {
-        match self {
-            Effect::Backlash { .. }
-            | Effect::ReversalSpike { .. }
-            | Effect::LateralPlay { .. }
-            | Effect::CyclicError { .. }
-            | Effect::Straightness { .. }
-            | Effect::ServoMismatch { .. }
-            | Effect::ScaleMismatch { .. }
-            | Effect::Squareness { .. } => true,
-            Effect::ScaleThermalExpansion { .. }
-            | Effect::ScaleFactor { .. }
-            | Effect::Abbe { .. }
-            | Effect::Reversal { .. }
-            | Effect::LatchDelay { .. }
-            | Effect::PeriodicScale { .. }
-            | Effect::ThermalDrift(_)
-            | Effect::DeadPath { .. }
-            | Effect::Refraction { .. }
-            | Effect::Unexplained { .. } => false,
-        }
     }
 
     /// The first parameter that is not a finite number, by name.
@@ -578,21 +509,6 @@ mod tests {
                 ppm_per_hpa: Some(-0.27),
             },
             Effect::Unexplained { rms_um: 0.4 },
-            Effect::Backlash { b_um: -2.0 },
-            Effect::ReversalSpike {
-                h_um: 3.0,
-                tau_ms: 40.0,
-            },
-            Effect::LateralPlay { p_um: 1.5 },
-            Effect::CyclicError {
-                amplitude_um: 0.5,
-                period_mm: 5.0,
-                phase_rad: 1.0,
-            },
-            Effect::Straightness { bow_um: 2.0 },
-            Effect::ServoMismatch { dt_ms: 0.8 },
-            Effect::ScaleMismatch { ppm: 12.0 },
-            Effect::Squareness { urad: 25.0 },
         ]
     }
 
@@ -648,11 +564,7 @@ mod tests {
     fn every_parameter_an_effect_carries_is_one_its_id_declares() {
         for e in every_shape() {
             for (n, _) in e.params() {
-                assert!(
-                    EffectId::param_names(e.id()).contains(&n),
-                    "{} carries {n}",
-                    e.id()
-                );
+                assert!(e.id().param_names().contains(&n), "{} carries {n}", e.id());
             }
         }
     }

@@ -17,18 +17,19 @@
 //! | `refraction` | `ppm_per_k`, `ppm_per_hpa` |
 //! | `unexplained` | `rms_um`: structure no vocabulary effect explains |
 //!
-//! The circular test (ISO 230-4) adds `backlash` (`b_um`), `reversal_spike` (`h_um`,
-//! `tau_ms`), `lateral_play` (`p_um`), `cyclic_error` (`amplitude_um`, `period_mm`,
-//! `phase_rad`), `straightness` (`bow_um`), `servo_mismatch` (`dt_ms`), `scale_mismatch`
-//! (`ppm`) and `squareness` (`urad`). The typed payload is [`Effect`](super::effect::Effect);
-//! a result's verdict is [`Verdict`].
+//! The typed payload is [`Effect`](super::effect::Effect); a result's verdict is
+//! [`Verdict`]. The circular test (ISO 230-4) has a vocabulary of its own, a family apart
+//! (`circular::effects`: `CircularId`, `CircularEffect`, one file per effect); it names
+//! its parameters with the [`ParamName`]s below (`b_um`, `h_um`, `tau_ms`, `p_um`,
+//! `amplitude_um`, `period_mm`, `phase_rad`, `bow_um`, `dt_ms`, `ppm`, `urad`).
 
 use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-/// An effect of the diagnosis vocabulary, by the contract's id.
+/// An effect of the positioning vocabulary (a linear axis measured by a laser against its
+/// scale), by the contract's id.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum EffectId {
     ScaleThermalExpansion,
@@ -43,54 +44,11 @@ pub enum EffectId {
     /// Structure in the residual that no vocabulary effect explains (the contract allows
     /// a diagnosis its own ids beyond the list).
     Unexplained,
-    // The circular test's (ISO 230-4) effects.
-    Backlash,
-    ReversalSpike,
-    LateralPlay,
-    CyclicError,
-    Straightness,
-    ServoMismatch,
-    ScaleMismatch,
-    Squareness,
 }
 
 impl EffectId {
-    /// Every id: the positioning vocabulary, then the circular test's.
-    pub const ALL: [EffectId; 18] = [
-        EffectId::ScaleThermalExpansion,
-        EffectId::ScaleFactor,
-        EffectId::Abbe,
-        EffectId::Reversal,
-        EffectId::LatchDelay,
-        EffectId::PeriodicScale,
-        EffectId::ThermalDrift,
-        EffectId::DeadPath,
-        EffectId::Refraction,
-        EffectId::Unexplained,
-        EffectId::Backlash,
-        EffectId::ReversalSpike,
-        EffectId::LateralPlay,
-        EffectId::CyclicError,
-        EffectId::Straightness,
-        EffectId::ServoMismatch,
-        EffectId::ScaleMismatch,
-        EffectId::Squareness,
-    ];
-
-    /// The circular test's ids (ISO 230-4 ballbar).
-    pub const CIRCULAR: [EffectId; 8] = [
-        EffectId::Backlash,
-        EffectId::ReversalSpike,
-        EffectId::LateralPlay,
-        EffectId::CyclicError,
-        EffectId::Straightness,
-        EffectId::ServoMismatch,
-        EffectId::ScaleMismatch,
-        EffectId::Squareness,
-    ];
-
-    /// The positioning diagnosis' ids, in the contract's order.
-    pub const POSITIONING: [EffectId; 10] = [
+    /// Every id, in the contract's order.
+    pub const ALL: [EffectId; 10] = [
         EffectId::ScaleThermalExpansion,
         EffectId::ScaleFactor,
         EffectId::Abbe,
@@ -116,14 +74,6 @@ impl EffectId {
             EffectId::DeadPath => "dead_path",
             EffectId::Refraction => "refraction",
             EffectId::Unexplained => "unexplained",
-            EffectId::Backlash => "backlash",
-            EffectId::ReversalSpike => "reversal_spike",
-            EffectId::LateralPlay => "lateral_play",
-            EffectId::CyclicError => "cyclic_error",
-            EffectId::Straightness => "straightness",
-            EffectId::ServoMismatch => "servo_mismatch",
-            EffectId::ScaleMismatch => "scale_mismatch",
-            EffectId::Squareness => "squareness",
         }
     }
 
@@ -142,14 +92,6 @@ impl EffectId {
             EffectId::DeadPath => &[P::DeadPathMm],
             EffectId::Refraction => &[P::PpmPerK, P::PpmPerHpa],
             EffectId::Unexplained => &[P::RmsUm],
-            EffectId::Backlash => &[P::BUm],
-            EffectId::ReversalSpike => &[P::HUm, P::TauMs],
-            EffectId::LateralPlay => &[P::PUm],
-            EffectId::CyclicError => &[P::AmplitudeUm, P::PeriodMm, P::PhaseRad],
-            EffectId::Straightness => &[P::BowUm],
-            EffectId::ServoMismatch => &[P::DtMs],
-            EffectId::ScaleMismatch => &[P::Ppm],
-            EffectId::Squareness => &[P::Urad],
         }
     }
 }
@@ -210,6 +152,16 @@ impl Verdict {
         match self {
             Verdict::Consistent => "consistent",
             Verdict::MissingPhysics => "missing_physics",
+        }
+    }
+
+    /// The circular test contract's spelling (`circular-test.md`): `consistent` or
+    /// `errors_found` (the same verdict: the setup terms and noise do not explain the
+    /// trace).
+    pub const fn as_circular_str(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::MissingPhysics => "errors_found",
         }
     }
 

@@ -21,18 +21,16 @@
 //! Subset fits run on the Gram matrix of unit-norm columns (pseudo-inverse by SVD), so
 //! the elimination costs O(k³) per trial after one O(n·k²) product.
 
-use std::f64::consts::{PI, TAU};
-
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::ser::SerializeMap;
 use serde::{Serialize, Serializer};
 
+use super::effects::{CircularEffect, CircularId, Kind, Sampling, Scan, Wording};
+use super::fit::{Fit, Products, fit_columns, fit_subset};
 use super::input::{CircularTest, Plane, Sense};
 use super::iso::{Iso230_4, common_lsc, evaluate};
-use super::signature::{
-    AxisOrPlane, Geometry, Point, Slot, columns, nonlinear, points, setup_columns, slots, width,
-};
-use crate::base::{Effect, EffectId, ParamName};
+use super::signature::{AxisOrPlane, Geometry, Point, Slot, points, setup_columns};
+use crate::base::{ParamName, Verdict};
 
 /// How the diagnosis decides.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,18 +50,15 @@ impl Default for DiagnoseConfig {
     }
 }
 
-/// `consistent` (setup and noise explain the trace) or `errors_found`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CircularVerdict {
-    Consistent,
-    ErrorsFound,
+/// The verdict in the circular contract's spelling: `consistent` or `errors_found`.
+fn circular_verdict<S: Serializer>(v: &Verdict, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(v.as_circular_str())
 }
 
 /// One effect found in a circular test.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CircularEffect {
-    pub effect: Effect,
+pub struct CircularFinding {
+    pub effect: CircularEffect,
     pub axis: AxisOrPlane,
     /// One-sigma of each parameter, in the effect's parameter order.
     pub uncertainty: Vec<(ParamName, f64)>,
@@ -74,7 +69,7 @@ pub struct CircularEffect {
     pub delta_chi2: f64,
 }
 
-impl CircularEffect {
+impl CircularFinding {
     /// The one-sigma of `name`.
     pub fn sigma(&self, name: ParamName) -> Option<f64> {
         self.uncertainty
@@ -98,13 +93,13 @@ impl Serialize for NumberMap<'_> {
     }
 }
 
-impl Serialize for CircularEffect {
+impl Serialize for CircularFinding {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let params: Vec<(&str, f64)> = self
             .effect
             .params()
             .into_iter()
-            .filter_map(|(n, v)| v.as_f64().map(|v| (n.as_str(), v)))
+            .map(|(n, v)| (n.as_str(), v))
             .collect();
         let unc: Vec<(&str, f64)> = self
             .uncertainty
@@ -147,10 +142,12 @@ pub struct CircularDiagnosis {
     pub feed_mm_per_min: f64,
     pub directions: Vec<Sense>,
     pub iso230_4: Iso230_4,
-    pub verdict: CircularVerdict,
+    /// `consistent` or `errors_found` (the contract's spelling of `missing_physics`).
+    #[serde(serialize_with = "circular_verdict")]
+    pub verdict: Verdict,
     pub rms_before_um: f64,
     pub rms_after_um: f64,
-    pub effects: Vec<CircularEffect>,
+    pub effects: Vec<CircularFinding>,
     pub unidentifiable: Vec<Unidentifiable>,
     pub setup: Setup,
     /// The residual noise σ of the final fit, µm, and the samples fitted.
@@ -161,13 +158,22 @@ pub struct CircularDiagnosis {
     pub link: Option<super::link::Link>,
 }
 
-/// One candidate effect: id, slot and its nonlinear parameter (τ ms or period mm; 0 for
-/// the linear ones).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One candidate effect: id, what it is, slot, its nonlinear parameter (τ ms or period mm;
+/// 0 for the linear ones) and that parameter's search.
+#[derive(Debug, Clone, Copy)]
 struct Cand {
-    id: EffectId,
+    id: CircularId,
+    kind: Kind,
     slot: Slot,
     nl: f64,
+    scan: Option<Scan>,
+}
+
+impl Cand {
+    /// Whether it has a scanned parameter.
+    fn nonlinear(&self) -> bool {
+        self.scan.is_some()
+    }
 }
 
 /// The fitted samples.
@@ -184,10 +190,10 @@ impl Data {
     }
 
     fn cand_cols(&self, c: &Cand) -> Vec<Vec<f64>> {
-        let w = width(c.id);
+        let w = c.kind.width;
         let mut out = vec![Vec::with_capacity(self.n()); w];
         for p in &self.pts {
-            let v = columns(c.id, c.slot, c.nl, p, &self.g);
+            let v = (c.kind.columns)(c.slot, c.nl, p, &self.g);
             for (k, col) in out.iter_mut().enumerate() {
                 col.push(v[k]);
             }
@@ -207,113 +213,31 @@ impl Data {
     }
 }
 
-/// A linear least-squares fit on a set of columns through their Gram matrix.
-struct Fit {
-    /// Coefficients in the columns' own units.
-    coef: Vec<f64>,
-    rss: f64,
-    /// (XᵀX)⁻¹ in the columns' own units (pseudo-inverse).
-    inv: DMatrix<f64>,
-    rank: usize,
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-fn fit_columns<C: AsRef<[f64]>>(cols: &[C], y: &[f64]) -> Fit {
-    let cols: Vec<&[f64]> = cols.iter().map(|c| c.as_ref()).collect();
-    let k = cols.len();
-    let norms: Vec<f64> = cols
-        .iter()
-        .map(|c| {
-            let n = dot(c, c).sqrt();
-            if n > 1e-300 { n } else { 0.0 }
-        })
-        .collect();
-    let mut g = DMatrix::zeros(k, k);
-    let mut b = DVector::zeros(k);
-    for i in 0..k {
-        if norms[i] == 0.0 {
-            continue;
-        }
-        b[i] = dot(cols[i], y) / norms[i];
-        for j in i..k {
-            if norms[j] == 0.0 {
-                continue;
-            }
-            let v = dot(cols[i], cols[j]) / (norms[i] * norms[j]);
-            g[(i, j)] = v;
-            g[(j, i)] = v;
-        }
-    }
-    let svd = g.clone().svd(true, true);
-    let tol = 1e-10 * svd.singular_values.max().max(1e-300);
-    let rank = svd.singular_values.iter().filter(|&&s| s > tol).count();
-    let pinv = svd
-        .pseudo_inverse(tol)
-        .unwrap_or_else(|_| DMatrix::zeros(k, k));
-    let cs = &pinv * &b;
-    let coef: Vec<f64> = (0..k)
-        .map(|i| {
-            if norms[i] > 0.0 {
-                cs[i] / norms[i]
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    // The residual itself, not yᵀy − bᵀc (which cancels badly when the columns are
-    // nearly dependent).
-    let mut r = y.to_vec();
-    for (col, c) in cols.iter().zip(&coef) {
-        if *c != 0.0 {
-            for (ri, v) in r.iter_mut().zip(col.iter()) {
-                *ri -= c * v;
-            }
-        }
-    }
-    let rss = dot(&r, &r);
-    let mut inv = pinv;
-    for i in 0..k {
-        for j in 0..k {
-            let s = norms[i] * norms[j];
-            inv[(i, j)] = if s > 0.0 { inv[(i, j)] / s } else { 0.0 };
-        }
-    }
-    Fit {
-        coef,
-        rss,
-        inv,
-        rank,
-    }
-}
-
-/// The candidate effects for the directions present.
-fn candidates(both: bool) -> Vec<Cand> {
+/// The candidate effects for the directions present, each scanned parameter's search
+/// set for this test's sampling.
+fn candidates(both: bool, sampling: &Sampling) -> Vec<Cand> {
     let mut out = Vec::new();
-    for id in EffectId::CIRCULAR {
-        if !both && matches!(id, EffectId::ServoMismatch | EffectId::LateralPlay) {
+    for id in CircularId::ALL {
+        let kind = id.kind();
+        if !both && kind.needs_both_directions {
             continue;
         }
-        for &slot in slots(id) {
-            out.push(Cand { id, slot, nl: 0.0 });
+        for &slot in kind.slots {
+            out.push(Cand {
+                id,
+                kind,
+                slot,
+                nl: 0.0,
+                scan: (kind.scan)(sampling),
+            });
         }
     }
     out
 }
 
-/// Bounds of the scanned parameters for this test.
-struct Bounds {
-    tau_ms: (f64, f64),
-    inv_period: (f64, f64),
-    inv_period_step: f64,
-}
-
-fn bounds(test: &CircularTest) -> Bounds {
+/// How the test is sampled: the median angular step of the samples, ω and R.
+fn sampling(test: &CircularTest) -> Sampling {
     let meta = &test.meta;
-    let omega = meta.omega_rad_per_s();
-    // The median angular step of the samples, rad.
     let mut steps: Vec<f64> = test
         .runs
         .iter()
@@ -324,16 +248,10 @@ fn bounds(test: &CircularTest) -> Bounds {
         })
         .collect();
     steps.sort_by(f64::total_cmp);
-    let dtheta = steps.get(steps.len() / 2).copied().unwrap_or(1e-3);
-    let dt_ms = dtheta / omega * 1e3;
-    let quarter_ms = (PI / 2.0) / omega * 1e3;
-    let r = meta.radius_mm;
-    let p_min = (8.0 * r * dtheta).max(2.0);
-    let p_max = (r / 2.0).max(p_min * 1.5);
-    Bounds {
-        tau_ms: (2.0 * dt_ms, (quarter_ms / 4.0).max(4.0 * dt_ms)),
-        inv_period: (1.0 / p_max, 1.0 / p_min),
-        inv_period_step: 0.3 / (TAU * r),
+    Sampling {
+        dtheta_rad: steps.get(steps.len() / 2).copied().unwrap_or(1e-3),
+        omega_rad_per_s: meta.omega_rad_per_s(),
+        radius_mm: meta.radius_mm,
     }
 }
 
@@ -342,6 +260,41 @@ fn bounds(test: &CircularTest) -> Bounds {
 fn profile_rss(data: &Data, resid: &[f64], c: &Cand) -> f64 {
     let cols = data.cand_cols(c);
     fit_columns(&cols, resid).rss
+}
+
+/// The samples averaged `stride` at a time within each run (angle, times since the
+/// reversals, residual): the coarse scan of a parameter whose shortest period spans many
+/// samples needs no more, and costs `stride` times less.
+fn binned(data: &Data, resid: &[f64], stride: usize) -> (Data, Vec<f64>) {
+    let mut out = Data {
+        pts: Vec::new(),
+        dr: Vec::new(),
+        nominal: Vec::new(),
+        g: data.g,
+    };
+    let mut r_out = Vec::new();
+    let mut start = 0;
+    while start < data.n() {
+        // A bin ends at `stride` samples or where the run (its sense) changes.
+        let s = data.pts[start].s;
+        let mut end = start + 1;
+        while end < data.n() && end - start < stride && data.pts[end].s == s {
+            end += 1;
+        }
+        let m = (end - start) as f64;
+        let mean = |f: &dyn Fn(usize) -> f64| (start..end).map(f).sum::<f64>() / m;
+        out.pts.push(Point::at(
+            mean(&|i| data.pts[i].theta),
+            s,
+            mean(&|i| data.pts[i].dt_a_s),
+            mean(&|i| data.pts[i].dt_b_s),
+        ));
+        out.dr.push(mean(&|i| data.dr[i]));
+        out.nominal.push(true);
+        r_out.push(mean(&|i| resid[i]));
+        start = end;
+    }
+    (out, r_out)
 }
 
 /// Every candidate's columns, computed once.
@@ -376,15 +329,11 @@ fn design(data: &Data, set: &[Cand]) -> Vec<Vec<f64>> {
 }
 
 /// Scans then refines the nonlinear parameter of every nonlinear candidate of `set`.
-fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
+fn tune(data: &Data, set: &mut [Cand], scan: bool) {
     for c in set.iter_mut().filter(|c| c.nl <= 0.0) {
-        c.nl = match c.id {
-            EffectId::ReversalSpike => (b.tau_ms.0 * b.tau_ms.1).sqrt(),
-            EffectId::CyclicError => 2.0 / (b.inv_period.0 + b.inv_period.1),
-            _ => 0.0,
-        };
+        c.nl = c.scan.map_or(0.0, |s| s.start);
     }
-    let linear: Vec<Cand> = set.iter().copied().filter(|c| !nonlinear(c.id)).collect();
+    let linear: Vec<Cand> = set.iter().copied().filter(|c| !c.nonlinear()).collect();
     let resid = if scan {
         let cols = design(data, &linear);
         let fit = fit_columns(&cols, &data.dr);
@@ -400,39 +349,39 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
     };
     for k in 0..set.len() {
         let c = set[k];
-        if !nonlinear(c.id) {
+        let Some(sc) = c.scan else {
             continue;
-        }
-        // In a transformed coordinate u: ln τ, or 1/P.
-        let (u_lo, u_hi, to_nl): (f64, f64, fn(f64) -> f64) = match c.id {
-            EffectId::ReversalSpike => (b.tau_ms.0.ln(), b.tau_ms.1.ln(), f64::exp),
-            _ => (b.inv_period.0, b.inv_period.1, |u: f64| 1.0 / u),
         };
-        let from_nl = |nl: f64| match c.id {
-            EffectId::ReversalSpike => nl.ln(),
-            _ => 1.0 / nl,
-        };
-        let step = match c.id {
-            EffectId::ReversalSpike => (u_hi - u_lo) / 40.0,
-            _ => b.inv_period_step,
-        };
+        // In the scan's coordinate u (ln τ, or 1/P).
+        let (u_lo, u_hi, to_nl) = (sc.lo, sc.hi, sc.to_nl);
         let setup = data.setup_cols();
         let cached = cache(data, set);
+        let fixed = assemble(&setup, &cached, Some(k), &[]);
+        let products = Products::of(&fixed, &data.dr);
         let joint = |u: f64| {
             let extra = data.cand_cols(&Cand { nl: to_nl(u), ..c });
-            fit_columns(&assemble(&setup, &cached, Some(k), &extra), &data.dr).rss
+            let extra: Vec<&[f64]> = extra.iter().map(|c| c.as_slice()).collect();
+            let p = products.extended(&fixed, &extra, &data.dr);
+            let mut cols = fixed.clone();
+            cols.extend(&extra);
+            let all: Vec<usize> = (0..cols.len()).collect();
+            fit_subset(&cols, &all, &p, &data.dr).rss
         };
-        let mut u_best = if c.nl > 0.0 { from_nl(c.nl) } else { u_lo };
+        let mut u_best = if c.nl > 0.0 { (sc.from_nl)(c.nl) } else { u_lo };
         if let Some(resid) = &resid {
-            let count = ((u_hi - u_lo) / step).ceil().max(1.0) as usize;
+            let coarse = (!sc.joint && sc.stride > 1).then(|| binned(data, resid, sc.stride));
+            let (scan_data, scan_resid) = match &coarse {
+                Some((d, r)) => (d, r.as_slice()),
+                None => (data, resid.as_slice()),
+            };
+            let count = ((u_hi - u_lo) / sc.step).ceil().max(1.0) as usize;
             let mut best = f64::INFINITY;
             for i in 0..=count {
                 let u = u_lo + (u_hi - u_lo) * i as f64 / count as f64;
-                let rss = if c.id == EffectId::ReversalSpike {
-                    // Few steps: scan on the joint fit (a spike and a backlash overlap).
+                let rss = if sc.joint {
                     joint(u)
                 } else {
-                    profile_rss(data, resid, &Cand { nl: to_nl(u), ..c })
+                    profile_rss(scan_data, scan_resid, &Cand { nl: to_nl(u), ..c })
                 };
                 if rss < best {
                     best = rss;
@@ -440,13 +389,8 @@ fn tune(data: &Data, set: &mut [Cand], b: &Bounds, scan: bool) {
                 }
             }
         }
-        let reach = if c.id == EffectId::ReversalSpike {
-            2.0
-        } else {
-            1.0
-        };
-        let lo = (u_best - reach * step).max(u_lo);
-        let hi = (u_best + reach * step).min(u_hi);
+        let lo = (u_best - sc.reach * sc.step).max(u_lo);
+        let hi = (u_best + sc.reach * sc.step).min(u_hi);
         let u = crate::base::golden(lo, hi, 18, joint).0;
         set[k].nl = to_nl(u);
     }
@@ -473,160 +417,19 @@ fn reversals(test: &CircularTest, slot: Slot) -> Vec<f64> {
     out
 }
 
-fn words(test: &CircularTest, c: &Cand, effect: &Effect, both: bool) -> String {
+/// What the words of a found effect on `c`'s slot need.
+fn wording(test: &CircularTest, c: &Cand, both: bool) -> Wording {
     let plane = test.meta.plane;
-    let name = c.slot.label(plane);
     let other = match c.slot {
-        Slot::A => Slot::B.label(plane),
-        _ => Slot::A.label(plane),
+        Slot::A => Slot::B,
+        Slot::B | Slot::Plane => Slot::A,
     };
-    let rev = deg_list(&reversals(test, c.slot));
-    match *effect {
-        Effect::Backlash { b_um } => format!(
-            "{name} lags {:.2} µm behind its motion: a step of {:.2} µm {} at its reversals \
-             ({rev}), in both directions",
-            b_um.abs() / 2.0,
-            b_um.abs(),
-            if b_um >= 0.0 {
-                "outward"
-            } else {
-                "inward (over-compensated)"
-            }
-        ),
-        Effect::ReversalSpike { h_um, .. } => format!(
-            "{} spikes of {:.2} µm as {name} reverses ({rev}), on the side the motion leaves \
-             each reversal (mirrored between ccw and cw)",
-            if h_um >= 0.0 { "outward" } else { "inward" },
-            h_um.abs()
-        ),
-        Effect::LateralPlay { p_um } => format!(
-            "{other} shifts by {:.2} µm when {name} reverses ({rev}); the step flips with the \
-             direction of the run",
-            p_um.abs() / 2.0
-        ),
-        Effect::CyclicError { period_mm, .. } => format!(
-            "{name} cycles with a period of {period_mm:.3} mm of its travel (screw or scale); \
-             strongest where {name} moves fastest"
-        ),
-        Effect::Straightness { bow_um } => format!(
-            "{name}'s path bows {:.2} µm towards {}{other} at mid-travel (a three-lobed trace)",
-            bow_um.abs(),
-            if bow_um >= 0.0 { "+" } else { "-" }
-        ),
-        Effect::ServoMismatch { dt_ms } => format!(
-            "{} lags {:.3} ms more than {}: an oval along 45°/135° that turns over between \
-             ccw and cw",
-            if dt_ms >= 0.0 {
-                Slot::A.label(plane)
-            } else {
-                Slot::B.label(plane)
-            },
-            dt_ms.abs(),
-            if dt_ms >= 0.0 {
-                Slot::B.label(plane)
-            } else {
-                Slot::A.label(plane)
-            }
-        ),
-        Effect::ScaleMismatch { ppm } => format!(
-            "{} reads {:.2} ppm longer than {}: an oval along the axes, the same in both \
-             directions",
-            if ppm >= 0.0 {
-                Slot::A.label(plane)
-            } else {
-                Slot::B.label(plane)
-            },
-            ppm.abs(),
-            if ppm >= 0.0 {
-                Slot::B.label(plane)
-            } else {
-                Slot::A.label(plane)
-            }
-        ),
-        Effect::Squareness { urad } => {
-            let base = format!(
-                "the angle between +{} and +{} is {} than 90° by {:.2} µrad: an oval along \
-                 45°/135°",
-                Slot::A.label(plane),
-                Slot::B.label(plane),
-                if urad >= 0.0 { "less" } else { "more" },
-                urad.abs()
-            );
-            if both {
-                format!("{base}, the same in both directions")
-            } else {
-                format!(
-                    "{base}; one direction only, so it may be servo_mismatch instead (the same \
-                     sin 2θ term)"
-                )
-            }
-        }
-        _ => String::new(),
-    }
-}
-
-/// The effect a candidate's coefficients make, and its parameters' one-sigmas from the
-/// covariance block (coefficients, then the nonlinear parameter when there is one).
-fn effect_of(c: &Cand, coef: &[f64], cov: &DMatrix<f64>) -> (Effect, Vec<(ParamName, f64)>) {
-    let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
-    match c.id {
-        EffectId::Backlash => (
-            Effect::Backlash { b_um: coef[0] },
-            vec![(ParamName::BUm, sd(0))],
-        ),
-        EffectId::ReversalSpike => (
-            Effect::ReversalSpike {
-                h_um: coef[0],
-                tau_ms: c.nl,
-            },
-            vec![(ParamName::HUm, sd(0)), (ParamName::TauMs, sd(1))],
-        ),
-        EffectId::LateralPlay => (
-            Effect::LateralPlay { p_um: coef[0] },
-            vec![(ParamName::PUm, sd(0))],
-        ),
-        EffectId::CyclicError => {
-            let (x, y) = (coef[0], coef[1]);
-            let a = x.hypot(y);
-            let phase = y.atan2(x);
-            let ga = [x / a, y / a];
-            let gp = [-y / (a * a), x / (a * a)];
-            let q = |g: [f64; 2]| {
-                (g[0] * g[0] * cov[(0, 0)]
-                    + 2.0 * g[0] * g[1] * cov[(0, 1)]
-                    + g[1] * g[1] * cov[(1, 1)])
-                    .max(0.0)
-                    .sqrt()
-            };
-            (
-                Effect::CyclicError {
-                    amplitude_um: a,
-                    period_mm: c.nl,
-                    phase_rad: phase,
-                },
-                vec![
-                    (ParamName::AmplitudeUm, q(ga)),
-                    (ParamName::PeriodMm, sd(2)),
-                    (ParamName::PhaseRad, q(gp)),
-                ],
-            )
-        }
-        EffectId::Straightness => (
-            Effect::Straightness { bow_um: coef[0] },
-            vec![(ParamName::BowUm, sd(0))],
-        ),
-        EffectId::ServoMismatch => (
-            Effect::ServoMismatch { dt_ms: coef[0] },
-            vec![(ParamName::DtMs, sd(0))],
-        ),
-        EffectId::ScaleMismatch => (
-            Effect::ScaleMismatch { ppm: coef[0] },
-            vec![(ParamName::Ppm, sd(0))],
-        ),
-        _ => (
-            Effect::Squareness { urad: coef[0] },
-            vec![(ParamName::Urad, sd(0))],
-        ),
+    Wording {
+        plane,
+        name: c.slot.label(plane),
+        other: other.label(plane),
+        reversals: deg_list(&reversals(test, c.slot)),
+        both,
     }
 }
 
@@ -659,35 +462,62 @@ pub fn diagnose(test: &CircularTest, cfg: &DiagnoseConfig) -> CircularDiagnosis 
     let both = test.runs.len() == 2;
     let data = data_of(test, cfg);
     let n = data.n();
-    let b = bounds(test);
-    let mut set = candidates(both);
-    tune(&data, &mut set, &b, true);
+    let mut set = candidates(both, &sampling(test));
+    tune(&data, &mut set, true);
     let full = fit_columns(&design(&data, &set), &data.dr);
     let dof = n.saturating_sub(full.rank).max(1) as f64;
     let sigma2_full = (full.rss / dof).max(1e-30);
-    // Backward elimination.
-    loop {
-        if set.is_empty() {
-            break;
+    set = eliminate(&data, set, sigma2_full, cfg.chi2_threshold);
+    tune(&data, &mut set, false);
+    finish(test, &data, &set, both)
+}
+
+/// Backward elimination: the candidate whose removal raises χ² least is removed while
+/// that rise is below `threshold`. The candidates' columns do not change meanwhile, so
+/// their products are computed once and each trial fit is a subset of them.
+fn eliminate(data: &Data, mut set: Vec<Cand>, sigma2: f64, threshold: f64) -> Vec<Cand> {
+    let setup = data.setup_cols();
+    let cached = cache(data, &set);
+    let all = assemble(&setup, &cached, None, &[]);
+    let products = Products::of(&all, &data.dr);
+    // Each candidate's columns in `all`, in order.
+    let mut at = setup.len();
+    let mut ranges: Vec<std::ops::Range<usize>> = cached
+        .iter()
+        .map(|cols| {
+            at += cols.len();
+            at - cols.len()..at
+        })
+        .collect();
+    let columns = |ranges: &[std::ops::Range<usize>], skip: Option<usize>| -> Vec<usize> {
+        let mut idx: Vec<usize> = (0..setup.len()).collect();
+        for (k, r) in ranges.iter().enumerate() {
+            if Some(k) != skip {
+                idx.extend(r.clone());
+            }
         }
-        let setup = data.setup_cols();
-        let cached = cache(&data, &set);
-        let rss_now = fit_columns(&assemble(&setup, &cached, None, &[]), &data.dr).rss;
+        idx
+    };
+    while !set.is_empty() {
+        let rss_now = fit_subset(&all, &columns(&ranges, None), &products, &data.dr).rss;
         let (k, rise) = (0..set.len())
             .map(|k| {
-                let less = assemble(&setup, &cached, Some(k), &[]);
-                (k, fit_columns(&less, &data.dr).rss - rss_now)
+                let less = columns(&ranges, Some(k));
+                (
+                    k,
+                    fit_subset(&all, &less, &products, &data.dr).rss - rss_now,
+                )
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("set is not empty");
-        if rise / sigma2_full < cfg.chi2_threshold {
+        if rise / sigma2 < threshold {
             set.remove(k);
+            ranges.remove(k);
         } else {
             break;
         }
     }
-    tune(&data, &mut set, &b, false);
-    finish(test, &data, &set, both)
+    set
 }
 
 /// The final fit of a candidate set: its design columns and linear fit, where each
@@ -716,8 +546,8 @@ impl Solution {
         let mut at = 3;
         for c in set {
             offsets.push(at);
-            let w = width(c.id);
-            if nonlinear(c.id) {
+            let w = c.kind.width;
+            if c.nonlinear() {
                 let h = c.nl * 1e-4;
                 let coef = &fit.coef[at..at + w];
                 let eval = |nl: f64| -> Vec<f64> {
@@ -767,7 +597,7 @@ fn found_effects(
     set: &[Cand],
     sol: &Solution,
     both: bool,
-) -> Vec<CircularEffect> {
+) -> Vec<CircularFinding> {
     let (cols, fit, cov) = (&sol.cols, &sol.fit, &sol.cov);
     let nominal_idx: Vec<usize> = (0..data.n()).filter(|&i| data.nominal[i]).collect();
     let setup_nom: Vec<Vec<f64>> = data
@@ -777,13 +607,13 @@ fn found_effects(
         .collect();
     let mut effects = Vec::new();
     for (k, c) in set.iter().enumerate() {
-        let w = width(c.id);
+        let w = c.kind.width;
         let off = sol.offsets[k];
         let coef = &fit.coef[off..off + w];
         let mut idx: Vec<usize> = (off..off + w).collect();
         idx.extend(sol.nl_index[k]);
         let block = DMatrix::from_fn(idx.len(), idx.len(), |i, j| cov[(idx[i], idx[j])]);
-        let (effect, uncertainty) = effect_of(c, coef, &block);
+        let (effect, uncertainty) = (c.kind.from_fit)(coef, c.nl, &block);
         let contrib: Vec<f64> = nominal_idx
             .iter()
             .map(|&i| (0..w).map(|q| cols[off + q][i] * coef[q]).sum())
@@ -794,13 +624,13 @@ fn found_effects(
         less.remove(k);
         let delta_chi2 =
             (fit_columns(&design(data, &less), &data.dr).rss - fit.rss) / sol.sigma2.max(1e-30);
-        effects.push(CircularEffect {
+        effects.push(CircularFinding {
             effect,
             axis: AxisOrPlane {
                 plane: test.meta.plane,
                 slot: c.slot,
             },
-            where_: words(test, c, &effect, both),
+            where_: effect.term().words(&wording(test, c, both)),
             uncertainty,
             explains_um,
             delta_chi2,
@@ -827,7 +657,7 @@ fn unidentifiable(data: &Data, set: &[Cand], sol: &Solution, both: bool) -> Vec<
     if !both {
         let sq = set
             .iter()
-            .position(|c| c.id == EffectId::Squareness)
+            .position(|c| c.id == CircularId::Squareness)
             .map(|k| sol.offsets[k]);
         let (params, uncertainty) = match sq {
             Some(o) => (
@@ -894,11 +724,7 @@ fn finish(test: &CircularTest, data: &Data, set: &[Cand], both: bool) -> Circula
         feed_mm_per_min: test.meta.feed_mm_per_min,
         directions: test.directions(),
         iso230_4: evaluate(test),
-        verdict: if effects.is_empty() {
-            CircularVerdict::Consistent
-        } else {
-            CircularVerdict::ErrorsFound
-        },
+        verdict: Verdict::from_found(!effects.is_empty()),
         rms_before_um: rms_before,
         rms_after_um: rms_after,
         effects,

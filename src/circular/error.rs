@@ -30,6 +30,13 @@ pub enum CircularError {
     Test { path: PathBuf, problem: String },
     #[error(transparent)]
     Table(#[from] TableError),
+    /// A simulated test that would have more samples than a test may have (refused before
+    /// anything is allocated).
+    #[error(
+        "a simulated test of {samples:.3e} samples is more than the {max} a test may have \
+         (raise the feed or lower the sample rate)"
+    )]
+    TooManySamples { samples: f64, max: usize },
     /// The volumetric model of the link could not be read or could not predict.
     #[error("{path}: {problem}")]
     Link { path: PathBuf, problem: String },

@@ -19,6 +19,21 @@ use crate::base::{Axis, FileOp};
 use crate::table::TableError;
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
+/// The most samples a test may have, both runs together: checked before a simulated test
+/// is allocated and before a trace's rows are read. A ballbar sampling at 1 kHz round a
+/// 150 mm radius at 1 000 mm/min, overshoots included, takes about 75 000 samples a run;
+/// the diagnosis costs about 40 µs a sample in the test profile (docs/circular-test.md).
+pub const MAX_SAMPLES: usize = 500_000;
+/// The largest nominal radius, mm: longer than any ballbar with its extensions.
+pub const MAX_RADIUS_MM: f64 = 2000.0;
+/// The fastest contouring feed, mm/min (2 m/s).
+pub const MAX_FEED_MM_PER_MIN: f64 = 120_000.0;
+/// The highest sample rate, Hz.
+pub const MAX_SAMPLE_RATE_HZ: f64 = 10_000.0;
+/// The largest radial deviation a trace may hold, µm: ten times a ballbar's measuring
+/// range of about a millimetre.
+pub const MAX_DR_UM: f64 = 10_000.0;
+
 /// The plane of a test: its first axis A lies at angle 0, its second B at +90°.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Plane {
@@ -127,21 +142,32 @@ impl TestMeta {
 
     /// Every value in its range, else the key and the problem.
     pub fn check(&self, path: &Path) -> Result<(), CircularError> {
-        let positive = |key: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
+        let positive = |key: &str, v: f64, max: f64, unit: &str| {
+            if !(v.is_finite() && v > 0.0) {
                 Err(key_err(
                     path,
                     key,
                     format!("{v} must be a finite number > 0"),
                 ))
+            } else if v > max {
+                Err(key_err(
+                    path,
+                    key,
+                    format!("{v} is above the plausible {max} {unit}"),
+                ))
+            } else {
+                Ok(())
             }
         };
-        positive("radius_mm", self.radius_mm)?;
-        positive("feed_mm_per_min", self.feed_mm_per_min)?;
+        positive("radius_mm", self.radius_mm, MAX_RADIUS_MM, "mm")?;
+        positive(
+            "feed_mm_per_min",
+            self.feed_mm_per_min,
+            MAX_FEED_MM_PER_MIN,
+            "mm/min",
+        )?;
         if let Some(f) = self.sample_rate_hz {
-            positive("sample_rate_hz", f)?;
+            positive("sample_rate_hz", f, MAX_SAMPLE_RATE_HZ, "Hz")?;
         }
         if !(self.arc_deg.is_finite() && self.arc_deg > 0.0 && self.arc_deg <= 360.0) {
             return Err(key_err(
@@ -320,6 +346,13 @@ impl TraceColumns<'_> {
         };
         let angle = self.cell(&self.ang_c, row0, "angle_deg")?;
         let dr = self.cell(&self.dr_c, row0, "dr_um")?;
+        if dr.abs() > MAX_DR_UM {
+            return Err(self.bad(
+                row0,
+                "dr_um",
+                format!("{dr} µm is outside the plausible range ±{MAX_DR_UM} µm"),
+            ));
+        }
         let t = self
             .t_c
             .as_ref()
@@ -427,6 +460,15 @@ pub fn read_test(trace: &Path) -> Result<CircularTest, CircularError> {
             path: trace.to_path_buf(),
         }
         .into());
+    }
+    if df.height() > MAX_SAMPLES {
+        return Err(CircularError::Test {
+            path: trace.to_path_buf(),
+            problem: format!(
+                "{} rows, more than the {MAX_SAMPLES} samples a test may have",
+                df.height()
+            ),
+        });
     }
     let cols = |name: &str| column_cells(trace, &df, name);
     let columns = TraceColumns {

@@ -14,16 +14,17 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::diagnose::CircularDiagnosis;
+use super::effects::CircularId;
 use super::error::CircularError;
 use super::input::TestMeta;
-use super::signature::{Geometry, Point, Slot, columns, setup_columns};
-use crate::base::{EffectId, ParamName};
+use super::signature::{Geometry, Point, Slot, setup_columns};
+use crate::base::ParamName;
 use crate::volumetric::Predictor;
 
 /// One geometric term: predicted by the volumetric model, measured by the ballbar.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LinkRow {
-    pub id: EffectId,
+    pub id: CircularId,
     pub axis: String,
     #[serde(serialize_with = "param_name")]
     pub param: ParamName,
@@ -45,12 +46,58 @@ pub struct Link {
     pub predicted_rms_um: f64,
 }
 
-const TERMS: [(EffectId, Slot, ParamName); 4] = [
-    (EffectId::Squareness, Slot::Plane, ParamName::Urad),
-    (EffectId::ScaleMismatch, Slot::Plane, ParamName::Ppm),
-    (EffectId::Straightness, Slot::A, ParamName::BowUm),
-    (EffectId::Straightness, Slot::B, ParamName::BowUm),
+const TERMS: [(CircularId, Slot, ParamName); 4] = [
+    (CircularId::Squareness, Slot::Plane, ParamName::Urad),
+    (CircularId::ScaleMismatch, Slot::Plane, ParamName::Ppm),
+    (CircularId::Straightness, Slot::A, ParamName::BowUm),
+    (CircularId::Straightness, Slot::B, ParamName::BowUm),
 ];
+
+/// A point of the circle may lie this far outside an identified model's measured range,
+/// mm (as for a gauge of the predicted ISO 10360-2 test).
+pub const RANGE_TOL_MM: f64 = 1e-3;
+
+/// The points of the test's circle at angles θ (rad) about `centre_mm`, machine coordinates.
+fn circle_points(meta: &TestMeta, centre_mm: [f64; 3], thetas: &[f64]) -> Vec<[f64; 3]> {
+    let (a, b) = meta.plane.axes();
+    let (ia, ib) = (a.index(), b.index());
+    thetas
+        .iter()
+        .map(|&th| {
+            let mut p = centre_mm;
+            p[ia] += meta.radius_mm * th.cos();
+            p[ib] += meta.radius_mm * th.sin();
+            p
+        })
+        .collect()
+}
+
+/// Refuses a circle that leaves an identified model's measured range (a prediction there
+/// is an extrapolation its σ does not cover); a machine model holds everywhere.
+fn check_in_range(predictor: &Predictor, pts: &[[f64; 3]]) -> Result<(), String> {
+    let Predictor::Fit(fit) = predictor else {
+        return Ok(());
+    };
+    let range = fit.basis.range_mm;
+    for p in pts {
+        if let Some(k) =
+            (0..3).find(|&k| p[k] < range[k][0] - RANGE_TOL_MM || p[k] > range[k][1] + RANGE_TOL_MM)
+        {
+            return Err(format!(
+                "the test's circle reaches ({}, {}, {}) mm, outside the model's measured range \
+                 of {} [{}, {}] mm: a prediction there is an extrapolation (move centre_mm or \
+                 measure the volume the circle covers)",
+                p[0],
+                p[1],
+                p[2],
+                ["x", "y", "z"][k],
+                range[k][0],
+                range[k][1]
+            ));
+        }
+    }
+    Ok(())
+}
 
 /// The predicted radial trace at angles θ (rad) of the test's circle.
 pub fn predicted_trace(
@@ -61,15 +108,8 @@ pub fn predicted_trace(
 ) -> Result<Vec<f64>, String> {
     let (a, b) = meta.plane.axes();
     let (ia, ib) = (a.index(), b.index());
-    let pts: Vec<[f64; 3]> = thetas
-        .iter()
-        .map(|&th| {
-            let mut p = centre_mm;
-            p[ia] += meta.radius_mm * th.cos();
-            p[ib] += meta.radius_mm * th.sin();
-            p
-        })
-        .collect();
+    let pts = circle_points(meta, centre_mm, thetas);
+    check_in_range(predictor, &pts)?;
     let e = predictor
         .predict_grid(&pts, [0.0; 3])
         .map_err(|e| e.to_string())?;
@@ -100,22 +140,14 @@ pub fn link(
     let g = Geometry::of(meta);
     let pts: Vec<Point> = thetas
         .iter()
-        .map(|&theta| Point {
-            theta,
-            s: 1.0,
-            dt_a_s: 0.0,
-            dt_b_s: 0.0,
-        })
+        .map(|&theta| Point::at(theta, 1.0, 0.0, 0.0))
         .collect();
     let mut cols: Vec<Vec<f64>> = (0..3)
         .map(|k| pts.iter().map(|p| setup_columns(p)[k]).collect())
         .collect();
     for (id, slot, _) in TERMS {
-        cols.push(
-            pts.iter()
-                .map(|p| columns(id, slot, 0.0, p, &g)[0])
-                .collect(),
-        );
+        let columns = id.kind().columns;
+        cols.push(pts.iter().map(|p| columns(slot, 0.0, p, &g)[0]).collect());
     }
     let k = cols.len();
     let ata = nalgebra::DMatrix::from_fn(k, k, |i, j| {

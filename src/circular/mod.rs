@@ -5,8 +5,10 @@
 //! |---|---|
 //! | [`input`] | the trace (CSV/Parquet through `table`) and its TOML, validated once |
 //! | [`iso`] | least-squares circles and G, G(b), H, D, F (ISO 230-4) |
-//! | [`signature`] | each effect's radial signature dr(θ) and the setup terms |
+//! | [`effects`] | the circular vocabulary: one file per effect (its signature, its simulated term, its bounds, its words) |
+//! | [`signature`] | the samples as the signatures see them, the setup terms, dr(θ) of an effect |
 //! | [`diagnose`] | the joint linear fit, significance, identifiability, the result |
+//! | `fit` | the least-squares fits on subsets of one set of columns, its products computed once |
 //! | [`simulate`] | a machine model (TOML) → a trace and its TOML, from the physics |
 //! | [`link`] | the circle an identified volumetric model implies, compared |
 //!
@@ -15,14 +17,17 @@
 //! Markdown report are in `report::circular`.
 
 pub mod diagnose;
+pub mod effects;
 mod error;
+mod fit;
 pub mod input;
 pub mod iso;
 pub mod link;
 pub mod signature;
 pub mod simulate;
 
-pub use diagnose::{CircularDiagnosis, CircularEffect, CircularVerdict, DiagnoseConfig, diagnose};
+pub use diagnose::{CircularDiagnosis, CircularFinding, DiagnoseConfig, diagnose};
+pub use effects::{CircularEffect, CircularId};
 pub use error::CircularError;
-pub use input::{CircularTest, Plane, Run, Sense, TestMeta, read_test};
+pub use input::{CircularTest, MAX_SAMPLES, Plane, Run, Sense, TestMeta, read_test};
 pub use iso::{Iso230_4, evaluate};

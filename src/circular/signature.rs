@@ -6,8 +6,9 @@
 //! dr = e_A·cos θ + e_B·sin θ, with e_A, e_B the axis errors (actual − commanded, µm).
 //! The signatures below follow from the physics of each effect in that one line; they are
 //! what the diagnosis fits (linear in every parameter but the spike's τ and the cyclic
-//! error's period, which are scanned). The simulator (`simulate`) does not use them: it
-//! moves the axes and measures the bar.
+//! error's period, which are scanned); each is written in its effect's file
+//! (`effects/<id>.rs`). The simulator (`simulate`) does not use them: it moves the axes
+//! and measures the bar.
 //!
 //! | effect (slot) | dr(θ), µm |
 //! |---|---|
@@ -26,12 +27,12 @@
 //! | squareness | (R·10⁻³·α/2)·sin 2θ |
 //! | setup | c0 + c1·cos θ + c2·sin θ |
 
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 use serde::{Serialize, Serializer};
 
+use super::effects::CircularEffect;
 use super::input::{Plane, Run, TestMeta};
-use crate::base::{Effect, EffectId};
 
 /// What a circular effect acts on: the plane's first axis A, its second B, or the pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -66,19 +67,13 @@ impl Serialize for AxisOrPlane {
     }
 }
 
-/// The slots an effect of the circular vocabulary may act on.
-pub fn slots(id: EffectId) -> &'static [Slot] {
-    match id {
-        EffectId::ServoMismatch | EffectId::ScaleMismatch | EffectId::Squareness => &[Slot::Plane],
-        _ => &[Slot::A, Slot::B],
-    }
-}
-
 /// What one sample contributes to the fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Point {
-    /// Commanded angle, rad.
+    /// Commanded angle, rad, and its cosine and sine (computed once).
     pub theta: f64,
+    pub cos_theta: f64,
+    pub sin_theta: f64,
     /// +1 ccw, −1 cw.
     pub s: f64,
     /// Seconds since the run last passed a reversal of A (θ = kπ) and of B (θ = π/2 + kπ).
@@ -102,13 +97,18 @@ impl Geometry {
     }
 }
 
-fn sgn(x: f64) -> f64 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
+impl Point {
+    /// The point at angle θ of a run of sense `s`, `dt_a_s` and `dt_b_s` after the last
+    /// reversals of A and B.
+    pub fn at(theta: f64, s: f64, dt_a_s: f64, dt_b_s: f64) -> Point {
+        Point {
+            theta,
+            cos_theta: theta.cos(),
+            sin_theta: theta.sin(),
+            s,
+            dt_a_s,
+            dt_b_s,
+        }
     }
 }
 
@@ -139,12 +139,7 @@ pub fn points(run: &Run, meta: &TestMeta) -> Vec<Point> {
     };
     theta
         .iter()
-        .map(|&th| Point {
-            theta: th,
-            s,
-            dt_a_s: since(th, 0.0),
-            dt_b_s: since(th, FRAC_PI_2),
-        })
+        .map(|&th| Point::at(th, s, since(th, 0.0), since(th, FRAC_PI_2)))
         .collect()
 }
 
@@ -166,71 +161,14 @@ fn interp(xs: &[f64], y: &[f64], x: f64, s: f64) -> f64 {
 
 /// The setup terms' columns at a point: 1, cos θ, sin θ.
 pub fn setup_columns(p: &Point) -> [f64; 3] {
-    [1.0, p.theta.cos(), p.theta.sin()]
+    [1.0, p.cos_theta, p.sin_theta]
 }
 
-/// The linear columns of an effect at a point, for its nonlinear parameter `nl` (the
-/// spike's τ in ms, the cyclic error's period in mm; ignored by the others). One column
-/// (the coefficient is the effect's parameter) or two for the cyclic error (the
-/// coefficients are a·cos φ and a·sin φ).
-pub fn columns(id: EffectId, slot: Slot, nl: f64, p: &Point, g: &Geometry) -> [f64; 2] {
-    let (c, s_) = (p.theta.cos(), p.theta.sin());
-    let s = p.s;
-    let a = slot == Slot::A;
-    match id {
-        EffectId::Backlash if a => [s * 0.5 * sgn(s_) * c, 0.0],
-        EffectId::Backlash => [-s * 0.5 * sgn(c) * s_, 0.0],
-        EffectId::ReversalSpike if a => [(-p.dt_a_s * 1e3 / nl).exp() * c.abs(), 0.0],
-        EffectId::ReversalSpike => [(-p.dt_b_s * 1e3 / nl).exp() * s_.abs(), 0.0],
-        EffectId::LateralPlay if a => [-s * 0.5 * s_.abs(), 0.0],
-        EffectId::LateralPlay => [s * 0.5 * c.abs(), 0.0],
-        EffectId::CyclicError => {
-            let (q, w) = if a { (c, c) } else { (s_, s_) };
-            let u = TAU * g.radius_mm * q / nl;
-            [u.sin() * w, u.cos() * w]
-        }
-        EffectId::Straightness if a => [s_.powi(3), 0.0],
-        EffectId::Straightness => [c.powi(3), 0.0],
-        EffectId::ServoMismatch => [s * g.v_mm_per_s * 0.5 * (2.0 * p.theta).sin(), 0.0],
-        EffectId::ScaleMismatch => [g.radius_mm * 1e-3 * 0.5 * (2.0 * p.theta).cos(), 0.0],
-        EffectId::Squareness => [g.radius_mm * 1e-3 * 0.5 * (2.0 * p.theta).sin(), 0.0],
-        _ => [0.0, 0.0],
-    }
-}
-
-/// How many linear columns an effect has (2 for the cyclic error, else 1).
-pub fn width(id: EffectId) -> usize {
-    if id == EffectId::CyclicError { 2 } else { 1 }
-}
-
-/// Whether an effect has a scanned (nonlinear) parameter.
-pub fn nonlinear(id: EffectId) -> bool {
-    matches!(id, EffectId::ReversalSpike | EffectId::CyclicError)
-}
-
-/// The signature of a whole effect (with its parameters) at a point, µm.
-pub fn dr_um(effect: &Effect, slot: Slot, p: &Point, g: &Geometry) -> f64 {
-    let (nl, coef) = match *effect {
-        Effect::Backlash { b_um } => (0.0, [b_um, 0.0]),
-        Effect::ReversalSpike { h_um, tau_ms } => (tau_ms, [h_um, 0.0]),
-        Effect::LateralPlay { p_um } => (0.0, [p_um, 0.0]),
-        Effect::CyclicError {
-            amplitude_um,
-            period_mm,
-            phase_rad,
-        } => (
-            period_mm,
-            [
-                amplitude_um * phase_rad.cos(),
-                amplitude_um * phase_rad.sin(),
-            ],
-        ),
-        Effect::Straightness { bow_um } => (0.0, [bow_um, 0.0]),
-        Effect::ServoMismatch { dt_ms } => (0.0, [dt_ms, 0.0]),
-        Effect::ScaleMismatch { ppm } => (0.0, [ppm, 0.0]),
-        Effect::Squareness { urad } => (0.0, [urad, 0.0]),
-        _ => return 0.0,
-    };
-    let col = columns(effect.id(), slot, nl, p, g);
+/// The radial signature of an effect (with its parameters) on `slot` at a point, µm: its
+/// linear columns ([`Family::columns`](super::effects::Family::columns)) times its
+/// coefficients.
+pub fn dr_um(effect: &CircularEffect, slot: Slot, p: &Point, g: &Geometry) -> f64 {
+    let (nl, coef) = effect.term().linear();
+    let col = (effect.id().kind().columns)(slot, nl, p, g);
     col[0] * coef[0] + col[1] * coef[1]
 }

@@ -31,7 +31,6 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::f64::consts::PI;
 use std::path::Path;
 
 use polars::prelude::*;
@@ -39,13 +38,13 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use serde::Deserialize;
 
+use super::effects::{CircularEffect, CircularId, Contribution, Motion, sgn};
 use super::error::{CircularError, key_err, parse_toml};
-use super::input::{CircularTest, Run, Sense, TestMeta, meta_path};
-use super::signature::{Slot, slots};
-use crate::base::FileOp;
+use super::input::{CircularTest, MAX_SAMPLES, Run, Sense, TestMeta, meta_path};
+use super::signature::Slot;
 use crate::base::gaussian;
 use crate::base::io_err;
-use crate::base::{Effect, EffectId, ParamValue};
+use crate::base::{EffectId, FileOp, ParamValue};
 
 /// The setup of a simulated test.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -82,7 +81,7 @@ struct RawModel {
 /// One effect of a machine model and the slot it acts on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimEffect {
-    pub effect: Effect,
+    pub effect: CircularEffect,
     pub slot: Slot,
 }
 
@@ -107,17 +106,12 @@ impl MachineModel {
         raw.test.check(path)?;
         let mut directions = Vec::new();
         for d in &raw.setup.directions {
-            let s = match d.as_str() {
-                "ccw" => Sense::Ccw,
-                "cw" => Sense::Cw,
-                _ => {
-                    return Err(key_err(
-                        path,
-                        "setup.directions",
-                        format!("`{d}` is not ccw or cw"),
-                    ));
-                }
-            };
+            let s = [Sense::Ccw, Sense::Cw]
+                .into_iter()
+                .find(|s| s.as_str() == d)
+                .ok_or_else(|| {
+                    key_err(path, "setup.directions", format!("`{d}` is not ccw or cw"))
+                })?;
             if directions.contains(&s) {
                 return Err(key_err(path, "setup.directions", format!("{d} twice")));
             }
@@ -126,68 +120,15 @@ impl MachineModel {
         if directions.is_empty() {
             return Err(key_err(path, "setup.directions", "empty"));
         }
-        if !(raw.setup.noise_um.is_finite() && raw.setup.noise_um >= 0.0) {
-            return Err(key_err(path, "setup.noise_um", "must be finite and >= 0"));
-        }
+        check_setup(path, &raw.setup)?;
         let plane = raw.test.plane;
-        let mut effects = Vec::new();
-        for (k, e) in raw.effect.iter().enumerate() {
-            let key = format!("effect[{k}]");
-            let id: EffectId = e.id.parse().map_err(|_| {
-                key_err(path, &format!("{key}.id"), format!("`{}` is unknown", e.id))
-            })?;
-            if !EffectId::CIRCULAR.contains(&id) {
-                return Err(key_err(
-                    path,
-                    &format!("{key}.id"),
-                    format!("`{id}` is not an effect of the circular test"),
-                ));
-            }
-            let slot = slots(id)
-                .iter()
-                .copied()
-                .find(|s| s.label(plane).eq_ignore_ascii_case(&e.axis))
-                .ok_or_else(|| {
-                    key_err(
-                        path,
-                        &format!("{key}.axis"),
-                        format!(
-                            "`{}` is not one of {} for `{id}` in plane {}",
-                            e.axis,
-                            slots(id)
-                                .iter()
-                                .map(|s| s.label(plane))
-                                .collect::<Vec<_>>()
-                                .join(", "),
-                            plane.as_str()
-                        ),
-                    )
-                })?;
-            let effect = Effect::from_params(id, &e.params)
-                .map_err(|err| key_err(path, &format!("{key}.params"), err.to_string()))?;
-            if let Some((name, v)) = effect.non_finite() {
-                return Err(key_err(
-                    path,
-                    &format!("{key}.params.{name}"),
-                    format!("{v} is not finite"),
-                ));
-            }
-            let positive = match effect {
-                Effect::ReversalSpike { tau_ms, .. } => Some(("tau_ms", tau_ms)),
-                Effect::CyclicError { period_mm, .. } => Some(("period_mm", period_mm)),
-                _ => None,
-            };
-            if let Some((name, v)) = positive
-                && v <= 0.0
-            {
-                return Err(key_err(
-                    path,
-                    &format!("{key}.params.{name}"),
-                    format!("{v} must be > 0"),
-                ));
-            }
-            effects.push(SimEffect { effect, slot });
-        }
+        let effects = raw
+            .effect
+            .iter()
+            .enumerate()
+            .map(|(k, e)| sim_effect(path, plane, k, e))
+            .collect::<Result<Vec<_>, _>>()?;
+        check_size(path, &raw.test, directions.len())?;
         Ok(MachineModel {
             meta: raw.test,
             directions,
@@ -200,33 +141,49 @@ impl MachineModel {
     }
 }
 
-fn sgn(x: f64) -> f64 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
+/// The sample rate the simulator takes when the model gives none, Hz.
+pub const DEFAULT_SAMPLE_RATE_HZ: f64 = 200.0;
+
+/// The samples one simulated run has: the nominal arc and both overshoots at the
+/// model's feed and sample rate (a float, so that an absurd count is seen before any
+/// allocation).
+pub fn samples_per_run(meta: &TestMeta) -> f64 {
+    let omega = meta.omega_rad_per_s();
+    let fs = meta.sample_rate_hz.unwrap_or(DEFAULT_SAMPLE_RATE_HZ);
+    let (lo, hi) = sim_arc_rad(meta);
+    ((hi - lo) / omega * fs).floor() + 1.0
 }
 
-/// Simulates the test a model describes.
-pub fn simulate(model: &MachineModel) -> CircularTest {
-    let meta = &model.meta;
-    let mut rng = StdRng::seed_from_u64(model.seed);
-    let omega = meta.omega_rad_per_s();
-    let fs = meta.sample_rate_hz.unwrap_or(200.0);
+/// The simulated arc, lead-in and lead-out included, rad.
+fn sim_arc_rad(meta: &TestMeta) -> (f64, f64) {
     let (lo, hi) = meta.arc_deg_range();
-    let (lo, hi) = (
+    (
         (lo - meta.overshoot_deg).to_radians(),
         (hi + meta.overshoot_deg).to_radians(),
-    );
+    )
+}
+
+/// Simulates the test a model describes; a test of more than [`MAX_SAMPLES`] samples is
+/// refused before anything is allocated.
+pub fn simulate(model: &MachineModel) -> Result<CircularTest, CircularError> {
+    let meta = &model.meta;
+    let per_run = samples_per_run(meta);
+    let total = per_run * model.directions.len() as f64;
+    if total.is_nan() || total > MAX_SAMPLES as f64 {
+        return Err(CircularError::TooManySamples {
+            samples: total,
+            max: MAX_SAMPLES,
+        });
+    }
+    let n = per_run as usize;
+    let mut rng = StdRng::seed_from_u64(model.seed);
+    let omega = meta.omega_rad_per_s();
+    let fs = meta.sample_rate_hz.unwrap_or(DEFAULT_SAMPLE_RATE_HZ);
+    let (lo, hi) = sim_arc_rad(meta);
     let mut runs = Vec::new();
     for (k, &sense) in model.directions.iter().enumerate() {
         let s = sense.s();
         let start = if s > 0.0 { lo } else { hi };
-        let span = hi - lo;
-        let n = (span / omega * fs).floor() as usize + 1;
         let mut run = Run {
             id: k as i64 + 1,
             sense,
@@ -248,19 +205,11 @@ pub fn simulate(model: &MachineModel) -> CircularTest {
         runs.push(run);
     }
     runs.sort_by_key(|r| r.sense);
-    CircularTest {
+    Ok(CircularTest {
         trace: Default::default(),
         meta: model.meta.clone(),
         runs,
-    }
-}
-
-/// The time (s) the run last passed a reversal of the axis whose reversals lie at
-/// `offset` + kπ, `None` before the first one (the run started from rest).
-fn last_reversal(theta: f64, s: f64, start: f64, offset: f64, omega: f64) -> Option<f64> {
-    let travelled = (s * (theta - offset)).rem_euclid(PI);
-    let at = theta - s * travelled;
-    ((at - start) * s >= 0.0).then(|| (at - start) * s / omega)
+    })
 }
 
 /// The bar reading (µm, without noise) at angle θ of a run of sense s at time t.
@@ -269,55 +218,29 @@ fn bar_reading(model: &MachineModel, theta: f64, s: f64, t: f64, start: f64) -> 
     let r = meta.radius_mm;
     let omega = meta.omega_rad_per_s();
     // Commanded positions (mm) and velocity signs.
-    let (qa, qb) = (r * theta.cos(), r * theta.sin());
-    let (va, vb) = (sgn(-s * theta.sin()), sgn(s * theta.cos()));
+    let motion = Motion {
+        theta,
+        s,
+        t,
+        start,
+        omega,
+        radius_mm: r,
+        q_mm: [r * theta.cos(), r * theta.sin()],
+        v_sign: [sgn(-s * theta.sin()), sgn(s * theta.cos())],
+    };
     let mut lag = [0.0f64; 2];
     let (mut ea, mut eb) = (0.0, 0.0);
     for e in &model.effects {
-        let a = e.slot == Slot::A;
-        let (q, v, offset) = if a { (qa, va, 0.0) } else { (qb, vb, PI / 2.0) };
-        // (own axis error, other axis error)
-        let (own, other) = match e.effect {
-            Effect::Backlash { b_um } => (-(b_um / 2.0) * v, 0.0),
-            Effect::ReversalSpike { h_um, tau_ms } => {
-                match last_reversal(theta, s, start, offset, omega) {
-                    Some(tr) => (-h_um * v * (-(t - tr) * 1e3 / tau_ms).exp(), 0.0),
-                    None => (0.0, 0.0),
-                }
-            }
-            Effect::LateralPlay { p_um } => (0.0, (p_um / 2.0) * v),
-            Effect::CyclicError {
-                amplitude_um,
-                period_mm,
-                phase_rad,
-            } => (
-                amplitude_um * (2.0 * PI * q / period_mm + phase_rad).sin(),
-                0.0,
-            ),
-            Effect::Straightness { bow_um } => (0.0, bow_um * (1.0 - (q / r).powi(2))),
-            Effect::ServoMismatch { dt_ms } => {
-                lag[0] += dt_ms / 2.0;
-                lag[1] -= dt_ms / 2.0;
-                (0.0, 0.0)
-            }
-            Effect::ScaleMismatch { ppm } => {
-                ea += ppm / 2.0 * qa * 1e-3;
-                eb -= ppm / 2.0 * qb * 1e-3;
-                (0.0, 0.0)
-            }
-            Effect::Squareness { urad } => {
-                ea += urad * qb * 1e-3;
-                (0.0, 0.0)
-            }
-            _ => (0.0, 0.0),
-        };
-        if a {
-            ea += own;
-            eb += other;
-        } else {
-            eb += own;
-            ea += other;
-        }
+        let Contribution {
+            a_um,
+            b_um,
+            lag_a_ms,
+            lag_b_ms,
+        } = e.effect.term().simulate(e.slot, &motion);
+        ea += a_um;
+        eb += b_um;
+        lag[0] += lag_a_ms;
+        lag[1] += lag_b_ms;
     }
     // Each axis at its own lag (ms): its commanded position at t − lag, exactly.
     let back = |lag_ms: f64| theta - s * omega * lag_ms * 1e-3;
@@ -328,6 +251,109 @@ fn bar_reading(model: &MachineModel, theta: f64, s: f64, t: f64, start: f64) -> 
         model.centre_offset_um[1] * 1e-3,
     );
     ((pa - ca).hypot(pb - cb) - r) * 1e3 + model.bar_error_um
+}
+
+/// The largest centring offset, bar error and noise a simulated setup may have, µm: a
+/// ballbar reads about a millimetre either side of its length.
+pub const MAX_SETUP_UM: f64 = 1000.0;
+
+/// Refuses a setup term that is not finite or outside ±[`MAX_SETUP_UM`] (the noise's σ
+/// also negative), by its key.
+fn check_setup(path: &Path, setup: &SimSetup) -> Result<(), CircularError> {
+    let terms = [
+        ("setup.centre_offset_um", setup.centre_offset_um[0]),
+        ("setup.centre_offset_um", setup.centre_offset_um[1]),
+        ("setup.bar_error_um", setup.bar_error_um),
+        ("setup.noise_um", setup.noise_um),
+    ];
+    for (key, v) in terms {
+        if !v.is_finite() {
+            return Err(key_err(path, key, format!("{v} is not finite")));
+        }
+        if v.abs() > MAX_SETUP_UM {
+            return Err(key_err(
+                path,
+                key,
+                format!("{v} µm is outside the plausible range ±{MAX_SETUP_UM} µm"),
+            ));
+        }
+    }
+    if setup.noise_um < 0.0 {
+        return Err(key_err(path, "setup.noise_um", "must be finite and >= 0"));
+    }
+    Ok(())
+}
+
+/// Refuses a model whose test would have more than [`MAX_SAMPLES`] samples, before
+/// anything is simulated.
+fn check_size(path: &Path, meta: &TestMeta, runs: usize) -> Result<(), CircularError> {
+    let total = samples_per_run(meta) * runs as f64;
+    if total <= MAX_SAMPLES as f64 {
+        return Ok(());
+    }
+    let key = if meta.sample_rate_hz.is_some() {
+        "test.sample_rate_hz"
+    } else {
+        "test.feed_mm_per_min"
+    };
+    Err(key_err(
+        path,
+        key,
+        format!(
+            "{runs} run(s) of {} deg at {} mm/min on a radius of {} mm sampled at {} Hz make \
+             {total:.3e} samples, more than the {MAX_SAMPLES} a test may have (raise the feed \
+             or lower the sample rate)",
+            meta.arc_deg + 2.0 * meta.overshoot_deg,
+            meta.feed_mm_per_min,
+            meta.radius_mm,
+            meta.sample_rate_hz.unwrap_or(DEFAULT_SAMPLE_RATE_HZ)
+        ),
+    ))
+}
+
+/// The `k`-th `[[effect]]` of a model: an effect of the circular vocabulary, on a slot it
+/// may act on in `plane`, with its parameters finite and within their plausible bounds.
+fn sim_effect(
+    path: &Path,
+    plane: super::input::Plane,
+    k: usize,
+    e: &RawEffect,
+) -> Result<SimEffect, CircularError> {
+    let key = format!("effect[{k}]");
+    let id: CircularId = e.id.parse().map_err(|_| {
+        let problem = match e.id.parse::<EffectId>() {
+            Ok(id) => format!("`{id}` is not an effect of the circular test"),
+            Err(_) => format!("`{}` is unknown", e.id),
+        };
+        key_err(path, &format!("{key}.id"), problem)
+    })?;
+    let slot = id
+        .slots()
+        .iter()
+        .copied()
+        .find(|s| s.label(plane).eq_ignore_ascii_case(&e.axis))
+        .ok_or_else(|| {
+            key_err(
+                path,
+                &format!("{key}.axis"),
+                format!(
+                    "`{}` is not one of {} for `{id}` in plane {}",
+                    e.axis,
+                    id.slots()
+                        .iter()
+                        .map(|s| s.label(plane))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    plane.as_str()
+                ),
+            )
+        })?;
+    let effect = CircularEffect::from_params(id, &e.params)
+        .map_err(|err| key_err(path, &format!("{key}.params"), err.to_string()))?;
+    effect
+        .check()
+        .map_err(|(name, problem)| key_err(path, &format!("{key}.params.{name}"), problem))?;
+    Ok(SimEffect { effect, slot })
 }
 
 /// Writes a test as a trace (CSV or Parquet by extension) and its TOML beside it, each

@@ -98,7 +98,7 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     let model = MachineModel::read(&a.model)?;
-    let test = simulate(&model);
+    let test = simulate(&model)?;
     write_test(&test, &a.out)?;
     eprintln!(
         "wrote {} and {}",

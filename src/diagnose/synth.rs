@@ -121,7 +121,7 @@ pub fn truth(effect: &Effect) -> Vec<(&'static str, f64)> {
 /// Why a synthetic pair cannot hide an effect.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SynthError {
-    /// The circular test's effects and `unexplained` have no positioning signature.
+    /// `unexplained` has no positioning signature.
     #[error("a synthetic positioning pair cannot hide `{0}`")]
     Unsupported(EffectId),
     /// The lines run along x: an Abbe offset lies along y or z.
@@ -133,12 +133,20 @@ pub enum SynthError {
 fn check_hidden(hidden: &[Effect]) -> Result<(), SynthError> {
     for h in hidden {
         match *h {
-            Effect::Abbe { offset_axis, .. } if offset_axis == crate::base::Axis::X => {
-                return Err(SynthError::AbbeAxis(offset_axis));
-            }
+            Effect::Abbe {
+                offset_axis: crate::base::Axis::X,
+                ..
+            } => return Err(SynthError::AbbeAxis(crate::base::Axis::X)),
             Effect::Unexplained { .. } => return Err(SynthError::Unsupported(h.id())),
-            _ if h.is_circular() => return Err(SynthError::Unsupported(h.id())),
-            _ => {}
+            Effect::Abbe { .. }
+            | Effect::ScaleThermalExpansion { .. }
+            | Effect::ScaleFactor { .. }
+            | Effect::Reversal { .. }
+            | Effect::LatchDelay { .. }
+            | Effect::PeriodicScale { .. }
+            | Effect::ThermalDrift(_)
+            | Effect::DeadPath { .. }
+            | Effect::Refraction { .. } => {}
         }
     }
     Ok(())
@@ -481,15 +489,7 @@ impl<'a> Conditions<'a> {
                 -s.x * dn * 1e3
             }
             // Refused by `check_hidden` before anything was drawn.
-            Effect::Unexplained { .. }
-            | Effect::Backlash { .. }
-            | Effect::ReversalSpike { .. }
-            | Effect::LateralPlay { .. }
-            | Effect::CyclicError { .. }
-            | Effect::Straightness { .. }
-            | Effect::ServoMismatch { .. }
-            | Effect::ScaleMismatch { .. }
-            | Effect::Squareness { .. } => 0.0,
+            Effect::Unexplained { .. } => 0.0,
         }
     }
 }
@@ -609,13 +609,13 @@ mod tests {
     /// What a positioning pair cannot carry is refused by name before anything is drawn;
     /// what it can is generated with one contribution per effect.
     #[test]
-    fn circular_effects_and_an_offset_along_the_axis_are_refused() {
+    fn unexplained_and_an_offset_along_the_axis_are_refused() {
         let with = |h: Effect| Synth {
             hidden: vec![h],
             ..Synth::default()
         };
-        let e = generate(&with(Effect::Backlash { b_um: 1.0 })).expect_err("circular");
-        assert_eq!(e, SynthError::Unsupported(EffectId::Backlash));
+        let e = generate(&with(Effect::Unexplained { rms_um: 1.0 })).expect_err("no signature");
+        assert_eq!(e, SynthError::Unsupported(EffectId::Unexplained));
         let abbe = |offset_axis| Effect::Abbe {
             offset_axis,
             theta0_urad: 5.0,

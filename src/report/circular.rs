@@ -163,9 +163,9 @@ fn diagnosis(md: &mut Md, d: &CircularDiagnosis) {
         format_args!(
             "Diagnosis: {}",
             match d.verdict {
-                crate::circular::CircularVerdict::Consistent =>
+                crate::base::Verdict::Consistent =>
                     "consistent (setup terms and noise explain the trace)",
-                crate::circular::CircularVerdict::ErrorsFound => "errors found",
+                crate::base::Verdict::MissingPhysics => "errors found",
             }
         ),
     );
@@ -189,10 +189,7 @@ fn diagnosis(md: &mut Md, d: &CircularDiagnosis) {
             .effect
             .params()
             .iter()
-            .filter_map(|(n, v)| {
-                v.as_f64()
-                    .map(|v| format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0)))
-            })
+            .map(|(n, v)| format!("{n} = {v:.4} ± {:.4}", e.sigma(*n).unwrap_or(0.0)))
             .collect::<Vec<_>>()
             .join(", ");
         md.row([

@@ -72,19 +72,6 @@ pub fn apply_found_effects(
                 notes.push(format!("{id}: no model term for it; not added"));
                 continue;
             }
-            Effect::Backlash { .. }
-            | Effect::ReversalSpike { .. }
-            | Effect::LateralPlay { .. }
-            | Effect::CyclicError { .. }
-            | Effect::Straightness { .. }
-            | Effect::ServoMismatch { .. }
-            | Effect::ScaleMismatch { .. }
-            | Effect::Squareness { .. } => {
-                notes.push(format!(
-                    "{id}: a circular-test effect, not a term of the positioning model; not added"
-                ));
-                continue;
-            }
         }
         notes.push(format!("{id}: added"));
     }

@@ -2,39 +2,58 @@
 //! signatures) against the signature and its sign convention, and the diagnosis finding
 //! each effect alone, on each axis, in each plane, with its parameter inside its σ.
 
-use errmap::base::Effect;
+use errmap::base::Verdict;
+use errmap::circular::effects::{
+    Backlash, CircularEffect, CyclicError, LateralPlay, ReversalSpike, ScaleMismatch,
+    ServoMismatch, Squareness, Straightness,
+};
 use errmap::circular::signature::{Geometry, Slot, dr_um, points};
 use errmap::circular::simulate::simulate;
-use errmap::circular::{CircularVerdict, DiagnoseConfig, Plane, diagnose};
+use errmap::circular::{DiagnoseConfig, Plane, diagnose};
 
 use super::{main_param, model};
 
 /// One example of every effect, on each slot it may take.
-pub(super) fn every_effect() -> Vec<(Effect, Slot)> {
+pub(super) fn every_effect() -> Vec<(CircularEffect, Slot)> {
     let mut out = Vec::new();
     for slot in [Slot::A, Slot::B] {
-        out.push((Effect::Backlash { b_um: 6.0 }, slot));
+        out.push((CircularEffect::Backlash(Backlash { b_um: 6.0 }), slot));
         out.push((
-            Effect::ReversalSpike {
+            CircularEffect::ReversalSpike(ReversalSpike {
                 h_um: 5.0,
                 tau_ms: 60.0,
-            },
+            }),
             slot,
         ));
-        out.push((Effect::LateralPlay { p_um: -4.0 }, slot));
         out.push((
-            Effect::CyclicError {
+            CircularEffect::LateralPlay(LateralPlay { p_um: -4.0 }),
+            slot,
+        ));
+        out.push((
+            CircularEffect::CyclicError(CyclicError {
                 amplitude_um: 1.5,
                 period_mm: 5.0,
                 phase_rad: 0.7,
-            },
+            }),
             slot,
         ));
-        out.push((Effect::Straightness { bow_um: -3.0 }, slot));
+        out.push((
+            CircularEffect::Straightness(Straightness { bow_um: -3.0 }),
+            slot,
+        ));
     }
-    out.push((Effect::ServoMismatch { dt_ms: 0.4 }, Slot::Plane));
-    out.push((Effect::ScaleMismatch { ppm: 40.0 }, Slot::Plane));
-    out.push((Effect::Squareness { urad: -60.0 }, Slot::Plane));
+    out.push((
+        CircularEffect::ServoMismatch(ServoMismatch { dt_ms: 0.4 }),
+        Slot::Plane,
+    ));
+    out.push((
+        CircularEffect::ScaleMismatch(ScaleMismatch { ppm: 40.0 }),
+        Slot::Plane,
+    ));
+    out.push((
+        CircularEffect::Squareness(Squareness { urad: -60.0 }),
+        Slot::Plane,
+    ));
     out
 }
 
@@ -45,8 +64,9 @@ pub(super) fn every_effect() -> Vec<(Effect, Slot)> {
 fn each_signature_is_the_physics_of_its_effect_with_its_sign() {
     for plane in Plane::ALL {
         for (effect, slot) in every_effect() {
-            let with = simulate(&model(plane, &[(effect, slot)], 0.0, 1));
-            let without = simulate(&model(plane, &[], 0.0, 1));
+            let with = simulate(&model(plane, &[(effect, slot)], 0.0, 1))
+                .expect("a test within the bounds");
+            let without = simulate(&model(plane, &[], 0.0, 1)).expect("a test within the bounds");
             let g = Geometry::of(&with.meta);
             for (run, base) in with.runs.iter().zip(&without.runs) {
                 let pts = points(run, &with.meta);
@@ -61,7 +81,7 @@ fn each_signature_is_the_physics_of_its_effect_with_its_sign() {
                         continue;
                     }
                     // The spike's physics starts at the run's first reversal.
-                    if matches!(effect, Effect::ReversalSpike { .. })
+                    if matches!(effect, CircularEffect::ReversalSpike(_))
                         && run.angle_deg[i].abs() > 360.0
                     {
                         continue;
@@ -87,10 +107,11 @@ fn each_signature_is_the_physics_of_its_effect_with_its_sign() {
 fn each_effect_alone_is_found_on_its_axis_in_every_plane() {
     for plane in Plane::ALL {
         for (k, (effect, slot)) in every_effect().into_iter().enumerate() {
-            let test = simulate(&model(plane, &[(effect, slot)], 0.1, 10 + k as u64));
+            let test = simulate(&model(plane, &[(effect, slot)], 0.1, 10 + k as u64))
+                .expect("a test within the bounds");
             let d = diagnose(&test, &DiagnoseConfig::default());
             let label = slot.label(plane);
-            assert_eq!(d.verdict, CircularVerdict::ErrorsFound);
+            assert_eq!(d.verdict, Verdict::MissingPhysics);
             assert_eq!(
                 d.effects.len(),
                 1,
@@ -127,9 +148,10 @@ fn each_effect_alone_is_found_on_its_axis_in_every_plane() {
 fn a_clean_machine_is_consistent() {
     for plane in Plane::ALL {
         for seed in 0..3 {
-            let test = simulate(&model(plane, &[], 0.2, 100 + seed));
+            let test =
+                simulate(&model(plane, &[], 0.2, 100 + seed)).expect("a test within the bounds");
             let d = diagnose(&test, &DiagnoseConfig::default());
-            assert_eq!(d.verdict, CircularVerdict::Consistent, "{:?}", d.effects);
+            assert_eq!(d.verdict, Verdict::Consistent, "{:?}", d.effects);
             assert!(d.effects.is_empty());
             assert!((d.setup.radius_offset_um - 1.5).abs() < 0.05);
         }

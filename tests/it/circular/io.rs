@@ -150,7 +150,7 @@ fn t_s_decreasing_is_refused() {
 
 #[test]
 fn a_simulated_test_round_trips_through_csv_and_parquet() {
-    let test = simulate(&super::model(Plane::ZX, &[], 0.1, 3));
+    let test = simulate(&super::model(Plane::ZX, &[], 0.1, 3)).expect("a test within the bounds");
     let dir = tempdir();
     for name in ["t.csv", "t.parquet"] {
         let path = dir.path().join(name);

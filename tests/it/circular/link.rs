@@ -166,4 +166,40 @@ fn the_predicted_circle_of_a_known_model_and_its_difference_from_the_ballbar() {
     ]);
     let doc = diagnose(&p("model.json"), "by-json");
     check(&doc, (0.5, 0.2));
+
+    // Issue 40 item 8: the same test centred outside the laser campaign's volume (x up to
+    // 800 mm) is an extrapolation of the identified model: refused, naming the range, as
+    // `volumetric iso10360` refuses it. The machine model itself holds everywhere.
+    std::fs::copy(p("xy.csv"), p("far.csv")).expect("test set-up");
+    let meta = std::fs::read_to_string(p("xy.toml")).expect("the trace's TOML");
+    assert!(meta.contains("centre_mm = [400.0, 300.0, 200.0]"), "{meta}");
+    std::fs::write(
+        p("far.toml"),
+        meta.replace("[400.0, 300.0, 200.0]", "[5000.0, 300.0, 200.0]"),
+    )
+    .expect("test set-up");
+    let o = errmap(&[
+        "circular",
+        "diagnose",
+        &p("far.csv"),
+        "--report",
+        &p("far-json"),
+        "--model",
+        &p("model.json"),
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("model.json") && err.contains("outside the model's measured range of x"),
+        "{err}"
+    );
+    run(&[
+        "circular",
+        "diagnose",
+        &p("far.csv"),
+        "--report",
+        &p("far-toml"),
+        "--model",
+        &p("machine.toml"),
+    ]);
 }

@@ -2,6 +2,7 @@
 //! every effect (known answers in every plane), the random concealed-effect campaign,
 //! the polar plot read back, the CLI.
 
+mod bounds;
 mod campaign;
 mod cli;
 mod effects;
@@ -10,7 +11,11 @@ mod iso;
 mod link;
 mod plot;
 
-use errmap::base::{Effect, ParamName};
+use errmap::base::ParamName;
+use errmap::circular::effects::{
+    Backlash, CircularEffect, CyclicError, LateralPlay, ReversalSpike, ScaleMismatch,
+    ServoMismatch, Squareness, Straightness,
+};
 use errmap::circular::signature::Slot;
 use errmap::circular::simulate::{MachineModel, SimEffect};
 use errmap::circular::{Plane, Sense, TestMeta};
@@ -36,7 +41,7 @@ pub(crate) fn meta(plane: Plane) -> TestMeta {
 
 pub(crate) fn model(
     plane: Plane,
-    effects: &[(Effect, Slot)],
+    effects: &[(CircularEffect, Slot)],
     noise_um: f64,
     seed: u64,
 ) -> MachineModel {
@@ -55,16 +60,17 @@ pub(crate) fn model(
 }
 
 /// The parameter of an effect the tests check, with a name.
-pub(crate) fn main_param(e: &Effect) -> (ParamName, f64) {
+pub(crate) fn main_param(e: &CircularEffect) -> (ParamName, f64) {
     match *e {
-        Effect::Backlash { b_um } => (ParamName::BUm, b_um),
-        Effect::ReversalSpike { h_um, .. } => (ParamName::HUm, h_um),
-        Effect::LateralPlay { p_um } => (ParamName::PUm, p_um),
-        Effect::CyclicError { amplitude_um, .. } => (ParamName::AmplitudeUm, amplitude_um),
-        Effect::Straightness { bow_um } => (ParamName::BowUm, bow_um),
-        Effect::ServoMismatch { dt_ms } => (ParamName::DtMs, dt_ms),
-        Effect::ScaleMismatch { ppm } => (ParamName::Ppm, ppm),
-        Effect::Squareness { urad } => (ParamName::Urad, urad),
-        _ => unreachable!("not a circular effect"),
+        CircularEffect::Backlash(Backlash { b_um }) => (ParamName::BUm, b_um),
+        CircularEffect::ReversalSpike(ReversalSpike { h_um, .. }) => (ParamName::HUm, h_um),
+        CircularEffect::LateralPlay(LateralPlay { p_um }) => (ParamName::PUm, p_um),
+        CircularEffect::CyclicError(CyclicError { amplitude_um, .. }) => {
+            (ParamName::AmplitudeUm, amplitude_um)
+        }
+        CircularEffect::Straightness(Straightness { bow_um }) => (ParamName::BowUm, bow_um),
+        CircularEffect::ServoMismatch(ServoMismatch { dt_ms }) => (ParamName::DtMs, dt_ms),
+        CircularEffect::ScaleMismatch(ScaleMismatch { ppm }) => (ParamName::Ppm, ppm),
+        CircularEffect::Squareness(Squareness { urad }) => (ParamName::Urad, urad),
     }
 }

@@ -7,7 +7,7 @@ use errmap::report::{CCW_COLOUR, CW_COLOUR, circular_chart, write_circular_repor
 
 use super::model;
 use crate::util::tempdir;
-use errmap::base::Effect;
+use errmap::circular::effects::{CircularEffect, ServoMismatch};
 use errmap::circular::signature::Slot;
 
 fn read_png(path: &std::path::Path) -> (usize, usize, Vec<u8>) {
@@ -31,12 +31,15 @@ fn read_png(path: &std::path::Path) -> (usize, usize, Vec<u8>) {
 fn the_polar_plot_draws_each_direction_in_its_colour_where_its_trace_is() {
     let m = model(
         Plane::XY,
-        &[(Effect::ServoMismatch { dt_ms: 3.0 }, Slot::Plane)],
+        &[(
+            CircularEffect::ServoMismatch(ServoMismatch { dt_ms: 3.0 }),
+            Slot::Plane,
+        )],
         0.0,
         1,
     );
     let radius_term_um = m.bar_error_um;
-    let test = simulate(&m);
+    let test = simulate(&m).expect("a test within the bounds");
     let d = diagnose(&test, &DiagnoseConfig::default());
     let dir = tempdir();
     write_circular_report(&test, &d, dir.path()).expect("test set-up");
