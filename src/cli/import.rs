@@ -338,6 +338,8 @@ pub(crate) struct ExistingArgs<'a> {
     pub bidirectional: bool,
     pub out: &'a std::path::Path,
     pub json: bool,
+    /// The table's axis when the file names none (`--axis`).
+    pub axis: Axis,
 }
 
 /// The table formats `--existing` updates.
@@ -381,7 +383,9 @@ pub(crate) fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
         &[("SESSION", a.session), ("--existing", a.existing)],
     )?;
     let bytes = read_bytes(a.existing)?;
-    let table = import::tables::read(&bytes, tf).map_err(|e| e.at(a.existing))?;
+    let table = import::tables::read(&bytes, tf)
+        .map_err(|e| e.at(a.existing))?
+        .assume_axis(a.axis);
     let path = super::acquisition::session_file(a.session)?;
     let rows = errmap::session::read_session(&path)?;
     let residual = import::Residual::from_session(&rows, a.bidirectional)
@@ -450,6 +454,7 @@ pub(crate) fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<(
         bidirectional: a.bidirectional,
         out: &a.out,
         json: a.json,
+        axis: a.axis,
     }))
 }
 

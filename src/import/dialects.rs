@@ -171,6 +171,15 @@ impl SiemensTable {
     }
 }
 
+/// The axis errmap's comment `; line along <axis> at …` names (Siemens programs).
+fn line_axis(t: &str) -> Option<Axis> {
+    let rest = t
+        .strip_prefix(';')?
+        .trim_start()
+        .strip_prefix("line along ")?;
+    rest.split_whitespace().next()?.parse().ok()
+}
+
 /// `NAME[args]=value` → (name, args, value offset in the line, value text).
 fn siemens_assignment(l: &str) -> Option<(&str, Vec<&str>, usize, &str)> {
     let (lhs, value) = l.split_once('=')?;
@@ -288,11 +297,15 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
     };
     let mut tables: std::collections::BTreeMap<String, SiemensTable> = Default::default();
     let mut ended = false;
+    let mut axis = None;
     for (i, &(off, l)) in lines.iter().enumerate().skip(1) {
         let line = i + 1;
         let t = l.trim();
         if ended && !t.is_empty() {
             return Err(At::new(line, "text after M17 (the end of the program)"));
+        }
+        if let Some(a) = line_axis(t) {
+            axis = Some(a);
         }
         if t.is_empty() || t.starts_with(';') || t == "CHANDATA(1)" {
             continue;
@@ -318,7 +331,8 @@ pub fn read_siemens(text: &Text) -> Result<Parsed, At> {
     if !ended {
         return Err(At::new(last, "no M17: the program is cut short"));
     }
-    let parsed = siemens_points(&tables, cec, last)?;
+    let mut parsed = siemens_points(&tables, cec, last)?;
+    parsed.axis = axis;
     if parsed.points.len() < 2 {
         return Err(At::new(last, "a table needs two points"));
     }
@@ -756,6 +770,8 @@ struct FanucFile {
     reference_mm: Option<f64>,
     unit_um: Option<f64>,
     data: std::collections::BTreeMap<u64, (usize, Field, i64)>,
+    /// The axis the header comment names.
+    axis: Option<Axis>,
     /// The last line's number.
     last: usize,
 }
@@ -794,7 +810,13 @@ impl FanucFile {
 
     /// Takes the parameter and reference-position comments (other comments are notes).
     fn comment(&mut self, line: usize, off: usize, l: &str, t: &str) -> Result<(), At> {
-        if t.starts_with("(PARAMETERS OF AXIS") {
+        if let Some(rest) = t.strip_prefix("(AXIS ") {
+            // `(AXIS <number> = <letter>, LINE AT …)`: the letter is the line's axis.
+            self.axis = rest
+                .split_once('=')
+                .and_then(|(_, r)| r.split(',').next())
+                .and_then(|a| a.trim().parse().ok());
+        } else if t.starts_with("(PARAMETERS OF AXIS") {
             for (k, f, v) in fanuc_words(l, off) {
                 let x = num(line, &format!("parameter {k}"), v.trim_end_matches("MM"))?;
                 self.params.insert(k.to_string(), (line, f, x));
@@ -956,6 +978,7 @@ pub fn read_fanuc(text: &Text) -> Result<Parsed, At> {
         None => up.clone(),
     };
     let mut parsed = Parsed {
+        axis: file.axis,
         bidirectional: bidir,
         ..Default::default()
     };

@@ -105,8 +105,12 @@ pub struct TablePoint {
 pub struct ControllerTable {
     pub format: TableFormat,
     pub text: Text,
-    /// The axis the file names (8055's letter, 8065's first line); `None` for LinuxCNC.
+    /// The axis the file names (8055's letter, 8065's first line, errmap's comment in a
+    /// Siemens or FANUC file, the HEIDENHAIN column, the ISG axis name); `None` when it
+    /// names none (LinuxCNC). [`ControllerTable::assume_axis`] gives one to such a table.
     pub axis: Option<Axis>,
+    /// Whether `axis` was given by the caller rather than read from the file.
+    pub axis_assumed: bool,
     pub points: Vec<TablePoint>,
     /// Whether the table has separate values for the two directions.
     pub bidirectional: bool,
@@ -193,6 +197,7 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
             format,
             text,
             axis: d.axis,
+            axis_assumed: false,
             points: d.points,
             bidirectional: d.bidirectional,
             bidir_value: d.bidir_value,
@@ -219,6 +224,7 @@ pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
         format,
         text,
         axis,
+        axis_assumed: false,
         points,
         bidirectional,
         bidir_value,
@@ -503,6 +509,16 @@ pub struct TableRow {
 }
 
 impl ControllerTable {
+    /// The table's axis: the file's, else `axis` (a file that names none, as a LinuxCNC
+    /// `COMP_FILE`, is the table of the axis its user says).
+    pub fn assume_axis(mut self, axis: Axis) -> Self {
+        if self.axis.is_none() {
+            self.axis = Some(axis);
+            self.axis_assumed = true;
+        }
+        self
+    }
+
     /// The error table's rows along `axis`: one per point, in file order, e = mean of the
     /// two directions.
     pub fn rows(&self, axis: Axis) -> Vec<TableRow> {

@@ -57,8 +57,16 @@ pub enum UpdateError {
          export a direction-dependent table from the session instead (export --bidirectional)"
     )]
     OneDirection { format: &'static str },
-    #[error("the session measures {session} but the table is for {table}")]
-    AxisMismatch { session: Axis, table: Axis },
+    #[error(
+        "the session measures {session} but the table is for {table}{}",
+        if *assumed { " (the file names no axis: it is the table's stated axis, x unless given)" } else { "" }
+    )]
+    AxisMismatch {
+        session: Axis,
+        table: Axis,
+        /// The file names no axis; `table` is the caller's (or x).
+        assumed: bool,
+    },
 }
 
 /// The residual a session measured, per target.
@@ -411,12 +419,14 @@ fn check_update(
     residual: &Residual,
     bidirectional: bool,
 ) -> Result<(), UpdateError> {
-    if let Some(a) = table.axis
-        && a != residual.axis
-    {
+    // Every dialect: the file's axis, else the one its user stated, else x (as `import`
+    // reads such a table).
+    let table_axis = table.axis.unwrap_or(Axis::X);
+    if table_axis != residual.axis {
         return Err(UpdateError::AxisMismatch {
             session: residual.axis,
-            table: a,
+            table: table_axis,
+            assumed: table.axis.is_none() || table.axis_assumed,
         });
     }
     if bidirectional
@@ -529,17 +539,19 @@ fn update_fanuc(
     let unit = layout.unit_um;
     let k0 = layout.reference_index;
     let mut outside_mm = Vec::new();
-    let r: Vec<(f64, f64)> = table
+    // `None`: outside the measured targets, the point keeps its value.
+    let r: Vec<Option<(f64, f64)>> = table
         .points
         .iter()
         .map(|p| {
-            residual.at(p.position_mm).unwrap_or_else(|| {
+            let r = residual.at(p.position_mm);
+            if r.is_none() {
                 outside_mm.push(p.position_mm);
-                (0.0, 0.0)
-            })
+            }
+            r
         })
         .collect();
-    let shift_um = r[k0].0;
+    let shift_um = r[k0].map_or(0.0, |r| r.0);
     let mut warnings = outside_warning(&outside_mm, residual);
     if shift_um != 0.0 {
         warnings.push(format!(
@@ -550,12 +562,15 @@ fn update_fanuc(
     let mut edits = Vec::new();
     let mut max_change_um: f64 = 0.0;
     let mut biggest: i64 = 0;
-    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> f64| -> Vec<i64> {
+    // A kept point keeps its value in the table's own frame (relative to the reference
+    // position): the datum shift applies only to the points the residual reaches. (Issue
+    // 40: shifting a kept point by the shift turned its 0 into −1 µm on read-back.)
+    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> Option<f64>| {
         let new: Vec<i64> = old
             .iter()
             .enumerate()
             .map(|(j, &a)| {
-                let d = add(j) - shift_um;
+                let d = add(j).map_or(0.0, |r| r - shift_um);
                 if d == 0.0 {
                     a as i64
                 } else {
@@ -580,10 +595,12 @@ fn update_fanuc(
         new
     };
     let up: Vec<f64> = table.points.iter().map(|p| p.up_file).collect();
-    redo(&layout.forward, &up, &|j| r[j].0);
+    redo(&layout.forward, &up, &|j| r[j].map(|r| r.0));
     if let Some((inc, (f3627, v3627))) = &layout.reverse {
         let down: Vec<f64> = table.points.iter().map(|p| p.down_file).collect();
-        let new = redo(inc, &down, &|j| if bidirectional { r[j].1 } else { r[j].0 });
+        let new = redo(inc, &down, &|j| {
+            r[j].map(|r| if bidirectional { r.1 } else { r.0 })
+        });
         if new[k0] != *v3627 {
             edits.push(Edit {
                 field: *f3627,

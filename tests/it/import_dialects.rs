@@ -649,3 +649,154 @@ fn broken_dialect_files_name_their_line() {
     );
     assert!(!out.exists());
 }
+
+/// Issue 40 item 7: `export --existing` refuses a session of another axis than the
+/// table's in every dialect (Siemens, FANUC and LinuxCNC took a Y session for an X
+/// table), exit 1 and nothing written; the same session along X is taken.
+#[test]
+fn every_dialect_refuses_a_session_of_another_axis() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let session = |axis: char| {
+        let p = dir.path().join(format!("s_{axis}.csv"));
+        let mut t = String::from(
+            "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
+        );
+        for (k, q) in POS.iter().enumerate() {
+            let (x, y) = if axis == 'X' { (*q, 0.0) } else { (0.0, *q) };
+            t.push_str(&format!("1,{k},{k},{axis},1,,{k},{x},{y},0,{q},{q},0,0\n"));
+        }
+        std::fs::write(&p, t).expect("session");
+        p
+    };
+    let (sx, sy) = (session('X'), session('Y'));
+    let fwd = line(&POS, &UP);
+    let fagor = export::Fagor8055Spec {
+        axis_letter: 'X',
+        inch: false,
+    };
+    let isg = IsgAxis {
+        number: 1,
+        name: "X".into(),
+        max_points: 1500,
+    };
+    let files: Vec<(&str, Vec<u8>, &[&str])> = vec![
+        (
+            "siemens",
+            export::siemens(&fwd, "X1", 200)
+                .expect("siemens")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "fanuc",
+            export::fanuc::render(&fwd, None, &FanucSpec::default())
+                .expect("fanuc")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "linuxcnc",
+            export::linuxcnc(&fwd, export::LinuxCncCompType::Trim, None)
+                .expect("linuxcnc")
+                .into_bytes(),
+            &["--comp-type", "trim"],
+        ),
+        (
+            "heidenhain",
+            export::heidenhain::render(&fwd, "X", "X.COM", 256)
+                .expect("heidenhain")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "isg",
+            export::isg::render(&fwd, None, &isg)
+                .expect("isg")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "fagor-8055",
+            export::fagor::render_8055(&fwd, None, &fagor)
+                .expect("8055")
+                .into_bytes(),
+            &["--units", "mm"],
+        ),
+        (
+            "fagor-8065",
+            export::fagor::encode_8065(
+                &export::fagor::render_8065(&fwd, None, &fagor).expect("8065"),
+            ),
+            &[],
+        ),
+    ];
+    for (format, bytes, extra) in files {
+        let f = dir.path().join(format!("{format}.table"));
+        std::fs::write(&f, &bytes).expect("write");
+        for (sess, ok) in [(&sx, true), (&sy, false)] {
+            let new = dir.path().join(format!("{format}-{ok}.new"));
+            let mut args = vec![
+                "export",
+                s(sess),
+                "--existing",
+                s(&f),
+                "--format",
+                format,
+                "--out",
+                s(&new),
+            ];
+            args.extend_from_slice(extra);
+            let o = errmap(&args);
+            if ok {
+                assert!(o.status.success(), "{format}: {}", stderr(&o));
+                assert_eq!(std::fs::read(&new).expect("new"), bytes, "{format}");
+            } else {
+                assert_eq!(o.status.code(), Some(1), "{format}: {}", stderr(&o));
+                assert!(
+                    stderr(&o).contains("the session measures y but the table is for x"),
+                    "{format}: {}",
+                    stderr(&o)
+                );
+                assert!(!new.exists(), "{format}: nothing written");
+            }
+        }
+    }
+    // A LinuxCNC file names no axis: the Y session updates it as the table of --axis y.
+    let f = dir.path().join("linuxcnc.table");
+    let new = dir.path().join("linuxcnc-y.new");
+    let o = errmap(&[
+        "export",
+        s(&sy),
+        "--existing",
+        s(&f),
+        "--format",
+        "linuxcnc",
+        "--comp-type",
+        "trim",
+        "--axis",
+        "y",
+        "--out",
+        s(&new),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Issue 40 item 7: on a FANUC table, a point outside the measured targets keeps its
+/// value. The residual's value at the reference position is a datum offset the table
+/// cannot hold; it was subtracted from the kept points too, so the point at −50 mm,
+/// 0 µm, read back −1 µm. Now the kept points read back as they were, and the measured
+/// ones as e + r − r(reference).
+#[test]
+fn fanuc_points_outside_the_session_keep_their_values() {
+    let pos = [-100.0, -50.0, 0.0, 50.0, 100.0];
+    let up = [0.0; 5];
+    let text = export::fanuc::render(&line(&pos, &up), None, &FanucSpec::default()).expect("f");
+    let t = read(text.as_bytes(), TableFormat::Fanuc);
+    // Measured from 0 to 100 mm: r = 0.6 µm at the reference, 2.6 µm at 100 mm.
+    let r = residual(&[0.0, 50.0, 100.0], &[0.6, 1.6, 2.6], &[0.6, 1.6, 2.6]);
+    let u = import::update_table(&t, &r, false).expect("update");
+    assert_eq!(u.summary.outside_mm, [-100.0, -50.0]);
+    let t2 = read(&u.bytes, TableFormat::Fanuc);
+    let e: Vec<f64> = t2.points.iter().map(|p| p.e_up_um).collect();
+    assert_eq!(e, [0.0, 0.0, 0.0, 1.0, 2.0]);
+}
