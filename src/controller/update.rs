@@ -28,9 +28,9 @@
 use errmap_drivers::SessionRow;
 use serde::Serialize;
 
-use super::tables::{ControllerTable, Field, TableFormat};
+use super::LinuxCncCompType;
+use super::{ControllerTable, Field, TableFormat};
 use crate::base::Axis;
-use crate::export::LinuxCncCompType;
 use crate::session::{ReductionError, error_table, iso_by_line};
 
 /// Why an update cannot be made.
@@ -178,7 +178,7 @@ pub struct Updated {
 }
 
 /// `v` with `decimals` decimals and no `-0`.
-pub(super) fn fixed(v: f64, decimals: usize) -> String {
+pub(crate) fn fixed(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     match s.strip_prefix('-') {
         Some(rest) if rest.parse::<f64>() == Ok(0.0) => rest.to_string(),
@@ -258,7 +258,7 @@ impl Style {
     fn of(table: &ControllerTable) -> Style {
         let text = &table.text.text;
         // LinuxCNC files written by errmap trim trailing zeros: keep that style per column.
-        let column_style = |pick: &dyn Fn(&super::tables::TablePoint) -> Field| {
+        let column_style = |pick: &dyn Fn(&super::TablePoint) -> Field| {
             let d: Vec<usize> = table.points.iter().map(|p| pick(p).decimals).collect();
             let max = d.iter().copied().max().unwrap_or(0);
             (max, d.iter().any(|&x| x < max))
@@ -444,7 +444,7 @@ fn check_update(
 fn edit_point(
     editor: &mut Editor,
     table: &ControllerTable,
-    p: &super::tables::TablePoint,
+    p: &super::TablePoint,
     r: (f64, f64),
     bidirectional: bool,
 ) {
@@ -453,7 +453,8 @@ fn edit_point(
     let (up_digits, down_digits) = (editor.style.up, editor.style.down);
     match table.format {
         TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
-            let new_up = p.up_file - r_up / (k * 1000.0);
+            let value = table.format.value();
+            let new_up = p.up_file + value.file(r_up, k);
             let own = Digits {
                 decimals: p.up.decimals,
                 trim: false,
@@ -470,13 +471,14 @@ fn edit_point(
                     decimals: p.down.decimals,
                     trim: false,
                 };
-                editor.edit(p.down, p.down_file, base, base - r / (k * 1000.0), own);
+                editor.edit(p.down, p.down_file, base, base + value.file(r, k), own);
             }
         }
         TableFormat::LinuxCnc { comp_type, .. } => {
+            let trim = |e_um: f64| table.format.value().file(e_um, k);
             let value = |e_um: f64| match comp_type {
-                LinuxCncCompType::Trim => e_um / (k * 1000.0),
-                LinuxCncCompType::ActualPosition => p.position_file - e_um / (k * 1000.0),
+                LinuxCncCompType::Trim => trim(e_um),
+                LinuxCncCompType::ActualPosition => p.position_file - trim(e_um),
             };
             editor.edit(
                 p.up,
@@ -495,10 +497,7 @@ fn edit_point(
         }
         TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
             // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
-            let value = |e_um: f64| match table.format {
-                TableFormat::Isg => -e_um * 10.0,
-                _ => -e_um / (k * 1000.0),
-            };
+            let value = |e_um: f64| table.format.value().file(e_um, k);
             editor.edit(
                 p.up,
                 p.up_file,
@@ -532,7 +531,7 @@ fn edit_point(
 /// negative-travel curve moves at the reference position.
 fn update_fanuc(
     table: &ControllerTable,
-    layout: &super::dialects::FanucLayout,
+    layout: &super::fanuc::FanucLayout,
     residual: &Residual,
     bidirectional: bool,
 ) -> Updated {
@@ -609,7 +608,7 @@ fn update_fanuc(
             });
         }
     }
-    let limit = i64::from(crate::export::fanuc::FANUC_DEFAULT_MAX_VALUE);
+    let limit = i64::from(super::fanuc::FANUC_DEFAULT_MAX_VALUE);
     if biggest > limit {
         warnings.push(format!(
             "an increment of ±{biggest} units: beyond ±{limit}, the range of the older series; \
@@ -651,8 +650,7 @@ fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::LengthUnit;
-    use crate::import::tables::read;
+    use crate::controller::{LengthUnit, read};
 
     const ALX: &str = "      P001          X    0.00000       EX    0.00000        EX    0.00000\r\n      P002          X   10.00000       EX   -0.00127        EX    0.00000\r\n      P003          X   20.00000       EX    0.00200        EX    0.00000\r\n";
 
