@@ -826,3 +826,175 @@ fn fanuc_points_outside_the_session_keep_their_values() {
     let e: Vec<f64> = t2.points.iter().map(|p| p.e_up_um).collect();
     assert_eq!(e, [0.0, 0.0, 0.0, 1.0, 2.0]);
 }
+
+/// Issue 34: one registry names every dialect once; `--format`, the detection and the
+/// messages that list dialects come from it (export's reverse-line refusal used to name
+/// no Fagor format, though both Fagor tables hold a reverse line).
+#[test]
+fn the_registry_names_every_dialect_and_its_messages_list_them() {
+    let names: Vec<&str> = controller::DIALECTS.iter().map(|d| d.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "linuxcnc",
+            "siemens",
+            "fanuc",
+            "heidenhain",
+            "isg",
+            "fagor-8055",
+            "fagor-8065"
+        ]
+    );
+    for d in controller::DIALECTS {
+        assert_eq!(
+            controller::dialect(d.name()).map(|x| x.name()),
+            Some(d.name())
+        );
+        for a in d.aliases() {
+            assert_eq!(controller::dialect(a).map(|x| x.name()), Some(d.name()));
+        }
+    }
+    // Every table a dialect writes is told by its content (LinuxCNC's cannot be).
+    let fwd = line(&POS, &UP);
+    let settings = controller::TableSettings {
+        units: Some(LengthUnit::Mm),
+        ..controller::TableSettings::new(Axis::X)
+    };
+    for d in controller::DIALECTS {
+        let format = d.export_format(&settings, false).expect("settings suffice");
+        let bytes = format.render_bytes(&fwd, None).expect("renders");
+        let found = controller::detect(&bytes).map(|x| x.name());
+        if d.detects_by_content() {
+            assert_eq!(found, Some(d.name()), "{} detected", d.name());
+        } else {
+            assert_eq!(found, None);
+        }
+    }
+    // A format without a reverse line names those that have one, Fagor's included.
+    let heidenhain = controller::dialect("heidenhain")
+        .expect("registered")
+        .export_format(&settings, false)
+        .expect("format");
+    let e = heidenhain
+        .render_line(&fwd, Some(&fwd))
+        .expect_err("no reverse line")
+        .to_string();
+    for n in [
+        "linuxcnc",
+        "siemens",
+        "fanuc",
+        "isg",
+        "fagor-8055",
+        "fagor-8065",
+    ] {
+        assert!(e.contains(n), "{n}: {e}");
+    }
+    // export --help lists exactly the registry's dialects and errmap's two own formats.
+    let help = errmap(&["export", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout);
+    for n in names.iter().chain(&["csv", "grid"]) {
+        assert!(
+            text.contains(&format!("{n}:")),
+            "{n} in export --help:\n{text}"
+        );
+    }
+}
+
+/// Issue 34: an export is one library job. From a session's two directions it writes
+/// the reverse column; updating a table in place with a zero residual gives the bytes
+/// back; a format without a reverse line is refused before anything is computed.
+#[test]
+fn the_export_job_writes_and_updates_from_typed_settings() {
+    use controller::job::{self, ExportJob, JobError, Output, Placement, Source, Written};
+    use errmap_drivers::SessionRow;
+    let row = |run: u32, sample: i64, dir: i8, t: i32, p: f64, e: f64| SessionRow {
+        run,
+        sample,
+        t_s: sample as f64,
+        axis: errmap_drivers::frame::Axis::X,
+        direction: dir,
+        feed_mm_s: None,
+        target: t,
+        x_mm: Some(p),
+        y_mm: Some(0.0),
+        z_mm: Some(0.0),
+        scale_mm: p,
+        laser_mm: p - e * 1e-3,
+        error_um: e,
+        air_temp_c: None,
+        air_pressure_hpa: None,
+        air_rh_pct: None,
+        scale_temp_c: None,
+        part_temp_c: None,
+        flags: 0,
+    };
+    // Two runs, up with e = UP, down with e = DOWN at each target.
+    let mut rows = Vec::new();
+    let mut k = 0;
+    for run in 1..=2 {
+        for (d, order) in [(1i8, [0usize, 1, 2]), (-1, [2, 1, 0])] {
+            for t in order {
+                let e = if d > 0 { UP[t] } else { DOWN[t] };
+                rows.push(row(run, k, d, t as i32, POS[t], e));
+                k += 1;
+            }
+        }
+    }
+    let settings = controller::TableSettings {
+        comp_type: Some(controller::LinuxCncCompType::Trim),
+        ..controller::TableSettings::new(Axis::X)
+    };
+    let placement = Placement {
+        ends: None,
+        reference_mm: 0.0,
+    };
+    let linuxcnc = Output::Table(controller::dialect("linuxcnc").expect("registered"));
+    let written = job::run(&ExportJob {
+        output: linuxcnc,
+        settings: settings.clone(),
+        placement,
+        source: Source::Session {
+            rows: &rows,
+            at: &[],
+            step_mm: None,
+        },
+    })
+    .expect("both directions");
+    // Trim = e (mm): forward column UP, reverse column DOWN.
+    let text = String::from_utf8(written.bytes.clone()).expect("text");
+    assert_eq!(
+        text,
+        "0.0 0.001 0.002\n10.0 -0.002 -0.001\n20.0 0.003 0.0025\n"
+    );
+    assert!(matches!(written.written, Written::Directions { .. }));
+    // The same table updated by a session that leaves no residual: the same bytes.
+    let zero: Vec<SessionRow> = (0..3)
+        .map(|t| row(1, t as i64, 1, t as i32, POS[t], 0.0))
+        .collect();
+    let updated = job::run(&ExportJob {
+        output: linuxcnc,
+        settings: settings.clone(),
+        placement,
+        source: Source::Existing {
+            bytes: &written.bytes,
+            rows: &zero,
+            bidirectional: false,
+        },
+    })
+    .expect("update");
+    assert_eq!(updated.bytes, written.bytes);
+    // HEIDENHAIN has no reverse line: refused, naming the dialects that have one.
+    let e = job::run(&ExportJob {
+        output: Output::Table(controller::dialect("heidenhain").expect("registered")),
+        settings,
+        placement,
+        source: Source::Session {
+            rows: &rows,
+            at: &[],
+            step_mm: None,
+        },
+    })
+    .expect_err("no reverse line");
+    assert!(matches!(e, JobError::NoReverse { .. }), "{e}");
+    assert!(e.to_string().contains("fagor-8065"), "{e}");
+}
