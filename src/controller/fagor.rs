@@ -456,13 +456,15 @@ pub(crate) fn read_8065(text: &Text, k: f64) -> Result<Read8065, At> {
 // ---------------------------------------------------------------------------------------
 // The dialect
 
-/// The Fagor 8055's `AL<axis>` table ([`super::DIALECTS`]).
+/// A Fagor control's leadscrew table: the 8055's `AL<axis>` or the 8065's `<axis>.mp`
+/// ([`super::DIALECTS`] holds one of each).
 #[derive(Debug, Clone, Copy)]
-pub struct Fagor8055;
-
-/// The Fagor 8065's `<axis>.mp` axis file ([`super::DIALECTS`]).
-#[derive(Debug, Clone, Copy)]
-pub struct Fagor8065;
+pub enum Fagor {
+    /// The 8055's `AL<axis>` table (the file states no unit).
+    Al8055,
+    /// The 8065's `<axis>.mp` axis file (mm unless told).
+    Mp8065,
+}
 
 /// The values (both controls): real − theoretical = c, in the machine's length unit.
 pub const VALUE: Value = Value {
@@ -494,70 +496,70 @@ fn spec(s: &TableSettings) -> Fagor8055Spec {
     }
 }
 
-impl Dialect for Fagor8055 {
+impl Dialect for Fagor {
     fn name(&self) -> &'static str {
-        "fagor-8055"
+        match self {
+            Fagor::Al8055 => "fagor-8055",
+            Fagor::Mp8065 => "fagor-8065",
+        }
     }
     fn aliases(&self) -> &'static [&'static str] {
-        &["fagor8055"]
+        match self {
+            Fagor::Al8055 => &["fagor8055"],
+            Fagor::Mp8065 => &["fagor8065"],
+        }
     }
     fn controller(&self) -> &'static str {
-        "Fagor 8055"
+        match self {
+            Fagor::Al8055 => "Fagor 8055",
+            Fagor::Mp8065 => "Fagor 8065",
+        }
     }
     fn about(&self) -> &'static str {
-        "Fagor 8055 leadscrew table AL<axis> (needs --units)"
+        match self {
+            Fagor::Al8055 => "Fagor 8055 leadscrew table AL<axis> (needs --units)",
+            Fagor::Mp8065 => {
+                "Fagor 8065 axis file <axis>.mp holding the leadscrew table (UTF-16LE; mm unless --units inch); with --existing the machine's own file updated"
+            }
+        }
     }
     fn limits(&self) -> Limits {
-        limits(FAGOR_8055_MAX_POINTS)
-    }
-    fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
-        let lines = text.lines();
-        fagor_8055_line(lines.first().map(|l| l.1.trim()).unwrap_or("")).is_some()
-    }
-    fn table_format(&self, s: &TableSettings) -> Result<TableFormat, SettingsError> {
-        Ok(TableFormat::Fagor8055 {
-            units: s.units.ok_or(SettingsError::NoUnit {
-                what: "a Fagor 8055 table",
-            })?,
+        limits(match self {
+            Fagor::Al8055 => FAGOR_8055_MAX_POINTS,
+            Fagor::Mp8065 => FAGOR_8065_MAX_POINTS,
         })
-    }
-    fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
-        self.table_format(s)?;
-        Ok(ExportFormat::Fagor8055 { spec: spec(s) })
-    }
-}
-
-impl Dialect for Fagor8065 {
-    fn name(&self) -> &'static str {
-        "fagor-8065"
-    }
-    fn aliases(&self) -> &'static [&'static str] {
-        &["fagor8065"]
-    }
-    fn controller(&self) -> &'static str {
-        "Fagor 8065"
-    }
-    fn about(&self) -> &'static str {
-        "Fagor 8065 axis file <axis>.mp holding the leadscrew table (UTF-16LE; mm unless --units inch); with --existing the machine's own file updated"
-    }
-    fn limits(&self) -> Limits {
-        limits(FAGOR_8065_MAX_POINTS)
     }
     fn detect(&self, bytes: &[u8], text: &Text) -> bool {
         let lines = text.lines();
         let first = lines.first().map(|l| l.1.trim()).unwrap_or("");
-        bytes.starts_with(&[0xFF, 0xFE])
-            && first
-                .split(';')
-                .next()
-                .is_some_and(|h| axis_heading(h).is_some())
+        match self {
+            Fagor::Al8055 => fagor_8055_line(first).is_some(),
+            Fagor::Mp8065 => {
+                bytes.starts_with(&[0xFF, 0xFE])
+                    && first
+                        .split(';')
+                        .next()
+                        .is_some_and(|h| axis_heading(h).is_some())
+            }
+        }
     }
     fn table_format(&self, s: &TableSettings) -> Result<TableFormat, SettingsError> {
-        Ok(TableFormat::Fagor8065 {
-            units: s.units.unwrap_or_default(),
+        Ok(match self {
+            Fagor::Al8055 => TableFormat::Fagor8055 {
+                units: s.units.ok_or(SettingsError::NoUnit {
+                    what: "a Fagor 8055 table",
+                })?,
+            },
+            Fagor::Mp8065 => TableFormat::Fagor8065 {
+                units: s.units.unwrap_or_default(),
+            },
         })
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
-        Ok(ExportFormat::Fagor8065 { spec: spec(s) })
+        self.table_format(s)?;
+        Ok(match self {
+            Fagor::Al8055 => ExportFormat::Fagor8055 { spec: spec(s) },
+            Fagor::Mp8065 => ExportFormat::Fagor8065 { spec: spec(s) },
+        })
     }
 }

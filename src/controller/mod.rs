@@ -546,8 +546,8 @@ pub static DIALECTS: &[&dyn Dialect] = &[
     &fanuc::Fanuc,
     &heidenhain::Heidenhain,
     &isg::Isg,
-    &fagor::Fagor8055,
-    &fagor::Fagor8065,
+    &fagor::Fagor::Al8055,
+    &fagor::Fagor::Mp8065,
 ];
 
 /// The dialect named `name` (or one of its aliases), case-insensitive.
