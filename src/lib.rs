@@ -26,7 +26,9 @@
 //! | [`evaluate`] | 5 evaluation | cross-validation, the order/method comparison, the fuzzy-interpolation paper's experiment |
 //! | [`report`] | 6 report | words, tables and figures on disk for every stage |
 //! | [`diagnose`] | 7 diagnosis | what a simulation left out of a recording: locate, name, fit |
-//! | [`export`] | 8 export | compensation tables for controllers, CSV lines, volumetric grids |
+//! | [`export`] | 8 export | a model sampled along a line or over a volume; the CSV line and the volumetric grid |
+//! | [`controller`] | 8 controllers | one file per controller dialect: its table's writer, reader, in-place update, limits, sign and unit; the dialect registry; the export job |
+//! | [`import`] | import | laser exports and spreadsheets into session tables, controller tables into error tables |
 //! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
 //! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, line tables (simulated or from captured sessions), identification, identifiability, the campaign's own faults (scale expansion, drift, a bad line), prediction |
 //! | [`history`] | 10 history | the calibration ledger of a fleet (SQLite or PostgreSQL, append-only): trends, EWMA charts, tolerance forecasts, advice |
@@ -128,12 +130,13 @@
 //! ```
 //!
 //! **export.** Sample a model along a line and render a LinuxCNC compensation file
-//! (compensation = −error):
+//! (compensation = −error) with the controller stage:
 //!
 //! ```
 //! use std::path::Path;
 //! use errmap::base::Axis;
-//! use errmap::export::{Extrapolation, LineSpec, LinuxCncCompType, linuxcnc, sample_line};
+//! use errmap::controller::{LinuxCncCompType, linuxcnc};
+//! use errmap::export::{Extrapolation, LineSpec, sample_line};
 //! use errmap::interp::Method;
 //!
 //! let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/table1.csv");
@@ -141,7 +144,7 @@
 //! let model = Method::Spline.fit(&grid)?;
 //! let line = LineSpec { axis: Axis::X, at_mm: [0.0, 1.0, 200.0], start_mm: 200.0, end_mm: 800.0, step_mm: 100.0 };
 //! let sampled = sample_line(model.as_ref(), &line, Extrapolation::Forbid)?;
-//! let text = linuxcnc(&sampled, LinuxCncCompType::ActualPosition, None)?;
+//! let text = linuxcnc::render(&sampled, LinuxCncCompType::ActualPosition, None)?;
 //! assert_eq!(text.lines().filter(|l| !l.starts_with(';') && !l.trim().is_empty()).count(), 7);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -214,6 +217,7 @@ pub mod acquire;
 pub mod base;
 pub mod bench;
 pub mod circular;
+pub mod controller;
 pub mod diagnose;
 pub mod evaluate;
 pub mod export;

@@ -235,8 +235,8 @@ fn import_session(data: &[u8]) -> bool {
 
 /// A controller table read back: finite errors, and a zero residual gives the bytes back.
 fn controller_table(data: &[u8]) -> bool {
-    use errmap::export::LinuxCncCompType;
-    use errmap::import::{self, LengthUnit, TableFormat};
+    use errmap::controller::LinuxCncCompType;
+    use errmap::controller::{LengthUnit, TableFormat};
     let formats = [
         TableFormat::Fagor8055 {
             units: LengthUnit::Inch,
@@ -259,7 +259,7 @@ fn controller_table(data: &[u8]) -> bool {
     ];
     let mut accepted = false;
     for f in formats {
-        let Ok(t) = import::tables::read(data, f) else {
+        let Ok(t) = errmap::controller::read(data, f) else {
             continue;
         };
         accepted = true;
@@ -267,24 +267,24 @@ fn controller_table(data: &[u8]) -> bool {
             finite("table point", &[p.position_mm, p.e_up_um, p.e_down_um]);
         }
         let axis = t.axis.unwrap_or(errmap::base::Axis::X);
-        let zero = import::Residual {
+        let zero = errmap::controller::Residual {
             axis,
             positions_mm: t.points.iter().map(|p| p.position_mm).collect(),
             up_um: vec![0.0; t.points.len()],
             down_um: vec![0.0; t.points.len()],
         };
-        let u = import::update_table(&t, &zero, false)
+        let u = errmap::controller::update_table(&t, &zero, false)
             .expect("a zero residual updates any table it read");
         assert!(u.bytes == data, "a zero residual changed the file");
         // A residual of 1 µm over the table: the update is written and reads back.
-        let one = import::Residual {
+        let one = errmap::controller::Residual {
             up_um: vec![1.0; t.points.len()],
             down_um: vec![-1.0; t.points.len()],
             ..zero
         };
         for bidirectional in [false, true] {
-            if let Ok(u) = import::update_table(&t, &one, bidirectional) {
-                let _ = import::tables::read(&u.bytes, f);
+            if let Ok(u) = errmap::controller::update_table(&t, &one, bidirectional) {
+                let _ = errmap::controller::read(&u.bytes, f);
             }
         }
     }

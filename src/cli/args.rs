@@ -57,7 +57,7 @@ pub(crate) struct ExportArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = coordinate)]
     pub reference: f64,
     /// The table's format.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = super::values::export_format())]
     pub format: ExportFormatArg,
     /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached; the default) or trim (1,
     /// the offsets). Required with --existing.
@@ -108,10 +108,10 @@ pub(crate) struct ExportArgs {
     #[arg(long, default_value_t = 1)]
     pub magnification: u32,
     /// FANUC: the largest |value| per compensation point the series accepts.
-    #[arg(long, default_value_t = errmap::export::fanuc::FANUC_DEFAULT_MAX_VALUE)]
+    #[arg(long, default_value_t = errmap::controller::fanuc::FANUC_DEFAULT_MAX_VALUE)]
     pub fanuc_max_value: u32,
     /// FANUC: the highest compensation point number of the control.
-    #[arg(long, default_value_t = errmap::export::FANUC_MAX_POINT_NUMBER)]
+    #[arg(long, default_value_t = errmap::controller::FANUC_MAX_POINT_NUMBER)]
     pub fanuc_max_point: u32,
     /// FANUC 3626 of a bidirectional table (default: right after 3622).
     #[arg(long)]

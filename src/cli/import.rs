@@ -5,48 +5,66 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, ValueEnum};
 use errmap::base::Axis;
 use errmap::base::FileOp;
 use errmap::base::io_err;
+use errmap::controller::{Dialect, SettingsError, TableFormat, TableSettings};
 use errmap::import::csv::ErrorUnit;
 use errmap::import::{
     self, ColumnMap, CsvOptions, ErrorSign, ImportOptions, LengthUnit, PressureUnit, SessionFormat,
-    TableFormat, TempUnit,
+    TempUnit,
 };
 
 use super::guard;
 use super::values::{self, CompTypeArg};
 
-/// `--format` of import.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+/// `--format` of import: decide by content, a laser export, a CSV, or a controller
+/// dialect of the registry.
+#[derive(Clone, Copy)]
 pub(crate) enum ImportFormatArg {
-    /// Decide by content (never by file name).
     Auto,
-    /// API XD laser `.pos` "Linear Data Table".
-    #[value(name = "api-xd", alias = "api")]
     ApiXd,
-    /// Renishaw Laser10/LaserXL linear `.rtl`.
-    #[value(name = "renishaw-rtl", alias = "rtl")]
     RenishawRtl,
-    /// Any table of readings through --map.
     Csv,
-    /// Fagor 8055 leadscrew table `AL<axis>` (needs --units).
-    #[value(name = "fagor-8055", alias = "fagor8055")]
-    Fagor8055,
-    /// Fagor 8065 axis parameter file `<axis>.mp` (UTF-16LE).
-    #[value(name = "fagor-8065", alias = "fagor8065")]
-    Fagor8065,
-    /// LinuxCNC COMP_FILE (needs --comp-type).
-    Linuxcnc,
-    /// Siemens 840D LEC/MSEC or direction-dependent CEC program (as errmap writes it).
-    Siemens,
-    /// FANUC pitch error data with errmap's parameter comment.
-    Fanuc,
-    /// HEIDENHAIN TNC .COM table.
-    Heidenhain,
-    /// TwinCAT CNC (ISG) kw.ssfk compensation value list.
-    Isg,
+    Table(&'static dyn Dialect),
+}
+
+impl std::fmt::Debug for ImportFormatArg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ImportFormatArg::Auto => "auto",
+            ImportFormatArg::ApiXd => "api-xd",
+            ImportFormatArg::RenishawRtl => "renishaw-rtl",
+            ImportFormatArg::Csv => "csv",
+            ImportFormatArg::Table(d) => d.name(),
+        })
+    }
+}
+
+/// `--format` of import (see [`ImportFormatArg`]).
+fn import_format() -> impl TypedValueParser<Value = ImportFormatArg> {
+    let mut values = vec![
+        PossibleValue::new("auto").help("Decide by content (never by file name)"),
+        PossibleValue::new("api-xd")
+            .alias("api")
+            .help("API XD laser `.pos` \"Linear Data Table\""),
+        PossibleValue::new("renishaw-rtl")
+            .alias("rtl")
+            .help("Renishaw Laser10/LaserXL linear `.rtl`"),
+        PossibleValue::new("csv").help("Any table of readings through --map"),
+    ];
+    values.extend(values::dialect_values());
+    PossibleValuesParser::new(values).map(|s| match s.as_str() {
+        "auto" => ImportFormatArg::Auto,
+        "api-xd" | "api" => ImportFormatArg::ApiXd,
+        "renishaw-rtl" | "rtl" => ImportFormatArg::RenishawRtl,
+        "csv" => ImportFormatArg::Csv,
+        name => {
+            errmap::controller::dialect(name).map_or(ImportFormatArg::Auto, ImportFormatArg::Table)
+        }
+    })
 }
 
 #[derive(Debug, Args)]
@@ -54,7 +72,7 @@ pub(crate) struct ImportArgs {
     /// The file to read.
     pub file: PathBuf,
     /// The file's format (decided by its content with `auto`, never by its name).
-    #[arg(long, value_enum, default_value = "auto")]
+    #[arg(long, default_value = "auto", value_parser = import_format())]
     pub format: ImportFormatArg,
     /// The session table (positioning tests) or error table (controller tables) to
     /// write, .csv or .parquet. Without it the file is read and checked only.
@@ -136,19 +154,6 @@ fn units(s: &str) -> Result<(LengthUnit, TempUnit, PressureUnit)> {
     Ok((len, temp, press))
 }
 
-fn length_only(a: Option<&str>, flag_needed: bool, what: &str) -> Result<LengthUnit> {
-    match a {
-        Some(s) => {
-            let (len, ..) = units(s)?;
-            Ok(len)
-        }
-        None if flag_needed => Err(guard::usage(format!(
-            "{what} states no unit: --units mm or --units inch is required"
-        ))),
-        None => Ok(LengthUnit::Mm),
-    }
-}
-
 fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
     let Some(map) = &a.map else {
         return Err(guard::usage(
@@ -191,32 +196,29 @@ fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
     })
 }
 
-/// The controller-table format of `--format` (or of the detected file) and its flags.
-fn table_format(f: ImportFormatArg, a: &ImportArgs) -> Result<Option<TableFormat>> {
-    Ok(Some(match f {
-        ImportFormatArg::Fagor8055 => TableFormat::Fagor8055 {
-            units: length_only(a.units.as_deref(), true, "a Fagor 8055 table")?,
-        },
-        ImportFormatArg::Fagor8065 => TableFormat::Fagor8065 {
-            units: length_only(a.units.as_deref(), false, "")?,
-        },
-        ImportFormatArg::Linuxcnc => TableFormat::LinuxCnc {
-            comp_type: a
-                .comp_type
-                .ok_or_else(|| {
-                    guard::usage(
-                        "--format linuxcnc needs --comp-type actual|trim (COMP_FILE_TYPE 0|1)",
-                    )
-                })?
-                .into(),
-            units: length_only(a.units.as_deref(), false, "")?,
-        },
-        ImportFormatArg::Siemens => TableFormat::Siemens,
-        ImportFormatArg::Fanuc => TableFormat::Fanuc,
-        ImportFormatArg::Heidenhain => TableFormat::Heidenhain,
-        ImportFormatArg::Isg => TableFormat::Isg,
-        _ => return Ok(None),
-    }))
+/// What a controller table does not say, from the flags (a usage error when it is missing).
+pub(crate) fn table_format(
+    d: &'static dyn Dialect,
+    settings: &TableSettings,
+    comp_type_hint: &str,
+) -> Result<TableFormat> {
+    d.table_format(settings)
+        .map_err(|e| settings_error(e, comp_type_hint))
+}
+
+/// A setting a dialect needs, as the flag that gives it (exit 2).
+pub(crate) fn settings_error(e: SettingsError, comp_type_hint: &str) -> anyhow::Error {
+    match e {
+        SettingsError::NoUnit { what } => guard::usage(format!(
+            "{what} states no unit: --units mm or --units inch is required"
+        )),
+        SettingsError::NoCompType => guard::usage(comp_type_hint.to_string()),
+    }
+}
+
+/// The length unit of `--units LEN[,…]`, when given.
+pub(crate) fn length_unit(a: Option<&str>) -> Result<Option<LengthUnit>> {
+    a.map(|s| units(s).map(|u| u.0)).transpose()
 }
 
 fn read_bytes(path: &std::path::Path) -> Result<Vec<u8>> {
@@ -242,22 +244,26 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
     };
     let mut format = a.format;
     let bytes = read_bytes(&a.file)?;
-    if format == ImportFormatArg::Auto {
-        match import::detect(&bytes) {
-            Ok(import::Format::Fagor8055) => format = ImportFormatArg::Fagor8055,
-            Ok(import::Format::Fagor8065) => format = ImportFormatArg::Fagor8065,
-            Ok(import::Format::Siemens) => format = ImportFormatArg::Siemens,
-            Ok(import::Format::Fanuc) => format = ImportFormatArg::Fanuc,
-            Ok(import::Format::Heidenhain) => format = ImportFormatArg::Heidenhain,
-            Ok(import::Format::Isg) => format = ImportFormatArg::Isg,
-            _ => {}
-        }
+    if let ImportFormatArg::Auto = format
+        && let Some(d) = errmap::controller::detect(&bytes)
+    {
+        format = ImportFormatArg::Table(d);
     }
     if let Some(out) = &a.out {
         guard::refuse_aliases(&[("--out", out)], &[("FILE", &a.file)])?;
     }
-    if let Some(tf) = table_format(format, &a)? {
-        let table = import::tables::read(&bytes, tf).map_err(|e| e.at(&a.file))?;
+    if let ImportFormatArg::Table(d) = format {
+        let settings = TableSettings {
+            units: length_unit(a.units.as_deref())?,
+            comp_type: a.comp_type.map(Into::into),
+            ..TableSettings::new(a.axis.unwrap_or(Axis::X))
+        };
+        let hint = format!(
+            "--format {} needs --comp-type actual|trim (COMP_FILE_TYPE 0|1)",
+            d.name()
+        );
+        let tf = table_format(d, &settings, &hint)?;
+        let table = errmap::controller::read(&bytes, tf).map_err(|e| e.at(&a.file))?;
         let mut warnings = Vec::new();
         let axis = match (a.axis, table.axis) {
             (Some(given), Some(file)) if given != file => {
@@ -326,151 +332,4 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
             .unwrap_or_default()
     );
     Ok(())
-}
-
-/// The flags of `export SESSION --existing TABLE` (taken from `ExportArgs`).
-#[derive(Debug)]
-pub(crate) struct ExistingArgs<'a> {
-    pub session: &'a std::path::Path,
-    pub existing: &'a std::path::Path,
-    pub format: TableFormatChoice,
-    pub units: Option<&'a str>,
-    pub comp_type: Option<CompTypeArg>,
-    pub bidirectional: bool,
-    pub out: &'a std::path::Path,
-    pub json: bool,
-}
-
-/// The table formats `--existing` updates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum TableFormatChoice {
-    Fagor8055,
-    Fagor8065,
-    Linuxcnc,
-    Siemens,
-    Fanuc,
-    Heidenhain,
-    Isg,
-}
-
-/// `export SESSION --existing TABLE --format F --out NEW`: the table updated by the
-/// session's residual, in the table's own layout.
-pub(crate) fn export_existing(a: ExistingArgs<'_>) -> Result<()> {
-    let tf = match a.format {
-        TableFormatChoice::Fagor8055 => TableFormat::Fagor8055 {
-            units: length_only(a.units, true, "a Fagor 8055 table")?,
-        },
-        TableFormatChoice::Fagor8065 => TableFormat::Fagor8065 {
-            units: length_only(a.units, false, "")?,
-        },
-        TableFormatChoice::Linuxcnc => TableFormat::LinuxCnc {
-            comp_type: a
-                .comp_type
-                .ok_or_else(|| {
-                    guard::usage("--existing with linuxcnc needs --comp-type actual|trim")
-                })?
-                .into(),
-            units: length_only(a.units, false, "")?,
-        },
-        TableFormatChoice::Siemens => TableFormat::Siemens,
-        TableFormatChoice::Fanuc => TableFormat::Fanuc,
-        TableFormatChoice::Heidenhain => TableFormat::Heidenhain,
-        TableFormatChoice::Isg => TableFormat::Isg,
-    };
-    guard::refuse_aliases(
-        &[("--out", a.out)],
-        &[("SESSION", a.session), ("--existing", a.existing)],
-    )?;
-    let bytes = read_bytes(a.existing)?;
-    let table = import::tables::read(&bytes, tf).map_err(|e| e.at(a.existing))?;
-    let path = super::acquisition::session_file(a.session)?;
-    let rows = errmap::session::read_session(&path)?;
-    let residual = import::Residual::from_session(&rows, a.bidirectional)
-        .with_context(|| format!("{}: the residual", path.display()))?;
-    let updated = import::update_table(&table, &residual, a.bidirectional)
-        .with_context(|| format!("{} with {}", path.display(), a.existing.display()))?;
-    guard::write_file(a.out, &updated.bytes)?;
-    for w in &updated.summary.warnings {
-        eprintln!("export: warning: {w}");
-    }
-    if a.json {
-        guard::print_json(&updated.summary)?;
-    }
-    eprintln!(
-        "export: {} {} points updated by the residual of {} (largest change {:.4} µm, {} \
-         direction{}) → {}",
-        updated.summary.format,
-        updated.summary.points,
-        path.display(),
-        updated.summary.max_change_um,
-        updated.summary.directions,
-        if updated.summary.directions == 1 {
-            ""
-        } else {
-            "s"
-        },
-        a.out.display()
-    );
-    Ok(())
-}
-
-/// `export`'s hook: `Some` when `--existing` is given (the update) or a Fagor format is
-/// asked for without it (refused: errmap writes Fagor tables only by updating one).
-pub(crate) fn existing_or_refuse(a: &super::args::ExportArgs) -> Option<Result<()>> {
-    use super::values::ExportFormatArg as F;
-    let choice = match a.format {
-        F::Fagor8055 => Some(TableFormatChoice::Fagor8055),
-        F::Fagor8065 => Some(TableFormatChoice::Fagor8065),
-        F::Linuxcnc => Some(TableFormatChoice::Linuxcnc),
-        F::Siemens => Some(TableFormatChoice::Siemens),
-        F::Fanuc => Some(TableFormatChoice::Fanuc),
-        F::Heidenhain => Some(TableFormatChoice::Heidenhain),
-        F::Isg => Some(TableFormatChoice::Isg),
-        _ => None,
-    };
-    let Some(existing) = &a.existing else {
-        if choice == Some(TableFormatChoice::Fagor8055)
-            && let Err(e) = length_only(a.units.as_deref(), true, "a Fagor 8055 table")
-        {
-            return Some(Err(e));
-        }
-        return None;
-    };
-    let Some(format) = choice else {
-        return Some(Err(guard::usage(
-            "--existing updates fagor-8055, fagor-8065, linuxcnc, siemens, fanuc, heidenhain or \
-             isg tables",
-        )));
-    };
-    Some(export_existing(ExistingArgs {
-        session: &a.table,
-        existing,
-        format,
-        units: a.units.as_deref(),
-        comp_type: a.comp_type,
-        bidirectional: a.bidirectional,
-        out: &a.out,
-        json: a.json,
-    }))
-}
-
-/// `export --format fagor-8055|fagor-8065` (from a model or a session's means): the axis
-/// letter and the unit (`--units`; the 8055's checked by [`existing_or_refuse`] before,
-/// the 8065's mm unless `--units inch`).
-pub(crate) fn fagor_format(a: &super::args::ExportArgs) -> errmap::export::ExportFormat {
-    let inch = a.units.as_deref().is_some_and(|u| u.starts_with("in"));
-    let letter = a
-        .axis_name
-        .as_deref()
-        .and_then(|n| n.chars().next())
-        .unwrap_or_else(|| a.axis.upper().chars().next().unwrap_or('X'));
-    let spec = errmap::export::Fagor8055Spec {
-        axis_letter: letter,
-        inch,
-    };
-    if a.format == super::values::ExportFormatArg::Fagor8065 {
-        errmap::export::ExportFormat::Fagor8065 { spec }
-    } else {
-        errmap::export::ExportFormat::Fagor8055 { spec }
-    }
 }

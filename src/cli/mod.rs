@@ -5,16 +5,15 @@
 //! |---|---|
 //! | [`args`] | every clap struct |
 //! | [`values`] | the flags' value types, parsed once into library types (bad value: exit 2) |
-//! | [`model`] | fit, compare, export, simulate, fuzzy-sim |
+//! | [`model`] | fit, compare, export (its flags → one `controller::job::ExportJob`), simulate, fuzzy-sim |
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
 //! | [`certificate`] | certificate |
 //! | [`demo`] | the demo: the whole pipeline on built-in data |
 //! | [`plan`] | plan: an ISO 230-2 test plan and its part program |
-//! | [`step`] | export's `--ends`/`--reference` → where a table's points go |
 //! | [`stream`] | gen-capture: a long generated raw capture for benchmarks
 //! | [`volumetric`] | volumetric simulate, identify, predict |
-//! | [`import`] | import; export --existing (a controller table updated) |
+//! | [`import`] | import; the flag values a controller table needs (`--units`, `--comp-type`) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
 //! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
@@ -35,7 +34,6 @@ pub(crate) mod history;
 pub(crate) mod import;
 pub(crate) mod model;
 pub(crate) mod plan;
-pub(crate) mod step;
 pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;

@@ -10,7 +10,13 @@ use errmap::report;
 use errmap::table::{ErrorPoint, ErrorTable};
 
 use super::args::*;
-use super::values::{CompTypeArg, ExportFormatArg, OrderArg, OrdersArg};
+use errmap::base::FileOp;
+use errmap::base::io_err;
+use errmap::controller::job::{self, ExportJob, JobError, Output, Placement, Source, Written};
+use errmap::controller::{FanucSpec, TableSettings};
+use errmap::export::{Extrapolation, LineSpec, VolumeSpec};
+
+use super::values::{ExportFormatArg, OrderArg, OrdersArg};
 
 /// The method a name, an order and the model flags stand for; `--order auto` runs the
 /// cross-validation on the grid.
@@ -360,65 +366,63 @@ pub(crate) fn print_summary(c: &evaluate::Comparison, dir: &Path) {
     eprintln!("report: {}", dir.join("report.md").display());
 }
 
-/// The library's format for `--format` and its flags.
-fn export_format(a: &ExportArgs) -> errmap::export::ExportFormat {
-    use errmap::export::{
-        ExportFormat, FanucSpec, HEIDENHAIN_MAX_POINTS, ISG_DEFAULT_MAX_POINTS, IsgAxis,
-        SIEMENS_808D_MAX_POINTS,
-    };
-    let axis_name = a
-        .axis_name
-        .clone()
-        .unwrap_or_else(|| a.axis.to_string().to_uppercase());
-    let axis_number = a.axis_number.unwrap_or(a.axis.index() as u32 + 1);
-    match a.format {
-        ExportFormatArg::Linuxcnc => ExportFormat::LinuxCnc {
-            comp_type: a.comp_type.unwrap_or(CompTypeArg::Actual).into(),
+/// The typed settings of a controller table, from export's flags.
+fn table_settings(a: &ExportArgs) -> Result<TableSettings> {
+    Ok(TableSettings {
+        axis: a.axis,
+        axis_name: a.axis_name.clone(),
+        axis_number: a.axis_number,
+        max_points: a.max_points,
+        table_name: a.table_name.clone(),
+        units: super::import::length_unit(a.units.as_deref())?,
+        comp_type: a.comp_type.map(Into::into),
+        siemens_axis: a.siemens_axis.clone(),
+        siemens_table: a.siemens_table,
+        fanuc: FanucSpec {
+            axis_number: a.axis_number.unwrap_or(a.axis.index() as u32 + 1),
+            reference_number: a.fanuc_reference_number,
+            reference_mm: a.reference,
+            detection_unit_um: a.detection_unit_um,
+            magnification: a.magnification,
+            max_value: a.fanuc_max_value,
+            max_point_number: a.fanuc_max_point,
+            negative_start: a.fanuc_negative_start,
         },
-        ExportFormatArg::Siemens => ExportFormat::Siemens {
-            axis_name: a.siemens_axis.clone(),
-            max_points: a.max_points.unwrap_or(SIEMENS_808D_MAX_POINTS),
-        },
-        ExportFormatArg::Fanuc => ExportFormat::Fanuc {
-            spec: FanucSpec {
-                axis_number,
-                reference_number: a.fanuc_reference_number,
-                reference_mm: a.reference,
-                detection_unit_um: a.detection_unit_um,
-                magnification: a.magnification,
-                max_value: a.fanuc_max_value,
-                max_point_number: a.fanuc_max_point,
-                negative_start: a.fanuc_negative_start,
-            },
-        },
-        ExportFormatArg::Heidenhain => ExportFormat::Heidenhain {
-            table_name: a
-                .table_name
-                .clone()
-                .unwrap_or_else(|| format!("{axis_name}.COM")),
-            axis_key: axis_name,
-            max_points: a.max_points.unwrap_or(HEIDENHAIN_MAX_POINTS),
-        },
-        ExportFormatArg::Isg => ExportFormat::Isg {
-            axis: IsgAxis {
-                number: axis_number,
-                name: axis_name,
-                max_points: a.max_points.unwrap_or(ISG_DEFAULT_MAX_POINTS),
-            },
-        },
-        ExportFormatArg::Csv => ExportFormat::Csv,
-        ExportFormatArg::Grid => ExportFormat::Grid,
-        ExportFormatArg::Fagor8055 | ExportFormatArg::Fagor8065 => super::import::fagor_format(a),
-    }
+    })
 }
 
+/// `errmap export`: the flags become one [`ExportJob`] (or, for `--format grid`, the
+/// volume written by `errmap::export::write_grid`), run once; the CLI reads the inputs,
+/// writes the bytes and prints the summary.
 pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
-    use errmap::export::{Extrapolation, LineSpec, VolumeSpec, write_grid};
-    if let Some(r) = super::import::existing_or_refuse(&a) {
-        return r;
+    let output = match a.format {
+        ExportFormatArg::Table(d) => Output::Table(d),
+        ExportFormatArg::Csv => Output::Csv,
+        ExportFormatArg::Grid if a.existing.is_some() || a.bidirectional => {
+            return Err(super::guard::usage(format!(
+                "--existing and --bidirectional take a controller table: {}",
+                errmap::controller::names_where(|_| true, "or")
+            )));
+        }
+        ExportFormatArg::Grid => return export_grid(&a),
+    };
+    let settings = table_settings(&a)?;
+    // A table whose file states no unit needs one before anything is read.
+    if let Output::Table(d) = output
+        && a.existing.is_none()
+    {
+        d.export_format(&settings, a.bidirectional)
+            .map_err(|e| super::import::settings_error(e, ""))?;
+    }
+    let placement = Placement {
+        ends: a.ends.map(Into::into),
+        reference_mm: a.reference,
+    };
+    if let Some(existing) = &a.existing {
+        return export_existing(&a, output, settings, placement, existing);
     }
     if a.bidirectional {
-        return export_bidirectional(&a);
+        return export_bidirectional(&a, output, settings, placement);
     }
     // clap requires both without --bidirectional.
     let (Some(method), Some(step)) = (a.method, a.step) else {
@@ -428,29 +432,8 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
     };
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
-    let extrapolation = if a.forbid_extrapolation {
-        Extrapolation::Forbid
-    } else {
-        Extrapolation::Allow
-    };
-    let format = export_format(&a);
     let lo = extent.bounds.map(|b| b[0]);
     let hi = extent.bounds.map(|b| b[1]);
-    if !format.is_line() {
-        let n = write_grid(
-            model.as_ref(),
-            &VolumeSpec {
-                lo_mm: lo,
-                hi_mm: hi,
-                spacing_mm: step,
-            },
-            extrapolation,
-            &a.out,
-        )
-        .with_context(|| format!("{}: the grid of --step {step} mm", a.table.display()))?;
-        eprintln!("export: {n} grid points → {}", a.out.display());
-        return Ok(());
-    }
     let axis = a.axis;
     // The line's fixed coordinates: given ones, else the first node on that axis.
     let mut at = lo;
@@ -462,24 +445,35 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
         }
         at[k.index()] = v;
     }
-    let line = LineSpec {
-        axis,
-        at_mm: at,
-        start_mm: a.start.unwrap_or(lo[axis.index()]),
-        end_mm: a.end.unwrap_or(hi[axis.index()]),
-        step_mm: step,
+    let job = ExportJob {
+        output,
+        settings,
+        placement,
+        source: Source::Model {
+            model: model.as_ref(),
+            line: LineSpec {
+                axis,
+                at_mm: at,
+                start_mm: a.start.unwrap_or(lo[axis.index()]),
+                end_mm: a.end.unwrap_or(hi[axis.index()]),
+                step_mm: step,
+            },
+            extrapolation: extrapolation(&a),
+        },
     };
-    let fit = super::step::step_fit(&format, a.ends, a.reference);
     let what = || {
         format!(
             "{}: the line along {axis} (--at, --start, --end, --step)",
             a.table.display()
         )
     };
-    let sampled = errmap::export::sample_line_fit(model.as_ref(), &line, fit, extrapolation)
+    let exported = job::run(&job)
+        .map_err(|e| job_error(e, ""))
         .with_context(what)?;
-    let bytes = format.render_bytes(&sampled, None).with_context(what)?;
-    super::guard::write_file(&a.out, &bytes)?;
+    super::guard::write_file(&a.out, &exported.bytes)?;
+    let Written::Line { sampled, note } = &exported.written else {
+        bail!("export: a line was asked for");
+    };
     let fixed: Vec<String> = errmap::base::Axis::ALL
         .iter()
         .filter(|&&k| k != axis)
@@ -488,7 +482,7 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
     eprintln!(
         "export: {} {} entries along {} from {} to {} mm at {} mm ({} extrapolated) → {}; \
          compensation = −error",
-        format.name(),
+        exported.format,
         sampled.positions_mm.len(),
         a.axis,
         sampled.positions_mm[0],
@@ -497,17 +491,61 @@ pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
         sampled.extrapolated_count(),
         a.out.display()
     );
-    if let errmap::export::ExportFormat::Heidenhain {
-        axis_key,
-        table_name,
-        ..
-    } = &format
-    {
-        eprintln!(
-            "export: {}",
-            errmap::export::heidenhain::assignment_note(&sampled, axis_key, table_name)
-        );
+    if let Some(note) = note {
+        eprintln!("export: {note}");
     }
+    Ok(())
+}
+
+fn extrapolation(a: &ExportArgs) -> Extrapolation {
+    if a.forbid_extrapolation {
+        Extrapolation::Forbid
+    } else {
+        Extrapolation::Allow
+    }
+}
+
+/// A job's refusal as the command line says it: a missing setting or a format without a
+/// second direction is a usage error (exit 2), the rest exit 1.
+fn job_error(e: JobError, comp_type_hint: &str) -> anyhow::Error {
+    match e {
+        JobError::Settings(s) => super::import::settings_error(s, comp_type_hint),
+        e @ (JobError::NoReverse { .. } | JobError::NotUpdatable { .. }) => {
+            super::guard::usage(format!(
+                "{}{e}",
+                if matches!(e, JobError::NoReverse { .. }) {
+                    "--bidirectional: "
+                } else {
+                    "--existing: "
+                }
+            ))
+        }
+        other => anyhow::Error::from(other),
+    }
+}
+
+/// `export --format grid`: the model over the nodes' box, every `--step` (not a
+/// controller table: the export stage writes it).
+fn export_grid(a: &ExportArgs) -> Result<()> {
+    let (Some(method), Some(step)) = (a.method, a.step) else {
+        return Err(super::guard::usage(
+            "--method and --step are needed (or --bidirectional with a session)",
+        ));
+    };
+    super::guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
+    let Fitted { model, extent, .. } = fit_table(&a.table, method, a.order, &a.model)?;
+    let n = errmap::export::write_grid(
+        model.as_ref(),
+        &VolumeSpec {
+            lo_mm: extent.bounds.map(|b| b[0]),
+            hi_mm: extent.bounds.map(|b| b[1]),
+            spacing_mm: step,
+        },
+        extrapolation(a),
+        &a.out,
+    )
+    .with_context(|| format!("{}: the grid of --step {step} mm", a.table.display()))?;
+    eprintln!("export: {n} grid points → {}", a.out.display());
     Ok(())
 }
 
@@ -565,71 +603,144 @@ pub(crate) fn fuzzy_sim(a: FuzzySimArgs) -> Result<()> {
 
 /// `export SESSION --bidirectional`: a direction-dependent table from the session's
 /// per-direction means at each target (ISO 230-2's x̄↑ and x̄↓, with the sign turned back
-/// to errmap's e = −x), on one line of the session: LinuxCNC's forward and reverse
-/// columns, FANUC's bidirectional lists, ISG's bilateral pos/neg. No model: the
-/// controller interpolates linearly between the measured targets; with --step the means
-/// are put on the step's points by that same linear rule (`export::regrid_measured`).
-fn export_bidirectional(a: &ExportArgs) -> Result<()> {
-    use errmap::base::Axis;
-    use errmap::export::bidirectional::{LineMeans, choose_line, direction_tables};
-    use errmap::export::{ExportFormat, regrid_measured};
-    // Siemens' direction-dependent compensation is a pair of CEC tables (K3 §4.4.4).
-    let format = match export_format(a) {
-        ExportFormat::Siemens { max_points, .. } => ExportFormat::SiemensCec {
-            axis_number: a.axis_number.unwrap_or(a.axis.index() as u32 + 1),
-            first_table: a.siemens_table,
-            max_points,
-        },
-        other => other,
+/// to errmap's e = −x), on one line of the session (`errmap::controller::job`).
+fn export_bidirectional(
+    a: &ExportArgs,
+    output: Output,
+    settings: TableSettings,
+    placement: Placement,
+) -> Result<()> {
+    // Refused before the session is read: a format without a second direction.
+    let has_reverse = match output {
+        Output::Table(d) => d.limits().bidirectional,
+        Output::Csv => false,
     };
-    if !format.bidirectional() {
-        return Err(super::guard::usage(format!(
-            "--bidirectional: {} has no direction-dependent table (those that do: linuxcnc, \
-             siemens, fanuc, isg, fagor-8055, fagor-8065); export the bidirectional mean from the error table instead",
-            format.name()
-        )));
+    if !has_reverse {
+        return Err(job_error(
+            JobError::NoReverse {
+                format: output.name(),
+                with: errmap::controller::names_where(|d| d.limits().bidirectional, "and"),
+            },
+            "",
+        ));
     }
     let path = super::acquisition::session_file(&a.table)?;
     let rows = errmap::session::read_session(&path)?;
-    let Some(first) = rows.first() else {
-        bail!("{}: the session has no rows", path.display());
+    let job = ExportJob {
+        output,
+        settings,
+        placement,
+        source: Source::Session {
+            rows: &rows,
+            at: &a.at.0,
+            step_mm: a.step,
+        },
     };
-    let axis = Axis::from(first.axis);
-    let (lines, failed) = errmap::session::iso_by_line(&rows);
-    let means: Vec<LineMeans> = lines
-        .iter()
-        .map(|(at_mm, stats)| LineMeans {
-            at_mm: *at_mm,
-            positions_mm: stats.targets.iter().map(|t| t.position_mm).collect(),
-            mean_up_um: stats.targets.iter().map(|t| t.mean_up_um).collect(),
-            mean_down_um: stats.targets.iter().map(|t| t.mean_down_um).collect(),
-        })
-        .collect();
-    let failed: Vec<String> = failed.iter().map(|(l, e)| format!("{l:?}: {e}")).collect();
-    let i =
-        choose_line(axis, &means, &a.at.0, &failed).with_context(|| path.display().to_string())?;
-    let stats = &lines[i].1;
-    let (mut forward, mut reverse) = direction_tables(axis, &means[i]);
+    let exported = match job::run(&job) {
+        Ok(e) => e,
+        Err(e @ (JobError::NoReverse { .. } | JobError::Settings(_))) => {
+            return Err(job_error(e, ""));
+        }
+        Err(JobError::Table(e)) => {
+            return Err(anyhow::Error::from(e))
+                .with_context(|| format!("{}: {} table", path.display(), output.name()));
+        }
+        Err(JobError::Line(e)) => return Err(e.into()),
+        Err(e) => return Err(anyhow::Error::from(e)).context(path.display().to_string()),
+    };
+    super::guard::write_file(&a.out, &exported.bytes)?;
+    let Written::Directions {
+        forward,
+        mean_reversal_um,
+    } = &exported.written
+    else {
+        bail!("export: both directions were asked for");
+    };
     let at_mm = forward.at_mm;
-    if let Some(step) = a.step {
-        let fit = super::step::step_fit(&format, a.ends, a.reference);
-        forward = regrid_measured(&forward, step, fit)?;
-        reverse = regrid_measured(&reverse, step, fit)?;
-    }
-    let bytes = format
-        .render_bytes(&forward, Some(&reverse))
-        .with_context(|| format!("{}: {} table", path.display(), format.name()))?;
-    super::guard::write_file(&a.out, &bytes)?;
     eprintln!(
-        "export: {} {} points along {axis} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
+        "export: {} {} points along {} at ({}, {}, {}) mm, forward = x̄↑ and reverse = x̄↓ \
          (mean reversal {:.4} µm) → {}; compensation = −error",
-        format.name(),
+        exported.format,
         forward.len(),
+        forward.axis,
         at_mm[0],
         at_mm[1],
         at_mm[2],
-        stats.targets.iter().map(|t| t.reversal_um).sum::<f64>()
-            / stats.targets.len().max(1) as f64,
+        mean_reversal_um,
+        a.out.display()
+    );
+    Ok(())
+}
+
+/// `export SESSION --existing TABLE --format F --out NEW`: the table updated by the
+/// session's residual, in the table's own layout (`errmap::controller::update`).
+fn export_existing(
+    a: &ExportArgs,
+    output: Output,
+    settings: TableSettings,
+    placement: Placement,
+    existing: &Path,
+) -> Result<()> {
+    if let Output::Table(d) = output {
+        let hint = format!("--existing with {} needs --comp-type actual|trim", d.name());
+        super::import::table_format(d, &settings, &hint)?;
+    } else {
+        return Err(super::guard::usage(format!(
+            "--existing updates {} tables",
+            errmap::controller::names_where(|_| true, "or")
+        )));
+    }
+    super::guard::refuse_aliases(
+        &[("--out", &a.out)],
+        &[("SESSION", &a.table), ("--existing", existing)],
+    )?;
+    let bytes = std::fs::read(existing).map_err(io_err(existing, FileOp::Read))?;
+    let path = super::acquisition::session_file(&a.table)?;
+    let rows = errmap::session::read_session(&path)?;
+    let job = ExportJob {
+        output,
+        settings,
+        placement,
+        source: Source::Existing {
+            bytes: &bytes,
+            rows: &rows,
+            bidirectional: a.bidirectional,
+        },
+    };
+    let exported = match job::run(&job) {
+        Ok(e) => e,
+        Err(JobError::Read(at)) => return Err(at.at(existing).into()),
+        Err(JobError::Residual(e)) => {
+            return Err(anyhow::Error::from(e))
+                .with_context(|| format!("{}: the residual", path.display()));
+        }
+        Err(JobError::Update(e)) => {
+            return Err(anyhow::Error::from(e))
+                .with_context(|| format!("{} with {}", path.display(), existing.display()));
+        }
+        Err(e) => {
+            return Err(job_error(e, ""));
+        }
+    };
+    super::guard::write_file(&a.out, &exported.bytes)?;
+    let Written::Updated(summary) = &exported.written else {
+        bail!("export: an update was asked for");
+    };
+    for w in &summary.warnings {
+        eprintln!("export: warning: {w}");
+    }
+    if a.json {
+        super::guard::print_json(summary)?;
+    }
+    eprintln!(
+        "export: {} {} points updated by the residual of {} (largest change {:.4} µm, {} \
+         direction{}) → {}",
+        summary.format,
+        summary.points,
+        path.display(),
+        summary.max_change_um,
+        summary.directions,
+        if summary.directions == 1 { "" } else { "s" },
         a.out.display()
     );
     Ok(())

@@ -13,7 +13,8 @@ use std::str::FromStr;
 use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
-use errmap::export::{Ends, LinuxCncCompType};
+use errmap::controller::{DIALECTS, Dialect as ControllerDialect, LinuxCncCompType};
+use errmap::export::Ends;
 use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
 use errmap::sim::program::Dialect;
@@ -144,7 +145,7 @@ pub(crate) fn point3(s: &str) -> Result<[f64; 3], String> {
 /// `--siemens-axis`: a SINUMERIK machine-axis name (checked by the exporter's rule, so
 /// that a bad name is a usage error before any table is read).
 pub(crate) fn siemens_axis(s: &str) -> Result<String, String> {
-    errmap::export::siemens::check_axis_name(s).map_err(|e| e.to_string())?;
+    errmap::controller::siemens::check_axis_name(s).map_err(|e| e.to_string())?;
     Ok(s.to_string())
 }
 
@@ -375,30 +376,48 @@ impl FromStr for LineAt {
     }
 }
 
-/// `--format` of export.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+/// `--format` of export: a controller dialect from the registry
+/// (`errmap::controller::DIALECTS`), or errmap's own CSV line and volumetric grid.
+#[derive(Clone, Copy)]
 pub(crate) enum ExportFormatArg {
-    /// LinuxCNC compensation file (a line).
-    Linuxcnc,
-    /// Siemens 840D encoder/leadscrew compensation (a line).
-    Siemens,
-    /// FANUC pitch error compensation: parameters and N/P data (a line).
-    Fanuc,
-    /// HEIDENHAIN TNC nonlinear axis error compensation table, .COM (a line).
-    Heidenhain,
-    /// Beckhoff TwinCAT CNC (ISG) leadscrew error compensation list, kw.ssfk (a line).
-    Isg,
-    /// CSV of a line.
+    Table(&'static dyn ControllerDialect),
     Csv,
-    /// A volumetric grid table (CSV or Parquet).
     Grid,
-    /// Fagor 8055 leadscrew table AL<axis> (needs --units).
-    #[value(name = "fagor-8055", alias = "fagor8055")]
-    Fagor8055,
-    /// Fagor 8065 axis file <axis>.mp holding the leadscrew table (UTF-16LE; mm unless
-    /// --units inch); with --existing the machine's own file updated.
-    #[value(name = "fagor-8065", alias = "fagor8065")]
-    Fagor8065,
+}
+
+impl fmt::Debug for ExportFormatArg {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ExportFormatArg::Table(d) => d.name(),
+            ExportFormatArg::Csv => "csv",
+            ExportFormatArg::Grid => "grid",
+        })
+    }
+}
+
+/// A dialect of the registry as a possible value: its name, aliases and help line.
+pub(crate) fn dialect_values() -> Vec<PossibleValue> {
+    DIALECTS
+        .iter()
+        .map(|d| {
+            PossibleValue::new(d.name())
+                .help(d.about())
+                .aliases(d.aliases().iter().copied())
+        })
+        .collect()
+}
+
+/// `--format` of export (see [`ExportFormatArg`]).
+pub(crate) fn export_format() -> impl TypedValueParser<Value = ExportFormatArg> {
+    let mut values = dialect_values();
+    values.push(PossibleValue::new("csv").help("CSV of a line"));
+    values.push(PossibleValue::new("grid").help("A volumetric grid table (CSV or Parquet)"));
+    PossibleValuesParser::new(values).map(|s| match s.as_str() {
+        "grid" => ExportFormatArg::Grid,
+        name => {
+            errmap::controller::dialect(name).map_or(ExportFormatArg::Csv, ExportFormatArg::Table)
+        }
+    })
 }
 
 /// `--comp-type` of the LinuxCNC format.

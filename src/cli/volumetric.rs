@@ -507,7 +507,8 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
 }
 
 fn export_cmd(a: ExportArgs) -> Result<()> {
-    use errmap::export::{ExportFormat, LinuxCncCompType, SIEMENS_808D_MAX_POINTS, Sampled};
+    use errmap::controller::{ExportFormat, LinuxCncCompType, SIEMENS_808D_MAX_POINTS};
+    use errmap::export::Sampled;
     use errmap::volumetric::{
         axis_positions, component_tables, positioning_profile, render_twincat,
     };

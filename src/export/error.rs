@@ -1,38 +1,12 @@
-//! Why an export fails: [`ExportError`], the [`Controller`] whose table limit was
-//! exceeded (the message names a step that fits), and the [`MappedBox`] named when
-//! extrapolation is refused.
+//! Why an export fails: [`ExportError`] (a controller's table limit names a step that
+//! fits; the controller is named by its dialect's label, `src/controller/`), and the
+//! [`MappedBox`] named when extrapolation is refused.
 
 use std::fmt;
 
 use super::{fmt_fixed, fmt_mm, fmt_point};
 use crate::interp::Interpolator;
 use crate::table::{Axis, TableError};
-
-/// The controller whose table limit was exceeded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Controller {
-    LinuxCnc,
-    Siemens,
-    Fanuc,
-    Heidenhain,
-    Isg,
-    Fagor,
-}
-
-impl fmt::Display for Controller {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Controller::LinuxCnc => "LinuxCNC (COMP_FILE triplets per joint, EMCMOT_COMP_SIZE)",
-            Controller::Siemens => "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)",
-            Controller::Fanuc => "FANUC pitch error compensation",
-            Controller::Heidenhain => "a HEIDENHAIN TNC compensation table (.COM)",
-            Controller::Fagor => "the Fagor leadscrew table (8055 AL<axis>, 8065 <axis>.mp)",
-            Controller::Isg => {
-                "the TwinCAT CNC (ISG) leadscrew error compensation table (P-COMP-00059 kw.ssfk.max_points)"
-            }
-        })
-    }
-}
 
 /// The mapped volume as far as `Interpolator::outside` reveals it: for each axis the
 /// extent of the inside segment through one inside point.
@@ -142,9 +116,13 @@ pub enum ExportError {
     },
     #[error("{points} sample points exceed errmap's cap of {limit}; use a coarser step")]
     TooManyPoints { points: u128, limit: usize },
-    #[error("{}", too_many_message(*controller, *samples, *padding, *limit, *length_mm))]
+    #[error("{}", too_many_message(controller, *any_step_fits, *samples, *padding, *limit, *length_mm))]
     TooManyEntries {
-        controller: Controller,
+        /// The dialect's label (e.g. `controller::fanuc::LABEL`).
+        controller: &'static str,
+        /// The table lists every position, so any round step of at least the minimum fits
+        /// (the last interval shorter): the message names one.
+        any_step_fits: bool,
         /// Sampled positions.
         samples: usize,
         /// Entries the format adds (Siemens: 2 zero end points).
@@ -187,7 +165,7 @@ pub enum ExportError {
         position_mm: f64,
     },
     #[error(
-        "sample {index}: gap {gap_mm} mm differs from the table step {step_mm} mm; this format's tables are equidistant (Siemens, FANUC, HEIDENHAIN)"
+        "sample {index}: gap {gap_mm} mm differs from the table step {step_mm} mm; this format's tables have one interval (its `Spacing` is equidistant)"
     )]
     NotEquidistant {
         index: usize,
@@ -195,7 +173,7 @@ pub enum ExportError {
         gap_mm: f64,
     },
     #[error(
-        "Siemens table step {step_mm} mm is not a whole number of 1e-6 mm, so MIN, MAX and STEP \
+        "the table step {step_mm} mm is not a whole number of 1e-6 mm, so MIN, MAX and STEP \
          would not describe the points exactly; choose a step with at most 6 decimals"
     )]
     StepNotRepresentable { step_mm: f64 },
@@ -203,17 +181,21 @@ pub enum ExportError {
     ReverseMismatch { problem: String },
     #[error(
         "the {format} format has no direction-dependent table; export the forward errors \
-         and configure backlash separately, or use a format that has one (linuxcnc, fanuc, isg; \
-         siemens through its direction-dependent CEC tables)"
+         and configure backlash separately, or use a format that has one ({with})"
     )]
-    ReverseUnsupported { format: &'static str },
+    ReverseUnsupported {
+        format: &'static str,
+        /// The formats that have one, by name.
+        with: String,
+    },
     #[error(
         "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
     )]
     BadAxisName { name: String },
     #[error("{controller}: {problem}")]
     ControllerLimit {
-        controller: Controller,
+        /// The dialect's label.
+        controller: &'static str,
         problem: String,
     },
     #[error("the grid format samples a volume: call write_grid, not render_line")]
@@ -223,7 +205,8 @@ pub enum ExportError {
 }
 
 fn too_many_message(
-    controller: Controller,
+    controller: &str,
+    any_step_fits: bool,
     samples: usize,
     padding: usize,
     limit: usize,
@@ -247,11 +230,9 @@ fn too_many_message(
         }
         None => m.push_str(": the limit is too small for any table of this format"),
     }
-    // LinuxCNC lists every nominal, so any step of at least the minimum fits (the last
-    // interval shorter): name a round one.
-    if controller == Controller::LinuxCnc
-        && let Some((min, _)) = fitting_step(length_mm, limit, padding)
-    {
+    // A table that lists every nominal (LinuxCNC) takes any step of at least the minimum
+    // (the last interval shorter): name a round one.
+    if any_step_fits && let Some((min, _)) = fitting_step(length_mm, limit, padding) {
         m.push_str(&format!(
             ", or any round step of at least that, e.g. {} mm (the last interval shorter)",
             fmt_mm(round_step_at_least(min))

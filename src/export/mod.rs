@@ -1,46 +1,19 @@
 //! Compensation tables for machine controllers, exported from a fitted error model.
 //!
 //! A fitted [`Interpolator`] is sampled along one axis ([`sample_line`]) or over a
-//! volume ([`grid::render`]) and rendered in a controller's own format. The renderers
+//! volume ([`grid::render`]); the controller stage renders a line in a controller's own
+//! format, this stage the CSV line and the grid (non-controller outputs). The renderers
 //! are pure: they return the text or the rows, and the caller writes the file
 //! ([`write_grid`] writes the grid's rows for now).
 //!
 //! | function | writes | limit | cost |
 //! |---|---|---|---|
 //! | [`sample_line`] | a [`Sampled`] line: positions, e, extrapolation flags | [`MAX_SAMPLES`] | n predictions + n `outside` tests |
-//! | [`linuxcnc`](mod@linuxcnc) | a LinuxCNC `COMP_FILE` (type 0 or 1) | [`LINUXCNC_MAX_ENTRIES`] = 256 | O(n) text |
-//! | [`siemens`](mod@siemens) | a SINUMERIK 840D sl LEC/MSEC part program (`%_N_AX_EEC_INI`); direction-dependent: two CEC tables (`%_N_NC_CEC_INI`, K3 §4.4.4) | the axis' MD38000 (CEC: MD18342), a parameter | O(n) text |
-//! | [`fanuc`](mod@fanuc) | FANUC pitch error compensation: parameters 3620–3624 (3605#0, 3626, 3627 bidirectional) and increments per point | point numbers ≤ [`FANUC_MAX_POINT_NUMBER`], \|value\| ≤ a parameter | O(n) text |
-//! | [`heidenhain`](mod@heidenhain) | a HEIDENHAIN TNC `.COM` nonlinear axis error compensation table | [`HEIDENHAIN_MAX_POINTS`] = 256, a parameter | O(n) text |
-//! | [`isg`](mod@isg) | a TwinCAT CNC (ISG) `kw.ssfk` leadscrew error compensation list, unilateral or bilateral | < P-COMP-00059 ([`ISG_DEFAULT_MAX_POINTS`] = 1500) | O(n) text |
-//! | [`fagor`](mod@fagor) | a Fagor 8055 leadscrew table `AL<axis>` (one table, or both directions with a reverse line) | [`FAGOR_8055_MAX_POINTS`] (unverified) | O(n) text |
-//! | [`fagor`](mod@fagor) | a Fagor 8065 axis file `<axis>.mp` holding the leadscrew table (UTF-16LE; BIDIR 1 with a reverse line) | [`FAGOR_8065_MAX_POINTS`] (unverified) | O(n) text |
 //! | [`csv`](mod@csv) | `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated` for one line | — | O(n) text |
 //! | [`grid`] | the same columns over a box ([`GridRows`]; CSV or Parquet via polars by [`write_grid`]) | [`MAX_SAMPLES`] | N predictions |
 //!
-//! # Sign convention
-//!
-//! errmap's error is e = indicated − reference (µm, [`crate::table::ErrorPoint`]). The
-//! compensation is c = −e ([`compensation_um`]): the amount that, added to the machine's
-//! *indicated* (scale/encoder) position, gives the reference (true) position,
-//! indicated + c = reference. How a controller applies a table decides which of c and
-//! −c it stores:
-//!
-//! * **Siemens LEC/MSEC corrects the actual (feedback) value**, so the table holds c, in
-//!   mm (the controller's documentation is cited in [`siemens`](mod@siemens)).
-//! * **TwinCAT CNC (ISG) LSEC holds the position error actual − setpoint**, which is c,
-//!   in 0.1 µm ([`isg`](mod@isg)).
-//! * **FANUC pitch error compensation outputs pulses added to the motion**, so its
-//!   increments are those of e, relative to the reference position ([`fanuc`](mod@fanuc)).
-//! * **HEIDENHAIN**: the sign is not stated in the sources consulted; errmap writes c,
-//!   ISO 230-2's deviation ([`heidenhain`](mod@heidenhain)).
-//! * **LinuxCNC adds its trim to the position command**, so the trim is −c = e; a type-0
-//!   file lists the actual position N + c instead, which LinuxCNC turns into the same
-//!   trim (the controller's source is cited in [`linuxcnc`](mod@linuxcnc)).
-//!
-//! Both are first-order corrections: the table is looked up at the commanded (or
-//! indicated) position rather than the corrected one, an error of order
-//! e·(de/dx) — µm × µm/mm, i.e. nanometres for ordinary maps.
+//! The controllers' own table formats, their sign conventions and limits are the
+//! controller stage's (`src/controller/`), which renders a [`Sampled`] line.
 //!
 //! # Extrapolation
 //!
@@ -52,13 +25,7 @@
 pub mod bidirectional;
 pub mod csv;
 mod error;
-pub mod fagor;
-pub mod fanuc;
 pub mod grid;
-pub mod heidenhain;
-pub mod isg;
-pub mod linuxcnc;
-pub mod siemens;
 pub mod step;
 
 use std::path::Path;
@@ -69,14 +36,8 @@ use crate::interp::Interpolator;
 use crate::table::{Axis, TableError, write_frame};
 
 pub use csv::render as csv;
-pub use error::{Controller, ExportError, MappedBox};
-pub use fagor::{FAGOR_8055_MAX_POINTS, FAGOR_8065_MAX_POINTS, Fagor8055Spec};
-pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
+pub use error::{ExportError, MappedBox};
 pub use grid::GridRows;
-pub use heidenhain::HEIDENHAIN_MAX_POINTS;
-pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
-pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType, render as linuxcnc};
-pub use siemens::{SIEMENS_808D_MAX_POINTS, render as siemens};
 pub use step::{Ends, StepFit, regrid_measured, sample_line_fit};
 
 /// errmap's own cap on sampled points per line or volume, so that a mistyped step cannot
@@ -91,180 +52,6 @@ pub const FILE_RESOLUTION_MM: f64 = 1e-6;
 #[inline]
 pub fn compensation_um(e_um: f64) -> f64 {
     -e_um
-}
-
-/// What to export.
-#[derive(Debug, Clone, PartialEq)]
-pub enum ExportFormat {
-    /// A LinuxCNC `COMP_FILE` for one joint.
-    LinuxCnc { comp_type: LinuxCncCompType },
-    /// A SINUMERIK 840D sl LEC/MSEC program for machine axis `axis_name` (e.g. `X1`),
-    /// whose MD38000 `MM_ENC_COMP_MAX_POINTS` is `max_points`.
-    Siemens {
-        axis_name: String,
-        max_points: usize,
-    },
-    /// SINUMERIK 840D sl direction-dependent leadscrew error compensation: two CEC tables
-    /// from `first_table` on machine axis `AX<axis_number>`, each of at most
-    /// `max_points` (MD18342); needs a reverse line.
-    SiemensCec {
-        axis_number: u32,
-        first_table: usize,
-        max_points: usize,
-    },
-    /// FANUC pitch error compensation (bidirectional with a reverse line).
-    Fanuc { spec: FanucSpec },
-    /// A HEIDENHAIN `.COM` table: the axis key (column name), the table's name and the
-    /// entry limit.
-    Heidenhain {
-        axis_key: String,
-        table_name: String,
-        max_points: usize,
-    },
-    /// A TwinCAT CNC (ISG) `kw.ssfk` list (bilateral with a reverse line).
-    Isg { axis: IsgAxis },
-    /// A Fagor 8055 `AL<axis>` leadscrew table (both directions with a reverse line).
-    Fagor8055 { spec: Fagor8055Spec },
-    /// A Fagor 8065 `<axis>.mp` axis file holding the leadscrew table (both directions,
-    /// BIDIR 1, with a reverse line); UTF-16LE ([`ExportFormat::render_bytes`]).
-    Fagor8065 { spec: Fagor8055Spec },
-    /// One line as `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
-    Csv,
-    /// A volumetric grid (CSV or Parquet by extension), see [`write_grid`].
-    Grid,
-}
-
-impl ExportFormat {
-    /// A short name for messages.
-    pub fn name(&self) -> &'static str {
-        match self {
-            ExportFormat::LinuxCnc { .. } => "linuxcnc",
-            ExportFormat::Siemens { .. } => "siemens",
-            ExportFormat::SiemensCec { .. } => "siemens (direction-dependent, CEC)",
-            ExportFormat::Fanuc { .. } => "fanuc",
-            ExportFormat::Heidenhain { .. } => "heidenhain",
-            ExportFormat::Isg { .. } => "isg",
-            ExportFormat::Fagor8055 { .. } => "fagor-8055",
-            ExportFormat::Fagor8065 { .. } => "fagor-8065",
-            ExportFormat::Csv => "csv",
-            ExportFormat::Grid => "grid",
-        }
-    }
-
-    /// Whether the format lists every position, so that the intervals may differ
-    /// (LinuxCNC, ISG, CSV: [`StepFit::LastShorter`] fits any step); Siemens', FANUC's
-    /// and HEIDENHAIN's tables have one interval.
-    pub fn allows_uneven(&self) -> bool {
-        matches!(
-            self,
-            ExportFormat::LinuxCnc { .. }
-                | ExportFormat::Isg { .. }
-                | ExportFormat::Fagor8055 { .. }
-                | ExportFormat::Fagor8065 { .. }
-                | ExportFormat::Csv
-        )
-    }
-
-    /// Whether the format has direction-dependent tables (a reverse line).
-    pub fn bidirectional(&self) -> bool {
-        matches!(
-            self,
-            ExportFormat::LinuxCnc { .. }
-                | ExportFormat::SiemensCec { .. }
-                | ExportFormat::Fanuc { .. }
-                | ExportFormat::Isg { .. }
-                | ExportFormat::Fagor8055 { .. }
-                | ExportFormat::Fagor8065 { .. }
-        )
-    }
-
-    /// Whether the format is written from one sampled line (all but [`ExportFormat::Grid`]).
-    pub fn is_line(&self) -> bool {
-        !matches!(self, ExportFormat::Grid)
-    }
-
-    /// Renders a sampled line. `reverse` (direction-dependent errors, same positions)
-    /// is used by the formats with direction-dependent tables ([`Self::bidirectional`]);
-    /// the other line formats refuse it.
-    pub fn render_line(
-        &self,
-        forward: &Sampled,
-        reverse: Option<&Sampled>,
-    ) -> Result<String, ExportError> {
-        match self {
-            ExportFormat::LinuxCnc { comp_type } => linuxcnc(forward, *comp_type, reverse),
-            ExportFormat::Siemens {
-                axis_name,
-                max_points,
-            } => {
-                if reverse.is_some() {
-                    return Err(ExportError::ReverseUnsupported {
-                        format: self.name(),
-                    });
-                }
-                siemens(forward, axis_name, *max_points)
-            }
-            ExportFormat::SiemensCec {
-                axis_number,
-                first_table,
-                max_points,
-            } => {
-                let Some(reverse) = reverse else {
-                    return Err(ExportError::ReverseMismatch {
-                        problem: "the direction-dependent Siemens tables need the reverse line"
-                            .into(),
-                    });
-                };
-                siemens::render_bidirectional(
-                    forward,
-                    reverse,
-                    *axis_number,
-                    *first_table,
-                    *max_points,
-                )
-            }
-            ExportFormat::Fanuc { spec } => fanuc::render(forward, reverse, spec),
-            ExportFormat::Heidenhain {
-                axis_key,
-                table_name,
-                max_points,
-            } => {
-                if reverse.is_some() {
-                    return Err(ExportError::ReverseUnsupported {
-                        format: self.name(),
-                    });
-                }
-                heidenhain::render(forward, axis_key, table_name, *max_points)
-            }
-            ExportFormat::Isg { axis } => isg::render(forward, reverse, axis),
-            ExportFormat::Fagor8055 { spec } => fagor::render_8055(forward, reverse, spec),
-            ExportFormat::Fagor8065 { spec } => fagor::render_8065(forward, reverse, spec),
-            ExportFormat::Csv => {
-                if reverse.is_some() {
-                    return Err(ExportError::ReverseUnsupported {
-                        format: self.name(),
-                    });
-                }
-                forward.check()?;
-                Ok(csv(forward))
-            }
-            ExportFormat::Grid => Err(ExportError::GridNeedsVolume),
-        }
-    }
-
-    /// The file's bytes for a sampled line: [`Self::render_line`]'s text, UTF-8, except
-    /// the Fagor 8065 axis file, which is UTF-16LE with its byte-order mark.
-    pub fn render_bytes(
-        &self,
-        forward: &Sampled,
-        reverse: Option<&Sampled>,
-    ) -> Result<Vec<u8>, ExportError> {
-        let text = self.render_line(forward, reverse)?;
-        Ok(match self {
-            ExportFormat::Fagor8065 { .. } => fagor::encode_8065(&text),
-            _ => text.into_bytes(),
-        })
-    }
 }
 
 /// What to do with positions outside the model's nodes.
@@ -410,7 +197,7 @@ impl Sampled {
     }
 
     /// The common step of equidistant positions (checked to 1e-9 mm + 1e-9 relative).
-    fn uniform_step(&self) -> Result<f64, ExportError> {
+    pub(crate) fn uniform_step(&self) -> Result<f64, ExportError> {
         let n = self.len();
         let step = (self.positions_mm[n - 1] - self.positions_mm[0]) / (n - 1) as f64;
         let tol = 1e-9
@@ -431,7 +218,7 @@ impl Sampled {
         Ok(step)
     }
 
-    fn length_mm(&self) -> f64 {
+    pub(crate) fn length_mm(&self) -> f64 {
         self.positions_mm.last().copied().unwrap_or(0.0)
             - self.positions_mm.first().copied().unwrap_or(0.0)
     }
@@ -439,7 +226,7 @@ impl Sampled {
 
 /// Checks `forward` and, when given, `reverse` (the same positions, direction-dependent
 /// errors); returns the line the reverse column comes from (`forward` without one).
-fn paired<'a>(
+pub(crate) fn paired<'a>(
     forward: &'a Sampled,
     reverse: Option<&'a Sampled>,
 ) -> Result<&'a Sampled, ExportError> {
@@ -467,7 +254,7 @@ fn paired<'a>(
 }
 
 /// `v` with `decimals` decimals, trailing zeros trimmed (one kept), and no `-0.0`.
-fn fmt_fixed(v: f64, decimals: usize) -> String {
+pub(crate) fn fmt_fixed(v: f64, decimals: usize) -> String {
     if !v.is_finite() {
         return v.to_string();
     }
@@ -487,11 +274,11 @@ fn fmt_fixed(v: f64, decimals: usize) -> String {
 }
 
 /// A length in mm at the file resolution (1e-6 mm).
-fn fmt_mm(v: f64) -> String {
+pub(crate) fn fmt_mm(v: f64) -> String {
     fmt_fixed(v, 6)
 }
 
-fn fmt_point(p: [f64; 3]) -> String {
+pub(crate) fn fmt_point(p: [f64; 3]) -> String {
     format!(
         "({}, {}, {}) mm",
         fmt_fixed(p[0], 4),

@@ -29,12 +29,12 @@
 
 use std::collections::HashMap;
 
-use super::text::{Text, decimals, number};
 use super::units::{HPA_PER_INHG, HPA_PER_MMHG, MM_PER_INCH, fahrenheit_to_c};
 use super::{
     At, Env, ImportSummary, Imported, Reading, assemble, distinct_targets, summary_counts,
 };
 use crate::base::Axis;
+use crate::controller::text::{Text, decimals, number};
 
 /// The header's keys and their values (first value first), with the line of each key.
 #[derive(Debug, Default)]

@@ -18,10 +18,10 @@
 //! or a TAB is a European-locale export read with the wrong flags: it is refused with a
 //! message naming `--delimiter ';'` (and `--decimal-comma` when the data show `d,d`).
 
-use super::text::{Text, number};
-use super::units::{HPA_PER_INHG, HPA_PER_KPA, HPA_PER_MMHG, MM_PER_INCH, fahrenheit_to_c};
+use super::units::{HPA_PER_INHG, HPA_PER_KPA, HPA_PER_MMHG, fahrenheit_to_c};
 use super::{At, Env, ImportSummary, Imported, Reading, assemble, summary_counts};
 use crate::base::Axis;
+use crate::controller::text::{Text, number};
 
 /// A column of the map: a header name or a 1-based column number.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -100,29 +100,7 @@ impl ColumnMap {
     }
 }
 
-/// Length unit of the file's positions.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LengthUnit {
-    #[default]
-    Mm,
-    Inch,
-}
-
-impl LengthUnit {
-    pub fn mm(self) -> f64 {
-        match self {
-            LengthUnit::Mm => 1.0,
-            LengthUnit::Inch => MM_PER_INCH,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            LengthUnit::Mm => "mm",
-            LengthUnit::Inch => "inch",
-        }
-    }
-}
+pub use crate::controller::LengthUnit;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TempUnit {

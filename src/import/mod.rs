@@ -1,19 +1,18 @@
 //! What technicians already have, read into errmap's tables: laser vendors' exports and
 //! spreadsheets become a **session table** (`session-table.md`: one dwell row per run,
-//! direction and target reading), the compensation table already in a controller becomes
-//! an **error table**, and [`update`] writes that controller table back corrected by a
-//! new measurement, in its own layout.
+//! direction and target reading), and the compensation table already in a controller,
+//! read by its dialect in the controller stage (`crate::controller`, which also updates
+//! it in place), becomes an **error table**.
 //!
 //! | reader | file | output |
 //! |---|---|---|
 //! | [`api`] | API XD laser `.pos`, "Linear Data Table" (inch or mm, uni- or bidirectional) | session rows |
 //! | [`rtl`] | Renishaw Laser10/LaserXL linear `.rtl` (text sections) | session rows |
 //! | [`csv`] | any table through a column map (delimiter, decimal comma, units, error sign) | session rows |
-//! | [`tables`] | Fagor 8055 `AL<axis>`, Fagor 8065 `<axis>.mp`, LinuxCNC `COMP_FILE` | an error table per table point |
-//! | [`dialects`] | Siemens 840D LEC/CEC, HEIDENHAIN `.COM`, ISG `kw.ssfk`, FANUC pitch error data (as errmap writes them) | an error table per table point |
-//! | [`update`] | a controller table + a session measured with it active | the same file, values updated |
+//! | [`tables`] | a controller table of any dialect (`crate::controller::DIALECTS`), read by the controller stage | an error table per table point |
 //!
-//! Detection ([`detect`]) is by content, never by file name; a Renishaw `.rtx` dynamic
+//! Detection ([`detect`]) is by content, never by file name (a controller table by its
+//! dialect's `detect`); a Renishaw `.rtx` dynamic
 //! capture is recognised and refused (it has no targets). Each format's provenance and what
 //! is unverified against a genuine file is in `docs/import.md`.
 //!
@@ -32,11 +31,8 @@
 
 pub mod api;
 pub mod csv;
-pub mod dialects;
 pub mod rtl;
 pub mod tables;
-pub mod text;
-pub mod update;
 
 use std::path::{Path, PathBuf};
 
@@ -47,14 +43,12 @@ use serde::Serialize;
 use crate::base::Axis;
 use crate::table::TableError;
 
+pub use crate::controller::At;
 pub use csv::{ColumnMap, CsvOptions, ErrorSign, LengthUnit, PressureUnit, TempUnit};
-pub use tables::{ControllerTable, TableFormat, TablePoint};
-pub use update::{Residual, Updated, update_table};
 
 /// Exact unit conversions.
 pub mod units {
-    /// Millimetres per inch (exact by definition).
-    pub const MM_PER_INCH: f64 = 25.4;
+    pub use crate::controller::MM_PER_INCH;
     /// Hectopascals per inch of mercury.
     pub const HPA_PER_INHG: f64 = 33.8638866667;
     /// Hectopascals per millimetre of mercury.
@@ -85,31 +79,8 @@ pub enum ImportError {
     Table(#[from] TableError),
 }
 
-/// A reader's refusal before the path is attached.
-#[derive(Debug, Clone, PartialEq)]
-pub struct At {
-    pub line: usize,
-    pub column: Option<String>,
-    pub message: String,
-}
-
+/// A reader's refusal ([`At`], the controller stage's) with the path attached.
 impl At {
-    pub fn new(line: usize, message: impl Into<String>) -> At {
-        At {
-            line,
-            column: None,
-            message: message.into(),
-        }
-    }
-
-    pub fn col(line: usize, column: &str, message: impl Into<String>) -> At {
-        At {
-            line,
-            column: Some(column.to_string()),
-            message: message.into(),
-        }
-    }
-
     pub fn at(self, path: &Path) -> ImportError {
         ImportError::Bad {
             path: path.to_path_buf(),
@@ -120,7 +91,8 @@ impl At {
     }
 }
 
-/// The formats errmap reads.
+/// The formats errmap reads: the positioning tests' and, by name, the controller
+/// tables of the registry (`crate::controller::DIALECTS`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Format {
@@ -128,13 +100,8 @@ pub enum Format {
     RenishawRtl,
     RenishawRtx,
     Csv,
-    Fagor8055,
-    Fagor8065,
-    Linuxcnc,
-    Siemens,
-    Fanuc,
-    Heidenhain,
-    Isg,
+    /// A controller table, by its dialect's name.
+    Table(&'static str),
 }
 
 impl Format {
@@ -144,13 +111,7 @@ impl Format {
             Format::RenishawRtl => "renishaw-rtl",
             Format::RenishawRtx => "renishaw-rtx",
             Format::Csv => "csv",
-            Format::Fagor8055 => "fagor-8055",
-            Format::Fagor8065 => "fagor-8065",
-            Format::Linuxcnc => "linuxcnc",
-            Format::Siemens => "siemens",
-            Format::Fanuc => "fanuc",
-            Format::Heidenhain => "heidenhain",
-            Format::Isg => "isg",
+            Format::Table(name) => name,
         }
     }
 }
@@ -158,7 +119,8 @@ impl Format {
 /// The format of `bytes` by content (`import.md` §0), or the refusal at line 1. A CSV is
 /// never guessed: it needs `--format csv --map …`.
 pub fn detect(bytes: &[u8]) -> Result<Format, At> {
-    let text = text::Text::decode(bytes).map_err(|(line, m)| At::new(line, m))?;
+    let text =
+        crate::controller::text::Text::decode(bytes).map_err(|(line, m)| At::new(line, m))?;
     let lines = text.lines();
     let first = lines.first().map(|l| l.1.trim()).unwrap_or("");
     if first.starts_with("API X-D Laser Measurement Linear Data Table") {
@@ -183,43 +145,18 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
             Format::RenishawRtx
         });
     }
-    if bytes.starts_with(&[0xFF, 0xFE])
-        && first
-            .split(';')
-            .next()
-            .is_some_and(|h| tables::axis_heading(h).is_some())
-    {
-        return Ok(Format::Fagor8065);
-    }
-    if tables::fagor_8055_line(first).is_some() {
-        return Ok(Format::Fagor8055);
-    }
-    if first == "%_N_AX_EEC_INI" || first == "%_N_NC_CEC_INI" {
-        return Ok(Format::Siemens);
-    }
-    if first.starts_with("BEGIN ") && lines.get(1).is_some_and(|l| l.1.contains("AXISPOS")) {
-        return Ok(Format::Heidenhain);
-    }
-    if lines
-        .iter()
-        .take(60)
-        .any(|(_, l)| l.trim_start().starts_with("kw.ssfk."))
-    {
-        return Ok(Format::Isg);
-    }
-    if first == "%"
-        && lines
-            .iter()
-            .take(10)
-            .any(|(_, l)| l.trim_start().starts_with("(FANUC PITCH ERROR"))
-    {
-        return Ok(Format::Fanuc);
+    if let Some(d) = crate::controller::detect(bytes) {
+        return Ok(Format::Table(d.name()));
     }
     Err(At::new(
         1,
-        "not a recognised format (API XD .pos, Renishaw .rtl, Fagor 8055 AL<axis>, Fagor 8065 \
-         <axis>.mp, errmap's Siemens, HEIDENHAIN, ISG and FANUC tables); a spreadsheet or CSV \
-         needs --format csv --map …, a LinuxCNC table --format linuxcnc",
+        format!(
+            "not a recognised format (API XD .pos, Renishaw .rtl, or a {} table); a \
+             spreadsheet or CSV needs --format csv --map …, a table its content does not \
+             name --format {}",
+            crate::controller::names_where(|d| d.detects_by_content(), "or"),
+            crate::controller::names_where(|d| !d.detects_by_content(), "or"),
+        ),
     ))
 }
 
@@ -428,12 +365,7 @@ pub fn import_session(
             Format::ApiXd => Format::ApiXd,
             Format::RenishawRtl => Format::RenishawRtl,
             Format::RenishawRtx => Format::RenishawRtx,
-            f @ (Format::Fagor8055
-            | Format::Fagor8065
-            | Format::Siemens
-            | Format::Fanuc
-            | Format::Heidenhain
-            | Format::Isg) => {
+            f @ Format::Table(_) => {
                 return Err(At::new(
                     1,
                     format!(

@@ -19,10 +19,10 @@
 //! pass' direction is the order in which it lists its targets. Unknown sections
 //! (`EQUIPMENT::`, …) are skipped.
 
-use super::text::{Text, number};
 use super::units::HPA_PER_KPA;
 use super::{At, Env, ImportSummary, Imported, Reading, assemble, summary_counts};
 use crate::base::Axis;
+use crate::controller::text::{Text, number};
 
 /// One `Key : value` line of a section.
 #[derive(Debug)]

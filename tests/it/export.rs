@@ -6,10 +6,10 @@
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 
+use errmap::controller::{ExportFormat, LINUXCNC_MAX_ENTRIES, LinuxCncCompType, linuxcnc, siemens};
 use errmap::export::{
-    Controller, ExportError, ExportFormat, Extrapolation, FILE_RESOLUTION_MM, LINUXCNC_MAX_ENTRIES,
-    LineSpec, LinuxCncCompType, Sampled, VolumeSpec, csv, linuxcnc, sample_line, siemens,
-    write_grid,
+    ExportError, Extrapolation, FILE_RESOLUTION_MM, LineSpec, Sampled, VolumeSpec, csv,
+    sample_line, write_grid,
 };
 use errmap::interp::{Interpolator, Method, Order};
 use errmap::table::{Axis, ErrorTable, Grid};
@@ -189,7 +189,7 @@ fn linuxcnc_lines_are_nominal_forward_reverse_without_header() {
     let s = sample_line(&*model, &line_x(0.0, 800.0, 10.0), Extrapolation::Forbid)
         .expect("inside the map");
     for comp_type in [LinuxCncCompType::ActualPosition, LinuxCncCompType::Trim] {
-        let text = linuxcnc(&s, comp_type, None).expect("81 entries fit");
+        let text = linuxcnc::render(&s, comp_type, None).expect("81 entries fit");
         let rows = parse_linuxcnc(&text); // also proves: no header, no comments
         assert_eq!(rows.len(), 81);
         assert!(rows.len() <= LINUXCNC_MAX_ENTRIES);
@@ -221,8 +221,9 @@ fn linuxcnc_type0_and_type1_load_the_same_trims() {
     // usrmotLoadComp turns a type-0 value into the trim `nominal − value`.
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 20.0), Extrapolation::Forbid).expect("ok");
-    let t0 = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
-    let t1 = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let t0 =
+        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
+    let t1 = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
     for (a, b) in t0.iter().zip(&t1) {
         assert_eq!(a[0], b[0]);
         assert!(
@@ -240,7 +241,8 @@ fn linuxcnc_reverse_column_comes_from_the_reverse_line() {
     // Reverse-direction errors: the forward ones shifted by a 4 µm backlash.
     let mut rev = fwd.clone();
     rev.error_um.iter_mut().for_each(|e| *e -= 4.0);
-    let rows = parse_linuxcnc(&linuxcnc(&fwd, LinuxCncCompType::Trim, Some(&rev)).expect("ok"));
+    let rows =
+        parse_linuxcnc(&linuxcnc::render(&fwd, LinuxCncCompType::Trim, Some(&rev)).expect("ok"));
     for (i, row) in rows.iter().enumerate() {
         assert!((row[1] - fwd.error_um[i] * 1e-3).abs() < FILE_TOL_MM);
         assert!((row[2] - rev.error_um[i] * 1e-3).abs() < FILE_TOL_MM);
@@ -248,7 +250,7 @@ fn linuxcnc_reverse_column_comes_from_the_reverse_line() {
     }
     // A reverse line at other positions is refused.
     let other = sample_line(&*model, &line_x(0.0, 750.0, 50.0), Extrapolation::Forbid).expect("ok");
-    let e = linuxcnc(&fwd, LinuxCncCompType::Trim, Some(&other)).expect_err("mismatch");
+    let e = linuxcnc::render(&fwd, LinuxCncCompType::Trim, Some(&other)).expect_err("mismatch");
     assert!(matches!(e, ExportError::ReverseMismatch { .. }), "{e}");
 }
 
@@ -257,13 +259,13 @@ fn linuxcnc_refuses_more_than_256_entries_and_names_a_step_that_fits() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 1.0), Extrapolation::Forbid).expect("ok");
     assert_eq!(s.len(), 801);
-    let e = linuxcnc(&s, LinuxCncCompType::Trim, None).expect_err("801 > 256");
+    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("801 > 256");
     let msg = e.to_string();
     assert!(
         matches!(
             e,
             ExportError::TooManyEntries {
-                controller: Controller::LinuxCnc,
+                controller: linuxcnc::LABEL,
                 samples: 801,
                 limit: 256,
                 ..
@@ -276,7 +278,7 @@ fn linuxcnc_refuses_more_than_256_entries_and_names_a_step_that_fits() {
     assert!(msg.contains("at least 3.137255 mm"), "{msg}");
     assert!(msg.contains("e.g. 3.2 mm (251 entries)"), "{msg}");
     let s = sample_line(&*model, &line_x(0.0, 800.0, 3.2), Extrapolation::Forbid).expect("ok");
-    let rows = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::Trim, None).expect("fits"));
+    let rows = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("fits"));
     assert_eq!(rows.len(), 251);
 }
 
@@ -288,7 +290,7 @@ fn linuxcnc_refuses_more_than_256_entries_and_names_a_step_that_fits() {
 fn siemens_program_has_the_documented_keywords_and_a_consistent_table() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 10.0), Extrapolation::Forbid).expect("ok");
-    let text = siemens(&s, "X1", 200).expect("83 points fit 200");
+    let text = siemens::render(&s, "X1", 200).expect("83 points fit 200");
     let first = text.lines().next().expect("non-empty");
     assert_eq!(first, "%_N_AX_EEC_INI");
     for kw in [
@@ -327,13 +329,13 @@ fn siemens_program_has_the_documented_keywords_and_a_consistent_table() {
 fn siemens_refuses_tables_over_md38000_and_names_a_step_that_fits() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 10.0), Extrapolation::Forbid).expect("ok");
-    let e = siemens(&s, "X1", 80).expect_err("83 > 80");
+    let e = siemens::render(&s, "X1", 80).expect_err("83 > 80");
     let msg = e.to_string();
     assert!(
         matches!(
             e,
             ExportError::TooManyEntries {
-                controller: Controller::Siemens,
+                controller: siemens::LABEL,
                 samples: 81,
                 padding: 2,
                 limit: 80,
@@ -347,7 +349,7 @@ fn siemens_refuses_tables_over_md38000_and_names_a_step_that_fits() {
     // k ≤ 80 − 3 = 77 intervals; the smallest whole-µm step ≥ 800/77 dividing 800 is 12.5.
     assert!(msg.contains("e.g. 12.5 mm (67 entries)"), "{msg}");
     let s = sample_line(&*model, &line_x(0.0, 800.0, 12.5), Extrapolation::Forbid).expect("ok");
-    let t = parse_siemens(&siemens(&s, "X1", 80).expect("fits"), "X1");
+    let t = parse_siemens(&siemens::render(&s, "X1", 80).expect("fits"), "X1");
     assert_eq!(t.values_mm.len(), 67);
 }
 
@@ -356,12 +358,12 @@ fn siemens_refuses_bad_axis_names_and_uneven_samples() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 100.0), Extrapolation::Forbid).expect("ok");
     for bad in ["", "X1]=0\nM17", "1X", "X 1"] {
-        let e = siemens(&s, bad, 200).expect_err("bad name");
+        let e = siemens::render(&s, bad, 200).expect_err("bad name");
         assert!(matches!(e, ExportError::BadAxisName { .. }), "{bad:?}: {e}");
     }
     let mut uneven = s.clone();
     uneven.positions_mm[3] += 7.0;
-    let e = siemens(&uneven, "X1", 200).expect_err("not equidistant");
+    let e = siemens::render(&uneven, "X1", 200).expect_err("not equidistant");
     assert!(
         matches!(e, ExportError::NotEquidistant { index: 3, .. }),
         "{e}"
@@ -422,8 +424,8 @@ fn round_trip_compensation_leaves_fit_plus_table_interpolation_error() {
     let model = spline_model();
     let step = 10.0;
     let s = sample_line(&*model, &line_x(0.0, 800.0, step), Extrapolation::Forbid).expect("ok");
-    let lc = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::Trim, None).expect("ok"));
-    let sm = parse_siemens(&siemens(&s, "X1", 200).expect("ok"), "X1");
+    let lc = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let sm = parse_siemens(&siemens::render(&s, "X1", 200).expect("ok"), "X1");
     let [raw, lc_rms, sm_rms, fit] = apply(&*model, truth, &lc, &sm, 0.0, 800.0);
     // Linear interpolation of the table between entries h apart is off by at most
     // h²/8·max|e''|; the file's 1 nm rounding and the first-order lookup add < 0.002 µm.
@@ -461,13 +463,14 @@ fn round_trip_on_table_1_with_a_coarse_model() {
     let model = Method::Trilinear.fit(&grid).expect("trilinear");
     let truth = |p: [f64; 3]| machine.predict(p);
     let s = sample_line(&*model, &line_x(10.0, 790.0, 10.0), Extrapolation::Forbid).expect("ok");
-    let lc = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
+    let lc =
+        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
     // Type 0 → LinuxCNC's trim = nominal − actual.
     let lc: Vec<[f64; 3]> = lc
         .iter()
         .map(|r| [r[0], r[0] - r[1], r[0] - r[2]])
         .collect();
-    let sm = parse_siemens(&siemens(&s, "X1", 200).expect("ok"), "X1");
+    let sm = parse_siemens(&siemens::render(&s, "X1", 200).expect("ok"), "X1");
     let [raw, lc_rms, sm_rms, fit] = apply(&*model, truth, &lc, &sm, 10.0, 790.0);
     eprintln!("table 1: raw {raw:.4} µm, linuxcnc {lc_rms:.4}, siemens {sm_rms:.4}, fit {fit:.4}");
     // The trilinear model is piecewise linear along x with 200 mm cells, so the 10 mm
@@ -510,9 +513,10 @@ fn error_k_times_x_gets_compensation_minus_k_times_x() {
             -k * x
         );
     }
-    let t0 = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
-    let t1 = parse_linuxcnc(&linuxcnc(&s, LinuxCncCompType::Trim, None).expect("ok"));
-    let sm = parse_siemens(&siemens(&s, "X1", 200).expect("ok"), "X1");
+    let t0 =
+        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
+    let t1 = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let sm = parse_siemens(&siemens::render(&s, "X1", 200).expect("ok"), "X1");
     for (i, &x) in s.positions_mm.iter().enumerate() {
         let c_mm = -k * x * 1e-3;
         // Actual position falls short of nominal by k·x; the trim commands k·x further;
@@ -712,7 +716,7 @@ fn samples_built_by_hand_are_checked() {
         error_um: vec![1.0, 2.0, 3.0],
         extrapolated: vec![false; 3],
     };
-    let e = linuxcnc(&s, LinuxCncCompType::Trim, None).expect_err("repeated nominal");
+    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("repeated nominal");
     assert!(
         matches!(e, ExportError::NotIncreasing { index: 2, .. }),
         "{e}"
@@ -722,7 +726,7 @@ fn samples_built_by_hand_are_checked() {
         error_um: vec![1.0],
         ..s
     };
-    let e = linuxcnc(&s, LinuxCncCompType::Trim, None).expect_err("lengths");
+    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("lengths");
     assert!(matches!(e, ExportError::LengthMismatch { .. }), "{e}");
     let s = Sampled {
         positions_mm: vec![0.0, 10.0],
@@ -730,7 +734,7 @@ fn samples_built_by_hand_are_checked() {
         extrapolated: vec![false; 2],
         ..s
     };
-    let e = siemens(&s, "X1", 200).expect_err("NaN");
+    let e = siemens::render(&s, "X1", 200).expect_err("NaN");
     assert!(
         matches!(e, ExportError::NonFiniteSample { index: 1, .. }),
         "{e}"
@@ -740,7 +744,7 @@ fn samples_built_by_hand_are_checked() {
         error_um: vec![1.0, 1.0],
         ..s
     };
-    let e = siemens(&s, "X1", 200).expect_err("step 3.333…");
+    let e = siemens::render(&s, "X1", 200).expect_err("step 3.333…");
     assert!(matches!(e, ExportError::StepNotRepresentable { .. }), "{e}");
 }
 
@@ -947,7 +951,7 @@ fn siemens_direction_dependent_tables_round_trip_both_directions() {
     };
     match small.render_line(&up, Some(&down)).expect_err("refused") {
         ExportError::TooManyEntries {
-            controller: Controller::Siemens,
+            controller: siemens::LABEL,
             samples: 41,
             padding: 2,
             limit: 42,
@@ -967,7 +971,7 @@ fn siemens_direction_dependent_tables_round_trip_both_directions() {
     assert!(matches!(
         last.render_line(&up, Some(&down)),
         Err(ExportError::ControllerLimit {
-            controller: Controller::Siemens,
+            controller: siemens::LABEL,
             ..
         })
     ));

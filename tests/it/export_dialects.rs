@@ -8,11 +8,11 @@
 
 use std::f64::consts::TAU;
 
-use errmap::export::fanuc::{self, FanucSpec};
-use errmap::export::isg::{self, IsgAxis};
+use errmap::controller::fanuc::{self, FanucSpec};
+use errmap::controller::isg::{self, IsgAxis};
+use errmap::controller::{ExportFormat, heidenhain};
 use errmap::export::{
-    Controller, Ends, ExportError, ExportFormat, Extrapolation, LineSpec, Sampled, StepFit,
-    heidenhain, sample_line_fit,
+    Ends, ExportError, Extrapolation, LineSpec, Sampled, StepFit, sample_line_fit,
 };
 use errmap::interp::Method;
 use errmap::table::{Axis, Grid};
@@ -60,7 +60,7 @@ fn spline_of_truth() -> Box<dyn errmap::interp::Interpolator> {
     Method::Spline.fit(&g).expect("fits")
 }
 
-fn limit_problem(e: ExportError, controller: Controller) -> String {
+fn limit_problem(e: ExportError, controller: &str) -> String {
     match e {
         ExportError::ControllerLimit {
             controller: c,
@@ -275,7 +275,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         fanuc::table(&s, None, &spec).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     assert!(
         p.contains("up to 80") && p.contains("beyond the control's 50"),
@@ -290,7 +290,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         fanuc::table(&s, None, &fine).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     let needed: u32 = p
         .split("at least ")
@@ -316,7 +316,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         fanuc::table(&s, None, &off).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     assert!(
         p.contains("not one of its points") && p.contains("--ends"),
@@ -328,7 +328,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         fanuc::table(&s, None, &outside).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     assert!(p.contains("outside the table"), "{p}");
     // 3620 too small for the 20 points (0…380 mm every 20 mm) below the reference.
@@ -339,7 +339,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         fanuc::table(&s, None, &mid).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     assert!(p.contains("at least 19"), "{p}");
     // One interval only: uneven points are refused.
@@ -357,7 +357,7 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
     assert!(
         limit_problem(
             fanuc::table(&s, None, &zero).expect_err("refused"),
-            Controller::Fanuc
+            fanuc::LABEL
         )
         .contains("3623")
     );
@@ -412,7 +412,7 @@ fn fanuc_bidirectional_table_keeps_the_reversal() {
     };
     let p = limit_problem(
         fanuc::table(&up, Some(&down), &clash).expect_err("refused"),
-        Controller::Fanuc,
+        fanuc::LABEL,
     );
     assert!(p.contains("overlap"), "{p}");
 }
@@ -515,7 +515,7 @@ fn heidenhain_refuses_what_the_control_cannot_hold() {
     for (key, name) in [("X Y", "X.COM"), ("X", "../X.COM"), ("", "X.COM")] {
         let p = limit_problem(
             heidenhain::render(&s, key, name, 256).expect_err("refused"),
-            Controller::Heidenhain,
+            heidenhain::LABEL,
         );
         assert!(p.contains("must be letters"), "{p}");
     }
@@ -527,7 +527,8 @@ fn heidenhain_refuses_what_the_control_cannot_hold() {
     assert!(matches!(
         format.render_line(&s, Some(&s)),
         Err(ExportError::ReverseUnsupported {
-            format: "heidenhain"
+            format: "heidenhain",
+            ..
         })
     ));
 }
@@ -704,7 +705,7 @@ fn isg_refuses_what_the_control_cannot_hold() {
     };
     let p = limit_problem(
         isg::render(&s, None, &bad).expect_err("refused"),
-        Controller::Isg,
+        isg::LABEL,
     );
     assert!(p.contains("axis name"), "{p}");
     // Unilateral: bilateral 0 and neg = pos.
@@ -927,7 +928,7 @@ fn fanuc_point_numbers_near_the_u32_limit_are_refused_not_overflowed() {
     ] {
         let p = limit_problem(
             fanuc::table(&s, Some(&s), &spec).expect_err("refused"),
-            Controller::Fanuc,
+            fanuc::LABEL,
         );
         assert!(p.contains("compensation point numbers up to"), "{p}");
     }

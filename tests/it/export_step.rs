@@ -7,8 +7,9 @@ use crate::util::{errmap_in, root};
 use std::path::Path;
 use std::process::Output;
 
+use errmap::controller::siemens;
 use errmap::export::{
-    Ends, ExportError, Extrapolation, LineSpec, StepFit, sample_line, sample_line_fit, siemens,
+    Ends, ExportError, Extrapolation, LineSpec, StepFit, sample_line, sample_line_fit,
 };
 use errmap::interp::{Interpolator, Method};
 use errmap::table::{Axis, Grid};
@@ -102,7 +103,7 @@ fn a_round_grid_through_the_reference_clamps_or_extrapolates_its_ends() {
     }
     // Round trip through the Siemens table: the controller's linear interpolation of the
     // extrapolated grid gives −e exactly everywhere in the range (e is affine).
-    let text = siemens(&ex, "X1", 200).expect("renders");
+    let text = siemens::render(&ex, "X1", 200).expect("renders");
     let value = |key: &str| -> f64 {
         text.lines()
             .find_map(|l| l.strip_prefix(&format!("$AA_ENC_COMP_{key}[0,X1]=")))
@@ -158,7 +159,7 @@ fn the_divide_rule_accepts_its_own_rounded_suggestion() {
         );
     }
     assert!((s.positions_mm[267] - 800.0).abs() <= 267.0 * 0.5e-6);
-    siemens(&s, "X1", 300).expect("Siemens writes it: one STEP");
+    siemens::render(&s, "X1", 300).expect("Siemens writes it: one STEP");
 }
 
 proptest! {

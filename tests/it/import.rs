@@ -6,7 +6,8 @@
 
 use std::path::{Path, PathBuf};
 
-use errmap::import::{self, ImportOptions, LengthUnit, SessionFormat, TableFormat};
+use errmap::controller::TableFormat;
+use errmap::import::{self, ImportOptions, LengthUnit, SessionFormat};
 
 use crate::util::{errmap, s, stderr};
 
@@ -634,7 +635,7 @@ fn real_fagor_tables_read_back() {
         assert_eq!((t.points[26].x_mm, t.points[26].e_um), (3302.0, -495.808));
     }
     if let Some(f) = real("table_xmp_import/X.mp") {
-        let t = import::tables::read(
+        let t = errmap::controller::read(
             &std::fs::read(&f).expect("read"),
             TableFormat::Fagor8065 {
                 units: LengthUnit::Mm,
@@ -792,7 +793,7 @@ fn real_tables_updated_in_their_own_layout() {
             "--json",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
-        let t = import::tables::read(
+        let t = errmap::controller::read(
             &std::fs::read(&out).expect("new"),
             TableFormat::Fagor8065 {
                 units: LengthUnit::Mm,
@@ -800,7 +801,7 @@ fn real_tables_updated_in_their_own_layout() {
         )
         .expect("reads back");
         assert!(t.bidirectional, "BIDIR 1");
-        let old = import::tables::read(
+        let old = errmap::controller::read(
             &std::fs::read(&table).expect("old"),
             TableFormat::Fagor8065 {
                 units: LengthUnit::Mm,
@@ -808,7 +809,7 @@ fn real_tables_updated_in_their_own_layout() {
         )
         .expect("old");
         let rows = errmap::session::read_session(&session).expect("session");
-        let r = import::Residual::from_session(&rows, true).expect("residual");
+        let r = errmap::controller::Residual::from_session(&rows, true).expect("residual");
         for (n, o) in t.points.iter().zip(&old.points) {
             if let Some((up, down)) = r.at(o.position_mm) {
                 assert!(
@@ -829,7 +830,8 @@ fn real_tables_updated_in_their_own_layout() {
 /// file back.
 #[test]
 fn linuxcnc_export_import_round_trip() {
-    use errmap::export::{LinuxCncCompType, Sampled, linuxcnc};
+    use errmap::controller::{LinuxCncCompType, linuxcnc};
+    use errmap::export::Sampled;
     let positions = vec![-10.0, 0.0, 25.0, 60.0];
     let up = vec![1.5, 0.0, -2.25, 4.0];
     let down = vec![0.5, -1.0, -3.0, 3.5];
@@ -846,8 +848,8 @@ fn linuxcnc_export_import_round_trip() {
         down.clone(),
     );
     for comp_type in [LinuxCncCompType::Trim, LinuxCncCompType::ActualPosition] {
-        let text = linuxcnc(&f, comp_type, Some(&r)).expect("render");
-        let t = import::tables::read(
+        let text = linuxcnc::render(&f, comp_type, Some(&r)).expect("render");
+        let t = errmap::controller::read(
             text.as_bytes(),
             TableFormat::LinuxCnc {
                 comp_type,
@@ -860,21 +862,21 @@ fn linuxcnc_export_import_round_trip() {
             assert!((p.e_up_um - up[i]).abs() < 1e-6, "{comp_type:?} {i}");
             assert!((p.e_down_um - down[i]).abs() < 1e-6);
         }
-        let zero = import::Residual {
+        let zero = errmap::controller::Residual {
             axis: errmap::base::Axis::X,
             positions_mm: positions.clone(),
             up_um: vec![0.0; 4],
             down_um: vec![0.0; 4],
         };
-        let u = import::update_table(&t, &zero, true).expect("update");
+        let u = errmap::controller::update_table(&t, &zero, true).expect("update");
         assert_eq!(u.bytes, text.as_bytes());
         // +1 µm everywhere moving up: the forward column moves by 1e-3 mm.
-        let one = import::Residual {
+        let one = errmap::controller::Residual {
             up_um: vec![1.0; 4],
             ..zero
         };
-        let u = import::update_table(&t, &one, true).expect("update");
-        let t2 = import::tables::read(
+        let u = errmap::controller::update_table(&t, &one, true).expect("update");
+        let t2 = errmap::controller::read(
             &u.bytes,
             TableFormat::LinuxCnc {
                 comp_type,
@@ -894,12 +896,18 @@ fn linuxcnc_export_import_round_trip() {
 #[test]
 fn detection_is_by_content() {
     let fagor = b"      P001          X    0.00000       EX    0.00000        EX    0.00000\r\n";
-    assert_eq!(import::detect(fagor), Ok(import::Format::Fagor8055));
+    assert_eq!(
+        import::detect(fagor),
+        Ok(import::Format::Table("fagor-8055"))
+    );
     let mut utf16 = vec![0xFF, 0xFE];
     for u in "Y AXIS      ;3100\r\n".encode_utf16() {
         utf16.extend_from_slice(&u.to_le_bytes());
     }
-    assert_eq!(import::detect(&utf16), Ok(import::Format::Fagor8065));
+    assert_eq!(
+        import::detect(&utf16),
+        Ok(import::Format::Table("fagor-8065"))
+    );
     let e = import::detect(b"a,b\n1,2\n").expect_err("csv is not guessed");
     assert_eq!(e.line, 1);
     assert!(e.message.contains("not a recognised format"));
@@ -911,7 +919,8 @@ fn detection_is_by_content() {
 /// inch, 0.05 µm in mm).
 #[test]
 fn fagor_8055_golden_text_and_round_trip() {
-    use errmap::export::{ExportFormat, Fagor8055Spec, Sampled};
+    use errmap::controller::{ExportFormat, Fagor8055Spec};
+    use errmap::export::Sampled;
     let pos = vec![0.0, 127.0, 254.0];
     let up = vec![0.0, -32.258, 25.4];
     let down = vec![1.27, 0.0, -2.54];
@@ -945,8 +954,8 @@ fn fagor_8055_golden_text_and_round_trip() {
         } else {
             LengthUnit::Mm
         };
-        let t =
-            import::tables::read(text.as_bytes(), TableFormat::Fagor8055 { units }).expect("reads");
+        let t = errmap::controller::read(text.as_bytes(), TableFormat::Fagor8055 { units })
+            .expect("reads");
         assert_eq!(t.axis, Some(errmap::base::Axis::Y));
         assert!(!t.bidirectional, "no reverse line: one table");
         for (i, p) in t.points.iter().enumerate() {
@@ -986,7 +995,7 @@ fn fagor_8055_golden_text_and_round_trip() {
     args.extend_from_slice(&["--units", "mm"]);
     let o = errmap(&args);
     assert!(o.status.success(), "{}", stderr(&o));
-    let t = import::tables::read(
+    let t = errmap::controller::read(
         &std::fs::read(&out).expect("ALX"),
         TableFormat::Fagor8055 {
             units: LengthUnit::Mm,

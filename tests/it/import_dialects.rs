@@ -8,8 +8,11 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use errmap::base::Axis;
-use errmap::export::{self, FanucSpec, IsgAxis, Sampled};
-use errmap::import::{self, ControllerTable, LengthUnit, Residual, TableFormat};
+use errmap::controller;
+use errmap::controller::{ControllerTable, LengthUnit, Residual, TableFormat};
+use errmap::controller::{FanucSpec, IsgAxis};
+use errmap::export::Sampled;
+use errmap::import;
 
 fn errmap(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_errmap"))
@@ -32,7 +35,7 @@ fn line(pos: &[f64], e: &[f64]) -> Sampled {
 }
 
 fn read(bytes: &[u8], f: TableFormat) -> ControllerTable {
-    import::tables::read(bytes, f).unwrap_or_else(|e| panic!("{f:?} reads back: {e:?}"))
+    errmap::controller::read(bytes, f).unwrap_or_else(|e| panic!("{f:?} reads back: {e:?}"))
 }
 
 fn residual(pos: &[f64], up: &[f64], down: &[f64]) -> Residual {
@@ -67,7 +70,7 @@ fn round_trip(bytes: &[u8], f: TableFormat, pos: &[f64], up: &[f64], down: &[f64
     }
     let zero = residual(pos, &vec![0.0; pos.len()], &vec![0.0; pos.len()]);
     for bidir in [false, t.bidirectional] {
-        let u = import::update_table(&t, &zero, bidir).expect("zero update");
+        let u = errmap::controller::update_table(&t, &zero, bidir).expect("zero update");
         assert_eq!(u.bytes, bytes, "{f:?}: a zero residual gives the file back");
         assert_eq!(u.summary.max_change_um, 0.0);
     }
@@ -82,11 +85,11 @@ const DOWN: [f64; 3] = [2.0, -1.0, 2.5];
 /// reader and its update.
 #[test]
 fn fagor_8065_golden_text_round_trip_and_the_real_files_widths() {
-    let spec = export::Fagor8055Spec {
+    let spec = controller::Fagor8055Spec {
         axis_letter: 'X',
         inch: false,
     };
-    let fmt = export::ExportFormat::Fagor8065 { spec };
+    let fmt = controller::ExportFormat::Fagor8065 { spec };
     let text = fmt
         .render_line(&line(&POS, &UP), Some(&line(&POS, &DOWN)))
         .expect("render");
@@ -118,7 +121,10 @@ fn fagor_8065_golden_text_round_trip_and_the_real_files_widths() {
         .render_bytes(&line(&POS, &UP), Some(&line(&POS, &DOWN)))
         .expect("bytes");
     assert_eq!(&bytes[..4], &[0xFF, 0xFE, b'X', 0]);
-    assert_eq!(import::detect(&bytes), Ok(import::Format::Fagor8065));
+    assert_eq!(
+        import::detect(&bytes),
+        Ok(import::Format::Table("fagor-8065"))
+    );
     let f = TableFormat::Fagor8065 {
         units: LengthUnit::Mm,
     };
@@ -130,7 +136,7 @@ fn fagor_8065_golden_text_round_trip_and_the_real_files_widths() {
     round_trip(&one, f, &POS, &UP, &UP, 0.05 + 1e-9);
     // A known residual: +0.5 µm moving up, −1 µm moving down at every target.
     let r = residual(&POS, &[0.5; 3], &[-1.0; 3]);
-    let u = import::update_table(&read(&bytes, f), &r, true).expect("update");
+    let u = errmap::controller::update_table(&read(&bytes, f), &r, true).expect("update");
     let t2 = read(&u.bytes, f);
     let up: Vec<f64> = t2.points.iter().map(|p| p.up_file).collect();
     let down: Vec<f64> = t2.points.iter().map(|p| p.down_file).collect();
@@ -223,7 +229,7 @@ fn fagor_8065_from_the_cli() {
 /// direction-dependent CEC tables: round trip and a known update.
 #[test]
 fn siemens_round_trip_and_update() {
-    let text = export::siemens(&line(&POS, &UP), "X1", 200).expect("render");
+    let text = controller::siemens::render(&line(&POS, &UP), "X1", 200).expect("render");
     let padded = [-10.0, 0.0, 10.0, 20.0, 30.0];
     let up = [0.0, 1.0, -2.0, 3.0, 0.0];
     round_trip(
@@ -234,10 +240,14 @@ fn siemens_round_trip_and_update() {
         &up,
         1e-9,
     );
-    assert_eq!(import::detect(text.as_bytes()), Ok(import::Format::Siemens));
+    assert_eq!(
+        import::detect(text.as_bytes()),
+        Ok(import::Format::Table("siemens"))
+    );
     let t = read(text.as_bytes(), TableFormat::Siemens);
     assert!(t.one_column && !t.bidirectional);
-    let u = import::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false)
+        .expect("update");
     let new = String::from_utf8(u.bytes).expect("text");
     for l in [
         "$AA_ENC_COMP[0,0,X1]=0.0",
@@ -255,10 +265,12 @@ fn siemens_round_trip_and_update() {
         "the pads keep their zeros"
     );
     // One value per point: --bidirectional is refused.
-    assert!(import::update_table(&t, &residual(&POS, &[0.5; 3], &[0.0; 3]), true).is_err());
+    assert!(
+        errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[0.0; 3]), true).is_err()
+    );
     // CEC: two tables, DIRECTION 1 and −1.
     let cec =
-        export::siemens::render_bidirectional(&line(&POS, &UP), &line(&POS, &DOWN), 1, 0, 200)
+        controller::siemens::render_bidirectional(&line(&POS, &UP), &line(&POS, &DOWN), 1, 0, 200)
             .expect("render");
     let down = [0.0, 2.0, -1.0, 2.5, 0.0];
     round_trip(
@@ -271,7 +283,8 @@ fn siemens_round_trip_and_update() {
     );
     let t = read(cec.as_bytes(), TableFormat::Siemens);
     assert!(t.bidirectional);
-    let u = import::update_table(&t, &residual(&POS, &[0.5; 3], &[-1.0; 3]), true).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[-1.0; 3]), true)
+        .expect("update");
     let t2 = read(&u.bytes, TableFormat::Siemens);
     let e_down: Vec<f64> = t2.points.iter().map(|p| p.e_down_um).collect();
     assert_eq!(e_down, [0.0, 1.0, -2.0, 1.5, 0.0]);
@@ -280,7 +293,7 @@ fn siemens_round_trip_and_update() {
 /// HEIDENHAIN `.COM`: round trip, the `+` sign and a known update.
 #[test]
 fn heidenhain_round_trip_and_update() {
-    let text = export::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("render");
+    let text = controller::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("render");
     round_trip(
         text.as_bytes(),
         TableFormat::Heidenhain,
@@ -291,11 +304,12 @@ fn heidenhain_round_trip_and_update() {
     );
     assert_eq!(
         import::detect(text.as_bytes()),
-        Ok(import::Format::Heidenhain)
+        Ok(import::Format::Table("heidenhain"))
     );
     let t = read(text.as_bytes(), TableFormat::Heidenhain);
     assert_eq!(t.axis, Some(Axis::X));
-    let u = import::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false)
+        .expect("update");
     let new = String::from_utf8(u.bytes).expect("text");
     let want: Vec<String> = [
         ("0", "+0.0", "-0.0015"),
@@ -318,7 +332,7 @@ fn isg_round_trip_and_update() {
         name: "X".into(),
         max_points: 1500,
     };
-    let one = export::isg::render(&line(&POS, &UP), None, &axis).expect("render");
+    let one = controller::isg::render(&line(&POS, &UP), None, &axis).expect("render");
     round_trip(
         one.as_bytes(),
         TableFormat::Isg,
@@ -327,9 +341,12 @@ fn isg_round_trip_and_update() {
         &UP,
         0.05 + 1e-9,
     );
-    assert_eq!(import::detect(one.as_bytes()), Ok(import::Format::Isg));
+    assert_eq!(
+        import::detect(one.as_bytes()),
+        Ok(import::Format::Table("isg"))
+    );
     let bil =
-        export::isg::render(&line(&POS, &UP), Some(&line(&POS, &DOWN)), &axis).expect("render");
+        controller::isg::render(&line(&POS, &UP), Some(&line(&POS, &DOWN)), &axis).expect("render");
     round_trip(
         bil.as_bytes(),
         TableFormat::Isg,
@@ -339,7 +356,8 @@ fn isg_round_trip_and_update() {
         0.05 + 1e-9,
     );
     let t = read(one.as_bytes(), TableFormat::Isg);
-    let u = import::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[0.5; 3]), false)
+        .expect("update");
     let new = String::from_utf8(u.bytes).expect("text");
     let value = |k: &str| {
         new.lines()
@@ -351,7 +369,8 @@ fn isg_round_trip_and_update() {
     assert_eq!(value("kw.ssfk.table[1].pos"), "15");
     assert_eq!(value("kw.ssfk.table[1].neg"), "15");
     assert_eq!(value("kw.ssfk.bilateral"), "0");
-    let u = import::update_table(&t, &residual(&POS, &[0.5; 3], &[-1.0; 3]), true).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&POS, &[0.5; 3], &[-1.0; 3]), true)
+        .expect("update");
     let t2 = read(&u.bytes, TableFormat::Isg);
     assert!(t2.bidirectional);
     let down: Vec<f64> = t2.points.iter().map(|p| p.e_down_um).collect();
@@ -366,16 +385,19 @@ fn fanuc_round_trip_and_update() {
     let up = [-1.0, 0.0, 2.0, 3.0, 1.0];
     let down = [1.0, 2.0, 3.0, 5.0, 4.0];
     let spec = FanucSpec::default();
-    let text = export::fanuc::render(&line(&pos, &up), None, &spec).expect("render");
-    assert_eq!(import::detect(text.as_bytes()), Ok(import::Format::Fanuc));
+    let text = controller::fanuc::render(&line(&pos, &up), None, &spec).expect("render");
+    assert_eq!(
+        import::detect(text.as_bytes()),
+        Ok(import::Format::Table("fanuc"))
+    );
     round_trip(text.as_bytes(), TableFormat::Fanuc, &pos, &up, &up, 1e-9);
-    let bi =
-        export::fanuc::render(&line(&pos, &up), Some(&line(&pos, &down)), &spec).expect("render");
+    let bi = controller::fanuc::render(&line(&pos, &up), Some(&line(&pos, &down)), &spec)
+        .expect("render");
     round_trip(bi.as_bytes(), TableFormat::Fanuc, &pos, &up, &down, 1e-9);
     // r = +1 µm from 10 mm on: one increment changes (the section ending at 10 mm).
     let t = read(text.as_bytes(), TableFormat::Fanuc);
     let r = residual(&pos, &[0.0, 0.0, 1.0, 1.0, 1.0], &[0.0; 5]);
-    let u = import::update_table(&t, &r, false).expect("update");
+    let u = errmap::controller::update_table(&t, &r, false).expect("update");
     let changed: Vec<(&str, &str)> = text
         .lines()
         .zip(std::str::from_utf8(&u.bytes).expect("text").lines())
@@ -387,7 +409,8 @@ fn fanuc_round_trip_and_update() {
     assert_eq!(e, [-1.0, 0.0, 3.0, 4.0, 2.0]);
     // Both directions: r⁻ = −2 µm everywhere moves the reverse curve and 3627.
     let t = read(bi.as_bytes(), TableFormat::Fanuc);
-    let u = import::update_table(&t, &residual(&pos, &[0.0; 5], &[-2.0; 5]), true).expect("update");
+    let u = errmap::controller::update_table(&t, &residual(&pos, &[0.0; 5], &[-2.0; 5]), true)
+        .expect("update");
     let t2 = read(&u.bytes, TableFormat::Fanuc);
     let d: Vec<f64> = t2.points.iter().map(|p| p.e_down_um).collect();
     assert_eq!(d, [-1.0, 0.0, 1.0, 3.0, 2.0]);
@@ -398,7 +421,9 @@ fn fanuc_round_trip_and_update() {
     );
     // A one-direction table cannot become two.
     let t = read(text.as_bytes(), TableFormat::Fanuc);
-    assert!(import::update_table(&t, &residual(&pos, &[0.0; 5], &[1.0; 5]), true).is_err());
+    assert!(
+        errmap::controller::update_table(&t, &residual(&pos, &[0.0; 5], &[1.0; 5]), true).is_err()
+    );
 }
 
 /// The CLI: `import --format …` writes the error table; `export --existing` with a zero
@@ -423,19 +448,19 @@ fn every_dialect_through_the_cli() {
     let files: Vec<(&str, String)> = vec![
         (
             "siemens",
-            export::siemens(&line(&POS, &UP), "X1", 200).expect("siemens"),
+            controller::siemens::render(&line(&POS, &UP), "X1", 200).expect("siemens"),
         ),
         (
             "heidenhain",
-            export::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("h"),
+            controller::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("h"),
         ),
         (
             "isg",
-            export::isg::render(&line(&POS, &UP), None, &axis).expect("isg"),
+            controller::isg::render(&line(&POS, &UP), None, &axis).expect("isg"),
         ),
         (
             "fanuc",
-            export::fanuc::render(&line(&POS, &UP), None, &FanucSpec::default()).expect("f"),
+            controller::fanuc::render(&line(&POS, &UP), None, &FanucSpec::default()).expect("f"),
         ),
     ];
     for (format, text) in files {
@@ -512,10 +537,11 @@ fn broken_dialect_files_name_their_line() {
         name: "X".into(),
         max_points: 1500,
     };
-    let siemens = export::siemens(&line(&POS, &UP), "X1", 200).expect("siemens");
-    let heid = export::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("h");
-    let isg = export::isg::render(&line(&POS, &UP), None, &axis).expect("isg");
-    let fanuc = export::fanuc::render(&line(&POS, &UP), None, &FanucSpec::default()).expect("f");
+    let siemens = controller::siemens::render(&line(&POS, &UP), "X1", 200).expect("siemens");
+    let heid = controller::heidenhain::render(&line(&POS, &UP), "X", "X.COM", 256).expect("h");
+    let isg = controller::isg::render(&line(&POS, &UP), None, &axis).expect("isg");
+    let fanuc =
+        controller::fanuc::render(&line(&POS, &UP), None, &FanucSpec::default()).expect("f");
     let n = |t: &str, what: &str| t.lines().position(|l| l.contains(what)).expect(what) + 1;
     let cut = |t: &str, what: &str| {
         t.lines()
@@ -617,7 +643,7 @@ fn broken_dialect_files_name_their_line() {
                 "{what}: the file was changed"
             );
         }
-        match import::tables::read(text.as_bytes(), *f) {
+        match errmap::controller::read(text.as_bytes(), *f) {
             Ok(_) => panic!("{what}: read\n{text}"),
             Err(e) => {
                 assert_eq!(e.line, *line, "{what}: {e:?}\n{text}");
@@ -648,4 +674,327 @@ fn broken_dialect_files_name_their_line() {
         stderr(&o)
     );
     assert!(!out.exists());
+}
+
+/// Issue 40 item 7: `export --existing` refuses a session of another axis than the
+/// table's in every dialect (Siemens, FANUC and LinuxCNC took a Y session for an X
+/// table), exit 1 and nothing written; the same session along X is taken.
+#[test]
+fn every_dialect_refuses_a_session_of_another_axis() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let session = |axis: char| {
+        let p = dir.path().join(format!("s_{axis}.csv"));
+        let mut t = String::from(
+            "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
+        );
+        for (k, q) in POS.iter().enumerate() {
+            let (x, y) = if axis == 'X' { (*q, 0.0) } else { (0.0, *q) };
+            t.push_str(&format!("1,{k},{k},{axis},1,,{k},{x},{y},0,{q},{q},0,0\n"));
+        }
+        std::fs::write(&p, t).expect("session");
+        p
+    };
+    let (sx, sy) = (session('X'), session('Y'));
+    let fwd = line(&POS, &UP);
+    let fagor = controller::Fagor8055Spec {
+        axis_letter: 'X',
+        inch: false,
+    };
+    let isg = IsgAxis {
+        number: 1,
+        name: "X".into(),
+        max_points: 1500,
+    };
+    let files: Vec<(&str, Vec<u8>, &[&str])> = vec![
+        (
+            "siemens",
+            controller::siemens::render(&fwd, "X1", 200)
+                .expect("siemens")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "fanuc",
+            controller::fanuc::render(&fwd, None, &FanucSpec::default())
+                .expect("fanuc")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "linuxcnc",
+            controller::linuxcnc::render(&fwd, controller::LinuxCncCompType::Trim, None)
+                .expect("linuxcnc")
+                .into_bytes(),
+            &["--comp-type", "trim"],
+        ),
+        (
+            "heidenhain",
+            controller::heidenhain::render(&fwd, "X", "X.COM", 256)
+                .expect("heidenhain")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "isg",
+            controller::isg::render(&fwd, None, &isg)
+                .expect("isg")
+                .into_bytes(),
+            &[],
+        ),
+        (
+            "fagor-8055",
+            controller::fagor::render_8055(&fwd, None, &fagor)
+                .expect("8055")
+                .into_bytes(),
+            &["--units", "mm"],
+        ),
+        (
+            "fagor-8065",
+            controller::fagor::encode_8065(
+                &controller::fagor::render_8065(&fwd, None, &fagor).expect("8065"),
+            ),
+            &[],
+        ),
+    ];
+    for (format, bytes, extra) in files {
+        let f = dir.path().join(format!("{format}.table"));
+        std::fs::write(&f, &bytes).expect("write");
+        for (sess, ok) in [(&sx, true), (&sy, false)] {
+            let new = dir.path().join(format!("{format}-{ok}.new"));
+            let mut args = vec![
+                "export",
+                s(sess),
+                "--existing",
+                s(&f),
+                "--format",
+                format,
+                "--out",
+                s(&new),
+            ];
+            args.extend_from_slice(extra);
+            let o = errmap(&args);
+            if ok {
+                assert!(o.status.success(), "{format}: {}", stderr(&o));
+                assert_eq!(std::fs::read(&new).expect("new"), bytes, "{format}");
+            } else {
+                assert_eq!(o.status.code(), Some(1), "{format}: {}", stderr(&o));
+                assert!(
+                    stderr(&o).contains("the session measures y but the table is for x"),
+                    "{format}: {}",
+                    stderr(&o)
+                );
+                assert!(!new.exists(), "{format}: nothing written");
+            }
+        }
+    }
+    // A LinuxCNC file names no axis: the Y session updates it as the table of --axis y.
+    let f = dir.path().join("linuxcnc.table");
+    let new = dir.path().join("linuxcnc-y.new");
+    let o = errmap(&[
+        "export",
+        s(&sy),
+        "--existing",
+        s(&f),
+        "--format",
+        "linuxcnc",
+        "--comp-type",
+        "trim",
+        "--axis",
+        "y",
+        "--out",
+        s(&new),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Issue 40 item 7: on a FANUC table, a point outside the measured targets keeps its
+/// value. The residual's value at the reference position is a datum offset the table
+/// cannot hold; it was subtracted from the kept points too, so the point at −50 mm,
+/// 0 µm, read back −1 µm. Now the kept points read back as they were, and the measured
+/// ones as e + r − r(reference).
+#[test]
+fn fanuc_points_outside_the_session_keep_their_values() {
+    let pos = [-100.0, -50.0, 0.0, 50.0, 100.0];
+    let up = [0.0; 5];
+    let text = controller::fanuc::render(&line(&pos, &up), None, &FanucSpec::default()).expect("f");
+    let t = read(text.as_bytes(), TableFormat::Fanuc);
+    // Measured from 0 to 100 mm: r = 0.6 µm at the reference, 2.6 µm at 100 mm.
+    let r = residual(&[0.0, 50.0, 100.0], &[0.6, 1.6, 2.6], &[0.6, 1.6, 2.6]);
+    let u = errmap::controller::update_table(&t, &r, false).expect("update");
+    assert_eq!(u.summary.outside_mm, [-100.0, -50.0]);
+    let t2 = read(&u.bytes, TableFormat::Fanuc);
+    let e: Vec<f64> = t2.points.iter().map(|p| p.e_up_um).collect();
+    assert_eq!(e, [0.0, 0.0, 0.0, 1.0, 2.0]);
+}
+
+/// Issue 34: one registry names every dialect once; `--format`, the detection and the
+/// messages that list dialects come from it (export's reverse-line refusal used to name
+/// no Fagor format, though both Fagor tables hold a reverse line).
+#[test]
+fn the_registry_names_every_dialect_and_its_messages_list_them() {
+    let names: Vec<&str> = controller::DIALECTS.iter().map(|d| d.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "linuxcnc",
+            "siemens",
+            "fanuc",
+            "heidenhain",
+            "isg",
+            "fagor-8055",
+            "fagor-8065"
+        ]
+    );
+    for d in controller::DIALECTS {
+        assert_eq!(
+            controller::dialect(d.name()).map(|x| x.name()),
+            Some(d.name())
+        );
+        for a in d.aliases() {
+            assert_eq!(controller::dialect(a).map(|x| x.name()), Some(d.name()));
+        }
+    }
+    // Every table a dialect writes is told by its content (LinuxCNC's cannot be).
+    let fwd = line(&POS, &UP);
+    let settings = controller::TableSettings {
+        units: Some(LengthUnit::Mm),
+        ..controller::TableSettings::new(Axis::X)
+    };
+    for d in controller::DIALECTS {
+        let format = d.export_format(&settings, false).expect("settings suffice");
+        let bytes = format.render_bytes(&fwd, None).expect("renders");
+        let found = controller::detect(&bytes).map(|x| x.name());
+        if d.detects_by_content() {
+            assert_eq!(found, Some(d.name()), "{} detected", d.name());
+        } else {
+            assert_eq!(found, None);
+        }
+    }
+    // A format without a reverse line names those that have one, Fagor's included.
+    let heidenhain = controller::dialect("heidenhain")
+        .expect("registered")
+        .export_format(&settings, false)
+        .expect("format");
+    let e = heidenhain
+        .render_line(&fwd, Some(&fwd))
+        .expect_err("no reverse line")
+        .to_string();
+    for n in [
+        "linuxcnc",
+        "siemens",
+        "fanuc",
+        "isg",
+        "fagor-8055",
+        "fagor-8065",
+    ] {
+        assert!(e.contains(n), "{n}: {e}");
+    }
+    // export --help lists exactly the registry's dialects and errmap's two own formats.
+    let help = errmap(&["export", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout);
+    for n in names.iter().chain(&["csv", "grid"]) {
+        assert!(
+            text.contains(&format!("{n}:")),
+            "{n} in export --help:\n{text}"
+        );
+    }
+}
+
+/// Issue 34: an export is one library job. From a session's two directions it writes
+/// the reverse column; updating a table in place with a zero residual gives the bytes
+/// back; a format without a reverse line is refused before anything is computed.
+#[test]
+fn the_export_job_writes_and_updates_from_typed_settings() {
+    use controller::job::{self, ExportJob, JobError, Output, Placement, Source, Written};
+    use errmap_drivers::SessionRow;
+    let row = |run: u32, sample: i64, dir: i8, t: i32, p: f64, e: f64| SessionRow {
+        run,
+        sample,
+        t_s: sample as f64,
+        axis: errmap_drivers::frame::Axis::X,
+        direction: dir,
+        feed_mm_s: None,
+        target: t,
+        x_mm: Some(p),
+        y_mm: Some(0.0),
+        z_mm: Some(0.0),
+        scale_mm: p,
+        laser_mm: p - e * 1e-3,
+        error_um: e,
+        air_temp_c: None,
+        air_pressure_hpa: None,
+        air_rh_pct: None,
+        scale_temp_c: None,
+        part_temp_c: None,
+        flags: 0,
+    };
+    // Two runs, up with e = UP, down with e = DOWN at each target.
+    let mut rows = Vec::new();
+    let mut k = 0;
+    for run in 1..=2 {
+        for (d, order) in [(1i8, [0usize, 1, 2]), (-1, [2, 1, 0])] {
+            for t in order {
+                let e = if d > 0 { UP[t] } else { DOWN[t] };
+                rows.push(row(run, k, d, t as i32, POS[t], e));
+                k += 1;
+            }
+        }
+    }
+    let settings = controller::TableSettings {
+        comp_type: Some(controller::LinuxCncCompType::Trim),
+        ..controller::TableSettings::new(Axis::X)
+    };
+    let placement = Placement {
+        ends: None,
+        reference_mm: 0.0,
+    };
+    let linuxcnc = Output::Table(controller::dialect("linuxcnc").expect("registered"));
+    let written = job::run(&ExportJob {
+        output: linuxcnc,
+        settings: settings.clone(),
+        placement,
+        source: Source::Session {
+            rows: &rows,
+            at: &[],
+            step_mm: None,
+        },
+    })
+    .expect("both directions");
+    // Trim = e (mm): forward column UP, reverse column DOWN.
+    let text = String::from_utf8(written.bytes.clone()).expect("text");
+    assert_eq!(
+        text,
+        "0.0 0.001 0.002\n10.0 -0.002 -0.001\n20.0 0.003 0.0025\n"
+    );
+    assert!(matches!(written.written, Written::Directions { .. }));
+    // The same table updated by a session that leaves no residual: the same bytes.
+    let zero: Vec<SessionRow> = (0..3)
+        .map(|t| row(1, t as i64, 1, t as i32, POS[t], 0.0))
+        .collect();
+    let updated = job::run(&ExportJob {
+        output: linuxcnc,
+        settings: settings.clone(),
+        placement,
+        source: Source::Existing {
+            bytes: &written.bytes,
+            rows: &zero,
+            bidirectional: false,
+        },
+    })
+    .expect("update");
+    assert_eq!(updated.bytes, written.bytes);
+    // HEIDENHAIN has no reverse line: refused, naming the dialects that have one.
+    let e = job::run(&ExportJob {
+        output: Output::Table(controller::dialect("heidenhain").expect("registered")),
+        settings,
+        placement,
+        source: Source::Session {
+            rows: &rows,
+            at: &[],
+            step_mm: None,
+        },
+    })
+    .expect_err("no reverse line");
+    assert!(matches!(e, JobError::NoReverse { .. }), "{e}");
+    assert!(e.to_string().contains("fagor-8065"), "{e}");
 }

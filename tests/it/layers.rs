@@ -17,7 +17,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("export", &["interp", "table", "base"]),
     ("session", &["table", "base"]),
     ("acquire", &["session", "table", "base"]),
-    ("import", &["export", "session", "table", "base"]),
+    (
+        "controller",
+        &["export", "session", "interp", "table", "base"],
+    ),
+    ("import", &["controller", "session", "table", "base"]),
     ("diagnose", &["base"]),
     ("sim", &["interp", "table", "session", "diagnose", "base"]),
     (
@@ -42,6 +46,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "interp",
             "evaluate",
             "export",
+            "controller",
             "session",
             "acquire",
             "diagnose",
@@ -59,6 +64,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "interp",
             "evaluate",
             "export",
+            "controller",
             "session",
             "acquire",
             "diagnose",

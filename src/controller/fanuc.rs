@@ -70,7 +70,17 @@
 //! in the sources consulted: compare it with a file punched from the target control
 //! before loading.
 
-use super::{Controller, ExportError, Sampled};
+use super::read::{At, Field, Parsed, check_point, field_at, num, point};
+use super::text::{Text, number};
+use super::{
+    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
+    TableSettings, Value, ValueUnit,
+};
+use crate::base::Axis;
+use crate::export::{ExportError, Sampled};
+
+/// How the limit messages name this controller's table.
+pub const LABEL: &str = "FANUC pitch error compensation";
 
 /// The highest compensation point number of the FANUC 0i (points 0–1023).
 pub const FANUC_MAX_POINT_NUMBER: u32 = 1023;
@@ -148,7 +158,7 @@ pub struct FanucTable {
 
 fn limit(problem: String) -> ExportError {
     ExportError::ControllerLimit {
-        controller: Controller::Fanuc,
+        controller: LABEL,
         problem,
     }
 }
@@ -418,7 +428,7 @@ pub fn table(
     reverse: Option<&Sampled>,
     spec: &FanucSpec,
 ) -> Result<FanucTable, ExportError> {
-    let rev = super::paired(forward, reverse)?;
+    let rev = crate::export::paired(forward, reverse)?;
     let h = forward.uniform_step()?;
     check_spec(spec)?;
     let k0 = reference_index(forward, spec, h)?;
@@ -468,7 +478,7 @@ pub fn render(
             format!(
                 "{} {}",
                 a.to_string().to_uppercase(),
-                super::fmt_fixed(forward.at_mm[a.index()], 4)
+                crate::export::fmt_fixed(forward.at_mm[a.index()], 4)
             )
         })
         .collect();
@@ -496,16 +506,16 @@ pub fn render(
         t.negative_number,
         t.positive_number,
         t.magnification,
-        super::fmt_mm(t.interval_mm)
+        crate::export::fmt_mm(t.interval_mm)
     ));
     out.push_str(&format!(
         "(REFERENCE POSITION {} MM; VALUES ARE INCREMENTS IN UNITS OF {} UM)\n",
-        super::fmt_mm(spec.reference_mm),
-        super::fmt_fixed(t.unit_um, 4)
+        crate::export::fmt_mm(spec.reference_mm),
+        crate::export::fmt_fixed(t.unit_um, 4)
     ));
     out.push_str(&format!(
         "(NOT IN THE TABLE: THE ERROR AT THE REFERENCE POSITION, {} UM)\n",
-        super::fmt_fixed(t.reference_error_um, 4)
+        crate::export::fmt_fixed(t.reference_error_um, 4)
     ));
     let lists = std::iter::once((t.negative_number, &t.values))
         .chain(t.reverse.as_ref().map(|r| (r.negative_number, &r.values)));
@@ -516,4 +526,347 @@ pub fn render(
     }
     out.push_str("%\n");
     Ok(out)
+}
+
+/// Increments with where each sits in the text.
+pub type Increments = Vec<(Field, i64)>;
+
+/// A FANUC table as read: the increments and where they sit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FanucLayout {
+    /// One unit of a value, µm (detection unit × 3623).
+    pub unit_um: f64,
+    /// The index of the point at the reference position.
+    pub reference_index: usize,
+    /// The increment ending at point j (j ≥ 1) is `forward[j − 1]`.
+    pub forward: Increments,
+    /// The negative-travel increments and 3627 (the negative-travel value at the
+    /// reference position), when 3605#0 = 1.
+    pub reverse: Option<(Increments, (Field, i64))>,
+}
+
+// ---------------------------------------------------------------------------------------
+// FANUC
+
+/// `key=value` words of errmap's FANUC parameter comment.
+fn fanuc_words(l: &str, off: usize) -> Vec<(&str, Field, &str)> {
+    let mut out = Vec::new();
+    let mut pos = 0;
+    for w in l.split(|c: char| c.is_whitespace() || c == '(' || c == ')') {
+        let here = l[pos..].find(w).map_or(pos, |x| pos + x);
+        pos = here + w.len();
+        if let Some((k, v)) = w.split_once('=') {
+            let vstart = off + here + k.len() + 1;
+            out.push((k, field_at(vstart, v), v));
+        }
+    }
+    out
+}
+
+/// What a FANUC data file holds as text: the parameter comment's values, the reference
+/// comment's position and unit, and the data lines by point number (N − 10000).
+#[derive(Default)]
+struct FanucFile {
+    params: std::collections::HashMap<String, (usize, Field, f64)>,
+    reference_mm: Option<f64>,
+    unit_um: Option<f64>,
+    data: std::collections::BTreeMap<u64, (usize, Field, i64)>,
+    /// The axis the header comment names.
+    axis: Option<Axis>,
+    /// The last line's number.
+    last: usize,
+}
+
+impl FanucFile {
+    /// Reads the lines between the two `%`, refusing text after the second and a file
+    /// without it.
+    fn read(lines: &[(usize, &str)]) -> Result<FanucFile, At> {
+        let mut file = FanucFile::default();
+        let mut closed = false;
+        for (i, &(off, l)) in lines.iter().enumerate().skip(1) {
+            let line = i + 1;
+            let t = l.trim();
+            if t.is_empty() {
+                continue;
+            }
+            if closed {
+                return Err(At::new(line, "text after the closing `%`"));
+            }
+            if t == "%" {
+                closed = true;
+                continue;
+            }
+            if t.starts_with('(') {
+                file.comment(line, off, l, t)?;
+                continue;
+            }
+            file.data_line(line, off, l, t)?;
+        }
+        file.last = lines.len().max(1);
+        if !closed {
+            return Err(At::new(file.last, "no closing `%`: the file is cut short"));
+        }
+        Ok(file)
+    }
+
+    /// Takes the parameter and reference-position comments (other comments are notes).
+    fn comment(&mut self, line: usize, off: usize, l: &str, t: &str) -> Result<(), At> {
+        if let Some(rest) = t.strip_prefix("(AXIS ") {
+            // `(AXIS <number> = <letter>, LINE AT …)`: the letter is the line's axis.
+            self.axis = rest
+                .split_once('=')
+                .and_then(|(_, r)| r.split(',').next())
+                .and_then(|a| a.trim().parse().ok());
+        } else if t.starts_with("(PARAMETERS OF AXIS") {
+            for (k, f, v) in fanuc_words(l, off) {
+                let x = num(line, &format!("parameter {k}"), v.trim_end_matches("MM"))?;
+                self.params.insert(k.to_string(), (line, f, x));
+            }
+        } else if let Some(rest) = t.strip_prefix("(REFERENCE POSITION ") {
+            let w: Vec<&str> = rest.split_whitespace().collect();
+            self.reference_mm = Some(num(
+                line,
+                "the reference position",
+                w.first().copied().unwrap_or(""),
+            )?);
+            let u = w
+                .iter()
+                .position(|&x| x == "OF")
+                .and_then(|j| w.get(j + 1))
+                .copied()
+                .unwrap_or("");
+            self.unit_um = Some(num(line, "the unit", u)?);
+        }
+        Ok(())
+    }
+
+    /// Takes one `N<10000 + n>P<value>` line, refusing other numbers and repeats.
+    fn data_line(&mut self, line: usize, off: usize, l: &str, t: &str) -> Result<(), At> {
+        let parsed = t.strip_prefix('N').and_then(|r| r.split_once('P'));
+        let Some((nt, vt)) = parsed else {
+            return Err(At::new(line, format!("`{t}` is not `N<number>P<value>`")));
+        };
+        let n: u64 = nt
+            .parse()
+            .map_err(|_| At::new(line, format!("data number `{nt}` is not a number")))?;
+        let v = number(vt)
+            .filter(|v| v.fract() == 0.0 && v.abs() < 1e9)
+            .ok_or_else(|| At::new(line, format!("value `{vt}` is not a whole number")))?;
+        let vstart = off + l.find('P').unwrap_or(0) + 1;
+        if n < 10000 {
+            return Err(At::new(
+                line,
+                format!("data number {n}: pitch error data are 10000 + point number"),
+            ));
+        }
+        if self
+            .data
+            .insert(n - 10000, (line, field_at(vstart, vt), v as i64))
+            .is_some()
+        {
+            return Err(At::new(line, format!("point {} given twice", n - 10000)));
+        }
+        Ok(())
+    }
+
+    /// The parameter `k`, which errmap's comment always names.
+    fn param(&self, k: &str) -> Result<(usize, Field, f64), At> {
+        self.params.get(k).copied().ok_or_else(|| {
+            At::new(
+                1,
+                format!(
+                    "parameter {k} is not in the file: errmap reads the FANUC files it writes \
+                     (their parameter comment names 3620–3624)"
+                ),
+            )
+        })
+    }
+
+    /// The parameter `k` as a point number.
+    fn point_number(&self, k: &str) -> Result<u64, At> {
+        let (l, _, x) = self.param(k)?;
+        if x.fract() == 0.0 && (0.0..1e6).contains(&x) {
+            Ok(x as u64)
+        } else {
+            Err(At::new(l, format!("{k} = {x} is not a point number")))
+        }
+    }
+
+    /// The `span + 1` increments from point `from`, each one required.
+    fn take(&self, from: u64, span: u64) -> Result<Increments, At> {
+        (from..=from + span)
+            .map(|n| {
+                self.data.get(&n).map(|&(_, f, v)| (f, v)).ok_or_else(|| {
+                    At::new(self.last, format!("point {n} (N{}) is missing", 10000 + n))
+                })
+            })
+            .collect()
+    }
+}
+
+/// A FANUC pitch error data file as errmap writes it (`crate::export::fanuc`): `%`, the
+/// parameter comments, `N<10000 + number>P<increment>` lines, `%`.
+pub fn read(text: &Text) -> Result<Parsed, At> {
+    let lines = text.lines();
+    if lines.first().map(|l| l.1.trim()) != Some("%") {
+        return Err(At::new(1, "not a FANUC data file (first line `%`)"));
+    }
+    let file = FanucFile::read(&lines)?;
+    let (params, data, last) = (&file.params, &file.data, file.last);
+    let r_num = file.point_number("3620")?;
+    let first = file.point_number("3621")?;
+    let lastn = file.point_number("3622")?;
+    let (hl, _, h) = file.param("3624")?;
+    let (Some(r_mm), Some(unit)) = (file.reference_mm, file.unit_um) else {
+        return Err(At::new(
+            1,
+            "no `(REFERENCE POSITION … UNITS OF … UM)` comment",
+        ));
+    };
+    if h <= 0.0 || unit <= 0.0 {
+        return Err(At::new(hl, "3624 and the unit must be positive"));
+    }
+    if lastn < first || !(first.saturating_sub(1) <= r_num && r_num <= lastn) {
+        return Err(At::new(
+            hl,
+            format!(
+                "3620 = {r_num} is not within 3621 − 1 = {} … 3622 = {lastn}",
+                first as i64 - 1
+            ),
+        ));
+    }
+    let bidir = params.get("3605#0").is_some_and(|x| x.2 == 1.0);
+    let span = lastn - first;
+    let forward = file.take(first, span)?;
+    let reverse = if bidir {
+        let s = file.point_number("3626")?;
+        let (l3627, f3627, v3627) = file.param("3627")?;
+        if v3627.fract() != 0.0 {
+            return Err(At::new(l3627, "3627 is not a whole number"));
+        }
+        Some((file.take(s, span)?, (f3627, v3627 as i64)))
+    } else {
+        None
+    };
+    let used = forward.len() * if bidir { 2 } else { 1 };
+    if data.len() != used {
+        let extra = data
+            .iter()
+            .find(|(n, _)| {
+                !(first..=lastn).contains(*n)
+                    && !params
+                        .get("3626")
+                        .is_some_and(|s| bidir && (s.2 as u64..=s.2 as u64 + span).contains(*n))
+            })
+            .map_or(last, |(_, x)| x.0);
+        return Err(At::new(
+            extra,
+            format!("{} data lines, the parameters name {used}", data.len()),
+        ));
+    }
+    let k0 = (r_num + 1 - first) as usize;
+    let absolute = |inc: &[(Field, i64)], at_ref: i64| -> Vec<i64> {
+        let mut a = vec![0i64; inc.len() + 1];
+        for j in 1..a.len() {
+            a[j] = a[j - 1] + inc[j - 1].1;
+        }
+        let shift = at_ref - a[k0];
+        a.iter().map(|x| x + shift).collect()
+    };
+    let up = absolute(&forward, 0);
+    let down = match &reverse {
+        Some((inc, (_, r))) => absolute(inc, *r),
+        None => up.clone(),
+    };
+    let mut parsed = Parsed {
+        axis: file.axis,
+        bidirectional: bidir,
+        ..Default::default()
+    };
+    for j in 0..up.len() {
+        let pos = r_mm + (first as f64 - 1.0 + j as f64 - r_num as f64) * h;
+        let line = if j == 0 {
+            data.get(&first).map_or(1, |x| x.0)
+        } else {
+            data.get(&(first + j as u64 - 1)).map_or(1, |x| x.0)
+        };
+        let (eu, ed) = (up[j] as f64 * unit, down[j] as f64 * unit);
+        check_point(line, pos, &[eu, ed])?;
+        let dummy = Field {
+            start: 0,
+            end: 0,
+            decimals: 0,
+        };
+        parsed.points.push(point(
+            line,
+            pos,
+            eu,
+            ed,
+            up[j] as f64,
+            down[j] as f64,
+            dummy,
+            dummy,
+        ));
+    }
+    parsed.fanuc = Some(FanucLayout {
+        unit_um: unit,
+        reference_index: k0,
+        forward,
+        reverse,
+    });
+    Ok(parsed)
+}
+
+// ---------------------------------------------------------------------------------------
+// The dialect
+
+/// FANUC pitch error compensation data ([`super::DIALECTS`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Fanuc;
+
+/// The values: increments of e in units of detection unit × 3623.
+pub const VALUE: Value = Value {
+    sign: Sign::Error,
+    unit: ValueUnit::Units,
+};
+
+impl Dialect for Fanuc {
+    fn name(&self) -> &'static str {
+        "fanuc"
+    }
+    fn controller(&self) -> &'static str {
+        "FANUC"
+    }
+    fn about(&self) -> &'static str {
+        "FANUC pitch error compensation: parameters and N/P data (a line)"
+    }
+    fn limits(&self) -> Limits {
+        Limits {
+            max_points: FANUC_MAX_POINT_NUMBER as usize + 1,
+            max_points_is_parameter: true,
+            spacing: Spacing::Equidistant,
+            bidirectional: true,
+            value: VALUE,
+            axes: &[AxisKind::Linear],
+        }
+    }
+    fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
+        let lines = text.lines();
+        lines.first().map(|l| l.1.trim()) == Some("%")
+            && lines
+                .iter()
+                .take(10)
+                .any(|(_, l)| l.trim_start().starts_with("(FANUC PITCH ERROR"))
+    }
+    fn table_format(&self, _: &TableSettings) -> Result<TableFormat, SettingsError> {
+        Ok(TableFormat::Fanuc)
+    }
+    fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
+        Ok(ExportFormat::Fanuc {
+            spec: FanucSpec {
+                axis_number: s.axis_number(),
+                ..s.fanuc
+            },
+        })
+    }
 }

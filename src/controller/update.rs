@@ -28,9 +28,9 @@
 use errmap_drivers::SessionRow;
 use serde::Serialize;
 
-use super::tables::{ControllerTable, Field, TableFormat};
+use super::LinuxCncCompType;
+use super::{ControllerTable, Field, TableFormat};
 use crate::base::Axis;
-use crate::export::LinuxCncCompType;
 use crate::session::{ReductionError, error_table, iso_by_line};
 
 /// Why an update cannot be made.
@@ -57,8 +57,16 @@ pub enum UpdateError {
          export a direction-dependent table from the session instead (export --bidirectional)"
     )]
     OneDirection { format: &'static str },
-    #[error("the session measures {session} but the table is for {table}")]
-    AxisMismatch { session: Axis, table: Axis },
+    #[error(
+        "the session measures {session} but the table is for {table}{}",
+        if *assumed { " (the file names no axis: it is the table's stated axis, x unless given)" } else { "" }
+    )]
+    AxisMismatch {
+        session: Axis,
+        table: Axis,
+        /// The file names no axis; `table` is the caller's (or x).
+        assumed: bool,
+    },
 }
 
 /// The residual a session measured, per target.
@@ -170,7 +178,7 @@ pub struct Updated {
 }
 
 /// `v` with `decimals` decimals and no `-0`.
-pub(super) fn fixed(v: f64, decimals: usize) -> String {
+pub(crate) fn fixed(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     match s.strip_prefix('-') {
         Some(rest) if rest.parse::<f64>() == Ok(0.0) => rest.to_string(),
@@ -250,7 +258,7 @@ impl Style {
     fn of(table: &ControllerTable) -> Style {
         let text = &table.text.text;
         // LinuxCNC files written by errmap trim trailing zeros: keep that style per column.
-        let column_style = |pick: &dyn Fn(&super::tables::TablePoint) -> Field| {
+        let column_style = |pick: &dyn Fn(&super::TablePoint) -> Field| {
             let d: Vec<usize> = table.points.iter().map(|p| pick(p).decimals).collect();
             let max = d.iter().copied().max().unwrap_or(0);
             (max, d.iter().any(|&x| x < max))
@@ -411,12 +419,14 @@ fn check_update(
     residual: &Residual,
     bidirectional: bool,
 ) -> Result<(), UpdateError> {
-    if let Some(a) = table.axis
-        && a != residual.axis
-    {
+    // Every dialect: the file's axis, else the one its user stated, else x (as `import`
+    // reads such a table).
+    let table_axis = table.axis.unwrap_or(Axis::X);
+    if table_axis != residual.axis {
         return Err(UpdateError::AxisMismatch {
             session: residual.axis,
-            table: a,
+            table: table_axis,
+            assumed: table.axis.is_none() || table.axis_assumed,
         });
     }
     if bidirectional
@@ -434,7 +444,7 @@ fn check_update(
 fn edit_point(
     editor: &mut Editor,
     table: &ControllerTable,
-    p: &super::tables::TablePoint,
+    p: &super::TablePoint,
     r: (f64, f64),
     bidirectional: bool,
 ) {
@@ -443,7 +453,8 @@ fn edit_point(
     let (up_digits, down_digits) = (editor.style.up, editor.style.down);
     match table.format {
         TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
-            let new_up = p.up_file - r_up / (k * 1000.0);
+            let value = table.format.value();
+            let new_up = p.up_file + value.file(r_up, k);
             let own = Digits {
                 decimals: p.up.decimals,
                 trim: false,
@@ -460,13 +471,14 @@ fn edit_point(
                     decimals: p.down.decimals,
                     trim: false,
                 };
-                editor.edit(p.down, p.down_file, base, base - r / (k * 1000.0), own);
+                editor.edit(p.down, p.down_file, base, base + value.file(r, k), own);
             }
         }
         TableFormat::LinuxCnc { comp_type, .. } => {
+            let trim = |e_um: f64| table.format.value().file(e_um, k);
             let value = |e_um: f64| match comp_type {
-                LinuxCncCompType::Trim => e_um / (k * 1000.0),
-                LinuxCncCompType::ActualPosition => p.position_file - e_um / (k * 1000.0),
+                LinuxCncCompType::Trim => trim(e_um),
+                LinuxCncCompType::ActualPosition => p.position_file - trim(e_um),
             };
             editor.edit(
                 p.up,
@@ -485,10 +497,7 @@ fn edit_point(
         }
         TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
             // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
-            let value = |e_um: f64| match table.format {
-                TableFormat::Isg => -e_um * 10.0,
-                _ => -e_um / (k * 1000.0),
-            };
+            let value = |e_um: f64| table.format.value().file(e_um, k);
             editor.edit(
                 p.up,
                 p.up_file,
@@ -522,24 +531,26 @@ fn edit_point(
 /// negative-travel curve moves at the reference position.
 fn update_fanuc(
     table: &ControllerTable,
-    layout: &super::dialects::FanucLayout,
+    layout: &super::fanuc::FanucLayout,
     residual: &Residual,
     bidirectional: bool,
 ) -> Updated {
     let unit = layout.unit_um;
     let k0 = layout.reference_index;
     let mut outside_mm = Vec::new();
-    let r: Vec<(f64, f64)> = table
+    // `None`: outside the measured targets, the point keeps its value.
+    let r: Vec<Option<(f64, f64)>> = table
         .points
         .iter()
         .map(|p| {
-            residual.at(p.position_mm).unwrap_or_else(|| {
+            let r = residual.at(p.position_mm);
+            if r.is_none() {
                 outside_mm.push(p.position_mm);
-                (0.0, 0.0)
-            })
+            }
+            r
         })
         .collect();
-    let shift_um = r[k0].0;
+    let shift_um = r[k0].map_or(0.0, |r| r.0);
     let mut warnings = outside_warning(&outside_mm, residual);
     if shift_um != 0.0 {
         warnings.push(format!(
@@ -550,12 +561,15 @@ fn update_fanuc(
     let mut edits = Vec::new();
     let mut max_change_um: f64 = 0.0;
     let mut biggest: i64 = 0;
-    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> f64| -> Vec<i64> {
+    // A kept point keeps its value in the table's own frame (relative to the reference
+    // position): the datum shift applies only to the points the residual reaches. (Issue
+    // 40: shifting a kept point by the shift turned its 0 into −1 µm on read-back.)
+    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> Option<f64>| {
         let new: Vec<i64> = old
             .iter()
             .enumerate()
             .map(|(j, &a)| {
-                let d = add(j) - shift_um;
+                let d = add(j).map_or(0.0, |r| r - shift_um);
                 if d == 0.0 {
                     a as i64
                 } else {
@@ -580,10 +594,12 @@ fn update_fanuc(
         new
     };
     let up: Vec<f64> = table.points.iter().map(|p| p.up_file).collect();
-    redo(&layout.forward, &up, &|j| r[j].0);
+    redo(&layout.forward, &up, &|j| r[j].map(|r| r.0));
     if let Some((inc, (f3627, v3627))) = &layout.reverse {
         let down: Vec<f64> = table.points.iter().map(|p| p.down_file).collect();
-        let new = redo(inc, &down, &|j| if bidirectional { r[j].1 } else { r[j].0 });
+        let new = redo(inc, &down, &|j| {
+            r[j].map(|r| if bidirectional { r.1 } else { r.0 })
+        });
         if new[k0] != *v3627 {
             edits.push(Edit {
                 field: *f3627,
@@ -592,7 +608,7 @@ fn update_fanuc(
             });
         }
     }
-    let limit = i64::from(crate::export::fanuc::FANUC_DEFAULT_MAX_VALUE);
+    let limit = i64::from(super::fanuc::FANUC_DEFAULT_MAX_VALUE);
     if biggest > limit {
         warnings.push(format!(
             "an increment of ±{biggest} units: beyond ±{limit}, the range of the older series; \
@@ -634,8 +650,7 @@ fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::import::LengthUnit;
-    use crate::import::tables::read;
+    use crate::controller::{LengthUnit, read};
 
     const ALX: &str = "      P001          X    0.00000       EX    0.00000        EX    0.00000\r\n      P002          X   10.00000       EX   -0.00127        EX    0.00000\r\n      P003          X   20.00000       EX    0.00200        EX    0.00000\r\n";
 

@@ -1,0 +1,220 @@
+//! The LinuxCNC `COMP_FILE` renderer ([`render`]).
+//!
+//! # LinuxCNC `COMP_FILE`
+//!
+//! `[JOINT_n] COMP_FILE = file`, `COMP_FILE_TYPE = 0|1` (LinuxCNC INI documentation,
+//! `docs/src/config/ini-config.adoc`, section `[JOINT_<num>]`). One triplet per line,
+//! `nominal forward reverse`, in machine units (this module writes mm; an inch machine
+//! needs its own conversion), smallest nominal first and strictly increasing; at most
+//! 256 triplets per joint (`EMCMOT_COMP_SIZE` in `motion.h`; `EMCMOT_SET_JOINT_COMP` in
+//! `command.c` rejects extra entries and non-increasing nominals). The loader stops at
+//! the first line that is not three numbers, so the file has no header and no comments.
+//! Between nominals the trim is interpolated linearly; the forward column applies while
+//! the joint moves in the positive direction, the reverse column while it moves in the
+//! negative one. Without direction-dependent data both columns are equal.
+//!
+//! | type | forward / reverse column | written as |
+//! |---|---|---|
+//! | 0 ([`LinuxCncCompType::ActualPosition`]) | actual position when moving up / down | N + c |
+//! | 1 ([`LinuxCncCompType::Trim`]) | trim added to the command moving up / down | −c = e |
+//!
+//! # Sign convention
+//!
+//! **LinuxCNC adds its trim to the position command.** `control.c` computes
+//! `motor_pos_cmd = pos_cmd + backlash_filt + motor_offset`, where `backlash_filt`
+//! follows the trim interpolated from the table. To reach nominal N on an axis whose
+//! scale over-reads by e, the motor must be commanded to N + e, so the trim is
+//! −c = e. A type-0 file lists instead the *actual* position reached when N is
+//! commanded, N − e = N + c; LinuxCNC turns it into the trim `nominal − value` = e
+//! (`usrmotLoadComp` in `src/emc/motion/usrmotintf.cc`), so both file types load the
+//! same trims.
+
+use super::read::{At, TablePoint, check_point};
+use super::text::{Text, number};
+use super::{
+    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
+    TableSettings, Value, ValueUnit,
+};
+use crate::export::{ExportError, Sampled, fmt_mm};
+
+/// How the limit messages name this controller's table.
+pub const LABEL: &str = "LinuxCNC (COMP_FILE triplets per joint, EMCMOT_COMP_SIZE)";
+
+/// The values: the trim −c = e (type 1; type 0 lists N + c), in the machine's length unit.
+pub const VALUE: Value = Value {
+    sign: Sign::Error,
+    unit: ValueUnit::Length,
+};
+
+/// LinuxCNC's limit on compensation triplets per joint (`EMCMOT_COMP_SIZE`).
+pub const LINUXCNC_MAX_ENTRIES: usize = 256;
+
+/// LinuxCNC `COMP_FILE_TYPE`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LinuxCncCompType {
+    /// Type 0: the second and third columns are the actual positions reached when the
+    /// nominal is commanded (N + c).
+    ActualPosition,
+    /// Type 1: the columns are the trims LinuxCNC adds to the command (−c = e).
+    Trim,
+}
+
+impl LinuxCncCompType {
+    /// The value for `COMP_FILE_TYPE`.
+    pub fn code(self) -> u8 {
+        match self {
+            LinuxCncCompType::ActualPosition => 0,
+            LinuxCncCompType::Trim => 1,
+        }
+    }
+}
+
+/// A LinuxCNC `COMP_FILE`: one `nominal forward reverse` line per sample, mm, no header.
+///
+/// `reverse` holds direction-dependent errors measured moving in the negative direction,
+/// at the same positions; without it both columns come from `forward`. Refuses more
+/// than [`LINUXCNC_MAX_ENTRIES`] samples, naming a step that fits.
+pub fn render(
+    forward: &Sampled,
+    comp_type: LinuxCncCompType,
+    reverse: Option<&Sampled>,
+) -> Result<String, ExportError> {
+    let rev = crate::export::paired(forward, reverse)?;
+    let n = forward.len();
+    if n > LINUXCNC_MAX_ENTRIES {
+        // Every nominal is listed: any round step of at least the minimum fits.
+        return Err(super::too_many(
+            LABEL,
+            forward,
+            0,
+            LINUXCNC_MAX_ENTRIES,
+            true,
+        ));
+    }
+    let mut out = String::with_capacity(n * 36);
+    let mut previous: Option<f64> = None;
+    for i in 0..n {
+        let nominal = forward.positions_mm[i];
+        let nominal_txt = fmt_mm(nominal);
+        // The loader compares the numbers it reads: check them, not the f64s.
+        let written: f64 = nominal_txt.parse().unwrap_or(f64::NAN);
+        if let Some(prev) = previous
+            && written.partial_cmp(&prev) != Some(std::cmp::Ordering::Greater)
+        {
+            return Err(ExportError::NotIncreasing {
+                index: i,
+                previous_mm: prev,
+                position_mm: written,
+            });
+        }
+        previous = Some(written);
+        // The trim in mm (VALUE: the table holds e, not c).
+        let t_fwd_mm = VALUE.sign.of(forward.error_um[i]) * 1e-3;
+        let t_rev_mm = VALUE.sign.of(rev.error_um[i]) * 1e-3;
+        let (a, b) = match comp_type {
+            LinuxCncCompType::ActualPosition => (nominal - t_fwd_mm, nominal - t_rev_mm),
+            LinuxCncCompType::Trim => (t_fwd_mm, t_rev_mm),
+        };
+        out.push_str(&format!("{nominal_txt} {} {}\n", fmt_mm(a), fmt_mm(b)));
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------
+// Reading
+
+pub(crate) fn read(text: &Text, k: f64, comp: LinuxCncCompType) -> Result<Vec<TablePoint>, At> {
+    let mut points: Vec<TablePoint> = Vec::new();
+    for (i, (off, l)) in text.lines().into_iter().enumerate() {
+        let line = i + 1;
+        if l.trim().is_empty() {
+            continue;
+        }
+        let t = super::read::tokens(l, off);
+        let vals: Vec<Option<f64>> = t.iter().map(|&(s, e)| number(&text.text[s..e])).collect();
+        let (3, Some(n), Some(f), Some(r)) = (
+            vals.len(),
+            vals.first().copied().flatten(),
+            vals.get(1).copied().flatten(),
+            vals.get(2).copied().flatten(),
+        ) else {
+            return Err(At::new(
+                line,
+                format!(
+                    "`{}` is not `nominal forward reverse` (three numbers)",
+                    l.trim()
+                ),
+            ));
+        };
+        super::read::increasing(&points, line, n)?;
+        let e = |v: f64| match comp {
+            LinuxCncCompType::Trim => VALUE.error_um(v, k),
+            LinuxCncCompType::ActualPosition => VALUE.error_um(n - v, k),
+        };
+        check_point(line, n * k, &[e(f), e(r)])?;
+        points.push(TablePoint {
+            line,
+            position_mm: n * k,
+            e_up_um: e(f),
+            e_down_um: e(r),
+            position_file: n,
+            up_file: f,
+            down_file: r,
+            up: super::read::field(&text.text, t[1]),
+            down: super::read::field(&text.text, t[2]),
+        });
+    }
+    if points.len() < 2 {
+        return Err(At::new(
+            text.lines().len().max(1),
+            "fewer than two table points",
+        ));
+    }
+    Ok(points)
+}
+
+// ---------------------------------------------------------------------------------------
+// The dialect
+
+/// LinuxCNC's `COMP_FILE` ([`super::DIALECTS`]).
+#[derive(Debug, Clone, Copy)]
+pub struct LinuxCnc;
+
+impl Dialect for LinuxCnc {
+    fn name(&self) -> &'static str {
+        "linuxcnc"
+    }
+    fn controller(&self) -> &'static str {
+        "LinuxCNC"
+    }
+    fn about(&self) -> &'static str {
+        "LinuxCNC compensation file (a line)"
+    }
+    fn limits(&self) -> Limits {
+        Limits {
+            max_points: LINUXCNC_MAX_ENTRIES,
+            max_points_is_parameter: false,
+            spacing: Spacing::Listed,
+            bidirectional: true,
+            value: VALUE,
+            axes: &[AxisKind::Linear],
+        }
+    }
+    fn detect(&self, _bytes: &[u8], _text: &Text) -> bool {
+        false
+    }
+    fn detects_by_content(&self) -> bool {
+        false
+    }
+    fn table_format(&self, s: &TableSettings) -> Result<TableFormat, SettingsError> {
+        Ok(TableFormat::LinuxCnc {
+            comp_type: s.comp_type.ok_or(SettingsError::NoCompType)?,
+            units: s.units.unwrap_or_default(),
+        })
+    }
+    fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
+        Ok(ExportFormat::LinuxCnc {
+            comp_type: s.comp_type.unwrap_or(LinuxCncCompType::ActualPosition),
+        })
+    }
+}
