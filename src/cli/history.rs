@@ -278,16 +278,27 @@ fn verify(a: VerifyArgs) -> Result<()> {
             m.record, m.path, m.role
         );
     }
+    for d in &v.damage {
+        eprintln!("history verify: damaged: {}", d.problem);
+    }
     eprintln!(
-        "history verify: {} files checked, {} changed, {} missing",
+        "history verify: {} files checked, {} changed, {} missing; {} problems in the ledger itself",
         v.checked,
         v.changed.len(),
-        v.missing.len()
+        v.missing.len(),
+        v.damage.len()
     );
     if a.json {
         guard::print_json(&v)?;
     }
-    if !v.changed.is_empty() || !v.missing.is_empty() {
+    if !v.damage.is_empty() {
+        anyhow::bail!(
+            "{}: the ledger is damaged: {} problems (listed above)",
+            ledger.name(),
+            v.damage.len()
+        );
+    }
+    if !v.is_sound() {
         anyhow::bail!(
             "{}: {} of {} files changed or vanished since they were recorded",
             ledger.name(),

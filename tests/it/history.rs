@@ -25,7 +25,12 @@ use crate::util::{bin, errmap, errmap_cmd, reference_row, root, stderr, tempdir}
 /// A one-axis session: `lines` (the two other coordinates, mm), 6 targets 0…500 mm,
 /// 3 runs each way, 2 samples per dwell; the error grows `slope_um_per_m` along the axis,
 /// with a reversal of `reversal_um` and noise.
-fn session(axis: Axis, lines: &[(f64, f64)], slope_um_per_m: f64, seed: u64) -> Vec<SessionRow> {
+pub(super) fn session(
+    axis: Axis,
+    lines: &[(f64, f64)],
+    slope_um_per_m: f64,
+    seed: u64,
+) -> Vec<SessionRow> {
     let mut rng = StdRng::seed_from_u64(seed);
     let a = axis.index();
     let mut rows = Vec::new();
@@ -70,14 +75,14 @@ fn session(axis: Axis, lines: &[(f64, f64)], slope_um_per_m: f64, seed: u64) -> 
     rows
 }
 
-fn write_session(dir: &Path, name: &str, rows: &[SessionRow]) -> PathBuf {
+pub(super) fn write_session(dir: &Path, name: &str, rows: &[SessionRow]) -> PathBuf {
     let p = dir.join(name);
     errmap::session::write_session(&p, rows).expect("write session");
     p
 }
 
 /// A volumetric model file with the 21 components (`E_ZY` not identified).
-fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathBuf {
+pub(super) fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathBuf {
     let mut components = serde_json::Map::new();
     for n in errmap::history::ingest::FUNCTIONS {
         let unit = if n.as_bytes()[2].is_ascii_uppercase() && "ABC".contains(&n[2..3]) {
@@ -111,7 +116,7 @@ fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathB
 // ---------------------------------------------------------------- the two backends
 
 /// A query's one integer, through the database's own driver.
-fn scalar(ledger: &str, sql: &str) -> i64 {
+pub(super) fn scalar(ledger: &str, sql: &str) -> i64 {
     if ledger.starts_with("postgres") {
         let mut c = postgres::Client::connect(ledger, postgres::NoTls).expect("connect");
         c.query_one(sql, &[]).expect(sql).get::<_, i64>(0)
@@ -122,7 +127,7 @@ fn scalar(ledger: &str, sql: &str) -> i64 {
 }
 
 /// Records in the ledger (0 before its first add made the tables).
-fn records(ledger: &str) -> i64 {
+pub(super) fn records(ledger: &str) -> i64 {
     if ledger.starts_with("postgres") {
         let mut c = postgres::Client::connect(ledger, postgres::NoTls).expect("connect");
         let exists: bool = c
@@ -155,7 +160,7 @@ fn execute(ledger: &str, sql: &str) -> Result<u64, String> {
     }
 }
 
-fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
+pub(super) fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
     let mut args = vec![
         "history",
         "add",
@@ -169,7 +174,12 @@ fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
     errmap(&args)
 }
 
-fn add_ok(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> serde_json::Value {
+pub(super) fn add_ok(
+    ledger: &str,
+    result: &Path,
+    machine: &str,
+    extra: &[&str],
+) -> serde_json::Value {
     let mut e = extra.to_vec();
     e.push("--json");
     let o = add(ledger, result, machine, &e);
@@ -183,7 +193,7 @@ fn add_ok(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> serde_j
 }
 
 /// Every record is whole: its sources, and 7 statistics per line or 21 components.
-fn assert_whole(ledger: &str) {
+pub(super) fn assert_whole(ledger: &str) {
     let records = scalar(ledger, "SELECT COUNT(*) FROM record");
     let with_source = scalar(
         ledger,
@@ -509,11 +519,14 @@ fn scenario_concurrency(ledger: &str, dir: &Path) {
         let script: Vec<String> = chunk
             .iter()
             .map(|f| {
+                // One test, one instant: each its own time.
+                let i = files.iter().position(|g| g == f).unwrap_or(0);
                 format!(
-                    "'{}' history add '{}' --ledger '{ledger}' --machine C{} || exit 1",
+                    "'{}' history add '{}' --ledger '{ledger}' --machine C{} --at 2025-01-{:02} || exit 1",
                     bin(),
                     f.display(),
-                    chunk.len()
+                    chunk.len(),
+                    i + 1
                 )
             })
             .collect();
@@ -579,7 +592,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             &session(Axis::X, &[(0.0, 0.0)], 2.0, 499),
         ),
         "K",
-        &[],
+        &["--at", "2025-02-01"],
     );
     let before = records(ledger);
     // Inside the transaction, for certain: the record row is written, the rest pending.
@@ -593,6 +606,8 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             ledger,
             "--machine",
             "K",
+            "--at",
+            "2025-02-02",
         ])
         .env("ERRMAP_HISTORY_STALL_MS", "30000")
         .stderr(Stdio::piped())
@@ -617,7 +632,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
         ledger,
         &write_session(dir, "k1.csv", &session(Axis::X, &big, 2.5, 501)),
         "K",
-        &[],
+        &["--at", "2025-02-03"],
     );
     let whole = t0.elapsed();
     let mut killed_before = 0;
@@ -629,6 +644,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             &session(Axis::X, &big, 3.0 + i as f64, 502 + i),
         );
         let n0 = scalar(ledger, "SELECT COUNT(*) FROM record");
+        let at = format!("2025-03-{:02}", i + 1);
         let mut child = errmap_cmd()
             .args([
                 "history",
@@ -638,6 +654,8 @@ fn scenario_crash(ledger: &str, dir: &Path) {
                 ledger,
                 "--machine",
                 "K",
+                "--at",
+                &at,
             ])
             .stderr(Stdio::null())
             .spawn()
@@ -669,7 +687,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
         ledger,
         &write_session(dir, "k-after.csv", &session(Axis::X, &big, 9.0, 600)),
         "K",
-        &[],
+        &["--at", "2025-04-01"],
     );
     assert_whole(ledger);
 }
@@ -919,7 +937,7 @@ fn sqlite_ledger_scenarios() {
 
 /// A throw-away PostgreSQL cluster: initdb in a temp dir, loopback only, a free port;
 /// stopped when dropped.
-struct Cluster {
+pub(super) struct Cluster {
     bin: PathBuf,
     dir: tempfile::TempDir,
     port: u16,
@@ -927,7 +945,7 @@ struct Cluster {
 }
 
 impl Cluster {
-    fn cmd(&self, tool: &str) -> Command {
+    pub(super) fn cmd(&self, tool: &str) -> Command {
         let exe = self.bin.join(tool);
         if self.as_postgres {
             let mut c = Command::new("runuser");
@@ -939,7 +957,7 @@ impl Cluster {
     }
 
     /// Starts one, or says why it cannot.
-    fn start() -> Result<Cluster, String> {
+    pub(super) fn start() -> Result<Cluster, String> {
         let mut bins: Vec<PathBuf> = std::fs::read_dir("/usr/lib/postgresql")
             .map_err(|_| {
                 "no /usr/lib/postgresql (Debian's postgresql package is not installed)".to_string()
@@ -1021,11 +1039,11 @@ impl Cluster {
         Ok(c)
     }
 
-    fn url(&self, db: &str) -> String {
+    pub(super) fn url(&self, db: &str) -> String {
         format!("postgres://postgres@127.0.0.1:{}/{db}", self.port)
     }
 
-    fn create_db(&self, db: &str) -> String {
+    pub(super) fn create_db(&self, db: &str) -> String {
         let mut c =
             postgres::Client::connect(&self.url("postgres"), postgres::NoTls).expect("connect");
         c.batch_execute(&format!("CREATE DATABASE {db}"))
