@@ -422,3 +422,164 @@ fn one_current_record_per_machine_axis_state_and_instant() {
     assert!(stderr(&o).contains("axis XYZ"), "{}", stderr(&o));
     assert_whole(&ledger);
 }
+
+// ---------------------------------------------------------------- every write point
+
+/// The records up to `last` as text: each one's row and the number and sum of its
+/// statistics, sources and components (what a crash must leave unchanged).
+fn committed(ledger: &str, last: i64) -> String {
+    let c = rusqlite::Connection::open(ledger).expect("open");
+    c.query_row(
+        "SELECT group_concat(x, ';') FROM (SELECT r.id || ' ' || r.machine || ' ' || r.at || ' ' || r.state || ' ' || \
+         (SELECT COUNT(*) || ' ' || TOTAL(value) FROM line_stat l WHERE l.record = r.id) || ' ' || \
+         (SELECT COUNT(*) || ' ' || group_concat(sha256) FROM source s WHERE s.record = r.id) || ' ' || \
+         (SELECT COUNT(*) || ' ' || TOTAL(value) FROM component c WHERE c.record = r.id) AS x \
+         FROM record r WHERE r.id <= ?1 ORDER BY r.id)",
+        [last],
+        |r| r.get::<_, String>(0),
+    )
+    .expect("committed records")
+}
+
+/// The child process of [`an_add_stopped_at_every_write_point_leaves_a_sound_ledger`]:
+/// errmap's own add, through the library, with the fault VFS stopping the process at
+/// write point `ERRMAP_FAULT_STOP_AT`; when the add completes first, it prints how many
+/// write points it took.
+#[test]
+#[ignore = "a child process of an_add_stopped_at_every_write_point_leaves_a_sound_ledger"]
+fn fault_child() {
+    let var = |k: &str| std::env::var(k).ok();
+    let (Some(ledger), Some(result), Some(stop_at)) = (
+        var("ERRMAP_FAULT_LEDGER"),
+        var("ERRMAP_FAULT_RESULT"),
+        var("ERRMAP_FAULT_STOP_AT"),
+    ) else {
+        eprintln!("fault_child: run by an_add_stopped_at_every_write_point_leaves_a_sound_ledger");
+        return;
+    };
+    use errmap::history::{Ledger, MachineId, NewRecord, State};
+    let ingested = errmap::history::ingest::ingest(Path::new(&result)).expect("ingest");
+    errmap_faultvfs::install(stop_at.parse().expect("a write point"));
+    let mut l = Ledger::open(&ledger, true).expect("open");
+    let rec = NewRecord {
+        machine: MachineId::parse("F").expect("id"),
+        site: None,
+        state: State::AsFound,
+        at: errmap::history::time::parse_utc("2025-05-01").expect("at"),
+        supersede: None,
+        content: ingested.content,
+        sources: ingested.sources,
+    };
+    errmap::history::add(&mut l, &rec).expect("add");
+    drop(l);
+    println!("write points: {}", errmap_faultvfs::points());
+}
+
+#[test]
+fn an_add_stopped_at_every_write_point_leaves_a_sound_ledger() {
+    let dir = tempdir();
+    let base = small_ledger(dir.path());
+    let before = records(&base);
+    let kept = committed(&base, before);
+    let lines: Vec<(f64, f64)> = (0..40).map(|i| (0.0, 10.0 * i as f64)).collect();
+    let result = write_session(dir.path(), "f.csv", &session(Axis::Z, &lines, 2.0, 90));
+    let exe = std::env::current_exe().expect("the test binary");
+    let mut outcomes = std::collections::BTreeMap::<&str, u32>::new();
+    let mut n = 1u64;
+    let total = loop {
+        assert!(n < 1000, "an add of {n} write points?");
+        let ledger = dir
+            .path()
+            .join(format!("f{n}.sqlite"))
+            .display()
+            .to_string();
+        std::fs::copy(&base, &ledger).expect("copy");
+        let o = Command::new(&exe)
+            .args([
+                "history_crash::fault_child",
+                "--exact",
+                "--ignored",
+                "--nocapture",
+            ])
+            .args(["--test-threads", "1"])
+            .env("ERRMAP_FAULT_LEDGER", &ledger)
+            .env("ERRMAP_FAULT_RESULT", &result)
+            .env("ERRMAP_FAULT_STOP_AT", n.to_string())
+            .output()
+            .expect("run the child");
+        let stopped = o.status.code() == Some(errmap_faultvfs::STOPPED);
+        let out = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(
+            stopped || o.status.success(),
+            "write point {n}: {out}{}",
+            stderr(&o)
+        );
+        // A hot journal: one whose header is complete (SQLite writes the header's magic
+        // number only once the journal's records are synced, and no page of the ledger is
+        // written before; an empty journal, or one whose magic is still 0, is not hot and
+        // is left to the next writer).
+        let hot = || {
+            std::fs::read(format!("{ledger}-journal"))
+                .is_ok_and(|b| b.first().is_some_and(|&m| m != 0))
+        };
+        let journal = hot();
+        // verify, report, another add: each on the ledger as the crash left it.
+        let (vo, v) = verify(&ledger);
+        assert!(
+            vo.status.success(),
+            "write point {n}: verify: {}",
+            stderr(&vo)
+        );
+        assert_eq!(v["damage"].as_array().map(Vec::len), Some(0), "{v}");
+        assert!(!hot(), "write point {n}: the journal was rolled back");
+        let (ro, r) = report(&ledger, dir.path(), &format!("r{n}"));
+        assert!(
+            ro.status.success(),
+            "write point {n}: report: {}",
+            stderr(&ro)
+        );
+        let now = records(&ledger);
+        assert_eq!(r["ledger"]["records"].as_i64(), Some(now));
+        assert!(
+            now == before || now == before + 1,
+            "write point {n}: {now} records"
+        );
+        assert_eq!(
+            committed(&ledger, before),
+            kept,
+            "write point {n}: a committed record changed"
+        );
+        assert_whole(&ledger);
+        let outcome = match (stopped, journal, now > before) {
+            (true, true, false) => "stopped with a hot journal: rolled back, the add absent",
+            (true, false, false) => "stopped before the journal was hot: the add absent",
+            (true, _, true) => "stopped after the commit, the add whole",
+            (false, _, true) => "completed",
+            (false, _, false) => panic!("write point {n}: the add completed and is absent"),
+        };
+        *outcomes.entry(outcome).or_default() += 1;
+        let g = write_session(
+            dir.path(),
+            &format!("g{n}.csv"),
+            &session(Axis::Y, &[(0.0, 0.0)], 1.0, 1000 + n),
+        );
+        add_ok(&ledger, &g, "F", &["--at", "2025-06-01"]);
+        assert_eq!(records(&ledger), now + 1);
+        assert_whole(&ledger);
+        if !stopped {
+            // (libtest prints the test's name on the same line first)
+            let points: u64 = out
+                .split("write points: ")
+                .nth(1)
+                .and_then(|v| v.split_whitespace().next())
+                .and_then(|v| v.parse().ok())
+                .unwrap_or_else(|| panic!("the child's count: {out}"));
+            assert_eq!(points, n - 1, "the add took write points 1 … {}", n - 1);
+            break points;
+        }
+        n += 1;
+    };
+    eprintln!("an add stopped at each of its {total} write points, then completed: {outcomes:?}");
+    assert!(total >= 5, "{total} write points");
+    assert_eq!(outcomes.values().sum::<u32>() as u64, total + 1);
+}
