@@ -1018,25 +1018,45 @@ impl Cluster {
         if !o.status.success() {
             return Err(format!("initdb failed: {}", stderr(&o)));
         }
+        c.pg_start()?;
+        Ok(c)
+    }
+
+    /// Starts the server on its data directory (after `start`'s initdb, or after a crash).
+    fn pg_start(&self) -> Result<(), String> {
         let opts = format!(
             "-c listen_addresses=127.0.0.1 -p {} -k {} -c fsync=on",
-            c.port,
-            c.dir.path().display()
+            self.port,
+            self.dir.path().display()
         );
-        let o = c
+        let o = self
             .cmd("pg_ctl")
             .arg("-D")
-            .arg(&data)
+            .arg(self.dir.path().join("data"))
             .args(["-o", &opts, "-l"])
-            .arg(c.dir.path().join("log"))
+            .arg(self.dir.path().join("log"))
             .args(["-w", "-t", "60", "start"])
             .output()
             .map_err(|e| e.to_string())?;
         if !o.status.success() {
-            let log = std::fs::read_to_string(c.dir.path().join("log")).unwrap_or_default();
+            let log = std::fs::read_to_string(self.dir.path().join("log")).unwrap_or_default();
             return Err(format!("the server did not start: {}{log}", stderr(&o)));
         }
-        Ok(c)
+        Ok(())
+    }
+
+    /// Stops the server as a crash does (`pg_ctl stop -m immediate`: no checkpoint, every
+    /// backend killed, recovery from the write-ahead log at the next start), then starts it.
+    pub(super) fn crash_and_restart(&self) {
+        let o = self
+            .cmd("pg_ctl")
+            .arg("-D")
+            .arg(self.dir.path().join("data"))
+            .args(["-m", "immediate", "-w", "stop"])
+            .output()
+            .expect("pg_ctl stop");
+        assert!(o.status.success(), "pg_ctl stop: {}", stderr(&o));
+        self.pg_start().expect("the server restarts after a crash");
     }
 
     pub(super) fn url(&self, db: &str) -> String {

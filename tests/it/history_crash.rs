@@ -41,6 +41,13 @@ pub(super) fn report(ledger: &str, dir: &Path, name: &str) -> (Output, serde_jso
 /// A ledger of a few committed records: three monthly X sessions of A, a model of B.
 fn small_ledger(dir: &Path) -> String {
     let ledger = dir.join("l.sqlite").display().to_string();
+    fill(&ledger, dir);
+    ledger
+}
+
+/// The records of [`small_ledger`] added to `ledger`.
+fn fill(ledger: &str, dir: &Path) {
+    let ledger = ledger.to_string();
     for (i, at) in ["2025-01-10", "2025-02-10", "2025-03-10"]
         .iter()
         .enumerate()
@@ -58,7 +65,6 @@ fn small_ledger(dir: &Path) -> String {
         "B",
         &["--at", "2025-03-11"],
     );
-    ledger
 }
 
 /// A Python `sqlite3` writer that takes the ledger's write lock, inserts a record and
@@ -428,6 +434,20 @@ fn one_current_record_per_machine_axis_state_and_instant() {
 /// The records up to `last` as text: each one's row and the number and sum of its
 /// statistics, sources and components (what a crash must leave unchanged).
 fn committed(ledger: &str, last: i64) -> String {
+    if ledger.starts_with("postgres") {
+        let mut c = postgres::Client::connect(ledger, postgres::NoTls).expect("connect");
+        return c
+            .query_one(
+                "SELECT string_agg(x, ';' ORDER BY id) FROM (SELECT r.id, r.id || ' ' || r.machine || ' ' || r.at || ' ' || r.state || ' ' || \
+                 (SELECT COUNT(*) || ' ' || COALESCE(SUM(value), 0) FROM line_stat l WHERE l.record = r.id) || ' ' || \
+                 (SELECT COUNT(*) || ' ' || COALESCE(string_agg(sha256, ','), '') FROM source s WHERE s.record = r.id) || ' ' || \
+                 (SELECT COUNT(*) || ' ' || COALESCE(SUM(value), 0) FROM component c WHERE c.record = r.id) AS x \
+                 FROM record r WHERE r.id <= $1) t",
+                &[&last],
+            )
+            .expect("committed records")
+            .get::<_, String>(0);
+    }
     let c = rusqlite::Connection::open(ledger).expect("open");
     c.query_row(
         "SELECT group_concat(x, ';') FROM (SELECT r.id || ' ' || r.machine || ' ' || r.at || ' ' || r.state || ' ' || \
@@ -582,4 +602,116 @@ fn an_add_stopped_at_every_write_point_leaves_a_sound_ledger() {
     eprintln!("an add stopped at each of its {total} write points, then completed: {outcomes:?}");
     assert!(total >= 5, "{total} write points");
     assert_eq!(outcomes.values().sum::<u32>() as u64, total + 1);
+}
+
+// ---------------------------------------------------------------- PostgreSQL
+
+/// An add on PostgreSQL stopped after each statement of its transaction, its client
+/// killed (`kill -9`) or its server crashed (`pg_ctl stop -m immediate`, then restarted:
+/// recovery from the write-ahead log); each followed by verify, report and another add.
+#[test]
+fn postgresql_add_killed_at_every_statement_client_or_server() {
+    let cluster = match crate::history::Cluster::start() {
+        Ok(c) => c,
+        Err(why) => {
+            eprintln!(
+                "SKIPPED postgresql_add_killed_at_every_statement_client_or_server: no PostgreSQL server to start ({why})"
+            );
+            return;
+        }
+    };
+    let dir = tempdir();
+    let ledger = cluster.create_db("crash");
+    fill(&ledger, dir.path());
+    let lines: Vec<(f64, f64)> = (0..10).map(|i| (0.0, 10.0 * i as f64)).collect();
+    let mut tried = Vec::new();
+    for (k, kill) in ["client", "server"].into_iter().enumerate() {
+        let f = write_session(
+            dir.path(),
+            &format!("f-{kill}.csv"),
+            &session(Axis::Z, &lines, 2.0, 95 + k as u64),
+        );
+        let at = format!("2025-05-0{}", k + 1);
+        let mut n = 1u64;
+        loop {
+            assert!(n < 100, "{n} statements?");
+            let before = records(&ledger);
+            // (ids are a sequence with gaps on PostgreSQL: a killed add used one)
+            let last = scalar(&ledger, "SELECT COALESCE(MAX(id), 0) FROM record");
+            let kept = committed(&ledger, last);
+            let mut child = errmap_cmd()
+                .args([
+                    "history",
+                    "add",
+                    f.to_str().expect("utf-8"),
+                    "--ledger",
+                    &ledger,
+                ])
+                .args(["--machine", "F", "--at", &at])
+                .env("ERRMAP_HISTORY_STALL_AT", n.to_string())
+                .env("ERRMAP_HISTORY_STALL_MS", "60000")
+                .stderr(Stdio::piped())
+                .spawn()
+                .expect("spawn");
+            let mut line = String::new();
+            BufReader::new(child.stderr.take().expect("stderr"))
+                .read_line(&mut line)
+                .expect("read");
+            let stalled = line.contains(&format!("statement {n} done"));
+            if stalled {
+                if kill == "server" {
+                    cluster.crash_and_restart();
+                }
+                let _ = child.kill();
+            }
+            let status = child.wait().expect("wait");
+            let now = records(&ledger);
+            if stalled {
+                assert_eq!(
+                    now, before,
+                    "{kill} killed after statement {n}: the add is absent"
+                );
+            } else {
+                assert!(status.success(), "{line}");
+                assert_eq!(now, before + 1);
+            }
+            assert_eq!(
+                committed(&ledger, last),
+                kept,
+                "{kill} killed after statement {n}"
+            );
+            let (vo, v) = verify(&ledger);
+            assert!(
+                vo.status.success(),
+                "{kill} at {n}: verify: {}",
+                stderr(&vo)
+            );
+            assert_eq!(v["damage"].as_array().map(Vec::len), Some(0), "{v}");
+            let (ro, r) = report(&ledger, dir.path(), &format!("r-{kill}-{n}"));
+            assert!(
+                ro.status.success(),
+                "{kill} at {n}: report: {}",
+                stderr(&ro)
+            );
+            assert_eq!(r["ledger"]["records"].as_i64(), Some(now));
+            assert_whole(&ledger);
+            let g = write_session(
+                dir.path(),
+                &format!("g-{kill}-{n}.csv"),
+                &session(Axis::Y, &[(0.0, 0.0)], 1.0, 2000 + 100 * k as u64 + n),
+            );
+            add_ok(&ledger, &g, &format!("G{k}-{n}"), &["--at", "2025-06-01"]);
+            assert_eq!(records(&ledger), now + 1);
+            assert_whole(&ledger);
+            if !stalled {
+                tried.push((kill, n - 1));
+                break;
+            }
+            n += 1;
+        }
+    }
+    eprintln!(
+        "PostgreSQL: an add killed after each of its statements: {tried:?} (kill, statements)"
+    );
+    assert!(tried.iter().all(|&(_, s)| s >= 5), "{tried:?}");
 }
