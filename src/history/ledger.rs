@@ -747,7 +747,7 @@ impl Ledger {
 }
 
 /// Column access common to both drivers' rows.
-pub trait Cells {
+pub(super) trait Cells {
     fn i64(&self, i: usize) -> Result<i64, DbError>;
     fn f64(&self, i: usize) -> Result<Option<f64>, DbError>;
     fn text(&self, i: usize) -> Result<Option<String>, DbError>;

@@ -3,23 +3,23 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`ledger`] | the database: one schema on SQLite and PostgreSQL, append-only, locked writes, a crashed writer's journal rolled back, one snapshot per read |
-//! | [`check`] | `verify`: the files re-hashed, the ledger's own soundness |
-//! | [`ingest`] | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
-//! | [`stats`] | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
-//! | [`report`] | series, segments, charts, forecasts, advice and the fleet ranking |
+//! | `ledger` | the database: one schema on SQLite and PostgreSQL, append-only, locked writes, a crashed writer's journal rolled back, one snapshot per read |
+//! | `check` | `verify`: the files re-hashed, the ledger's own soundness |
+//! | `ingest` | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
+//! | `stats` | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
+//! | `report` | series, segments, charts, forecasts, advice and the fleet ranking |
 //! | [`tolerance`] | the tolerance file |
 //! | [`time`] | UTC instants as stored |
 //!
 //! An add is one transaction ([`add`]); a report reads one machine at a time
-//! ([`report::Run`]), so its memory is bounded by the largest machine, not the ledger.
+//! ([`Run`]), so its memory is bounded by the largest machine, not the ledger.
 //! The rules and the maths are in `docs/history.md`.
 
 mod check;
-pub mod ingest;
-pub mod ledger;
-pub mod report;
-pub mod stats;
+mod ingest;
+mod ledger;
+mod report;
+mod stats;
 pub mod time;
 pub mod tolerance;
 
@@ -28,8 +28,17 @@ use crate::base::{ConfigError, FileError};
 use serde::Serialize;
 
 pub use check::{Changed, Missing, Problem, Verification, verify};
-pub use ingest::{ComponentRow, Content, Ingested, LineStat, Role, SourceFile};
-pub use ledger::{DbError, Ledger};
+pub use ingest::{
+    ComponentRow, Content, FUNCTIONS, Ingested, LineStat, PARAMETERS, Role, SQUARENESS, SourceFile,
+    ingest,
+};
+pub use ledger::{DbError, LOCK_WAIT, Ledger, MachineRows, RawPoint, SourceRow, is_postgres};
+pub use report::{
+    Advice, Alarm, AxisReport, ChartSpec, DEFAULT_HORIZON_DAYS, FleetEntry, Head, LedgerCounts,
+    MachineReport, PAIR_WINDOW_S, Pair, ParameterReport, Report, ReportConfig, Run, SeriesPoint,
+    machine_report, report,
+};
+pub use stats::{Trend, t_cdf, t_quantile};
 
 /// Why a history command failed.
 #[derive(Debug, thiserror::Error)]

@@ -13,10 +13,9 @@ use std::time::Instant;
 use errmap::base::Axis;
 use errmap::base::stats::gaussian;
 use errmap::drivers::SessionRow;
-use errmap::history::ledger::{MachineRows, RawPoint};
-use errmap::history::report::{ReportConfig, machine_report};
 use errmap::history::time::{format_utc, parse_utc};
 use errmap::history::tolerance::Tolerances;
+use errmap::history::{MachineRows, RawPoint, ReportConfig, machine_report};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
@@ -84,7 +83,7 @@ pub(super) fn write_session(dir: &Path, name: &str, rows: &[SessionRow]) -> Path
 /// A volumetric model file with the 21 components (`E_ZY` not identified).
 pub(super) fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathBuf {
     let mut components = serde_json::Map::new();
-    for n in errmap::history::ingest::FUNCTIONS {
+    for n in errmap::history::FUNCTIONS {
         let unit = if n.as_bytes()[2].is_ascii_uppercase() && "ABC".contains(&n[2..3]) {
             "urad"
         } else {
@@ -98,7 +97,7 @@ pub(super) fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f6
                 "sigma": [0.0, 0.1, 0.1]}),
         );
     }
-    for n in errmap::history::ingest::SQUARENESS {
+    for n in errmap::history::SQUARENESS {
         components.insert(
             n.to_string(),
             serde_json::json!({"identified": true, "unit": "urad", "value": squareness_urad, "sigma": 0.5}),
@@ -1263,7 +1262,7 @@ fn the_forecast_interval_covers_a_simulated_drift() {
     let truth = format_utc(t0() + (10.0 * year_s) as i64)[..10].to_string();
     let (mut covered, mut bounded, mut rate_in) = (0, 0, 0);
     let n = 400;
-    let q = errmap::history::stats::t_quantile(0.975, 14.0);
+    let q = errmap::history::t_quantile(0.975, 14.0);
     for m in 0..n {
         // 16 quarterly tests over 3.75 years.
         let s: Vec<(i64, f64, bool)> = (0..16)

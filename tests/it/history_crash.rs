@@ -478,7 +478,7 @@ fn fault_child() {
         return;
     };
     use errmap::history::{Ledger, MachineId, NewRecord, State};
-    let ingested = errmap::history::ingest::ingest(Path::new(&result)).expect("ingest");
+    let ingested = errmap::history::ingest(Path::new(&result)).expect("ingest");
     errmap_faultvfs::install(stop_at.parse().expect("a write point"));
     let mut l = Ledger::open(&ledger, true).expect("open");
     let rec = NewRecord {
