@@ -580,6 +580,34 @@ fn scenario_concurrency(ledger: &str, dir: &Path) {
     assert_whole(ledger);
 }
 
+/// `history add FILE --ledger L EXTRA…` with the crash seam's variables `env`, started;
+/// returns the child and the first line it wrote on stderr (the seam's "… pending").
+pub(super) fn stalled_add(
+    ledger: &str,
+    f: &Path,
+    extra: &[&str],
+    env: &[(&str, &str)],
+) -> (std::process::Child, String) {
+    let mut child = errmap_cmd()
+        .args([
+            "history",
+            "add",
+            f.to_str().expect("utf-8"),
+            "--ledger",
+            ledger,
+        ])
+        .args(extra)
+        .envs(env.iter().copied())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let mut line = String::new();
+    BufReader::new(child.stderr.take().expect("stderr"))
+        .read_line(&mut line)
+        .expect("read");
+    (child, line)
+}
+
 /// kill -9 inside an add's transaction, and at random moments: the count is whole.
 fn scenario_crash(ledger: &str, dir: &Path) {
     let big: Vec<(f64, f64)> = (0..40).map(|i| (0.0, 10.0 * i as f64)).collect();
@@ -596,26 +624,12 @@ fn scenario_crash(ledger: &str, dir: &Path) {
     let before = records(ledger);
     // Inside the transaction, for certain: the record row is written, the rest pending.
     let f = write_session(dir, "k0.csv", &session(Axis::X, &big, 2.0, 500));
-    let mut child = errmap_cmd()
-        .args([
-            "history",
-            "add",
-            f.to_str().expect("utf-8"),
-            "--ledger",
-            ledger,
-            "--machine",
-            "K",
-            "--at",
-            "2025-02-02",
-        ])
-        .env("ERRMAP_HISTORY_STALL_MS", "30000")
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
-    let mut line = String::new();
-    BufReader::new(child.stderr.take().expect("stderr"))
-        .read_line(&mut line)
-        .expect("read");
+    let (mut child, line) = stalled_add(
+        ledger,
+        &f,
+        &["--machine", "K", "--at", "2025-02-02"],
+        &[("ERRMAP_HISTORY_STALL_MS", "30000")],
+    );
     assert!(line.contains("row written"), "{line}");
     child.kill().expect("kill -9");
     child.wait().expect("wait");

@@ -3,17 +3,16 @@
 //! reads; reads during an add see whole records; a damaged file is named as damaged.
 //! And the ledger's own rules on test times, amendment reasons and instants (issue 40).
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 use errmap::base::Axis;
 use errmap::history::time::{CLOCK_SKEW_S, format_utc, now_utc};
 
 use crate::history::{
-    add, add_ok, assert_whole, model_json, records, scalar, session, write_session,
+    add, add_ok, assert_whole, model_json, records, scalar, session, stalled_add, write_session,
 };
-use crate::util::{errmap, errmap_cmd, stderr, tempdir};
+use crate::util::{errmap, stderr, tempdir};
 
 /// `history verify --json`: its output and its document.
 pub(super) fn verify(ledger: &str) -> (Output, serde_json::Value) {
@@ -193,23 +192,12 @@ fn reads_during_an_add_see_only_whole_records() {
     let before = records(&ledger);
     let big: Vec<(f64, f64)> = (0..40).map(|i| (0.0, 10.0 * i as f64)).collect();
     let f = write_session(dir.path(), "k.csv", &session(Axis::Y, &big, 2.0, 77));
-    let mut child = errmap_cmd()
-        .args([
-            "history",
-            "add",
-            f.to_str().expect("utf-8"),
-            "--ledger",
-            &ledger,
-        ])
-        .args(["--machine", "A", "--at", "2025-04-01"])
-        .env("ERRMAP_HISTORY_STALL_MS", "4000")
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
-    let mut line = String::new();
-    BufReader::new(child.stderr.take().expect("stderr"))
-        .read_line(&mut line)
-        .expect("read");
+    let (mut child, line) = stalled_add(
+        &ledger,
+        &f,
+        &["--machine", "A", "--at", "2025-04-01"],
+        &[("ERRMAP_HISTORY_STALL_MS", "4000")],
+    );
     assert!(line.contains("row written"), "{line}");
     // The add holds its lock, its record row written and the rest pending.
     let (o, r) = report(&ledger, dir.path(), "during");
@@ -639,24 +627,16 @@ fn postgresql_add_killed_at_every_statement_client_or_server() {
             // (ids are a sequence with gaps on PostgreSQL: a killed add used one)
             let last = scalar(&ledger, "SELECT COALESCE(MAX(id), 0) FROM record");
             let kept = committed(&ledger, last);
-            let mut child = errmap_cmd()
-                .args([
-                    "history",
-                    "add",
-                    f.to_str().expect("utf-8"),
-                    "--ledger",
-                    &ledger,
-                ])
-                .args(["--machine", "F", "--at", &at])
-                .env("ERRMAP_HISTORY_STALL_AT", n.to_string())
-                .env("ERRMAP_HISTORY_STALL_MS", "60000")
-                .stderr(Stdio::piped())
-                .spawn()
-                .expect("spawn");
-            let mut line = String::new();
-            BufReader::new(child.stderr.take().expect("stderr"))
-                .read_line(&mut line)
-                .expect("read");
+            let stall_at = n.to_string();
+            let (mut child, line) = stalled_add(
+                &ledger,
+                &f,
+                &["--machine", "F", "--at", &at],
+                &[
+                    ("ERRMAP_HISTORY_STALL_AT", stall_at.as_str()),
+                    ("ERRMAP_HISTORY_STALL_MS", "60000"),
+                ],
+            );
             let stalled = line.contains(&format!("statement {n} done"));
             if stalled {
                 if kill == "server" {
