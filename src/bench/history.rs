@@ -14,10 +14,10 @@ use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
 use crate::base::{gaussian, median};
-use crate::history::report::{ReportConfig, Run};
 use crate::history::tolerance::Tolerances;
 use crate::history::{
-    self, Content, HistoryError, Ledger, LineStat, MachineId, NewRecord, Role, SourceFile, State,
+    self, Content, HistoryError, Ledger, LineStat, MachineId, NewRecord, ReportConfig, Role, Run,
+    SourceFile, State,
 };
 
 /// What was measured on one backend.

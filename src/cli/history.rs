@@ -8,9 +8,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use errmap::history::report::{DEFAULT_HORIZON_DAYS, ReportConfig, Run};
 use errmap::history::tolerance::Tolerances;
-use errmap::history::{self, Ledger, MachineId, NewRecord, State, Supersede, time};
+use errmap::history::{
+    self, DEFAULT_HORIZON_DAYS, Ledger, MachineId, NewRecord, ReportConfig, Run, State, Supersede,
+    time,
+};
 
 use super::guard;
 
@@ -122,7 +124,7 @@ pub(crate) fn history_cmd(a: HistoryArgs) -> Result<()> {
 }
 
 fn add(a: AddArgs) -> Result<()> {
-    let ingested = history::ingest::ingest(&a.result)?;
+    let ingested = history::ingest(&a.result)?;
     for w in &ingested.warnings {
         eprintln!("history add: warning: {w}");
     }
@@ -256,7 +258,7 @@ fn report(a: ReportArgs) -> Result<()> {
 }
 
 fn ledger_name(spec: &str) -> String {
-    if history::ledger::is_postgres(spec) {
+    if history::is_postgres(spec) {
         "the PostgreSQL ledger".into()
     } else {
         spec.to_string()
@@ -278,16 +280,27 @@ fn verify(a: VerifyArgs) -> Result<()> {
             m.record, m.path, m.role
         );
     }
+    for d in &v.damage {
+        eprintln!("history verify: damaged: {}", d.problem);
+    }
     eprintln!(
-        "history verify: {} files checked, {} changed, {} missing",
+        "history verify: {} files checked, {} changed, {} missing; {} problems in the ledger itself",
         v.checked,
         v.changed.len(),
-        v.missing.len()
+        v.missing.len(),
+        v.damage.len()
     );
     if a.json {
         guard::print_json(&v)?;
     }
-    if !v.changed.is_empty() || !v.missing.is_empty() {
+    if !v.damage.is_empty() {
+        anyhow::bail!(
+            "{}: the ledger is damaged: {} problems (listed above)",
+            ledger.name(),
+            v.damage.len()
+        );
+    }
+    if !v.is_sound() {
         anyhow::bail!(
             "{}: {} of {} files changed or vanished since they were recorded",
             ledger.name(),
@@ -339,7 +352,7 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
     let mut ledger = Ledger::open(&spec, true)?;
     let machine = MachineId::parse("DEMO-1").context("the demo's machine id")?;
     for result in std::iter::once(session_dir).chain(model) {
-        let ingested = history::ingest::ingest(result)?;
+        let ingested = history::ingest(result)?;
         let added = history::add(
             &mut ledger,
             &NewRecord {

@@ -124,7 +124,7 @@ fn input(path: &Path, message: impl Into<String>) -> HistoryError {
 }
 
 /// sha256 (lowercase hex) and size of a file, read in 64 KiB blocks.
-pub fn sha256_file(path: &Path) -> Result<(String, i64), std::io::Error> {
+pub(super) fn sha256_file(path: &Path) -> Result<(String, i64), std::io::Error> {
     let mut f = std::fs::File::open(path)?;
     let mut h = Sha256::new();
     let mut buf = vec![0u8; 1 << 16];
@@ -141,7 +141,7 @@ pub fn sha256_file(path: &Path) -> Result<(String, i64), std::io::Error> {
 }
 
 /// Lowercase hex of bytes.
-pub fn hex(b: &[u8]) -> String {
+pub(super) fn hex(b: &[u8]) -> String {
     const D: &[u8; 16] = b"0123456789abcdef";
     let mut s = String::with_capacity(b.len() * 2);
     for &x in b {
@@ -228,7 +228,7 @@ pub fn ingest(result: &Path) -> Result<Ingested, HistoryError> {
 
 /// The ISO 230-2 statistics of every line of a one-axis session, as `errmap table`
 /// computes them (flagged samples left out), with U along the travel (k = 2).
-pub fn session_content(path: &Path) -> Result<(Content, Vec<String>), HistoryError> {
+pub(super) fn session_content(path: &Path) -> Result<(Content, Vec<String>), HistoryError> {
     let mut reducer = session::Reducer::new();
     let mut environment = session::EnvironmentStats::default();
     session::for_each_batch(path, session::BATCH_ROWS, &mut |rows| {
@@ -297,7 +297,7 @@ pub fn session_content(path: &Path) -> Result<(Content, Vec<String>), HistoryErr
 }
 
 /// E, E↑, E↓, A, B, R, M of one line, in [`PARAMETERS`] order.
-pub fn values(s: &session::AxisStats) -> [f64; 7] {
+pub(super) fn values(s: &session::AxisStats) -> [f64; 7] {
     [
         s.e_um,
         s.e_up_um,
@@ -338,7 +338,7 @@ struct ModelJson {
 
 /// The 21 components of a volumetric model: squareness value and σ, each function's
 /// range (max − min of its values with 0 included); nulls where not identified.
-pub fn model_content(path: &Path) -> Result<Content, HistoryError> {
+pub(super) fn model_content(path: &Path) -> Result<Content, HistoryError> {
     let text = std::fs::read_to_string(path).map_err(io_err(path, FileOp::Read))?;
     let model: ModelJson = serde_json::from_str(&text).map_err(|e| {
         input(

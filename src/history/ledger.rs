@@ -12,6 +12,20 @@ use std::time::Duration;
 
 use super::HistoryError;
 
+/// What a database said: SQLite's error or the PostgreSQL server's (or driver's).
+#[derive(Debug, thiserror::Error)]
+pub enum DbError {
+    /// SQLite's error, as its library words it.
+    #[error("{0}")]
+    Sqlite(#[from] rusqlite::Error),
+    /// The PostgreSQL server's message (the driver's own words when the server said none).
+    #[error("{}", pg_message(.0))]
+    Postgres(#[from] postgres::Error),
+    /// An INSERT … RETURNING gave no row.
+    #[error("the insert returned no id")]
+    NoId,
+}
+
 /// How long an add waits for another writer's lock (SQLite's busy timeout; PostgreSQL
 /// waits without limit).
 pub const LOCK_WAIT: Duration = Duration::from_secs(600);
@@ -287,47 +301,115 @@ pub struct MachineRows {
 
 const CURRENT: &str = "NOT EXISTS (SELECT 1 FROM record s WHERE s.supersedes = r.id)";
 
+/// Connects to a PostgreSQL ledger; creates the tables (an add) or starts the read
+/// snapshot (a read).
+fn open_postgres(spec: &str, name: &str, create: bool) -> Result<postgres::Client, HistoryError> {
+    let db = |source: postgres::Error| HistoryError::Db {
+        ledger: name.to_string(),
+        source: source.into(),
+    };
+    let mut client =
+        postgres::Client::connect(spec, postgres::NoTls).map_err(|e| HistoryError::Connect {
+            ledger: name.to_string(),
+            source: e.into(),
+        })?;
+    let exists = |c: &mut postgres::Client| -> Result<bool, postgres::Error> {
+        let row = c.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
+        row.try_get::<_, bool>(0)
+    };
+    if !create {
+        // One snapshot for the whole command: the records committed now, whole.
+        client
+            .batch_execute("BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY")
+            .map_err(db)?;
+        return match exists(&mut client).map_err(db)? {
+            true => Ok(client),
+            false => Err(HistoryError::NoLedger(name.to_string())),
+        };
+    }
+    if exists(&mut client).map_err(db)? {
+        return Ok(client);
+    }
+    // Two first adds at once: one creates, the other waits and finds the tables. A
+    // session lock, so that the check after it runs in a new transaction that sees the
+    // other's commit.
+    client
+        .execute("SELECT pg_advisory_lock(2705202617)", &[])
+        .map_err(db)?;
+    let created = (|| -> Result<(), postgres::Error> {
+        let mut tx = client.transaction()?;
+        let row = tx.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
+        if !row.try_get::<_, bool>(0)? {
+            tx.batch_execute(&postgres_schema())?;
+        }
+        tx.commit()
+    })();
+    let unlocked = client.execute("SELECT pg_advisory_unlock(2705202617)", &[]);
+    created.map_err(|e| HistoryError::Create {
+        ledger: name.to_string(),
+        source: e.into(),
+    })?;
+    unlocked.map_err(db)?;
+    Ok(client)
+}
+
+/// What SQLite's refusal means for the ledger `name`: a journal this process may not
+/// roll back, a damaged file (with what SQLite's integrity check finds, when `conn` can
+/// still run it), or another failure.
+fn sqlite_failure(
+    name: &str,
+    conn: Option<&rusqlite::Connection>,
+    e: rusqlite::Error,
+) -> HistoryError {
+    use rusqlite::ffi;
+    let codes = e.sqlite_error().map(|f| (f.code, f.extended_code));
+    match codes {
+        Some((_, ffi::SQLITE_READONLY_ROLLBACK | ffi::SQLITE_READONLY_RECOVERY)) => {
+            HistoryError::Unrecovered {
+                ledger: name.to_string(),
+                journal: format!("{name}-journal"),
+                source: e.into(),
+            }
+        }
+        Some((rusqlite::ErrorCode::DatabaseCorrupt | rusqlite::ErrorCode::NotADatabase, _)) => {
+            let found = conn.map(integrity_check).unwrap_or_default();
+            HistoryError::Damaged {
+                ledger: name.to_string(),
+                source: e.into(),
+                found,
+            }
+        }
+        _ => HistoryError::Db {
+            ledger: name.to_string(),
+            source: e.into(),
+        },
+    }
+}
+
+/// What SQLite's `PRAGMA integrity_check` finds (at most 20 lines), empty when the file
+/// is sound or the check itself cannot run.
+fn integrity_check(conn: &rusqlite::Connection) -> Vec<String> {
+    let run = || -> Result<Vec<String>, rusqlite::Error> {
+        let mut st = conn.prepare("PRAGMA integrity_check(20)")?;
+        let rows = st.query_map([], |r| r.get::<_, String>(0))?;
+        rows.collect()
+    };
+    match run() {
+        Ok(lines) if lines.len() == 1 && lines[0] == "ok" => Vec::new(),
+        Ok(lines) => lines,
+        Err(e) => vec![format!("the integrity check cannot run: {e}")],
+    }
+}
+
 impl Ledger {
-    /// Opens the ledger `spec` (a file path, or a `postgres://` address). With `create`,
-    /// a missing file and missing tables are created; without it they are an error.
+    /// Opens the ledger `spec` (a file path, or a `postgres://` address). With `create`
+    /// (an add), a missing file and missing tables are created; without it (a read) they
+    /// are an error, and every read of the returned ledger sees one snapshot: the records
+    /// committed when it was opened, whole, whatever adds run meanwhile.
     pub fn open(spec: &str, create: bool) -> Result<Ledger, HistoryError> {
         let name = display_name(spec);
-        let db_err = |message: String| HistoryError::Db {
-            ledger: name.clone(),
-            message,
-        };
         if is_postgres(spec) {
-            let mut client = postgres::Client::connect(spec, postgres::NoTls)
-                .map_err(|e| db_err(format!("cannot connect: {}", pg_message(&e))))?;
-            let exists = |c: &mut postgres::Client| -> Result<bool, postgres::Error> {
-                let row = c.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
-                row.try_get::<_, bool>(0)
-            };
-            let found = exists(&mut client).map_err(|e| db_err(pg_message(&e)))?;
-            if !found {
-                if !create {
-                    return Err(HistoryError::NoLedger(name));
-                }
-                // Two first adds at once: one creates, the other waits and finds the
-                // tables. A session lock, so that the check after it runs in a new
-                // transaction that sees the other's commit.
-                client
-                    .execute("SELECT pg_advisory_lock(2705202617)", &[])
-                    .map_err(|e| db_err(pg_message(&e)))?;
-                let created = (|| -> Result<(), postgres::Error> {
-                    let mut tx = client.transaction()?;
-                    let row =
-                        tx.query_one("SELECT to_regclass('public.record') IS NOT NULL", &[])?;
-                    if !row.try_get::<_, bool>(0)? {
-                        tx.batch_execute(&postgres_schema())?;
-                    }
-                    tx.commit()
-                })();
-                let unlocked = client.execute("SELECT pg_advisory_unlock(2705202617)", &[]);
-                created
-                    .map_err(|e| db_err(format!("cannot create the tables: {}", pg_message(&e))))?;
-                unlocked.map_err(|e| db_err(pg_message(&e)))?;
-            }
+            let client = open_postgres(spec, &name, create)?;
             return Ok(Ledger {
                 db: Db::Postgres(Box::new(Pg {
                     client,
@@ -336,44 +418,61 @@ impl Ledger {
                 name,
             });
         }
-        use rusqlite::OpenFlags;
         let path = Path::new(spec);
         if !create && !path.is_file() {
             return Err(HistoryError::NoLedger(name));
         }
-        let flags = if create {
-            OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_CREATE
-        } else {
-            OpenFlags::SQLITE_OPEN_READ_ONLY
-        } | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-        let sq = |e: rusqlite::Error| db_err(e.to_string());
-        let mut conn = rusqlite::Connection::open_with_flags(path, flags).map_err(sq)?;
-        conn.busy_timeout(LOCK_WAIT).map_err(sq)?;
-        conn.execute_batch("PRAGMA foreign_keys = ON;")
-            .map_err(sq)?;
+        // Read-write for reads too: a writer that died inside its transaction left its
+        // rollback journal, and SQLite rolls it back the first time a connection that may
+        // write reads the file, under its exclusive lock, which no add can hold meanwhile.
+        // A read-only connection cannot, and refuses the file (SQLITE_READONLY_ROLLBACK).
+        use rusqlite::OpenFlags;
+        let mut flags = OpenFlags::SQLITE_OPEN_READ_WRITE | OpenFlags::SQLITE_OPEN_NO_MUTEX;
         if create {
-            let tx = conn
-                .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
-                .map_err(sq)?;
-            tx.execute_batch(SQLITE_SCHEMA).map_err(sq)?;
-            tx.execute_batch(&sqlite_triggers()).map_err(sq)?;
-            tx.commit().map_err(sq)?;
-        } else {
-            let n: i64 = conn
-                .query_row(
-                    "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'record'",
-                    [],
-                    |r| r.get(0),
-                )
-                .map_err(|e| db_err(format!("not a ledger: {e}")))?;
-            if n == 0 {
-                return Err(HistoryError::NoLedger(name));
-            }
+            flags |= OpenFlags::SQLITE_OPEN_CREATE;
         }
-        Ok(Ledger {
+        let conn = rusqlite::Connection::open_with_flags(path, flags)
+            .map_err(|e| sqlite_failure(&name, None, e))?;
+        let mut ledger = Ledger {
             db: Db::Sqlite(conn),
             name,
-        })
+        };
+        ledger.prepare_sqlite(create)?;
+        Ok(ledger)
+    }
+
+    /// A new SQLite connection's settings, then the tables (an add) or the read
+    /// snapshot and the check that the file holds a ledger (a read).
+    fn prepare_sqlite(&mut self, create: bool) -> Result<(), HistoryError> {
+        let Db::Sqlite(conn) = &mut self.db else {
+            return Ok(());
+        };
+        let r = (|| -> Result<bool, rusqlite::Error> {
+            conn.busy_timeout(LOCK_WAIT)?;
+            conn.execute_batch("PRAGMA foreign_keys = ON;")?;
+            if create {
+                let tx =
+                    conn.transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)?;
+                tx.execute_batch(SQLITE_SCHEMA)?;
+                tx.execute_batch(&sqlite_triggers())?;
+                tx.commit()?;
+                return Ok(true);
+            }
+            // The snapshot: a read transaction, its shared lock taken by the first read
+            // and held until the command ends (an add waits for it to commit).
+            conn.execute_batch("BEGIN DEFERRED")?;
+            let n: i64 = conn.query_row(
+                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'record'",
+                [],
+                |r| r.get(0),
+            )?;
+            Ok(n > 0)
+        })();
+        match r {
+            Ok(true) => Ok(()),
+            Ok(false) => Err(HistoryError::NoLedger(self.name.clone())),
+            Err(e) => Err(sqlite_failure(&self.name, Some(conn), e)),
+        }
     }
 
     /// The ledger as named in messages (a PostgreSQL password hidden).
@@ -389,10 +488,15 @@ impl Ledger {
         }
     }
 
-    fn err(&self, message: String) -> HistoryError {
-        HistoryError::Db {
-            ledger: self.name.clone(),
-            message,
+    /// The history error for what the database said: SQLite's corruption is named as
+    /// damage, with what its integrity check finds.
+    fn fail(&self, source: DbError) -> HistoryError {
+        match (source, &self.db) {
+            (DbError::Sqlite(e), Db::Sqlite(c)) => sqlite_failure(&self.name, Some(c), e),
+            (source, _) => HistoryError::Db {
+                ledger: self.name.clone(),
+                source,
+            },
         }
     }
 
@@ -403,38 +507,40 @@ impl Ledger {
         f: impl FnOnce(&mut Tx<'_>) -> Result<T, HistoryError>,
     ) -> Result<T, HistoryError> {
         let name = self.name.clone();
-        let err = |message: String| HistoryError::Db {
+        let err = |source: DbError| HistoryError::Db {
             ledger: name.clone(),
-            message,
+            source,
         };
         match &mut self.db {
             Db::Sqlite(c) => {
                 let tx = c
                     .transaction_with_behavior(rusqlite::TransactionBehavior::Immediate)
-                    .map_err(|e| err(e.to_string()))?;
+                    .map_err(|e| err(e.into()))?;
                 let mut t = Tx {
                     inner: TxInner::Sqlite(tx),
                     name: name.clone(),
+                    statements: 0,
                 };
                 let v = f(&mut t)?;
                 match t.inner {
-                    TxInner::Sqlite(tx) => tx.commit().map_err(|e| err(e.to_string()))?,
+                    TxInner::Sqlite(tx) => tx.commit().map_err(|e| err(e.into()))?,
                     TxInner::Postgres(..) => unreachable!("a SQLite transaction"),
                 }
                 Ok(v)
             }
             Db::Postgres(pg) => {
                 let Pg { client, stmts } = &mut **pg;
-                let mut tx = client.transaction().map_err(|e| err(pg_message(&e)))?;
+                let mut tx = client.transaction().map_err(|e| err(e.into()))?;
                 tx.batch_execute("LOCK TABLE public.record IN SHARE ROW EXCLUSIVE MODE")
-                    .map_err(|e| err(pg_message(&e)))?;
+                    .map_err(|e| err(e.into()))?;
                 let mut t = Tx {
                     inner: TxInner::Postgres(tx, stmts),
                     name: name.clone(),
+                    statements: 0,
                 };
                 let v = f(&mut t)?;
                 match t.inner {
-                    TxInner::Postgres(tx, _) => tx.commit().map_err(|e| err(pg_message(&e)))?,
+                    TxInner::Postgres(tx, _) => tx.commit().map_err(|e| err(e.into()))?,
                     TxInner::Sqlite(_) => unreachable!("a PostgreSQL transaction"),
                 }
                 Ok(v)
@@ -442,34 +548,21 @@ impl Ledger {
         }
     }
 
-    /// Runs a statement outside the library's own writes (tests use it to prove the
-    /// ledger refuses UPDATE and DELETE); returns the rows it changed.
-    pub fn execute_raw(&mut self, sql: &str) -> Result<u64, HistoryError> {
-        let r = match &mut self.db {
-            Db::Sqlite(c) => c
-                .execute(sql, [])
-                .map(|n| n as u64)
-                .map_err(|e| e.to_string()),
-            Db::Postgres(pg) => pg.client.execute(sql, &[]).map_err(|e| pg_message(&e)),
-        };
-        r.map_err(|m| self.err(m))
-    }
-
     /// Rows of a query whose columns are all read by `read` (one closure per backend row
-    /// type is avoided by reading through [`Cell`]).
-    fn query<T>(
+    /// type is avoided by reading through [`Cells`]).
+    pub(super) fn query<T>(
         &mut self,
         sql: &str,
         params: &[&dyn Param],
-        mut read: impl FnMut(&dyn Cells) -> Result<T, String>,
+        mut read: impl FnMut(&dyn Cells) -> Result<T, DbError>,
     ) -> Result<Vec<T>, HistoryError> {
         let r = match &mut self.db {
             Db::Sqlite(c) => (|| {
-                let mut st = c.prepare_cached(sql).map_err(|e| e.to_string())?;
+                let mut st = c.prepare_cached(sql)?;
                 let p: Vec<&dyn rusqlite::ToSql> = params.iter().map(|p| p.sq()).collect();
-                let mut rows = st.query(p.as_slice()).map_err(|e| e.to_string())?;
+                let mut rows = st.query(p.as_slice())?;
                 let mut out = Vec::new();
-                while let Some(row) = rows.next().map_err(|e| e.to_string())? {
+                while let Some(row) = rows.next()? {
                     out.push(read(&SqliteRow(row))?);
                 }
                 Ok(out)
@@ -478,19 +571,19 @@ impl Ledger {
                 let p: Vec<&(dyn postgres::types::ToSql + Sync)> =
                     params.iter().map(|p| p.pg()).collect();
                 let Pg { client, stmts } = &mut **pg;
-                let st = prepared(client, stmts, sql).map_err(|e| pg_message(&e))?;
-                let rows = client.query(&st, &p).map_err(|e| pg_message(&e))?;
+                let st = prepared(client, stmts, sql)?;
+                let rows = client.query(&st, &p)?;
                 rows.iter().map(|r| read(&PgRow(r))).collect()
             })(),
         };
-        r.map_err(|m| self.err(m))
+        r.map_err(|e| self.fail(e))
     }
 
     /// Calls `f` on every `source` row, in record order, without holding them all.
     pub fn for_each_source(&mut self, mut f: impl FnMut(SourceRow)) -> Result<(), HistoryError> {
         const SQL: &str =
             "SELECT record, role, path, sha256 FROM source ORDER BY record, role, path";
-        let read = |c: &dyn Cells| -> Result<SourceRow, String> {
+        let read = |c: &dyn Cells| -> Result<SourceRow, DbError> {
             Ok(SourceRow {
                 record: c.i64(0)?,
                 role: c.text(1)?.unwrap_or_default(),
@@ -500,9 +593,9 @@ impl Ledger {
         };
         let r = match &mut self.db {
             Db::Sqlite(c) => (|| {
-                let mut st = c.prepare(SQL).map_err(|e| e.to_string())?;
-                let mut rows = st.query([]).map_err(|e| e.to_string())?;
-                while let Some(row) = rows.next().map_err(|e| e.to_string())? {
+                let mut st = c.prepare(SQL)?;
+                let mut rows = st.query([])?;
+                while let Some(row) = rows.next()? {
                     f(read(&SqliteRow(row))?);
                 }
                 Ok(())
@@ -510,17 +603,23 @@ impl Ledger {
             Db::Postgres(pg) => (|| {
                 use postgres::fallible_iterator::FallibleIterator;
                 let none: [&(dyn postgres::types::ToSql + Sync); 0] = [];
-                let mut rows = pg
-                    .client
-                    .query_raw(SQL, none.iter().copied())
-                    .map_err(|e| pg_message(&e))?;
-                while let Some(row) = rows.next().map_err(|e| pg_message(&e))? {
+                let mut rows = pg.client.query_raw(SQL, none.iter().copied())?;
+                while let Some(row) = rows.next()? {
                     f(read(&PgRow(&row))?);
                 }
                 Ok(())
             })(),
         };
-        r.map_err(|m| self.err(m))
+        r.map_err(|e| self.fail(e))
+    }
+
+    /// What SQLite's integrity check finds in the file (nothing on PostgreSQL, whose
+    /// server checks its own pages).
+    pub fn integrity(&self) -> Vec<String> {
+        match &self.db {
+            Db::Sqlite(c) => integrity_check(c),
+            Db::Postgres(_) => Vec::new(),
+        }
     }
 
     /// (all records, superseded records).
@@ -537,14 +636,32 @@ impl Ledger {
         ))
     }
 
-    /// The latest `at` of the current records.
-    pub fn latest_current_at(&mut self) -> Result<Option<String>, HistoryError> {
+    /// The latest `at` of the current records at or before `latest` (seconds), with
+    /// its record: a record dated later (in the future when it was added, before the
+    /// ledger refused such dates) does not move it.
+    pub fn latest_current_at(&mut self, latest: i64) -> Result<Option<i64>, HistoryError> {
+        let bound = super::time::format_utc(latest);
+        let b: &dyn Param = &bound;
         let v = self.query(
-            &format!("SELECT MAX(r.at) FROM record r WHERE {CURRENT}"),
-            &[],
-            |c| c.text(0),
+            &format!(
+                "SELECT r.id, r.at FROM record r WHERE {CURRENT} AND r.at <= ? \
+                 ORDER BY r.at DESC, r.id DESC LIMIT 1"
+            ),
+            &[b],
+            |c| Ok((c.i64(0)?, c.text(1)?.unwrap_or_default())),
         )?;
-        Ok(v.into_iter().next().flatten())
+        match v.into_iter().next() {
+            None => Ok(None),
+            Some((record, at)) => {
+                super::time::parse_utc(&at)
+                    .map(Some)
+                    .map_err(|source| HistoryError::Stored {
+                        ledger: self.name.clone(),
+                        record,
+                        source,
+                    })
+            }
+        }
     }
 
     /// The machines of the current records, sorted (byte order).
@@ -630,37 +747,37 @@ impl Ledger {
 }
 
 /// Column access common to both drivers' rows.
-pub trait Cells {
-    fn i64(&self, i: usize) -> Result<i64, String>;
-    fn f64(&self, i: usize) -> Result<Option<f64>, String>;
-    fn text(&self, i: usize) -> Result<Option<String>, String>;
+pub(super) trait Cells {
+    fn i64(&self, i: usize) -> Result<i64, DbError>;
+    fn f64(&self, i: usize) -> Result<Option<f64>, DbError>;
+    fn text(&self, i: usize) -> Result<Option<String>, DbError>;
 }
 
 struct SqliteRow<'a, 'b>(&'a rusqlite::Row<'b>);
 
 impl Cells for SqliteRow<'_, '_> {
-    fn i64(&self, i: usize) -> Result<i64, String> {
-        self.0.get(i).map_err(|e| e.to_string())
+    fn i64(&self, i: usize) -> Result<i64, DbError> {
+        Ok(self.0.get(i)?)
     }
-    fn f64(&self, i: usize) -> Result<Option<f64>, String> {
-        self.0.get(i).map_err(|e| e.to_string())
+    fn f64(&self, i: usize) -> Result<Option<f64>, DbError> {
+        Ok(self.0.get(i)?)
     }
-    fn text(&self, i: usize) -> Result<Option<String>, String> {
-        self.0.get(i).map_err(|e| e.to_string())
+    fn text(&self, i: usize) -> Result<Option<String>, DbError> {
+        Ok(self.0.get(i)?)
     }
 }
 
 struct PgRow<'a>(&'a postgres::Row);
 
 impl Cells for PgRow<'_> {
-    fn i64(&self, i: usize) -> Result<i64, String> {
-        self.0.try_get(i).map_err(|e| e.to_string())
+    fn i64(&self, i: usize) -> Result<i64, DbError> {
+        Ok(self.0.try_get(i)?)
     }
-    fn f64(&self, i: usize) -> Result<Option<f64>, String> {
-        self.0.try_get(i).map_err(|e| e.to_string())
+    fn f64(&self, i: usize) -> Result<Option<f64>, DbError> {
+        Ok(self.0.try_get(i)?)
     }
-    fn text(&self, i: usize) -> Result<Option<String>, String> {
-        self.0.try_get(i).map_err(|e| e.to_string())
+    fn text(&self, i: usize) -> Result<Option<String>, DbError> {
+        Ok(self.0.try_get(i)?)
     }
 }
 
@@ -673,6 +790,8 @@ enum TxInner<'a> {
 pub struct Tx<'a> {
     inner: TxInner<'a>,
     name: String,
+    /// Statements run so far (the crash tests' seam counts them).
+    statements: u32,
 }
 
 impl std::fmt::Debug for Tx<'_> {
@@ -682,32 +801,33 @@ impl std::fmt::Debug for Tx<'_> {
 }
 
 impl Tx<'_> {
-    fn err(&self, message: String) -> HistoryError {
-        HistoryError::Db {
+    fn done(&mut self, r: Result<Option<i64>, DbError>) -> Result<Option<i64>, HistoryError> {
+        self.statements += 1;
+        stall_after(self.statements);
+        r.map_err(|source| HistoryError::Db {
             ledger: self.name.clone(),
-            message,
-        }
+            source,
+        })
     }
 
     /// Executes one statement.
     pub fn exec(&mut self, sql: &str, params: &[&dyn Param]) -> Result<(), HistoryError> {
         let r = match &mut self.inner {
             TxInner::Sqlite(t) => (|| {
-                let mut st = t.prepare_cached(sql).map_err(|e| e.to_string())?;
+                let mut st = t.prepare_cached(sql)?;
                 let p: Vec<&dyn rusqlite::ToSql> = params.iter().map(|p| p.sq()).collect();
-                st.execute(p.as_slice())
-                    .map(|_| ())
-                    .map_err(|e| e.to_string())
+                st.execute(p.as_slice())?;
+                Ok(None)
             })(),
             TxInner::Postgres(t, stmts) => (|| {
                 let p: Vec<&(dyn postgres::types::ToSql + Sync)> =
                     params.iter().map(|p| p.pg()).collect();
                 let st = prepared(t, stmts, sql)?;
-                t.execute(&st, &p).map(|_| ())
-            })()
-            .map_err(|e| pg_message(&e)),
+                t.execute(&st, &p)?;
+                Ok(None)
+            })(),
         };
-        r.map_err(|m| self.err(m))
+        self.done(r).map(|_| ())
     }
 
     /// The first column of the first row, an integer, or `None` (no row, or NULL).
@@ -718,25 +838,44 @@ impl Tx<'_> {
     ) -> Result<Option<i64>, HistoryError> {
         let r = match &mut self.inner {
             TxInner::Sqlite(t) => (|| {
-                let mut st = t.prepare_cached(sql).map_err(|e| e.to_string())?;
+                let mut st = t.prepare_cached(sql)?;
                 let p: Vec<&dyn rusqlite::ToSql> = params.iter().map(|p| p.sq()).collect();
-                let mut rows = st.query(p.as_slice()).map_err(|e| e.to_string())?;
-                match rows.next().map_err(|e| e.to_string())? {
-                    Some(row) => row.get::<_, Option<i64>>(0).map_err(|e| e.to_string()),
+                let mut rows = st.query(p.as_slice())?;
+                match rows.next()? {
+                    Some(row) => Ok(row.get::<_, Option<i64>>(0)?),
                     None => Ok(None),
                 }
             })(),
             TxInner::Postgres(t, stmts) => (|| {
                 let p: Vec<&(dyn postgres::types::ToSql + Sync)> =
                     params.iter().map(|p| p.pg()).collect();
-                let st = prepared(t, stmts, sql).map_err(|e| pg_message(&e))?;
-                let rows = t.query(&st, &p).map_err(|e| pg_message(&e))?;
+                let st = prepared(t, stmts, sql)?;
+                let rows = t.query(&st, &p)?;
                 match rows.first() {
-                    Some(row) => row.try_get::<_, Option<i64>>(0).map_err(|e| e.to_string()),
+                    Some(row) => Ok(row.try_get::<_, Option<i64>>(0)?),
                     None => Ok(None),
                 }
             })(),
         };
-        r.map_err(|m| self.err(m))
+        self.done(r)
+    }
+}
+
+/// The crash tests' seam: with `ERRMAP_HISTORY_STALL_AT=N` and `ERRMAP_HISTORY_STALL_MS`
+/// set, an add says on stderr that the N-th statement of its transaction is done and
+/// waits that long before the next, so that a test can kill the client or the server
+/// there. Unset (always, outside the tests), nothing.
+fn stall_after(statement: u32) {
+    let var = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<u64>().ok());
+    let (at, ms) = (
+        var("ERRMAP_HISTORY_STALL_AT"),
+        var("ERRMAP_HISTORY_STALL_MS"),
+    );
+    if let (Some(at), Some(ms)) = (at, ms) {
+        if at != u64::from(statement) {
+            return;
+        }
+        eprintln!("history add: statement {statement} done, the rest pending (stall {ms} ms)");
+        std::thread::sleep(Duration::from_millis(ms));
     }
 }

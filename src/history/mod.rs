@@ -3,21 +3,23 @@
 //!
 //! | module | holds |
 //! |---|---|
-//! | [`ledger`] | the database: one schema on SQLite and PostgreSQL, append-only, locked writes |
-//! | [`ingest`] | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
-//! | [`stats`] | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
-//! | [`report`] | series, segments, charts, forecasts, advice and the fleet ranking |
+//! | `ledger` | the database: one schema on SQLite and PostgreSQL, append-only, locked writes, a crashed writer's journal rolled back, one snapshot per read |
+//! | `check` | `verify`: the files re-hashed, the ledger's own soundness |
+//! | `ingest` | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
+//! | `stats` | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
+//! | `report` | series, segments, charts, forecasts, advice and the fleet ranking |
 //! | [`tolerance`] | the tolerance file |
 //! | [`time`] | UTC instants as stored |
 //!
 //! An add is one transaction ([`add`]); a report reads one machine at a time
-//! ([`report::Run`]), so its memory is bounded by the largest machine, not the ledger.
+//! ([`Run`]), so its memory is bounded by the largest machine, not the ledger.
 //! The rules and the maths are in `docs/history.md`.
 
-pub mod ingest;
-pub mod ledger;
-pub mod report;
-pub mod stats;
+mod check;
+mod ingest;
+mod ledger;
+mod report;
+mod stats;
 pub mod time;
 pub mod tolerance;
 
@@ -25,15 +27,91 @@ use crate::base::{ConfigError, FileError};
 
 use serde::Serialize;
 
-pub use ingest::{ComponentRow, Content, Ingested, LineStat, Role, SourceFile};
-pub use ledger::Ledger;
+pub use check::{Changed, Missing, Problem, Verification, verify};
+pub use ingest::{
+    ComponentRow, Content, FUNCTIONS, Ingested, LineStat, PARAMETERS, Role, SQUARENESS, SourceFile,
+    ingest,
+};
+pub use ledger::{DbError, LOCK_WAIT, Ledger, MachineRows, RawPoint, SourceRow, is_postgres};
+pub use report::{
+    Advice, Alarm, AxisReport, ChartSpec, DEFAULT_HORIZON_DAYS, FleetEntry, Head, LedgerCounts,
+    MachineReport, PAIR_WINDOW_S, Pair, ParameterReport, Report, ReportConfig, Run, SeriesPoint,
+    machine_report, report,
+};
+pub use stats::{Trend, t_cdf, t_quantile};
 
 /// Why a history command failed.
 #[derive(Debug, thiserror::Error)]
 pub enum HistoryError {
     /// The database refused or failed.
-    #[error("{ledger}: {message}")]
-    Db { ledger: String, message: String },
+    #[error("{ledger}: {source}")]
+    Db { ledger: String, source: DbError },
+    /// The PostgreSQL server cannot be reached.
+    #[error("{ledger}: cannot connect: {source}")]
+    Connect { ledger: String, source: DbError },
+    /// The tables of a new ledger could not be created.
+    #[error("{ledger}: cannot create the tables: {source}")]
+    Create { ledger: String, source: DbError },
+    /// A writer stopped inside its transaction, and this process may not write the file
+    /// to roll its journal back (a read-only file or folder).
+    #[error(
+        "{ledger}: a writer stopped inside its transaction and left its journal {journal}; \
+         nothing committed is lost, and SQLite rolls the unfinished transaction back the \
+         next time a process that may write the ledger and its folder opens it — this one \
+         may not ({source})"
+    )]
+    Unrecovered {
+        ledger: String,
+        journal: String,
+        source: DbError,
+    },
+    /// SQLite finds the file damaged, or it is not a SQLite database.
+    #[error("{ledger}: the ledger is damaged ({source}){}", found_text(.found))]
+    Damaged {
+        ledger: String,
+        source: DbError,
+        /// What SQLite's integrity check found, when it could run.
+        found: Vec<String>,
+    },
+    /// A stored time is not in the form errmap writes.
+    #[error("{ledger}: record {record}: its time is not in the stored form: {source}")]
+    Stored {
+        ledger: String,
+        record: i64,
+        source: time::TimeError,
+    },
+    /// A test time outside the window the ledger takes.
+    #[error(
+        "{ledger}: the test time {at} is outside the window the ledger takes, {earliest} … \
+         {latest} (now + a clock skew of {skew_h} h): nothing was added"
+    )]
+    OutsideWindow {
+        ledger: String,
+        at: String,
+        earliest: String,
+        latest: String,
+        skew_h: i64,
+    },
+    /// An amendment without a reason.
+    #[error(
+        "{ledger}: the amendment of record {record} gives no reason (ISO/IEC 17025 asks \
+         that an amendment says why): nothing was added"
+    )]
+    EmptyReason { ledger: String, record: i64 },
+    /// A second current record of one machine, axis and state at one instant.
+    #[error(
+        "{ledger}: record {record} already holds {machine} axis {axis} {state} at {at}: one \
+         test, one record (a second test that day needs its time of day; a correction \
+         amends record {record}); nothing was added"
+    )]
+    SameInstant {
+        ledger: String,
+        record: i64,
+        machine: String,
+        axis: String,
+        state: &'static str,
+        at: String,
+    },
     /// `report` or `verify` on a ledger that does not exist.
     #[error("{0}: no ledger there (`errmap history add` creates one)")]
     NoLedger(String),
@@ -68,6 +146,13 @@ pub enum HistoryError {
     /// `--machine` names no machine of the current records.
     #[error("--machine {machine}: no current record of this machine in {ledger}")]
     UnknownMachine { ledger: String, machine: String },
+}
+
+fn found_text(found: &[String]) -> String {
+    match found {
+        [] => String::new(),
+        f => format!("; SQLite's integrity check found: {}", f.join("; ")),
+    }
 }
 
 /// `as-found` or `as-left`.
@@ -184,10 +269,29 @@ pub fn add_batch(ledger: &mut Ledger, recs: &[NewRecord]) -> Result<Vec<i64>, Hi
     ledger.write(|tx| recs.iter().map(|r| insert(tx, &name, r)).collect())
 }
 
-fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64, HistoryError> {
+/// What an add refuses before it writes: a time outside the window, an amendment
+/// without a reason or of a record that is not current, a result already recorded, and
+/// a second current record of one machine, axis and state at one instant.
+fn check_new(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<(), HistoryError> {
+    let latest = time::latest_at(time::now_utc());
+    if rec.at < time::EARLIEST_S || rec.at > latest {
+        return Err(HistoryError::OutsideWindow {
+            ledger: ledger.to_string(),
+            at: time::format_utc(rec.at),
+            earliest: time::format_utc(time::EARLIEST_S),
+            latest: time::format_utc(latest),
+            skew_h: time::CLOCK_SKEW_S / 3600,
+        });
+    }
     let sha = rec.result_sha256().to_string();
     match &rec.supersede {
         Some(s) => {
+            if s.reason.trim().is_empty() {
+                return Err(HistoryError::EmptyReason {
+                    ledger: ledger.to_string(),
+                    record: s.record,
+                });
+            }
             let exists = tx.query_i64("SELECT id FROM record WHERE id = ?", &[&s.record])?;
             if exists.is_none() {
                 return Err(HistoryError::NoSuchRecord {
@@ -219,6 +323,54 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
             }
         }
     }
+    same_instant(tx, ledger, rec)
+}
+
+/// Refuses a second current record of the machine, axis (`XYZ` for a model) and state
+/// at the instant of `rec` (the record it amends left out).
+fn same_instant(
+    tx: &mut ledger::Tx<'_>,
+    ledger: &str,
+    rec: &NewRecord,
+) -> Result<(), HistoryError> {
+    let at = time::format_utc(rec.at);
+    let amended = rec.supersede.as_ref().map_or(0, |s| s.record);
+    let axis = rec
+        .content
+        .axes()
+        .into_iter()
+        .next()
+        .unwrap_or_else(|| "XYZ".to_string());
+    let found = tx.query_i64(
+        "SELECT MIN(r.id) FROM record r WHERE r.machine = ? AND r.state = ? AND r.at = ? \
+         AND r.kind = ? AND r.id <> ? \
+         AND NOT EXISTS (SELECT 1 FROM record s WHERE s.supersedes = r.id) \
+         AND (r.kind = 'volumetric' OR EXISTS \
+              (SELECT 1 FROM line_stat l WHERE l.record = r.id AND l.axis = ?))",
+        &[
+            &rec.machine.as_str(),
+            &rec.state.as_str(),
+            &at,
+            &rec.content.kind(),
+            &amended,
+            &axis,
+        ],
+    )?;
+    match found {
+        None => Ok(()),
+        Some(record) => Err(HistoryError::SameInstant {
+            ledger: ledger.to_string(),
+            record,
+            machine: rec.machine.as_str().to_string(),
+            axis,
+            state: rec.state.as_str(),
+            at,
+        }),
+    }
+}
+
+fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64, HistoryError> {
+    check_new(tx, ledger, rec)?;
     let at = time::format_utc(rec.at);
     let added_at = time::format_utc(time::now_utc());
     let supersedes = rec.supersede.as_ref().map(|s| s.record);
@@ -241,7 +393,7 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
         )?
         .ok_or_else(|| HistoryError::Db {
             ledger: ledger.to_string(),
-            message: "the insert returned no id".into(),
+            source: DbError::NoId,
         })?;
     stall(id);
     for s in &rec.sources {
@@ -296,10 +448,15 @@ fn insert(tx: &mut ledger::Tx<'_>, ledger: &str, rec: &NewRecord) -> Result<i64,
     Ok(id)
 }
 
-/// The crash tests' seam: with `ERRMAP_HISTORY_STALL_MS` set, an add says on stderr that
-/// its record row is written and waits that long before the rest of the record, so that
-/// a test can kill it inside its transaction. Unset (always, outside the tests), nothing.
+/// The crash tests' seam: with `ERRMAP_HISTORY_STALL_MS` set (and no
+/// `ERRMAP_HISTORY_STALL_AT`, which stalls after a given statement), an add says on
+/// stderr that its record row is written and waits that long before the rest of the
+/// record, so that a test can kill it inside its transaction. Unset (always, outside the
+/// tests), nothing.
 fn stall(id: i64) {
+    if std::env::var_os("ERRMAP_HISTORY_STALL_AT").is_some() {
+        return;
+    }
     if let Some(ms) = std::env::var("ERRMAP_HISTORY_STALL_MS")
         .ok()
         .and_then(|v| v.parse::<u64>().ok())
@@ -307,54 +464,4 @@ fn stall(id: i64) {
         eprintln!("history add: record {id} row written, the rest pending (stall {ms} ms)");
         std::thread::sleep(std::time::Duration::from_millis(ms));
     }
-}
-
-/// A source whose file changed.
-#[derive(Debug, Clone, Serialize)]
-pub struct Changed {
-    pub record: i64,
-    pub path: String,
-    pub role: String,
-    pub expected: String,
-    pub actual: String,
-}
-
-/// A source whose file is gone (or unreadable).
-#[derive(Debug, Clone, Serialize)]
-pub struct Missing {
-    pub record: i64,
-    pub path: String,
-    pub role: String,
-}
-
-/// What `history verify --json` prints.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct Verification {
-    pub checked: u64,
-    pub changed: Vec<Changed>,
-    pub missing: Vec<Missing>,
-}
-
-/// Re-hashes every source of every record (superseded ones too).
-pub fn verify(ledger: &mut Ledger) -> Result<Verification, HistoryError> {
-    let mut v = Verification::default();
-    ledger.for_each_source(|s| {
-        v.checked += 1;
-        match ingest::sha256_file(std::path::Path::new(&s.path)) {
-            Ok((actual, _)) if actual == s.sha256 => {}
-            Ok((actual, _)) => v.changed.push(Changed {
-                record: s.record,
-                path: s.path,
-                role: s.role,
-                expected: s.sha256,
-                actual,
-            }),
-            Err(_) => v.missing.push(Missing {
-                record: s.record,
-                path: s.path,
-                role: s.role,
-            }),
-        }
-    })?;
-    Ok(v)
 }

@@ -198,13 +198,14 @@ impl<'a> Run<'a> {
         let (records, superseded) = ledger.counts()?;
         let as_of_s = match config.as_of {
             Some(t) => t,
-            None => match ledger.latest_current_at()? {
-                Some(at) => time::parse_utc(&at).map_err(|e| HistoryError::Db {
-                    ledger: ledger.name().to_string(),
-                    message: format!("a stored time is not in the stored form: {e}"),
-                })?,
-                None => time::now_utc(),
-            },
+            // The latest test the ledger takes as true now: a record dated later (in
+            // the future when it was added) does not move every report's date.
+            None => {
+                let now = time::now_utc();
+                ledger
+                    .latest_current_at(time::latest_at(now))?
+                    .unwrap_or(now)
+            }
         };
         let mut machines = ledger.current_machines()?;
         if let Some(m) = &config.machine {
@@ -446,9 +447,10 @@ fn collect_series(ledger: &str, points: Vec<RawPoint>) -> Result<SeriesMap, Hist
         value,
     } in points
     {
-        let t_s = time::parse_utc(&at).map_err(|e| HistoryError::Db {
+        let t_s = time::parse_utc(&at).map_err(|source| HistoryError::Stored {
             ledger: ledger.to_string(),
-            message: format!("record {record}: `at` is not in the stored form: {e}"),
+            record,
+            source,
         })?;
         let key = (
             axis_rank(&axis),

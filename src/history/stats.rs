@@ -18,19 +18,19 @@
 //!   bisection to 1e-12.
 
 /// EWMA weight λ.
-pub const LAMBDA: f64 = 0.4;
+pub(super) const LAMBDA: f64 = 0.4;
 /// Width of the EWMA limits in σ.
-pub const L_SIGMA: f64 = 6.0;
+pub(super) const L_SIGMA: f64 = 6.0;
 /// Points of a segment's baseline (they set μ0 and get no chart value).
-pub const BASELINE: usize = 5;
+pub(super) const BASELINE: usize = 5;
 /// d2 of a range of two (ISO 7870-2).
-pub const D2: f64 = 1.128;
+pub(super) const D2: f64 = 1.128;
 /// D4 of a range of two (ISO 7870-2).
-pub const D4: f64 = 3.267;
+pub(super) const D4: f64 = 3.267;
 /// Floor of σ (the parameter's unit).
-pub const SIGMA_FLOOR: f64 = 0.001;
+pub(super) const SIGMA_FLOOR: f64 = 0.001;
 /// Days per year of the trend's time axis.
-pub const DAYS_PER_YEAR: f64 = 365.25;
+pub(super) const DAYS_PER_YEAR: f64 = 365.25;
 
 fn ln_gamma(x: f64) -> f64 {
     const G: [f64; 9] = [
@@ -94,7 +94,7 @@ fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
 }
 
 /// The regularised incomplete beta function I_x(a, b).
-pub fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
+pub(super) fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
@@ -240,7 +240,7 @@ impl Trend {
 
 /// σ from the moving ranges of consecutive points inside each of `segments`, screened
 /// once at D4·MR̄; floored at [`SIGMA_FLOOR`] (and equal to it when no range exists).
-pub fn moving_range_sigma<'a>(segments: impl IntoIterator<Item = &'a [f64]>) -> f64 {
+pub(super) fn moving_range_sigma<'a>(segments: impl IntoIterator<Item = &'a [f64]>) -> f64 {
     let ranges: Vec<f64> = segments
         .into_iter()
         .flat_map(|s| s.windows(2).map(|w| (w[1] - w[0]).abs()))
@@ -260,13 +260,13 @@ pub fn moving_range_sigma<'a>(segments: impl IntoIterator<Item = &'a [f64]>) -> 
 
 /// Which limit an EWMA value crossed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Rule {
+pub(super) enum Rule {
     AboveUcl,
     BelowLcl,
 }
 
 impl Rule {
-    pub fn as_str(self) -> &'static str {
+    pub(super) fn as_str(self) -> &'static str {
         match self {
             Rule::AboveUcl => "ewma_above_ucl",
             Rule::BelowLcl => "ewma_below_lcl",
@@ -276,7 +276,7 @@ impl Rule {
 
 /// One charted point: the EWMA and its limits, and the alarm if any.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ChartPoint {
+pub(super) struct ChartPoint {
     pub ewma: f64,
     pub lcl: f64,
     pub ucl: f64,
@@ -285,7 +285,7 @@ pub struct ChartPoint {
 
 /// The EWMA chart of one segment: its centre and, per point, the chart value (`None` on
 /// the baseline). `None` for a segment of [`BASELINE`] points or fewer.
-pub fn ewma_chart(values: &[f64], sigma: f64) -> Option<(f64, Vec<Option<ChartPoint>>)> {
+pub(super) fn ewma_chart(values: &[f64], sigma: f64) -> Option<(f64, Vec<Option<ChartPoint>>)> {
     let m = BASELINE;
     if values.len() <= m {
         return None;

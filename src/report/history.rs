@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use crate::base::FileOp;
 use crate::base::io_err;
-use crate::history::report::{Advice, FleetEntry, Head, MachineReport, ParameterReport};
 use crate::history::time;
+use crate::history::{Advice, FleetEntry, Head, MachineReport, ParameterReport};
 use crate::plot::{self, XySeries, XyStyle};
 
 use super::ReportError;
@@ -329,7 +329,7 @@ fn styled(name: String, x: Vec<f64>, y: Vec<f64>, colour: usize, dashed: bool) -
 /// The series itself with markers, its EWMA, and the EWMA's control limits (the lower
 /// one unnamed, so the legend lists the limits once).
 fn chart_series(axis: &str, p: &ParameterReport, x: &[f64]) -> Vec<XySeries> {
-    let col = |f: fn(&crate::history::report::SeriesPoint) -> Option<f64>| -> Vec<f64> {
+    let col = |f: fn(&crate::history::SeriesPoint) -> Option<f64>| -> Vec<f64> {
         p.series.iter().map(|s| f(s).unwrap_or(f64::NAN)).collect()
     };
     vec![

@@ -13,10 +13,9 @@ use std::time::Instant;
 use errmap::base::Axis;
 use errmap::base::gaussian;
 use errmap::drivers::SessionRow;
-use errmap::history::ledger::{MachineRows, RawPoint};
-use errmap::history::report::{ReportConfig, machine_report};
 use errmap::history::time::{format_utc, parse_utc};
 use errmap::history::tolerance::Tolerances;
+use errmap::history::{MachineRows, RawPoint, ReportConfig, machine_report};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
@@ -25,7 +24,12 @@ use crate::util::{bin, errmap, errmap_cmd, reference_row, root, stderr, tempdir}
 /// A one-axis session: `lines` (the two other coordinates, mm), 6 targets 0…500 mm,
 /// 3 runs each way, 2 samples per dwell; the error grows `slope_um_per_m` along the axis,
 /// with a reversal of `reversal_um` and noise.
-fn session(axis: Axis, lines: &[(f64, f64)], slope_um_per_m: f64, seed: u64) -> Vec<SessionRow> {
+pub(super) fn session(
+    axis: Axis,
+    lines: &[(f64, f64)],
+    slope_um_per_m: f64,
+    seed: u64,
+) -> Vec<SessionRow> {
     let mut rng = StdRng::seed_from_u64(seed);
     let a = axis.index();
     let mut rows = Vec::new();
@@ -70,16 +74,16 @@ fn session(axis: Axis, lines: &[(f64, f64)], slope_um_per_m: f64, seed: u64) -> 
     rows
 }
 
-fn write_session(dir: &Path, name: &str, rows: &[SessionRow]) -> PathBuf {
+pub(super) fn write_session(dir: &Path, name: &str, rows: &[SessionRow]) -> PathBuf {
     let p = dir.join(name);
     errmap::session::write_session(&p, rows).expect("write session");
     p
 }
 
 /// A volumetric model file with the 21 components (`E_ZY` not identified).
-fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathBuf {
+pub(super) fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathBuf {
     let mut components = serde_json::Map::new();
-    for n in errmap::history::ingest::FUNCTIONS {
+    for n in errmap::history::FUNCTIONS {
         let unit = if n.as_bytes()[2].is_ascii_uppercase() && "ABC".contains(&n[2..3]) {
             "urad"
         } else {
@@ -93,7 +97,7 @@ fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathB
                 "sigma": [0.0, 0.1, 0.1]}),
         );
     }
-    for n in errmap::history::ingest::SQUARENESS {
+    for n in errmap::history::SQUARENESS {
         components.insert(
             n.to_string(),
             serde_json::json!({"identified": true, "unit": "urad", "value": squareness_urad, "sigma": 0.5}),
@@ -111,7 +115,7 @@ fn model_json(dir: &Path, name: &str, squareness_urad: f64, scale: f64) -> PathB
 // ---------------------------------------------------------------- the two backends
 
 /// A query's one integer, through the database's own driver.
-fn scalar(ledger: &str, sql: &str) -> i64 {
+pub(super) fn scalar(ledger: &str, sql: &str) -> i64 {
     if ledger.starts_with("postgres") {
         let mut c = postgres::Client::connect(ledger, postgres::NoTls).expect("connect");
         c.query_one(sql, &[]).expect(sql).get::<_, i64>(0)
@@ -122,7 +126,7 @@ fn scalar(ledger: &str, sql: &str) -> i64 {
 }
 
 /// Records in the ledger (0 before its first add made the tables).
-fn records(ledger: &str) -> i64 {
+pub(super) fn records(ledger: &str) -> i64 {
     if ledger.starts_with("postgres") {
         let mut c = postgres::Client::connect(ledger, postgres::NoTls).expect("connect");
         let exists: bool = c
@@ -155,7 +159,7 @@ fn execute(ledger: &str, sql: &str) -> Result<u64, String> {
     }
 }
 
-fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
+pub(super) fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
     let mut args = vec![
         "history",
         "add",
@@ -169,7 +173,12 @@ fn add(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> Output {
     errmap(&args)
 }
 
-fn add_ok(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> serde_json::Value {
+pub(super) fn add_ok(
+    ledger: &str,
+    result: &Path,
+    machine: &str,
+    extra: &[&str],
+) -> serde_json::Value {
     let mut e = extra.to_vec();
     e.push("--json");
     let o = add(ledger, result, machine, &e);
@@ -183,7 +192,7 @@ fn add_ok(ledger: &str, result: &Path, machine: &str, extra: &[&str]) -> serde_j
 }
 
 /// Every record is whole: its sources, and 7 statistics per line or 21 components.
-fn assert_whole(ledger: &str) {
+pub(super) fn assert_whole(ledger: &str) {
     let records = scalar(ledger, "SELECT COUNT(*) FROM record");
     let with_source = scalar(
         ledger,
@@ -509,11 +518,14 @@ fn scenario_concurrency(ledger: &str, dir: &Path) {
         let script: Vec<String> = chunk
             .iter()
             .map(|f| {
+                // One test, one instant: each its own time.
+                let i = files.iter().position(|g| g == f).unwrap_or(0);
                 format!(
-                    "'{}' history add '{}' --ledger '{ledger}' --machine C{} || exit 1",
+                    "'{}' history add '{}' --ledger '{ledger}' --machine C{} --at 2025-01-{:02} || exit 1",
                     bin(),
                     f.display(),
-                    chunk.len()
+                    chunk.len(),
+                    i + 1
                 )
             })
             .collect();
@@ -568,6 +580,34 @@ fn scenario_concurrency(ledger: &str, dir: &Path) {
     assert_whole(ledger);
 }
 
+/// `history add FILE --ledger L EXTRA…` with the crash seam's variables `env`, started;
+/// returns the child and the first line it wrote on stderr (the seam's "… pending").
+pub(super) fn stalled_add(
+    ledger: &str,
+    f: &Path,
+    extra: &[&str],
+    env: &[(&str, &str)],
+) -> (std::process::Child, String) {
+    let mut child = errmap_cmd()
+        .args([
+            "history",
+            "add",
+            f.to_str().expect("utf-8"),
+            "--ledger",
+            ledger,
+        ])
+        .args(extra)
+        .envs(env.iter().copied())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let mut line = String::new();
+    BufReader::new(child.stderr.take().expect("stderr"))
+        .read_line(&mut line)
+        .expect("read");
+    (child, line)
+}
+
 /// kill -9 inside an add's transaction, and at random moments: the count is whole.
 fn scenario_crash(ledger: &str, dir: &Path) {
     let big: Vec<(f64, f64)> = (0..40).map(|i| (0.0, 10.0 * i as f64)).collect();
@@ -579,29 +619,17 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             &session(Axis::X, &[(0.0, 0.0)], 2.0, 499),
         ),
         "K",
-        &[],
+        &["--at", "2025-02-01"],
     );
     let before = records(ledger);
     // Inside the transaction, for certain: the record row is written, the rest pending.
     let f = write_session(dir, "k0.csv", &session(Axis::X, &big, 2.0, 500));
-    let mut child = errmap_cmd()
-        .args([
-            "history",
-            "add",
-            f.to_str().expect("utf-8"),
-            "--ledger",
-            ledger,
-            "--machine",
-            "K",
-        ])
-        .env("ERRMAP_HISTORY_STALL_MS", "30000")
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
-    let mut line = String::new();
-    BufReader::new(child.stderr.take().expect("stderr"))
-        .read_line(&mut line)
-        .expect("read");
+    let (mut child, line) = stalled_add(
+        ledger,
+        &f,
+        &["--machine", "K", "--at", "2025-02-02"],
+        &[("ERRMAP_HISTORY_STALL_MS", "30000")],
+    );
     assert!(line.contains("row written"), "{line}");
     child.kill().expect("kill -9");
     child.wait().expect("wait");
@@ -617,7 +645,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
         ledger,
         &write_session(dir, "k1.csv", &session(Axis::X, &big, 2.5, 501)),
         "K",
-        &[],
+        &["--at", "2025-02-03"],
     );
     let whole = t0.elapsed();
     let mut killed_before = 0;
@@ -629,6 +657,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
             &session(Axis::X, &big, 3.0 + i as f64, 502 + i),
         );
         let n0 = scalar(ledger, "SELECT COUNT(*) FROM record");
+        let at = format!("2025-03-{:02}", i + 1);
         let mut child = errmap_cmd()
             .args([
                 "history",
@@ -638,6 +667,8 @@ fn scenario_crash(ledger: &str, dir: &Path) {
                 ledger,
                 "--machine",
                 "K",
+                "--at",
+                &at,
             ])
             .stderr(Stdio::null())
             .spawn()
@@ -669,7 +700,7 @@ fn scenario_crash(ledger: &str, dir: &Path) {
         ledger,
         &write_session(dir, "k-after.csv", &session(Axis::X, &big, 9.0, 600)),
         "K",
-        &[],
+        &["--at", "2025-04-01"],
     );
     assert_whole(ledger);
 }
@@ -919,7 +950,7 @@ fn sqlite_ledger_scenarios() {
 
 /// A throw-away PostgreSQL cluster: initdb in a temp dir, loopback only, a free port;
 /// stopped when dropped.
-struct Cluster {
+pub(super) struct Cluster {
     bin: PathBuf,
     dir: tempfile::TempDir,
     port: u16,
@@ -927,7 +958,7 @@ struct Cluster {
 }
 
 impl Cluster {
-    fn cmd(&self, tool: &str) -> Command {
+    pub(super) fn cmd(&self, tool: &str) -> Command {
         let exe = self.bin.join(tool);
         if self.as_postgres {
             let mut c = Command::new("runuser");
@@ -939,7 +970,7 @@ impl Cluster {
     }
 
     /// Starts one, or says why it cannot.
-    fn start() -> Result<Cluster, String> {
+    pub(super) fn start() -> Result<Cluster, String> {
         let mut bins: Vec<PathBuf> = std::fs::read_dir("/usr/lib/postgresql")
             .map_err(|_| {
                 "no /usr/lib/postgresql (Debian's postgresql package is not installed)".to_string()
@@ -1000,32 +1031,52 @@ impl Cluster {
         if !o.status.success() {
             return Err(format!("initdb failed: {}", stderr(&o)));
         }
+        c.pg_start()?;
+        Ok(c)
+    }
+
+    /// Starts the server on its data directory (after `start`'s initdb, or after a crash).
+    fn pg_start(&self) -> Result<(), String> {
         let opts = format!(
             "-c listen_addresses=127.0.0.1 -p {} -k {} -c fsync=on",
-            c.port,
-            c.dir.path().display()
+            self.port,
+            self.dir.path().display()
         );
-        let o = c
+        let o = self
             .cmd("pg_ctl")
             .arg("-D")
-            .arg(&data)
+            .arg(self.dir.path().join("data"))
             .args(["-o", &opts, "-l"])
-            .arg(c.dir.path().join("log"))
+            .arg(self.dir.path().join("log"))
             .args(["-w", "-t", "60", "start"])
             .output()
             .map_err(|e| e.to_string())?;
         if !o.status.success() {
-            let log = std::fs::read_to_string(c.dir.path().join("log")).unwrap_or_default();
+            let log = std::fs::read_to_string(self.dir.path().join("log")).unwrap_or_default();
             return Err(format!("the server did not start: {}{log}", stderr(&o)));
         }
-        Ok(c)
+        Ok(())
     }
 
-    fn url(&self, db: &str) -> String {
+    /// Stops the server as a crash does (`pg_ctl stop -m immediate`: no checkpoint, every
+    /// backend killed, recovery from the write-ahead log at the next start), then starts it.
+    pub(super) fn crash_and_restart(&self) {
+        let o = self
+            .cmd("pg_ctl")
+            .arg("-D")
+            .arg(self.dir.path().join("data"))
+            .args(["-m", "immediate", "-w", "stop"])
+            .output()
+            .expect("pg_ctl stop");
+        assert!(o.status.success(), "pg_ctl stop: {}", stderr(&o));
+        self.pg_start().expect("the server restarts after a crash");
+    }
+
+    pub(super) fn url(&self, db: &str) -> String {
         format!("postgres://postgres@127.0.0.1:{}/{db}", self.port)
     }
 
-    fn create_db(&self, db: &str) -> String {
+    pub(super) fn create_db(&self, db: &str) -> String {
         let mut c =
             postgres::Client::connect(&self.url("postgres"), postgres::NoTls).expect("connect");
         c.batch_execute(&format!("CREATE DATABASE {db}"))
@@ -1225,7 +1276,7 @@ fn the_forecast_interval_covers_a_simulated_drift() {
     let truth = format_utc(t0() + (10.0 * year_s) as i64)[..10].to_string();
     let (mut covered, mut bounded, mut rate_in) = (0, 0, 0);
     let n = 400;
-    let q = errmap::history::stats::t_quantile(0.975, 14.0);
+    let q = errmap::history::t_quantile(0.975, 14.0);
     for m in 0..n {
         // 16 quarterly tests over 3.75 years.
         let s: Vec<(i64, f64, bool)> = (0..16)

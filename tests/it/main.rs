@@ -15,6 +15,7 @@ mod export_step;
 mod gp;
 mod help;
 mod history;
+mod history_crash;
 mod import;
 mod import_dialects;
 mod interp;
