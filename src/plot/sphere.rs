@@ -223,17 +223,6 @@ fn panel<DB: DrawingBackend>(
         };
         root.draw(&PathElement::new(pts, colour.stroke_width(1)))
             .map_err(de)?;
-        // Between the spokes at 270° and 315°, where no target of the design lies.
-        let (lc, ls) = (
-            (-78.75f64).to_radians().cos(),
-            (-78.75f64).to_radians().sin(),
-        );
-        root.draw(&Text::new(
-            format!("θ {theta}°"),
-            ((cx + rho * lc) as i32 + 2, (cy - rho * ls) as i32 - 6),
-            style(10.0),
-        ))
-        .map_err(de)?;
         theta += 22.5;
     }
     for d in (0..360).step_by(45) {
@@ -313,7 +302,7 @@ fn legend<DB: DrawingBackend>(
     ))
     .map_err(de)?;
     root.draw(&Text::new(
-        "dot radius ∝ |r| (one scale for every stylus); labels: r / µm; rings: θ from the pole",
+        "dot radius ∝ |r| (one scale for every stylus); labels: r / µm; rings: θ = 22.5°, 45°, 67.5°, 90° from the pole",
         (24, y + 20),
         style(12.0),
     ))

@@ -23,6 +23,7 @@ mod layers;
 mod live_view;
 mod node_noise;
 mod physics;
+mod probing;
 mod robust_io;
 mod robust_outputs;
 mod robustness;
