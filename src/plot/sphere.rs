@@ -13,7 +13,7 @@ use plotters::style::FontStyle;
 
 use super::draw::de;
 use super::error::PlotError;
-use super::render::{whole, with_suffix};
+use super::render::{png_and_svg, whole};
 use super::text::{font, fonts_ready};
 
 /// One panel's side, pixels.
@@ -134,14 +134,7 @@ pub fn sphere_map(stem: &Path, map: &SphereMap) -> Result<Vec<PathBuf>, PlotErro
     }
     fonts_ready()?;
     let (w, h) = size(map.panels.len(), map.notes.len());
-    let png = with_suffix(stem, ".png");
-    let svg = with_suffix(stem, ".svg");
-    if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| PlotError::CreateDir {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
+    let (png, svg) = png_and_svg(stem)?;
     whole(&png, |p| {
         let root = BitMapBackend::new(p, (w, h)).into_drawing_area();
         draw(&root, map)?;

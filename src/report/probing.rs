@@ -192,16 +192,48 @@ fn residuals_csv(dir: &Path, r: &ProbingResult) -> Result<PathBuf, ReportError> 
     Ok(csv)
 }
 
-fn quantity_row(md: &mut Md, name: &str, sym: (&str, &str), q: &Judged) {
-    md.row([
-        name.to_string(),
-        format!("{} / {}", md_symbol(sym.0), md_symbol(sym.1)),
-        um(q.value_um),
-        um(q.mpe_um),
-        um(q.u_um),
-        zone(q.acceptance_um),
-        q.verdict.to_string(),
-    ]);
+/// The header of [`result_rows`].
+pub const RESULT_HEADER: [&str; 7] = [
+    "quantity",
+    "symbol (2010 / 2020)",
+    "value / µm",
+    "MPE / µm",
+    "U / µm",
+    "acceptance zone / µm",
+    "verdict",
+];
+
+/// Form, size and (with several styli) location: quantity, symbols (`_{…}` subscripts),
+/// value, MPE, U, acceptance zone, verdict.
+pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
+    let sym = symbols(r.styli.len() > 1);
+    let q = |name: &str, sy: (&str, &str), j: &Judged| {
+        vec![
+            name.to_string(),
+            format!("{} / {}", sy.0, sy.1),
+            um(j.value_um),
+            um(j.mpe_um),
+            um(j.u_um),
+            zone(j.acceptance_um),
+            j.verdict.to_string(),
+        ]
+    };
+    let mut rows = vec![
+        q("form", sym[0], &r.form),
+        q("size (2r − D_{cal})", sym[1], &r.size),
+    ];
+    if let Some(l) = &r.location {
+        rows.push(vec![
+            "location".to_string(),
+            format!("{} / {}", sym[2].0, sym[2].1),
+            um(l.value_um),
+            l.mpe_um.map_or("—".into(), um),
+            um(l.u_um),
+            l.acceptance_um.map_or("—".into(), zone),
+            l.verdict.map_or("not judged".into(), |v| v.to_string()),
+        ]);
+    }
+    rows
 }
 
 fn markdown(
@@ -243,31 +275,11 @@ fn markdown(
         um(s.u_form_um),
     ]);
     md.nl().heading(2, "Results");
-    md.table_aligned(
-        [
-            "quantity",
-            "symbol (2010 / 2020)",
-            "value / µm",
-            "MPE / µm",
-            "U / µm",
-            "acceptance zone / µm",
-            "verdict",
-        ],
-        "llrrrll",
-    );
-    let sym = symbols(r.styli.len() > 1);
-    quantity_row(&mut md, "form", sym[0], &r.form);
-    quantity_row(&mut md, "size (2r − D_cal)", sym[1], &r.size);
-    if let Some(l) = &r.location {
-        md.row([
-            "location".to_string(),
-            format!("{} / {}", md_symbol(sym[2].0), md_symbol(sym[2].1)),
-            um(l.value_um),
-            l.mpe_um.map_or("—".into(), um),
-            um(l.u_um),
-            l.acceptance_um.map_or("—".into(), zone),
-            l.verdict.map_or("not judged".into(), |v| v.to_string()),
-        ]);
+    md.table_aligned(RESULT_HEADER, "llrrrll");
+    for mut row in result_rows(r) {
+        row[0] = md_symbol(&row[0]);
+        row[1] = md_symbol(&row[1]);
+        md.row(row);
     }
     md.nl().para(format_args!(
         "Least-squares sphere of all {} points: centre ({}, {}, {}) mm, Ø {} mm, rms of the \

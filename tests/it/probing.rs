@@ -88,7 +88,8 @@ fn cap_targets() -> Vec<(f64, f64)> {
 
 #[test]
 fn the_fit_finds_analytic_spheres_with_planted_lobing_to_a_nanometre() {
-    let cases: [(&str, [f64; 3], f64, [f64; 3], Vec<(f64, f64)>); 3] = [
+    type Case = (&'static str, [f64; 3], f64, [f64; 3], Vec<(f64, f64)>);
+    let cases: [Case; 3] = [
         (
             "hemisphere",
             [10.0, -5.0, 2.0],
@@ -114,9 +115,9 @@ fn the_fit_finds_analytic_spheres_with_planted_lobing_to_a_nanometre() {
     for (name, c, r, pole, targets) in cases {
         let (pts, d) = planted(c, r, pole, &targets, 0.8);
         let f = fit_sphere(&pts).expect("fits");
-        for k in 0..3 {
+        for (got, want) in f.centre_mm.iter().zip(c) {
             assert!(
-                (f.centre_mm[k] - c[k]).abs() < 1e-9,
+                (got - want).abs() < 1e-9,
                 "{name}: centre {:?}",
                 f.centre_mm
             );

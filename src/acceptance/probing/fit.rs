@@ -91,7 +91,7 @@ fn algebraic(q: &[Vector3<f64>]) -> Option<(Vector3<f64>, f64)> {
     let b = DVector::from_fn(n, |i, _| q[i].norm_squared());
     let svd = a.svd(true, true);
     let s_max = svd.singular_values.max();
-    if !(s_max > 0.0) || svd.singular_values.min() <= s_max * 1e-12 {
+    if s_max.is_nan() || s_max <= 0.0 || svd.singular_values.min() <= s_max * 1e-12 {
         return None;
     }
     let x = svd.solve(&b, 0.0).ok()?;
@@ -203,8 +203,8 @@ mod tests {
             }
         }
         let f = fit_sphere(&pts).expect("fits");
-        for k in 0..3 {
-            assert!((f.centre_mm[k] - c[k]).abs() < 1e-12, "{:?}", f.centre_mm);
+        for (got, want) in f.centre_mm.iter().zip(c) {
+            assert!((got - want).abs() < 1e-12, "{:?}", f.centre_mm);
         }
         assert!((f.radius_mm - r).abs() < 1e-12);
         assert!(f.form_mm() < 1e-12);

@@ -210,7 +210,7 @@ fn fit_styli(
     let coords = |idx: &[usize]| -> Vec<[f64; 3]> { idx.iter().map(|&i| points[i].p_mm).collect() };
     for (name, idx) in styli {
         let s = singular_values(&coords(idx));
-        if !(s[2] > FLAT_RATIO * s[0]) {
+        if s[2].is_nan() || s[2] <= FLAT_RATIO * s[0] {
             return Err(AcceptanceError::file(
                 path,
                 format!(

@@ -15,7 +15,7 @@ use super::{Align, BODY, CertificateError, Flow, GREY, MARGIN, MIN_SIZE, signatu
 use crate::acceptance::cmm::CmmCertificate;
 use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::probing::{Judged, ProbingResult};
-use crate::report::probing::{mm6, symbols, um, zone};
+use crate::report::probing::{RESULT_HEADER, mm6, result_rows, symbols, um};
 
 /// The input files, as given (printed where each part's results are).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -122,6 +122,14 @@ fn table(flow: &mut Flow, header: &[&str], rows: &[Vec<String>], align: &[Align]
         );
     }
     flow.y -= size;
+}
+
+/// One line with `_{…}` subscripts (it must fit the width: no wrapping).
+fn rich_line(flow: &mut Flow, s: &str, size: f32) {
+    flow.need(size * 1.6);
+    flow.y -= size * 1.6;
+    rich(&mut flow.doc, MARGIN, flow.y, size, Weight::Regular, s);
+    flow.y -= size * 0.5;
 }
 
 fn new_page(flow: &mut Flow) {
@@ -252,17 +260,21 @@ fn rule_name(c: &CmmCertificate) -> String {
 /// The length test: per position the largest |E0| with its MPE and verdict.
 fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
     new_page(flow);
-    flow.heading("ISO 10360-2:2009 — length measurement error E_0", 12.0);
+    flow.heading("ISO 10360-2:2009 — length measurement error", 12.0);
     flow.paragraph(
         &format!(
-            "Test file: {source}. {} measurements in {} positions, {} test lengths. \
-             MPE_E0(L) = {} µm, L in mm{}.",
-            t.summary.measurements,
-            t.summary.positions,
-            t.summary.gauges,
+            "Test file: {source}. {} measurements in {} positions, {} test lengths.",
+            t.summary.measurements, t.summary.positions, t.summary.gauges,
+        ),
+        BODY,
+    );
+    rich_line(
+        flow,
+        &format!(
+            "MPE_{{E0}}(L) = {} µm, L in mm{}.",
             t.mpe.formula,
             t.mpl_r0_um
-                .map(|m| format!("; MPL_R0 = {} µm", um(m)))
+                .map(|m| format!("; MPL_{{R0}} = {} µm", um(m)))
                 .unwrap_or_default()
         ),
         BODY,
@@ -302,12 +314,13 @@ fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
         &[l, r, r, r, r, l],
         BODY,
     );
-    flow.paragraph(
+    rich_line(
+        flow,
         &format!(
-            "E0 verdict: {}{}; part verdict: {}.",
+            "E_{{0}} verdict: {}{}; part verdict: {}.",
             t.verdict_e0,
             t.verdict_r0
-                .map(|v| format!(", R0 verdict: {v}"))
+                .map(|v| format!(", R_{{0}} verdict: {v}"))
                 .unwrap_or_default(),
             t.verdict
         ),
@@ -368,56 +381,27 @@ fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
         BODY,
     );
     flow.heading("Results", 10.0);
-    let sym = symbols(t.styli.len() > 1);
-    let q = |name: &str, sy: (&str, &str), j: &Judged| {
-        vec![
-            name.to_string(),
-            format!("{} / {}", sy.0, sy.1),
-            um(j.value_um),
-            um(j.mpe_um),
-            um(j.u_um),
-            zone(j.acceptance_um),
-            j.verdict.to_string(),
-        ]
-    };
-    let mut rows = vec![q("form", sym[0], &t.form), q("size", sym[1], &t.size)];
-    if let Some(loc) = &t.location {
-        rows.push(vec![
-            "location".to_string(),
-            format!("{} / {}", sym[2].0, sym[2].1),
-            um(loc.value_um),
-            loc.mpe_um.map_or("—".into(), um),
-            um(loc.u_um),
-            loc.acceptance_um.map_or("—".into(), zone),
-            loc.verdict.map_or("not judged".into(), |v| v.to_string()),
-        ]);
-    }
     table(
         flow,
-        &[
-            "quantity",
-            "symbol (2010 / 2020)",
-            "value / µm",
-            "MPE / µm",
-            "U / µm",
-            "acceptance zone / µm",
-            "verdict",
-        ],
-        &rows,
+        &RESULT_HEADER,
+        &result_rows(t),
         &[l, l, r, r, r, l, l],
         BODY,
     );
     flow.paragraph(
         &format!(
-            "Least-squares sphere of all points: centre ({}, {}, {}) mm, Ø {} mm, rms {} µm. \
-             Form U = √(F_s² + U(F_s)² + U_t,form²), size U = √(U(D)² + U_t,size²), \
-             location U = U_t,location.",
+            "Least-squares sphere of all points: centre ({}, {}, {}) mm, Ø {} mm, rms {} µm.",
             mm6(t.fit.centre_mm[0]),
             mm6(t.fit.centre_mm[1]),
             mm6(t.fit.centre_mm[2]),
             mm6(t.fit.diameter_mm),
             um(t.fit.rms_um)
         ),
+        BODY - 1.0,
+    );
+    rich_line(
+        flow,
+        "U of form = √(F_{s}² + U(F_{s})² + U_{t,form}²), of size = √(U(D)² + U_{t,size}²), of location = U_{t,location} (k = 2).",
         BODY - 1.0,
     );
     flow.heading("Styli (own fits; reported, not judged)", 10.0);
