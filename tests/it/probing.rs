@@ -793,6 +793,17 @@ fn the_committed_example_and_report_are_the_simulators_and_current() -> TestResu
         std::fs::read_to_string(&p)?,
         std::fs::read_to_string(dataset("acceptance/probing-example.csv"))?
     );
+    // The demo's library call gives the command's document.
+    let lib = serde_json::to_value(errmap::acceptance::probing::simulate::evaluate_example()?)?;
+    let cli = json(&errmap(&[
+        "acceptance",
+        "iso10360-5",
+        "datasets/acceptance/probing-example.csv",
+        "--sphere",
+        "datasets/acceptance/probing-sphere.toml",
+        "--json",
+    ]));
+    assert_eq!(lib, cli);
     let committed = root().join("reports/iso10360-5");
     let out = dir.path().join("r");
     let o = errmap(&[

@@ -205,6 +205,23 @@ pub fn example() -> SimTest {
     }
 }
 
+/// The example's sphere certificate, MPEs and U_t: `datasets/acceptance/probing-sphere.toml`.
+pub const EXAMPLE_SPHERE: &str = include_str!("../../../datasets/acceptance/probing-sphere.toml");
+
+/// The example test ([`example`]) evaluated with [`EXAMPLE_SPHERE`] and the default rule:
+/// what `acceptance iso10360-5 datasets/acceptance/probing-example.csv --sphere
+/// datasets/acceptance/probing-sphere.toml` prints (for the demo).
+pub fn evaluate_example() -> Result<super::ProbingResult, crate::acceptance::AcceptanceError> {
+    let sphere = std::path::Path::new("datasets/acceptance/probing-sphere.toml");
+    let file = super::SphereFile::parse(EXAMPLE_SPHERE, sphere)?;
+    let config = super::ProbingConfig::resolve(sphere, file, &Default::default())?;
+    super::evaluate(
+        std::path::Path::new("datasets/acceptance/probing-example.csv"),
+        &simulate(&example()),
+        &config,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
