@@ -6,6 +6,8 @@
 //! identifiability; degree by cross-validation, and degree 3) and the error vector with σ
 //! at 41³ points (`errmap::bench::volumetric`). `cargo bench -- points` runs only the
 //! evaluation group, `cargo bench -- volumetric` only the volumetric ones.
+//! `cargo bench -- sphere`: the least-squares sphere of an ISO 10360-5 multi-stylus test
+//! (125 points, the simulator's example).
 
 use std::sync::LazyLock;
 
@@ -18,6 +20,17 @@ use errmap::table::Grid;
 
 fn main() {
     divan::main();
+}
+
+/// The least-squares sphere of 5 × 25 probed points (goal: under 1 ms).
+#[divan::bench(sample_count = 100)]
+fn sphere_fit_125_points(bencher: Bencher) {
+    use errmap::acceptance::probing::fit::fit_sphere;
+    use errmap::acceptance::probing::simulate::{example, simulate};
+    let points: Vec<[f64; 3]> = simulate(&example()).iter().map(|p| p.p_mm).collect();
+    bencher
+        .counter(ItemsCount::new(points.len()))
+        .bench_local(|| fit_sphere(black_box(&points)).expect("the example fits"));
 }
 
 /// The evaluation grid and query points, made once.

@@ -8,6 +8,8 @@
 //! | [`mpe`] | the MPE formula `A+L/K`, `min(A+L/K,B)`, `B` | O(1) |
 //! | [`tolerance`] | tolerances on ISO 230-2 results (TOML) and the per-line judgement | O(lines · 12) |
 //! | [`iso10360`] | ISO 10360-2:2009 from a measured file: E0, R0, MPE(L), verdicts, deviations from the 7 × 5 × 3 design | O(rows log rows) |
+//! | [`probing`] | ISO 10360-5:2010's probing test from a measured file: the least-squares sphere, form, size, multi-stylus location, verdicts; and a simulator of the test | O(points) |
+//! | [`cmm`] | the CMM verification certificate's document: ISO 10360-2 and 10360-5 joined under one rule | O(1) |
 //! | [`predicted`] | the same test predicted from an identified volumetric model (a virtual CMM), before and after compensation | O(gauges · params²) |
 //!
 //! # The rules
@@ -32,11 +34,13 @@
 //! dimensions*. The standards' own texts were not at hand: `docs/acceptance.md` says
 //! which clauses were read from secondary sources and what was assumed.
 
+pub mod cmm;
 pub mod decide;
 mod error;
 pub mod iso10360;
 pub mod mpe;
 pub mod predicted;
+pub mod probing;
 pub mod rule;
 pub mod tolerance;
 

@@ -52,6 +52,15 @@ pub(crate) enum AcceptanceCommand {
     Decide(DecideArgs),
     /// ISO 10360-2:2009 length measurement error test from a measured file.
     Iso10360(Iso10360Args),
+    /// ISO 10360-5:2010 probing test (25 points per stylus on a calibrated sphere).
+    #[command(name = "iso10360-5")]
+    Iso10360_5(super::probing::ProbingArgs),
+    /// The CMM's verification certificate (PDF): ISO 10360-2 and 10360-5 with a statement
+    /// of conformity.
+    CmmCertificate(super::probing::CmmCertificateArgs),
+    /// A simulated probing test (the example of datasets/acceptance/).
+    #[command(hide = true)]
+    SimulateProbing(super::probing::SimulateArgs),
 }
 
 #[derive(Debug, Args)]
@@ -69,6 +78,20 @@ pub(crate) struct DecideArgs {
 pub(crate) struct Iso10360Args {
     /// The test (CSV or Parquet, one row per measurement).
     pub test: PathBuf,
+    #[command(flatten)]
+    pub length: LengthArgs,
+    #[command(flatten)]
+    pub rule: RuleArgs,
+    /// Write report.md, measurements.csv and the E0 chart here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How an ISO 10360-2 test is judged (`acceptance iso10360`, `acceptance cmm-certificate`).
+#[derive(Debug, Args)]
+pub(crate) struct LengthArgs {
     /// MPE_E0(L): `A+L/K`, `min(A+L/K,B)` or `B` (µm, L in mm).
     #[arg(long)]
     pub mpe: String,
@@ -84,15 +107,6 @@ pub(crate) struct Iso10360Args {
     /// Repetitions per test length.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
     pub repetitions: u64,
-    #[command(flatten)]
-    pub rule: RuleArgs,
-    /// Write report.md, measurements.csv and the E0 chart here.
-    #[arg(long)]
-    pub report: Option<PathBuf>,
-    /// Print the evaluation (every measurement, E0, R0, the verdicts) as one JSON document
-    /// on stdout.
-    #[arg(long)]
-    pub json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -132,6 +146,9 @@ pub(crate) fn acceptance_cmd(a: AcceptanceArgs) -> Result<()> {
     match a.command {
         AcceptanceCommand::Decide(a) => decide_cmd(a),
         AcceptanceCommand::Iso10360(a) => iso10360_cmd(a),
+        AcceptanceCommand::Iso10360_5(a) => super::probing::probing_cmd(a),
+        AcceptanceCommand::CmmCertificate(a) => super::probing::cmm_certificate_cmd(a),
+        AcceptanceCommand::SimulateProbing(a) => super::probing::simulate_cmd(a),
     }
 }
 
@@ -166,10 +183,8 @@ fn formula(option: &str, f: Option<&str>) -> Result<Option<Mpe>> {
     Ok(f.map(|f| Mpe::parse(f, option)).transpose()?)
 }
 
-fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
-    if let Some(dir) = &a.report {
-        super::guard::refuse_aliases(&[("--report", dir)], &[("TEST", &a.test)])?;
-    }
+/// The ISO 10360-2 options as the library's configuration, checked.
+pub(crate) fn length_config(a: &LengthArgs, rule: &RuleArgs) -> Result<TestConfig> {
     let mpe = Mpe::parse(&a.mpe, "--mpe")?;
     let u = formula("--u-um", a.u_um.as_deref())?;
     if let Some(m) = a.mpl_r0
@@ -180,14 +195,21 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
     if !(a.u_r0_um.is_finite() && a.u_r0_um >= 0.0) {
         anyhow::bail!("--u-r0-um {}: U must be finite and ≥ 0 µm", a.u_r0_um);
     }
-    let config = TestConfig {
+    Ok(TestConfig {
         mpe,
         u,
         mpl_r0_um: a.mpl_r0,
         u_r0_um: a.u_r0_um,
         repetitions: a.repetitions as usize,
-        rule: a.rule.resolve(None)?,
-    };
+        rule: rule.resolve(None)?,
+    })
+}
+
+fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
+    if let Some(dir) = &a.report {
+        super::guard::refuse_aliases(&[("--report", dir)], &[("TEST", &a.test)])?;
+    }
+    let config = length_config(&a.length, &a.rule)?;
     let r = iso10360::evaluate_file(&a.test, &config)?;
     if let Some(dir) = &a.report {
         let source = a.test.display().to_string();

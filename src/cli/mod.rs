@@ -34,6 +34,7 @@ pub(crate) mod history;
 pub(crate) mod import;
 pub(crate) mod model;
 pub(crate) mod plan;
+pub(crate) mod probing;
 pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;

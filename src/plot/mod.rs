@@ -63,6 +63,7 @@ mod error;
 mod polar;
 mod render;
 mod scale;
+pub mod sphere;
 mod text;
 
 pub use error::{DrawFailure, PlotError};

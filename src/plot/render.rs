@@ -30,6 +30,14 @@ pub(super) fn write_both(
     frame: &Frame,
     prims: &[Prim],
 ) -> Result<Vec<PathBuf>, PlotError> {
+    let (png, svg) = png_and_svg(stem)?;
+    whole(&png, |p| write_png(p, frame, prims))?;
+    whole(&svg, |p| write_svg(p, frame, prims))?;
+    Ok(vec![png, svg])
+}
+
+/// `<stem>.png` and `<stem>.svg`, their directory created when missing.
+pub(super) fn png_and_svg(stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
     if stem.file_name().is_none() {
         return Err(PlotError::Invalid(format!(
             "output stem {} has no file name",
@@ -44,9 +52,7 @@ pub(super) fn write_both(
             source,
         })?;
     }
-    whole(&png, |p| write_png(p, frame, prims))?;
-    whole(&svg, |p| write_svg(p, frame, prims))?;
-    Ok(vec![png, svg])
+    Ok((png, svg))
 }
 
 /// Writes `path` whole or not at all: `draw` writes a temporary sibling, which is renamed

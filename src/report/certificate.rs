@@ -10,6 +10,7 @@
 //! in a smaller type until it fits ([`MIN_SIZE`] at the least), so no text leaves its cell.
 //! Numbers use the print precision of [`super::iso230::decimals`].
 
+pub mod cmm;
 pub mod conformity;
 pub mod info;
 pub mod pdf;

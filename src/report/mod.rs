@@ -10,6 +10,7 @@
 //! | `iso230` | the ISO 230-2 / VDI/DGQ 3441 section and deviation chart |
 //! | [`certificate`] | the calibration certificate PDF (`errmap certificate`), with its statement of conformity when tolerances are given |
 //! | `acceptance` | the ISO 10360-2 reports, measured and predicted (`acceptance iso10360`, `volumetric iso10360`) |
+//! | `probing` | the ISO 10360-5 probing test's report and its map of the residuals on the sphere (`acceptance iso10360-5 --report`) |
 //! | `uncertainty` | the measurement-uncertainty budget table and the standards note |
 //! | `environment` | a session's air and material temperatures in words and a table |
 //! | `diagnosis` | the diagnosis report (`diagnose --out`, `reports/diagnosis/`) |
@@ -43,6 +44,7 @@ mod history;
 mod iso230;
 mod json;
 mod md;
+pub mod probing;
 mod uncertainty;
 mod volumetric;
 

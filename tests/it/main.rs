@@ -24,6 +24,7 @@ mod layers;
 mod live_view;
 mod node_noise;
 mod physics;
+mod probing;
 mod readme_tour;
 mod robust_io;
 mod robust_outputs;

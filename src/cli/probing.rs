@@ -1,0 +1,196 @@
+//! `errmap acceptance iso10360-5` and `errmap acceptance cmm-certificate`: flags,
+//! validation into library configuration, and glue. The work is in
+//! `errmap::acceptance::{probing, cmm}`, the reports in `errmap::report::probing` and
+//! `errmap::report::certificate::cmm`.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use errmap::acceptance::cmm::CmmCertificate;
+use errmap::acceptance::iso10360;
+use errmap::acceptance::probing::{self, PerQuantity, ProbingOptions, ProbingResult, simulate};
+
+use super::acceptance::{LengthArgs, RuleArgs, length_config};
+
+/// MPE overrides of the probing test, µm.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct ProbingMpeArgs {
+    /// MPE of the probing form error, µm (overrides [mpe] form_um).
+    #[arg(long, allow_negative_numbers = true)]
+    pub mpe_form: Option<f64>,
+    /// MPE of the probing size error, µm (overrides [mpe] size_um).
+    #[arg(long, allow_negative_numbers = true)]
+    pub mpe_size: Option<f64>,
+    /// MPE of the multi-stylus location error, µm (overrides [mpe] location_um).
+    #[arg(long, allow_negative_numbers = true)]
+    pub mpe_location: Option<f64>,
+}
+
+impl ProbingMpeArgs {
+    fn options(&self, rule: &RuleArgs) -> ProbingOptions {
+        ProbingOptions {
+            mpe: PerQuantity {
+                form_um: self.mpe_form,
+                size_um: self.mpe_size,
+                location_um: self.mpe_location,
+            },
+            rule: rule.rule,
+            guard_fraction: rule.guard_fraction,
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct ProbingArgs {
+    /// The probed points (CSV or Parquet: stylus, point, x_mm, y_mm, z_mm).
+    pub points: PathBuf,
+    /// The test sphere's certificate, the MPEs and the test's U (TOML).
+    #[arg(long)]
+    pub sphere: PathBuf,
+    #[command(flatten)]
+    pub mpe: ProbingMpeArgs,
+    #[command(flatten)]
+    pub rule: RuleArgs,
+    /// Write report.md, residuals.csv and the map of the residuals here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn summary(r: &ProbingResult) -> String {
+    format!(
+        "{} points, {} stylus/styli: form {:.3} µm {}, size {:+.3} µm {}{}: {}",
+        r.points,
+        r.styli.len(),
+        r.form.value_um,
+        r.form.verdict,
+        r.size.value_um,
+        r.size.verdict,
+        r.location
+            .as_ref()
+            .map(|l| format!(
+                ", location {:.3} µm {}",
+                l.value_um,
+                l.verdict.map_or("(not judged)".into(), |v| v.to_string())
+            ))
+            .unwrap_or_default(),
+        r.verdict
+    )
+}
+
+pub(crate) fn probing_cmd(a: ProbingArgs) -> Result<()> {
+    if let Some(dir) = &a.report {
+        super::guard::refuse_aliases(
+            &[("--report", dir)],
+            &[("POINTS", &a.points), ("--sphere", &a.sphere)],
+        )?;
+    }
+    let r = probing::evaluate_files(&a.points, &a.sphere, &a.mpe.options(&a.rule))?;
+    if let Some(dir) = &a.report {
+        let (p, s) = (
+            a.points.display().to_string(),
+            a.sphere.display().to_string(),
+        );
+        super::guard::into_new_dir(dir, |d| {
+            errmap::report::probing::write_probing_report(d, &p, &s, &r).map_err(Into::into)
+        })?;
+        eprintln!("acceptance iso10360-5: report in {}", dir.display());
+    }
+    if a.json {
+        super::guard::print_json(&r)?;
+    }
+    eprintln!("acceptance iso10360-5: {}", summary(&r));
+    for d in &r.deviations {
+        eprintln!("acceptance iso10360-5: deviation: {d}");
+    }
+    Ok(())
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct CmmCertificateArgs {
+    /// The ISO 10360-2 test (as `acceptance iso10360` reads it).
+    #[arg(long)]
+    pub length: PathBuf,
+    #[command(flatten)]
+    pub length_args: LengthArgs,
+    /// The ISO 10360-5 points (as `acceptance iso10360-5` reads them).
+    #[arg(long)]
+    pub probing: PathBuf,
+    /// The test sphere's certificate, the MPEs and the test's U (TOML).
+    #[arg(long)]
+    pub sphere: PathBuf,
+    #[command(flatten)]
+    pub mpe: ProbingMpeArgs,
+    /// The specification the CMM is judged against (named in the statement).
+    #[arg(long)]
+    pub specification: String,
+    /// The CMM (make, model, serial).
+    #[arg(long)]
+    pub cmm: Option<String>,
+    #[command(flatten)]
+    pub rule: RuleArgs,
+    /// The certificate (PDF).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub(crate) fn cmm_certificate_cmd(a: CmmCertificateArgs) -> Result<()> {
+    super::guard::refuse_aliases(
+        &[("--out", &a.out)],
+        &[
+            ("--length", &a.length),
+            ("--probing", &a.probing),
+            ("--sphere", &a.sphere),
+        ],
+    )?;
+    let config = length_config(&a.length_args, &a.rule)?;
+    let length = iso10360::evaluate_file(&a.length, &config)?;
+    let probing = probing::evaluate_files(&a.probing, &a.sphere, &a.mpe.options(&a.rule))?;
+    let cert = CmmCertificate::new(
+        a.cmm.clone(),
+        a.specification.clone(),
+        &config.rule,
+        length,
+        probing,
+    );
+    let sources = errmap::report::certificate::cmm::Sources {
+        length: a.length.display().to_string(),
+        probing: a.probing.display().to_string(),
+        sphere: a.sphere.display().to_string(),
+    };
+    errmap::report::certificate::cmm::write(&a.out, &cert, &sources)?;
+    if a.json {
+        super::guard::print_json(&cert)?;
+    }
+    eprintln!(
+        "acceptance cmm-certificate: ISO 10360-2 {}, ISO 10360-5 {}: {}; certificate {}",
+        cert.iso10360_2.verdict,
+        cert.iso10360_5.verdict,
+        cert.verdict,
+        a.out.display()
+    );
+    Ok(())
+}
+
+#[derive(Debug, Args)]
+pub(crate) struct SimulateArgs {
+    /// Where the points go (CSV).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Writes the simulator's example test (`datasets/acceptance/probing-example.csv`).
+pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    let points = simulate::simulate(&simulate::example());
+    super::guard::write_file(&a.out, simulate::to_csv(&points).as_bytes())?;
+    eprintln!(
+        "acceptance simulate-probing: {} points in {}",
+        points.len(),
+        a.out.display()
+    );
+    Ok(())
+}
