@@ -623,18 +623,35 @@ pub fn line_budget_with(
 /// A length term: the input's uncertainty times its sensitivity, in ppm of the length.
 fn length(
     (id, name): (&'static str, &str),
+    input: (f64, &'static str),
+    sensitivity: (f64, &'static str),
+    source: String,
+) -> Contribution {
+    term(
+        Kind::Length,
+        (id, name.to_string()),
+        input,
+        sensitivity,
+        source,
+    )
+}
+
+/// A term `u = |c·u(x)|` of either kind.
+fn term(
+    kind: Kind,
+    (id, name): (&'static str, String),
     (input, input_unit): (f64, &'static str),
     (sensitivity, sensitivity_unit): (f64, &'static str),
     source: String,
 ) -> Contribution {
     Contribution {
         id,
-        name: name.to_string(),
+        name,
         input,
         input_unit,
         sensitivity,
         sensitivity_unit,
-        kind: Kind::Length,
+        kind,
         u: (sensitivity * input).abs(),
         source,
     }
@@ -807,22 +824,12 @@ fn length_contributions(
 
 /// A reading term (µm).
 fn reading(
-    (id, name): (&'static str, String),
-    (input, input_unit): (f64, &'static str),
-    (sensitivity, sensitivity_unit): (f64, &'static str),
+    id: (&'static str, String),
+    input: (f64, &'static str),
+    sensitivity: (f64, &'static str),
     source: String,
 ) -> Contribution {
-    Contribution {
-        id,
-        name,
-        input,
-        input_unit,
-        sensitivity,
-        sensitivity_unit,
-        kind: Kind::Reading,
-        u: (input * sensitivity).abs(),
-        source,
-    }
+    term(Kind::Reading, id, input, sensitivity, source)
 }
 
 /// The reading terms (µm): the dead path over the air's span of the refractive index, the
