@@ -1,10 +1,12 @@
-//! Tolerances on ISO 230-2 results (`table --tolerances`, `certificate --tolerances`): a
-//! TOML file of limits per axis and, optionally, per line; every line of a session
-//! judged with the expanded uncertainty its certificate prints.
+//! Tolerances on ISO 230-2 results (`table --tolerances`, `certificate --tolerances`): the
+//! tolerance file of `docs/tolerances.md`, which `history report --tolerances` reads too;
+//! every line of a session judged with the expanded uncertainty its certificate prints.
 //!
 //! ```toml
-//! specification = "ACME CMM-X spec AX-12 rev. C"   # required
+//! specification = "ACME CMM-X spec AX-12 rev. C"   # required here
 //! rule = "iso14253"            # optional: iso14253 | simple | guard (+ guard_fraction)
+//! [default]                    # every axis (an [axis.X] entry replaces it)
+//! R = 4.0
 //! [axis.X]                     # every line of a session along X
 //! A = 6.0                      # a number: upper limit only
 //! B_mean = { lower = -0.5, upper = 0.5 }
@@ -12,6 +14,7 @@
 //! axis = "X"
 //! line_mm = [500.0, 50.0]
 //! A = 5.0                      # replaces [axis.X].A on this line
+//! [machine.M07]                # per-machine limits: the history's, not used here
 //! ```
 //!
 //! | key | ISO 230-2 value | U that judges it |
@@ -279,6 +282,7 @@ impl Tolerances {
         let mut rule_name = None;
         let mut fraction = None;
         let mut axes: [ParamLimits; 3] = [[None; 12]; 3];
+        let mut default: ParamLimits = [None; 12];
         let mut lines = Vec::new();
         for (k, v) in &doc {
             match (k.as_str(), v) {
@@ -311,15 +315,29 @@ impl Tolerances {
                         lines.push(line_tolerance(path, i, item)?);
                     }
                 }
-                ("axis" | "line" | "rule" | "guard_fraction", _) => {
+                ("default", toml::Value::Table(t)) => {
+                    default = params_of(path, "default.", t, &[])?;
+                }
+                // Per-machine limits are the history's (`history report --tolerances`); a
+                // session names no machine, so they do not judge it.
+                ("machine", toml::Value::Table(_)) => {}
+                ("axis" | "line" | "rule" | "guard_fraction" | "default" | "machine", _) => {
                     return Err(AcceptanceError::key(path, k, "has the wrong type"));
                 }
                 _ => {
                     return Err(AcceptanceError::key(
                         path,
                         k,
-                        "unknown key (known: specification, rule, guard_fraction, axis, line)",
+                        "unknown key (known: specification, rule, guard_fraction, default, \
+                         axis, line, machine)",
                     ));
+                }
+            }
+        }
+        for limits in &mut axes {
+            for (l, d) in limits.iter_mut().zip(default) {
+                if l.is_none() {
+                    *l = d;
                 }
             }
         }

@@ -141,6 +141,49 @@ pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
     Ok(hello)
 }
 
+/// The resolutions of the reading chain a capture's `session.json` describes (its HELLO):
+/// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
+/// `session` is the session table or the capture directory; `None` when there is no
+/// `session.json` beside it, or it has no `hello`.
+pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertainty::Resolution>> {
+    use crate::session::uncertainty::Resolution;
+    #[derive(serde::Deserialize)]
+    struct Partial {
+        hello: Option<HelloJson>,
+    }
+    let dir = if session.is_dir() {
+        session
+    } else {
+        session.parent()?
+    };
+    let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
+    let h = serde_json::from_str::<Partial>(&text).ok()?.hello?;
+    let counts = u32::from(h.optical_fold) * u32::from(h.edges_per_fringe);
+    let mut out = Vec::new();
+    if counts > 0 && h.laser_wavelength_fm > 0 {
+        let lambda_nm = f64::from(h.laser_wavelength_fm) * 1e-6;
+        out.push(Resolution {
+            name: "laser count".into(),
+            step_um: lambda_nm / f64::from(counts) * 1e-3,
+            source: format!(
+                "the device's HELLO: λ_vac/(F·k) = {lambda_nm} nm/({}·{})",
+                h.optical_fold, h.edges_per_fringe
+            ),
+        });
+    }
+    if h.count_resolution_pm > 0 {
+        out.push(Resolution {
+            name: "scale count".into(),
+            step_um: f64::from(h.count_resolution_pm) * 1e-6,
+            source: format!(
+                "the device's HELLO: scale count resolution {} pm",
+                h.count_resolution_pm
+            ),
+        });
+    }
+    (!out.is_empty()).then_some(out)
+}
+
 /// Where a capture writes.
 #[derive(Debug, Clone)]
 pub struct SessionPaths {

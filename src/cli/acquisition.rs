@@ -321,6 +321,14 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
     let conformity = match &tolerances {
         Some((t, rule)) => {
+            if reduced.iso.is_empty() {
+                bail!(
+                    "{}: no line has ISO 230-2 statistics (the reason is above), so no line \
+                     can be judged against --tolerances {}",
+                    a.session.display(),
+                    t.path.display()
+                );
+            }
             let axis = reduced.summary.axis.clone().unwrap_or_default();
             let lines: Vec<_> = reduced
                 .iso
@@ -397,10 +405,14 @@ pub(crate) fn reduce_session(
     // One pass in batches: memory bounded by a batch and the dwell accumulators.
     let mut reducer = session::Reducer::new();
     let mut environment = session::EnvironmentStats::default();
+    let mut recorded = uncertainty::RecordedResolution::default();
+    let mut drift = uncertainty::DriftFinder::default();
     session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);
             environment.push(r);
+            recorded.push(r.laser_mm);
+            drift.push(r);
         }
         Ok(())
     })?;
@@ -422,12 +434,31 @@ pub(crate) fn reduce_session(
             summary.uncompensated
         );
     }
+    let device = errmap::acquire::device_resolutions(&path);
     if summary.no_air_data {
-        eprintln!(
-            "table: warning: the session has no air values; its laser lengths are used as written \
-             (uncompensated lengths read about 270 ppm long in a normal room)"
-        );
+        // A capture (its HELLO beside the table) writes air values on every compensated
+        // row; a table without any is an export whose lengths its own software compensated.
+        if device.is_some() {
+            eprintln!(
+                "table: warning: the capture has no air values; its laser lengths are \
+                 uncompensated (about 270 ppm long in a normal room)"
+            );
+        } else {
+            eprintln!(
+                "table: the session has no air values: its laser lengths are taken as written \
+                 (as compensated by the software that exported them); the uncertainty budget \
+                 leaves the air terms out and says so"
+            );
+        }
     }
+    let sources = uncertainty::BudgetSources::choose(
+        device,
+        None,
+        &recorded,
+        &Default::default(),
+        &drift,
+        &Default::default(),
+    );
     let (iso, failed) = reducer.iso_by_line();
     for (line, e) in failed {
         eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
@@ -435,8 +466,13 @@ pub(crate) fn reduce_session(
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_of(&uncertainty::UncertaintyConfig::default(), &environment, s)
-                .map(|(b, _)| b)
+            uncertainty::line_budget_with(
+                &uncertainty::UncertaintyConfig::default(),
+                &environment,
+                s,
+                &sources,
+            )
+            .map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {

@@ -49,9 +49,33 @@ pub(crate) fn certificate_cmd(a: CertificateArgs) -> Result<()> {
     for (line, e) in &failed {
         eprintln!("certificate: no ISO 230-2 statistics for line {line:?}: {e}");
     }
+    if iso.is_empty() {
+        // The real cause, before any tolerance is looked at (a one-run import).
+        let why = failed
+            .iter()
+            .map(|(l, e)| format!("line {l:?}: {e}"))
+            .collect::<Vec<_>>()
+            .join("; ");
+        anyhow::bail!(
+            "{}: no line has ISO 230-2 statistics, so there is nothing to certify ({why})",
+            path.display()
+        );
+    }
+    let sources = uncertainty::BudgetSources::choose(
+        errmap::acquire::device_resolutions(&path),
+        info.laser.resolution_um,
+        &uncertainty::RecordedResolution::of(&rows),
+        &info.drift_check,
+        &uncertainty::DriftFinder::of(&rows),
+        &info.conditions,
+    );
+    let environment = session::EnvironmentStats::of(&rows);
     let budgets = iso
         .iter()
-        .map(|(_, s)| uncertainty::line_budget(&info.uncertainty, &rows, s).map(|(b, _)| b))
+        .map(|(_, s)| {
+            uncertainty::line_budget_with(&info.uncertainty, &environment, s, &sources)
+                .map(|(b, _)| b)
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let axis = summary.axis.clone().unwrap_or_default();
     let data = CertificateData {

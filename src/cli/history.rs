@@ -88,9 +88,10 @@ pub(crate) struct ReportArgs {
     /// Only this machine in the output.
     #[arg(long, value_parser = machine)]
     pub machine: Option<MachineId>,
-    /// Tolerances (TOML, µm): [default], [machine.ID], [machine.ID.X].
+    /// The tolerance file (TOML, µm; docs/tolerances.md): [default], [axis.X],
+    /// [machine.ID], [machine.ID.X].
     #[arg(long)]
-    pub tolerance: Option<PathBuf>,
+    pub tolerances: Option<PathBuf>,
     /// The report's date (default: the latest test in the ledger).
     #[arg(long, value_parser = utc)]
     pub as_of: Option<i64>,
@@ -197,7 +198,7 @@ fn report(a: ReportArgs) -> Result<()> {
             a.report.display()
         );
     }
-    let tolerances = match &a.tolerance {
+    let tolerances = match &a.tolerances {
         Some(p) => Tolerances::read(p)?,
         None => Tolerances::default(),
     };

@@ -1,18 +1,24 @@
-//! The calibration certificate as a PDF: the fields a certificate carries (from an info
-//! TOML, blank when absent), the machine, axis and lines, the instruments and the
-//! environment over the test, and per line the ISO 230-2 statistics in the certificate
-//! layout with the expanded uncertainty beside each axis value, the VDI/DGQ 3441 values,
-//! the deviation chart in the standard's style, and the uncertainty budget.
+//! The calibration certificate as a PDF. Page 1 is the summary a reader signs off: the
+//! certificate's fields (number, issue date, laboratory, customer, machine, the lines by
+//! their coordinates, the date and times of the test), the results of every line with
+//! their expanded uncertainties and verdicts, the statement of the coverage, the
+//! traceability statement. Then the test parameters (cycle, runs, feed, dwell, overrun,
+//! targets), the instruments and the laser set-up, the controller's compensation state,
+//! the environment over the test, per line the ISO 230-2 statistics in the certificate
+//! layout with the VDI/DGQ 3441 values and the deviation chart, the uncertainty budget with
+//! the source of every contribution, the statement of conformity, the signatures.
 //!
-//! Rendering is self-contained ([`pdf`]): DejaVu Sans is embedded, the chart is drawn as
-//! vector graphics, no system font and no external program is used. Tables size their
-//! columns from the measured width of their text, and a table too wide for the page is set
-//! in a smaller type until it fits ([`MIN_SIZE`] at the least), so no text leaves its cell.
-//! Numbers use the print precision of [`super::iso230::decimals`].
+//! The page layout ([`layout`]) is shared with other certificates. Rendering is
+//! self-contained ([`pdf`]): DejaVu Sans is embedded, the chart is drawn as vector
+//! graphics. Deviations and uncertainties are printed to one number of decimals over the
+//! whole certificate ([`certificate_decimals`]).
 
+mod chart;
 pub mod cmm;
 pub mod conformity;
+mod flow;
 pub mod info;
+pub mod layout;
 pub mod pdf;
 
 use std::path::Path;
@@ -20,21 +26,19 @@ use std::path::Path;
 use errmap_drivers::SessionRow;
 
 use self::info::{CertificateInfo, Instrument};
-use self::pdf::{Doc, PAGE_H, PAGE_W, PdfError, Rgb, Weight};
+use self::layout::{Align, BODY, Decimals, Sheet, fixed};
+use self::pdf::{PdfError, Weight};
 use super::iso230::decimals;
-use super::uncertainty::{STANDARDS_NOTE, budget_rows};
+use super::uncertainty::{STANDARDS_NOTE, budget_rows, conditions_text, not_evaluated_text};
 use crate::acceptance::tolerance::Conformity;
-use crate::session::uncertainty::Budget;
+use crate::session::uncertainty::{Budget, Origin};
 use crate::session::{AxisStats, TargetStats};
 
-const MARGIN: f32 = 48.0;
-const BODY: f32 = 9.0;
 /// Smallest type a table is set in.
-pub const MIN_SIZE: f32 = 5.5;
-const UP: Rgb = (0.12, 0.47, 0.71);
-const DOWN: Rgb = (0.84, 0.15, 0.16);
-const GREY: Rgb = (0.6, 0.6, 0.6);
-const INK: Rgb = (0.1, 0.1, 0.1);
+pub use self::layout::MIN_SIZE;
+
+/// ISO 230-2's minimum number of runs per direction (its standard test cycle: 5).
+pub const ISO_MIN_RUNS: usize = 5;
 
 /// One measured line of the axis.
 #[derive(Debug, Clone, Copy)]
@@ -50,11 +54,11 @@ pub struct LineResult<'a> {
 /// Everything a certificate shows.
 #[derive(Debug, Clone)]
 pub struct CertificateData<'a> {
-    /// The session it was computed from (a path, as given).
+    /// The session it was computed from (a path; only its file name is printed).
     pub source: &'a str,
     /// The axis measured (`X`, `Y`, `Z`).
     pub axis: &'a str,
-    /// The session's rows (for the environment over the test).
+    /// The session's rows (for the environment and the test parameters).
     pub rows: &'a [SessionRow],
     /// The lines measured.
     pub lines: Vec<LineResult<'a>>,
@@ -77,141 +81,12 @@ pub enum CertificateError {
     NoLines(String),
 }
 
-/// Column alignment.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Align {
-    Left,
-    Right,
-}
-
-/// A vertical cursor over the pages.
-struct Flow {
-    doc: Doc,
-    y: f32,
-}
-
-impl Flow {
-    fn need(&mut self, h: f32) {
-        if self.y - h < MARGIN + 20.0 {
-            self.doc.new_page();
-            self.y = PAGE_H - MARGIN;
-        }
-    }
-
-    fn heading(&mut self, s: &str, size: f32) {
-        self.need(size * 2.0 + 40.0);
-        self.y -= size * 1.6;
-        self.doc.text(MARGIN, self.y, size, Weight::Bold, s);
-        self.y -= size * 0.6;
-    }
-
-    /// A paragraph wrapped to the content width.
-    fn paragraph(&mut self, s: &str, size: f32) {
-        let width = PAGE_W - 2.0 * MARGIN;
-        let mut line = String::new();
-        let mut lines = Vec::new();
-        for word in s.split_whitespace() {
-            let candidate = if line.is_empty() {
-                word.to_string()
-            } else {
-                format!("{line} {word}")
-            };
-            if self.doc.width(&candidate, size, Weight::Regular) > width && !line.is_empty() {
-                lines.push(std::mem::replace(&mut line, word.to_string()));
-            } else {
-                line = candidate;
-            }
-        }
-        if !line.is_empty() {
-            lines.push(line);
-        }
-        for l in lines {
-            self.need(size * 1.4);
-            self.y -= size * 1.4;
-            self.doc.text(MARGIN, self.y, size, Weight::Regular, &l);
-        }
-        self.y -= size * 0.5;
-    }
-
-    /// A table: a bold header row, then rows; columns as wide as their widest cell. A
-    /// table wider than the page is set smaller until it fits.
-    fn table(&mut self, header: &[&str], rows: &[Vec<String>], align: &[Align], size: f32) {
-        let pad = 4.0;
-        let avail = PAGE_W - 2.0 * MARGIN;
-        let mut size = size;
-        let widths = loop {
-            let w: Vec<f32> = (0..header.len())
-                .map(|k| {
-                    let head = self.doc.width(header[k], size, Weight::Bold);
-                    rows.iter()
-                        .map(|r| self.doc.width(&r[k], size, Weight::Regular))
-                        .fold(head, f32::max)
-                        + 2.0 * pad
-                })
-                .collect();
-            if w.iter().sum::<f32>() <= avail || size <= MIN_SIZE {
-                break w;
-            }
-            size = (size - 0.5).max(MIN_SIZE);
-        };
-        let row_h = size * 1.6;
-        let draw_row = |flow: &mut Flow, cells: &[String], weight: Weight| {
-            flow.need(row_h);
-            flow.y -= row_h;
-            let mut x = MARGIN;
-            for (k, c) in cells.iter().enumerate() {
-                let base = flow.y + size * 0.45;
-                match align.get(k).copied().unwrap_or(Align::Left) {
-                    Align::Left => flow.doc.text(x + pad, base, size, weight, c),
-                    Align::Right => flow
-                        .doc
-                        .text_right(x + widths[k] - pad, base, size, weight, c),
-                }
-                x += widths[k];
-            }
-            let total: f32 = widths.iter().sum();
-            flow.doc.polyline(
-                &[(MARGIN, flow.y), (MARGIN + total, flow.y)],
-                0.3,
-                GREY,
-                None,
-            );
-        };
-        let head: Vec<String> = header.iter().map(|s| s.to_string()).collect();
-        // Keep a table on one page when it fits on one.
-        let whole = row_h * (rows.len() as f32 + 1.0) + size;
-        let page = PAGE_H - 2.0 * MARGIN - 20.0;
-        self.need(if whole < page { whole } else { row_h * 3.0 });
-        draw_row(self, &head, Weight::Bold);
-        for r in rows {
-            draw_row(self, r, Weight::Regular);
-        }
-        self.y -= size;
-    }
-}
-
 fn blank(v: &Option<String>) -> String {
     v.clone().unwrap_or_default()
 }
 
 fn instrument(i: &Instrument) -> [String; 3] {
     [blank(&i.model), blank(&i.serial), blank(&i.calibrated)]
-}
-
-/// Min, mean and max of a session column, formatted, or blanks.
-fn column_stats(rows: &[SessionRow], f: impl Fn(&SessionRow) -> Option<f64>) -> [String; 3] {
-    let v: Vec<f64> = rows
-        .iter()
-        .filter_map(&f)
-        .filter(|x| x.is_finite())
-        .collect();
-    if v.is_empty() {
-        return ["—".into(), "—".into(), "—".into()];
-    }
-    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    [format!("{lo:.2}"), format!("{mean:.2}"), format!("{hi:.2}")]
 }
 
 /// A position in mm to 0.1 µm, trailing zeros dropped (`-4.88`, not `-4.880000000000001`).
@@ -225,10 +100,25 @@ pub fn mm(v: f64) -> String {
     }
 }
 
-/// The per-target table's rows (certificate layout).
-pub fn target_rows(stats: &AxisStats) -> Vec<Vec<String>> {
-    let d = decimals(stats);
-    let f = |v: f64| format!("{v:.d$}");
+/// The two fixed coordinates of a line along `axis`, named: `y = 1 mm, z = 200 mm`.
+pub fn line_name(axis: &str, line_mm: (f64, f64)) -> String {
+    let (a, b) = match axis.to_ascii_uppercase().as_str() {
+        "Y" => ("x", "z"),
+        "Z" => ("x", "y"),
+        _ => ("y", "z"),
+    };
+    format!("{a} = {} mm, {b} = {} mm", mm(line_mm.0), mm(line_mm.1))
+}
+
+/// The decimals every deviation and uncertainty of the certificate is printed to: the
+/// most any line needs ([`decimals`]), so one quantity has one format throughout.
+pub fn certificate_decimals(lines: &[LineResult]) -> usize {
+    lines.iter().map(|l| decimals(l.stats)).max().unwrap_or(3)
+}
+
+/// The per-target table's rows (certificate layout), µm to `d` places.
+pub fn target_rows(stats: &AxisStats, d: usize) -> Vec<Vec<String>> {
+    let f = |v: f64| fixed(v, d);
     stats
         .targets
         .iter()
@@ -369,10 +259,9 @@ fn vdi_values(s: &AxisStats) -> [AxisValue; 6] {
     ]
 }
 
-/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k).
-pub fn axis_rows(stats: &AxisStats, budget: &Budget) -> Vec<Vec<String>> {
-    let d = decimals(stats);
-    let f = |v: f64| format!("{v:.d$}");
+/// The axis table's rows: symbol, name, ↑, ↓, bidirectional, U (k), µm to `d` places.
+pub fn axis_rows(stats: &AxisStats, budget: &Budget, d: usize) -> Vec<Vec<String>> {
+    let f = |v: f64| fixed(v, d);
     let o = |v: Option<f64>| v.map_or_else(|| "—".to_string(), f);
     let u = budget.expanded();
     iso_values(stats)
@@ -400,8 +289,16 @@ pub fn render(data: &CertificateData) -> Result<Vec<u8>, CertificateError> {
     render_with(data, None)
 }
 
-/// Renders the certificate with its statement of conformity when `conformity` is given
-/// (after the statistics, before the signatures); without, exactly as [`render`].
+/// The session's file name (never a path: a certificate points at nothing outside
+/// itself).
+fn session_name(source: &str) -> String {
+    Path::new(source)
+        .file_name()
+        .map_or_else(|| source.to_string(), |n| n.to_string_lossy().into_owned())
+}
+
+/// Renders the certificate with its statement of conformity when `conformity` is given;
+/// without, the certificate has no verdicts.
 pub fn render_with(
     data: &CertificateData,
     conformity: Option<&Conformity>,
@@ -409,78 +306,358 @@ pub fn render_with(
     if data.lines.is_empty() {
         return Err(CertificateError::NoLines(data.source.to_string()));
     }
-    let mut flow = Flow {
-        doc: Doc::new("Calibration certificate: positioning accuracy (ISO 230-2)")?,
-        y: PAGE_H - MARGIN,
-    };
-    title(&mut flow);
-    certificate_fields(&mut flow, data);
-    instruments(&mut flow, data.info);
-    environment(&mut flow, data);
-    for (k, line) in data.lines.iter().enumerate() {
-        line_pages(&mut flow, data.axis, k, line);
-    }
-    if let Some(c) = conformity {
-        conformity::section(&mut flow, data, c);
-    }
-    signatures(&mut flow);
-    footers(&mut flow, data.info);
-    Ok(flow.doc.finish()?)
-}
-
-/// The title and the standards the certificate follows.
-fn title(flow: &mut Flow) {
-    flow.y -= 16.0;
-    flow.doc.text(
-        MARGIN,
-        flow.y,
-        16.0,
-        Weight::Bold,
+    let dec = Decimals::with_um(certificate_decimals(&data.lines));
+    let mut sheet = Sheet::new(
         "Calibration certificate — positioning accuracy",
-    );
-    flow.y -= 14.0;
-    flow.doc.text(
-        MARGIN,
-        flow.y,
-        BODY,
-        Weight::Regular,
         "ISO 230-2:2014 (GB/T 17421.2-2016), VDI/DGQ 3441; uncertainty after ISO/TR 230-9 and the GUM",
-    );
+    )?;
+    certificate_fields(&mut sheet, data);
+    summary(&mut sheet, data, conformity, dec);
+    sheet.new_page();
+    test_parameters(&mut sheet, data);
+    instruments(&mut sheet, data);
+    environment(&mut sheet, data, dec);
+    for (k, line) in data.lines.iter().enumerate() {
+        line_section(&mut sheet, data.axis, k, line, dec);
+    }
+    uncertainty_section(&mut sheet, data, dec);
+    if let Some(c) = conformity {
+        conformity::section(&mut sheet, data, c, dec);
+    }
+    sheet.signatures();
+    let label = format!("Certificate {}", blank(&data.info.certificate_number));
+    Ok(sheet.finish(label.trim_end())?)
 }
 
 /// The certificate's fields: who, what, when, and which session.
-fn certificate_fields(flow: &mut Flow, data: &CertificateData) {
+fn certificate_fields(sheet: &mut Sheet, data: &CertificateData) {
     let info = data.info;
-    let l = Align::Left;
-    flow.heading("Certificate", 11.0);
-    let field = |name: &str, v: &Option<String>| vec![name.to_string(), blank(v)];
-    let lines_text = data
+    let f = |name: &str, v: String| (name.to_string(), v);
+    let lines = data
         .lines
         .iter()
-        .map(|x| format!("({}, {}) mm", mm(x.line_mm.0), mm(x.line_mm.1)))
+        .map(|x| line_name(data.axis, x.line_mm))
         .collect::<Vec<_>>()
         .join("; ");
-    let fields = vec![
-        field("Certificate number", &info.certificate_number),
-        field("Laboratory", &info.lab),
-        field("Operator", &info.operator),
-        field("Customer", &info.customer),
-        field("Machine", &info.machine),
-        vec!["Axis".into(), data.axis.to_string()],
-        vec!["Line(s) (fixed coordinates)".into(), lines_text],
-        field("Date of test", &info.date_of_test),
-        vec!["Session".into(), data.source.to_string()],
-    ];
-    flow.table(&["field", "value"], &fields, &[l, l], BODY);
+    let times = match (&info.start_time, &info.end_time) {
+        (Some(a), Some(b)) => format!(", {a} to {b}"),
+        (Some(a), None) => format!(", from {a}"),
+        _ => String::new(),
+    };
+    sheet.fields(&[
+        f("Certificate number", blank(&info.certificate_number)),
+        f("Date of issue", blank(&info.date_of_issue)),
+        f("Laboratory", blank(&info.lab)),
+        f("Customer", blank(&info.customer)),
+        f("Machine", blank(&info.machine)),
+        f("Axis measured", data.axis.to_string()),
+        f("Line(s)", lines),
+        f(
+            "Date of test",
+            format!("{}{times}", blank(&info.date_of_test)),
+        ),
+        f("Operator", blank(&info.operator)),
+        f("Session", session_name(data.source)),
+    ]);
 }
 
-/// The instruments and their calibrations.
-fn instruments(flow: &mut Flow, info: &CertificateInfo) {
-    let l = Align::Left;
-    flow.heading("Instruments", 11.0);
+/// Fewest runs per direction over a line's targets.
+fn runs(stats: &AxisStats) -> usize {
+    stats
+        .targets
+        .iter()
+        .map(|t| t.n_up.min(t.n_down))
+        .min()
+        .unwrap_or(0)
+}
+
+/// Page 1's results: per line E, M, A, R, B, B̄ with U and the verdict, and the
+/// statements a reader needs with them.
+fn summary(sheet: &mut Sheet, data: &CertificateData, c: Option<&Conformity>, dec: Decimals) {
+    sheet.heading("Results", 12.0);
+    let f = |v: f64| fixed(v, dec.um);
+    let rows: Vec<Vec<String>> = data
+        .lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let s = l.stats;
+            let u = l.budget.expanded();
+            let verdict = c.and_then(|c| c.lines.get(k)).map(|(_, lc)| {
+                lc.as_ref()
+                    .map_or("not judged".to_string(), |x| x.verdict.to_string())
+            });
+            let mut row = vec![
+                line_name(data.axis, l.line_mm),
+                runs(s).to_string(),
+                f(s.e_um),
+                f(s.m_um),
+                f(s.a_um),
+                f(u.along_travel_um),
+                f(s.r_um),
+                f(s.b_um),
+                f(s.mean_reversal_um),
+                f(u.at_one_target_um),
+            ];
+            row.extend(verdict);
+            row
+        })
+        .collect();
+    let mut header = vec![
+        "line",
+        "runs",
+        "E",
+        "M",
+        "A",
+        "U(E, M, A)",
+        "R",
+        "B",
+        "B̄",
+        "U(R, B, B̄)",
+    ];
+    let r = Align::Right;
+    let mut align = vec![Align::Left, r, r, r, r, r, r, r, r, r];
+    if c.is_some() {
+        header.push("verdict");
+        align.push(Align::Left);
+    }
+    sheet.table_sized(&header, &rows, &align, BODY - 0.5);
+    sheet.paragraph(
+        &format!(
+            "Values in µm (ISO 230-2 symbols; bidirectional values). U is the expanded \
+             uncertainty of the value beside it: the combined standard uncertainty multiplied \
+             by the coverage factor k = {}, which for a normal distribution corresponds to a \
+             coverage probability of approximately 95 %. It was evaluated after the GUM (JCGM \
+             100:2008) and ISO/TR 230-9, as ISO 230-2 Annex A asks, and is never stated below \
+             one step of the coarsest resolution of the readings.",
+            data.lines[0].budget.k
+        ),
+        BODY - 0.5,
+    );
+    if let Some(c) = c {
+        sheet.paragraph_weighted(
+            &format!(
+                "Statement of conformity with {}: {}.",
+                c.specification, c.verdict
+            ),
+            BODY,
+            Weight::Bold,
+        );
+    }
+    let short: Vec<String> = data
+        .lines
+        .iter()
+        .filter(|l| runs(l.stats) < ISO_MIN_RUNS)
+        .map(|l| {
+            format!(
+                "{} ({} runs)",
+                line_name(data.axis, l.line_mm),
+                runs(l.stats)
+            )
+        })
+        .collect();
+    if !short.is_empty() {
+        sheet.paragraph_weighted(
+            &format!(
+                "Fewer runs than ISO 230-2's minimum of {ISO_MIN_RUNS} per direction: {}. \
+                 The statistics are computed as the standard defines them, but the test is \
+                 below its standard cycle; its repeatability figures rest on few readings.",
+                short.join("; ")
+            ),
+            BODY - 0.5,
+            Weight::Bold,
+        );
+    }
+    sheet.heading("Traceability", 10.0);
+    sheet.paragraph(&traceability(data.info), BODY - 0.5);
+}
+
+/// The laboratory's statement, or one built from the instruments' calibrations.
+fn traceability(info: &CertificateInfo) -> String {
+    if let Some(t) = &info.traceability {
+        return t.clone();
+    }
     let s = &info.sensors;
-    let instruments: Vec<Vec<String>> = [
-        ("laser interferometer", &info.laser),
+    let cal: Vec<String> = [
+        ("laser interferometer", &info.laser.calibrated),
+        ("air temperature sensor", &s.air_temperature.calibrated),
+        ("air pressure sensor", &s.air_pressure.calibrated),
+        ("humidity sensor", &s.humidity.calibrated),
+        (
+            "material temperature sensor",
+            &s.material_temperature.calibrated,
+        ),
+    ]
+    .iter()
+    .filter_map(|(n, d)| d.as_ref().map(|d| format!("{n} calibrated {d}")))
+    .collect();
+    if cal.is_empty() {
+        "No traceability is declared: the info file names no calibrated instrument (its \
+         `traceability` key or the instruments' `calibrated` dates)."
+            .to_string()
+    } else {
+        format!(
+            "The results are traceable to the SI metre and kelvin through the calibrations \
+             of the instruments used ({}), as declared by the laboratory; the certificates \
+             of those calibrations are held by the laboratory.",
+            cal.join("; ")
+        )
+    }
+}
+
+/// What the session's rows say about how the test was run.
+struct Parameters {
+    runs: u32,
+    feeds: Vec<f64>,
+    dwell_s: Option<f64>,
+    overrun_mm: Option<f64>,
+    duration_s: f64,
+}
+
+fn parameters(rows: &[SessionRow], lines: &[LineResult]) -> Parameters {
+    let runs = rows.iter().map(|r| r.run).max().unwrap_or(0);
+    let mut feeds: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.run > 0)
+        .filter_map(|r| r.feed_mm_s)
+        .collect();
+    feeds.sort_by(f64::total_cmp);
+    feeds.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    // Dwell: the time from the first to the last row of a stop, median over the stops.
+    // A stop: consecutive rows at one target of one run and direction.
+    let mut dwell: Vec<f64> = Vec::new();
+    let mut stop: Option<((u32, i8, i32), f64, f64)> = None;
+    for r in rows {
+        let key = (r.run, r.direction, r.target);
+        match &mut stop {
+            Some((k, _, end)) if *k == key => *end = r.t_s,
+            _ => {
+                if let Some((_, a, b)) = stop.take() {
+                    dwell.push(b - a);
+                }
+                if r.target >= 0 && r.run > 0 {
+                    stop = Some((key, r.t_s, r.t_s));
+                }
+            }
+        }
+    }
+    if let Some((_, a, b)) = stop {
+        dwell.push(b - a);
+    }
+    dwell.sort_by(f64::total_cmp);
+    let dwell_s = dwell
+        .get(dwell.len() / 2)
+        .copied()
+        .filter(|_| !dwell.is_empty());
+    let (lo, hi) = lines
+        .iter()
+        .flat_map(|l| l.stats.targets.iter().map(|t| t.position_mm))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p), b.max(p))
+        });
+    let moving = rows.iter().filter(|r| r.run > 0).map(|r| r.scale_mm);
+    let (smin, smax) = moving.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+        (a.min(p), b.max(p))
+    });
+    let overrun_mm =
+        (smin.is_finite() && lo.is_finite()).then(|| (lo - smin).max(smax - hi).max(0.0));
+    let t = rows.iter().map(|r| r.t_s);
+    let duration_s = t.clone().fold(f64::NEG_INFINITY, f64::max) - t.fold(f64::INFINITY, f64::min);
+    Parameters {
+        runs,
+        feeds,
+        dwell_s,
+        overrun_mm,
+        duration_s: if duration_s.is_finite() {
+            duration_s
+        } else {
+            0.0
+        },
+    }
+}
+
+/// The test's parameters, from the session's rows.
+fn test_parameters(sheet: &mut Sheet, data: &CertificateData) {
+    sheet.heading("Test parameters", 11.0);
+    let p = parameters(data.rows, &data.lines);
+    let targets = data.lines[0]
+        .stats
+        .targets
+        .iter()
+        .map(|t| mm(t.position_mm))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let bidirectional = data.lines[0]
+        .stats
+        .targets
+        .iter()
+        .all(|t| t.n_up > 0 && t.n_down > 0);
+    let f = |a: &str, b: String| (a.to_string(), b);
+    let info = data.info;
+    sheet.fields(&[
+        f(
+            "Test cycle",
+            format!(
+                "{} (ISO 230-2 linear cycle: each run approaches every target in turn)",
+                if bidirectional {
+                    "bidirectional, each run out ↑ and back ↓"
+                } else {
+                    "unidirectional"
+                }
+            ),
+        ),
+        f("Runs", p.runs.to_string()),
+        f(
+            "Feed",
+            if p.feeds.is_empty() {
+                "not recorded".into()
+            } else {
+                p.feeds
+                    .iter()
+                    .map(|v| format!("{} mm/s", mm(*v)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            },
+        ),
+        f(
+            "Dwell at a target",
+            p.dwell_s.map_or("not recorded".into(), |d| {
+                format!("{d:.1} s (median over the stops)")
+            }),
+        ),
+        f(
+            "Overrun beyond the end targets",
+            p.overrun_mm
+                .map_or("not recorded".into(), |o| format!("{} mm", mm(o))),
+        ),
+        f("Targets P_i / mm", targets),
+        f(
+            "Start and end",
+            match (&info.start_time, &info.end_time) {
+                (Some(a), Some(b)) => format!(
+                    "{} {a} to {b} (session: {:.1} min)",
+                    blank(&info.date_of_test),
+                    p.duration_s / 60.0
+                ),
+                _ => format!(
+                    "{} (session: {:.1} min; clock times not declared)",
+                    blank(&info.date_of_test),
+                    p.duration_s / 60.0
+                ),
+            },
+        ),
+    ]);
+}
+
+/// The instruments, the laser set-up, the resolutions and the controller's state.
+fn instruments(sheet: &mut Sheet, data: &CertificateData) {
+    let info = data.info;
+    let l = Align::Left;
+    sheet.heading("Instruments and set-up", 11.0);
+    let s = &info.sensors;
+    let laser = info.laser.instrument();
+    let rows: Vec<Vec<String>> = [
+        ("laser interferometer", &laser),
         ("air temperature sensor", &s.air_temperature),
         ("air pressure sensor", &s.air_pressure),
         ("humidity sensor", &s.humidity),
@@ -492,149 +669,273 @@ fn instruments(flow: &mut Flow, info: &CertificateInfo) {
         vec![name.to_string(), m, sn, c]
     })
     .collect();
-    flow.table(
+    sheet.table(
         &["instrument", "model", "serial", "calibrated"],
-        &instruments,
+        &rows,
         &[l, l, l, l],
-        BODY,
     );
+    let b = data.lines[0].budget;
+    let u = &info.uncertainty;
+    let resolutions = b
+        .contributions
+        .iter()
+        .filter(|c| c.id == "resolution")
+        .map(|c| format!("{} {} µm ({})", c.name, fixed(c.input, 4), c.source))
+        .collect::<Vec<_>>()
+        .join("; ");
+    let f = |a: &str, b: String| (a.to_string(), b);
+    sheet.fields(&[
+        f(
+            "Laser set-up",
+            info.laser
+                .setup
+                .clone()
+                .unwrap_or_else(|| "not declared".into()),
+        ),
+        f(
+            "Dead path, misalignment",
+            format!(
+                "{} mm, {} µrad (bound)",
+                mm(u.dead_path_mm),
+                mm(u.misalignment_urad)
+            ),
+        ),
+        f("Resolution", resolutions),
+        f(
+            "Expansion coefficient used",
+            format!(
+                "{} ppm/K, u(α) = {} ppm/K (deviations not normalised to 20 °C)",
+                mm(u.expansion_ppm_per_k),
+                mm(u.expansion_u_ppm_per_k)
+            ),
+        ),
+        f(
+            "Controller compensation",
+            info.controller
+                .compensation
+                .clone()
+                .unwrap_or_else(|| "not declared".into()),
+        ),
+        f(
+            "As found / as left",
+            info.controller
+                .state
+                .clone()
+                .unwrap_or_else(|| "not declared".into()),
+        ),
+    ]);
 }
 
-/// The air and material temperatures over the test, and the sign convention.
-fn environment(flow: &mut Flow, data: &CertificateData) {
+/// Four significant digits.
+fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return "0".to_string();
+    }
+    let d = (3.0 - v.abs().log10().floor()).clamp(0.0, 12.0) as usize;
+    format!("{v:.d$}")
+}
+
+/// The air and material temperatures over the test, where they come from, and the sign
+/// convention.
+fn environment(sheet: &mut Sheet, data: &CertificateData, dec: Decimals) {
     let l = Align::Left;
     let r = Align::Right;
-    flow.heading("Environment over the test", 11.0);
-    type Col = (&'static str, fn(&SessionRow) -> Option<f64>);
+    sheet.heading("Environment over the test", 11.0);
+    type Col = (&'static str, fn(&SessionRow) -> Option<f64>, usize);
     let cols: [Col; 5] = [
-        ("air temperature / °C", |r| r.air_temp_c),
-        ("air pressure / hPa", |r| r.air_pressure_hpa),
-        ("relative humidity / %", |r| r.air_rh_pct),
-        ("scale temperature / °C", |r| r.scale_temp_c),
-        ("part/table temperature / °C", |r| r.part_temp_c),
+        ("air temperature / °C", |r| r.air_temp_c, dec.temp),
+        ("air pressure / hPa", |r| r.air_pressure_hpa, dec.hpa),
+        ("relative humidity / %", |r| r.air_rh_pct, dec.rh),
+        ("scale temperature / °C", |r| r.scale_temp_c, dec.temp),
+        ("part/table temperature / °C", |r| r.part_temp_c, dec.temp),
     ];
-    let env: Vec<Vec<String>> = cols
+    let rows: Vec<Vec<String>> = cols
         .iter()
-        .map(|(name, f)| {
-            let [lo, m, hi] = column_stats(data.rows, f);
-            vec![name.to_string(), lo, m, hi]
+        .map(|(name, f, d)| {
+            let v: Vec<f64> = data
+                .rows
+                .iter()
+                .filter_map(f)
+                .filter(|x| x.is_finite())
+                .collect();
+            if v.is_empty() {
+                return vec![
+                    name.to_string(),
+                    "no sensor".into(),
+                    String::new(),
+                    String::new(),
+                ];
+            }
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            vec![
+                name.to_string(),
+                fixed(lo, *d),
+                fixed(mean, *d),
+                fixed(hi, *d),
+            ]
         })
         .collect();
-    flow.table(
-        &["quantity", "min", "mean", "max"],
-        &env,
-        &[l, r, r, r],
-        BODY,
+    sheet.table(&["quantity", "min", "mean", "max"], &rows, &[l, r, r, r]);
+    let b = data.lines[0].budget;
+    let declared = &b.conditions.declared;
+    let mut text = format!(
+        "Conditions used by the uncertainty budget: {}.",
+        conditions_text(b)
     );
-    flow.paragraph(
-        "Deviations are as measured (not normalised to 20 °C); the material temperature above \
-         is the one they hold at. Positional deviation x = P_ij − P_i (actual − target), µm; \
-         ↑ positive approach, ↓ negative approach; s with n − 1.",
-        BODY - 1.0,
+    if b.conditions.air == Origin::Declared || b.conditions.material == Origin::Declared {
+        let span = |s: Option<[f64; 2]>, unit: &str| s.map(|[a, z]| format!("{a}…{z} {unit}"));
+        let parts: Vec<String> = [
+            span(declared.air_temp_c, "°C air"),
+            span(declared.air_pressure_hpa, "hPa"),
+            span(declared.air_rh_pct, "%RH"),
+            span(declared.material_temp_c, "°C material"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        text.push_str(&format!(
+            " Declared in the info file{}: {}.",
+            declared
+                .source
+                .as_deref()
+                .map_or_else(String::new, |s| format!(" ({s})")),
+            parts.join(", ")
+        ));
+    }
+    text.push_str(
+        " Deviations are as measured (not normalised to 20 °C). Positional deviation \
+         x = P_ij − P_i (actual − target), µm; ↑ positive approach, ↓ negative approach; \
+         s with n − 1.",
     );
+    sheet.paragraph(&text, BODY - 1.0);
 }
 
-/// One line's pages: its targets, axis values, chart and uncertainty budget.
-fn line_pages(flow: &mut Flow, axis: &str, k: usize, line: &LineResult) {
+/// One line: its targets, axis values and chart.
+fn line_section(sheet: &mut Sheet, axis: &str, k: usize, line: &LineResult, dec: Decimals) {
     let l = Align::Left;
     let r = Align::Right;
-    flow.doc.new_page();
-    flow.y = PAGE_H - MARGIN;
     let stats = line.stats;
-    flow.heading(
+    sheet.heading(
         &format!(
-            "Line {} at ({}, {}) mm — axis {}",
+            "Line {}: {} (axis {axis})",
             k + 1,
-            mm(line.line_mm.0),
-            mm(line.line_mm.1),
-            axis
+            line_name(axis, line.line_mm)
         ),
         12.0,
     );
     let n_up = stats.targets.iter().map(|t| t.n_up).min().unwrap_or(0);
     let n_down = stats.targets.iter().map(|t| t.n_down).min().unwrap_or(0);
-    flow.paragraph(
-        &format!(
-            "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
-            stats.targets.len()
-        ),
-        BODY,
+    let mut note = format!(
+        "{} targets, at least {n_up} runs ↑ and {n_down} runs ↓ per target; values in µm.",
+        stats.targets.len()
     );
-    flow.table(
+    if n_up.min(n_down) < ISO_MIN_RUNS {
+        note.push_str(&format!(
+            " Below ISO 230-2's minimum of {ISO_MIN_RUNS} runs per direction."
+        ));
+    }
+    let zero_s = stats
+        .targets
+        .iter()
+        .filter(|t| t.s_up_um == 0.0 || t.s_down_um == 0.0)
+        .count();
+    if zero_s > 0 {
+        note.push_str(&format!(
+            " At {zero_s} target(s) the runs gave identical readings in one direction, so \
+             2s = 0 there: the scatter is below the readings' resolution, which the expanded \
+             uncertainty U accounts for."
+        ));
+    }
+    sheet.paragraph(&note, BODY - 0.5);
+    sheet.table(
         &TARGET_HEADER,
-        &target_rows(stats),
+        &target_rows(stats, dec.um),
         &[r, r, r, r, r, r, r, r, r, r],
-        BODY - 1.0,
     );
     let u = line.budget.expanded();
     let u_head = format!("U (k = {})", u.k);
-    flow.table(
+    sheet.table(
         &["symbol", "axis value", "↑", "↓", "bidirectional", &u_head],
-        &axis_rows(stats, line.budget),
+        &axis_rows(stats, line.budget, dec.um),
         &[l, l, r, r, r, r],
-        BODY - 1.0,
     );
-    flow.paragraph(STANDARDS_NOTE, BODY - 2.0);
-    chart(flow, stats, axis);
-    flow.heading("Measurement uncertainty", 11.0);
-    let d = decimals(stats);
-    let budget: Vec<Vec<String>> = budget_rows(line.budget, d)
-        .into_iter()
-        .map(|b| vec![b.name, b.input, b.sensitivity, b.u, b.u_travel_um])
-        .collect();
-    flow.table(
-        &["influence", "u(x_i)", "c_i", "u_i", "over travel / µm"],
-        &budget,
-        &[l, r, r, r, r],
-        BODY - 1.0,
-    );
-    flow.paragraph(
-        &format!(
-            "u_rel = {:.4} ppm (length terms), u_read = {:.d$} µm (reading terms). \
-             U = k·√((u_rel·L)² + 2·u_read²): {:.d$} µm over the {} mm travel (E, M, A, P, \
-             Pa), {:.d$} µm at one target (R, B, Ps, U). k = {}.",
-            line.budget.u_rel_ppm,
-            line.budget.u_read_um,
-            u.along_travel_um,
-            mm(u.travel_mm),
-            u.at_one_target_um,
-            u.k
-        ),
-        BODY - 1.0,
-    );
+    chart::chart(sheet, stats, axis);
 }
 
-/// The signature lines, on the last page.
-fn signatures(flow: &mut Flow) {
-    flow.need(90.0);
-    flow.heading("Signatures", 11.0);
-    flow.y -= 36.0;
-    for (x, label) in [
-        (MARGIN, "Calibrated by"),
-        (PAGE_W / 2.0 + 10.0, "Approved by"),
-    ] {
-        flow.doc
-            .polyline(&[(x, flow.y), (x + 200.0, flow.y)], 0.5, INK, None);
-        flow.doc
-            .text(x, flow.y - 11.0, BODY - 1.0, Weight::Regular, label);
+/// The budgets: one table per distinct budget (lines measured under the same conditions
+/// share one), each contribution's source, what was not evaluated, and U.
+fn uncertainty_section(sheet: &mut Sheet, data: &CertificateData, dec: Decimals) {
+    let l = Align::Left;
+    let r = Align::Right;
+    let d = dec.um;
+    sheet.heading("Measurement uncertainty (ISO/TR 230-9, GUM)", 12.0);
+    sheet.paragraph(
+        "Each influence is an input quantity with a standard uncertainty u(x_i), a \
+         sensitivity coefficient c_i and the contribution u_i = |c_i|·u(x_i); length terms \
+         (ppm of the distance compared) and reading terms (µm) are each combined in \
+         quadrature, U = k·√((u_rel·L)² + 2·u_read²), never below one resolution step.",
+        BODY - 1.0,
+    );
+    let mut groups: Vec<(Vec<usize>, &Budget)> = Vec::new();
+    for (k, line) in data.lines.iter().enumerate() {
+        let same = |b: &Budget| {
+            b.contributions
+                .iter()
+                .zip(&line.budget.contributions)
+                .all(|(a, z)| a.id == z.id && a.u == z.u && a.source == z.source)
+                && b.contributions.len() == line.budget.contributions.len()
+        };
+        match groups.iter_mut().find(|(_, b)| same(b)) {
+            Some(g) => g.0.push(k),
+            None => groups.push((vec![k], line.budget)),
+        }
     }
-}
-
-/// `Certificate N · page i of n` at the foot of every page.
-fn footers(flow: &mut Flow, info: &CertificateInfo) {
-    let pages = flow.doc.page_count();
-    let number = blank(&info.certificate_number);
-    for p in 0..pages {
-        let footer = format!("Certificate {number} · page {} of {pages} · errmap", p + 1);
-        flow.doc.text_on(
-            p,
-            MARGIN,
-            MARGIN / 2.0,
-            BODY - 2.0,
-            Weight::Regular,
-            &footer,
-        );
+    for (members, budget) in groups {
+        let names = members
+            .iter()
+            .map(|&k| format!("line {}", k + 1))
+            .collect::<Vec<_>>()
+            .join(", ");
+        sheet.heading(&format!("Budget of {names}"), 10.0);
+        let rows: Vec<Vec<String>> = budget_rows(budget, d)
+            .into_iter()
+            .map(|b| vec![b.name, b.input, b.sensitivity, b.u])
+            .collect();
+        sheet.table(&["influence", "u(x_i)", "c_i", "u_i"], &rows, &[l, r, r, r]);
+        let sources: Vec<String> = budget
+            .contributions
+            .iter()
+            .map(|c| format!("{}: {}", c.name, c.source))
+            .collect();
+        sheet.paragraph(&format!("Sources. {}.", sources.join("; ")), BODY - 1.5);
+        let missing = not_evaluated_text(budget);
+        if !missing.is_empty() {
+            sheet.paragraph(&missing, BODY - 1.5);
+        }
+        for &k in &members {
+            let line = &data.lines[k];
+            let u = line.budget.expanded();
+            sheet.paragraph(
+                &format!(
+                    "Line {}: u_rel = {} ppm, u_read = {} µm; U = {} µm over the {} mm travel \
+                     (E, M, A, P, Pa), {} µm at one target (R, B, B̄, Ps, U); k = {}; \
+                     resolution floor {} µm.",
+                    k + 1,
+                    sig(line.budget.u_rel_ppm),
+                    fixed(line.budget.u_read_um, d),
+                    fixed(u.along_travel_um, d),
+                    mm(u.travel_mm),
+                    fixed(u.at_one_target_um, d),
+                    u.k,
+                    sig(u.resolution_floor_um)
+                ),
+                BODY - 1.0,
+            );
+        }
     }
+    sheet.paragraph(STANDARDS_NOTE, BODY - 2.0);
 }
 
 /// Writes the certificate to `path`.
@@ -651,217 +952,4 @@ pub fn write_with(
     let bytes = render_with(data, conformity)?;
     // Whole or not at all: a temporary file beside `path`, renamed into place.
     Ok(super::write_bytes(path, &bytes)?)
-}
-
-/// 1-2-5 tick spacing giving about `n` ticks over `[lo, hi]`.
-fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    let span = (hi - lo).max(1e-12);
-    let raw = span / n as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|k| k as f64 * step).collect()
-}
-
-/// The deviation chart: ↑ blue, ↓ red; means solid with a dot at each target, ±2s dashed.
-fn chart(flow: &mut Flow, stats: &AxisStats, axis: &str) {
-    let h = 210.0;
-    flow.need(h + 70.0);
-    flow.y -= 12.0;
-    flow.doc.text(
-        MARGIN,
-        flow.y,
-        10.0,
-        Weight::Bold,
-        &format!("Positional deviation along {axis} (ISO 230-2)"),
-    );
-    let mut t: Vec<&TargetStats> = stats.targets.iter().collect();
-    t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
-    let b = ChartBox::new(&t, flow.y - 10.0, h);
-    chart_grid(&mut flow.doc, &b, &t);
-    chart_series(&mut flow.doc, &b, &t);
-    flow.y = chart_legend(&mut flow.doc, &b);
-}
-
-/// The chart's area on the page (points) and the data range it shows.
-struct ChartBox {
-    x0: f32,
-    x1: f32,
-    y0: f32,
-    y1: f32,
-    xlo: f64,
-    xhi: f64,
-    ylo: f64,
-    yhi: f64,
-}
-
-impl ChartBox {
-    /// A box `h` high with its top at `top`, over the targets' positions and their
-    /// x̄ ± 2s bands, padded.
-    fn new(t: &[&TargetStats], top: f32, h: f32) -> Self {
-        let (x0, x1) = (MARGIN + 42.0, PAGE_W - MARGIN - 8.0);
-        let (y1, y0) = (top, top - h);
-        let bands = |s: &TargetStats| {
-            [
-                s.mean_up_um + 2.0 * s.s_up_um,
-                s.mean_up_um - 2.0 * s.s_up_um,
-                s.mean_down_um + 2.0 * s.s_down_um,
-                s.mean_down_um - 2.0 * s.s_down_um,
-            ]
-        };
-        let ys: Vec<f64> = t.iter().flat_map(|s| bands(s)).collect();
-        let (mut ylo, mut yhi) = (
-            ys.iter().copied().fold(f64::INFINITY, f64::min),
-            ys.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        );
-        let pad = ((yhi - ylo) * 0.08).max(1e-6);
-        ylo -= pad;
-        yhi += pad;
-        let (plo, phi) = (
-            t.first().map_or(0.0, |s| s.position_mm),
-            t.last().map_or(1.0, |s| s.position_mm),
-        );
-        let xpad = ((phi - plo) * 0.04).max(1e-6);
-        Self {
-            x0,
-            x1,
-            y0,
-            y1,
-            xlo: plo - xpad,
-            xhi: phi + xpad,
-            ylo,
-            yhi,
-        }
-    }
-
-    fn px(&self, x: f64) -> f32 {
-        self.x0 + ((x - self.xlo) / (self.xhi - self.xlo)) as f32 * (self.x1 - self.x0)
-    }
-
-    fn py(&self, y: f64) -> f32 {
-        self.y0 + ((y - self.ylo) / (self.yhi - self.ylo)) as f32 * (self.y1 - self.y0)
-    }
-}
-
-/// The frame, the grid with its labels, a tick at each target along both edges, and
-/// the zero line.
-fn chart_grid(doc: &mut Doc, b: &ChartBox, t: &[&TargetStats]) {
-    let (x0, x1, y0, y1) = (b.x0, b.x1, b.y0, b.y1);
-    doc.rect(x0, y0, x1 - x0, y1 - y0, 0.6, INK);
-    let yt = ticks(b.ylo, b.yhi, 6);
-    let step = if yt.len() > 1 { yt[1] - yt[0] } else { 1.0 };
-    let yd = (-step.log10().floor()).max(0.0) as usize;
-    for v in &yt {
-        let y = b.py(*v);
-        doc.polyline(&[(x0, y), (x1, y)], 0.2, (0.85, 0.85, 0.85), None);
-        doc.text_right(
-            x0 - 3.0,
-            y - 2.5,
-            7.0,
-            Weight::Regular,
-            &format!("{v:.yd$}"),
-        );
-    }
-    let xt = ticks(b.xlo, b.xhi, 8);
-    let xs = if xt.len() > 1 { xt[1] - xt[0] } else { 1.0 };
-    let xd = (-xs.log10().floor()).max(0.0) as usize;
-    for v in &xt {
-        doc.text_centre(
-            b.px(*v),
-            y0 - 10.0,
-            7.0,
-            Weight::Regular,
-            &format!("{v:.xd$}"),
-        );
-    }
-    // Targets marked: a tick at each target position along both edges.
-    for s in t {
-        let x = b.px(s.position_mm);
-        doc.polyline(&[(x, y0), (x, y0 + 5.0)], 0.8, INK, None);
-        doc.polyline(&[(x, y1), (x, y1 - 5.0)], 0.8, INK, None);
-    }
-    if b.ylo < 0.0 && b.yhi > 0.0 {
-        doc.polyline(&[(x0, b.py(0.0)), (x1, b.py(0.0))], 0.5, GREY, None);
-    }
-}
-
-/// Per direction: the mean deviations solid with a dot at each target, x̄ ± 2s dashed.
-fn chart_series(doc: &mut Doc, b: &ChartBox, t: &[&TargetStats]) {
-    let series = |f: &dyn Fn(&TargetStats) -> f64| -> Vec<(f32, f32)> {
-        t.iter()
-            .map(|s| (b.px(s.position_mm), b.py(f(s))))
-            .collect()
-    };
-    let dash = Some([3.5, 2.5]);
-    for (colour, mean, hi, lo) in [
-        (
-            UP,
-            series(&|s| s.mean_up_um),
-            series(&|s| s.mean_up_um + 2.0 * s.s_up_um),
-            series(&|s| s.mean_up_um - 2.0 * s.s_up_um),
-        ),
-        (
-            DOWN,
-            series(&|s| s.mean_down_um),
-            series(&|s| s.mean_down_um + 2.0 * s.s_down_um),
-            series(&|s| s.mean_down_um - 2.0 * s.s_down_um),
-        ),
-    ] {
-        doc.polyline(&mean, 1.2, colour, None);
-        doc.polyline(&hi, 0.8, colour, dash);
-        doc.polyline(&lo, 0.8, colour, dash);
-        for &(x, y) in &mean {
-            doc.dot(x, y, 1.8, colour);
-        }
-    }
-}
-
-/// The axis titles and the legend below the chart; returns where the text continues.
-fn chart_legend(doc: &mut Doc, b: &ChartBox) -> f32 {
-    let (x0, x1, y0, y1) = (b.x0, b.x1, b.y0, b.y1);
-    doc.text_centre(
-        (x0 + x1) / 2.0,
-        y0 - 21.0,
-        7.5,
-        Weight::Regular,
-        "target position P_i / mm",
-    );
-    doc.text(MARGIN, y1 + 3.0, 7.5, Weight::Regular, "x / µm");
-    let ly = y0 - 34.0;
-    let mut lx = x0;
-    for (colour, label, dashed) in [
-        (UP, "mean x̄↑", false),
-        (UP, "x̄↑ ± 2s↑", true),
-        (DOWN, "mean x̄↓", false),
-        (DOWN, "x̄↓ ± 2s↓", true),
-    ] {
-        doc.polyline(
-            &[(lx, ly + 2.5), (lx + 22.0, ly + 2.5)],
-            if dashed { 0.8 } else { 1.2 },
-            colour,
-            dashed.then_some([3.5, 2.5]),
-        );
-        doc.text(lx + 26.0, ly, 7.5, Weight::Regular, label);
-        lx += 26.0 + doc.width(label, 7.5, Weight::Regular) + 18.0;
-    }
-    ly - 10.0
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn ticks_are_round_and_inside() {
-        assert_eq!(ticks(0.0, 10.0, 5), vec![0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
-        // 0.065 / 6 = 0.0108: the next 1-2-5 step up is 0.02.
-        let t = ticks(-0.013, 0.052, 6);
-        assert!(t.iter().all(|v| (-0.013..=0.052).contains(v)), "{t:?}");
-        assert_eq!(t, vec![0.0, 0.02, 0.04]);
-    }
 }

@@ -3,7 +3,7 @@
 
 use super::md::Md;
 
-use crate::session::uncertainty::{Budget, Kind};
+use crate::session::uncertainty::{Budget, Kind, Origin};
 
 /// One row of the budget as printed: influence, input, sensitivity, contribution in its own
 /// unit, and the contribution in µm over the travel. Shared by the markdown and the PDF.
@@ -19,6 +19,8 @@ pub(crate) struct BudgetRow {
     pub u: String,
     /// The contribution over the travel, µm.
     pub u_travel_um: String,
+    /// Where the input comes from.
+    pub source: String,
 }
 
 /// The budget's rows, µm to `decimals` places.
@@ -38,8 +40,50 @@ pub(crate) fn budget_rows(budget: &Budget, decimals: usize) -> Vec<BudgetRow> {
                 Kind::Reading => format!("{:.decimals$} µm", c.u),
             },
             u_travel_um: format!("{:.decimals$}", c.u_um_at(travel)),
+            source: c.source.clone(),
         })
         .collect()
+}
+
+/// The air and material conditions in words, with where they come from.
+pub(crate) fn conditions_text(budget: &Budget) -> String {
+    let c = &budget.conditions;
+    let air = match c.air {
+        Origin::Sensor => format!(
+            "air from the session's sensors: mean {:.2} °C, {:.2} hPa, {:.1} %RH",
+            c.air_temp_c, c.air_pressure_hpa, c.air_rh_pct
+        ),
+        Origin::Declared => format!(
+            "no air sensor: the air conditions the info file declares (sensitivities at their \
+             midpoints {:.2} °C, {:.2} hPa, {:.1} %RH)",
+            c.air_temp_c, c.air_pressure_hpa, c.air_rh_pct
+        ),
+        Origin::Missing => format!(
+            "no air sensor and no declared air conditions: the laser lengths are taken as \
+             written (a laser export's are already compensated by its own software); \
+             sensitivities at {} °C, {} hPa, {} %RH",
+            c.air_temp_c, c.air_pressure_hpa, c.air_rh_pct
+        ),
+    };
+    let material = match (c.material, c.material_temp_c) {
+        (Origin::Sensor, Some(t)) => format!("mean material temperature {t:.2} °C (sensor)"),
+        (Origin::Declared, Some(t)) => {
+            format!("material temperature {t:.2} °C (midpoint of the declared range)")
+        }
+        _ => "no material temperature recorded or declared".to_string(),
+    };
+    format!("{air}; {material}")
+}
+
+/// The sentence on what the budget leaves out, empty when nothing.
+pub(crate) fn not_evaluated_text(budget: &Budget) -> String {
+    if budget.not_evaluated.is_empty() {
+        return String::new();
+    }
+    format!(
+        "Not evaluated (no source): {}.",
+        budget.not_evaluated.join("; ")
+    )
 }
 
 /// Four significant digits, without exponent for the magnitudes a budget holds.
@@ -55,25 +99,11 @@ fn sig(v: f64) -> String {
 /// expanded uncertainties.
 pub(crate) fn budget_markdown(budget: &Budget, decimals: usize) -> String {
     let c = &budget.conditions;
-    let air = if c.air_measured {
-        format!(
-            "mean air {:.2} °C, {:.2} hPa, {:.1} %RH",
-            c.air_temp_c, c.air_pressure_hpa, c.air_rh_pct
-        )
-    } else {
-        format!(
-            "no air data: sensitivities at {} °C, {} hPa, {} %RH",
-            c.air_temp_c, c.air_pressure_hpa, c.air_rh_pct
-        )
-    };
-    let material = c.material_temp_c.map_or_else(
-        || "no material temperature recorded (expansion term 0)".to_string(),
-        |t| format!("mean material temperature {t:.2} °C"),
-    );
+    let conditions = conditions_text(budget);
     let mut md = Md::new();
     md.heading(4, "Measurement uncertainty (ISO/TR 230-9, GUM)")
         .para(format_args!(
-            "Travel {} mm; {air}; {material}. Length terms in ppm of the distance compared, \
+            "Travel {} mm; {conditions}. Length terms in ppm of the distance compared, \
              reading terms in µm; the last column is each term over the travel.",
             c.travel_mm
         ))
@@ -84,24 +114,28 @@ pub(crate) fn budget_markdown(budget: &Budget, decimals: usize) -> String {
                 "sensitivity c_i",
                 "u_i",
                 "u_i over the travel, µm",
+                "source",
             ],
-            "lrrrr",
+            "lrrrrl",
         );
     for r in budget_rows(budget, decimals) {
-        md.row([r.name, r.input, r.sensitivity, r.u, r.u_travel_um]);
+        md.row([r.name, r.input, r.sensitivity, r.u, r.u_travel_um, r.source]);
     }
     let u = budget.expanded();
     md.nl().line(format_args!(
         "Combined: u_rel = {} ppm (length terms), u_read = {:.decimals$} µm (reading terms); \
          u_c = √((u_rel·L)² + 2·u_read²) = {:.decimals$} µm over the travel, {:.decimals$} µm \
-         at one target; U = k·u_c with k = {}: {:.decimals$} µm and {:.decimals$} µm.",
+         at one target; U = k·u_c with k = {}, never below one resolution step ({} µm): \
+         {:.decimals$} µm and {:.decimals$} µm. {}",
         sig(budget.u_rel_ppm),
         budget.u_read_um,
         u.u_c_travel_um,
         u.u_c_target_um,
         u.k,
+        sig(u.resolution_floor_um),
         u.along_travel_um,
-        u.at_one_target_um
+        u.at_one_target_um,
+        not_evaluated_text(budget)
     ));
     md.finish()
 }

@@ -82,6 +82,13 @@
 //! A dozen evaluations of the Edlén equation per budget, `O(N)` over the session's rows
 //! for the test conditions.
 
+pub mod sources;
+
+pub use sources::{
+    BudgetSources, DeclaredConditions, DriftCheck, DriftFinder, Eve, RecordedResolution,
+    Resolution, Span,
+};
+
 use super::environment::EnvironmentStats;
 use errmap_drivers::SessionRow;
 use errmap_drivers::edlen::refractive_index;
@@ -274,23 +281,45 @@ pub fn edlen_sensitivities(t_c: f64, p_hpa: f64, rh_pct: f64) -> EdlenSensitivit
     }
 }
 
+/// Where a group of environment inputs comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// The session's own sensors.
+    Sensor,
+    /// The conditions the info file declares (no sensor in the session).
+    Declared,
+    /// Neither: the terms are not evaluated, and the budget says so.
+    Missing,
+}
+
 /// What the budget needs to know about one test.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TestConditions {
-    /// Mean air temperature, °C (the standard air's when `air_measured` is false).
+    /// Mean air temperature, °C (measured, declared midpoint, or the standard air's).
     pub air_temp_c: f64,
     /// Mean air pressure, hPa.
     pub air_pressure_hpa: f64,
     /// Mean relative humidity, %RH.
     pub air_rh_pct: f64,
-    /// Whether the session had air data (else the means are [`STANDARD_AIR`]).
-    pub air_measured: bool,
-    /// Span (max − min) of the refractive index over the rows with air data.
+    /// Where the air values come from.
+    pub air: Origin,
+    /// Span (max − min) of the refractive index over the test: over the rows with air
+    /// data, or over the declared ranges.
     pub n_span: Option<f64>,
-    /// Mean material temperature (scale, else part), °C, when recorded.
+    /// Mean material temperature (scale, else part; or the declared midpoint), °C.
     pub material_temp_c: Option<f64>,
+    /// Where the material temperature comes from.
+    pub material: Origin,
+    /// The ranges the info file declares (used where no sensor recorded).
+    pub declared: DeclaredConditions,
     /// Travel measured: largest minus smallest target position, mm.
     pub travel_mm: f64,
+    /// The resolutions of the reading chain (empty: [`UncertaintyConfig::resolution_um`]).
+    pub resolution: Vec<Resolution>,
+    /// The environmental variation error, when a drift check or the session measured it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eve: Option<Eve>,
 }
 
 impl TestConditions {
@@ -302,7 +331,8 @@ impl TestConditions {
     /// The conditions from a session's environment gathered in one pass (a streamed
     /// session), for a line of the given travel: the mean air (or [`STANDARD_AIR`]
     /// without air data), the span of the refractive index over the session, and the
-    /// mean scale temperature (else the part's).
+    /// mean scale temperature (else the part's). No declared conditions, no device
+    /// resolution, no drift: see [`TestConditions::with_declared`] and the fields.
     pub fn from_environment(env: &EnvironmentStats, travel_mm: f64) -> TestConditions {
         let mean = |r: &super::environment::Range| r.min_mean_max().map(|(_, m, _)| m);
         let air = match (
@@ -314,15 +344,52 @@ impl TestConditions {
             _ => None,
         };
         let (t, p, h) = air.unwrap_or(STANDARD_AIR);
+        let material_temp_c = mean(&env.scale_temp_c).or_else(|| mean(&env.part_temp_c));
+        let origin = |b: bool| if b { Origin::Sensor } else { Origin::Missing };
         TestConditions {
             air_temp_c: t,
             air_pressure_hpa: p,
             air_rh_pct: h,
-            air_measured: air.is_some(),
+            air: origin(air.is_some()),
             n_span: env.n_air.min_mean_max().map(|(lo, _, hi)| hi - lo),
-            material_temp_c: mean(&env.scale_temp_c).or_else(|| mean(&env.part_temp_c)),
+            material_temp_c,
+            material: origin(material_temp_c.is_some()),
+            declared: DeclaredConditions::default(),
             travel_mm,
+            resolution: Vec::new(),
+            eve: None,
         }
+    }
+
+    /// Fills what the sensors did not record from the declared conditions: the air when
+    /// all three of its ranges are declared (the means at their midpoints, the span of `n`
+    /// over the box they span), the material temperature when its range is.
+    pub fn with_declared(mut self, declared: &DeclaredConditions) -> TestConditions {
+        let mid = |s: Span| (s[0] + s[1]) / 2.0;
+        if self.air == Origin::Missing
+            && let (Some(t), Some(p), Some(h)) = (
+                declared.air_temp_c,
+                declared.air_pressure_hpa,
+                declared.air_rh_pct,
+            )
+        {
+            self.air = Origin::Declared;
+            (self.air_temp_c, self.air_pressure_hpa, self.air_rh_pct) = (mid(t), mid(p), mid(h));
+            let s = edlen_sensitivities(mid(t), mid(p), mid(h));
+            self.n_span = Some(
+                s.dn_dt_per_k.abs() * (t[1] - t[0])
+                    + s.dn_dp_per_hpa.abs() * (p[1] - p[0])
+                    + s.dn_drh_per_pct.abs() * (h[1] - h[0]),
+            );
+        }
+        if self.material == Origin::Missing
+            && let Some(m) = declared.material_temp_c
+        {
+            self.material = Origin::Declared;
+            self.material_temp_c = Some(mid(m));
+        }
+        self.declared = declared.clone();
+        self
     }
 }
 
@@ -342,7 +409,7 @@ pub struct Contribution {
     /// Short identifier (`"air_temp"`, …).
     pub id: &'static str,
     /// The influence in words.
-    pub name: &'static str,
+    pub name: String,
     /// The input's standard uncertainty (or bound, see the module docs), in `input_unit`.
     pub input: f64,
     /// Unit of `input`.
@@ -355,6 +422,8 @@ pub struct Contribution {
     pub kind: Kind,
     /// The contribution `u_i`: ppm for a length term, µm for a reading term.
     pub u: f64,
+    /// Where the input comes from, in words.
+    pub source: String,
 }
 
 impl Contribution {
@@ -372,6 +441,8 @@ impl Contribution {
 pub struct Budget {
     /// The contributions, in the order of the module docs' table.
     pub contributions: Vec<Contribution>,
+    /// Influences left out, each with the reason, in words.
+    pub not_evaluated: Vec<String>,
     /// Coverage factor.
     pub k: f64,
     /// The test conditions the budget was made for.
@@ -382,9 +453,22 @@ pub struct Budget {
     pub u_rel_ppm: f64,
     /// Combined standard uncertainty of the reading terms, µm.
     pub u_read_um: f64,
+    /// The coarsest resolution step of the readings, µm: no expanded uncertainty of a
+    /// difference of readings is stated below it.
+    pub resolution_floor_um: f64,
 }
 
 const SQRT3: f64 = 1.732_050_807_568_877_2;
+
+/// `"info file [uncertainty] KEY"` when the value differs from errmap's default, else
+/// `"errmap's default (info file [uncertainty] KEY)"`.
+fn config_source(key: &str, value: f64, default: f64) -> String {
+    if value == default {
+        format!("errmap's default (info file [uncertainty] {key})")
+    } else {
+        format!("info file [uncertainty] {key}")
+    }
+}
 
 impl Budget {
     /// The budget for a test under `conditions` (validates `config` and the travel).
@@ -396,21 +480,19 @@ impl Budget {
         if !(conditions.travel_mm.is_finite() && conditions.travel_mm >= 0.0) {
             return Err(UncertaintyError::Travel(conditions.travel_mm));
         }
-        let c = config;
         let sens = edlen_sensitivities(
             conditions.air_temp_c,
             conditions.air_pressure_hpa,
             conditions.air_rh_pct,
         );
-        let n_span = conditions.n_span.unwrap_or(
-            sens.dn_dt_per_k.abs() * c.air_temp_drift_k
-                + sens.dn_dp_per_hpa.abs() * c.air_pressure_drift_hpa,
-        );
-        let d_theta = conditions
-            .material_temp_c
-            .map_or(0.0, |t| (t - REFERENCE_TEMP_C).abs());
-        let mut contributions = length_contributions(c, &sens, d_theta);
-        contributions.extend(reading_contributions(c, n_span));
+        let mut not_evaluated = Vec::new();
+        let mut contributions =
+            length_contributions(config, &conditions, &sens, &mut not_evaluated);
+        contributions.extend(reading_contributions(
+            config,
+            &conditions,
+            &mut not_evaluated,
+        ));
         let rss = |kind: Kind| {
             contributions
                 .iter()
@@ -419,13 +501,24 @@ impl Budget {
                 .sum::<f64>()
                 .sqrt()
         };
+        let resolution_floor_um = if conditions.resolution.is_empty() {
+            config.resolution_um
+        } else {
+            conditions
+                .resolution
+                .iter()
+                .map(|r| r.step_um)
+                .fold(0.0, f64::max)
+        };
         Ok(Budget {
             u_rel_ppm: rss(Kind::Length),
             u_read_um: rss(Kind::Reading),
             contributions,
-            k: c.k,
+            not_evaluated,
+            k: config.k,
             conditions,
             sensitivities: sens,
+            resolution_floor_um,
         })
     }
 
@@ -436,9 +529,10 @@ impl Budget {
         (l * l + 2.0 * self.u_read_um * self.u_read_um).sqrt()
     }
 
-    /// Expanded uncertainty `k·u_c` of a statistic comparing two readings `length_mm` apart, µm.
+    /// Expanded uncertainty of a statistic comparing two readings `length_mm` apart, µm:
+    /// `k·u_c`, and never less than one step of the coarsest resolution.
     pub fn expanded_um(&self, length_mm: f64) -> f64 {
-        self.k * self.u_c_um(length_mm)
+        (self.k * self.u_c_um(length_mm)).max(self.resolution_floor_um)
     }
 
     /// The expanded uncertainty of each statistic (see the module docs).
@@ -451,13 +545,14 @@ impl Budget {
             u_c_target_um: self.u_c_um(0.0),
             along_travel_um: self.expanded_um(travel),
             at_one_target_um: self.expanded_um(0.0),
+            resolution_floor_um: self.resolution_floor_um,
         }
     }
 }
 
 /// The expanded uncertainty beside each statistic: one value for the statistics that
-/// compare positions along the travel (`E`, `M`, `A`, VDI `P`, `Pa`), one for those that compare readings at one
-/// target (`B`, `B̄`, `R`, VDI `U`, `Ps`).
+/// compare positions along the travel (`E`, `M`, `A`, VDI `P`, `Pa`), one for those that compare
+/// readings at one target (`B`, `B̄`, `R`, VDI `U`, `Ps`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StatUncertainty {
     /// Coverage factor.
@@ -472,6 +567,8 @@ pub struct StatUncertainty {
     pub along_travel_um: f64,
     /// `U` of `B`, `B̄`, `R`, `R↑`, `R↓`, `U`, `Ps`, µm.
     pub at_one_target_um: f64,
+    /// The floor both are held at: one step of the coarsest resolution, µm.
+    pub resolution_floor_um: f64,
 }
 
 /// The travel of a line: largest minus smallest target position, mm (0 for no targets).
@@ -506,14 +603,46 @@ pub fn line_budget_of(
     Ok((budget, u))
 }
 
+/// [`line_budget_of`] with what is known beyond the environment: the resolutions, the
+/// drift and the declared conditions.
+pub fn line_budget_with(
+    config: &UncertaintyConfig,
+    env: &EnvironmentStats,
+    stats: &AxisStats,
+    sources: &BudgetSources,
+) -> Result<(Budget, StatUncertainty), UncertaintyError> {
+    let mut conditions =
+        TestConditions::from_environment(env, travel_mm(stats)).with_declared(&sources.declared);
+    conditions.resolution = sources.resolution.clone();
+    conditions.eve = sources.eve.clone();
+    let budget = Budget::new(config, conditions)?;
+    let u = budget.expanded();
+    Ok((budget, u))
+}
+
 /// A length term: the input's uncertainty times its sensitivity, in ppm of the length.
 fn length(
-    id: &'static str,
-    name: &'static str,
-    input: f64,
-    input_unit: &'static str,
-    sensitivity: f64,
-    sensitivity_unit: &'static str,
+    (id, name): (&'static str, &str),
+    input: (f64, &'static str),
+    sensitivity: (f64, &'static str),
+    source: String,
+) -> Contribution {
+    term(
+        Kind::Length,
+        (id, name.to_string()),
+        input,
+        sensitivity,
+        source,
+    )
+}
+
+/// A term `u = |c·u(x)|` of either kind.
+fn term(
+    kind: Kind,
+    (id, name): (&'static str, String),
+    (input, input_unit): (f64, &'static str),
+    (sensitivity, sensitivity_unit): (f64, &'static str),
+    source: String,
 ) -> Contribution {
     Contribution {
         id,
@@ -522,110 +651,251 @@ fn length(
         input_unit,
         sensitivity,
         sensitivity_unit,
-        kind: Kind::Length,
+        kind,
         u: (sensitivity * input).abs(),
+        source,
     }
 }
 
-/// The length terms (ppm): the wavelength, the Edlén equation and its air sensors, the
-/// material's temperature and expansion (`d_theta` K from 20 °C), the cosine error.
-fn length_contributions(
-    c: &UncertaintyConfig,
-    sens: &EdlenSensitivities,
-    d_theta: f64,
-) -> Vec<Contribution> {
-    let theta = c.misalignment_urad * 1e-6;
-    vec![
-        length(
-            "wavelength",
-            "laser vacuum wavelength",
-            c.wavelength_ppm,
-            "ppm",
-            1.0,
-            "1",
+/// A declared range's standard uncertainty (rectangular over it) and its words.
+fn declared_u(span: Option<Span>, unit: &str, declared: &DeclaredConditions) -> (f64, String) {
+    let [lo, hi] = span.unwrap_or([0.0, 0.0]);
+    let from = declared
+        .source
+        .as_deref()
+        .map_or_else(String::new, |s| format!(", {s}"));
+    (
+        (hi - lo) / (2.0 * SQRT3),
+        format!(
+            "no sensor in the session: the range {lo}…{hi} {unit} the info file declares \
+             ([conditions]{from}), rectangular"
         ),
-        length(
-            "edlen",
-            "modified Edlén equation",
-            c.edlen_equation_ppm,
-            "ppm",
-            1.0,
-            "1",
-        ),
-        length(
-            "air_temp",
-            "air temperature sensor",
-            c.air_temp_k,
-            "K",
-            sens.dn_dt_per_k * 1e6,
-            "ppm/K",
-        ),
-        length(
-            "air_pressure",
-            "air pressure sensor",
-            c.air_pressure_hpa,
-            "hPa",
-            sens.dn_dp_per_hpa * 1e6,
-            "ppm/hPa",
-        ),
-        length(
-            "air_rh",
-            "humidity sensor",
-            c.air_rh_pct,
-            "%RH",
-            sens.dn_drh_per_pct * 1e6,
-            "ppm/%RH",
-        ),
-        length(
-            "material_temp",
-            "material temperature sensor",
-            c.material_temp_k,
-            "K",
-            c.expansion_ppm_per_k,
-            "ppm/K",
-        ),
-        length(
-            "expansion",
-            "expansion coefficient",
-            c.expansion_u_ppm_per_k,
-            "ppm/K",
-            d_theta,
-            "K",
-        ),
-        length(
-            "cosine",
-            "cosine error (misalignment)",
-            c.misalignment_urad,
-            "µrad",
-            theta / (4.0 * SQRT3),
-            "ppm/µrad",
-        ),
-    ]
+    )
 }
 
-/// The reading terms (µm): the dead path over the air's span `n_span` of the refractive
-/// index, and the device's resolution.
-fn reading_contributions(c: &UncertaintyConfig, n_span: f64) -> Vec<Contribution> {
-    vec![
-        Contribution {
-            id: "dead_path",
-            name: "dead path",
-            input: c.dead_path_mm,
-            input_unit: "mm",
-            sensitivity: n_span / (2.0 * SQRT3) * 1e3,
-            sensitivity_unit: "µm/mm",
-            kind: Kind::Reading,
-            u: c.dead_path_mm * n_span / (2.0 * SQRT3) * 1e3,
-        },
-        Contribution {
-            id: "resolution",
-            name: "device resolution",
-            input: c.resolution_um,
-            input_unit: "µm",
-            sensitivity: 1.0 / (2.0 * SQRT3),
-            sensitivity_unit: "",
-            kind: Kind::Reading,
-            u: c.resolution_um / (2.0 * SQRT3),
-        },
-    ]
+/// The length terms (ppm): the wavelength, the Edlén equation and its air inputs, the
+/// material's temperature and expansion, the cosine error. Terms without a source go to
+/// `missing`.
+fn length_contributions(
+    c: &UncertaintyConfig,
+    cond: &TestConditions,
+    sens: &EdlenSensitivities,
+    missing: &mut Vec<String>,
+) -> Vec<Contribution> {
+    let d = UncertaintyConfig::default();
+    let theta = c.misalignment_urad * 1e-6;
+    let mut out = vec![
+        length(
+            ("wavelength", "laser vacuum wavelength"),
+            (c.wavelength_ppm, "ppm"),
+            (1.0, "1"),
+            config_source("wavelength_ppm", c.wavelength_ppm, d.wavelength_ppm),
+        ),
+        length(
+            ("edlen", "modified Edlén equation"),
+            (c.edlen_equation_ppm, "ppm"),
+            (1.0, "1"),
+            config_source(
+                "edlen_equation_ppm",
+                c.edlen_equation_ppm,
+                d.edlen_equation_ppm,
+            ),
+        ),
+    ];
+    let air = [
+        (
+            ("air_temp", "air temperature"),
+            c.air_temp_k,
+            d.air_temp_k,
+            "air_temp_k",
+            cond.declared.air_temp_c,
+            ("K", "°C"),
+            (sens.dn_dt_per_k * 1e6, "ppm/K"),
+        ),
+        (
+            ("air_pressure", "air pressure"),
+            c.air_pressure_hpa,
+            d.air_pressure_hpa,
+            "air_pressure_hpa",
+            cond.declared.air_pressure_hpa,
+            ("hPa", "hPa"),
+            (sens.dn_dp_per_hpa * 1e6, "ppm/hPa"),
+        ),
+        (
+            ("air_rh", "humidity"),
+            c.air_rh_pct,
+            d.air_rh_pct,
+            "air_rh_pct",
+            cond.declared.air_rh_pct,
+            ("%RH", "%RH"),
+            (sens.dn_drh_per_pct * 1e6, "ppm/%RH"),
+        ),
+    ];
+    for (id, value, default, key, span, (unit, range_unit), s) in air {
+        match cond.air {
+            Origin::Sensor => out.push(length(
+                (id.0, &format!("{} sensor", id.1)),
+                (value, unit),
+                s,
+                format!(
+                    "the session's sensor; its standard uncertainty: {}",
+                    config_source(key, value, default)
+                ),
+            )),
+            Origin::Declared => {
+                let (u, words) = declared_u(span, range_unit, &cond.declared);
+                out.push(length((id.0, id.1), (u, unit), s, words));
+            }
+            Origin::Missing => missing.push(format!(
+                "{}: no sensor in the session and no range declared in the info file \
+                 ([conditions] {})",
+                id.1,
+                key.replace("_k", "_c")
+            )),
+        }
+    }
+    let d_theta = cond
+        .material_temp_c
+        .map_or(0.0, |t| (t - REFERENCE_TEMP_C).abs());
+    let expansion = |source: String| {
+        length(
+            ("expansion", "expansion coefficient"),
+            (c.expansion_u_ppm_per_k, "ppm/K"),
+            (d_theta, "K"),
+            source,
+        )
+    };
+    match cond.material {
+        Origin::Sensor => {
+            out.push(length(
+                ("material_temp", "material temperature sensor"),
+                (c.material_temp_k, "K"),
+                (c.expansion_ppm_per_k, "ppm/K"),
+                format!(
+                    "the session's sensor; its standard uncertainty: {}",
+                    config_source("material_temp_k", c.material_temp_k, d.material_temp_k)
+                ),
+            ));
+            out.push(expansion(format!(
+                "the sensor's mean {:.2} °C; u(α): {}",
+                cond.material_temp_c.unwrap_or(REFERENCE_TEMP_C),
+                config_source(
+                    "expansion_u_ppm_per_k",
+                    c.expansion_u_ppm_per_k,
+                    d.expansion_u_ppm_per_k
+                )
+            )));
+        }
+        Origin::Declared => {
+            let (u, words) = declared_u(cond.declared.material_temp_c, "°C", &cond.declared);
+            out.push(length(
+                ("material_temp", "material temperature"),
+                (u, "K"),
+                (c.expansion_ppm_per_k, "ppm/K"),
+                words,
+            ));
+            out.push(expansion(format!(
+                "the declared range's midpoint; u(α): {}",
+                config_source(
+                    "expansion_u_ppm_per_k",
+                    c.expansion_u_ppm_per_k,
+                    d.expansion_u_ppm_per_k
+                )
+            )));
+        }
+        Origin::Missing => missing.push(
+            "material temperature and expansion: no sensor in the session and no range \
+             declared in the info file ([conditions] material_temp_c)"
+                .to_string(),
+        ),
+    }
+    out.push(length(
+        ("cosine", "cosine error (misalignment)"),
+        (c.misalignment_urad, "µrad"),
+        (theta / (4.0 * SQRT3), "ppm/µrad"),
+        config_source(
+            "misalignment_urad",
+            c.misalignment_urad,
+            d.misalignment_urad,
+        ),
+    ));
+    out
+}
+
+/// A reading term (µm).
+fn reading(
+    id: (&'static str, String),
+    input: (f64, &'static str),
+    sensitivity: (f64, &'static str),
+    source: String,
+) -> Contribution {
+    term(Kind::Reading, id, input, sensitivity, source)
+}
+
+/// The reading terms (µm): the dead path over the air's span of the refractive index, the
+/// drift (EVE), and each resolution of the reading chain.
+fn reading_contributions(
+    c: &UncertaintyConfig,
+    cond: &TestConditions,
+    missing: &mut Vec<String>,
+) -> Vec<Contribution> {
+    let d = UncertaintyConfig::default();
+    let mut out = Vec::new();
+    match cond.n_span {
+        Some(n_span) if cond.air != Origin::Missing => out.push(reading(
+            ("dead_path", "dead path".into()),
+            (c.dead_path_mm, "mm"),
+            (n_span / (2.0 * SQRT3) * 1e3, "µm/mm"),
+            format!(
+                "{}; the span of n over the test from the {}",
+                config_source("dead_path_mm", c.dead_path_mm, d.dead_path_mm),
+                if cond.air == Origin::Sensor {
+                    "session's air sensors"
+                } else {
+                    "declared air ranges"
+                }
+            ),
+        )),
+        _ => missing.push(
+            "dead path: the air's variation over the test is unknown (no sensor, no declared \
+             range)"
+                .to_string(),
+        ),
+    }
+    match &cond.eve {
+        Some(eve) => out.push(reading(
+            ("eve", "environmental variation error (EVE)".into()),
+            (eve.range_um, "µm"),
+            (1.0 / (2.0 * SQRT3), ""),
+            eve.source.clone(),
+        )),
+        None => missing.push(
+            "environmental variation error (EVE): no drift check declared ([drift_check] \
+             eve_um) and no stationary readings before the first run"
+                .to_string(),
+        ),
+    }
+    let fallback = [Resolution {
+        name: "device".into(),
+        step_um: c.resolution_um,
+        source: format!(
+            "no device description, no stated resolution and no step in the recorded \
+             lengths: {}",
+            config_source("resolution_um", c.resolution_um, d.resolution_um)
+        ),
+    }];
+    let resolutions = if cond.resolution.is_empty() {
+        &fallback[..]
+    } else {
+        &cond.resolution[..]
+    };
+    for r in resolutions {
+        out.push(reading(
+            ("resolution", format!("{} resolution", r.name)),
+            (r.step_um, "µm"),
+            (1.0 / (2.0 * SQRT3), ""),
+            r.source.clone(),
+        ));
+    }
+    out
 }

@@ -9,7 +9,8 @@ use std::path::Path;
 use std::process::Command;
 
 use errmap::report::certificate::{
-    self, CertificateData, LineResult, axis_rows, info::CertificateInfo, mm, target_rows,
+    self, CertificateData, LineResult, axis_rows, certificate_decimals, info::CertificateInfo, mm,
+    target_rows,
 };
 use errmap::session::AxisStats;
 use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
@@ -108,8 +109,19 @@ fn check_text(pdf: &[u8], c: &Computed, dir: &Path) -> TestResult {
         .collect();
     let mut cursor = 0;
     let mut checked = 0;
+    let lines_of: Vec<LineResult> = c
+        .iso
+        .iter()
+        .zip(&c.budgets)
+        .map(|((line_mm, stats), budget)| LineResult {
+            line_mm: *line_mm,
+            stats,
+            budget,
+        })
+        .collect();
+    let d = certificate_decimals(&lines_of);
     for ((_, stats), budget) in c.iso.iter().zip(&c.budgets) {
-        for want in target_rows(stats) {
+        for want in target_rows(stats, d) {
             // The row that starts with this target's index and position.
             let at = lines[cursor..]
                 .iter()
@@ -122,7 +134,7 @@ fn check_text(pdf: &[u8], c: &Computed, dir: &Path) -> TestResult {
             }
             cursor = at + 1;
         }
-        for want in axis_rows(stats, budget) {
+        for want in axis_rows(stats, budget, d) {
             // "E systematic positional deviation 0.0330 0.0246 0.0368 0.0773": the last
             // four tokens are ↑, ↓, bidirectional and U.
             // The symbol may be two words ("Ps max").
@@ -223,7 +235,6 @@ fn info_fields_are_printed_and_a_misspelt_key_is_an_error() -> TestResult {
             "A. N. Other",
             "2026-11-30",
             "L-1234",
-            "0.05000 K",
         ] {
             assert!(text.contains(s), "{s:?} missing");
         }
@@ -284,7 +295,7 @@ fn real_records_match_the_values_their_reports_print() -> TestResult {
             );
         }
         // Positions print without float noise.
-        for (row, t) in target_rows(s).iter().zip(&s.targets) {
+        for (row, t) in target_rows(s, 4).iter().zip(&s.targets) {
             assert_eq!(row[1], mm(t.position_mm));
             assert!(printed_decimals(&row[1]) <= 4, "{}", row[1]);
         }
@@ -353,5 +364,147 @@ fn committed_certificates_are_not_stale() -> TestResult {
             );
         }
     }
+    Ok(())
+}
+
+/// pdftotext of a PDF file, or `None` (skipping) without poppler.
+fn text_of(pdf: &Path) -> Option<String> {
+    if !have("pdftotext") {
+        return None;
+    }
+    let t = Command::new("pdftotext").arg(pdf).arg("-").output().ok()?;
+    String::from_utf8(t.stdout).ok()
+}
+
+/// What a laboratory's certificate has, read from the PDF's text: the coverage sentence,
+/// the traceability statement, an issue date apart from the test date, lines named by
+/// coordinates, the test parameters, the laser set-up and the controller's state, B̄, the
+/// budget's sources; the session named by its file only (no path leaves the repository).
+#[test]
+fn certificate_has_what_a_laboratory_certificate_has() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("c.pdf");
+    let o = errmap(&[
+        "certificate",
+        "datasets/physics/example-session.parquet",
+        "--info",
+        "datasets/certificate/example-info.toml",
+        "--out",
+        out.to_str().ok_or("utf8")?,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let Some(text) = text_of(&out) else {
+        return Ok(());
+    };
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    for s in [
+        "k = 2, which for a normal distribution corresponds to a coverage probability of approximately 95 %",
+        "Traceability",
+        "Date of issue 2026-12-02",
+        "2026-11-30, 09:10 to 09:55",
+        "y = 1 mm, z = 200 mm",
+        "Test parameters",
+        "Feed",
+        "Dwell at a target",
+        "Overrun beyond the end targets",
+        "Targets P_i / mm 0, 100, 200, 300, 400, 500, 600, 700, 800",
+        "Laser set-up linear optics",
+        "Controller compensation",
+        "As found / as left as found",
+        "Expansion coefficient used 11.5 ppm/K",
+        "B\u{304}",
+        "laser resolution 0.0791 µm (stated in the info file ([laser] resolution_um))",
+        "Session example-session.parquet",
+    ] {
+        assert!(flat.contains(&s), "{s:?} missing from:\n{flat}");
+    }
+    assert!(
+        !flat.contains("(1, 200)") && !flat.contains("datasets/physics/"),
+        "{flat}"
+    );
+    // Page 1 is the summary: the results and the coverage sentence come before the test
+    // parameters.
+    let page1 = text.split('\u{c}').next().unwrap_or_default();
+    assert!(page1.contains("Results") && page1.contains("approximately 95 %"));
+    Ok(())
+}
+
+/// A capture directory's HELLO (λ/8 laser count, 0.1 µm scale count) sets the budget's
+/// resolutions: U(R) of every line is at least 0.065 µm and the certificate says the
+/// HELLO is its source. Fewer than 5 runs is stated.
+#[test]
+fn capture_resolution_reaches_the_certificate() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let cap = dir.path().join("capture");
+    std::fs::create_dir(&cap)?;
+    std::fs::copy(
+        root().join("datasets/physics/example-session.parquet"),
+        cap.join("session.parquet"),
+    )?;
+    std::fs::write(
+        cap.join("session.json"),
+        r#"{"hello": {"protocol_version": 1, "device_id": "SIM", "grating_period_nm": 20000,
+        "count_resolution_pm": 100000, "laser_wavelength_fm": 632991354, "optical_fold": 2,
+        "edges_per_fringe": 4, "axis": "X"}}"#,
+    )?;
+    let out = dir.path().join("c.pdf");
+    let o = errmap(&[
+        "certificate",
+        cap.to_str().ok_or("utf8")?,
+        "--out",
+        out.to_str().ok_or("utf8")?,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let Some(text) = text_of(&out) else {
+        return Ok(());
+    };
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        flat.contains("the device's HELLO: λ_vac/(F·k) = 632.991354 nm/(2·4)"),
+        "{flat}"
+    );
+    assert!(flat.contains("scale count resolution 100000 pm"), "{flat}");
+    // "… U = 1.2345 µm over the 800 mm travel (E, M, A, P, Pa), 0.1041 µm at one target"
+    let mut seen = 0;
+    for part in flat.split(" µm at one target") {
+        if let Some(v) = part.rsplit(' ').next().and_then(|v| v.parse::<f64>().ok()) {
+            assert!(v >= 0.065, "U(R) {v} below the laser count's");
+            seen += 1;
+        }
+    }
+    assert!(seen >= 4, "{flat}");
+    Ok(())
+}
+
+/// An imported record with no sensors says where its environment terms come from and
+/// invents no sensor.
+#[test]
+fn certificate_without_sensors_says_where_its_environment_comes_from() -> TestResult {
+    let Some(p) = real_record("psi-fat_sat.csv") else {
+        return Ok(());
+    };
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("c.pdf");
+    let o = errmap(&[
+        "certificate",
+        p.to_str().ok_or("utf8")?,
+        "--out",
+        out.to_str().ok_or("utf8")?,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let Some(text) = text_of(&out) else {
+        return Ok(());
+    };
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        flat.contains("no air sensor and no declared air conditions"),
+        "{flat}"
+    );
+    assert!(
+        flat.contains("Not evaluated (no source): air temperature"),
+        "{flat}"
+    );
+    assert!(!flat.contains("air temperature sensor 0.1000 K"), "{flat}");
+    assert!(!flat.contains("../shared"), "{flat}");
     Ok(())
 }

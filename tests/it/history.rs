@@ -790,7 +790,7 @@ fn fleet_report(ledger: &str, dir: &Path, name: &str) -> serde_json::Value {
         "report",
         "--ledger",
         ledger,
-        "--tolerance",
+        "--tolerances",
         dir.join("tol.toml").to_str().expect("utf-8"),
         "--report",
         out.to_str().expect("utf-8"),

@@ -6,7 +6,8 @@ use errmap::drivers::SessionRow;
 use errmap::drivers::edlen::{refractive_index, saturation_vapour_pressure_pa};
 use errmap::drivers::frame::Axis as WireAxis;
 use errmap::session::uncertainty::{
-    Budget, STANDARD_AIR, TestConditions, UncertaintyConfig, UncertaintyError, edlen_sensitivities,
+    Budget, DeclaredConditions, Eve, Origin, RecordedResolution, Resolution, TestConditions,
+    UncertaintyConfig, UncertaintyError, edlen_sensitivities,
 };
 
 const HENE_UM: f64 = 0.632_991_354;
@@ -31,16 +32,18 @@ fn zero() -> UncertaintyConfig {
     }
 }
 
+/// Conditions with air sensors (standard air, no span of n) and a material sensor when
+/// `material_temp_c` is given.
 fn conditions(travel_mm: f64, material_temp_c: Option<f64>) -> TestConditions {
-    TestConditions {
-        air_temp_c: STANDARD_AIR.0,
-        air_pressure_hpa: STANDARD_AIR.1,
-        air_rh_pct: STANDARD_AIR.2,
-        air_measured: false,
-        n_span: None,
-        material_temp_c,
-        travel_mm,
-    }
+    let mut c = TestConditions::from_environment(&Default::default(), travel_mm);
+    c.air = Origin::Sensor;
+    c.material_temp_c = material_temp_c;
+    c.material = if material_temp_c.is_some() {
+        Origin::Sensor
+    } else {
+        Origin::Missing
+    };
+    c
 }
 
 fn close(got: f64, want: f64, tol: f64, what: &str) {
@@ -82,11 +85,13 @@ fn budget_matches_hand_computation() -> Result<(), UncertaintyError> {
         "U over the travel",
     );
     close(
-        u.at_one_target_um,
-        0.816_496_580_927_726,
+        u.u_c_target_um,
+        (1.0f64 / 6.0).sqrt(),
         1e-12,
-        "U at one target",
+        "u_c at one target",
     );
+    // k·u_c = 0.816… µm is below one step of the 1 µm resolution: U is held at 1 µm.
+    close(u.at_one_target_um, 1.0, 1e-12, "U at one target (floor)");
     // Each contribution by itself.
     let by_id = |id: &str| {
         b.contributions
@@ -126,10 +131,10 @@ fn cosine_term_is_one_sided_rectangular() -> Result<(), UncertaintyError> {
     Ok(())
 }
 
-/// No material temperature recorded: the expansion-coefficient term is zero (no offset
-/// from 20 °C is known), the sensor term is not.
+/// No material temperature recorded or declared: neither the sensor term nor the
+/// expansion term is invented; the budget lists them as not evaluated.
 #[test]
-fn no_material_temperature_zeroes_the_expansion_term() -> Result<(), UncertaintyError> {
+fn no_material_temperature_is_not_invented() -> Result<(), UncertaintyError> {
     let cfg = UncertaintyConfig {
         material_temp_k: 0.2,
         expansion_ppm_per_k: 11.5,
@@ -137,8 +142,157 @@ fn no_material_temperature_zeroes_the_expansion_term() -> Result<(), Uncertainty
         ..zero()
     };
     let b = Budget::new(&cfg, conditions(500.0, None))?;
-    close(b.u_rel_ppm, 2.3, 1e-12, "only α·u(θ) = 11.5 × 0.2");
+    close(b.u_rel_ppm, 0.0, 1e-15, "no material term");
+    assert!(
+        b.not_evaluated
+            .iter()
+            .any(|m| m.contains("material temperature")),
+        "{:?}",
+        b.not_evaluated
+    );
+    // Declared 19…21 °C: u(θ) = 2/(2√3) K, α·u(θ) = 11.5/√3 ppm; the midpoint is 20 °C,
+    // so the expansion term is 0.
+    let declared = DeclaredConditions {
+        material_temp_c: Some([19.0, 21.0]),
+        ..Default::default()
+    };
+    let b = Budget::new(&cfg, conditions(500.0, None).with_declared(&declared))?;
+    close(b.u_rel_ppm, 11.5 / 3f64.sqrt(), 1e-12, "declared range");
     Ok(())
+}
+
+/// A session with no sensor at all (an imported sheet): no air term, no dead path, no
+/// material term is invented; each is listed with its reason.
+#[test]
+fn a_session_without_sensors_gets_no_invented_sensors() -> Result<(), UncertaintyError> {
+    let c = TestConditions::from_environment(&Default::default(), 100.0);
+    assert_eq!((c.air, c.material), (Origin::Missing, Origin::Missing));
+    let b = Budget::new(&UncertaintyConfig::default(), c)?;
+    for id in [
+        "air_temp",
+        "air_pressure",
+        "air_rh",
+        "material_temp",
+        "dead_path",
+    ] {
+        assert!(b.contributions.iter().all(|x| x.id != id), "{id} invented");
+    }
+    let text = b.not_evaluated.join("; ");
+    for what in [
+        "air temperature",
+        "air pressure",
+        "humidity",
+        "dead path",
+        "EVE",
+    ] {
+        assert!(text.contains(what), "{what} missing from {text}");
+    }
+    Ok(())
+}
+
+/// The GUM by hand with every source stated: a capture's laser count λ/8 = 0.0791 µm and
+/// scale count 0.1 µm, a drift check of EVE 0.3 µm, and air declared as 19…21 °C,
+/// 1000…1020 hPa, 40…60 %RH (rectangular). Reading terms r/√12 each; the air terms
+/// |∂n/∂x|·w/(2√3) at the midpoints; u_c at one target = √2·u_read; U = 2·u_c.
+#[test]
+fn budget_with_stated_sources_matches_hand_computation() -> Result<(), UncertaintyError> {
+    let declared = DeclaredConditions {
+        air_temp_c: Some([19.0, 21.0]),
+        air_pressure_hpa: Some([1000.0, 1020.0]),
+        air_rh_pct: Some([40.0, 60.0]),
+        ..Default::default()
+    };
+    let mut c =
+        TestConditions::from_environment(&Default::default(), 1000.0).with_declared(&declared);
+    assert_eq!(c.air, Origin::Declared);
+    c.resolution = vec![
+        Resolution {
+            name: "laser count".into(),
+            step_um: 0.079_123_919_25,
+            source: "HELLO".into(),
+        },
+        Resolution {
+            name: "scale count".into(),
+            step_um: 0.1,
+            source: "HELLO".into(),
+        },
+    ];
+    c.eve = Some(Eve {
+        range_um: 0.3,
+        source: "drift check".into(),
+    });
+    let cfg = UncertaintyConfig {
+        air_temp_k: 0.0, // sensor figures are not used for declared air
+        ..zero()
+    };
+    let b = Budget::new(&cfg, c)?;
+    let s = edlen_sensitivities(20.0, 1010.0, 50.0);
+    let rect = |w: f64| w / (2.0 * 3f64.sqrt());
+    let u_t = s.dn_dt_per_k.abs() * 1e6 * rect(2.0);
+    let u_p = s.dn_dp_per_hpa.abs() * 1e6 * rect(20.0);
+    let u_h = s.dn_drh_per_pct.abs() * 1e6 * rect(20.0);
+    close(
+        b.u_rel_ppm,
+        (u_t * u_t + u_p * u_p + u_h * u_h).sqrt(),
+        1e-12,
+        "u_rel",
+    );
+    let u_read = ((0.079_123_919_25f64.powi(2) + 0.01 + 0.09) / 12.0).sqrt();
+    close(b.u_read_um, u_read, 1e-12, "u_read");
+    let u = b.expanded();
+    close(
+        u.at_one_target_um,
+        2.0 * 2f64.sqrt() * u_read,
+        1e-12,
+        "U(R)",
+    );
+    assert!(u.at_one_target_um > 0.065, "{}", u.at_one_target_um);
+    // Every contribution says where it comes from.
+    assert!(b.contributions.iter().all(|x| !x.source.is_empty()));
+    Ok(())
+}
+
+/// Repeatability-type figures never get a U below one step of the coarsest resolution:
+/// the laser count alone gives k·√2·r/√12 = 0.0646 µm < r = 0.0791 µm, so U = r.
+#[test]
+fn resolution_floor_holds_u_at_one_step() -> Result<(), UncertaintyError> {
+    let mut c = conditions(0.0, None);
+    c.resolution = vec![Resolution {
+        name: "laser count".into(),
+        step_um: 0.0791,
+        source: "HELLO".into(),
+    }];
+    let b = Budget::new(&zero(), c)?;
+    let u = b.expanded();
+    close(
+        u.u_c_target_um * 2.0,
+        2.0 * 2f64.sqrt() * 0.0791 / 12f64.sqrt(),
+        1e-12,
+        "k·u_c",
+    );
+    close(u.at_one_target_um, 0.0791, 1e-15, "held at one step");
+    Ok(())
+}
+
+/// The step of recorded lengths: inches to 6 decimals (25.4 nm), mm to 3 decimals (1 µm),
+/// and none for unquantised numbers.
+#[test]
+fn recorded_resolution_finds_the_written_step() {
+    let of = |v: &[f64]| {
+        let mut r = RecordedResolution::default();
+        v.iter().for_each(|x| r.push(*x));
+        r.step_um()
+    };
+    let inch = [0.000_055, -4.999_953, 129.999_871].map(|v| v * 25.4);
+    let got = of(&inch).unwrap_or(f64::NAN);
+    close(got, 0.0254, 1e-12, "inch export");
+    close(
+        of(&[1.001, 2.5, -3.125]).unwrap_or(f64::NAN),
+        1.0,
+        1e-12,
+        "mm to 3 decimals",
+    );
+    assert_eq!(of(&[0.123_456_789_1, 1.0 / 3.0]), None);
 }
 
 /// The sensitivities against the modified Edlén equation differentiated by hand, at
@@ -208,7 +362,7 @@ fn row(t_c: f64, scale_temp_c: Option<f64>) -> SessionRow {
 fn dead_path_uses_the_sessions_span_of_n() -> Result<(), UncertaintyError> {
     let rows = [row(20.0, Some(21.0)), row(21.0, Some(23.0))];
     let c = TestConditions::from_rows(&rows, 800.0);
-    assert!(c.air_measured);
+    assert_eq!(c.air, Origin::Sensor);
     close(c.air_temp_c, 20.5, 1e-12, "mean air temperature");
     assert_eq!(c.material_temp_c, Some(22.0));
     let dn = refractive_index(HENE_UM, 20.0, 100_000.0, 40.0)

@@ -10,8 +10,10 @@
 
 use std::path::Path;
 
+use super::CertificateError;
+use super::flow::{Flow, signatures};
+use super::layout::{Align, BODY, GREY, MARGIN, MIN_SIZE};
 use super::pdf::{Doc, PAGE_H, PAGE_W, Weight};
-use super::{Align, BODY, CertificateError, Flow, GREY, MARGIN, MIN_SIZE, signatures};
 use crate::acceptance::cmm::CmmCertificate;
 use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::probing::{Judged, ProbingResult};

@@ -2,19 +2,12 @@
 //! it applies to, the specification, the decision rule in words, per line a table —
 //! parameter, limits, value, U, acceptance zone, verdict — and the overall verdict.
 
-use super::{Align, BODY, CertificateData, Flow, MARGIN, PAGE_H, mm};
+use super::layout::{Align, BODY, Decimals, Sheet, fixed};
+use super::{CertificateData, line_name, session_name};
 use crate::acceptance::tolerance::Conformity;
 
-fn num(v: f64) -> String {
-    format!("{v:.2}")
-}
-
-fn opt(v: Option<f64>) -> String {
-    v.map_or_else(|| "—".to_string(), num)
-}
-
 /// The zone [lo, hi] in words: `≤ 6.00`, `≥ −0.50`, `−0.50 … 0.50`.
-fn zone(lo: Option<f64>, hi: Option<f64>) -> String {
+fn zone(lo: Option<f64>, hi: Option<f64>, num: &dyn Fn(f64) -> String) -> String {
     match (lo, hi) {
         (Some(l), Some(h)) if l > h => "empty (nothing can pass)".into(),
         (Some(l), Some(h)) => format!("{} … {}", num(l), num(h)),
@@ -24,15 +17,14 @@ fn zone(lo: Option<f64>, hi: Option<f64>) -> String {
     }
 }
 
-/// Draws the section on a new page.
-pub(super) fn section(flow: &mut Flow, data: &CertificateData, c: &Conformity) {
-    flow.doc.new_page();
-    flow.y = PAGE_H - MARGIN;
+/// Draws the section.
+pub(super) fn section(flow: &mut Sheet, data: &CertificateData, c: &Conformity, dec: Decimals) {
+    let num = |v: f64| fixed(v, dec.um);
     flow.heading("Statement of conformity", 12.0);
     let lines = data
         .lines
         .iter()
-        .map(|x| format!("({}, {}) mm", mm(x.line_mm.0), mm(x.line_mm.1)))
+        .map(|x| line_name(data.axis, x.line_mm))
         .collect::<Vec<_>>()
         .join("; ");
     flow.paragraph(
@@ -40,7 +32,9 @@ pub(super) fn section(flow: &mut Flow, data: &CertificateData, c: &Conformity) {
             "Applies to: the ISO 230-2 results of axis {} on line(s) {lines} given in the axis \
              tables of this certificate (session {}), each with the expanded uncertainty U \
              (k = {}) printed beside it.",
-            data.axis, data.source, c.k
+            data.axis,
+            session_name(data.source),
+            c.k
         ),
         BODY,
     );
@@ -50,12 +44,7 @@ pub(super) fn section(flow: &mut Flow, data: &CertificateData, c: &Conformity) {
     let r = Align::Right;
     for (k, (line_mm, lc)) in c.lines.iter().enumerate() {
         flow.heading(
-            &format!(
-                "Line {} at ({}, {}) mm",
-                k + 1,
-                mm(line_mm.0),
-                mm(line_mm.1)
-            ),
+            &format!("Line {}: {}", k + 1, line_name(data.axis, *line_mm)),
             10.0,
         );
         let Some(lc) = lc else {
@@ -68,10 +57,10 @@ pub(super) fn section(flow: &mut Flow, data: &CertificateData, c: &Conformity) {
             .map(|p| {
                 vec![
                     p.parameter.to_string(),
-                    zone(p.lower_um, p.upper_um),
+                    zone(p.lower_um, p.upper_um, &num),
                     num(p.value_um),
                     num(p.u_um),
-                    zone(p.acceptance_um[0], p.acceptance_um[1]),
+                    zone(p.acceptance_um[0], p.acceptance_um[1], &num),
                     p.verdict.as_str().to_string(),
                 ]
             })
@@ -87,10 +76,8 @@ pub(super) fn section(flow: &mut Flow, data: &CertificateData, c: &Conformity) {
             ],
             &rows,
             &[l, l, r, r, l, l],
-            BODY - 1.0,
         );
         flow.paragraph(&format!("Line verdict: {}", lc.verdict), BODY);
     }
-    flow.heading(&format!("Overall verdict: {}", c.verdict), 11.0);
-    let _ = opt;
+    flow.paragraph(&format!("Overall verdict: {}", c.verdict), BODY + 2.0);
 }

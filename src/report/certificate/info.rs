@@ -9,11 +9,32 @@
 //! customer = "Example Machine Works"
 //! machine = "Vertical machining centre VMC-800, serial 4711"
 //! date_of_test = "2026-11-30"
+//! date_of_issue = "2026-12-02"
+//! start_time = "09:12"                 # local time of the test, HH:MM
+//! end_time = "10:05"
+//! traceability = "…"                   # the lab's statement; a default is built without it
 //!
 //! [laser]
 //! model = "HeNe interferometer"
 //! serial = "L-1234"
 //! calibrated = "2026-03-01"
+//! resolution_um = 0.0791               # used when the session carries no device HELLO
+//! setup = "linear optics, beam on the spindle axis, 120 mm dead path"
+//!
+//! [controller]
+//! compensation = "pitch compensation active (table of 2026-05-04)"
+//! state = "as found"                   # as found | as left | as found and as left
+//!
+//! [conditions]                         # ranges, used only where no sensor recorded
+//! air_temp_c = [19.5, 20.5]
+//! air_pressure_hpa = [990.0, 1030.0]
+//! air_rh_pct = [35.0, 60.0]
+//! material_temp_c = [19.8, 20.6]
+//! source = "room log of the laboratory"
+//!
+//! [drift_check]                        # EVE, ISO 230-2 Annex A
+//! eve_um = 0.3
+//! duration_min = 30.0
 //!
 //! [sensors.air_temperature]
 //! serial = "T-1"
@@ -30,7 +51,9 @@ use serde::Deserialize;
 
 use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
-use crate::session::uncertainty::{UncertaintyConfig, UncertaintyError};
+use crate::session::uncertainty::{
+    DeclaredConditions, DriftCheck, UncertaintyConfig, UncertaintyError,
+};
 
 /// One instrument: what it is and when it was calibrated.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -42,6 +65,43 @@ pub struct Instrument {
     pub serial: Option<String>,
     /// Date of its last calibration, `YYYY-MM-DD`.
     pub calibrated: Option<String>,
+}
+
+/// The laser interferometer: the instrument and its set-up.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Laser {
+    /// Make and model.
+    pub model: Option<String>,
+    /// Serial number.
+    pub serial: Option<String>,
+    /// Date of its last calibration, `YYYY-MM-DD`.
+    pub calibrated: Option<String>,
+    /// Its stated resolution, µm: used when the session has no device description.
+    pub resolution_um: Option<f64>,
+    /// The set-up in words (optics, beam path, where the dead path was measured).
+    pub setup: Option<String>,
+}
+
+impl Laser {
+    /// The instrument part.
+    pub fn instrument(&self) -> Instrument {
+        Instrument {
+            model: self.model.clone(),
+            serial: self.serial.clone(),
+            calibrated: self.calibrated.clone(),
+        }
+    }
+}
+
+/// The controller's compensation during the test.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Controller {
+    /// The compensation state in words (active, which table; or off).
+    pub compensation: Option<String>,
+    /// As found, as left, or both.
+    pub state: Option<String>,
 }
 
 /// The environment sensors.
@@ -78,9 +138,26 @@ pub struct CertificateInfo {
     pub machine: Option<String>,
     /// Date of the test, `YYYY-MM-DD`.
     pub date_of_test: Option<String>,
-    /// The laser interferometer.
+    /// Date the certificate is issued, `YYYY-MM-DD` (distinct from the test's).
+    pub date_of_issue: Option<String>,
+    /// Local start time of the test, `HH:MM`.
+    pub start_time: Option<String>,
+    /// Local end time of the test, `HH:MM`.
+    pub end_time: Option<String>,
+    /// The laboratory's traceability statement (a default is printed without it).
+    pub traceability: Option<String>,
+    /// The laser interferometer and its set-up.
     #[serde(default)]
-    pub laser: Instrument,
+    pub laser: Laser,
+    /// The controller's compensation state.
+    #[serde(default)]
+    pub controller: Controller,
+    /// Conditions declared for what no sensor recorded.
+    #[serde(default)]
+    pub conditions: DeclaredConditions,
+    /// A drift check's result.
+    #[serde(default)]
+    pub drift_check: DriftCheck,
     /// The environment sensors.
     #[serde(default)]
     pub sensors: Sensors,
@@ -100,6 +177,19 @@ pub enum InfoError {
     /// the right type that is not acceptable (at its key).
     #[error(transparent)]
     Config(#[from] ConfigError),
+}
+
+/// A time as `HH:MM`.
+fn check_time(s: &str) -> Result<(), String> {
+    let ok = s.len() == 5
+        && s.as_bytes()[2] == b':'
+        && s[..2].parse::<u32>().is_ok_and(|h| h < 24)
+        && s[3..].parse::<u32>().is_ok_and(|m| m < 60);
+    if ok {
+        Ok(())
+    } else {
+        Err(format!("`{s}` is not a time HH:MM"))
+    }
 }
 
 /// A date as `YYYY-MM-DD` with a real month and a day that exists in it (leap years
@@ -141,6 +231,7 @@ impl CertificateInfo {
         let s = &info.sensors;
         let dates = [
             ("date_of_test", &info.date_of_test),
+            ("date_of_issue", &info.date_of_issue),
             ("laser.calibrated", &info.laser.calibrated),
             (
                 "sensors.air_temperature.calibrated",
@@ -161,6 +252,33 @@ impl CertificateInfo {
                 check_date(v).map_err(|m| invalid(key, m))?;
             }
         }
+        for (key, value) in [
+            ("start_time", &info.start_time),
+            ("end_time", &info.end_time),
+        ] {
+            if let Some(v) = value {
+                check_time(v).map_err(|m| invalid(key, m))?;
+            }
+        }
+        if let Some(r) = info.laser.resolution_um
+            && !(r.is_finite() && r > 0.0 && r <= 1000.0)
+        {
+            return Err(invalid(
+                "laser.resolution_um",
+                format!("{r}: not a resolution > 0 and ≤ 1000 µm"),
+            ));
+        }
+        if let Some(e) = info.drift_check.eve_um
+            && !(e.is_finite() && (0.0..=1e6).contains(&e))
+        {
+            return Err(invalid(
+                "drift_check.eve_um",
+                format!("{e}: not a range ≥ 0 and ≤ 10⁶ µm"),
+            ));
+        }
+        info.conditions
+            .check()
+            .map_err(|(key, m)| invalid(&format!("conditions.{key}"), m))?;
         info.uncertainty.validate().map_err(|e| match e {
             UncertaintyError::Invalid { key, value, reason } => {
                 invalid(&format!("uncertainty.{key}"), format!("{value}: {reason}"))
@@ -195,5 +313,8 @@ mod tests {
         assert!(check_date("2026-04-31").is_err());
         assert!(check_date("26-04-01").is_err());
         assert!(check_date("2026-4-01").is_err());
+        assert!(check_time("09:05").is_ok());
+        assert!(check_time("24:00").is_err());
+        assert!(check_time("9:05").is_err());
     }
 }

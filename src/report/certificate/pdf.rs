@@ -155,10 +155,22 @@ impl Doc {
     pub fn text_on(&mut self, page: usize, x: f32, y: f32, size: f32, weight: Weight, s: &str) {
         let face = &mut self.faces[weight.index()];
         let mut bytes = Vec::with_capacity(2 * s.len());
+        // A combining macron (U+0304, as in B̄) is kept in the text, so it is extracted
+        // and searched, and drawn as a rule over the letter before it: the font's
+        // zero-width mark does not show in every viewer.
+        let mut bars = Vec::new();
+        let (mut x_at, mut last) = (x, (x, 0.0f32));
         for c in s.chars() {
             let g = face.glyph(c);
             face.used.entry(g).or_insert(c);
             bytes.extend_from_slice(&g.to_be_bytes());
+            let w = face.advance(g) * size / 1000.0;
+            if c == '\u{304}' {
+                bars.push(last);
+            } else {
+                last = (x_at, w);
+            }
+            x_at += w;
         }
         let name = [Name(b"F0"), Name(b"F1")][weight.index()];
         let content = &mut self.pages[page];
@@ -168,6 +180,16 @@ impl Doc {
         content.next_line(x, y);
         content.show(Str(&bytes));
         content.end_text();
+        for (bx, bw) in bars {
+            let top = y + size * 0.86;
+            content.save_state();
+            content.set_line_width(size * 0.07);
+            content.set_stroke_rgb(0.1, 0.1, 0.1);
+            content.move_to(bx + bw * 0.12, top);
+            content.line_to(bx + bw * 0.88, top);
+            content.stroke();
+            content.restore_state();
+        }
     }
 
     /// Text right-aligned at `x`.
