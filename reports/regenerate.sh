@@ -14,7 +14,7 @@ trap 'rm -rf "$tmp"' EXIT
 "$E" compare datasets/table1.csv --test datasets/table2.csv --report reports/table2 >/dev/null
 "$E" circular diagnose datasets/circular/xy.csv --report reports/circular >/dev/null
 "$E" acceptance iso10360 datasets/acceptance/iso10360-example.csv --mpe "1.5+L/333" --report reports/iso10360 >/dev/null
-"$E" fuzzy-sim --seed 2013 --trials 200 --report reports/fuzzy-sim/report.md >/dev/null
+"$E" fuzzy-sim --seed 2013 --trials 200 --report reports/fuzzy-sim >/dev/null
 "$E" certificate datasets/physics/example-session.parquet --info datasets/certificate/example-info.toml \
     --out reports/certificate/example-session.pdf >/dev/null
 echo "regenerated; also: reports/certificate/README.md (the real record), reports/history/F2.png"
