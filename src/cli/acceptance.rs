@@ -85,6 +85,8 @@ pub(crate) struct Iso10360Args {
     /// Write report.md, measurements.csv and the E0 chart here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Print the evaluation (every measurement, E0, R0, the verdicts) as one JSON document
+    /// on stdout.
     #[arg(long)]
     pub json: bool,
 }

@@ -55,6 +55,8 @@ pub(crate) struct ProbingArgs {
     /// Write report.md, residuals.csv and the map of the residuals here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Print the probing test's evaluation (fits, form, size, location, verdicts) as one
+    /// JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -134,6 +136,8 @@ pub(crate) struct CmmCertificateArgs {
     /// The certificate (PDF).
     #[arg(long)]
     pub out: PathBuf,
+    /// Print the certificate's content (both tests, the statement of conformity) as one
+    /// JSON document on stdout.
     #[arg(long)]
     pub json: bool,
 }
