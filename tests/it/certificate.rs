@@ -416,7 +416,7 @@ fn certificate_has_what_a_laboratory_certificate_has() -> TestResult {
         "laser resolution 0.0791 µm (stated in the info file ([laser] resolution_um))",
         "Session example-session.parquet",
     ] {
-        assert!(flat.contains(&s), "{s:?} missing from:\n{flat}");
+        assert!(flat.contains(s), "{s:?} missing from:\n{flat}");
     }
     assert!(
         !flat.contains("(1, 200)") && !flat.contains("datasets/physics/"),
