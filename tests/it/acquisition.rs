@@ -229,23 +229,9 @@ fn a_port_vanishing_inside_a_run_ends_the_capture_with_a_clear_error_and_a_valid
 fn the_board_closing_the_port_after_its_last_run_is_a_complete_capture() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("session");
-    let mut sim = Command::new(bin())
-        .args(["serve-sim", "--model"])
-        .arg(root().join("datasets/sim/model.toml"))
-        .arg("--plan")
-        .arg(root().join("datasets/sim/plan.toml"))
-        .args(["--speed", "20"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("serve-sim starts");
-    let mut port = String::new();
-    BufReader::new(sim.stdout.take().expect("stdout"))
-        .read_line(&mut port)
-        .expect("serve-sim prints its path");
-    let o = capture(port.trim(), &out, &[])
-        .output()
-        .expect("capture runs");
+    // serve-sim's default linger, 1 s.
+    let (mut sim, port) = serve(&root().join("datasets/sim/plan.toml"), 20.0, 1.0);
+    let o = capture(&port, &out, &[]).output().expect("capture runs");
     assert!(sim.wait().expect("serve-sim ends").success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
