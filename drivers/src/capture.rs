@@ -457,16 +457,41 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_capture_without_hello_asks_for_one_and_converts_every_sample() {
+    /// A capture from `source` into a raw file in the temp folder (removed after).
+    fn capture_into_temp(
+        source: &mut dyn ByteSource,
+        config: &CaptureConfig,
+        name: &str,
+    ) -> Capture {
+        let raw_path =
+            std::env::temp_dir().join(format!("errmap-{name}-{}.bin", std::process::id()));
+        let mut raw = File::create(&raw_path).expect("raw");
+        let cap = capture(
+            source,
+            &mut raw,
+            config,
+            &AtomicBool::new(false),
+            &mut |_| {},
+        )
+        .expect("captures");
+        let _ = std::fs::remove_file(&raw_path);
+        cap
+    }
+
+    /// The simulated stream of `runs` runs over targets 0 and 50 mm, no error.
+    fn two_target_stream(runs: u32) -> crate::sim::SimStream {
         let plan = Plan {
             targets_mm: vec![0.0, 50.0],
-            runs: 1,
+            runs,
             dwell_s: 0.1,
             ..Plan::default()
         };
-        let stream =
-            simulate(&plan, &Device::default(), &Faults::default(), &mut Zero).expect("simulates");
+        simulate(&plan, &Device::default(), &Faults::default(), &mut Zero).expect("simulates")
+    }
+
+    #[test]
+    fn a_capture_without_hello_asks_for_one_and_converts_every_sample() {
+        let stream = two_target_stream(1);
         let body: Vec<u8> = stream.frames[1..]
             .iter()
             .flat_map(|f| f.bytes.clone())
@@ -478,23 +503,12 @@ mod tests {
             asked: Vec::new(),
             answered: false,
         };
-        let raw_path =
-            std::env::temp_dir().join(format!("errmap-late-hello-{}.bin", std::process::id()));
-        let mut raw = File::create(&raw_path).expect("raw");
         let config = CaptureConfig {
             read_buf: body.len() + 64,
             idle_timeout: Some(Duration::from_secs(10)),
             ..CaptureConfig::default()
         };
-        let cap = capture(
-            &mut device,
-            &mut raw,
-            &config,
-            &AtomicBool::new(false),
-            &mut |_| {},
-        )
-        .expect("captures");
-        let _ = std::fs::remove_file(&raw_path);
+        let cap = capture_into_temp(&mut device, &config, "late-hello");
         assert_eq!(device.asked, HELLO_REQUEST, "asked once for a HELLO");
         assert_eq!(cap.rows.len(), samples, "every sample converted");
         assert_eq!(cap.stats.unconverted_samples, 0);
@@ -523,38 +537,17 @@ mod tests {
     }
 
     fn end_after(bytes: Vec<u8>) -> CaptureEnd {
-        let raw_path = std::env::temp_dir().join(format!(
-            "errmap-closing-{}-{}.bin",
-            std::process::id(),
-            bytes.len()
-        ));
-        let mut raw = File::create(&raw_path).expect("raw");
         let config = CaptureConfig {
             read_buf: bytes.len() + 64,
             ..CaptureConfig::default()
         };
-        let cap = capture(
-            &mut Closing(Some(bytes)),
-            &mut raw,
-            &config,
-            &AtomicBool::new(false),
-            &mut |_| {},
-        )
-        .expect("captures");
-        let _ = std::fs::remove_file(&raw_path);
-        cap.end
+        let name = format!("closing-{}", bytes.len());
+        capture_into_temp(&mut Closing(Some(bytes)), &config, &name).end
     }
 
     #[test]
     fn a_port_closed_after_the_last_run_ended_is_complete_and_inside_a_run_vanished() {
-        let plan = Plan {
-            targets_mm: vec![0.0, 50.0],
-            runs: 2,
-            dwell_s: 0.1,
-            ..Plan::default()
-        };
-        let stream =
-            simulate(&plan, &Device::default(), &Faults::default(), &mut Zero).expect("simulates");
+        let stream = two_target_stream(2);
         let all: Vec<u8> = stream.frames.iter().flat_map(|f| f.bytes.clone()).collect();
         assert_eq!(end_after(all.clone()), CaptureEnd::Closed { runs: 2 });
         // Cut in the middle of the second run: the port vanished.
