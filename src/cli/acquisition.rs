@@ -318,7 +318,7 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 
 pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
     let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
-    let reduced = reduce_session(&a.session, &a.out, a.report.as_deref())?;
+    let reduced = reduce_session(&a.session, &a.out, a.report.as_deref(), a.info.as_deref())?;
     let conformity = match &tolerances {
         Some((t, rule)) => {
             if reduced.iso.is_empty() {
@@ -383,7 +383,8 @@ pub(crate) struct Reduced {
     pub table: errmap::table::ErrorTable,
     pub summary: session::ReductionSummary,
     pub iso: Vec<((f64, f64), session::AxisStats)>,
-    /// The uncertainty budget of each line of `iso` (default configuration).
+    /// The uncertainty budget of each line of `iso` (the info file's configuration and
+    /// declared conditions, else the defaults).
     pub budgets: Vec<errmap::session::uncertainty::Budget>,
 }
 
@@ -393,9 +394,19 @@ pub(crate) fn reduce_session(
     session_arg: &Path,
     out: &Path,
     report: Option<&Path>,
+    info_file: Option<&Path>,
 ) -> Result<Reduced> {
     let path = session_file(session_arg)?;
-    super::guard::refuse_aliases(&[("--out", out)], &[("SESSION", &path)])?;
+    let mut inputs = vec![("SESSION", path.as_path())];
+    inputs.extend(info_file.map(|p| ("--info", p)));
+    super::guard::refuse_aliases(&[("--out", out)], &inputs)?;
+    if let Some(dir) = report {
+        super::guard::refuse_aliases(&[("--report", dir)], &inputs)?;
+    }
+    let info = match info_file {
+        Some(p) => errmap::report::certificate::info::CertificateInfo::read(p)?,
+        None => Default::default(),
+    };
     if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {
         bail!(
             "--report {}: exists and is not a directory (nothing was written)",
@@ -453,11 +464,11 @@ pub(crate) fn reduce_session(
     }
     let sources = uncertainty::BudgetSources::choose(
         device,
-        None,
+        info.laser.resolution_um,
         &recorded,
-        &Default::default(),
+        &info.drift_check,
         &drift,
-        &Default::default(),
+        &info.conditions,
     );
     let (iso, failed) = reducer.iso_by_line();
     for (line, e) in failed {
@@ -466,13 +477,8 @@ pub(crate) fn reduce_session(
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_with(
-                &uncertainty::UncertaintyConfig::default(),
-                &environment,
-                s,
-                &sources,
-            )
-            .map(|(b, _)| b)
+            uncertainty::line_budget_with(&info.uncertainty, &environment, s, &sources)
+                .map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {

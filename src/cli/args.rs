@@ -347,6 +347,11 @@ pub(crate) struct TableArgs {
     /// Judge every line's E, A, B, R, M against these tolerances (TOML).
     #[arg(long)]
     pub tolerances: Option<PathBuf>,
+    /// The test's description (the certificate's info TOML): its stated laser
+    /// resolution, drift check, declared conditions and [uncertainty] settings enter the
+    /// uncertainty budget, as in `certificate`.
+    #[arg(long)]
+    pub info: Option<PathBuf>,
     #[command(flatten)]
     pub rule: super::acceptance::RuleArgs,
     /// Print the per-line statistics as one JSON document on stdout.

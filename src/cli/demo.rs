@@ -106,7 +106,12 @@ pub(crate) fn demo(a: DemoArgs) -> Result<()> {
 
     eprintln!("errmap demo [2/6]: session → error table (+ ISO 230-2 report, certificate.pdf)");
     let errors = session_dir.join("errors.csv");
-    acquisition::reduce_session(&session_dir, &errors, Some(&session_dir.join("iso230")))?;
+    acquisition::reduce_session(
+        &session_dir,
+        &errors,
+        Some(&session_dir.join("iso230")),
+        None,
+    )?;
     certificates_step(&a.out, &inputs.dir, &session_dir)?;
 
     eprintln!("errmap demo [3/6]: fit every method to the captured table, compare with the truth");
@@ -134,6 +139,10 @@ pub(crate) fn demo(a: DemoArgs) -> Result<()> {
     super::volumetric::demo_step(&a.out)?;
     eprintln!("errmap demo: a simulated ballbar test (ISO 230-4) and the errors behind its trace");
     circular_step(&a.out, &inputs.dir)?;
+    eprintln!(
+        "errmap demo: a CMM's verification: ISO 10360-2 length test, ISO 10360-5 probing test, CMM certificate"
+    );
+    super::probing::demo_step(&a.out)?;
     eprintln!(
         "errmap demo: the captured session and the volumetric model in a calibration ledger (history add, report)"
     );

@@ -198,3 +198,75 @@ pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     );
     Ok(())
 }
+
+/// The demo's CMM verification: the ISO 10360-2 example and the simulated ISO 10360-5
+/// test (the files of `reports/iso10360-5/README.md`), each with its report, and the CMM
+/// certificate joining them, under `out/acceptance`. The same calls as `acceptance
+/// iso10360`, `acceptance iso10360-5` and `acceptance cmm-certificate` with the README's
+/// flags.
+pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
+    let dir = out.join("acceptance");
+    let inputs = dir.join("inputs");
+    std::fs::create_dir_all(&inputs)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", inputs.display()))?;
+    let length_file = inputs.join("iso10360-example.csv");
+    let points_file = inputs.join("probing-example.csv");
+    let sphere_file = inputs.join("probing-sphere.toml");
+    super::guard::write_file(
+        &length_file,
+        include_bytes!("../../datasets/acceptance/iso10360-example.csv"),
+    )?;
+    let points = simulate::simulate(&simulate::example());
+    super::guard::write_file(&points_file, simulate::to_csv(&points).as_bytes())?;
+    super::guard::write_file(&sphere_file, simulate::EXAMPLE_SPHERE.as_bytes())?;
+    let length_args = LengthArgs {
+        mpe: "1.5+L/333".into(),
+        u_um: Some("0.3+L/2000".into()),
+        mpl_r0: Some(1.2),
+        u_r0_um: 0.0,
+        repetitions: 3,
+    };
+    let rule = RuleArgs {
+        rule: None,
+        guard_fraction: None,
+    };
+    let config = length_config(&length_args, &rule)?;
+    let length = iso10360::evaluate_file(&length_file, &config)?;
+    let length_report = dir.join("iso10360");
+    let source = length_file.display().to_string();
+    super::guard::into_new_dir(&length_report, |d| {
+        errmap::report::write_iso10360_report(d, &source, &length, &config.rule).map_err(Into::into)
+    })?;
+    let probing = probing::evaluate_files(&points_file, &sphere_file, &Default::default())?;
+    let probing_report = dir.join("iso10360-5");
+    let (p, s) = (
+        points_file.display().to_string(),
+        sphere_file.display().to_string(),
+    );
+    super::guard::into_new_dir(&probing_report, |d| {
+        errmap::report::probing::write_probing_report(d, &p, &s, &probing).map_err(Into::into)
+    })?;
+    eprintln!("  ISO 10360-5: {}", summary(&probing));
+    let cert = CmmCertificate::new(
+        Some("ACME CMM-X 10.8.6 S/N 4711 (simulated)".into()),
+        "ACME CMM-X data sheet rev. C (fictitious)".into(),
+        &config.rule,
+        length,
+        probing,
+    );
+    let pdf = dir.join("cmm-certificate.pdf");
+    let sources = errmap::report::certificate::cmm::Sources {
+        length: "iso10360-example.csv".into(),
+        probing: "probing-example.csv".into(),
+        sphere: "probing-sphere.toml".into(),
+    };
+    errmap::report::certificate::cmm::write(&pdf, &cert, &sources)?;
+    eprintln!(
+        "  ISO 10360-2 {}, ISO 10360-5 {}: {}; certificate → {}",
+        cert.iso10360_2.verdict,
+        cert.iso10360_5.verdict,
+        cert.verdict,
+        pdf.display()
+    );
+    Ok(cert)
+}

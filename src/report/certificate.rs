@@ -16,7 +16,6 @@
 mod chart;
 pub mod cmm;
 pub mod conformity;
-mod flow;
 pub mod info;
 pub mod layout;
 pub mod pdf;
@@ -110,10 +109,34 @@ pub fn line_name(axis: &str, line_mm: (f64, f64)) -> String {
     format!("{a} = {} mm, {b} = {} mm", mm(line_mm.0), mm(line_mm.1))
 }
 
-/// The decimals every deviation and uncertainty of the certificate is printed to: the
-/// most any line needs ([`decimals`]), so one quantity has one format throughout.
+/// The decimals every deviation and uncertainty of the certificate is printed to, so one
+/// quantity has one format throughout: the place of the second significant digit of the
+/// smallest expanded uncertainty the certificate states (the GUM, JCGM 100:2008 7.2.6: an
+/// uncertainty to at most two significant digits, the result rounded to the same place),
+/// never finer than a tenth of the coarsest resolution step of the readings, and between
+/// 1 and 4 decimals. A test read with a 0.079 µm laser count and a 0.1 µm scale whose
+/// smallest U is 0.104 µm prints 0.01 µm, not the 1 pm its arithmetic carries.
 pub fn certificate_decimals(lines: &[LineResult]) -> usize {
-    lines.iter().map(|l| decimals(l.stats)).max().unwrap_or(3)
+    let place =
+        |v: f64| -> Option<i32> { (v.is_finite() && v > 0.0).then(|| -(v.log10().floor() as i32)) };
+    let smallest_u = lines
+        .iter()
+        .map(|l| l.budget.expanded().at_one_target_um)
+        .fold(f64::INFINITY, f64::min);
+    let by_u = place(smallest_u).map(|p| p + 1);
+    let by_resolution = lines
+        .iter()
+        .map(|l| l.budget.resolution_floor_um)
+        .fold(0.0, f64::max);
+    let by_resolution = place(by_resolution).map(|p| p + 1);
+    let d = match (by_u, by_resolution) {
+        (Some(u), Some(r)) => u.min(r),
+        (Some(u), None) => u,
+        (None, Some(r)) => r,
+        // No uncertainty and no resolution: the statistics' own digits.
+        (None, None) => lines.iter().map(|l| decimals(l.stats)).max().unwrap_or(3) as i32,
+    };
+    d.clamp(1, 4) as usize
 }
 
 /// The per-target table's rows (certificate layout), µm to `d` places.

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use polars::prelude::*;
 
 use super::ReportError;
+use super::certificate::layout::zone_words;
 use super::md::Md;
 use crate::acceptance::probing::simulate::frame;
 use crate::acceptance::probing::{Judged, ProbingResult, Residual};
@@ -27,13 +28,7 @@ pub fn mm6(v: f64) -> String {
 
 /// The zone [lo, hi] in words: `≤ 1.700`, `−1.200 … 1.200`.
 pub fn zone(z: [Option<f64>; 2]) -> String {
-    match z {
-        [Some(l), Some(h)] if l > h => "empty (nothing can pass)".into(),
-        [Some(l), Some(h)] => format!("{} … {}", um(l), um(h)),
-        [None, Some(h)] => format!("≤ {}", um(h)),
-        [Some(l), None] => format!("≥ {}", um(l)),
-        [None, None] => "—".into(),
-    }
+    zone_words(z, &um)
 }
 
 /// The 2010 and 2020 symbols of form, size and location for a single- or multi-stylus
@@ -206,6 +201,11 @@ pub const RESULT_HEADER: [&str; 7] = [
 /// Form, size and (with several styli) location: quantity, symbols (`_{…}` subscripts),
 /// value, MPE, U, acceptance zone, verdict.
 pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
+    result_rows_in(r, &um)
+}
+
+/// [`result_rows`] with µm printed by `um`.
+pub fn result_rows_in(r: &ProbingResult, um: &dyn Fn(f64) -> String) -> Vec<Vec<String>> {
     let sym = symbols(r.styli.len() > 1);
     let q = |name: &str, sy: (&str, &str), j: &Judged| {
         vec![
@@ -214,7 +214,7 @@ pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
             um(j.value_um),
             um(j.mpe_um),
             um(j.u_um),
-            zone(j.acceptance_um),
+            zone_words(j.acceptance_um, um),
             j.verdict.to_string(),
         ]
     };
@@ -229,7 +229,7 @@ pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
             um(l.value_um),
             l.mpe_um.map_or("—".into(), um),
             um(l.u_um),
-            l.acceptance_um.map_or("—".into(), zone),
+            l.acceptance_um.map_or("—".into(), |z| zone_words(z, um)),
             l.verdict.map_or("not judged".into(), |v| v.to_string()),
         ]);
     }

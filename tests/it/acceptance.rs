@@ -273,6 +273,71 @@ fn decide_prints_every_result_in_file_order_and_refuses_bad_rows() -> TestResult
 
 const SESSION: &str = "datasets/physics/example-session.parquet";
 
+/// `table --info` builds the budget from the info file as `certificate` does: a declared
+/// drift check enters as the EVE reading term EVE/(2√3) with the info file as its source,
+/// and the combined uncertainty at one target changes by exactly that term.
+#[test]
+fn table_info_enters_the_declared_drift_check_into_the_budget() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let d = |n: &str| dir.path().join(n).display().to_string();
+    let plain = json(&errmap(&[
+        "table",
+        SESSION,
+        "--out",
+        &d("t0.csv"),
+        "--json",
+    ]));
+    let info = write(
+        dir.path(),
+        "info.toml",
+        "[drift_check]\neve_um = 3.0\nduration_min = 30.0\n",
+    );
+    let with = json(&errmap(&[
+        "table",
+        SESSION,
+        "--out",
+        &d("t1.csv"),
+        "--info",
+        &s(&info),
+        "--json",
+    ]));
+    let eve = |doc: &Value| -> Option<Value> {
+        doc["lines"][0]["uncertainty"]["budget"]["contributions"]
+            .as_array()?
+            .iter()
+            .find(|c| c["id"] == "eve")
+            .cloned()
+    };
+    let e = eve(&with).ok_or("no EVE term with --info")?;
+    let want = 3.0 / (2.0 * 3f64.sqrt());
+    let u = e["u"].as_f64().ok_or("u")?;
+    assert!((u - want).abs() < 1e-12, "EVE term {u}, want {want}");
+    assert!(
+        e["source"].as_str().unwrap_or("").contains("info file"),
+        "{e}"
+    );
+    // Without the info file the EVE, if any, comes from the session's own stationary
+    // readings, never from a declared check.
+    if let Some(p) = eve(&plain) {
+        assert!(
+            !p["source"].as_str().unwrap_or("").contains("info file"),
+            "{p}"
+        );
+    }
+    let at = |doc: &Value| doc["lines"][0]["uncertainty"]["expanded"]["u_c_target_um"].as_f64();
+    let (u0, u1) = (at(&plain).ok_or("u_c")?, at(&with).ok_or("u_c")?);
+    let u_plain_eve = eve(&plain).and_then(|p| p["u"].as_f64()).unwrap_or(0.0);
+    // u_c at one target = √(2·Σ reading terms²) (two readings): replacing one reading
+    // term changes u_c² by 2·Δ(u²).
+    let du2 = u1 * u1 - u0 * u0;
+    let want_du2 = 2.0 * (want * want - u_plain_eve * u_plain_eve);
+    assert!(
+        (du2 - want_du2).abs() < 1e-9 * want_du2.abs().max(1.0),
+        "u_c {u0} → {u1}: Δu_c² {du2}, want {want_du2}"
+    );
+    Ok(())
+}
+
 #[test]
 fn table_tolerances_judge_every_line_with_the_certificates_u() -> TestResult {
     let dir = tempfile::tempdir()?;

@@ -944,12 +944,30 @@ fn the_cmm_certificate_joins_both_tests_under_one_rule() -> TestResult {
     ] {
         assert!(text.contains(needle), "{needle:?} missing");
     }
+    // One format for every µm value: the place of the second significant digit of the
+    // smallest U stated (GUM 7.2.6), 1 to 3 decimals.
+    let p5 = &j["iso10360_5"];
+    let smallest_u = j["iso10360_2"]["measurements"]
+        .as_array()
+        .ok_or("measurements")?
+        .iter()
+        .map(|m| &m["u_um"])
+        .chain([
+            &p5["form"]["u_um"],
+            &p5["size"]["u_um"],
+            &p5["location"]["u_um"],
+        ])
+        .filter_map(Value::as_f64)
+        .filter(|u| *u > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let d = (1 - smallest_u.log10().floor() as i64).clamp(1, 3) as usize;
     let form = format!(
-        "{:.3}",
-        j["iso10360_5"]["form"]["value_um"]
-            .as_f64()
-            .unwrap_or(f64::NAN)
+        "{:.d$}",
+        p5["form"]["value_um"].as_f64().unwrap_or(f64::NAN)
     );
-    assert!(text.contains(&form), "the form {form} is printed");
+    assert!(
+        text.contains(&format!(" {form} ")),
+        "the form {form} is printed to {d} decimals (smallest U {smallest_u} µm)"
+    );
     Ok(())
 }

@@ -4,20 +4,21 @@
 //! specification, every judged quantity with its verdict, the overall verdict); then each
 //! test's results, the statement, the signatures.
 //!
-//! Symbols are set with their subscripts (`P_{FTU}` is drawn as P with FTU lowered and
-//! smaller). One number format per quantity: errors, MPEs, U and zones in µm to 0.001,
-//! lengths and coordinates in mm to 0.000001 (the probing report's [`um`] and [`mm6`]).
+//! The pages are laid out by the certificates' shared [`super::layout::Sheet`]; symbols
+//! are set with their subscripts (`P_{FTU}` is drawn as P with FTU lowered and smaller).
+//! One number format per quantity: errors, MPEs, U and zones in µm to the place of the
+//! second significant digit of the smallest U stated (1 to 3 decimals), lengths and
+//! coordinates in mm to 0.000001 (the probing report's [`mm6`]).
 
 use std::path::Path;
 
 use super::CertificateError;
-use super::flow::{Flow, signatures};
-use super::layout::{Align, BODY, GREY, MARGIN, MIN_SIZE};
-use super::pdf::{Doc, PAGE_H, PAGE_W, Weight};
+use super::layout::{Align, BODY, Sheet, fixed};
+use super::pdf::Weight;
 use crate::acceptance::cmm::CmmCertificate;
 use crate::acceptance::iso10360::TestResult;
 use crate::acceptance::probing::{Judged, ProbingResult};
-use crate::report::probing::{RESULT_HEADER, mm6, result_rows, symbols, um};
+use crate::report::probing::{RESULT_HEADER, mm6, result_rows_in, symbols};
 
 /// The input files, as given (printed where each part's results are).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -27,116 +28,35 @@ pub struct Sources {
     pub sphere: String,
 }
 
-/// Subscripts are set this much smaller, and lowered by this fraction of the size.
-const SUB_SCALE: f32 = 0.7;
-const SUB_DROP: f32 = 0.25;
+/// How µm are printed throughout one certificate (one format per quantity): to the place
+/// of the second significant digit of the smallest expanded uncertainty stated (the GUM,
+/// JCGM 100:2008 7.2.6), between 1 and 3 decimals; 3 decimals when no test states a U.
+#[derive(Debug, Clone, Copy)]
+struct Um(usize);
 
-/// `s` split into (text, subscript?) runs at `_{…}`.
-fn runs(s: &str) -> Vec<(&str, bool)> {
-    let mut out = Vec::new();
-    let mut rest = s;
-    while let Some(i) = rest.find("_{") {
-        if i > 0 {
-            out.push((&rest[..i], false));
-        }
-        let after = &rest[i + 2..];
-        let end = after.find('}').unwrap_or(after.len());
-        out.push((&after[..end], true));
-        rest = after.get(end + 1..).unwrap_or("");
-    }
-    if !rest.is_empty() {
-        out.push((rest, false));
-    }
-    out
-}
-
-fn rich_width(doc: &Doc, s: &str, size: f32, weight: Weight) -> f32 {
-    runs(s)
-        .iter()
-        .map(|&(t, sub)| doc.width(t, if sub { size * SUB_SCALE } else { size }, weight))
-        .sum()
-}
-
-/// Text with `_{…}` subscripts, its baseline's left end at (x, y).
-fn rich(doc: &mut Doc, x: f32, y: f32, size: f32, weight: Weight, s: &str) {
-    let mut x = x;
-    for (t, sub) in runs(s) {
-        let (sz, dy) = if sub {
-            (size * SUB_SCALE, -size * SUB_DROP)
+impl Um {
+    fn of(c: &CmmCertificate) -> Um {
+        let t5 = &c.iso10360_5;
+        let us = c
+            .iso10360_2
+            .measurements
+            .iter()
+            .map(|m| m.u_um)
+            .chain([t5.form.u_um, t5.size.u_um])
+            .chain(t5.location.as_ref().map(|l| l.u_um));
+        let smallest = us
+            .filter(|u| u.is_finite() && *u > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        if smallest.is_finite() {
+            Um((1 - smallest.log10().floor() as i64).clamp(1, 3) as usize)
         } else {
-            (size, 0.0)
-        };
-        doc.text(x, y + dy, sz, weight, t);
-        x += doc.width(t, sz, weight);
-    }
-}
-
-/// A table whose cells may hold subscripts; otherwise as the certificate's tables (bold
-/// header, columns as wide as their widest cell, set smaller until it fits the page).
-fn table(flow: &mut Flow, header: &[&str], rows: &[Vec<String>], align: &[Align], size: f32) {
-    let pad = 4.0;
-    let avail = PAGE_W - 2.0 * MARGIN;
-    let mut size = size;
-    let widths = loop {
-        let w: Vec<f32> = (0..header.len())
-            .map(|k| {
-                let head = rich_width(&flow.doc, header[k], size, Weight::Bold);
-                rows.iter()
-                    .map(|r| rich_width(&flow.doc, &r[k], size, Weight::Regular))
-                    .fold(head, f32::max)
-                    + 2.0 * pad
-            })
-            .collect();
-        if w.iter().sum::<f32>() <= avail || size <= MIN_SIZE {
-            break w;
+            Um(3)
         }
-        size = (size - 0.5).max(MIN_SIZE);
-    };
-    let row_h = size * 1.8;
-    let total: f32 = widths.iter().sum();
-    flow.need(row_h * (rows.len() as f32 + 1.0).min(6.0));
-    let draw = |flow: &mut Flow, cells: Vec<&str>, weight: Weight| {
-        flow.need(row_h);
-        flow.y -= row_h;
-        let mut x = MARGIN;
-        for (k, c) in cells.iter().enumerate() {
-            let base = flow.y + size * 0.55;
-            let cx = match align.get(k).copied().unwrap_or(Align::Left) {
-                Align::Left => x + pad,
-                Align::Right => x + widths[k] - pad - rich_width(&flow.doc, c, size, weight),
-            };
-            rich(&mut flow.doc, cx, base, size, weight, c);
-            x += widths[k];
-        }
-        flow.doc.polyline(
-            &[(MARGIN, flow.y), (MARGIN + total, flow.y)],
-            0.3,
-            GREY,
-            None,
-        );
-    };
-    draw(flow, header.to_vec(), Weight::Bold);
-    for r in rows {
-        draw(
-            flow,
-            r.iter().map(String::as_str).collect(),
-            Weight::Regular,
-        );
     }
-    flow.y -= size;
-}
 
-/// One line with `_{…}` subscripts (it must fit the width: no wrapping).
-fn rich_line(flow: &mut Flow, s: &str, size: f32) {
-    flow.need(size * 1.6);
-    flow.y -= size * 1.6;
-    rich(&mut flow.doc, MARGIN, flow.y, size, Weight::Regular, s);
-    flow.y -= size * 0.5;
-}
-
-fn new_page(flow: &mut Flow) {
-    flow.doc.new_page();
-    flow.y = PAGE_H - MARGIN;
+    fn f(self, v: f64) -> String {
+        fixed(v, self.0)
+    }
 }
 
 /// The row of the largest |E0| (its MPE and U), if any.
@@ -146,44 +66,27 @@ fn worst_e0(t: &TestResult) -> Option<&crate::acceptance::iso10360::Measurement>
         .max_by(|a, b| a.e0_um.abs().total_cmp(&b.e0_um.abs()))
 }
 
-fn judged_row(test: &str, sym: &str, name: &str, q: &Judged) -> Vec<String> {
+fn judged_row(test: &str, sym: &str, name: &str, q: &Judged, um: Um) -> Vec<String> {
     vec![
         test.to_string(),
         format!("{sym} {name}"),
-        um(q.value_um),
-        um(q.mpe_um),
-        um(q.u_um),
+        um.f(q.value_um),
+        um.f(q.mpe_um),
+        um.f(q.u_um),
         q.verdict.to_string(),
     ]
 }
 
 /// Page 1: who, what, and every judged quantity with its verdict.
-fn summary(flow: &mut Flow, c: &CmmCertificate) {
-    flow.y -= 16.0;
-    flow.doc.text(
-        MARGIN,
-        flow.y,
-        16.0,
-        Weight::Bold,
-        "CMM verification certificate",
-    );
-    flow.y -= 14.0;
-    flow.doc.text(
-        MARGIN,
-        flow.y,
-        BODY,
-        Weight::Regular,
-        "ISO 10360-2:2009 length measurement error · ISO 10360-5:2010 probing error · ISO/IEC 17025:2017 7.8.6",
-    );
-    flow.heading("Summary", 11.0);
+fn summary(sheet: &mut Sheet, c: &CmmCertificate, um: Um) {
+    sheet.heading("Summary", 11.0);
     let l = Align::Left;
     let r = Align::Right;
-    let fields = vec![
-        vec!["CMM".to_string(), c.cmm.clone().unwrap_or_default()],
-        vec!["Specification".to_string(), c.specification.clone()],
-        vec!["Decision rule".to_string(), rule_name(c)],
-    ];
-    table(flow, &["field", "value"], &fields, &[l, l], BODY);
+    sheet.fields(&[
+        ("CMM".to_string(), c.cmm.clone().unwrap_or_default()),
+        ("Specification".to_string(), c.specification.clone()),
+        ("Decision rule".to_string(), rule_name(c)),
+    ]);
     let t2 = &c.iso10360_2;
     let t5 = &c.iso10360_5;
     let mut rows = Vec::new();
@@ -194,9 +97,9 @@ fn summary(flow: &mut Flow, c: &CmmCertificate) {
                 "E_{{0}} largest |E_{{0}}| (L = {} mm)",
                 mm6(m.calibrated_mm)
             ),
-            um(m.e0_um),
-            um(m.mpe_um),
-            um(m.u_um),
+            um.f(m.e0_um),
+            um.f(m.mpe_um),
+            um.f(m.u_um),
             t2.verdict_e0.to_string(),
         ]);
     }
@@ -204,27 +107,26 @@ fn summary(flow: &mut Flow, c: &CmmCertificate) {
         rows.push(vec![
             "ISO 10360-2".to_string(),
             "R_{0} largest".to_string(),
-            um(t2.summary.max_r0_um),
-            um(mpl),
+            um.f(t2.summary.max_r0_um),
+            um.f(mpl),
             "—".to_string(),
             t2.verdict_r0.map_or("—".into(), |v| v.to_string()),
         ]);
     }
     let sym = symbols(t5.styli.len() > 1);
-    rows.push(judged_row("ISO 10360-5", sym[0].0, "form", &t5.form));
-    rows.push(judged_row("ISO 10360-5", sym[1].0, "size", &t5.size));
+    rows.push(judged_row("ISO 10360-5", sym[0].0, "form", &t5.form, um));
+    rows.push(judged_row("ISO 10360-5", sym[1].0, "size", &t5.size, um));
     if let Some(loc) = &t5.location {
         rows.push(vec![
             "ISO 10360-5".to_string(),
             format!("{} location", sym[2].0),
-            um(loc.value_um),
-            loc.mpe_um.map_or("—".into(), um),
-            um(loc.u_um),
+            um.f(loc.value_um),
+            loc.mpe_um.map_or("—".into(), |v| um.f(v)),
+            um.f(loc.u_um),
             loc.verdict.map_or("not judged".into(), |v| v.to_string()),
         ]);
     }
-    table(
-        flow,
+    sheet.table_sized(
         &[
             "test",
             "quantity",
@@ -237,15 +139,19 @@ fn summary(flow: &mut Flow, c: &CmmCertificate) {
         &[l, l, r, r, r, l],
         BODY,
     );
-    flow.paragraph(
+    sheet.paragraph(
         &format!(
             "ISO 10360-2:2009: {}. ISO 10360-5:2010: {}.",
             t2.verdict, t5.verdict
         ),
         BODY,
     );
-    flow.heading(&format!("Overall verdict: {}", c.verdict), 12.0);
-    flow.paragraph(
+    sheet.paragraph_weighted(
+        &format!("Overall verdict: {}", c.verdict),
+        12.0,
+        Weight::Bold,
+    );
+    sheet.paragraph(
         "The results of each test follow; the statement of conformity (ISO/IEC 17025:2017 \
          7.8.6.2) closes the certificate. U is the expanded uncertainty (k = 2).",
         BODY - 1.0,
@@ -260,23 +166,22 @@ fn rule_name(c: &CmmCertificate) -> String {
 }
 
 /// The length test: per position the largest |E0| with its MPE and verdict.
-fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
-    new_page(flow);
-    flow.heading("ISO 10360-2:2009 — length measurement error", 12.0);
-    flow.paragraph(
+fn length_part(sheet: &mut Sheet, t: &TestResult, source: &str, um: Um) {
+    sheet.new_page();
+    sheet.heading("ISO 10360-2:2009 — length measurement error", 12.0);
+    sheet.paragraph(
         &format!(
             "Test file: {source}. {} measurements in {} positions, {} test lengths.",
             t.summary.measurements, t.summary.positions, t.summary.gauges,
         ),
         BODY,
     );
-    rich_line(
-        flow,
+    sheet.rich_line(
         &format!(
             "MPE_{{E0}}(L) = {} µm, L in mm{}.",
             t.mpe.formula,
             t.mpl_r0_um
-                .map(|m| format!("; MPL_{{R0}} = {} µm", um(m)))
+                .map(|m| format!("; MPL_{{R0}} = {} µm", um.f(m)))
                 .unwrap_or_default()
         ),
         BODY,
@@ -294,16 +199,15 @@ fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
                 .max_by(|a, b| a.e0_um.abs().total_cmp(&b.e0_um.abs()));
             vec![
                 p.position.clone(),
-                um(p.max_abs_e0_um),
+                um.f(p.max_abs_e0_um),
                 worst.map_or("—".into(), |m| mm6(m.calibrated_mm)),
-                worst.map_or("—".into(), |m| um(m.mpe_um)),
-                worst.map_or("—".into(), |m| um(m.u_um)),
+                worst.map_or("—".into(), |m| um.f(m.mpe_um)),
+                worst.map_or("—".into(), |m| um.f(m.u_um)),
                 p.verdict.to_string(),
             ]
         })
         .collect();
-    table(
-        flow,
+    sheet.table_sized(
         &[
             "position",
             "largest |E_{0}| / µm",
@@ -316,8 +220,7 @@ fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
         &[l, r, r, r, r, l],
         BODY,
     );
-    rich_line(
-        flow,
+    sheet.rich_line(
         &format!(
             "E_{{0}} verdict: {}{}; part verdict: {}.",
             t.verdict_e0,
@@ -328,28 +231,28 @@ fn length_part(flow: &mut Flow, t: &TestResult, source: &str) {
         ),
         BODY,
     );
-    deviations(flow, &t.deviations);
+    deviations(sheet, &t.deviations);
 }
 
-fn deviations(flow: &mut Flow, d: &[String]) {
+fn deviations(sheet: &mut Sheet, d: &[String]) {
     if d.is_empty() {
-        flow.paragraph("Deviations from the standard's design: none.", BODY - 1.0);
+        sheet.paragraph("Deviations from the standard's design: none.", BODY - 1.0);
     } else {
-        flow.paragraph("Deviations from the standard's design:", BODY - 1.0);
+        sheet.paragraph("Deviations from the standard's design:", BODY - 1.0);
         for x in d {
-            flow.paragraph(&format!("• {x}"), BODY - 1.0);
+            sheet.paragraph(&format!("• {x}"), BODY - 1.0);
         }
     }
 }
 
 /// The probing test: the sphere, the three quantities, the styli.
-fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
-    new_page(flow);
-    flow.heading(
+fn probing_part(sheet: &mut Sheet, t: &ProbingResult, src: &Sources, um: Um) {
+    sheet.new_page();
+    sheet.heading(
         &format!("ISO 10360-5:2010 — probing error ({} test)", t.test),
         12.0,
     );
-    flow.paragraph(
+    sheet.paragraph(
         &format!(
             "Points: {}; sphere certificate: {}. {} points, {} stylus/styli.",
             src.probing,
@@ -362,9 +265,8 @@ fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
     let l = Align::Left;
     let r = Align::Right;
     let s = &t.sphere;
-    flow.heading("Test sphere", 10.0);
-    table(
-        flow,
+    sheet.heading("Test sphere", 10.0);
+    sheet.table_sized(
         &[
             "id",
             "D_{cal} / mm",
@@ -375,38 +277,36 @@ fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
         &[vec![
             s.id.clone().unwrap_or_else(|| "—".into()),
             mm6(s.diameter_mm),
-            um(s.u_diameter_um),
-            um(s.form_um),
-            um(s.u_form_um),
+            um.f(s.u_diameter_um),
+            um.f(s.form_um),
+            um.f(s.u_form_um),
         ]],
         &[l, r, r, r, r],
         BODY,
     );
-    flow.heading("Results", 10.0);
-    table(
-        flow,
+    sheet.heading("Results", 10.0);
+    sheet.table_sized(
         &RESULT_HEADER,
-        &result_rows(t),
+        &result_rows_in(t, &|v| um.f(v)),
         &[l, l, r, r, r, l, l],
         BODY,
     );
-    flow.paragraph(
+    sheet.paragraph(
         &format!(
             "Least-squares sphere of all points: centre ({}, {}, {}) mm, Ø {} mm, rms {} µm.",
             mm6(t.fit.centre_mm[0]),
             mm6(t.fit.centre_mm[1]),
             mm6(t.fit.centre_mm[2]),
             mm6(t.fit.diameter_mm),
-            um(t.fit.rms_um)
+            um.f(t.fit.rms_um)
         ),
         BODY - 1.0,
     );
-    rich_line(
-        flow,
+    sheet.rich_line(
         "U of form = √(F_{s}² + U(F_{s})² + U_{t,form}²), of size = √(U(D)² + U_{t,size}²), of location = U_{t,location} (k = 2).",
         BODY - 1.0,
     );
-    flow.heading("Styli (own fits; reported, not judged)", 10.0);
+    sheet.heading("Styli (own fits; reported, not judged)", 10.0);
     let rows: Vec<Vec<String>> = t
         .styli
         .iter()
@@ -417,13 +317,12 @@ fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
                 mm6(s.centre_mm[0]),
                 mm6(s.centre_mm[1]),
                 mm6(s.centre_mm[2]),
-                um(s.form_um),
-                um(s.size_um),
+                um.f(s.form_um),
+                um.f(s.size_um),
             ]
         })
         .collect();
-    table(
-        flow,
+    sheet.table_sized(
         &[
             "stylus",
             "points",
@@ -437,15 +336,15 @@ fn probing_part(flow: &mut Flow, t: &ProbingResult, src: &Sources) {
         &[l, r, r, r, r, r, r],
         BODY - 1.0,
     );
-    flow.paragraph(&format!("Part verdict: {}.", t.verdict), BODY);
-    deviations(flow, &t.deviations);
+    sheet.paragraph(&format!("Part verdict: {}.", t.verdict), BODY);
+    deviations(sheet, &t.deviations);
 }
 
 /// The statement of conformity (ISO/IEC 17025:2017 7.8.6.2).
-fn statement(flow: &mut Flow, c: &CmmCertificate, src: &Sources) {
-    new_page(flow);
-    flow.heading("Statement of conformity", 12.0);
-    flow.paragraph(
+fn statement(sheet: &mut Sheet, c: &CmmCertificate, src: &Sources) {
+    sheet.new_page();
+    sheet.heading("Statement of conformity", 12.0);
+    sheet.paragraph(
         &format!(
             "Applies to: the results of ISO 10360-2:2009 (length measurement error, test file \
              {}) and of ISO 10360-5:2010 (probing error, points {}, sphere {}) given in this \
@@ -460,11 +359,10 @@ fn statement(flow: &mut Flow, c: &CmmCertificate, src: &Sources) {
         ),
         BODY,
     );
-    flow.paragraph(&format!("Specification: {}", c.specification), BODY);
-    flow.paragraph(&c.statement, BODY);
+    sheet.paragraph(&format!("Specification: {}", c.specification), BODY);
+    sheet.paragraph(&c.statement, BODY);
     let l = Align::Left;
-    table(
-        flow,
+    sheet.table_sized(
         &["part", "verdict"],
         &[
             vec![
@@ -479,67 +377,30 @@ fn statement(flow: &mut Flow, c: &CmmCertificate, src: &Sources) {
         &[l, l],
         BODY,
     );
-    flow.heading(&format!("Overall verdict: {}", c.verdict), 11.0);
-}
-
-/// `CMM verification certificate · page i of n · errmap` at the foot of every page.
-fn footers(flow: &mut Flow) {
-    let pages = flow.doc.page_count();
-    for p in 0..pages {
-        let footer = format!(
-            "CMM verification certificate · page {} of {pages} · errmap",
-            p + 1
-        );
-        flow.doc.text_on(
-            p,
-            MARGIN,
-            MARGIN / 2.0,
-            BODY - 2.0,
-            Weight::Regular,
-            &footer,
-        );
-    }
+    sheet.paragraph_weighted(
+        &format!("Overall verdict: {}", c.verdict),
+        11.0,
+        Weight::Bold,
+    );
 }
 
 /// The certificate as PDF bytes.
 pub fn render(c: &CmmCertificate, src: &Sources) -> Result<Vec<u8>, CertificateError> {
-    let mut flow = Flow {
-        doc: Doc::new("CMM verification certificate (ISO 10360-2, ISO 10360-5)")?,
-        y: PAGE_H - MARGIN,
-    };
-    summary(&mut flow, c);
-    length_part(&mut flow, &c.iso10360_2, &src.length);
-    probing_part(&mut flow, &c.iso10360_5, src);
-    statement(&mut flow, c, src);
-    signatures(&mut flow);
-    footers(&mut flow);
-    Ok(flow.doc.finish()?)
+    let um = Um::of(c);
+    let mut sheet = Sheet::new(
+        "CMM verification certificate",
+        "ISO 10360-2:2009 length measurement error · ISO 10360-5:2010 probing error · ISO/IEC 17025:2017 7.8.6",
+    )?;
+    summary(&mut sheet, c, um);
+    length_part(&mut sheet, &c.iso10360_2, &src.length, um);
+    probing_part(&mut sheet, &c.iso10360_5, src, um);
+    statement(&mut sheet, c, src);
+    sheet.signatures();
+    Ok(sheet.finish("CMM verification certificate")?)
 }
 
 /// Writes the certificate to `path` (whole or not at all).
 pub fn write(path: &Path, c: &CmmCertificate, src: &Sources) -> Result<(), CertificateError> {
     let bytes = render(c, src)?;
     Ok(crate::report::write_bytes(path, &bytes)?)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn subscripts_split_into_runs() {
-        assert_eq!(runs("P_{FTU}"), vec![("P", false), ("FTU", true)]);
-        assert_eq!(
-            runs("E_{0} largest |E_{0}|"),
-            vec![
-                ("E", false),
-                ("0", true),
-                (" largest |E", false),
-                ("0", true),
-                ("|", false)
-            ]
-        );
-        assert_eq!(runs("plain"), vec![("plain", false)]);
-        assert_eq!(runs("x_{open"), vec![("x", false), ("open", true)]);
-    }
 }

@@ -2,20 +2,9 @@
 //! it applies to, the specification, the decision rule in words, per line a table —
 //! parameter, limits, value, U, acceptance zone, verdict — and the overall verdict.
 
-use super::layout::{Align, BODY, Decimals, Sheet, fixed};
+use super::layout::{Align, BODY, Decimals, Sheet, fixed, zone_words};
 use super::{CertificateData, line_name, session_name};
 use crate::acceptance::tolerance::Conformity;
-
-/// The zone [lo, hi] in words: `≤ 6.00`, `≥ −0.50`, `−0.50 … 0.50`.
-fn zone(lo: Option<f64>, hi: Option<f64>, num: &dyn Fn(f64) -> String) -> String {
-    match (lo, hi) {
-        (Some(l), Some(h)) if l > h => "empty (nothing can pass)".into(),
-        (Some(l), Some(h)) => format!("{} … {}", num(l), num(h)),
-        (None, Some(h)) => format!("≤ {}", num(h)),
-        (Some(l), None) => format!("≥ {}", num(l)),
-        (None, None) => "—".into(),
-    }
-}
 
 /// Draws the section.
 pub(super) fn section(flow: &mut Sheet, data: &CertificateData, c: &Conformity, dec: Decimals) {
@@ -57,10 +46,10 @@ pub(super) fn section(flow: &mut Sheet, data: &CertificateData, c: &Conformity, 
             .map(|p| {
                 vec![
                     p.parameter.to_string(),
-                    zone(p.lower_um, p.upper_um, &num),
+                    zone_words([p.lower_um, p.upper_um], &num),
                     num(p.value_um),
                     num(p.u_um),
-                    zone(p.acceptance_um[0], p.acceptance_um[1], &num),
+                    zone_words(p.acceptance_um, &num),
                     p.verdict.as_str().to_string(),
                 ]
             })

@@ -50,6 +50,18 @@ pub fn fixed(v: f64, decimals: usize) -> String {
     }
 }
 
+/// The zone [lo, hi] in words, its limits printed by `num`: `≤ 6.00`, `≥ −0.50`,
+/// `−0.50 … 0.50`, `—` without limits, and an empty zone said to be empty.
+pub fn zone_words(z: [Option<f64>; 2], num: &dyn Fn(f64) -> String) -> String {
+    match z {
+        [Some(l), Some(h)] if l > h => "empty (nothing can pass)".into(),
+        [Some(l), Some(h)] => format!("{} … {}", num(l), num(h)),
+        [None, Some(h)] => format!("≤ {}", num(h)),
+        [Some(l), None] => format!("≥ {}", num(l)),
+        [None, None] => "—".into(),
+    }
+}
+
 /// The decimals a quantity is printed to, the same wherever it appears.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Decimals {
@@ -72,6 +84,51 @@ impl Decimals {
             hpa: 1,
             rh: 1,
         }
+    }
+}
+
+/// Subscripts are set this much smaller, and lowered by this fraction of the size.
+const SUB_SCALE: f32 = 0.7;
+const SUB_DROP: f32 = 0.25;
+
+/// `s` split into (text, subscript?) runs at `_{…}`: `P_{FTU}` is P, then FTU lowered.
+fn runs(s: &str) -> Vec<(&str, bool)> {
+    let mut out = Vec::new();
+    let mut rest = s;
+    while let Some(i) = rest.find("_{") {
+        if i > 0 {
+            out.push((&rest[..i], false));
+        }
+        let after = &rest[i + 2..];
+        let end = after.find('}').unwrap_or(after.len());
+        out.push((&after[..end], true));
+        rest = after.get(end + 1..).unwrap_or("");
+    }
+    if !rest.is_empty() {
+        out.push((rest, false));
+    }
+    out
+}
+
+/// The width of `s` with its `_{…}` subscripts set smaller.
+fn rich_width(doc: &Doc, s: &str, size: f32, weight: Weight) -> f32 {
+    runs(s)
+        .iter()
+        .map(|&(t, sub)| doc.width(t, if sub { size * SUB_SCALE } else { size }, weight))
+        .sum()
+}
+
+/// Text with `_{…}` subscripts, its baseline's left end at (x, y).
+fn rich(doc: &mut Doc, x: f32, y: f32, size: f32, weight: Weight, s: &str) {
+    let mut x = x;
+    for (t, sub) in runs(s) {
+        let (sz, dy) = if sub {
+            (size * SUB_SCALE, -size * SUB_DROP)
+        } else {
+            (size, 0.0)
+        };
+        doc.text(x, y + dy, sz, weight, t);
+        x += doc.width(t, sz, weight);
     }
 }
 
@@ -141,6 +198,14 @@ impl Sheet {
         self.paragraph_weighted(s, size, Weight::Regular);
     }
 
+    /// One line with `_{…}` subscripts (it must fit the width: it is not wrapped).
+    pub fn rich_line(&mut self, s: &str, size: f32) {
+        self.need(size * 1.6);
+        self.y -= size * 1.6;
+        rich(&mut self.doc, MARGIN, self.y, size, Weight::Regular, s);
+        self.y -= size * 0.5;
+    }
+
     /// A paragraph in a given weight.
     pub fn paragraph_weighted(&mut self, s: &str, size: f32, weight: Weight) {
         let width = self.width();
@@ -188,7 +253,7 @@ impl Sheet {
     }
 
     /// A table: a bold header row (none when `header` is empty), then rows; columns as
-    /// wide as their widest cell. A table wider than the page is set smaller until it
+    /// wide as their widest cell; `_{…}` in a cell is set as a subscript. A table wider than the page is set smaller until it
     /// fits; a table that fits on a page is not split.
     pub fn table_sized(
         &mut self,
@@ -209,11 +274,11 @@ impl Sheet {
                 .map(|k| {
                     let head = header
                         .get(k)
-                        .map_or(0.0, |h| self.doc.width(h, size, Weight::Bold));
+                        .map_or(0.0, |h| rich_width(&self.doc, h, size, Weight::Bold));
                     rows.iter()
                         .map(|r| {
                             r.get(k)
-                                .map_or(0.0, |c| self.doc.width(c, size, Weight::Regular))
+                                .map_or(0.0, |c| rich_width(&self.doc, c, size, Weight::Regular))
                         })
                         .fold(head, f32::max)
                         + 2.0 * pad
@@ -237,8 +302,14 @@ impl Sheet {
             for (k, c) in cells.iter().enumerate() {
                 let base = s.y + size * 0.45;
                 match align.get(k).copied().unwrap_or(Align::Left) {
-                    Align::Left => s.doc.text(x + pad, base, size, weight, c),
-                    Align::Right => s.doc.text_right(x + widths[k] - pad, base, size, weight, c),
+                    Align::Left => rich(&mut s.doc, x + pad, base, size, weight, c),
+                    Align::Right if !c.contains("_{") => {
+                        s.doc.text_right(x + widths[k] - pad, base, size, weight, c)
+                    }
+                    Align::Right => {
+                        let left = x + widths[k] - pad - rich_width(&s.doc, c, size, weight);
+                        rich(&mut s.doc, left, base, size, weight, c)
+                    }
                 }
                 x += widths[k];
             }
@@ -293,6 +364,23 @@ impl Sheet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn subscripts_split_into_runs() {
+        assert_eq!(runs("P_{FTU}"), vec![("P", false), ("FTU", true)]);
+        assert_eq!(
+            runs("E_{0} largest |E_{0}|"),
+            vec![
+                ("E", false),
+                ("0", true),
+                (" largest |E", false),
+                ("0", true),
+                ("|", false)
+            ]
+        );
+        assert_eq!(runs("plain"), vec![("plain", false)]);
+        assert_eq!(runs("x_{open"), vec![("x", false), ("open", true)]);
+    }
 
     #[test]
     fn fixed_prints_no_negative_zero() {
