@@ -270,3 +270,35 @@ pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
     );
     Ok(cert)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The demo's CMM step judges the committed example test as the library's example call
+    /// does, joins it with the ISO 10360-2 example (indeterminate at 990 mm, as
+    /// reports/iso10360-5/README.md says) and writes both reports and the certificate.
+    #[test]
+    fn demo_step_verifies_the_example_cmm() -> Result<()> {
+        let dir = tempfile::tempdir()?;
+        let cert = demo_step(dir.path())?;
+        assert_eq!(
+            serde_json::to_value(&cert.iso10360_5)?,
+            serde_json::to_value(simulate::evaluate_example()?)?
+        );
+        assert_eq!(cert.iso10360_2.verdict.to_string(), "indeterminate");
+        assert_eq!(cert.verdict.to_string(), "indeterminate");
+        let a = dir.path().join("acceptance");
+        for f in [
+            "iso10360/report.md",
+            "iso10360-5/report.md",
+            "iso10360-5/sphere_map.png",
+            "cmm-certificate.pdf",
+        ] {
+            assert!(a.join(f).is_file(), "{f}");
+        }
+        let pdf = std::fs::read(a.join("cmm-certificate.pdf"))?;
+        assert!(pdf.starts_with(b"%PDF-"));
+        Ok(())
+    }
+}
