@@ -130,11 +130,24 @@ impl Md {
         self.nl()
     }
 
-    /// One table row: `| a | b |`, the cells as the caller formatted them.
+    /// One table row: `| a | b |`. A `|` inside a cell (an absolute value `|E0|`, a
+    /// file's own text) is written `\|` and a line break as a space, so that no cell's
+    /// text can split or end the row.
     pub(crate) fn row<T: Display>(&mut self, cells: impl IntoIterator<Item = T>) -> &mut Self {
         self.s.push('|');
         for c in cells {
-            self.raw(format_args!(" {c} |"));
+            let text = c.to_string();
+            let mut cell = String::with_capacity(text.len() + 2);
+            let mut escaped = false;
+            for ch in text.chars() {
+                match ch {
+                    '|' if !escaped => cell.push_str("\\|"),
+                    '\n' | '\r' => cell.push(' '),
+                    _ => cell.push(ch),
+                }
+                escaped = ch == '\\' && !escaped;
+            }
+            self.raw(format_args!(" {cell} |"));
         }
         self.nl()
     }
@@ -197,9 +210,12 @@ mod tests {
     }
 
     #[test]
-    fn cells_are_written_as_given() {
+    fn a_bar_or_line_break_in_a_cell_cannot_split_the_row() {
         let mut md = Md::new();
-        md.row(["a|b"]);
-        assert_eq!(md.finish(), "| a|b |\n");
+        md.row(["a|b", "largest |E0|", "x\\|y", "two\nlines"]);
+        assert_eq!(
+            md.finish(),
+            "| a\\|b | largest \\|E0\\| | x\\|y | two lines |\n"
+        );
     }
 }
