@@ -13,11 +13,11 @@ use std::str::FromStr;
 use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
+use errmap::controller::program::{self as part_program, ProgramSyntax};
 use errmap::controller::{DIALECTS, Dialect as ControllerDialect, LinuxCncCompType};
 use errmap::export::Ends;
 use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
-use errmap::sim::program::Dialect;
 use errmap::volumetric::MAX_DEGREE;
 use errmap::volumetric::{Component, Topology};
 
@@ -33,9 +33,11 @@ pub(crate) fn axis() -> impl TypedValueParser<Value = Axis> {
         .try_map(|s| s.parse::<Axis>())
 }
 
-/// `--dialect` of plan: a part-program dialect from the library's list.
-pub(crate) fn dialect() -> impl TypedValueParser<Value = Dialect> {
-    PossibleValuesParser::new(Dialect::ALL.map(Dialect::name)).try_map(|s| s.parse::<Dialect>())
+/// `--dialect` of plan and volumetric program: a controller of the registry that writes
+/// part programs.
+pub(crate) fn dialect() -> impl TypedValueParser<Value = &'static dyn ProgramSyntax> {
+    PossibleValuesParser::new(part_program::dialects().map(|p| p.name()))
+        .try_map(|s| part_program::dialect(&s))
 }
 
 /// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).

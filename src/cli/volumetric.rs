@@ -41,9 +41,9 @@ pub(crate) struct ProgramArgs {
     /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
     #[arg(long)]
     pub plan: PathBuf,
-    /// linuxcnc | fanuc | siemens | heidenhain
-    #[arg(long, default_value = "linuxcnc", value_parser = super::values::dialect())]
-    pub dialect: errmap::sim::program::Dialect,
+    /// The controller whose part-program syntax the program is written in.
+    #[arg(long, default_value = errmap::controller::program::default_dialect().name(), value_parser = super::values::dialect())]
+    pub dialect: &'static dyn errmap::controller::program::ProgramSyntax,
     /// The part program to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -245,7 +245,7 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
 }
 
 fn program_cmd(a: ProgramArgs) -> Result<()> {
-    use errmap::sim::program::lines::render_lines;
+    use errmap::controller::program::render_lines;
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("--plan", &a.plan)])?;
     let plan = PlanFile::read(&a.plan)?;
     let program = plan.lines_program(&a.plan.display().to_string());
@@ -254,7 +254,7 @@ fn program_cmd(a: ProgramArgs) -> Result<()> {
     eprintln!(
         "volumetric program: {} lines in the {} dialect → {}",
         program.lines.len(),
-        a.dialect,
+        a.dialect.name(),
         a.out.display()
     );
     Ok(())

@@ -69,7 +69,28 @@
 //! the one FANUC controls commonly punch for pitch error data, but it was not confirmed
 //! in the sources consulted: compare it with a file punched from the target control
 //! before loading.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Words used (FANUC Series 0i-MODEL F Operator's Manual, B-64604EN, part II
+//! "Programming": "Dwell (G04)", "Inch/metric conversion (G20, G21)", "Feed functions")
+//!
+//! * `%` opens and closes the file for transfer; `O….` is the program number
+//!   ([`PROGRAM_NUMBER`], 1 … 9999; 8000 … 9999 are often edit-protected by parameter 3202).
+//! * `G21` mm, `G90` absolute, `G94` feed per minute; `G01 X… F…` a feed move, F in mm/min.
+//! * **Every coordinate is written with a decimal point.** Without one, a Fanuc reads the
+//!   number in least input increments (IS-B: `X10` is 0.010 mm) unless pocket-calculator
+//!   decimal input (parameter 3401#0 DPI) is set, so `X10.000` is the only unambiguous form.
+//! * `G04 P…` dwell: **P is an integer number of milliseconds** (decimal point not
+//!   permitted; 1 … 99 999 999, i.e. at most 99 999.999 s). `G04 X…` takes seconds with a
+//!   decimal point, but X's reading depends on the same DPI parameter on some models and on
+//!   G95 (revolutions), while an integer P in G94 is always ms — so errmap writes P, the
+//!   dwell rounded to 1 ms. The same table of ranges is in Siemens' ISO-dialect manual for
+//!   the 840D (SINUMERIK ISO Milling, 04.07, §3.3.1 "Dwell (G04)"), which mimics Fanuc.
+//! * `( … )` comments (upper-case letters and digits are safe on every model); `M30` ends
+//!   the program and rewinds.
 
+use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move};
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::{Text, number};
 use super::{
@@ -831,6 +852,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Fanuc {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
     fn name(&self) -> &'static str {
         "fanuc"
     }
@@ -868,5 +892,77 @@ impl Dialect for Fanuc {
                 ..s.fanuc
             },
         })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Part programs
+
+/// The program number written (`O0230`, after ISO 230).
+pub const PROGRAM_NUMBER: u32 = 230;
+
+/// The largest `G04 P` (ms).
+pub const MAX_DWELL_MS: u64 = 99_999_999;
+
+impl ProgramSyntax for Fanuc {
+    fn name(&self) -> &'static str {
+        Dialect::name(self)
+    }
+    fn extension(&self) -> &'static str {
+        "nc"
+    }
+    /// Upper case, ASCII letters, digits, spaces and `.,-+=:/` only (no parentheses).
+    fn comment(&self, text: &str) -> String {
+        let words = text
+            .to_ascii_uppercase()
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || " .,-+=:/".contains(c) {
+                    c
+                } else {
+                    ' '
+                }
+            })
+            .collect::<String>();
+        format!(
+            "({})",
+            words.split_whitespace().collect::<Vec<_>>().join(" ")
+        )
+    }
+    fn begin(&self, kind: ProgramKind) -> Vec<String> {
+        vec![
+            "%".into(),
+            format!("O{PROGRAM_NUMBER:04} (ERRMAP {})", kind.title()),
+        ]
+    }
+    fn setup(&self) -> Option<&'static str> {
+        Some("G21 G90 G94")
+    }
+    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
+        iso_move("G01", axes, feed)
+    }
+    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
+        let ms = (dwell_s * 1000.0).round();
+        if ms > MAX_DWELL_MS as f64 {
+            return Err(ProgramError::DwellTooLong {
+                dialect: ProgramSyntax::name(self),
+                dwell_s,
+                max_s: MAX_DWELL_MS as f64 / 1000.0,
+            });
+        }
+        if ms < 1.0 {
+            return Err(ProgramError::DwellTooShort {
+                dialect: ProgramSyntax::name(self),
+                dwell_s,
+                min_s: 0.001,
+            });
+        }
+        Ok(vec![format!("G04 P{}", ms as u64)])
+    }
+    fn stop(&self) -> &'static str {
+        "M00"
+    }
+    fn end(&self, _: ProgramKind) -> Vec<String> {
+        vec!["M30".into(), "%".into()]
     }
 }

@@ -60,6 +60,7 @@ pub mod heidenhain;
 pub mod isg;
 pub mod job;
 pub mod linuxcnc;
+pub mod program;
 pub mod read;
 pub mod siemens;
 pub mod text;
@@ -536,6 +537,11 @@ pub trait Dialect: Sync {
         settings: &TableSettings,
         bidirectional: bool,
     ) -> Result<ExportFormat, SettingsError>;
+    /// The dialect's part-program syntax for test plans and campaigns of lines, where
+    /// errmap writes programs for this controller.
+    fn program(&self) -> Option<&dyn program::ProgramSyntax> {
+        None
+    }
 }
 
 /// The registry: every controller dialect errmap writes, reads and updates, in the order

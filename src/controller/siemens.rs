@@ -57,7 +57,25 @@
 //! modifies the axis' position actual value, so a positive value makes the axis move in
 //! the negative direction (SINUMERIK 808D Function Manual 01/2017, "Leadscrew error
 //! compensation"). The table therefore holds c, in mm.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Words used (SINUMERIK 840D sl / 828D Programming Manual "Fundamentals",
+//! 6FC5398-1BP40-xBA0: "Dwell time (G4)", "Metric/inch dimensions (G70/G71)",
+//! "Feedrate (G93, G94, G95, F…)", "Exact stop (G60)")
+//!
+//! * `G71` mm, `G90` absolute, `G94` feed in mm/min, `G60` exact stop (modal: every
+//!   block ends at rest in the fine window, no velocity blending).
+//! * `G1 X… F…` a feed move, F mm/min.
+//! * `G4 F…` dwell, **F in seconds** (`G4 S…` would be spindle revolutions). G4 must be in
+//!   a block of its own; the F in a G4 block applies only to the dwell, the programmed
+//!   feed stays in force afterwards.
+//! * `;` comments; `M30` ends the program.
+//!
+//! Positions are written with 3 decimals: the default input resolution MD10200
+//! `INT_INCR_PER_MM` is 1000 (0.001 mm).
 
+use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
@@ -555,6 +573,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Siemens {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
     fn name(&self) -> &'static str {
         "siemens"
     }
@@ -601,5 +622,35 @@ impl Dialect for Siemens {
                 max_points,
             }
         })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Part programs
+
+impl ProgramSyntax for Siemens {
+    fn name(&self) -> &'static str {
+        Dialect::name(self)
+    }
+    fn extension(&self) -> &'static str {
+        "mpf"
+    }
+    fn comment(&self, text: &str) -> String {
+        format!("; {text}")
+    }
+    fn setup(&self) -> Option<&'static str> {
+        Some("G71 G90 G94 G60")
+    }
+    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
+        iso_move("G1", axes, feed)
+    }
+    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
+        Ok(vec![format!("G4 F{}", seconds3(dwell_s))])
+    }
+    fn stop(&self) -> &'static str {
+        "M0"
+    }
+    fn end(&self, _: ProgramKind) -> Vec<String> {
+        vec!["M30".into()]
     }
 }
