@@ -57,7 +57,7 @@ use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds
 use super::read::{At, TablePoint, check_point};
 use super::text::{Text, number};
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
+    AxisKind, AxisTables, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
     TableSettings, Value, ValueUnit,
 };
 use crate::export::{ExportError, Sampled, fmt_mm};
@@ -208,6 +208,16 @@ pub struct LinuxCnc;
 impl Dialect for LinuxCnc {
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
+    }
+    fn axis_tables(&self) -> Option<AxisTables> {
+        Some(AxisTables {
+            format: |_| ExportFormat::LinuxCnc {
+                comp_type: LinuxCncCompType::ActualPosition,
+            },
+            extension: "comp",
+            about: "A LinuxCNC COMP_FILE of type 0 (the positions actually reached)",
+            summary: "LinuxCNC COMP_FILE type 0",
+        })
     }
     fn name(&self) -> &'static str {
         "linuxcnc"

@@ -79,14 +79,34 @@ use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, AxisTables, Dialect, DialectOption, ExportFormat, Limits, OptionValue, SettingsError,
+    Sign, Spacing, TableFormat, TableSettings, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled, fmt_mm, fmt_point};
 
 /// How the limit messages name this controller's table.
 pub const LABEL: &str = "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)";
+
+/// Siemens' settings: the LEC table's machine axis, the first of the two CEC tables.
+static OPTIONS: [DialectOption; 2] = [
+    DialectOption {
+        name: "siemens-axis",
+        help: "Siemens machine-axis name, e.g. X1",
+        default: Some("X1"),
+        parse: |s| {
+            check_axis_name(s)?;
+            Ok(OptionValue::Text(s.to_string()))
+        },
+    },
+    DialectOption {
+        name: "siemens-table",
+        help: "Siemens --bidirectional: the first of the two CEC tables (positive direction; the \
+               next one is the negative direction). The machine axis is AX<--axis-number>",
+        default: Some("0"),
+        parse: super::options::count,
+    },
+];
 
 /// The SINUMERIK 808D's LEC table size (N = 0…199). On the 840D sl the limit is the
 /// axis' MD38000 `MM_ENC_COMP_MAX_POINTS`, which must be read from the machine.
@@ -576,6 +596,20 @@ impl Dialect for Siemens {
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }
+    fn options(&self) -> &'static [DialectOption] {
+        &OPTIONS
+    }
+    fn axis_tables(&self) -> Option<AxisTables> {
+        Some(AxisTables {
+            format: |axis| ExportFormat::Siemens {
+                axis_name: format!("{}1", axis.upper()),
+                max_points: SIEMENS_808D_MAX_POINTS,
+            },
+            extension: "spf",
+            about: "A SINUMERIK 840D sl LEC/MSEC program for machine axes X1, Y1, Z1",
+            summary: "SINUMERIK LEC/MSEC",
+        })
+    }
     fn name(&self) -> &'static str {
         "siemens"
     }
@@ -613,12 +647,12 @@ impl Dialect for Siemens {
         Ok(if bidirectional {
             ExportFormat::SiemensCec {
                 axis_number: s.axis_number(),
-                first_table: s.siemens_table,
+                first_table: s.options.count(OPTIONS[1].name).unwrap_or(0),
                 max_points,
             }
         } else {
             ExportFormat::Siemens {
-                axis_name: s.siemens_axis.clone(),
+                axis_name: s.options.text(OPTIONS[0].name).unwrap_or("X1").to_string(),
                 max_points,
             }
         })

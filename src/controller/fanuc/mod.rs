@@ -90,12 +90,16 @@
 //! * `( … )` comments (upper-case letters and digits are safe on every model); `M30` ends
 //!   the program and rewinds.
 
-use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move};
+mod program;
+pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
+
+use super::options;
+use super::program::ProgramSyntax;
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::{Text, number};
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, Dialect, DialectOption, ExportFormat, Limits, SettingsError, Sign, Spacing,
+    TableFormat, TableSettings, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled};
@@ -143,6 +147,66 @@ impl Default for FanucSpec {
             max_value: FANUC_DEFAULT_MAX_VALUE,
             max_point_number: FANUC_MAX_POINT_NUMBER,
             negative_start: None,
+        }
+    }
+}
+
+/// FANUC's settings (the command line's flags), in [`FanucSpec`]'s order.
+static OPTIONS: [DialectOption; 6] = [
+    DialectOption {
+        name: "fanuc-reference-number",
+        help: "FANUC 3620, the compensation point number of the reference position --reference \
+               (default: the smallest that fits, so the most negative point is 0)",
+        default: None,
+        parse: options::number,
+    },
+    DialectOption {
+        name: "detection-unit-um",
+        help: "FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C)",
+        default: Some("1"),
+        parse: options::positive,
+    },
+    DialectOption {
+        name: "magnification",
+        help: "FANUC 3623, the pitch error compensation magnification",
+        default: Some("1"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-max-value",
+        help: "FANUC: the largest |value| per compensation point the series accepts",
+        default: Some("7"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-max-point",
+        help: "FANUC: the highest compensation point number of the control",
+        default: Some("1023"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-negative-start",
+        help: "FANUC 3626 of a bidirectional table (default: right after 3622)",
+        default: None,
+        parse: options::number,
+    },
+];
+
+impl FanucSpec {
+    /// The spec `settings` give: their axis number and reference, and FANUC's own
+    /// settings ([`OPTIONS`]; the defaults where none is given).
+    pub fn from_settings(s: &TableSettings) -> Self {
+        let o = &s.options;
+        let d = FanucSpec::default();
+        FanucSpec {
+            axis_number: s.axis_number(),
+            reference_number: o.number(OPTIONS[0].name),
+            reference_mm: s.reference_mm,
+            detection_unit_um: o.real(OPTIONS[1].name).unwrap_or(d.detection_unit_um),
+            magnification: o.number(OPTIONS[2].name).unwrap_or(d.magnification),
+            max_value: o.number(OPTIONS[3].name).unwrap_or(d.max_value),
+            max_point_number: o.number(OPTIONS[4].name).unwrap_or(d.max_point_number),
+            negative_start: o.number(OPTIONS[5].name),
         }
     }
 }
@@ -855,6 +919,9 @@ impl Dialect for Fanuc {
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }
+    fn options(&self) -> &'static [DialectOption] {
+        &OPTIONS
+    }
     fn name(&self) -> &'static str {
         "fanuc"
     }
@@ -887,82 +954,7 @@ impl Dialect for Fanuc {
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         Ok(ExportFormat::Fanuc {
-            spec: FanucSpec {
-                axis_number: s.axis_number(),
-                ..s.fanuc
-            },
+            spec: FanucSpec::from_settings(s),
         })
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// Part programs
-
-/// The program number written (`O0230`, after ISO 230).
-pub const PROGRAM_NUMBER: u32 = 230;
-
-/// The largest `G04 P` (ms).
-pub const MAX_DWELL_MS: u64 = 99_999_999;
-
-impl ProgramSyntax for Fanuc {
-    fn name(&self) -> &'static str {
-        Dialect::name(self)
-    }
-    fn extension(&self) -> &'static str {
-        "nc"
-    }
-    /// Upper case, ASCII letters, digits, spaces and `.,-+=:/` only (no parentheses).
-    fn comment(&self, text: &str) -> String {
-        let words = text
-            .to_ascii_uppercase()
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || " .,-+=:/".contains(c) {
-                    c
-                } else {
-                    ' '
-                }
-            })
-            .collect::<String>();
-        format!(
-            "({})",
-            words.split_whitespace().collect::<Vec<_>>().join(" ")
-        )
-    }
-    fn begin(&self, kind: ProgramKind) -> Vec<String> {
-        vec![
-            "%".into(),
-            format!("O{PROGRAM_NUMBER:04} (ERRMAP {})", kind.title()),
-        ]
-    }
-    fn setup(&self) -> Option<&'static str> {
-        Some("G21 G90 G94")
-    }
-    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
-        iso_move("G01", axes, feed)
-    }
-    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
-        let ms = (dwell_s * 1000.0).round();
-        if ms > MAX_DWELL_MS as f64 {
-            return Err(ProgramError::DwellTooLong {
-                dialect: ProgramSyntax::name(self),
-                dwell_s,
-                max_s: MAX_DWELL_MS as f64 / 1000.0,
-            });
-        }
-        if ms < 1.0 {
-            return Err(ProgramError::DwellTooShort {
-                dialect: ProgramSyntax::name(self),
-                dwell_s,
-                min_s: 0.001,
-            });
-        }
-        Ok(vec![format!("G04 P{}", ms as u64)])
-    }
-    fn stop(&self) -> &'static str {
-        "M00"
-    }
-    fn end(&self, _: ProgramKind) -> Vec<String> {
-        vec!["M30".into(), "%".into()]
     }
 }
