@@ -11,7 +11,7 @@ use errmap::interp::{DEFAULT_FUZZY_SIGMA, MethodName};
 use super::values::{
     CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
     at_least_two, axis, baud, bench_points, coordinate, fuzzy_width, kernel, length, method_name,
-    positive, probability, seconds, siemens_axis, trials,
+    positive, probability, seconds, trials,
 };
 
 #[derive(Debug, Args)]
@@ -75,13 +75,10 @@ pub(crate) struct ExportArgs {
     /// --existing: print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
-    /// Siemens machine-axis name, e.g. X1.
-    #[arg(long, default_value = "X1", value_parser = siemens_axis)]
-    pub siemens_axis: String,
-    /// Siemens --bidirectional: the first of the two CEC tables (positive direction; the
-    /// next one is the negative direction). The machine axis is AX<--axis-number>.
-    #[arg(long, default_value_t = 0)]
-    pub siemens_table: usize,
+    /// The settings each dialect declares for its tables (`--siemens-axis`,
+    /// `--fanuc-max-value`, …), made from the registry.
+    #[command(flatten)]
+    pub dialect_options: super::values::DialectOptionArgs,
     /// The control's table size: Siemens MD38000 MM_ENC_COMP_MAX_POINTS (default 200, the
     /// 808D), HEIDENHAIN entries per .COM (256), ISG P-COMP-00059 kw.ssfk.max_points (1500).
     #[arg(long, value_parser = at_least_two)]
@@ -97,25 +94,6 @@ pub(crate) struct ExportArgs {
     /// HEIDENHAIN table name (default: <axis name>.COM).
     #[arg(long)]
     pub table_name: Option<String>,
-    /// FANUC 3620, the compensation point number of the reference position --reference
-    /// (default: the smallest that fits, so the most negative point is 0).
-    #[arg(long)]
-    pub fanuc_reference_number: Option<u32>,
-    /// FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C).
-    #[arg(long, default_value_t = 1.0, value_parser = positive)]
-    pub detection_unit_um: f64,
-    /// FANUC 3623, the pitch error compensation magnification.
-    #[arg(long, default_value_t = 1)]
-    pub magnification: u32,
-    /// FANUC: the largest |value| per compensation point the series accepts.
-    #[arg(long, default_value_t = errmap::controller::fanuc::FANUC_DEFAULT_MAX_VALUE)]
-    pub fanuc_max_value: u32,
-    /// FANUC: the highest compensation point number of the control.
-    #[arg(long, default_value_t = errmap::controller::FANUC_MAX_POINT_NUMBER)]
-    pub fanuc_max_point: u32,
-    /// FANUC 3626 of a bidirectional table (default: right after 3622).
-    #[arg(long)]
-    pub fanuc_negative_start: Option<u32>,
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]
     pub forbid_extrapolation: bool,

@@ -160,7 +160,7 @@ fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
             "--format csv needs --map target=COL,reference=COL (or error=COL with --error-sign)",
         ));
     };
-    let map = ColumnMap::parse(map).map_err(guard::usage)?;
+    let map = ColumnMap::parse(map).map_err(|e| guard::usage(e.to_string()))?;
     if map.error.is_some() && a.error_sign.is_none() {
         return Err(guard::usage(
             "--map error=… needs --error-sign reference-minus-indicated|indicated-minus-reference \

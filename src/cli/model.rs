@@ -12,8 +12,8 @@ use errmap::table::{ErrorPoint, ErrorTable};
 use super::args::*;
 use errmap::base::FileOp;
 use errmap::base::io_err;
+use errmap::controller::TableSettings;
 use errmap::controller::job::{self, ExportJob, JobError, Output, Placement, Source, Written};
-use errmap::controller::{FanucSpec, TableSettings};
 use errmap::export::{Extrapolation, LineSpec, VolumeSpec};
 
 use super::values::{ExportFormatArg, OrderArg, OrdersArg};
@@ -376,18 +376,8 @@ fn table_settings(a: &ExportArgs) -> Result<TableSettings> {
         table_name: a.table_name.clone(),
         units: super::import::length_unit(a.units.as_deref())?,
         comp_type: a.comp_type.map(Into::into),
-        siemens_axis: a.siemens_axis.clone(),
-        siemens_table: a.siemens_table,
-        fanuc: FanucSpec {
-            axis_number: a.axis_number.unwrap_or(a.axis.index() as u32 + 1),
-            reference_number: a.fanuc_reference_number,
-            reference_mm: a.reference,
-            detection_unit_um: a.detection_unit_um,
-            magnification: a.magnification,
-            max_value: a.fanuc_max_value,
-            max_point_number: a.fanuc_max_point,
-            negative_start: a.fanuc_negative_start,
-        },
+        reference_mm: a.reference,
+        options: a.dialect_options.0.clone(),
     })
 }
 

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::Args;
 use errmap::base::Axis;
-use errmap::sim::program::{self, Dialect, ProgramOptions};
+use errmap::controller::program::{self, ProgramOptions, ProgramSyntax};
 use errmap::sim::{PlanField, Spacing, TestPlan, TestPlanConfig};
 
 use super::values;
@@ -58,9 +58,9 @@ pub(crate) struct PlanArgs {
     /// The part program to write.
     #[arg(long)]
     pub program: Option<PathBuf>,
-    /// linuxcnc | fanuc | siemens | heidenhain
-    #[arg(long, default_value = "linuxcnc", value_parser = values::dialect())]
-    pub dialect: Dialect,
+    /// The controller whose part-program syntax --program is written in.
+    #[arg(long, default_value = program::default_dialect().name(), value_parser = values::dialect())]
+    pub dialect: &'static dyn ProgramSyntax,
     /// LinuxCNC: switch this motion digital output on at each dwell (M64/M65 P n).
     #[arg(long)]
     pub mark_output: Option<u32>,
@@ -133,7 +133,7 @@ pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
     );
     if let (Some(path), Some(text)) = (&a.program, text) {
         super::guard::write_file(path, text.as_bytes())?;
-        eprintln!("plan: {dialect} program → {}", path.display());
+        eprintln!("plan: {} program → {}", dialect.name(), path.display());
     }
     Ok(())
 }

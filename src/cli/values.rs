@@ -13,11 +13,11 @@ use std::str::FromStr;
 use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
+use errmap::controller::program::{self as part_program, ProgramSyntax};
 use errmap::controller::{DIALECTS, Dialect as ControllerDialect, LinuxCncCompType};
 use errmap::export::Ends;
 use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
-use errmap::sim::program::Dialect;
 use errmap::volumetric::MAX_DEGREE;
 use errmap::volumetric::{Component, Topology};
 
@@ -33,9 +33,11 @@ pub(crate) fn axis() -> impl TypedValueParser<Value = Axis> {
         .try_map(|s| s.parse::<Axis>())
 }
 
-/// `--dialect` of plan: a part-program dialect from the library's list.
-pub(crate) fn dialect() -> impl TypedValueParser<Value = Dialect> {
-    PossibleValuesParser::new(Dialect::ALL.map(Dialect::name)).try_map(|s| s.parse::<Dialect>())
+/// `--dialect` of plan and volumetric program: a controller of the registry that writes
+/// part programs.
+pub(crate) fn dialect() -> impl TypedValueParser<Value = &'static dyn ProgramSyntax> {
+    PossibleValuesParser::new(part_program::dialects().map(|p| p.name()))
+        .try_map(|s| part_program::dialect(&s))
 }
 
 /// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).
@@ -140,13 +142,6 @@ pub(crate) fn point3(s: &str) -> Result<[f64; 3], String> {
             v.len()
         )),
     }
-}
-
-/// `--siemens-axis`: a SINUMERIK machine-axis name (checked by the exporter's rule, so
-/// that a bad name is a usage error before any table is read).
-pub(crate) fn siemens_axis(s: &str) -> Result<String, String> {
-    errmap::controller::siemens::check_axis_name(s).map_err(|e| e.to_string())?;
-    Ok(s.to_string())
 }
 
 /// volumetric `--topology`: a permutation of XYZ.
@@ -418,6 +413,78 @@ pub(crate) fn export_format() -> impl TypedValueParser<Value = ExportFormatArg> 
             errmap::controller::dialect(name).map_or(ExportFormatArg::Csv, ExportFormatArg::Table)
         }
     })
+}
+
+/// `--format` of `volumetric export --axis-tables`: errmap's CSV line, or a dialect's
+/// 1-D tables ([`errmap::controller::AxisTables`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum AxisTableFormat {
+    Csv,
+    Table(errmap::controller::AxisTables),
+}
+
+/// `--format` of `volumetric export` (see [`AxisTableFormat`]): csv and the dialects of
+/// the registry that write axis tables.
+pub(crate) fn axis_table_format() -> impl TypedValueParser<Value = AxisTableFormat> {
+    let mut values =
+        vec![PossibleValue::new("csv").help("`x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`")];
+    values.extend(DIALECTS.iter().filter_map(|d| {
+        d.axis_tables()
+            .map(|t| PossibleValue::new(d.name()).help(t.about))
+    }));
+    PossibleValuesParser::new(values).map(|s| {
+        match errmap::controller::dialect(&s).and_then(|d| d.axis_tables()) {
+            Some(t) => AxisTableFormat::Table(t),
+            None => AxisTableFormat::Csv,
+        }
+    })
+}
+
+/// The settings every dialect declares ([`errmap::controller::dialect_options`]), one
+/// flag each, with the dialect's help, default and parser: clap gets them from the
+/// registry, so a dialect's settings are spelled only in its file.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct DialectOptionArgs(pub errmap::controller::DialectOptions);
+
+impl clap::FromArgMatches for DialectOptionArgs {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut options = errmap::controller::DialectOptions::default();
+        for o in errmap::controller::dialect_options() {
+            if let Some(v) = m.get_one::<errmap::controller::OptionValue>(o.name) {
+                options.set(o.name, v.clone());
+            }
+        }
+        Ok(DialectOptionArgs(options))
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for DialectOptionArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        errmap::controller::dialect_options()
+            .into_iter()
+            .fold(cmd, |cmd, o| {
+                let value_name: &'static str =
+                    Box::leak(o.name.to_uppercase().replace('-', "_").into_boxed_str());
+                let arg = clap::Arg::new(o.name)
+                    .long(o.name)
+                    .help(o.help)
+                    .value_name(value_name)
+                    .value_parser(move |s: &str| (o.parse)(s));
+                cmd.arg(match o.default {
+                    Some(d) => arg.default_value(d),
+                    None => arg,
+                })
+            })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
 }
 
 /// `--comp-type` of the LinuxCNC format.

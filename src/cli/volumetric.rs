@@ -41,9 +41,9 @@ pub(crate) struct ProgramArgs {
     /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
     #[arg(long)]
     pub plan: PathBuf,
-    /// linuxcnc | fanuc | siemens | heidenhain
-    #[arg(long, default_value = "linuxcnc", value_parser = super::values::dialect())]
-    pub dialect: errmap::sim::program::Dialect,
+    /// The controller whose part-program syntax the program is written in.
+    #[arg(long, default_value = errmap::controller::program::default_dialect().name(), value_parser = super::values::dialect())]
+    pub dialect: &'static dyn errmap::controller::program::ProgramSyntax,
     /// The part program to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -156,25 +156,14 @@ pub(crate) struct ExportArgs {
     #[arg(long)]
     pub axis_tables: Option<PathBuf>,
     /// Format of the 1-D tables.
-    #[arg(long, value_enum, default_value = "csv")]
-    pub format: AxisTableFormat,
+    #[arg(long, default_value = "csv", value_parser = values::axis_table_format())]
+    pub format: values::AxisTableFormat,
     /// The line the 1-D tables run along, through this point (mm): X,Y,Z.
     #[arg(long, default_value = "0,0,0", allow_hyphen_values = true, value_parser = values::point3)]
     pub at: [f64; 3],
     /// Positions per axis, evenly spaced over the identified range.
     #[arg(long, default_value_t = 21, value_parser = values::at_least_two)]
     pub points: usize,
-}
-
-/// The 1-D formats of `volumetric export --axis-tables`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum AxisTableFormat {
-    /// `x_mm,y_mm,z_mm,e_um,comp_um,extrapolated`.
-    Csv,
-    /// A LinuxCNC COMP_FILE of type 0 (the positions actually reached).
-    Linuxcnc,
-    /// A SINUMERIK 840D sl LEC/MSEC program for machine axes X1, Y1, Z1.
-    Siemens,
 }
 
 pub(crate) fn volumetric_cmd(a: VolumetricArgs) -> Result<()> {
@@ -245,7 +234,7 @@ fn lines_cmd(a: LinesArgs) -> Result<()> {
 }
 
 fn program_cmd(a: ProgramArgs) -> Result<()> {
-    use errmap::sim::program::lines::render_lines;
+    use errmap::controller::program::render_lines;
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("--plan", &a.plan)])?;
     let plan = PlanFile::read(&a.plan)?;
     let program = plan.lines_program(&a.plan.display().to_string());
@@ -254,7 +243,7 @@ fn program_cmd(a: ProgramArgs) -> Result<()> {
     eprintln!(
         "volumetric program: {} lines in the {} dialect → {}",
         program.lines.len(),
-        a.dialect,
+        a.dialect.name(),
         a.out.display()
     );
     Ok(())
@@ -436,7 +425,7 @@ pub(crate) fn demo_step(out: &Path) -> Result<Identification> {
     let twincat = dir.join("volcomp_twincat.csv");
     write_text(
         &twincat,
-        &errmap::volumetric::render_twincat(&tables, &lines.display().to_string()),
+        &errmap::controller::isg::render_volumetric(&tables, &lines.display().to_string()),
     )?;
     eprintln!(
         "  TwinCAT 3 CNC (TF5280) ISG CSV component tables → {}",
@@ -507,11 +496,9 @@ fn predict_cmd(a: PredictArgs) -> Result<()> {
 }
 
 fn export_cmd(a: ExportArgs) -> Result<()> {
-    use errmap::controller::{ExportFormat, LinuxCncCompType, SIEMENS_808D_MAX_POINTS};
+    use errmap::controller::ExportFormat;
     use errmap::export::Sampled;
-    use errmap::volumetric::{
-        axis_positions, component_tables, positioning_profile, render_twincat,
-    };
+    use errmap::volumetric::{axis_positions, component_tables, positioning_profile};
     let fit = match Predictor::read(&a.model)? {
         Predictor::Fit(f) => f,
         Predictor::Machine(_) => bail!(
@@ -525,7 +512,8 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
     if let Some(out) = &a.twincat {
         let tables = component_tables(&fit, a.points)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
-        let text = render_twincat(&tables, &a.model.display().to_string());
+        let text =
+            errmap::controller::isg::render_volumetric(&tables, &a.model.display().to_string());
         write_text(out, &text)?;
         eprintln!(
             "volumetric export: TwinCAT 3 CNC ISG CSV component tables ({} positions per axis) → {}",
@@ -548,22 +536,10 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
                 extrapolated: vec![false; positions.len()],
                 positions_mm: positions,
             };
-            let letter = ['X', 'Y', 'Z'][k];
+            let letter = axis.upper();
             let (format, ext) = match a.format {
-                AxisTableFormat::Csv => (ExportFormat::Csv, "csv"),
-                AxisTableFormat::Linuxcnc => (
-                    ExportFormat::LinuxCnc {
-                        comp_type: LinuxCncCompType::ActualPosition,
-                    },
-                    "comp",
-                ),
-                AxisTableFormat::Siemens => (
-                    ExportFormat::Siemens {
-                        axis_name: format!("{letter}1"),
-                        max_points: SIEMENS_808D_MAX_POINTS,
-                    },
-                    "spf",
-                ),
+                values::AxisTableFormat::Csv => (ExportFormat::Csv, "csv"),
+                values::AxisTableFormat::Table(t) => ((t.format)(axis), t.extension),
             };
             let text = format.render_line(&sampled, None)?;
             let path = dir.join(format!("{letter}.{ext}"));
@@ -571,19 +547,14 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
         }
         eprintln!(
             "volumetric export: positioning errors of X, Y, Z ({}) → {}",
-            format_name(a.format),
+            match a.format {
+                values::AxisTableFormat::Csv => "CSV",
+                values::AxisTableFormat::Table(t) => t.summary,
+            },
             dir.display()
         );
     }
     Ok(())
-}
-
-fn format_name(f: AxisTableFormat) -> &'static str {
-    match f {
-        AxisTableFormat::Csv => "CSV",
-        AxisTableFormat::Linuxcnc => "LinuxCNC COMP_FILE type 0",
-        AxisTableFormat::Siemens => "SINUMERIK LEC/MSEC",
-    }
 }
 
 /// Whole or not at all (`guard::write_file` creates the parent directory).

@@ -143,14 +143,27 @@ fn columns(
     })
 }
 
-/// An `AL<axis>` table: per sample, the compensation c = −e moving + and (with `reverse`)
-/// moving −; without `reverse` the negative-direction column is 0 (one table).
-pub fn render_8055(
+/// The table of `control` for a sampled line: the 8055's `AL<axis>` ([`text_8055`]) or
+/// the text of the 8065's axis file ([`text_8065`]), each refused beyond its control's
+/// points.
+pub fn render(
+    control: Fagor,
     forward: &Sampled,
     reverse: Option<&Sampled>,
     spec: &Fagor8055Spec,
 ) -> Result<String, ExportError> {
-    let c = columns(forward, reverse, spec, FAGOR_8055_MAX_POINTS)?;
+    Ok(match control {
+        Fagor::Al8055 => text_8055(&columns(forward, reverse, spec, FAGOR_8055_MAX_POINTS)?),
+        Fagor::Mp8065 => text_8065(
+            &columns(forward, reverse, spec, FAGOR_8065_MAX_POINTS)?,
+            reverse.is_some(),
+        ),
+    })
+}
+
+/// An `AL<axis>` table: per sample, the compensation c = −e moving + and (with a
+/// reverse line) moving −; without one the negative-direction column is 0 (one table).
+fn text_8055(c: &Columns) -> String {
     let a = c.letter;
     let mut out = String::with_capacity(c.positions.len() * 75);
     for (i, pos) in c.positions.iter().enumerate() {
@@ -163,7 +176,7 @@ pub fn render_8055(
             c.down[i],
         ));
     }
-    Ok(out)
+    out
 }
 
 /// One `2;<name>;<value>[;<comment>]` parameter line of an 8065 axis file.
@@ -176,16 +189,10 @@ fn param_8065(name: &str, value: &str, comment: Option<&str>) -> String {
 
 /// The text of a Fagor 8065 `<axis>.mp` holding the leadscrew table (module docs), CRLF;
 /// the file is this text in UTF-16LE with its byte-order mark ([`encode_8065`]).
-/// `reverse` (same positions) sets BIDIR 1 and fills NEGERROR with its compensation;
-/// without it BIDIR is 0 and NEGERROR 0.
-pub fn render_8065(
-    forward: &Sampled,
-    reverse: Option<&Sampled>,
-    spec: &Fagor8055Spec,
-) -> Result<String, ExportError> {
-    let c = columns(forward, reverse, spec, FAGOR_8065_MAX_POINTS)?;
+/// `bidir` (a reverse line, same positions) sets BIDIR 1 and fills NEGERROR with its
+/// compensation; without it BIDIR is 0 and NEGERROR 0.
+fn text_8065(c: &Columns, bidir: bool) -> String {
     let n = c.positions.len();
-    let bidir = reverse.is_some();
     let mut t = String::with_capacity((3 * n + 10) * 80);
     t.push_str(&format!("{:<30};3100\r\n", format!("{} AXIS", c.letter)));
     t.push_str(&format!("{:<30};0\r\n", "MM"));
@@ -214,7 +221,7 @@ pub fn render_8065(
             ));
         }
     }
-    Ok(t)
+    t
 }
 
 /// An 8065 axis file's bytes: UTF-16LE after the byte-order mark FF FE.

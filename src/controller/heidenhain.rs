@@ -35,7 +35,23 @@
 //! sign on the machine with one point before trusting the whole table. How the control
 //! continues the compensation beyond the first and last points was not found either:
 //! errmap adds no points.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Syntax used (HEIDENHAIN TNC 640 User's Manual "Klartext Programming" and User's
+//! Manual "Programming of Machining Cycles", cycle 9 DWELL TIME)
+//!
+//! * Every block is numbered from 0; block 0 is `BEGIN PGM name MM` (mm program), the last
+//!   `END PGM name MM`. The name is letters, digits and `_` ([`ProgramKind::word`](super::program::ProgramKind::word)).
+//! * `L X+… Y+… Z+… R0 F…` a straight line in absolute coordinates, the sign always
+//!   written, `R0` no radius compensation, F in mm/min (modal: written once).
+//! * Cycle 9 **DWELL TIME** is two blocks, `CYCL DEF 9.0 DWELL TIME` and
+//!   `CYCL DEF 9.1 DWELL t` with t in seconds, input range 0 … 3600 s in steps of
+//!   0.001 s ([`MAX_DWELL_S`]). It is DEF-active: it runs where it is defined, no
+//!   `CYCL CALL` needed.
+//! * `;` comment blocks; `M30` ends the program.
 
+use super::program::{ProgramError, ProgramKind, ProgramSyntax, seconds3, signed_mm3};
 use super::read::{At, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
@@ -260,6 +276,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Heidenhain {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
     fn name(&self) -> &'static str {
         "heidenhain"
     }
@@ -297,5 +316,62 @@ impl Dialect for Heidenhain {
             axis_key,
             max_points: s.max_points.unwrap_or(HEIDENHAIN_MAX_POINTS),
         })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Part programs
+
+/// Cycle 9's largest dwell, s.
+pub const MAX_DWELL_S: f64 = 3600.0;
+
+impl ProgramSyntax for Heidenhain {
+    fn name(&self) -> &'static str {
+        Dialect::name(self)
+    }
+    fn extension(&self) -> &'static str {
+        "h"
+    }
+    fn comment(&self, text: &str) -> String {
+        format!("; {text}")
+    }
+    fn begin(&self, kind: ProgramKind) -> Vec<String> {
+        vec![format!("BEGIN PGM {} MM", kind.word())]
+    }
+    fn setup(&self) -> Option<&'static str> {
+        None
+    }
+    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
+        let mut s = "L".to_string();
+        for (letter, v) in axes {
+            s.push_str(&format!(" {letter}{}", signed_mm3(*v)));
+        }
+        s.push_str(" R0");
+        if let Some(f) = feed {
+            s.push_str(&format!(" F{f}"));
+        }
+        s
+    }
+    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
+        if dwell_s > MAX_DWELL_S {
+            return Err(ProgramError::DwellTooLong {
+                dialect: ProgramSyntax::name(self),
+                dwell_s,
+                max_s: MAX_DWELL_S,
+            });
+        }
+        Ok(vec![
+            "CYCL DEF 9.0 DWELL TIME".into(),
+            format!("CYCL DEF 9.1 DWELL {}", seconds3(dwell_s)),
+        ])
+    }
+    fn stop(&self) -> &'static str {
+        "STOP"
+    }
+    fn end(&self, kind: ProgramKind) -> Vec<String> {
+        vec!["M30".into(), format!("END PGM {} MM", kind.word())]
+    }
+    fn numbered(&self) -> bool {
+        true
     }
 }

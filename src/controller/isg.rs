@@ -42,6 +42,37 @@
 //! 19856.5 µm for the programmed 19866.7 µm gives `pos` = −102 × 0.1 µm). With errmap's
 //! e = indicated − reference, the setpoint is the indicated position and the measured
 //! one the reference, so the table holds c = −e, in 0.1 µm.
+//!
+//! # Volumetric compensation: TwinCAT 3 CNC TF5280 / ISG `ISG_CSV` ([`render_volumetric`])
+//!
+//! What is sourced
+//!
+//! From the TF5280 documentation (Beckhoff Information System, `tf5280_volumetric_comp`;
+//! the same pages in ISG's kernel documentation, isg-stuttgart.de `kernel-html`):
+//!
+//! * "ISG CSV format" (page 296429067): a header naming the columns — arguments and
+//!   parameters — then one record per row; `//` starts a row comment; a line `#` is a
+//!   "file break" after which a new header and its records follow. Component errors of
+//!   the X axis have the header `X EXX EYX EZX EAX EBX ECX` (argument X, then the six
+//!   ISO 230-1 component errors); the columns in the manual's examples are separated by
+//!   blanks, as written here.
+//! * "Units of measure" (page 296426379): parameter values in **millimetres** for
+//!   offsets and **radians** for angles; the arguments X, Y, Z in millimetres.
+//! * "Overview" (page 296386187): the model follows DIN ISO 230-1/-7 and ISO/TR 16907,
+//!   serial kinematics with exactly three linear axes; only the tool position is
+//!   compensated.
+//! * "Workpiece axes" (page 296411019): `workpiece_axes`, default 0 = every axis on the
+//!   tool side — errmap's model (workpiece on the base, the whole chain carries the
+//!   tool). "Tool length" (page 296392971): by default the compensation is computed for
+//!   tool length 0 — errmap's components are those of the tool reference point with probe
+//!   offset 0, so no N0X/N0Y/N0Z is written.
+//! * Configuration (pages 296390283, 1218769547): `file[j]` and `file_format[j] ISG_CSV`
+//!   in the compensation list; axis assignment `X 1`, `Y 2`, `Z 3` by logical axis
+//!   number (machine-specific — errmap does not write the list, only says what to set).
+//!
+//!
+//! The tables come from `volumetric::component_tables`, which also says what is *not*
+//! sourced (the squareness, folded into straightness) and how the file avoids it.
 
 use super::read::{At, Field, Parsed, check_point, field_at, point};
 use super::text::{Text, number};
@@ -51,6 +82,8 @@ use super::{
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled, fmt_point};
+use crate::volumetric::{Component, ComponentTables};
+use std::fmt::Write as _;
 
 /// How the limit messages name this controller's table.
 pub const LABEL: &str =
@@ -426,4 +459,57 @@ impl Dialect for Isg {
             },
         })
     }
+}
+
+/// The ISG CSV parameter file (TwinCAT 3 CNC TF5280): three blocks separated by file
+/// breaks, `X EXX EYX EZX EAX EBX ECX` and the same for Y and Z, in mm and rad.
+pub fn render_volumetric(t: &ComponentTables, source: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "// errmap volumetric compensation, ISG CSV (TwinCAT 3 CNC TF5280, file_format ISG_CSV)"
+    );
+    let _ = writeln!(s, "// identified from: {source}");
+    let _ = writeln!(
+        s,
+        "// component errors per ISO 230-1 (actual - nominal): translations in mm, rotations in rad, \
+         arguments in mm"
+    );
+    let _ = writeln!(
+        s,
+        "// kinematic chain from the workpiece (base) to the tool: {} - all axes on the tool side \
+         (workpiece_axes 0); tool length 0",
+        t.topology
+    );
+    let _ = writeln!(
+        s,
+        "// squareness folded into the straightness of Y and Z (E_XY, E_XZ, E_YZ): no position-error \
+         parameter is written"
+    );
+    for (k, ax) in ['X', 'Y', 'Z'].into_iter().enumerate() {
+        if k > 0 {
+            let _ = writeln!(s, "#");
+        }
+        let sig: Vec<String> = (0..6)
+            .map(|kind| {
+                let c = Component { axis: k, kind };
+                format!("{} {:.3} {}", c.name(), t.max_sigma[k][kind], c.unit())
+            })
+            .collect();
+        let _ = writeln!(s, "// largest one-sigma: {}", sig.join(", "));
+        let mut header = format!("{ax:<12}");
+        for kind in ['X', 'Y', 'Z', 'A', 'B', 'C'] {
+            let _ = write!(header, " {:>18}", format!("E{kind}{ax}"));
+        }
+        let _ = writeln!(s, "{}", header.trim_end());
+        for (a, row) in t.positions_mm[k].iter().zip(&t.values[k]) {
+            let mut line = format!("{a:<12.4}");
+            for (kind, v) in row.iter().enumerate() {
+                let written = if kind < 3 { v * 1e-3 } else { v * 1e-6 };
+                let _ = write!(line, " {written:>18.12}");
+            }
+            let _ = writeln!(s, "{line}");
+        }
+    }
+    s
 }

@@ -28,11 +28,36 @@
 //! commanded, N − e = N + c; LinuxCNC turns it into the trim `nominal − value` = e
 //! (`usrmotLoadComp` in `src/emc/motion/usrmotintf.cc`), so both file types load the
 //! same trims.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Words used (LinuxCNC G-code reference, `docs/src/gcode/g-code.adoc` and `m-code.adoc`)
+//!
+//! * `G21` millimetres, `G90` absolute distances, `G94` units-per-minute feed, `G61` exact
+//!   path (no blending: every programmed point is reached).
+//! * `G1 X… Y… Z… F…` a feed move; `F` in mm/min under `G21 G94`, modal, so it is written
+//!   once, on the first move.
+//! * `G4 P…` dwell, **P in seconds** (a decimal number; a negative P is an error).
+//! * `M64 P n` / `M65 P n` switch motion digital output n on / off *immediately* (as
+//!   opposed to `M62/M63`, which change it with the next move). `n` is 0 … num_dio − 1,
+//!   num_dio being motmod's parameter (4 by default, 64 at most: `EMCMOT_MAX_DIO` in
+//!   `src/emc/motion/emcmotcfg.h`). LinuxCNC's task waits for the motion queue to drain
+//!   before it issues an immediate output (`emcTaskCheckPreconditions` in
+//!   `src/emc/task/emctaskmain.cc` returns `EMC_TASK_EXEC_WAITING_FOR_MOTION` for
+//!   `EMC_MOTION_SET_DOUT` with `now`), so `M64` after a `G1` fires with the axis at rest
+//!   on the target — a board wired to that output gets a rising edge at "target reached"
+//!   and a falling edge at "target left", the same events as its MARK frames.
+//! * `( … )` comments; `M2` ends the program.
+//!
+//! The program is checked against LinuxCNC's own interpreter (`rs274`, Debian package
+//! `linuxcnc-uspace`) by `tests/it/testplan.rs` when that is installed:
+//! `rs274 -g plan.ngc` prints the canonical moves (`STRAIGHT_FEED`, `DWELL`).
 
+use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, TablePoint, check_point};
 use super::text::{Text, number};
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
+    AxisKind, AxisTables, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
     TableSettings, Value, ValueUnit,
 };
 use crate::export::{ExportError, Sampled, fmt_mm};
@@ -181,6 +206,19 @@ pub(crate) fn read(text: &Text, k: f64, comp: LinuxCncCompType) -> Result<Vec<Ta
 pub struct LinuxCnc;
 
 impl Dialect for LinuxCnc {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
+    fn axis_tables(&self) -> Option<AxisTables> {
+        Some(AxisTables {
+            format: |_| ExportFormat::LinuxCnc {
+                comp_type: LinuxCncCompType::ActualPosition,
+            },
+            extension: "comp",
+            about: "A LinuxCNC COMP_FILE of type 0 (the positions actually reached)",
+            summary: "LinuxCNC COMP_FILE type 0",
+        })
+    }
     fn name(&self) -> &'static str {
         "linuxcnc"
     }
@@ -216,5 +254,44 @@ impl Dialect for LinuxCnc {
         Ok(ExportFormat::LinuxCnc {
             comp_type: s.comp_type.unwrap_or(LinuxCncCompType::ActualPosition),
         })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Part programs
+
+/// LinuxCNC's largest number of motion digital outputs (`EMCMOT_MAX_DIO`).
+pub const MAX_DIO: u32 = 64;
+
+impl ProgramSyntax for LinuxCnc {
+    fn name(&self) -> &'static str {
+        Dialect::name(self)
+    }
+    fn extension(&self) -> &'static str {
+        "ngc"
+    }
+    fn comment(&self, text: &str) -> String {
+        format!("({})", text.replace(['(', ')'], ""))
+    }
+    fn setup(&self) -> Option<&'static str> {
+        Some("G21 G90 G94 G61")
+    }
+    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
+        iso_move("G1", axes, feed)
+    }
+    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
+        Ok(vec![format!("G4 P{}", seconds3(dwell_s))])
+    }
+    fn stop(&self) -> &'static str {
+        "M0"
+    }
+    fn end(&self, _: ProgramKind) -> Vec<String> {
+        vec!["M2".into()]
+    }
+    fn mark_outputs(&self) -> Option<u32> {
+        Some(MAX_DIO)
+    }
+    fn output(&self, n: u32, on: bool) -> String {
+        format!("{} P{n}", if on { "M64" } else { "M65" })
     }
 }

@@ -44,15 +44,17 @@
 //!
 //! It imports `export` (the sampled line, [`ExportError`], the CSV line and the grid,
 //! which are not controller formats and stay there), `session` (the residual of an
-//! update), `table` and `base`; `import` uses it (a controller table read into an error
-//! table, and the text decoding and [`At`] its readers share), and the binary calls its
-//! [`job`] once per export. The part programs of test plans stay in `sim::program`
-//! (they render a `sim` test plan, which this stage may not import).
+//! update), `sim` (the test plans its [`program`]s run), `volumetric` (the component
+//! tables a dialect's volumetric table holds), `table` and `base`; `import` uses it (a
+//! controller table read into an error table, and the text decoding and [`At`] its
+//! readers share), and the binary calls its [`job`] once per export.
 //!
 //! # Adding a dialect
 //!
-//! One new file here implementing [`Dialect`] (writer, reader, limits, sign, unit) and
-//! one line in [`DIALECTS`]; see `CONTRIBUTING.md`.
+//! One new file here implementing [`Dialect`] (writer, reader, limits, sign, unit, and
+//! where the controller has them its settings, part-program syntax and axis tables) and
+//! one line in [`DIALECTS`]; see `CONTRIBUTING.md`. A rotary (modulo) table is a
+//! variant of [`AxisKind`] that a dialect's [`Limits::axes`] lists.
 
 pub mod fagor;
 pub mod fanuc;
@@ -60,6 +62,8 @@ pub mod heidenhain;
 pub mod isg;
 pub mod job;
 pub mod linuxcnc;
+mod options;
+pub mod program;
 pub mod read;
 pub mod siemens;
 pub mod text;
@@ -73,6 +77,7 @@ pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
 pub use heidenhain::HEIDENHAIN_MAX_POINTS;
 pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
 pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType};
+pub use options::{DialectOption, DialectOptions, OptionError, OptionValue, dialect_options};
 pub use read::{At, ControllerTable, Field, TablePoint, read};
 pub use siemens::SIEMENS_808D_MAX_POINTS;
 pub use update::{Residual, UpdateError, UpdateSummary, Updated, update_table};
@@ -307,8 +312,12 @@ impl ExportFormat {
                 heidenhain::render(forward, axis_key, table_name, *max_points)
             }
             ExportFormat::Isg { axis } => isg::render(forward, reverse, axis),
-            ExportFormat::Fagor8055 { spec } => fagor::render_8055(forward, reverse, spec),
-            ExportFormat::Fagor8065 { spec } => fagor::render_8065(forward, reverse, spec),
+            ExportFormat::Fagor8055 { spec } => {
+                fagor::render(fagor::Fagor::Al8055, forward, reverse, spec)
+            }
+            ExportFormat::Fagor8065 { spec } => {
+                fagor::render(fagor::Fagor::Mp8065, forward, reverse, spec)
+            }
             ExportFormat::Csv => {
                 self.forward_only(reverse)?;
                 forward.check()?;
@@ -457,12 +466,10 @@ pub struct TableSettings {
     pub units: Option<LengthUnit>,
     /// LinuxCNC's `COMP_FILE_TYPE`.
     pub comp_type: Option<LinuxCncCompType>,
-    /// The SINUMERIK machine-axis name of a LEC table.
-    pub siemens_axis: String,
-    /// The first of Siemens' two direction-dependent CEC tables.
-    pub siemens_table: usize,
-    /// FANUC's parameters (its `axis_number` is filled from `axis_number`).
-    pub fanuc: FanucSpec,
+    /// The grid's reference position, mm (FANUC's reference point, parameter 3620).
+    pub reference_mm: f64,
+    /// The settings each dialect declares for itself ([`Dialect::options`]).
+    pub options: DialectOptions,
 }
 
 impl TableSettings {
@@ -477,9 +484,8 @@ impl TableSettings {
             table_name: None,
             units: None,
             comp_type: None,
-            siemens_axis: "X1".into(),
-            siemens_table: 0,
-            fanuc: FanucSpec::default(),
+            reference_mm: 0.0,
+            options: DialectOptions::default(),
         }
     }
 
@@ -536,6 +542,34 @@ pub trait Dialect: Sync {
         settings: &TableSettings,
         bidirectional: bool,
     ) -> Result<ExportFormat, SettingsError>;
+    /// The dialect's part-program syntax for test plans and campaigns of lines, where
+    /// errmap writes programs for this controller.
+    fn program(&self) -> Option<&dyn program::ProgramSyntax> {
+        None
+    }
+    /// The settings of this dialect's tables beyond [`TableSettings`]' common ones; the
+    /// command line makes a flag of each.
+    fn options(&self) -> &'static [DialectOption] {
+        &[]
+    }
+    /// The 1-D tables of each axis' positioning error a volumetric model is written as
+    /// (`volumetric export --axis-tables`), where this dialect writes them.
+    fn axis_tables(&self) -> Option<AxisTables> {
+        None
+    }
+}
+
+/// How a dialect writes a volumetric model's positioning error of each axis as a 1-D
+/// table: the table's format along an axis, the file's extension, and its words.
+#[derive(Debug, Clone, Copy)]
+pub struct AxisTables {
+    /// The format of the table along `axis`.
+    pub format: fn(crate::base::Axis) -> ExportFormat,
+    pub extension: &'static str,
+    /// One line for `--help`.
+    pub about: &'static str,
+    /// The tables' name in the summary line.
+    pub summary: &'static str,
 }
 
 /// The registry: every controller dialect errmap writes, reads and updates, in the order

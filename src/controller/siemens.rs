@@ -57,18 +57,56 @@
 //! modifies the axis' position actual value, so a positive value makes the axis move in
 //! the negative direction (SINUMERIK 808D Function Manual 01/2017, "Leadscrew error
 //! compensation"). The table therefore holds c, in mm.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Words used (SINUMERIK 840D sl / 828D Programming Manual "Fundamentals",
+//! 6FC5398-1BP40-xBA0: "Dwell time (G4)", "Metric/inch dimensions (G70/G71)",
+//! "Feedrate (G93, G94, G95, F…)", "Exact stop (G60)")
+//!
+//! * `G71` mm, `G90` absolute, `G94` feed in mm/min, `G60` exact stop (modal: every
+//!   block ends at rest in the fine window, no velocity blending).
+//! * `G1 X… F…` a feed move, F mm/min.
+//! * `G4 F…` dwell, **F in seconds** (`G4 S…` would be spindle revolutions). G4 must be in
+//!   a block of its own; the F in a G4 block applies only to the dwell, the programmed
+//!   feed stays in force afterwards.
+//! * `;` comments; `M30` ends the program.
+//!
+//! Positions are written with 3 decimals: the default input resolution MD10200
+//! `INT_INCR_PER_MM` is 1000 (0.001 mm).
 
+use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, AxisTables, Dialect, DialectOption, ExportFormat, Limits, OptionValue, SettingsError,
+    Sign, Spacing, TableFormat, TableSettings, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled, fmt_mm, fmt_point};
 
 /// How the limit messages name this controller's table.
 pub const LABEL: &str = "the Siemens LEC table (MD38000 MM_ENC_COMP_MAX_POINTS)";
+
+/// Siemens' settings: the LEC table's machine axis, the first of the two CEC tables.
+static OPTIONS: [DialectOption; 2] = [
+    DialectOption {
+        name: "siemens-axis",
+        help: "Siemens machine-axis name, e.g. X1",
+        default: Some("X1"),
+        parse: |s| {
+            check_axis_name(s)?;
+            Ok(OptionValue::Text(s.to_string()))
+        },
+    },
+    DialectOption {
+        name: "siemens-table",
+        help: "Siemens --bidirectional: the first of the two CEC tables (positive direction; the \
+               next one is the negative direction). The machine axis is AX<--axis-number>",
+        default: Some("0"),
+        parse: super::options::count,
+    },
+];
 
 /// The SINUMERIK 808D's LEC table size (N = 0…199). On the 840D sl the limit is the
 /// axis' MD38000 `MM_ENC_COMP_MAX_POINTS`, which must be read from the machine.
@@ -555,6 +593,23 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Siemens {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
+    fn options(&self) -> &'static [DialectOption] {
+        &OPTIONS
+    }
+    fn axis_tables(&self) -> Option<AxisTables> {
+        Some(AxisTables {
+            format: |axis| ExportFormat::Siemens {
+                axis_name: format!("{}1", axis.upper()),
+                max_points: SIEMENS_808D_MAX_POINTS,
+            },
+            extension: "spf",
+            about: "A SINUMERIK 840D sl LEC/MSEC program for machine axes X1, Y1, Z1",
+            summary: "SINUMERIK LEC/MSEC",
+        })
+    }
     fn name(&self) -> &'static str {
         "siemens"
     }
@@ -592,14 +647,44 @@ impl Dialect for Siemens {
         Ok(if bidirectional {
             ExportFormat::SiemensCec {
                 axis_number: s.axis_number(),
-                first_table: s.siemens_table,
+                first_table: s.options.count(OPTIONS[1].name).unwrap_or(0),
                 max_points,
             }
         } else {
             ExportFormat::Siemens {
-                axis_name: s.siemens_axis.clone(),
+                axis_name: s.options.text(OPTIONS[0].name).unwrap_or("X1").to_string(),
                 max_points,
             }
         })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Part programs
+
+impl ProgramSyntax for Siemens {
+    fn name(&self) -> &'static str {
+        Dialect::name(self)
+    }
+    fn extension(&self) -> &'static str {
+        "mpf"
+    }
+    fn comment(&self, text: &str) -> String {
+        format!("; {text}")
+    }
+    fn setup(&self) -> Option<&'static str> {
+        Some("G71 G90 G94 G60")
+    }
+    fn feed_move(&self, axes: &[(&str, f64)], feed: Option<&str>) -> String {
+        iso_move("G1", axes, feed)
+    }
+    fn dwell(&self, dwell_s: f64) -> Result<Vec<String>, ProgramError> {
+        Ok(vec![format!("G4 F{}", seconds3(dwell_s))])
+    }
+    fn stop(&self) -> &'static str {
+        "M0"
+    }
+    fn end(&self, _: ProgramKind) -> Vec<String> {
+        vec!["M30".into()]
     }
 }

@@ -312,6 +312,11 @@ struct Editor {
 }
 
 impl Editor {
+    /// [`Self::edit`] of a field whose value is the one the controller used.
+    fn rewrite(&mut self, field: Field, old: f64, new: f64, digits: Digits) {
+        self.edit(field, old, old, new, digits);
+    }
+
     /// Plans writing `new` over `field` (whose value is `old`) unless it rounds to the same
     /// text; the change is measured from `effective`, the value the controller used before
     /// (err+ for the err− of a table that was one table for both directions).
@@ -480,16 +485,9 @@ fn edit_point(
                 LinuxCncCompType::Trim => trim(e_um),
                 LinuxCncCompType::ActualPosition => p.position_file - trim(e_um),
             };
-            editor.edit(
-                p.up,
-                p.up_file,
-                p.up_file,
-                value(p.e_up_um + r_up),
-                up_digits,
-            );
-            editor.edit(
+            editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
+            editor.rewrite(
                 p.down,
-                p.down_file,
                 p.down_file,
                 value(p.e_down_um + r_down),
                 down_digits,
@@ -498,13 +496,7 @@ fn edit_point(
         TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
             // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
             let value = |e_um: f64| table.format.value().file(e_um, k);
-            editor.edit(
-                p.up,
-                p.up_file,
-                p.up_file,
-                value(p.e_up_um + r_up),
-                up_digits,
-            );
+            editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
             if table.one_column {
                 return;
             }
@@ -518,7 +510,7 @@ fn edit_point(
             } else {
                 return;
             };
-            editor.edit(p.down, p.down_file, p.down_file, value(down_e), down_digits);
+            editor.rewrite(p.down, p.down_file, value(down_e), down_digits);
         }
         TableFormat::Fanuc => {}
     }

@@ -46,22 +46,46 @@ pub struct ColumnMap {
     pub scale_temp: Option<Col>,
 }
 
+/// Why a column map (`--map`) is not one; every case is a usage error.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MapError {
+    #[error("--map: `{0}` is not key=COLUMN")]
+    NotKeyColumn(String),
+    #[error("--map: `{0}` names no column")]
+    NoColumn(String),
+    #[error("--map: `{0}` is not a column number #1, #2, …")]
+    BadNumber(String),
+    #[error(
+        "--map: unknown key `{0}` (target, reference, indicated, error, run, \
+         direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
+    )]
+    UnknownKey(String),
+    #[error("--map: `{0}` is given twice")]
+    Twice(String),
+    #[error("--map needs target=COLUMN")]
+    NoTarget,
+    #[error("--map takes reference= or error=, not both")]
+    ReferenceAndError,
+    #[error("--map needs reference=COLUMN or error=COLUMN")]
+    NoReferenceOrError,
+}
+
 impl ColumnMap {
-    /// Parses `key=COL,…`; the message of an `Err` is a usage error.
-    pub fn parse(s: &str) -> Result<ColumnMap, String> {
+    /// Parses `key=COL,…`.
+    pub fn parse(s: &str) -> Result<ColumnMap, MapError> {
         let mut m = ColumnMap::default();
         for part in s.split(',').filter(|p| !p.trim().is_empty()) {
             let Some((k, v)) = part.split_once('=') else {
-                return Err(format!("--map: `{part}` is not key=COLUMN"));
+                return Err(MapError::NotKeyColumn(part.to_string()));
             };
             let v = v.trim();
             if v.is_empty() {
-                return Err(format!("--map: `{part}` names no column"));
+                return Err(MapError::NoColumn(part.to_string()));
             }
             let col = match v.strip_prefix('#') {
                 Some(n) => match n.parse::<usize>() {
                     Ok(n) if n >= 1 => Col::Number(n),
-                    _ => return Err(format!("--map: `{v}` is not a column number #1, #2, …")),
+                    _ => return Err(MapError::BadNumber(v.to_string())),
                 },
                 None => Col::Name(v.to_string()),
             };
@@ -77,24 +101,19 @@ impl ColumnMap {
                 "air_rh" => &mut m.air_rh,
                 "part_temp" => &mut m.part_temp,
                 "scale_temp" => &mut m.scale_temp,
-                other => {
-                    return Err(format!(
-                        "--map: unknown key `{other}` (target, reference, indicated, error, run, \
-                         direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
-                    ));
-                }
+                other => return Err(MapError::UnknownKey(other.to_string())),
             };
             if slot.is_some() {
-                return Err(format!("--map: `{}` is given twice", k.trim()));
+                return Err(MapError::Twice(k.trim().to_string()));
             }
             *slot = Some(col);
         }
         if m.target.is_none() {
-            return Err("--map needs target=COLUMN".into());
+            return Err(MapError::NoTarget);
         }
         match (&m.reference, &m.error) {
-            (Some(_), Some(_)) => Err("--map takes reference= or error=, not both".into()),
-            (None, None) => Err("--map needs reference=COLUMN or error=COLUMN".into()),
+            (Some(_), Some(_)) => Err(MapError::ReferenceAndError),
+            (None, None) => Err(MapError::NoReferenceOrError),
             _ => Ok(m),
         }
     }

@@ -44,7 +44,7 @@ use crate::base::Axis;
 use crate::table::TableError;
 
 pub use crate::controller::At;
-pub use csv::{ColumnMap, CsvOptions, ErrorSign, LengthUnit, PressureUnit, TempUnit};
+pub use csv::{ColumnMap, CsvOptions, ErrorSign, LengthUnit, MapError, PressureUnit, TempUnit};
 
 /// Exact unit conversions.
 pub mod units {

@@ -7,7 +7,7 @@
 //! | `physics` | the machine model and every effect's forward formula ([`PhysicsTruth`]) |
 //! | `plan` | measurement-plan files, simulating a stream, test points with the truth |
 //! | `testplan` | ISO 230-2 test plans: targets with random offsets, the standard test cycle |
-//! | [`program`] | part programs for a test plan (LinuxCNC, Fanuc, Siemens 840D, Heidenhain) |
+//! | `program` | a campaign of lines as a part program visits it (the programs: `controller::program`) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
 //! | `job` | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
 //! | `concealed` | the concealed-effect cases of `datasets/concealed/` |
@@ -20,7 +20,7 @@ mod error;
 mod job;
 mod physics;
 mod plan;
-pub mod program;
+mod program;
 mod testplan;
 pub mod update;
 
@@ -38,5 +38,8 @@ pub use physics::{
     simulate_session,
 };
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
-pub use testplan::{PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError};
+pub use program::{LinesProgram, ProgramLine};
+pub use testplan::{
+    CycleStep, PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError,
+};
 pub use update::apply_found_effects;

@@ -119,9 +119,7 @@ mod spline;
 mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth};
-pub use compensation::{
-    ComponentTables, axis_positions, component_tables, positioning_profile, render_twincat,
-};
+pub use compensation::{ComponentTables, axis_positions, component_tables, positioning_profile};
 pub use error::{
     ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
 };

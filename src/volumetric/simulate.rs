@@ -168,10 +168,10 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The plan's lines as a part program's campaign ([`crate::sim::program::lines`]):
+    /// The plan's lines as a part program's campaign (`controller::program`):
     /// each line's targets in order, its runs, the plan's feed and dwell.
-    pub fn lines_program(&self, title: &str) -> crate::sim::program::lines::LinesProgram {
-        use crate::sim::program::lines::{LinesProgram, ProgramLine};
+    pub fn lines_program(&self, title: &str) -> crate::sim::LinesProgram {
+        use crate::sim::{LinesProgram, ProgramLine};
         LinesProgram {
             title: title.to_string(),
             lines: self

@@ -933,3 +933,66 @@ fn fanuc_point_numbers_near_the_u32_limit_are_refused_not_overflowed() {
         assert!(p.contains("compensation point numbers up to"), "{p}");
     }
 }
+
+/// Every dialect's settings (the command line's `--siemens-axis`, `--fanuc-*`, …) parse
+/// their defaults, the defaults are FANUC's and Siemens' documented ones, and a given
+/// value reaches the dialect's table.
+#[test]
+fn dialect_options_default_and_reach_the_table() {
+    use errmap::controller::{self, OptionValue, TableSettings};
+    let names: Vec<&str> = controller::dialect_options()
+        .iter()
+        .map(|o| o.name)
+        .collect();
+    for must in [
+        "siemens-axis",
+        "siemens-table",
+        "fanuc-reference-number",
+        "detection-unit-um",
+        "magnification",
+        "fanuc-max-value",
+        "fanuc-max-point",
+        "fanuc-negative-start",
+    ] {
+        assert!(names.contains(&must), "{must} in {names:?}");
+    }
+    for o in controller::dialect_options() {
+        if let Some(d) = o.default {
+            assert!((o.parse)(d).is_ok(), "{}'s default {d}", o.name);
+        }
+    }
+    let s = TableSettings::new(errmap::base::Axis::Y);
+    assert_eq!(
+        FanucSpec::from_settings(&s),
+        FanucSpec {
+            axis_number: 2,
+            ..FanucSpec::default()
+        }
+    );
+    let siemens = controller::dialect("siemens").expect("registered");
+    match siemens.export_format(&s, false).expect("settings suffice") {
+        controller::ExportFormat::Siemens { axis_name, .. } => assert_eq!(axis_name, "X1"),
+        other => panic!("{other:?}"),
+    }
+    let mut given = TableSettings::new(errmap::base::Axis::X);
+    given
+        .options
+        .set("fanuc-max-value", OptionValue::Number(32767));
+    given.options.set("siemens-table", OptionValue::Count(4));
+    assert_eq!(FanucSpec::from_settings(&given).max_value, 32767);
+    match siemens
+        .export_format(&given, true)
+        .expect("settings suffice")
+    {
+        controller::ExportFormat::SiemensCec { first_table, .. } => assert_eq!(first_table, 4),
+        other => panic!("{other:?}"),
+    }
+    let bad = controller::dialect_options()
+        .into_iter()
+        .find(|o| o.name == "siemens-axis")
+        .expect("declared");
+    assert!(
+        (bad.parse)("1X").is_err(),
+        "a Siemens axis starts with a letter"
+    );
+}

@@ -743,7 +743,7 @@ fn every_dialect_refuses_a_session_of_another_axis() {
         ),
         (
             "fagor-8055",
-            controller::fagor::render_8055(&fwd, None, &fagor)
+            controller::fagor::render(controller::fagor::Fagor::Al8055, &fwd, None, &fagor)
                 .expect("8055")
                 .into_bytes(),
             &["--units", "mm"],
@@ -751,7 +751,8 @@ fn every_dialect_refuses_a_session_of_another_axis() {
         (
             "fagor-8065",
             controller::fagor::encode_8065(
-                &controller::fagor::render_8065(&fwd, None, &fagor).expect("8065"),
+                &controller::fagor::render(controller::fagor::Fagor::Mp8065, &fwd, None, &fagor)
+                    .expect("8065"),
             ),
             &[],
         ),

@@ -17,17 +17,25 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("export", &["interp", "table", "base"]),
     ("session", &["table", "base"]),
     ("acquire", &["session", "table", "base"]),
-    (
-        "controller",
-        &["export", "session", "interp", "table", "base"],
-    ),
-    ("import", &["controller", "session", "table", "base"]),
     ("diagnose", &["base"]),
     ("sim", &["interp", "table", "session", "diagnose", "base"]),
     (
         "volumetric",
         &["interp", "table", "session", "diagnose", "sim", "base"],
     ),
+    (
+        "controller",
+        &[
+            "export",
+            "volumetric",
+            "sim",
+            "session",
+            "interp",
+            "table",
+            "base",
+        ],
+    ),
+    ("import", &["controller", "session", "table", "base"]),
     ("history", &["table", "session", "volumetric", "base"]),
     (
         "acceptance",

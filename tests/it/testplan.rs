@@ -8,8 +8,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use errmap::base::Axis;
+use errmap::controller::program::{self, ProgramError, ProgramOptions, ProgramSyntax};
 use errmap::sim::PlanSpec;
-use errmap::sim::program::{self, Dialect, ProgramError, ProgramOptions};
+
+/// The part-program dialect named `name`.
+fn d(name: &str) -> &'static dyn ProgramSyntax {
+    program::dialect(name).expect("a dialect of the registry")
+}
 use errmap::sim::{PlanField, Spacing, TestPlan, TestPlanConfig};
 
 /// The outside check's plan: `--axis x --from 0 --to 800 --targets 21 --runs 5
@@ -443,10 +448,10 @@ fn golden_programs_in_each_dialect() {
     };
     let none = ProgramOptions::default();
     let cases = [
-        (Dialect::LinuxCnc, &marks, GOLDEN_LINUXCNC),
-        (Dialect::Fanuc, &none, GOLDEN_FANUC),
-        (Dialect::Siemens, &none, GOLDEN_SIEMENS),
-        (Dialect::Heidenhain, &none, GOLDEN_HEIDENHAIN),
+        (d("linuxcnc"), &marks, GOLDEN_LINUXCNC),
+        (d("fanuc"), &none, GOLDEN_FANUC),
+        (d("siemens"), &none, GOLDEN_SIEMENS),
+        (d("heidenhain"), &none, GOLDEN_HEIDENHAIN),
     ];
     for (dialect, options, golden) in cases {
         let text = program::render(&plan, dialect, options).expect("renders");
@@ -460,21 +465,28 @@ fn dialect_limits_are_refused_with_the_flag() {
     let marks = ProgramOptions {
         mark_output: Some(0),
     };
-    for d in [Dialect::Fanuc, Dialect::Siemens, Dialect::Heidenhain] {
+    for d in [d("fanuc"), d("siemens"), d("heidenhain")] {
         let e = program::render(&plan, d, &marks).expect_err("no marks");
-        assert_eq!(e, ProgramError::MarkOutputUnsupported { dialect: d });
+        assert_eq!(e, ProgramError::MarkOutputUnsupported { dialect: d.name() });
         assert!(e.to_string().starts_with("--mark-output"));
     }
     let e = program::render(
         &plan,
-        Dialect::LinuxCnc,
+        d("linuxcnc"),
         &ProgramOptions {
             mark_output: Some(64),
         },
     )
     .expect_err("64 outputs at most");
     assert!(
-        matches!(e, ProgramError::MarkOutputRange { index: 64, max: 63 }),
+        matches!(
+            e,
+            ProgramError::MarkOutputRange {
+                index: 64,
+                max: 63,
+                ..
+            }
+        ),
         "{e}"
     );
     let long = TestPlan::generate(TestPlanConfig {
@@ -482,16 +494,16 @@ fn dialect_limits_are_refused_with_the_flag() {
         ..small().config
     })
     .expect("valid");
-    let e = program::render(&long, Dialect::Heidenhain, &ProgramOptions::default())
+    let e = program::render(&long, d("heidenhain"), &ProgramOptions::default())
         .expect_err("cycle 9 stops at 3600 s");
     assert!(e.to_string().starts_with("--dwell-s"), "{e}");
-    assert!(program::render(&long, Dialect::Fanuc, &ProgramOptions::default()).is_ok());
+    assert!(program::render(&long, d("fanuc"), &ProgramOptions::default()).is_ok());
     let short = TestPlan::generate(TestPlanConfig {
         dwell_s: 0.0004,
         ..small().config
     })
     .expect("valid");
-    let e = program::render(&short, Dialect::Fanuc, &ProgramOptions::default())
+    let e = program::render(&short, d("fanuc"), &ProgramOptions::default())
         .expect_err("G04 P counts ms");
     assert!(matches!(e, ProgramError::DwellTooShort { .. }), "{e}");
     let far = TestPlan::generate(TestPlanConfig {
@@ -499,8 +511,7 @@ fn dialect_limits_are_refused_with_the_flag() {
         ..small().config
     })
     .expect("valid");
-    let e =
-        program::render(&far, Dialect::Siemens, &ProgramOptions::default()).expect_err("8 digits");
+    let e = program::render(&far, d("siemens"), &ProgramOptions::default()).expect_err("8 digits");
     assert!(matches!(e, ProgramError::CoordinateTooLarge { .. }), "{e}");
 }
 
@@ -619,18 +630,18 @@ fn read_linuxcnc(text: &str, mark: u32) -> Vec<Event> {
 }
 
 /// The tested-axis moves and dwells of any dialect, read with its own syntax.
-fn read_axis_events(text: &str, dialect: Dialect) -> Vec<(char, f64)> {
+fn read_axis_events(text: &str, dialect: &dyn ProgramSyntax) -> Vec<(char, f64)> {
     let mut out = Vec::new();
     for line in text.lines() {
-        let body = match dialect {
-            Dialect::Heidenhain => line.split_once(' ').map_or("", |(_, b)| b),
+        let body = match dialect.name() {
+            "heidenhain" => line.split_once(' ').map_or("", |(_, b)| b),
             _ => line,
         };
         if body.starts_with(';') || body.starts_with('(') || body.starts_with('%') {
             continue;
         }
-        match dialect {
-            Dialect::Heidenhain => {
+        match dialect.name() {
+            "heidenhain" => {
                 if let Some(rest) = body.strip_prefix("L X") {
                     let x = rest.split_whitespace().next().expect("X value");
                     out.push(('M', x.parse().expect("number")));
@@ -641,21 +652,21 @@ fn read_axis_events(text: &str, dialect: Dialect) -> Vec<(char, f64)> {
             _ => {
                 let b = words(
                     body,
-                    if dialect == Dialect::Siemens {
+                    if dialect.name() == "siemens" {
                         ';'
                     } else {
                         '('
                     },
-                    (dialect != Dialect::Siemens).then_some(')'),
+                    (dialect.name() != "siemens").then_some(')'),
                 );
                 let g = word(&b, 'G');
-                match (dialect, g) {
+                match (dialect.name(), g) {
                     (_, Some(1.0)) => out.push(('M', word(&b, 'X').expect("X"))),
-                    (Dialect::Fanuc, Some(4.0)) => {
+                    ("fanuc", Some(4.0)) => {
                         out.push(('D', word(&b, 'P').expect("P ms") / 1000.0));
                     }
-                    (Dialect::Siemens, Some(4.0)) => out.push(('D', word(&b, 'F').expect("F s"))),
-                    (Dialect::LinuxCnc, Some(4.0)) => out.push(('D', word(&b, 'P').expect("P s"))),
+                    ("siemens", Some(4.0)) => out.push(('D', word(&b, 'F').expect("F s"))),
+                    ("linuxcnc", Some(4.0)) => out.push(('D', word(&b, 'P').expect("P s"))),
                     _ => {}
                 }
             }
@@ -691,7 +702,7 @@ fn the_linuxcnc_program_runs_the_iso_cycle_through_the_plans_targets() {
     let plan = TestPlan::generate(outside_check()).expect("valid");
     let text = program::render(
         &plan,
-        Dialect::LinuxCnc,
+        d("linuxcnc"),
         &ProgramOptions {
             mark_output: Some(0),
         },
@@ -753,7 +764,7 @@ fn every_dialect_moves_through_the_same_cycle() {
     })
     .expect("valid");
     let expected = expected_axis_events(&plan);
-    for d in Dialect::ALL {
+    for d in program::dialects() {
         let text = program::render(&plan, d, &ProgramOptions::default()).expect("renders");
         assert_eq!(read_axis_events(&text, d), expected, "{d}");
     }
@@ -778,8 +789,7 @@ fn linuxcncs_own_interpreter_agrees_when_installed() {
         ..outside_check()
     })
     .expect("valid");
-    let text =
-        program::render(&plan, Dialect::LinuxCnc, &ProgramOptions::default()).expect("renders");
+    let text = program::render(&plan, d("linuxcnc"), &ProgramOptions::default()).expect("renders");
     std::fs::write(dir.path().join("plan.ngc"), text).expect("write");
     std::fs::write(dir.path().join("tool.tbl"), "T1 P1 D0 Z0 ;\n").expect("write");
     std::fs::write(dir.path().join("rs274ngc.var"), "").expect("write");
@@ -870,7 +880,7 @@ fn errmap_plan_as_the_outside_checks_call_it() {
     let plan = TestPlan::generate(outside_check()).expect("valid");
     assert_eq!(spec.targets_mm, plan.targets_mm);
     let ngc = std::fs::read_to_string(dir.path().join("plan.ngc")).expect("program");
-    let lib = program::render(&plan, Dialect::LinuxCnc, &ProgramOptions::default()).expect("ok");
+    let lib = program::render(&plan, d("linuxcnc"), &ProgramOptions::default()).expect("ok");
     assert_eq!(ngc, lib);
 
     // --interval instead of --targets, a negative --from, another dialect.

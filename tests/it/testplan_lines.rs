@@ -4,17 +4,25 @@
 
 use crate::util::root;
 
-use errmap::sim::program::{Dialect, ProgramError};
+use errmap::controller::program::{self, ProgramError, ProgramSyntax};
+
+/// The part-program dialect named `name`.
+fn d(name: &str) -> &'static dyn ProgramSyntax {
+    program::dialect(name).expect("a dialect of the registry")
+}
 
 /// A lines program read back: the position at every dwell, the position at every
 /// programmed stop, the dwell times (s). ISO dialects: modal `G1/G01 X Y Z`, `G4 P s` /
 /// `G04 P ms` / `G4 F s`, `M0`/`M00`; HEIDENHAIN: numbered blocks, `L X± Y± Z± R0`,
 /// `CYCL DEF 9.1 DWELL s`, `STOP`.
-fn read_lines_program(text: &str, dialect: Dialect) -> (Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>) {
+fn read_lines_program(
+    text: &str,
+    dialect: &dyn ProgramSyntax,
+) -> (Vec<[f64; 3]>, Vec<[f64; 3]>, Vec<f64>) {
     let mut at = [f64::NAN; 3];
     let (mut dwells, mut stops, mut times) = (vec![], vec![], vec![]);
     for (i, raw) in text.lines().enumerate() {
-        let line = if dialect == Dialect::Heidenhain {
+        let line = if dialect.name() == "heidenhain" {
             let (n, rest) = raw.split_once(' ').expect("numbered block");
             assert_eq!(n.parse::<usize>().expect("block number"), i);
             rest
@@ -52,7 +60,8 @@ fn read_lines_program(text: &str, dialect: Dialect) -> (Vec<[f64; 3]>, Vec<[f64;
 
 #[test]
 fn volumetric_plan_program_visits_every_line_target_in_order() {
-    use errmap::sim::program::lines::{LinesProgram, render_lines};
+    use errmap::controller::program::render_lines;
+    use errmap::sim::LinesProgram;
     use errmap::volumetric::PlanFile;
     let path = root().join("datasets/volumetric/plan.toml");
     let plan = PlanFile::read(&path).expect("the dataset's plan");
@@ -71,7 +80,7 @@ fn volumetric_plan_program_visits_every_line_target_in_order() {
         .iter()
         .flat_map(|l| (0..l.runs).flat_map(move |_| l.targets_mm.iter().copied()))
         .collect();
-    for dialect in Dialect::ALL {
+    for dialect in program::dialects() {
         let text = render_lines(&program, dialect).expect("renders");
         let (dwells, stops, times) = read_lines_program(&text, dialect);
         assert_eq!(
@@ -103,7 +112,7 @@ fn volumetric_plan_program_visits_every_line_target_in_order() {
         ..program.clone()
     };
     assert_eq!(
-        render_lines(&empty, Dialect::LinuxCnc),
+        render_lines(&empty, d("linuxcnc")),
         Err(ProgramError::EmptyCampaign)
     );
     let long = LinesProgram {
@@ -111,7 +120,7 @@ fn volumetric_plan_program_visits_every_line_target_in_order() {
         ..program
     };
     assert!(matches!(
-        render_lines(&long, Dialect::Heidenhain),
+        render_lines(&long, d("heidenhain")),
         Err(ProgramError::DwellTooLong { .. })
     ));
 }
@@ -129,7 +138,7 @@ fn volumetric_program_command_writes_the_dialect() {
         .expect("runs");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&out).expect("written");
-    let (dwells, stops, _) = read_lines_program(&text, Dialect::Fanuc);
+    let (dwells, stops, _) = read_lines_program(&text, d("fanuc"));
     // The rich preset's 43 lines and the extra line; 2 runs of 11 (and 17) targets.
     assert_eq!(stops.len(), 44);
     assert_eq!(dwells.len(), 43 * 2 * 11 + 2 * 17);

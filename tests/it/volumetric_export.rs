@@ -6,9 +6,10 @@
 
 use std::path::Path;
 
+use errmap::controller::isg::render_volumetric as render_twincat;
 use errmap::volumetric::{Component, squareness_effect};
 use errmap::volumetric::{Degree, IdentifyConfig, LineTable, Predictor, identify, simulate};
-use errmap::volumetric::{component_tables, positioning_profile, render_twincat};
+use errmap::volumetric::{component_tables, positioning_profile};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 
@@ -58,7 +59,7 @@ fn twincat_tables_reproduce_the_identified_error_vector() {
         cfg.basis = errmap::volumetric::BasisKind::Poly;
         let id = identify(&simulate(&m, &plan), &cfg).expect("identify");
         let tables = component_tables(&id.fit, 5).expect("all determined");
-        let text = render_twincat(&tables, "test");
+        let text = errmap::controller::isg::render_volumetric(&tables, "test");
         let blocks = parse_isg_csv(&text);
         assert_eq!(blocks.len(), 3, "{text}");
         let want_headers = [

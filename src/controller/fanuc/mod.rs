@@ -69,12 +69,37 @@
 //! the one FANUC controls commonly punch for pitch error data, but it was not confirmed
 //! in the sources consulted: compare it with a file punched from the target control
 //! before loading.
+//!
+//! # Part programs (test plans and volumetric campaigns, [`super::program`])
+//!
+//! Words used (FANUC Series 0i-MODEL F Operator's Manual, B-64604EN, part II
+//! "Programming": "Dwell (G04)", "Inch/metric conversion (G20, G21)", "Feed functions")
+//!
+//! * `%` opens and closes the file for transfer; `O….` is the program number
+//!   ([`PROGRAM_NUMBER`], 1 … 9999; 8000 … 9999 are often edit-protected by parameter 3202).
+//! * `G21` mm, `G90` absolute, `G94` feed per minute; `G01 X… F…` a feed move, F in mm/min.
+//! * **Every coordinate is written with a decimal point.** Without one, a Fanuc reads the
+//!   number in least input increments (IS-B: `X10` is 0.010 mm) unless pocket-calculator
+//!   decimal input (parameter 3401#0 DPI) is set, so `X10.000` is the only unambiguous form.
+//! * `G04 P…` dwell: **P is an integer number of milliseconds** (decimal point not
+//!   permitted; 1 … 99 999 999, i.e. at most 99 999.999 s). `G04 X…` takes seconds with a
+//!   decimal point, but X's reading depends on the same DPI parameter on some models and on
+//!   G95 (revolutions), while an integer P in G94 is always ms — so errmap writes P, the
+//!   dwell rounded to 1 ms. The same table of ranges is in Siemens' ISO-dialect manual for
+//!   the 840D (SINUMERIK ISO Milling, 04.07, §3.3.1 "Dwell (G04)"), which mimics Fanuc.
+//! * `( … )` comments (upper-case letters and digits are safe on every model); `M30` ends
+//!   the program and rewinds.
 
+mod program;
+pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
+
+use super::options;
+use super::program::ProgramSyntax;
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::{Text, number};
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, Dialect, DialectOption, ExportFormat, Limits, SettingsError, Sign, Spacing,
+    TableFormat, TableSettings, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled};
@@ -122,6 +147,66 @@ impl Default for FanucSpec {
             max_value: FANUC_DEFAULT_MAX_VALUE,
             max_point_number: FANUC_MAX_POINT_NUMBER,
             negative_start: None,
+        }
+    }
+}
+
+/// FANUC's settings (the command line's flags), in [`FanucSpec`]'s order.
+static OPTIONS: [DialectOption; 6] = [
+    DialectOption {
+        name: "fanuc-reference-number",
+        help: "FANUC 3620, the compensation point number of the reference position --reference \
+               (default: the smallest that fits, so the most negative point is 0)",
+        default: None,
+        parse: options::number,
+    },
+    DialectOption {
+        name: "detection-unit-um",
+        help: "FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C)",
+        default: Some("1"),
+        parse: options::positive,
+    },
+    DialectOption {
+        name: "magnification",
+        help: "FANUC 3623, the pitch error compensation magnification",
+        default: Some("1"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-max-value",
+        help: "FANUC: the largest |value| per compensation point the series accepts",
+        default: Some("7"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-max-point",
+        help: "FANUC: the highest compensation point number of the control",
+        default: Some("1023"),
+        parse: options::number,
+    },
+    DialectOption {
+        name: "fanuc-negative-start",
+        help: "FANUC 3626 of a bidirectional table (default: right after 3622)",
+        default: None,
+        parse: options::number,
+    },
+];
+
+impl FanucSpec {
+    /// The spec `settings` give: their axis number and reference, and FANUC's own
+    /// settings ([`OPTIONS`]; the defaults where none is given).
+    pub fn from_settings(s: &TableSettings) -> Self {
+        let o = &s.options;
+        let d = FanucSpec::default();
+        FanucSpec {
+            axis_number: s.axis_number(),
+            reference_number: o.number(OPTIONS[0].name),
+            reference_mm: s.reference_mm,
+            detection_unit_um: o.real(OPTIONS[1].name).unwrap_or(d.detection_unit_um),
+            magnification: o.number(OPTIONS[2].name).unwrap_or(d.magnification),
+            max_value: o.number(OPTIONS[3].name).unwrap_or(d.max_value),
+            max_point_number: o.number(OPTIONS[4].name).unwrap_or(d.max_point_number),
+            negative_start: o.number(OPTIONS[5].name),
         }
     }
 }
@@ -831,6 +916,12 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Fanuc {
+    fn program(&self) -> Option<&dyn ProgramSyntax> {
+        Some(self)
+    }
+    fn options(&self) -> &'static [DialectOption] {
+        &OPTIONS
+    }
     fn name(&self) -> &'static str {
         "fanuc"
     }
@@ -863,10 +954,7 @@ impl Dialect for Fanuc {
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         Ok(ExportFormat::Fanuc {
-            spec: FanucSpec {
-                axis_number: s.axis_number(),
-                ..s.fanuc
-            },
+            spec: FanucSpec::from_settings(s),
         })
     }
 }
