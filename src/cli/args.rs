@@ -20,7 +20,7 @@ pub(crate) struct ExportArgs {
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
     /// squared exponential).
-    #[arg(long, value_parser = method_name(), required_unless_present_any = ["bidirectional", "existing"])]
+    #[arg(long, value_parser = method_name())]
     pub method: Option<MethodName>,
     /// Direction-dependent table from a session's per-direction means (ISO 230-2's
     /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
@@ -39,7 +39,7 @@ pub(crate) struct ExportArgs {
     #[arg(long, default_value = "")]
     pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
-    #[arg(long, value_parser = length, required_unless_present_any = ["bidirectional", "existing"])]
+    #[arg(long, value_parser = length)]
     pub step: Option<f64>,
     /// Line start, mm (default: the table's lowest node on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
@@ -104,6 +104,9 @@ pub(crate) struct ExportArgs {
     /// FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C).
     #[arg(long, default_value_t = 1.0, value_parser = positive)]
     pub detection_unit_um: f64,
+    /// FANUC rotary axis: the detection unit in degrees (0.001 IS-B, 0.0001 IS-C).
+    #[arg(long, value_parser = positive)]
+    pub detection_unit_deg: Option<f64>,
     /// FANUC 3623, the pitch error compensation magnification.
     #[arg(long, default_value_t = 1)]
     pub magnification: u32,

@@ -60,6 +60,7 @@ pub mod heidenhain;
 pub mod isg;
 pub mod job;
 pub mod linuxcnc;
+pub mod modulo;
 pub mod read;
 pub mod siemens;
 pub mod text;

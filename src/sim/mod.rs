@@ -21,6 +21,8 @@ mod job;
 mod physics;
 mod plan;
 pub mod program;
+mod rotary;
+mod rotary_plan;
 mod testplan;
 pub mod update;
 
@@ -38,5 +40,7 @@ pub use physics::{
     simulate_session,
 };
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
+pub use rotary::{RotaryAxisModel, RotaryCycle, simulate_rotary};
+pub use rotary_plan::{MAX_PLAN_TARGETS, RotaryPlan, RotaryPlanConfig, RotaryPlanError};
 pub use testplan::{PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError};
 pub use update::apply_found_effects;
