@@ -20,6 +20,7 @@ pub mod effect;
 mod error;
 mod limits;
 mod optim;
+mod rotary;
 mod stats;
 pub mod vocabulary;
 
@@ -32,5 +33,6 @@ pub use limits::{
     TIME_S, UNCERTAINTY_UM,
 };
 pub use optim::{golden, lbfgs};
+pub use rotary::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, ParseRotaryAxisError, RotaryAxis};
 pub use stats::{centred_rms, gaussian, median, peak_to_peak, rms};
 pub use vocabulary::{EffectId, ParamName, Verdict};

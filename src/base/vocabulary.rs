@@ -218,11 +218,21 @@ pub enum ParamName {
     DtMs,
     /// Squareness, µrad.
     Urad,
+    /// Amplitude of a rotary axis' periodic error, ″.
+    AmplitudeArcsec,
+    /// Phase of a rotary axis' periodic error, ° of the harmonic.
+    PhaseDeg,
+    /// Order of a rotary axis' periodic error: times per revolution.
+    PerRev,
+    /// Reversal of a rotary axis, ″.
+    BArcsec,
+    /// Drift rate of a rotary axis, ″ per second.
+    RateArcsecPerS,
 }
 
 impl ParamName {
     /// Every parameter name.
-    pub const ALL: [ParamName; 25] = [
+    pub const ALL: [ParamName; 30] = [
         ParamName::AlphaPpmPerK,
         ParamName::X0Mm,
         ParamName::Ppm,
@@ -248,6 +258,11 @@ impl ParamName {
         ParamName::BowUm,
         ParamName::DtMs,
         ParamName::Urad,
+        ParamName::AmplitudeArcsec,
+        ParamName::PhaseDeg,
+        ParamName::PerRev,
+        ParamName::BArcsec,
+        ParamName::RateArcsecPerS,
     ];
 
     /// The contract's name.
@@ -278,6 +293,11 @@ impl ParamName {
             ParamName::BowUm => "bow_um",
             ParamName::DtMs => "dt_ms",
             ParamName::Urad => "urad",
+            ParamName::AmplitudeArcsec => "amplitude_arcsec",
+            ParamName::PhaseDeg => "phase_deg",
+            ParamName::PerRev => "per_rev",
+            ParamName::BArcsec => "b_arcsec",
+            ParamName::RateArcsecPerS => "rate_arcsec_per_s",
         }
     }
 }

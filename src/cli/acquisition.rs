@@ -317,6 +317,9 @@ pub(super) fn session_file(p: &Path) -> Result<PathBuf> {
 }
 
 pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
+    if super::rotary::is_rotary_session(&a.session)? {
+        return super::rotary::table_cmd(a);
+    }
     let tolerances = super::acceptance::tolerances(a.tolerances.as_deref(), &a.rule)?;
     let reduced = reduce_session(&a.session, &a.out, a.report.as_deref(), a.info.as_deref())?;
     let conformity = match &tolerances {

@@ -20,7 +20,7 @@ pub(crate) struct ExportArgs {
     pub table: PathBuf,
     /// The model (the GPs also take a scattered table; gp uses --gp-kernel, gp-se the
     /// squared exponential).
-    #[arg(long, value_parser = method_name(), required_unless_present_any = ["bidirectional", "existing"])]
+    #[arg(long, value_parser = method_name())]
     pub method: Option<MethodName>,
     /// Direction-dependent table from a session's per-direction means (ISO 230-2's
     /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
@@ -39,7 +39,7 @@ pub(crate) struct ExportArgs {
     #[arg(long, default_value = "")]
     pub at: LineAt,
     /// Sampling step along the line, or the grid spacing, mm.
-    #[arg(long, value_parser = length, required_unless_present_any = ["bidirectional", "existing"])]
+    #[arg(long, value_parser = length)]
     pub step: Option<f64>,
     /// Line start, mm (default: the table's lowest node on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]

@@ -12,6 +12,9 @@ use errmap::sim::DiagnoseJob;
 use super::args::DiagnoseArgs;
 
 pub(crate) fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
+    if super::rotary::is_rotary_session(&a.recorded)? {
+        return super::rotary::diagnose(&a);
+    }
     let against = match (&a.simulated, &a.model) {
         (Some(s), _) => Against::Simulated(s.clone()),
         (None, Some(m)) => Against::Model(m.clone()),

@@ -81,9 +81,10 @@ pub(crate) struct ImportArgs {
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
-    /// The measured axis (overrides the file's; csv and linuxcnc: default x).
-    #[arg(long, value_parser = values::axis())]
-    pub axis: Option<Axis>,
+    /// The measured axis (overrides the file's; csv and linuxcnc: default x); a, b or c
+    /// reads a rotary test from --format csv (degrees and arcseconds).
+    #[arg(long, value_parser = values::any_axis())]
+    pub axis: Option<values::AnyAxis>,
     /// CSV: key=COLUMN,… with target and reference (optional indicated) or error; optional
     /// run, direction, air_temp, air_pressure, air_rh, part_temp, scale_temp. COLUMN is a
     /// header name or #n (1-based).
@@ -98,9 +99,10 @@ pub(crate) struct ImportArgs {
     /// LEN[,TEMP[,PRESS]]: mm|inch, C|F, hPa|kPa|inHg|mmHg (CSV; Fagor/LinuxCNC: LEN).
     #[arg(long)]
     pub units: Option<String>,
-    /// CSV error column unit: um, mm or inch.
-    #[arg(long, value_enum, default_value = "um")]
-    pub error_units: ErrorUnitArg,
+    /// CSV error column unit: um, mm or inch (default um); arcsec, deg or urad for a rotary
+    /// axis (default arcsec).
+    #[arg(long, value_enum)]
+    pub error_units: Option<ErrorUnitArg>,
     /// CSV error column sign (required with error=).
     #[arg(long, value_enum)]
     pub error_sign: Option<ErrorSignArg>,
@@ -114,6 +116,9 @@ pub(crate) enum ErrorUnitArg {
     Um,
     Mm,
     Inch,
+    Arcsec,
+    Deg,
+    Urad,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -133,6 +138,11 @@ fn units(s: &str) -> Result<(LengthUnit, TempUnit, PressureUnit)> {
     let len = match p[0] {
         "mm" => LengthUnit::Mm,
         "inch" | "in" => LengthUnit::Inch,
+        "deg" => {
+            return Err(guard::usage(
+                "--units deg is for a rotary axis (--axis a|b|c); a linear axis reads mm or inch",
+            ));
+        }
         o => return Err(guard::usage(format!("--units: length `{o}` (mm or inch)"))),
     };
     let temp = match p.get(1).copied() {
@@ -154,7 +164,31 @@ fn units(s: &str) -> Result<(LengthUnit, TempUnit, PressureUnit)> {
     Ok((len, temp, press))
 }
 
-fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
+pub(crate) fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
+    let error_units = match a.error_units.unwrap_or(ErrorUnitArg::Um) {
+        ErrorUnitArg::Um => ErrorUnit::Um,
+        ErrorUnitArg::Mm => ErrorUnit::Mm,
+        ErrorUnitArg::Inch => ErrorUnit::Inch,
+        u @ (ErrorUnitArg::Arcsec | ErrorUnitArg::Deg | ErrorUnitArg::Urad) => {
+            return Err(guard::usage(format!(
+                "--error-units {} is an angle: it is for a rotary axis (--axis a|b|c); a \
+                 linear axis reads um, mm or inch",
+                u.to_possible_value()
+                    .map(|v| v.get_name().to_string())
+                    .unwrap_or_default()
+            )));
+        }
+    };
+    csv_options_with(a, a.units.as_deref().unwrap_or("mm"), error_units)
+}
+
+/// The CSV options of the flags, with the units `LEN[,TEMP[,PRESS]]` and the error unit
+/// given (a rotary import reads its angles as lengths of unit 1 and converts after).
+pub(crate) fn csv_options_with(
+    a: &ImportArgs,
+    units_text: &str,
+    error_units: ErrorUnit,
+) -> Result<CsvOptions> {
     let Some(map) = &a.map else {
         return Err(guard::usage(
             "--format csv needs --map target=COL,reference=COL (or error=COL with --error-sign)",
@@ -176,7 +210,7 @@ fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
             )));
         }
     };
-    let (length, temperature, pressure) = units(a.units.as_deref().unwrap_or("mm"))?;
+    let (length, temperature, pressure) = units(units_text)?;
     Ok(CsvOptions {
         map,
         delimiter,
@@ -184,11 +218,7 @@ fn csv_options(a: &ImportArgs) -> Result<CsvOptions> {
         length,
         temperature,
         pressure,
-        error_units: match a.error_units {
-            ErrorUnitArg::Um => ErrorUnit::Um,
-            ErrorUnitArg::Mm => ErrorUnit::Mm,
-            ErrorUnitArg::Inch => ErrorUnit::Inch,
-        },
+        error_units,
         error_sign: a.error_sign.map(|s| match s {
             ErrorSignArg::ReferenceMinusIndicated => ErrorSign::ReferenceMinusIndicated,
             ErrorSignArg::IndicatedMinusReference => ErrorSign::IndicatedMinusReference,
@@ -221,12 +251,12 @@ pub(crate) fn length_unit(a: Option<&str>) -> Result<Option<LengthUnit>> {
     a.map(|s| units(s).map(|u| u.0)).transpose()
 }
 
-fn read_bytes(path: &std::path::Path) -> Result<Vec<u8>> {
+pub(crate) fn read_bytes(path: &std::path::Path) -> Result<Vec<u8>> {
     let bytes = std::fs::read(path).map_err(io_err(path, FileOp::Read))?;
     Ok(bytes)
 }
 
-fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {
+pub(crate) fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {
     for w in &summary.warnings {
         eprintln!("import: warning: {w}");
     }
@@ -237,6 +267,10 @@ fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {
 }
 
 pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
+    if let Some(values::AnyAxis::Rotary(axis)) = a.axis {
+        return super::rotary::import(&a, axis);
+    }
+    let axis_flag = a.axis.and_then(values::AnyAxis::linear);
     // Flags first (usage errors, exit 2), then the file.
     let csv = match a.format {
         ImportFormatArg::Csv => Some(csv_options(&a)?),
@@ -256,7 +290,7 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
         let settings = TableSettings {
             units: length_unit(a.units.as_deref())?,
             comp_type: a.comp_type.map(Into::into),
-            ..TableSettings::new(a.axis.unwrap_or(Axis::X))
+            ..TableSettings::new(axis_flag.unwrap_or(Axis::X))
         };
         let hint = format!(
             "--format {} needs --comp-type actual|trim (COMP_FILE_TYPE 0|1)",
@@ -265,7 +299,7 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
         let tf = table_format(d, &settings, &hint)?;
         let table = errmap::controller::read(&bytes, tf).map_err(|e| e.at(&a.file))?;
         let mut warnings = Vec::new();
-        let axis = match (a.axis, table.axis) {
+        let axis = match (axis_flag, table.axis) {
             (Some(given), Some(file)) if given != file => {
                 warnings.push(format!(
                     "--axis {given} overrides the file's axis {}",
@@ -307,7 +341,7 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
             (ImportFormatArg::Csv, Some(o)) => SessionFormat::Csv(Box::new(o)),
             _ => SessionFormat::Auto,
         },
-        axis: a.axis,
+        axis: axis_flag,
     };
     let imported = import::import_session(&a.file, &bytes, &options)?;
     if let Some(out) = &a.out {

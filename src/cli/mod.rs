@@ -15,6 +15,7 @@
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 //! | [`import`] | import; the flag values a controller table needs (`--units`, `--comp-type`) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
+//! | [`rotary`] | a rotary axis' table, import, diagnosis, export and plan |
 //! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
@@ -35,6 +36,7 @@ pub(crate) mod import;
 pub(crate) mod model;
 pub(crate) mod plan;
 pub(crate) mod probing;
+pub(crate) mod rotary;
 pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;

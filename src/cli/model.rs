@@ -385,6 +385,9 @@ fn table_settings(a: &ExportArgs) -> Result<TableSettings> {
 /// volume written by `errmap::export::write_grid`), run once; the CLI reads the inputs,
 /// writes the bytes and prints the summary.
 pub(crate) fn export_cmd(a: ExportArgs) -> Result<()> {
+    if let Some((axis, rows)) = super::rotary::rotary_table(&a.table)? {
+        return super::rotary::export(&a, axis, &rows);
+    }
     let output = match a.format {
         ExportFormatArg::Table(d) => Output::Table(d),
         ExportFormatArg::Csv => Output::Csv,

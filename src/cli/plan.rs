@@ -12,9 +12,9 @@ use super::values;
 
 #[derive(Debug, Args)]
 pub(crate) struct PlanArgs {
-    /// The tested axis: x, y or z.
-    #[arg(long, value_parser = values::axis())]
-    pub axis: Axis,
+    /// The tested axis: x, y or z, or a rotary axis a, b or c (angles in degrees).
+    #[arg(long, value_parser = values::any_axis())]
+    pub axis: values::AnyAxis,
     /// First target, mm.
     #[arg(long, allow_negative_numbers = true, value_parser = values::coordinate)]
     pub from: f64,
@@ -40,9 +40,12 @@ pub(crate) struct PlanArgs {
     /// Stop at each target, s.
     #[arg(long, default_value_t = 2.0, value_parser = values::seconds)]
     pub dwell_s: f64,
-    /// Feed of every move, mm/s.
-    #[arg(long, default_value_t = 25.0, value_parser = values::feed)]
-    pub feed_mm_s: f64,
+    /// Feed of every move, mm/s (default 25).
+    #[arg(long, value_parser = values::feed)]
+    pub feed_mm_s: Option<f64>,
+    /// Rotary axis: the angular feed of every move, °/s (default 10).
+    #[arg(long, value_parser = values::feed)]
+    pub feed_deg_s: Option<f64>,
     /// The line's fixed coordinates, e.g. `y=1,z=200` (mm; a missing one is 0).
     #[arg(long, default_value = "", allow_hyphen_values = true)]
     pub at: values::LineAt,
@@ -86,7 +89,16 @@ fn line_coordinates(axis: Axis, at: &values::LineAt) -> Result<[f64; 2]> {
 }
 
 pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
-    let (axis, dialect) = (a.axis, a.dialect);
+    let axis = match a.axis {
+        values::AnyAxis::Rotary(r) => return super::rotary::plan(&a, r),
+        values::AnyAxis::Linear(axis) => axis,
+    };
+    if a.feed_deg_s.is_some() {
+        return Err(super::guard::usage(
+            "--feed-deg-s is for a rotary axis (--axis a|b|c); a linear axis takes --feed-mm-s",
+        ));
+    }
+    let dialect = a.dialect;
     let mut outputs = vec![("--out", a.out.as_path())];
     outputs.extend(a.program.as_deref().map(|p| ("--program", p)));
     super::guard::refuse_aliases(&outputs, &[])?;
@@ -103,7 +115,7 @@ pub(crate) fn plan_cmd(a: PlanArgs) -> Result<()> {
         runs: a.runs,
         overrun_mm: a.overrun,
         dwell_s: a.dwell_s,
-        feed_mm_s: a.feed_mm_s,
+        feed_mm_s: a.feed_mm_s.unwrap_or(25.0),
         line_mm: line_coordinates(axis, &a.at)?,
         random_offset: a.random_offset,
         seed: a.seed,

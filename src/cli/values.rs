@@ -33,6 +33,34 @@ pub(crate) fn axis() -> impl TypedValueParser<Value = Axis> {
         .try_map(|s| s.parse::<Axis>())
 }
 
+/// An axis flag that takes a rotary axis too: x, y, z or a, b, c (either case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum AnyAxis {
+    Linear(Axis),
+    Rotary(errmap::base::RotaryAxis),
+}
+
+impl AnyAxis {
+    /// The linear axis, if this is one.
+    pub(crate) fn linear(self) -> Option<Axis> {
+        match self {
+            AnyAxis::Linear(a) => Some(a),
+            AnyAxis::Rotary(_) => None,
+        }
+    }
+}
+
+/// `--axis x|y|z|a|b|c`.
+pub(crate) fn any_axis() -> impl TypedValueParser<Value = AnyAxis> {
+    let linear = Axis::ALL.map(|a| PossibleValue::new(a.lower()).alias(a.upper()));
+    let rotary =
+        errmap::base::RotaryAxis::ALL.map(|a| PossibleValue::new(a.lower()).alias(a.upper()));
+    PossibleValuesParser::new(linear.into_iter().chain(rotary)).map(|s| match s.parse::<Axis>() {
+        Ok(a) => AnyAxis::Linear(a),
+        Err(_) => AnyAxis::Rotary(s.parse().unwrap_or(errmap::base::RotaryAxis::A)),
+    })
+}
+
 /// `--dialect` of plan and volumetric program: a controller of the registry that writes
 /// part programs.
 pub(crate) fn dialect() -> impl TypedValueParser<Value = &'static dyn ProgramSyntax> {

@@ -64,6 +64,7 @@ pub mod job;
 pub mod linuxcnc;
 mod options;
 pub mod program;
+pub mod modulo;
 pub mod read;
 pub mod siemens;
 pub mod text;

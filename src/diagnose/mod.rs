@@ -83,6 +83,7 @@ mod error;
 mod explain;
 mod locate;
 mod outcome;
+pub mod rotary;
 mod select;
 mod spectral;
 pub mod synth;

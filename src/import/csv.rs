@@ -405,6 +405,17 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
     })
 }
 
+/// The 1-based line each data record starts on (the header left out), as [`read`]
+/// numbers them: a caller's check of a row names its line.
+pub fn data_lines(bytes: &[u8], delimiter: char) -> Result<Vec<usize>, At> {
+    let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
+    Ok(records(&text.text, delimiter)?
+        .into_iter()
+        .skip(1)
+        .map(|r| r.0)
+        .collect())
+}
+
 /// Refuses a one-column header holding another delimiter: a European-locale export read
 /// with the wrong flags, named with the flags that read it.
 fn check_delimiter(

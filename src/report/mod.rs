@@ -45,6 +45,7 @@ mod iso230;
 mod json;
 mod md;
 pub mod probing;
+pub mod rotary;
 mod uncertainty;
 mod volumetric;
 

@@ -35,6 +35,7 @@ pub(crate) mod columns;
 mod environment;
 mod iso230;
 mod reduce;
+pub mod rotary;
 mod stream;
 pub mod uncertainty;
 

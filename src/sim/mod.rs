@@ -21,6 +21,8 @@ mod job;
 mod physics;
 mod plan;
 mod program;
+mod rotary;
+mod rotary_plan;
 mod testplan;
 pub mod update;
 
@@ -42,4 +44,6 @@ pub use program::{LinesProgram, ProgramLine};
 pub use testplan::{
     CycleStep, PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError,
 };
+pub use rotary::{RotaryAxisModel, RotaryCycle, simulate_rotary};
+pub use rotary_plan::{MAX_PLAN_TARGETS, RotaryPlan, RotaryPlanConfig, RotaryPlanError};
 pub use update::apply_found_effects;

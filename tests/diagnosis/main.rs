@@ -8,6 +8,7 @@ mod gaps;
 mod perf;
 mod random;
 mod robust;
+mod rotary;
 mod untidy;
 #[path = "../it/util.rs"]
 mod util;

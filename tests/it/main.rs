@@ -29,6 +29,7 @@ mod readme_tour;
 mod robust_io;
 mod robust_outputs;
 mod robustness;
+mod rotary;
 mod soak;
 mod stream;
 mod table2;

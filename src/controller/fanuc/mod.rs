@@ -152,7 +152,7 @@ impl Default for FanucSpec {
 }
 
 /// FANUC's settings (the command line's flags), in [`FanucSpec`]'s order.
-static OPTIONS: [DialectOption; 6] = [
+static OPTIONS: [DialectOption; 7] = [
     DialectOption {
         name: "fanuc-reference-number",
         help: "FANUC 3620, the compensation point number of the reference position --reference \
@@ -164,6 +164,12 @@ static OPTIONS: [DialectOption; 6] = [
         name: "detection-unit-um",
         help: "FANUC detection unit, µm (1 for IS-B, 0.1 for IS-C)",
         default: Some("1"),
+        parse: options::positive,
+    },
+    DialectOption {
+        name: "detection-unit-deg",
+        help: "FANUC rotary axis: the detection unit in degrees (0.001 IS-B, 0.0001 IS-C)",
+        default: None,
         parse: options::positive,
     },
     DialectOption {

@@ -1,0 +1,461 @@
+//! The rotary axes on the command line (`docs/rotary.md`): `table` of a rotary session,
+//! `import --format csv --axis a|b|c`, `diagnose --recorded` of a rotary session,
+//! `export` of a rotary table and `plan --axis a|b|c`. Flags → library calls → output.
+
+use std::io::Read as _;
+use std::path::Path;
+
+use anyhow::Result;
+use errmap::base::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, RotaryAxis};
+use errmap::import::csv::{Col, ErrorUnit};
+use errmap::session::rotary::{self, RotaryError, RotaryRow, RotarySession};
+
+use super::args::TableArgs;
+use super::guard;
+use super::import::{ErrorUnitArg, ImportArgs, ImportFormatArg};
+
+/// Whether the session argument (a table or a capture directory) is rotary.
+pub(crate) fn is_rotary_session(session: &Path) -> Result<bool> {
+    let path = super::acquisition::session_file(session)?;
+    Ok(rotary::is_rotary(&path)?)
+}
+
+/// `errmap table` of a rotary session: ISO 230-2 in ″, the closure check, the rotary
+/// error table.
+pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
+    if a.tolerances.is_some() {
+        return Err(guard::usage(
+            "--tolerances judges a linear axis' E, A, B, R, M in µm; a rotary session has none",
+        ));
+    }
+    let path = super::acquisition::session_file(&a.session)?;
+    guard::refuse_aliases(&[("--out", &a.out)], &[("SESSION", &path)])?;
+    let session = rotary::read_rotary_session(&path)?;
+    let (iso, closure) = rotary::rotary_iso(&path, &session)?;
+    let warnings: Vec<String> = closure
+        .as_ref()
+        .and_then(rotary::closure_warning)
+        .into_iter()
+        .collect();
+    let table = rotary::rotary_error_table(&session);
+    rotary::write_rotary_error_table(&a.out, session.axis, &table)?;
+    let dwell_rows = session.rows.iter().filter(|r| r.is_dwell()).count();
+    eprintln!(
+        "table: rotary axis {}: {} targets from {} dwell rows; E = {:.2}″, A = {:.2}″, R = {:.2}″, \
+         B = {:.2}″ → {}",
+        session.axis,
+        table.len(),
+        dwell_rows,
+        iso.e_arcsec,
+        iso.a_arcsec,
+        iso.r_arcsec,
+        iso.b_arcsec,
+        a.out.display()
+    );
+    for w in &warnings {
+        eprintln!("table: warning: {w}");
+    }
+    let source = path.display().to_string();
+    if let Some(dir) = &a.report {
+        let md = errmap::report::rotary::rotary_iso_markdown(
+            &source,
+            session.axis,
+            &iso,
+            closure.as_ref(),
+            &warnings,
+        );
+        guard::into_new_dir(dir, |d| {
+            Ok(errmap::report::rotary::write_rotary_report(d, &md)?)
+        })?;
+        eprintln!(
+            "table: ISO 230-2 report in {}",
+            dir.join("report.md").display()
+        );
+    }
+    if a.json {
+        use errmap::report::rotary::{RotaryLineJson, RotarySummaryJson, RotaryTableJson};
+        guard::print_json(&RotaryTableJson {
+            summary: RotarySummaryJson {
+                kind: "rotary",
+                axis: session.axis,
+                source,
+                targets: table.len(),
+                dwell_rows,
+            },
+            nodes: table.len(),
+            lines: vec![RotaryLineJson {
+                axis: session.axis,
+                iso230: &iso,
+                closure: closure.as_ref(),
+            }],
+            warnings: &warnings,
+        })?;
+    }
+    Ok(())
+}
+
+/// `import --format csv --axis a|b|c`: a rotary test from a spreadsheet (`docs/rotary.md` §6).
+pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
+    if !matches!(a.format, ImportFormatArg::Csv) {
+        return Err(guard::usage(format!(
+            "--axis {} reads a rotary test from --format csv only",
+            axis.lower()
+        )));
+    }
+    let units = a.units.as_deref().unwrap_or("deg");
+    let (len, rest) = units.split_once(',').unwrap_or((units, ""));
+    if len.trim() != "deg" {
+        return Err(guard::usage(format!(
+            "--units {} with --axis {}: a rotary axis reads its angles in deg",
+            len.trim(),
+            axis.lower()
+        )));
+    }
+    let arcsec_per_unit = match a.error_units.unwrap_or(ErrorUnitArg::Arcsec) {
+        ErrorUnitArg::Arcsec => 1.0,
+        ErrorUnitArg::Deg => ARCSEC_PER_DEG,
+        ErrorUnitArg::Urad => ARCSEC_PER_URAD,
+        u @ (ErrorUnitArg::Um | ErrorUnitArg::Mm | ErrorUnitArg::Inch) => {
+            return Err(guard::usage(
+                format!(
+                    "--error-units {u:?} is a length: with --axis {} use arcsec, deg or urad",
+                    axis.lower()
+                )
+                .to_lowercase(),
+            ));
+        }
+    };
+    // The angles read as lengths of unit 1 (mm) and the error column unscaled (um), then
+    // converted here: ° stay °, the error becomes ″.
+    let length_text = if rest.is_empty() {
+        "mm".to_string()
+    } else {
+        format!("mm,{rest}")
+    };
+    let options = super::import::csv_options_with(a, &length_text, ErrorUnit::Um)?;
+    let bytes = super::import::read_bytes(&a.file)?;
+    if let Some(out) = &a.out {
+        guard::refuse_aliases(&[("--out", out)], &[("FILE", &a.file)])?;
+    }
+    let imported = errmap::import::import_session(
+        &a.file,
+        &bytes,
+        &errmap::import::ImportOptions {
+            format: errmap::import::SessionFormat::Csv(Box::new(options.clone())),
+            axis: Some(errmap::base::Axis::X),
+        },
+    )?;
+    let lines = errmap::import::csv::data_lines(&bytes, options.delimiter)
+        .map_err(|e| anyhow::anyhow!("{}: line {}: {}", a.file.display(), e.line, e.message))?;
+    let rows = rotary_rows(&a.file, &imported.rows, &options, &lines, arcsec_per_unit)?;
+    let session = RotarySession { axis, rows };
+    if let Some(out) = &a.out {
+        rotary::write_rotary_session(out, &session)?;
+    }
+    let mut summary = imported.summary;
+    summary.axis = axis.upper();
+    summary.units_in = "deg";
+    super::import::report(&summary, a.json)?;
+    eprintln!(
+        "import: csv {} rows ({} runs, {} targets) along rotary axis {}, from deg{}",
+        summary.rows,
+        summary.runs.unwrap_or(0),
+        summary.targets,
+        axis,
+        a.out
+            .as_ref()
+            .map(|o| format!(" → {}", o.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// The imported rows (angles read as mm, the error unscaled) as rotary rows: targets
+/// checked in [0, 360] at their line, the error converted to ″.
+fn rotary_rows(
+    file: &Path,
+    imported: &[errmap_drivers::SessionRow],
+    options: &errmap::import::CsvOptions,
+    lines: &[usize],
+    arcsec_per_unit: f64,
+) -> Result<Vec<RotaryRow>> {
+    let target_col = match &options.map.target {
+        Some(Col::Name(n)) => n.clone(),
+        Some(Col::Number(k)) => format!("#{k}"),
+        None => "target".into(),
+    };
+    let by_reference = options.map.reference.is_some();
+    let mut rows = Vec::with_capacity(imported.len());
+    for (k, r) in imported.iter().enumerate() {
+        let target_deg = r.x_mm.unwrap_or(r.scale_mm);
+        if !(0.0..=360.0).contains(&target_deg) {
+            return Err(RotaryError::At {
+                path: file.to_path_buf(),
+                line: lines.get(k).copied().unwrap_or(k + 2),
+                column: target_col.clone(),
+                problem: format!(
+                    "target {target_deg}° is outside [0, 360] (errmap never wraps an angle: \
+                     write {})",
+                    target_deg.rem_euclid(360.0)
+                ),
+            }
+            .into());
+        }
+        // By reference: error_um = (I − R)·1000 with the angles in °; by error: the
+        // column's value with its sign.
+        let error_arcsec = if by_reference {
+            r.error_um / 1000.0 * ARCSEC_PER_DEG
+        } else {
+            r.error_um * arcsec_per_unit
+        };
+        rows.push(RotaryRow {
+            run: r.run,
+            sample: r.sample,
+            t_s: r.t_s,
+            direction: r.direction,
+            target: r.target,
+            target_deg: Some(target_deg),
+            indicated_deg: r.scale_mm,
+            reference_deg: if by_reference {
+                r.laser_mm
+            } else {
+                r.scale_mm - error_arcsec / ARCSEC_PER_DEG
+            },
+            error_arcsec,
+            feed_deg_s: None,
+            air_temp_c: r.air_temp_c,
+            part_temp_c: r.part_temp_c,
+            scale_temp_c: r.scale_temp_c,
+            flags: r.flags,
+        });
+    }
+    Ok(rows)
+}
+
+/// `diagnose --recorded ROTARY --report DIR [--json]`: the rotary effects from the
+/// recording alone.
+pub(crate) fn diagnose(a: &super::args::DiagnoseArgs) -> Result<()> {
+    if a.simulated.is_some() || a.model.is_some() {
+        return Err(guard::usage(
+            "--simulated and --model are for a linear axis: a rotary session is diagnosed from \
+             the recording alone (--recorded)",
+        ));
+    }
+    let path = super::acquisition::session_file(&a.recorded)?;
+    let session = rotary::read_rotary_session(&path)?;
+    let closure_mismatch = rotary::rotary_iso(&path, &session)
+        .ok()
+        .and_then(|(_, c)| c)
+        .is_some_and(|c| !c.consistent);
+    let t0 = session
+        .rows
+        .iter()
+        .map(|r| r.t_s)
+        .fold(f64::INFINITY, f64::min);
+    let samples: Vec<errmap::diagnose::rotary::RotarySample> = session
+        .rows
+        .iter()
+        .filter(|r| r.is_dwell())
+        .map(|r| errmap::diagnose::rotary::RotarySample {
+            run: r.run,
+            direction: r.direction,
+            target_deg: r.target_deg.unwrap_or(0.0),
+            t_s: r.t_s - t0,
+            e_arcsec: r.error_arcsec,
+        })
+        .collect();
+    let d = errmap::diagnose::rotary::diagnose_rotary(&samples, closure_mismatch)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let j = errmap::report::rotary::RotaryDiagnosisJson::new(session.axis, &d);
+    let md = j.markdown(&path.display().to_string());
+    guard::into_new_dir(&a.report, |dir| {
+        Ok(errmap::report::rotary::write_rotary_report(dir, &md)?)
+    })?;
+    if a.json {
+        guard::print_json(&j)?;
+    } else {
+        eprintln!(
+            "diagnose: rotary axis {}: {} ({} effects); report in {}",
+            session.axis,
+            j.verdict,
+            j.effects.len(),
+            a.report.display()
+        );
+    }
+    Ok(())
+}
+
+/// A rotary table for `export`: a rotary session reduced as `table`, or a rotary error
+/// table; `None` for anything else.
+pub(crate) fn rotary_table(p: &Path) -> Result<Option<(RotaryAxis, Vec<(f64, f64)>)>> {
+    let Ok(path) = super::acquisition::session_file(p) else {
+        return Ok(None);
+    };
+    if rotary::is_rotary(&path).unwrap_or(false) {
+        let s = rotary::read_rotary_session(&path)?;
+        let rows = rotary::rotary_error_table(&s)
+            .iter()
+            .map(|r| (r.angle_deg, r.e_arcsec))
+            .collect();
+        return Ok(Some((s.axis, rows)));
+    }
+    let parquet = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
+    let header_says_rotary = parquet
+        || std::fs::File::open(&path).ok().is_some_and(|f| {
+            use std::io::BufRead;
+            let mut h = String::new();
+            let _ = std::io::BufReader::new(f).take(1 << 16).read_line(&mut h);
+            h.split(',')
+                .any(|c| ["a_deg", "b_deg", "c_deg"].contains(&c.trim().trim_matches('"')))
+        });
+    if !header_says_rotary {
+        return Ok(None);
+    }
+    Ok(rotary::read_rotary_error_table(&path)?)
+}
+
+/// `export` of a rotary table: a modulo compensation table (`docs/rotary.md` §4).
+pub(crate) fn export(
+    a: &super::args::ExportArgs,
+    axis: RotaryAxis,
+    rows: &[(f64, f64)],
+) -> Result<()> {
+    use super::values::ExportFormatArg;
+    use errmap::controller::modulo::{ModuloDialect, ModuloSpec, modulo_table};
+    let dialect = match a.format {
+        ExportFormatArg::Table(d) => match d.name() {
+            "linuxcnc" => ModuloDialect::LinuxCnc,
+            "siemens" => ModuloDialect::Siemens,
+            "fanuc" => ModuloDialect::Fanuc,
+            "heidenhain" => ModuloDialect::Heidenhain,
+            "fagor-8055" => ModuloDialect::Fagor8055,
+            other => {
+                return Err(guard::usage(format!(
+                    "--format {other} has no modulo table for a rotary axis (linuxcnc, siemens, \
+                     fanuc, heidenhain or fagor-8055)"
+                )));
+            }
+        },
+        _ => {
+            return Err(guard::usage(
+                "a rotary table exports as a controller's modulo table: --format linuxcnc, \
+                 siemens, fanuc, heidenhain or fagor-8055",
+            ));
+        }
+    };
+    if a.method.is_some() || a.order.is_some() {
+        return Err(guard::usage(
+            "--method is not used with a rotary table (no model is fitted)",
+        ));
+    }
+    if a.bidirectional || a.existing.is_some() {
+        return Err(guard::usage(
+            "--bidirectional and --existing are not built yet for a rotary table",
+        ));
+    }
+    if a.units.is_some() {
+        return Err(guard::usage("--units: a rotary table is in degrees"));
+    }
+    let o = &a.dialect_options.0;
+    if o.real("detection-unit-um") != Some(1.0) {
+        return Err(guard::usage(
+            "--detection-unit-um is a length: a rotary FANUC table takes --detection-unit-deg",
+        ));
+    }
+    guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
+    let mut spec = ModuloSpec::new(dialect, axis);
+    spec.step_deg = a.step;
+    spec.max_points = a.max_points;
+    spec.reference_deg = a.reference;
+    spec.trim = matches!(a.comp_type, Some(super::values::CompTypeArg::Trim));
+    // X1 is the linear default: a rotary axis defaults to its letter + 1.
+    spec.siemens_axis = o
+        .text("siemens-axis")
+        .filter(|s| *s != "X1")
+        .map(str::to_string);
+    spec.fanuc_reference_number = o.number("fanuc-reference-number").unwrap_or(0);
+    spec.detection_unit_deg = o.real("detection-unit-deg").unwrap_or(0.001);
+    spec.magnification = o.number("magnification").unwrap_or(1);
+    spec.fanuc_max_value = o.number("fanuc-max-value").unwrap_or(7);
+    spec.axis_name = a.axis_name.clone();
+    let t = modulo_table(rows, &spec).map_err(|e| anyhow::anyhow!("{}: {e}", a.table.display()))?;
+    errmap::table::write_atomically::<anyhow::Error>(&a.out, |f| {
+        use std::io::Write;
+        f.write_all(t.text.as_bytes())
+            .map_err(|e| errmap::base::io_err(&a.out, errmap::base::FileOp::Write)(e).into())
+    })?;
+    for w in &t.warnings {
+        eprintln!("export: warning: {w}");
+    }
+    eprintln!(
+        "export: {} modulo table of rotary axis {}: {} points, largest residual {:.3}″ → {}",
+        t.format,
+        axis,
+        t.points,
+        t.max_residual_arcsec,
+        a.out.display()
+    );
+    if a.json {
+        guard::print_json(&t)?;
+    }
+    Ok(())
+}
+
+/// `plan --axis a|b|c`: the ISO 230-2 cycle in degrees and its part program.
+pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
+    if a.feed_mm_s.is_some() || !a.at.0.is_empty() {
+        return Err(guard::usage(format!(
+            "--feed-mm-s and --at are for a linear axis; --axis {} takes --feed-deg-s",
+            axis.lower()
+        )));
+    }
+    if !(0.0 <= a.from && a.from < a.to && a.to <= 360.0) {
+        return Err(guard::usage(format!(
+            "--from {} --to {}: 0 ≤ from < to ≤ 360 for a rotary axis (errmap never wraps an \
+             angle)",
+            a.from, a.to
+        )));
+    }
+    if a.program.is_some() && a.dialect.name() != "linuxcnc" {
+        return Err(guard::usage(format!(
+            "--dialect {}: a rotary plan's program is written for linuxcnc only so far",
+            a.dialect.name()
+        )));
+    }
+    if a.mark_output.is_some() {
+        return Err(guard::usage("--mark-output is not built for a rotary plan"));
+    }
+    let mut outputs = vec![("--out", a.out.as_path())];
+    outputs.extend(a.program.as_deref().map(|p| ("--program", p)));
+    guard::refuse_aliases(&outputs, &[])?;
+    let plan = errmap::sim::RotaryPlan::generate(errmap::sim::RotaryPlanConfig {
+        axis,
+        from_deg: a.from,
+        to_deg: a.to,
+        targets: a.targets,
+        interval_deg: a.interval,
+        runs: a.runs,
+        overrun_deg: a.overrun,
+        dwell_s: a.dwell_s,
+        feed_deg_s: a.feed_deg_s.unwrap_or(10.0),
+        random_offset: a.random_offset,
+        seed: a.seed,
+    })
+    .map_err(|e| guard::usage(format!("--{}", e.to_string().replace('_', "-"))))?;
+    guard::write_file(&a.out, plan.toml().as_bytes())?;
+    eprintln!(
+        "plan: {} targets of rotary axis {axis}, {}° to {}°, {} runs → {}",
+        plan.targets_deg.len(),
+        a.from,
+        a.to,
+        a.runs,
+        a.out.display()
+    );
+    if let Some(p) = &a.program {
+        guard::write_file(p, plan.linuxcnc().as_bytes())?;
+        eprintln!("plan: linuxcnc program → {}", p.display());
+    }
+    Ok(())
+}

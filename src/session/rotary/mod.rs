@@ -1,0 +1,166 @@
+//! Rotary sessions (axis A, B or C): the table, its checks, ISO 230-2 in arcseconds with
+//! the 0/360° closure check, and the rotary error table (`docs/rotary.md`).
+//!
+//! A rotary session row holds the axis' own reading (`indicated_deg`), the reference
+//! instrument's angle (`reference_deg`) and `error_arcsec` = (indicated − reference)·3600,
+//! the value every evaluation uses. Targets lie in [0, 360]; 0 and 360 are one physical
+//! position, the **closure pair**, evaluated as two targets and compared with each other
+//! ([`Closure`]). No angle is ever wrapped.
+//!
+//! The ISO 230-2 figures are the linear axis' (`session::axis_stats`, ISO 230-2:2014
+//! clause 3, whose scope covers rotary axes alike), fed with degrees for millimetres and
+//! arcseconds for micrometres: the formulas hold whatever the unit.
+
+mod iso;
+mod read;
+
+pub use iso::{
+    Closure, RotaryIso, RotaryTableRow, RotaryTargetStats, closure_warning,
+    read_rotary_error_table, rotary_error_table, rotary_iso, write_rotary_error_table,
+};
+pub use read::{is_rotary, read_rotary_session, rotary_frame, write_rotary_session};
+
+use std::path::PathBuf;
+
+use crate::base::RotaryAxis;
+use crate::table::TableError;
+
+/// Two target angles closer than this (1 µ°) are the same nominal angle.
+pub const ANGLE_TOL_DEG: f64 = 1e-6;
+
+/// One latched sample of a rotary session.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RotaryRow {
+    pub run: u32,
+    pub sample: i64,
+    pub t_s: f64,
+    /// +1 angle increasing, −1 decreasing, 0 outside a run.
+    pub direction: i8,
+    /// Target index while dwelling (rank of `target_deg`), −1 while moving.
+    pub target: i32,
+    /// The nominal target angle on dwell rows.
+    pub target_deg: Option<f64>,
+    pub indicated_deg: f64,
+    pub reference_deg: f64,
+    /// (indicated − reference)·3600.
+    pub error_arcsec: f64,
+    pub feed_deg_s: Option<f64>,
+    pub air_temp_c: Option<f64>,
+    pub part_temp_c: Option<f64>,
+    pub scale_temp_c: Option<f64>,
+    pub flags: u8,
+}
+
+impl RotaryRow {
+    /// A dwell row, used by every evaluation: run ≥ 1, direction ±1, target ≥ 0, no flag.
+    pub fn is_dwell(&self) -> bool {
+        self.run >= 1 && self.direction != 0 && self.target >= 0 && self.flags == 0
+    }
+}
+
+/// A rotary session: its axis and its rows in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RotarySession {
+    pub axis: RotaryAxis,
+    pub rows: Vec<RotaryRow>,
+}
+
+impl RotarySession {
+    /// The dwell rows' distinct targets, ascending: (index, angle).
+    pub fn targets(&self) -> Vec<(i32, f64)> {
+        let mut v: Vec<(i32, f64)> = Vec::new();
+        for r in self.rows.iter().filter(|r| r.is_dwell()) {
+            if let Some(deg) = r.target_deg
+                && !v.iter().any(|t| t.0 == r.target)
+            {
+                v.push((r.target, deg));
+            }
+        }
+        v.sort_by(|a, b| a.1.total_cmp(&b.1));
+        v
+    }
+}
+
+/// A rotary session or table that cannot be read or breaks the contract.
+#[derive(Debug, thiserror::Error)]
+pub enum RotaryError {
+    #[error(transparent)]
+    Table(TableError),
+    /// A cell, or a rule about one row: the file's physical line (header = 1).
+    #[error("{path}: line {line}: column {column}: {problem}")]
+    At {
+        path: PathBuf,
+        line: usize,
+        column: String,
+        problem: String,
+    },
+    #[error(transparent)]
+    Io(#[from] crate::base::FileError),
+    /// The session as a whole (no dwell rows, too few runs for a figure).
+    #[error("{path}: {problem}")]
+    Whole { path: PathBuf, problem: String },
+}
+
+impl RotaryError {
+    fn at(path: &std::path::Path, line: usize, column: &str, problem: impl Into<String>) -> Self {
+        RotaryError::At {
+            path: path.to_path_buf(),
+            line,
+            column: column.to_string(),
+            problem: problem.into(),
+        }
+    }
+}
+
+impl From<TableError> for RotaryError {
+    /// A table reader's cell error in the rotary contract's words (line, column).
+    fn from(e: TableError) -> Self {
+        match e {
+            TableError::NotNumeric {
+                path,
+                line,
+                column,
+                value,
+                ..
+            } => RotaryError::At {
+                path,
+                line,
+                column,
+                problem: format!("`{value}` is not a number"),
+            },
+            TableError::EmptyCell {
+                path, line, column, ..
+            } => RotaryError::At {
+                path,
+                line,
+                column,
+                problem: "empty cell in a required column".into(),
+            },
+            TableError::NonFinite {
+                path,
+                line,
+                column,
+                value,
+                ..
+            } => RotaryError::At {
+                path,
+                line,
+                column,
+                problem: format!("{value} is not a finite number"),
+            },
+            TableError::BadValue {
+                path,
+                line,
+                column,
+                problem,
+                ..
+            } => RotaryError::At {
+                path,
+                line,
+                column,
+                problem,
+            },
+            other => RotaryError::Table(other),
+        }
+    }
+}
