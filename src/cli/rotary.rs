@@ -287,7 +287,7 @@ pub(crate) fn diagnose(a: &super::args::DiagnoseArgs) -> Result<()> {
 
 /// A rotary table for `export`: a rotary session reduced as `table`, or a rotary error
 /// table; `None` for anything else.
-pub(crate) fn rotary_table(p: &Path) -> Result<Option<(RotaryAxis, Vec<(f64, f64)>)>> {
+pub(crate) fn rotary_table(p: &Path) -> Result<Option<rotary::RotaryTable>> {
     let Ok(path) = super::acquisition::session_file(p) else {
         return Ok(None);
     };

@@ -87,7 +87,7 @@ impl RotaryPlan {
             ("dwell_s", c.dwell_s),
             ("feed", c.feed_deg_s),
         ] {
-            if !(v.is_finite() && v >= 0.0 && v <= 3600.0) {
+            if !(0.0..=3600.0).contains(&v) {
                 return Err(bad(field, format!("{v} is outside 0 … 3600")));
             }
         }

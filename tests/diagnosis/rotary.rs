@@ -127,6 +127,15 @@ fn each_effect_alone_is_found_within_its_one_sigma_and_nothing_else_is() {
             let p = f.effect.as_harmonic().map_or(f64::NAN, |h| h.2);
             let dp = ((p - phase + 180.0).rem_euclid(360.0) - 180.0).abs();
             assert!(dp < 10.0, "{hidden:?}: phase {p}");
+            let sp = f
+                .uncertainty
+                .iter()
+                .find(|x| x.0 == errmap::base::ParamName::PhaseDeg)
+                .map_or(0.0, |x| x.1);
+            assert!(
+                sp > 0.0 && dp <= 4.0 * sp + 1e-9,
+                "{hidden:?}: phase {p} ± {sp}"
+            );
         }
     }
 }

@@ -6,7 +6,6 @@
 
 use std::path::Path;
 
-use errmap::controller::isg::render_volumetric as render_twincat;
 use errmap::volumetric::{Component, squareness_effect};
 use errmap::volumetric::{Degree, IdentifyConfig, LineTable, Predictor, identify, simulate};
 use errmap::volumetric::{component_tables, positioning_profile};

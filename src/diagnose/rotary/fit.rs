@@ -129,7 +129,7 @@ pub(super) fn fit(dwells: &[Dwell], set: &[Candidate]) -> Option<Fit> {
     let xtx = xs.transpose() * &xs;
     let svd = xtx.clone().svd(false, false);
     let (smax, smin) = (svd.singular_values.max(), svd.singular_values.min());
-    if !(smin > smax * 1e-10) {
+    if smin.is_nan() || smin <= smax * 1e-10 {
         return None;
     }
     let inv = xtx.try_inverse()?;

@@ -76,8 +76,11 @@ pub enum RotaryDiagnoseError {
     TooFewDwells { dwells: usize },
 }
 
+/// Per dwell (run, direction, angle in µ°): its angle, Σt, Σe and its samples.
+type DwellSums = BTreeMap<(u32, i8, i64), (f64, f64, f64, usize)>;
+
 fn dwells_of(samples: &[RotarySample]) -> Vec<Dwell> {
-    let mut m: BTreeMap<(u32, i8, i64), (f64, f64, f64, usize)> = BTreeMap::new();
+    let mut m = DwellSums::new();
     for s in samples {
         let key = (s.run, s.direction, (s.target_deg * 1e6).round() as i64);
         let e = m.entry(key).or_insert((s.target_deg, 0.0, 0.0, 0));
@@ -156,8 +159,7 @@ const TAU_GRID: u32 = 12;
 /// Forward selection then backward pruning (module docs).
 fn select(dwells: &[Dwell], cands: &[Candidate], t: f64) -> Vec<Candidate> {
     let mut set: Vec<Candidate> = Vec::new();
-    loop {
-        let Some(base) = fit(dwells, &set) else { break };
+    while let Some(base) = fit(dwells, &set) {
         let best = cands
             .iter()
             .filter(|c| !set.iter().any(|s| s.same_slot(c)))
@@ -168,8 +170,7 @@ fn select(dwells: &[Dwell], cands: &[Candidate], t: f64) -> Vec<Candidate> {
             _ => break,
         }
     }
-    loop {
-        let Some(full) = fit(dwells, &set) else { break };
+    while let Some(full) = fit(dwells, &set) {
         let weakest = (0..set.len())
             .map(|i| (i, removal_rise(dwells, &set, &full, i)))
             .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -205,7 +206,7 @@ fn sigmas(set: &[Candidate], f: &Fit, i: usize) -> (f64, f64, Vec<f64>) {
     let o = offset(set, i);
     let v = |a: usize, b: usize| f.cov[(o + a, o + b)];
     match set[i] {
-        Candidate::Harmonic(_) => {
+        Candidate::Harmonic(n) => {
             let (s, c) = (f.coef[o], f.coef[o + 1]);
             let a = s.hypot(c).max(1e-300);
             let g = [s / a, c / a];
@@ -216,7 +217,13 @@ fn sigmas(set: &[Candidate], f: &Fit, i: usize) -> (f64, f64, Vec<f64>) {
                     .sqrt()
             };
             let (sa, sp) = (q(g), q(h).to_degrees());
-            (a, sa, vec![sa, 0.0, sp])
+            // In the order of the effect's parameters (gear_periodic: per_rev between).
+            let all = if n <= 2 {
+                vec![sa, sp]
+            } else {
+                vec![sa, 0.0, sp]
+            };
+            (a, sa, all)
         }
         _ => {
             let s = v(0, 0).max(0.0).sqrt();

@@ -265,11 +265,12 @@ pub fn write_rotary_error_table(
     Ok(write_frame(path, &mut df)?)
 }
 
+/// A rotary error table as read: its axis and (θ °, e ″) rows, ascending.
+pub type RotaryTable = (RotaryAxis, Vec<(f64, f64)>);
+
 /// Reads a rotary error table (`<axis>_deg`, `e_arcsec`, …): its axis and (θ, e) rows,
 /// ascending; `None` when the table has no `a_deg`, `b_deg` or `c_deg` column.
-pub fn read_rotary_error_table(
-    path: &Path,
-) -> Result<Option<(RotaryAxis, Vec<(f64, f64)>)>, RotaryError> {
+pub fn read_rotary_error_table(path: &Path) -> Result<Option<RotaryTable>, RotaryError> {
     let df = crate::table::read_frame(path)?;
     let Some(axis) = RotaryAxis::ALL
         .into_iter()

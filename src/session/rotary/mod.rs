@@ -15,7 +15,7 @@ mod iso;
 mod read;
 
 pub use iso::{
-    Closure, RotaryIso, RotaryTableRow, RotaryTargetStats, closure_warning,
+    Closure, RotaryIso, RotaryTable, RotaryTableRow, RotaryTargetStats, closure_warning,
     read_rotary_error_table, rotary_error_table, rotary_iso, write_rotary_error_table,
 };
 pub use read::{is_rotary, read_rotary_session, rotary_frame, write_rotary_session};

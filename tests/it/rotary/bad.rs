@@ -15,7 +15,7 @@ fn session_lines(dir: &Path) -> Vec<String> {
     let o = import_rotary(&csv, &out, "b");
     assert!(o.status.success(), "{}", stderr(&o));
     std::fs::read_to_string(out)
-        .unwrap()
+        .expect("present")
         .lines()
         .map(str::to_string)
         .collect()
@@ -34,7 +34,7 @@ fn set(lines: &mut [String], line: usize, col: usize, v: &str) {
 /// Runs `table` on the edited session; exit 1 with every `want` in the message.
 fn refused(dir: &Path, lines: &[String], want: &[&str]) {
     let p = dir.join("bad.csv");
-    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    std::fs::write(&p, lines.join("\n") + "\n").expect("present");
     let o = errmap(&["table", s(&p), "--out", s(&dir.join("t.csv"))]);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
@@ -77,7 +77,12 @@ fn one_index_two_angles_and_one_angle_two_indices_name_both_lines() {
     let c = column(&l, "target_deg");
     // Line 2 is target 0 at 0°; line 3 target 1 at 45°.
     set(&mut l, 3, c, "46");
-    let later = l.iter().skip(3).position(|x| x.contains(",1,45")).unwrap() + 4;
+    let later = l
+        .iter()
+        .skip(3)
+        .position(|x| x.contains(",1,45"))
+        .expect("present")
+        + 4;
     refused(
         dir.path(),
         &l,

@@ -38,16 +38,16 @@ fn a_rotary_session_exports_a_siemens_modulo_table_with_its_report() {
         assert_eq!(j["axis"], "A");
         assert_eq!(j["points"], 9);
         assert_eq!(j["step_deg"], 45.0);
-        assert!((j["closure_gap_arcsec"].as_f64().unwrap() - 38.88).abs() < 1e-6);
-        assert!((j["ratio_ppm"].as_f64().unwrap() - 30.0).abs() < 1e-6);
-        assert!(j["max_residual_arcsec"].as_f64().unwrap() < 1e-6);
+        assert!((j["closure_gap_arcsec"].as_f64().expect("present") - 38.88).abs() < 1e-6);
+        assert!((j["ratio_ppm"].as_f64().expect("present") - 30.0).abs() < 1e-6);
+        assert!(j["max_residual_arcsec"].as_f64().expect("present") < 1e-6);
         assert!(
             j["warnings"][0]
                 .as_str()
-                .unwrap()
+                .expect("present")
                 .contains("correct the ratio")
         );
-        let text = std::fs::read_to_string(&out).unwrap();
+        let text = std::fs::read_to_string(&out).expect("present");
         assert!(text.contains("$AA_ENC_COMP_IS_MODULO[0,A1]=1"), "{text}");
     }
     let out = dir.path().join("x.ngc");

@@ -183,7 +183,7 @@ fn a_table_that_does_not_fit_is_refused_with_the_reason() {
         modulo_table(&t, &s),
         Err(ModuloError::Step { .. })
     ));
-    let e = modulo_table(&t, &s).unwrap_err().to_string();
+    let e = modulo_table(&t, &s).expect_err("refused").to_string();
     assert!(e.contains("try"), "{e}");
     let no_zero: Vec<(f64, f64)> = t[1..].to_vec();
     assert_eq!(

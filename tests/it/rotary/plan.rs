@@ -55,12 +55,16 @@ fn the_iso_cycle_in_degrees_with_overrun_and_dwell() {
         s(&ngc),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let t = std::fs::read_to_string(&toml).unwrap();
+    let t = std::fs::read_to_string(&toml).expect("present");
     assert!(t.contains("axis = \"B\"") && t.contains("runs = 2") && t.contains("overrun_deg = 5"));
-    let line = t.lines().find(|l| l.starts_with("targets_deg")).unwrap();
-    let targets: Vec<f64> = line[line.find('[').unwrap() + 1..line.find(']').unwrap()]
+    let line = t
+        .lines()
+        .find(|l| l.starts_with("targets_deg"))
+        .expect("present");
+    let targets: Vec<f64> = line
+        [line.find('[').expect("present") + 1..line.find(']').expect("present")]
         .split(',')
-        .map(|v| v.trim().parse().unwrap())
+        .map(|v| v.trim().parse().expect("present"))
         .collect();
     assert_eq!(targets.len(), 9);
     assert_eq!((targets[0], targets[8]), (0.0, 360.0), "the closure pair");
@@ -70,7 +74,7 @@ fn the_iso_cycle_in_degrees_with_overrun_and_dwell() {
             .iter()
             .all(|v| ((v * 1000.0).round() - v * 1000.0).abs() < 1e-6)
     );
-    let text = std::fs::read_to_string(&ngc).unwrap();
+    let text = std::fs::read_to_string(&ngc).expect("present");
     assert!(text.contains("G90") && text.contains("G0 B-5.000"));
     let (ev, feeds) = events(&text, 'B');
     let mut want = Vec::new();
@@ -99,8 +103,8 @@ fn the_iso_cycle_in_degrees_with_overrun_and_dwell() {
         eprintln!("SKIP rotary plan through rs274: rs274 (linuxcnc-uspace) is not installed");
         return;
     };
-    std::fs::write(dir.path().join("tool.tbl"), "T1 P1 D0 Z0 ;\n").unwrap();
-    std::fs::write(dir.path().join("rs274ngc.var"), "").unwrap();
+    std::fs::write(dir.path().join("tool.tbl"), "T1 P1 D0 Z0 ;\n").expect("present");
+    std::fs::write(dir.path().join("rs274ngc.var"), "").expect("present");
     let out = Command::new(rs274)
         .current_dir(dir.path())
         .args(["-t", "tool.tbl", "-v", "rs274ngc.var", "-g", "p.ngc"])

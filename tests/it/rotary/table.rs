@@ -82,16 +82,24 @@ fn iso_230_2_in_arcsec_matches_the_definitions_with_0_and_360_both_evaluated() {
     );
     for i in 0..m {
         let t = &iso["targets"][i];
-        close(t["position_deg"].as_f64().unwrap(), targets[i], "position");
-        close(t["mean_up_arcsec"].as_f64().unwrap(), x.mean_up[i], "x̄↑");
         close(
-            t["mean_down_arcsec"].as_f64().unwrap(),
+            t["position_deg"].as_f64().expect("present"),
+            targets[i],
+            "position",
+        );
+        close(
+            t["mean_up_arcsec"].as_f64().expect("present"),
+            x.mean_up[i],
+            "x̄↑",
+        );
+        close(
+            t["mean_down_arcsec"].as_f64().expect("present"),
             x.mean_down[i],
             "x̄↓",
         );
-        close(t["s_up_arcsec"].as_f64().unwrap(), x.s_up[i], "s↑");
+        close(t["s_up_arcsec"].as_f64().expect("present"), x.s_up[i], "s↑");
         close(
-            t["reversal_arcsec"].as_f64().unwrap(),
+            t["reversal_arcsec"].as_f64().expect("present"),
             x.mean_up[i] - x.mean_down[i],
             "B_i",
         );
@@ -121,42 +129,46 @@ fn iso_230_2_in_arcsec_matches_the_definitions_with_0_and_360_both_evaluated() {
         ]
     }));
     close(
-        iso["b_arcsec"].as_f64().unwrap(),
+        iso["b_arcsec"].as_f64().expect("present"),
         max(b.iter().map(|v| v.abs())),
         "B",
     );
     close(
-        iso["mean_reversal_arcsec"].as_f64().unwrap(),
+        iso["mean_reversal_arcsec"].as_f64().expect("present"),
         b.iter().sum::<f64>() / m as f64,
         "B̄",
     );
     close(
-        iso["r_arcsec"].as_f64().unwrap(),
+        iso["r_arcsec"].as_f64().expect("present"),
         max(r_i.iter().copied()),
         "R",
     );
     close(
-        iso["e_arcsec"].as_f64().unwrap(),
+        iso["e_arcsec"].as_f64().expect("present"),
         max(both()) - min(both()),
         "E",
     );
     close(
-        iso["m_arcsec"].as_f64().unwrap(),
+        iso["m_arcsec"].as_f64().expect("present"),
         max(bi.iter().copied()) - min(bi.iter().copied()),
         "M",
     );
-    close(iso["a_arcsec"].as_f64().unwrap(), a_hi - a_lo, "A");
+    close(iso["a_arcsec"].as_f64().expect("present"), a_hi - a_lo, "A");
     // 0 and 360 carry the same errors here: the closure agrees exactly.
     let c = &line["closure"];
-    close(c["diff_up_arcsec"].as_f64().unwrap(), 0.0, "closure ↑");
+    close(
+        c["diff_up_arcsec"].as_f64().expect("present"),
+        0.0,
+        "closure ↑",
+    );
     assert_eq!(c["consistent"], true);
     assert_eq!(j["warnings"].as_array().map(Vec::len), Some(0));
     // The rotary error table: a_deg, e_arcsec (mean of both directions), n, s_arcsec.
-    let text = std::fs::read_to_string(&table).unwrap();
+    let text = std::fs::read_to_string(&table).expect("present");
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some("a_deg,e_arcsec,n,s_arcsec"));
     let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .map(|l| l.split(',').map(|v| v.parse().expect("present")).collect())
         .collect();
     assert_eq!(rows.len(), m);
     for (i, r) in rows.iter().enumerate() {
@@ -189,21 +201,29 @@ fn a_ratio_error_breaks_the_closure_with_a_named_warning() {
     let j = json(&o);
     let c = &j["lines"][0]["closure"];
     // 40 ppm of a revolution: 360·3600·40e-6 = 51.84″, x = −e.
-    close(c["diff_up_arcsec"].as_f64().unwrap(), -51.84, "closure ↑");
-    close(c["diff_down_arcsec"].as_f64().unwrap(), -51.84, "closure ↓");
+    close(
+        c["diff_up_arcsec"].as_f64().expect("present"),
+        -51.84,
+        "closure ↑",
+    );
+    close(
+        c["diff_down_arcsec"].as_f64().expect("present"),
+        -51.84,
+        "closure ↓",
+    );
     let x = expected(&targets, 5, 40.0);
     close(
-        c["limit_up_arcsec"].as_f64().unwrap(),
+        c["limit_up_arcsec"].as_f64().expect("present"),
         2.0 * x.s_up[0].max(x.s_up[8]),
         "limit ↑",
     );
     assert_eq!(c["consistent"], false);
-    let w = j["warnings"][0].as_str().unwrap();
+    let w = j["warnings"][0].as_str().expect("present");
     assert!(
         w.starts_with("closure_mismatch:") && w.contains("ratio") && w.contains("drift"),
         "{w}"
     );
     assert!(stderr(&o).contains("closure_mismatch:"));
-    let report = std::fs::read_to_string(dir.path().join("rep/report.md")).unwrap();
+    let report = std::fs::read_to_string(dir.path().join("rep/report.md")).expect("present");
     assert!(report.contains("closure_mismatch:") && report.contains('″'));
 }
