@@ -167,12 +167,6 @@ static OPTIONS: [DialectOption; 7] = [
         parse: options::positive,
     },
     DialectOption {
-        name: "detection-unit-deg",
-        help: "FANUC rotary axis: the detection unit in degrees (0.001 IS-B, 0.0001 IS-C)",
-        default: None,
-        parse: options::positive,
-    },
-    DialectOption {
         name: "magnification",
         help: "FANUC 3623, the pitch error compensation magnification",
         default: Some("1"),
@@ -195,6 +189,12 @@ static OPTIONS: [DialectOption; 7] = [
         help: "FANUC 3626 of a bidirectional table (default: right after 3622)",
         default: None,
         parse: options::number,
+    },
+    DialectOption {
+        name: "detection-unit-deg",
+        help: "FANUC rotary axis: the detection unit in degrees (0.001 IS-B, 0.0001 IS-C)",
+        default: None,
+        parse: options::positive,
     },
 ];
 
