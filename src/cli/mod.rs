@@ -15,6 +15,7 @@
 //! | [`volumetric`] | volumetric simulate, identify, predict |
 //! | [`import`] | import; the flag values a controller table needs (`--units`, `--comp-type`) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
+//! | [`workbench`] | workbench: the local web application |
 //! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
@@ -39,6 +40,7 @@ pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;
 pub(crate) mod volumetric;
+pub(crate) mod workbench;
 
 use args::*;
 
@@ -110,6 +112,9 @@ pub(crate) enum Command {
     History(history::HistoryArgs),
     /// Decisions of conformity; the ISO 10360-2 length measurement error test.
     Acceptance(acceptance::AcceptanceArgs),
+    /// Serve the workbench: errmap's results in a local web browser (pages, charts, JSON,
+    /// live capture).
+    Workbench(workbench::WorkbenchArgs),
 }
 
 pub(crate) fn main() -> ExitCode {
@@ -184,6 +189,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),
         Command::Acceptance(a) => acceptance::acceptance_cmd(a),
+        Command::Workbench(a) => workbench::workbench_cmd(a),
         Command::Bench(a) => {
             let mut r = if a.history_only {
                 errmap::bench::BenchReport::default()
