@@ -192,10 +192,18 @@ pub(crate) fn xy(
             pts.join(" "),
             se.colour
         );
+    }
+    // The points: those without markers first, so a visible marker is on top where two
+    // series meet (pointing at it shows its value).
+    for se in series
+        .iter()
+        .filter(|s| !s.markers)
+        .chain(series.iter().filter(|s| s.markers))
+    {
         for p in se
             .points
             .iter()
-            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && !p.tip.is_empty())
         {
             let r = if se.markers { 4.0 } else { 3.0 };
             let opacity = if se.markers { "1" } else { "0" };

@@ -187,7 +187,11 @@ fn session_body(
         if let Some(o) = vdi.as_object() {
             for (name, v) in o {
                 if let Some(x) = v.as_f64() {
-                    b.push_str(&figure(&format!("VDI 3441 {name}"), x, ""));
+                    let (short, unit) = match name.strip_suffix("_um") {
+                        Some(n) => (n, "µm"),
+                        None => (name.as_str(), ""),
+                    };
+                    b.push_str(&figure(&format!("VDI 3441 {short}"), x, unit));
                 }
             }
         }

@@ -56,6 +56,28 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "workbench",
+        &[
+            "report",
+            "history",
+            "acceptance",
+            "circular",
+            "base",
+            "plot",
+            "table",
+            "interp",
+            "evaluate",
+            "export",
+            "controller",
+            "session",
+            "acquire",
+            "diagnose",
+            "sim",
+            "volumetric",
+            "import",
+        ],
+    ),
+    (
         "bench",
         &[
             "history",

@@ -44,3 +44,5 @@ mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_random;
 mod volumetric_thermal;
+mod workbench;
+mod workbench_browser;
