@@ -250,7 +250,7 @@ fn legend(s: &mut String, series: &[Series]) {
 /// with a tip on every `step`-th sample.
 pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
     const SIZE: f64 = 560.0;
-    let (cx, cy, r_px) = (SIZE / 2.0, SIZE / 2.0 + 10.0, 150.0);
+    let (cx, cy, r_px) = (SIZE / 2.0, SIZE / 2.0 + 36.0, 150.0);
     let k = 25.0 / chart.um_per_div;
     let at = |t: f64, dr: f64| {
         let r = (r_px + dr * k).max(0.0);
@@ -260,7 +260,7 @@ pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
         "<svg class=\"chart polar\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {SIZE} {h}\" \
          width=\"{SIZE}\" height=\"{h}\" role=\"img\" aria-label=\"{t}\">\
          <text x=\"{cx}\" y=\"18\" text-anchor=\"middle\" font-weight=\"600\">{t}</text>",
-        h = SIZE + 40.0,
+        h = SIZE + 90.0,
         t = esc(&chart.title)
     );
     for ring in -4i32..=4 {
@@ -349,10 +349,10 @@ pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
             s,
             "<line x1=\"{lx}\" y1=\"{y}\" x2=\"{x2}\" y2=\"{y}\" stroke=\"{colour}\" stroke-width=\"2\"/>\
              <text x=\"{tx}\" y=\"{ty}\">{n}</text>",
-            y = SIZE + 22.0,
+            y = SIZE + 52.0,
             x2 = lx + 20.0,
             tx = lx + 24.0,
-            ty = SIZE + 26.0,
+            ty = SIZE + 56.0,
             n = esc(name)
         );
         lx += 70.0;
@@ -362,7 +362,7 @@ pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
         "<text x=\"{x}\" y=\"{y}\" text-anchor=\"end\">{u} µm per division; nominal circle \
          solid grey, least-squares circle dashed</text></svg>",
         x = SIZE - 10.0,
-        y = SIZE + 26.0,
+        y = SIZE + 80.0,
         u = label(chart.um_per_div)
     );
     s

@@ -11,7 +11,7 @@ use std::time::Duration;
 use axum::Router;
 use axum::body::Body;
 use axum::extract::{Path as UrlPath, Query, Request, State};
-use axum::http::{HeaderMap, HeaderValue, Method, StatusCode, header};
+use axum::http::{HeaderValue, Method, StatusCode, header};
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
@@ -487,10 +487,8 @@ fn run_command(
     Ok((bytes.map_err(|e| e.to_string())?, name.to_string()))
 }
 
-fn session_arg(st: &Shared, item: &str) -> Result<String, Response> {
-    docs::session_path(&st.ws, item)
-        .map(|p| p.display().to_string())
-        .map_err(|e| json_error(e.status, &e.message))
+fn session_arg(st: &Shared, item: &str) -> Result<String, DocError> {
+    docs::session_path(&st.ws, item).map(|p| p.display().to_string())
 }
 
 fn stem(item: &str) -> String {
@@ -507,7 +505,7 @@ fn stem(item: &str) -> String {
 async fn download_table(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status, &e.message),
     };
     let name = format!("{}-errors.csv", stem(&item));
     by_command(
@@ -526,7 +524,7 @@ async fn download_certificate(
 ) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status, &e.message),
     };
     let mut args = vec!["certificate".to_string(), session];
     for (flag, v) in [("--info", &q.info), ("--tolerances", &q.tolerances)] {
@@ -545,12 +543,10 @@ async fn download_export(
     State(st): State<Shared>,
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
-    headers: HeaderMap,
 ) -> Response {
-    let _ = headers;
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status, &e.message),
     };
     let Some(format) = q.format.filter(|f| {
         crate::controller::DIALECTS

@@ -401,10 +401,9 @@ fn every_route_answers_and_the_documents_are_the_commands() {
 
     // Not found, malformed, outside.
     assert_eq!(get(a, "/session/nothing.csv").status, 404);
-    assert_eq!(
-        get(a, "/api/table/nothing.csv").json()["error"].is_string(),
-        true
-    );
+    let missing = get(a, "/api/table/nothing.csv");
+    assert_eq!(missing.status, 404);
+    assert!(missing.json()["error"].is_string());
     let bad = get(a, "/session/tables/table1.csv");
     assert_eq!(bad.status, 400);
     assert!(bad.text().contains("class=\"error\""));
