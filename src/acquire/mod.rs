@@ -12,8 +12,10 @@
 //!   stream positions of the first problems), why the capture ended, bytes and fsyncs.
 
 mod measure;
+mod reduce;
 
 pub use measure::{StreamBench, peak_rss_mb, stream_bench};
+pub use reduce::{BudgetInputs, ReduceError, Reduced, reduce_session, reduce_session_with};
 
 use std::fs::{File, OpenOptions};
 use std::io::Read;

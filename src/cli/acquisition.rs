@@ -12,7 +12,6 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::session::{self, uncertainty};
 
 use super::args::{CaptureArgs, FaultArgs, PortsArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
@@ -349,47 +348,13 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
         None => None,
     };
     if a.json {
-        use errmap::report::{GB_T_17421_2, TableJson, TableLineJson, TableUncertaintyJson};
-        let expanded: Vec<_> = reduced.budgets.iter().map(|b| b.expanded()).collect();
-        let lines = reduced
-            .iso
-            .iter()
-            .zip(&reduced.budgets)
-            .zip(&expanded)
-            .enumerate()
-            .map(|(k, (((l, s), b), expanded))| TableLineJson {
-                conformity: conformity
-                    .as_ref()
-                    .map(|c| c.lines.get(k).and_then(|x| x.1.as_ref())),
-                gb_t_17421_2: GB_T_17421_2,
-                iso230: s,
-                line_mm: [l.0, l.1],
-                uncertainty: TableUncertaintyJson {
-                    budget: b,
-                    expanded,
-                },
-            })
-            .collect();
         // Typed, so the guard sees every number before it is written.
-        super::guard::print_json(&TableJson {
-            lines,
-            nodes: reduced.table.points.len(),
-            summary: &reduced.summary,
-            conformity: conformity.as_ref(),
-        })?;
+        super::guard::print_json(&errmap::report::table_json(&reduced, conformity.as_ref()))?;
     }
     Ok(())
 }
 
-/// A session reduced to an error table, with ISO 230-2 statistics per line.
-pub(crate) struct Reduced {
-    pub table: errmap::table::ErrorTable,
-    pub summary: session::ReductionSummary,
-    pub iso: Vec<((f64, f64), session::AxisStats)>,
-    /// The uncertainty budget of each line of `iso` (the info file's configuration and
-    /// declared conditions, else the defaults).
-    pub budgets: Vec<errmap::session::uncertainty::Budget>,
-}
+pub(crate) use errmap::acquire::Reduced;
 
 /// Reduces a session (table or capture directory) to the error table `out`, with the
 /// ISO 230-2 report in `report` when given; says what it did on stderr.
@@ -416,21 +381,14 @@ pub(crate) fn reduce_session(
             dir.display()
         );
     }
-    // One pass in batches: memory bounded by a batch and the dwell accumulators.
-    let mut reducer = session::Reducer::new();
-    let mut environment = session::EnvironmentStats::default();
-    let mut recorded = uncertainty::RecordedResolution::default();
-    let mut drift = uncertainty::DriftFinder::default();
-    session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
-        for r in rows {
-            reducer.push(r);
-            environment.push(r);
-            recorded.push(r.laser_mm);
-            drift.push(r);
-        }
-        Ok(())
-    })?;
-    let (table, summary) = reducer.error_table(&path.display().to_string())?;
+    let inputs = acquire::BudgetInputs {
+        config: info.uncertainty.clone(),
+        stated_laser_um: info.laser.resolution_um,
+        drift_check: info.drift_check.clone(),
+        declared: info.conditions.clone(),
+    };
+    let reduced = acquire::reduce_session_with(&path, &inputs)?;
+    let (table, summary) = (&reduced.table, &reduced.summary);
     table.write(out)?;
     eprintln!(
         "table: {} nodes ({} lines × {} targets) from {} dwell samples; {} flagged samples left out, {} rows not dwelling → {}",
@@ -448,11 +406,10 @@ pub(crate) fn reduce_session(
             summary.uncompensated
         );
     }
-    let device = errmap::acquire::device_resolutions(&path);
     if summary.no_air_data {
         // A capture (its HELLO beside the table) writes air values on every compensated
         // row; a table without any is an export whose lengths its own software compensated.
-        if device.is_some() {
+        if reduced.device_known {
             eprintln!(
                 "table: warning: the capture has no air values; its laser lengths are \
                  uncompensated (about 270 ppm long in a normal room)"
@@ -465,36 +422,20 @@ pub(crate) fn reduce_session(
             );
         }
     }
-    let sources = uncertainty::BudgetSources::choose(
-        device,
-        info.laser.resolution_um,
-        &recorded,
-        &info.drift_check,
-        &drift,
-        &info.conditions,
-    );
-    let (iso, failed) = reducer.iso_by_line();
-    for (line, e) in failed {
+    for (line, e) in &reduced.failed {
         eprintln!("table: no ISO 230-2 statistics for line {line:?}: {e}");
     }
-    let budgets = iso
-        .iter()
-        .map(|(_, s)| {
-            uncertainty::line_budget_with(&info.uncertainty, &environment, s, &sources)
-                .map(|(b, _)| b)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = report {
         let axis = summary.axis.clone().unwrap_or_default();
-        let environment = errmap::report::environment_text(&environment);
+        let environment = errmap::report::environment_text(&reduced.environment);
         // A new report directory appears whole or not at all.
         let p = super::guard::into_new_dir(dir, |d| {
             errmap::report::write_session_report(
                 &path.display().to_string(),
                 &axis,
                 &environment,
-                &iso,
-                &budgets,
+                &reduced.iso,
+                &reduced.budgets,
                 d,
             )
             .map(|_| dir.join("report.md"))
@@ -502,12 +443,7 @@ pub(crate) fn reduce_session(
         })?;
         eprintln!("table: ISO 230-2 report in {}", p.display());
     }
-    Ok(Reduced {
-        table,
-        summary,
-        iso,
-        budgets,
-    })
+    Ok(reduced)
 }
 
 pub(crate) fn ports(a: PortsArgs) -> Result<()> {

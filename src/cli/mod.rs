@@ -16,6 +16,7 @@
 //! | [`import`] | import; the flag values a controller table needs (`--units`, `--comp-type`) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
 //! | [`rotary`] | a rotary axis' table, import, diagnosis, export and plan |
+//! | [`workbench`] | workbench: the local web application |
 //! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
@@ -41,6 +42,7 @@ pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;
 pub(crate) mod volumetric;
+pub(crate) mod workbench;
 
 use args::*;
 
@@ -112,6 +114,9 @@ pub(crate) enum Command {
     History(history::HistoryArgs),
     /// Decisions of conformity; the ISO 10360-2 length measurement error test.
     Acceptance(acceptance::AcceptanceArgs),
+    /// Serve the workbench: errmap's results in a local web browser (pages, charts, JSON,
+    /// live capture).
+    Workbench(workbench::WorkbenchArgs),
 }
 
 pub(crate) fn main() -> ExitCode {
@@ -186,6 +191,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),
         Command::Acceptance(a) => acceptance::acceptance_cmd(a),
+        Command::Workbench(a) => workbench::workbench_cmd(a),
         Command::Bench(a) => {
             let mut r = if a.history_only {
                 errmap::bench::BenchReport::default()

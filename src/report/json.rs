@@ -158,6 +158,34 @@ pub struct TableJson<'a> {
     pub summary: &'a crate::session::ReductionSummary,
 }
 
+/// The document of `table --json` for a reduced session (with the statement of
+/// conformity when tolerances were given): the command's and the workbench's.
+pub fn table_json<'a>(
+    reduced: &'a crate::acquire::Reduced,
+    conformity: Option<&'a crate::acceptance::tolerance::Conformity>,
+) -> TableJson<'a> {
+    let lines = reduced
+        .iso
+        .iter()
+        .zip(&reduced.budgets)
+        .zip(&reduced.expanded)
+        .enumerate()
+        .map(|(k, (((l, s), budget), expanded))| TableLineJson {
+            conformity: conformity.map(|c| c.lines.get(k).and_then(|x| x.1.as_ref())),
+            gb_t_17421_2: GB_T_17421_2,
+            iso230: s,
+            line_mm: [l.0, l.1],
+            uncertainty: TableUncertaintyJson { budget, expanded },
+        })
+        .collect();
+    TableJson {
+        lines,
+        nodes: reduced.table.points.len(),
+        summary: &reduced.summary,
+        conformity,
+    }
+}
+
 /// GB/T 17421.2 carries ISO 230-2: the note every `table --json` line holds.
 pub const GB_T_17421_2: &str = "same values as iso230 (GB/T 17421.2-2016 carries ISO 230-2)";
 

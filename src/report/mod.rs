@@ -69,7 +69,7 @@ pub use iso230::{
 };
 pub use json::{
     CompareJson, CompareJsonRow, DiagnoseJson, GB_T_17421_2, GridJson, MethodJson, RefusedJson,
-    ReplayJson, TableJson, TableLineJson, TableUncertaintyJson,
+    ReplayJson, TableJson, TableLineJson, TableUncertaintyJson, table_json,
 };
 pub use volumetric::write_report as write_volumetric_report;
 

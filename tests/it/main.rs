@@ -45,3 +45,5 @@ mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_random;
 mod volumetric_thermal;
+mod workbench;
+mod workbench_browser;

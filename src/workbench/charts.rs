@@ -1,0 +1,416 @@
+//! Inline SVG charts for the pages. Every data point carries `data-tip`, the text the
+//! page's script shows when pointing at it (what it is, and its value with its unit);
+//! every axis says its unit. The styles are the reports': the ISO 230-2 deviation chart
+//! (↑ blue, ↓ red, means solid with markers, x̄ ± 2s dashed) and the ballbar polar plot
+//! (the trace magnified about the nominal circle, rings every `µm per division`).
+
+use std::fmt::Write;
+
+use super::html::esc;
+
+/// The Tableau 10 colours the reports use (`plot`'s palette): blue, orange, green, red…
+pub(crate) const PALETTE: [&str; 10] = [
+    "#4e79a7", "#f28e2b", "#59a14f", "#e15759", "#76b7b2", "#edc948", "#b07aa1", "#ff9da7",
+    "#9c755f", "#bab0ac",
+];
+
+/// One point and what pointing at it says.
+#[derive(Debug, Clone)]
+pub(crate) struct Pt {
+    pub x: f64,
+    pub y: f64,
+    pub tip: String,
+}
+
+/// A line of points.
+#[derive(Debug, Clone)]
+pub(crate) struct Series {
+    pub name: String,
+    pub colour: &'static str,
+    pub dashed: bool,
+    pub markers: bool,
+    pub points: Vec<Pt>,
+}
+
+/// A shaded band between `lo` and `hi` at the same `x`.
+#[derive(Debug, Clone)]
+pub(crate) struct Band {
+    pub colour: &'static str,
+    pub x: Vec<f64>,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+const W: f64 = 760.0;
+const H: f64 = 380.0;
+const LEFT: f64 = 70.0;
+const RIGHT: f64 = 20.0;
+const TOP: f64 = 34.0;
+const BOTTOM: f64 = 70.0;
+
+/// Round tick positions covering `[lo, hi]`.
+fn ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let span = (hi - lo).abs().max(1e-12);
+    let raw = span / 6.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let mut t = (lo / step).ceil() * step;
+    let mut out = Vec::new();
+    while t <= hi + step * 1e-9 && out.len() < 50 {
+        out.push(if t.abs() < step * 1e-9 { 0.0 } else { t });
+        t += step;
+    }
+    out
+}
+
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 {
+        return (lo - 1.0, hi + 1.0);
+    }
+    let pad = (hi - lo) * 0.05;
+    (lo - pad, hi + pad)
+}
+
+fn label(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.into() }
+}
+
+/// An x–y chart: `series` drawn over `bands`, a legend under the plot.
+pub(crate) fn xy(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    bands: &[Band],
+) -> String {
+    let (x0, x1) = range(
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.x))
+            .chain(bands.iter().flat_map(|b| b.x.iter().copied())),
+    );
+    let (y0, y1) = range(
+        series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.y))
+            .chain(bands.iter().flat_map(|b| b.lo.iter().chain(&b.hi).copied())),
+    );
+    let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * (W - LEFT - RIGHT);
+    let py = |y: f64| TOP + (y1 - y) / (y1 - y0) * (H - TOP - BOTTOM);
+    let mut s = format!(
+        "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {W} {H}\" \
+         width=\"{W}\" height=\"{H}\" role=\"img\" aria-label=\"{t}\">\
+         <text x=\"{cx}\" y=\"20\" text-anchor=\"middle\" font-weight=\"600\">{t}</text>",
+        t = esc(title),
+        cx = W / 2.0
+    );
+    for t in ticks(x0, x1) {
+        let x = px(t);
+        let _ = write!(
+            s,
+            "<line class=\"grid\" x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{yb}\"/>\
+             <text x=\"{x:.1}\" y=\"{ty}\" text-anchor=\"middle\">{l}</text>",
+            yb = H - BOTTOM,
+            ty = H - BOTTOM + 15.0,
+            l = label(t)
+        );
+    }
+    for t in ticks(y0, y1) {
+        let y = py(t);
+        let _ = write!(
+            s,
+            "<line class=\"grid\" x1=\"{LEFT}\" y1=\"{y:.1}\" x2=\"{xr}\" y2=\"{y:.1}\"/>\
+             <text x=\"{tx}\" y=\"{ty:.1}\" text-anchor=\"end\">{l}</text>",
+            xr = W - RIGHT,
+            tx = LEFT - 6.0,
+            ty = y + 4.0,
+            l = label(t)
+        );
+    }
+    let _ = write!(
+        s,
+        "<rect class=\"axis\" x=\"{LEFT}\" y=\"{TOP}\" width=\"{w}\" height=\"{h}\" fill=\"none\"/>\
+         <text x=\"{cx}\" y=\"{xy}\" text-anchor=\"middle\">{xl}</text>\
+         <text transform=\"translate(16 {cy}) rotate(-90)\" text-anchor=\"middle\">{yl}</text>",
+        w = W - LEFT - RIGHT,
+        h = H - TOP - BOTTOM,
+        cx = (LEFT + W - RIGHT) / 2.0,
+        xy = H - BOTTOM + 34.0,
+        cy = (TOP + H - BOTTOM) / 2.0,
+        xl = esc(x_label),
+        yl = esc(y_label)
+    );
+    for b in bands {
+        let mut d = String::new();
+        for (k, (x, hi)) in b.x.iter().zip(&b.hi).enumerate() {
+            let _ = write!(
+                d,
+                "{}{:.1},{:.1} ",
+                if k == 0 { "M" } else { "L" },
+                px(*x),
+                py(*hi)
+            );
+        }
+        for (x, lo) in b.x.iter().zip(&b.lo).rev() {
+            let _ = write!(d, "L{:.1},{:.1} ", px(*x), py(*lo));
+        }
+        let _ = write!(
+            s,
+            "<path d=\"{d}Z\" fill=\"{}\" fill-opacity=\"0.2\" stroke=\"none\"/>",
+            b.colour
+        );
+    }
+    for se in series {
+        let pts: Vec<String> = se
+            .points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .map(|p| format!("{:.1},{:.1}", px(p.x), py(p.y)))
+            .collect();
+        let dash = if se.dashed {
+            " stroke-dasharray=\"6 4\""
+        } else {
+            ""
+        };
+        let _ = write!(
+            s,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.6\"{dash}/>",
+            pts.join(" "),
+            se.colour
+        );
+    }
+    // The points: those without markers first, so a visible marker is on top where two
+    // series meet (pointing at it shows its value).
+    for se in series
+        .iter()
+        .filter(|s| !s.markers)
+        .chain(series.iter().filter(|s| s.markers))
+    {
+        for p in se
+            .points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && !p.tip.is_empty())
+        {
+            let r = if se.markers { 4.0 } else { 3.0 };
+            let opacity = if se.markers { "1" } else { "0" };
+            let _ = write!(
+                s,
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{r}\" fill=\"{}\" fill-opacity=\"{opacity}\" \
+                 stroke=\"none\" data-tip=\"{}\"/>",
+                px(p.x),
+                py(p.y),
+                se.colour,
+                esc(&p.tip)
+            );
+        }
+    }
+    legend(&mut s, series);
+    s.push_str("</svg>");
+    s
+}
+
+fn legend(s: &mut String, series: &[Series]) {
+    let mut x = LEFT;
+    let y = H - 14.0;
+    for se in series {
+        let dash = if se.dashed {
+            " stroke-dasharray=\"6 4\""
+        } else {
+            ""
+        };
+        let _ = write!(
+            s,
+            "<line x1=\"{x}\" y1=\"{y0}\" x2=\"{x2}\" y2=\"{y0}\" stroke=\"{c}\" stroke-width=\"2\"{dash}/>\
+             <text x=\"{tx}\" y=\"{y}\">{n}</text>",
+            y0 = y - 4.0,
+            x2 = x + 22.0,
+            c = se.colour,
+            tx = x + 26.0,
+            n = esc(&se.name)
+        );
+        x += 40.0 + 6.5 * se.name.chars().count() as f64;
+    }
+}
+
+/// The polar plot of a ballbar test (the report's chart, [`crate::plot::PolarChart`]),
+/// with a tip on every `step`-th sample.
+pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
+    const SIZE: f64 = 560.0;
+    let (cx, cy, r_px) = (SIZE / 2.0, SIZE / 2.0 + 36.0, 150.0);
+    let k = 25.0 / chart.um_per_div;
+    let at = |t: f64, dr: f64| {
+        let r = (r_px + dr * k).max(0.0);
+        (cx + r * t.cos(), cy - r * t.sin())
+    };
+    let mut s = format!(
+        "<svg class=\"chart polar\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {SIZE} {h}\" \
+         width=\"{SIZE}\" height=\"{h}\" role=\"img\" aria-label=\"{t}\">\
+         <text x=\"{cx}\" y=\"18\" text-anchor=\"middle\" font-weight=\"600\">{t}</text>",
+        h = SIZE + 90.0,
+        t = esc(&chart.title)
+    );
+    for ring in -4i32..=4 {
+        let r = r_px + f64::from(ring) * 25.0;
+        let style = if ring == 0 {
+            "stroke=\"#57606a\""
+        } else {
+            "class=\"grid\""
+        };
+        let _ = write!(
+            s,
+            "<circle cx=\"{cx}\" cy=\"{cy}\" r=\"{r}\" fill=\"none\" {style}/>"
+        );
+    }
+    for deg in (0..360).step_by(30) {
+        let t = f64::from(deg).to_radians();
+        let (x, y) = at(t, 4.0 * chart.um_per_div);
+        let (lx, ly) = at(t, 5.0 * chart.um_per_div);
+        let _ = write!(
+            s,
+            "<line class=\"grid\" x1=\"{cx}\" y1=\"{cy}\" x2=\"{x:.1}\" y2=\"{y:.1}\"/>\
+             <text x=\"{lx:.1}\" y=\"{ly:.1}\" text-anchor=\"middle\">{deg}°</text>"
+        );
+    }
+    let lsc: Vec<String> = chart
+        .lsc
+        .iter()
+        .map(|(t, dr)| {
+            let (x, y) = at(*t, *dr);
+            format!("{x:.1},{y:.1}")
+        })
+        .collect();
+    let _ = write!(
+        s,
+        "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-dasharray=\"5 4\"/>",
+        lsc.join(" ")
+    );
+    let mut names = Vec::new();
+    for tr in &chart.traces {
+        let colour = PALETTE[tr.colour % PALETTE.len()];
+        names.push((tr.name.clone(), colour));
+        let pts: Vec<String> = tr
+            .points
+            .iter()
+            .map(|(t, dr)| {
+                let (x, y) = at(*t, *dr);
+                format!("{x:.1},{y:.1}")
+            })
+            .collect();
+        let _ = write!(
+            s,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.4\"/>",
+            pts.join(" ")
+        );
+        let step = (tr.points.len() / 72).max(1);
+        for (t, dr) in tr.points.iter().step_by(step) {
+            let (x, y) = at(*t, *dr);
+            let tip = format!(
+                "{} at {:.1}°: dr = {:.3} µm (centring removed)",
+                tr.name,
+                t.to_degrees().rem_euclid(360.0),
+                dr
+            );
+            let _ = write!(
+                s,
+                "<circle cx=\"{x:.1}\" cy=\"{y:.1}\" r=\"3.5\" fill=\"{colour}\" fill-opacity=\"0.01\" \
+                 data-tip=\"{}\"/>",
+                esc(&tip)
+            );
+        }
+    }
+    for (t, dr) in &chart.marks {
+        let (x, y) = at(*t, *dr);
+        let _ = write!(
+            s,
+            "<path d=\"M{a:.1},{b:.1}L{c:.1},{d:.1}M{a:.1},{d:.1}L{c:.1},{b:.1}\" stroke=\"#000\"/>",
+            a = x - 4.0,
+            b = y - 4.0,
+            c = x + 4.0,
+            d = y + 4.0
+        );
+    }
+    let mut lx = 12.0;
+    for (name, colour) in &names {
+        let _ = write!(
+            s,
+            "<line x1=\"{lx}\" y1=\"{y}\" x2=\"{x2}\" y2=\"{y}\" stroke=\"{colour}\" stroke-width=\"2\"/>\
+             <text x=\"{tx}\" y=\"{ty}\">{n}</text>",
+            y = SIZE + 52.0,
+            x2 = lx + 20.0,
+            tx = lx + 24.0,
+            ty = SIZE + 56.0,
+            n = esc(name)
+        );
+        lx += 70.0;
+    }
+    let _ = write!(
+        s,
+        "<text x=\"{x}\" y=\"{y}\" text-anchor=\"end\">{u} µm per division; nominal circle \
+         solid grey, least-squares circle dashed</text></svg>",
+        x = SIZE - 10.0,
+        y = SIZE + 80.0,
+        u = label(chart.um_per_div)
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_are_round_and_cover_the_range() {
+        assert_eq!(ticks(0.0, 800.0), vec![0.0, 200.0, 400.0, 600.0, 800.0]);
+        let t = ticks(-0.37, 0.52);
+        assert_eq!(t.first().copied(), Some(-0.2));
+        assert!(
+            t.iter()
+                .all(|v| (*v * 10.0 - (*v * 10.0).round()).abs() < 1e-9)
+        );
+    }
+
+    #[test]
+    fn every_point_carries_its_tip() {
+        let s = xy(
+            "t",
+            "P / mm",
+            "x / µm",
+            &[Series {
+                name: "a".into(),
+                colour: PALETTE[0],
+                dashed: false,
+                markers: true,
+                points: vec![
+                    Pt {
+                        x: 0.0,
+                        y: 1.0,
+                        tip: "first <1>".into(),
+                    },
+                    Pt {
+                        x: 1.0,
+                        y: 2.0,
+                        tip: "second".into(),
+                    },
+                ],
+            }],
+            &[],
+        );
+        assert_eq!(s.matches("data-tip=").count(), 2);
+        assert!(s.contains("data-tip=\"first &lt;1&gt;\""));
+        assert!(s.contains("P / mm") && s.contains("x / µm"));
+    }
+}

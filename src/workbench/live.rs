@@ -1,0 +1,439 @@
+//! The live capture: one at a time, from a serial port or from a simulated board (a
+//! machine model and plan of the workspace served on a pseudo-terminal, as `errmap
+//! capture --simulate` does), into a new session folder of the workspace, through
+//! `acquire::capture_session_watched`: the raw bytes are written first, then decoded.
+//!
+//! The reading thread never waits for a reader of the page: it keeps its own snapshot and
+//! hands a copy to the shared one at most ten times a second, only when nobody holds it
+//! (`try_lock`). The event stream reads the shared copy four times a second.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use errmap_drivers::SessionEvent;
+use errmap_drivers::capture::{CaptureConfig, CaptureEnd, Progress};
+use serde::{Deserialize, Serialize};
+
+use super::items::Workspace;
+
+/// How the page asks for a capture (`POST /api/live/start`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct StartRequest {
+    /// A serial port (a character device, e.g. `/dev/ttyUSB0`).
+    pub port: Option<String>,
+    /// The simulated board's machine model and plan: items of the workspace.
+    pub model: Option<String>,
+    pub plan: Option<String>,
+    /// The simulated board's speed (× real time; default 1).
+    pub speed: Option<f64>,
+    /// Line speed of a serial port, baud (default 115 200).
+    pub baud: Option<u32>,
+}
+
+/// The error at one target in one pass: the mean of its dwell samples so far.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub(crate) struct TargetRow {
+    pub run: u32,
+    pub direction: i8,
+    pub target: i32,
+    pub position_mm: f64,
+    pub error_um: f64,
+    pub n: u64,
+}
+
+/// What the page shows of a capture (one Server-Sent Event).
+#[derive(Debug, Clone, Serialize, Default)]
+pub(crate) struct Snapshot {
+    /// `idle`, `running`, `complete` (the capture ended and its files are whole) or `failed`.
+    pub state: &'static str,
+    /// The session folder, relative to the workspace.
+    pub session: Option<String>,
+    pub source: Option<String>,
+    pub bytes: u64,
+    pub samples: u64,
+    pub run: Option<u32>,
+    pub target: Option<i32>,
+    pub position_mm: Option<f64>,
+    pub error_um: Option<f64>,
+    pub elapsed_s: f64,
+    pub crc_failures: u64,
+    pub resyncs: u64,
+    pub seq_gaps: u64,
+    pub flagged: u64,
+    /// Problems by kind so far.
+    pub problems: BTreeMap<String, u64>,
+    /// The last targets (at most [`MAX_TARGET_ROWS`]), in the order reached.
+    pub targets: Vec<TargetRow>,
+    /// Why the capture ended, when it has.
+    pub end: Option<String>,
+    pub error: Option<String>,
+    /// Events sent on this stream (set by the stream).
+    pub updates: u64,
+}
+
+/// The most target rows a snapshot carries.
+pub(crate) const MAX_TARGET_ROWS: usize = 400;
+
+struct Running {
+    stop: Arc<AtomicBool>,
+    thread: JoinHandle<()>,
+    session: String,
+}
+
+/// The workbench's one capture slot and the snapshot readers see.
+#[derive(Default)]
+pub(crate) struct Live {
+    running: Mutex<Option<Running>>,
+    shared: Arc<Mutex<Snapshot>>,
+}
+
+impl std::fmt::Debug for Live {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Live")
+    }
+}
+
+/// Why a start or stop was refused: the status and the message.
+pub(crate) type Refusal = (u16, String);
+
+impl Live {
+    /// A copy of the latest snapshot.
+    pub(crate) fn snapshot(&self) -> Snapshot {
+        let mut s = self.shared.lock().map(|g| g.clone()).unwrap_or_default();
+        if s.state.is_empty() {
+            s.state = "idle";
+        }
+        s
+    }
+
+    /// Starts a capture into a new session folder of the workspace; its id.
+    pub(crate) fn start(&self, ws: &Workspace, req: StartRequest) -> Result<String, Refusal> {
+        let mut slot = self
+            .running
+            .lock()
+            .map_err(|_| (500, "poisoned".to_string()))?;
+        if let Some(r) = slot.as_ref() {
+            if !r.thread.is_finished() {
+                return Err((409, format!("a capture is running into {}", r.session)));
+            }
+        }
+        let source = Source::from_request(ws, &req)?;
+        let dir = new_session_dir(ws.root()).map_err(|e| (500, e))?;
+        let session = ws.id_of(&dir);
+        let stop = Arc::new(AtomicBool::new(false));
+        let shared = Arc::clone(&self.shared);
+        if let Ok(mut g) = shared.lock() {
+            *g = Snapshot {
+                state: "running",
+                session: Some(session.clone()),
+                source: Some(source.describe()),
+                ..Snapshot::default()
+            };
+        }
+        let (stop2, session2) = (Arc::clone(&stop), session.clone());
+        let thread = std::thread::spawn(move || {
+            let result = source.capture(&dir, &stop2, &shared);
+            if let Ok(mut g) = shared.lock() {
+                g.session = Some(session2);
+                match result {
+                    Ok(end) => {
+                        g.state = "complete";
+                        g.end = Some(end);
+                    }
+                    Err(e) => {
+                        g.state = "failed";
+                        g.error = Some(e);
+                    }
+                }
+            }
+        });
+        *slot = Some(Running {
+            stop,
+            thread,
+            session: session.clone(),
+        });
+        Ok(session)
+    }
+
+    /// Stops the capture and waits until its files are whole; its session id.
+    pub(crate) fn stop(&self) -> Result<String, Refusal> {
+        let running = self
+            .running
+            .lock()
+            .map_err(|_| (500, "poisoned".to_string()))?
+            .take();
+        let Some(r) = running else {
+            return Err((409, "no capture is running".into()));
+        };
+        r.stop.store(true, Ordering::SeqCst);
+        let _ = r.thread.join();
+        Ok(r.session)
+    }
+}
+
+/// A new folder `live/capture-YYYYMMDDTHHMMSSZ[-N]` (created here, so no other start
+/// can take it).
+fn new_session_dir(root: &Path) -> Result<PathBuf, String> {
+    let base = root.join("live");
+    std::fs::create_dir_all(&base).map_err(|e| format!("{}: {e}", base.display()))?;
+    let now = crate::history::time::now_utc();
+    let stamp: String = crate::history::time::format_utc(now)
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric())
+        .collect();
+    for k in 0..1000 {
+        let name = if k == 0 {
+            format!("capture-{stamp}")
+        } else {
+            format!("capture-{stamp}-{k}")
+        };
+        let dir = base.join(name);
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(format!("{}: {e}", dir.display())),
+        }
+    }
+    Err(format!("{}: no free session folder name", base.display()))
+}
+
+enum Source {
+    Port {
+        path: String,
+        baud: u32,
+    },
+    Simulated {
+        stream: Box<errmap_drivers::sim::SimStream>,
+        speed: f64,
+        what: String,
+    },
+}
+
+impl Source {
+    fn from_request(ws: &Workspace, req: &StartRequest) -> Result<Source, Refusal> {
+        let bad = |m: String| (400, m);
+        match (&req.port, &req.model, &req.plan) {
+            (Some(port), None, None) => {
+                let meta = std::fs::metadata(port).map_err(|e| bad(format!("{port}: {e}")))?;
+                if !is_char_device(&meta) {
+                    return Err(bad(format!(
+                        "{port}: not a serial port (a character device)"
+                    )));
+                }
+                Ok(Source::Port {
+                    path: port.clone(),
+                    baud: req.baud.unwrap_or(115_200),
+                })
+            }
+            (None, Some(model), Some(plan)) => {
+                let m = ws.resolve(model).map_err(|e| bad(e.to_string()))?;
+                let p = ws.resolve(plan).map_err(|e| bad(e.to_string()))?;
+                let speed = req.speed.unwrap_or(1.0);
+                if !(speed.is_finite() && (0.01..=1000.0).contains(&speed)) {
+                    return Err(bad(format!(
+                        "speed {speed}: between 0.01 and 1000 × real time"
+                    )));
+                }
+                let (stream, _) = crate::sim::simulate_stream(&m, Some(&p), &Default::default())
+                    .map_err(|e| bad(super::docs::message(&e)))?;
+                Ok(Source::Simulated {
+                    stream: Box::new(stream),
+                    speed,
+                    what: format!("simulated board ({model}, {plan}, {speed}× real time)"),
+                })
+            }
+            _ => Err(bad(
+                "give {\"port\": PATH} or {\"model\": ITEM, \"plan\": ITEM}".into(),
+            )),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Source::Port { path, baud } => format!("{path} at {baud} baud"),
+            Source::Simulated { what, .. } => what.clone(),
+        }
+    }
+
+    /// Captures into `dir` until the source ends or `stop`; why it ended.
+    fn capture(
+        self,
+        dir: &Path,
+        stop: &Arc<AtomicBool>,
+        shared: &Arc<Mutex<Snapshot>>,
+    ) -> Result<String, String> {
+        match self {
+            Source::Port { path, baud } => capture_port(&path, baud, dir, stop, shared),
+            Source::Simulated { stream, speed, .. } => {
+                let (mut master, _slave, port) = errmap_drivers::serve::pty_pair()
+                    .map_err(|e| format!("cannot open a pseudo-terminal pair: {e}"))?;
+                let stop_board = Arc::clone(stop);
+                let board = std::thread::spawn(move || {
+                    let r = errmap_drivers::serve::serve_paced(
+                        &stream.frames,
+                        &mut master,
+                        speed,
+                        &stop_board,
+                        Some(Duration::from_secs(30)),
+                    );
+                    // Linger so the host reads the last frames before the port closes.
+                    std::thread::sleep(Duration::from_millis(1500));
+                    r
+                });
+                let r = capture_port(&port, 115_200, dir, stop, shared);
+                stop.store(true, Ordering::SeqCst);
+                let _ = board.join();
+                r
+            }
+        }
+    }
+}
+
+#[cfg(unix)]
+fn is_char_device(meta: &std::fs::Metadata) -> bool {
+    std::os::unix::fs::FileTypeExt::is_char_device(&meta.file_type())
+}
+
+#[cfg(not(unix))]
+fn is_char_device(_: &std::fs::Metadata) -> bool {
+    true
+}
+
+fn capture_port(
+    port: &str,
+    baud: u32,
+    dir: &Path,
+    stop: &AtomicBool,
+    shared: &Arc<Mutex<Snapshot>>,
+) -> Result<String, String> {
+    let mut source =
+        errmap_drivers::transport::SerialSource::open(port, baud, Duration::from_millis(100))
+            .map_err(|e| format!("{port}: {e}"))?;
+    let paths = crate::acquire::SessionPaths::new(dir, "csv");
+    let local = std::cell::RefCell::new(Watcher::new(shared));
+    let cap = crate::acquire::capture_session_watched(
+        &mut source,
+        &paths,
+        &CaptureConfig::default(),
+        stop,
+        &mut |p: &Progress| local.borrow_mut().progress(p),
+        &mut |e: &SessionEvent| local.borrow_mut().event(e),
+    )
+    .map_err(|e| super::docs::message(&e))?;
+    let mut w = local.into_inner();
+    w.snap.bytes = cap.bytes;
+    w.snap.crc_failures = cap.stats.crc_failures;
+    w.snap.resyncs = cap.stats.resyncs;
+    w.snap.seq_gaps = cap.stats.seq_gaps;
+    w.snap.flagged = cap.stats.flagged_samples;
+    if let Ok(mut g) = shared.lock() {
+        let keep = (g.session.clone(), g.source.clone());
+        *g = w.snap;
+        (g.session, g.source) = keep;
+    }
+    Ok(match cap.end {
+        CaptureEnd::Closed { runs } => {
+            format!("the board closed the port after its last run ({runs} runs)")
+        }
+        CaptureEnd::Stopped => "stopped from the page".into(),
+        CaptureEnd::Vanished(why) => {
+            format!("the port vanished ({why}); everything received is on disk")
+        }
+        other => format!("{other:?}"),
+    })
+}
+
+/// The reading thread's own snapshot, handed over without waiting.
+struct Watcher<'a> {
+    snap: Snapshot,
+    shared: &'a Arc<Mutex<Snapshot>>,
+    last: Instant,
+    index: BTreeMap<(u32, i8, i32), usize>,
+}
+
+impl<'a> Watcher<'a> {
+    fn new(shared: &'a Arc<Mutex<Snapshot>>) -> Self {
+        Watcher {
+            snap: Snapshot {
+                state: "running",
+                ..Snapshot::default()
+            },
+            shared,
+            last: Instant::now(),
+            index: BTreeMap::new(),
+        }
+    }
+
+    fn event(&mut self, e: &SessionEvent) {
+        match e {
+            SessionEvent::Row(r) => {
+                self.snap.samples += 1;
+                self.snap.run = Some(r.run);
+                self.snap.target = Some(r.target);
+                self.snap.position_mm = Some(r.scale_mm);
+                self.snap.error_um = r.error_um.is_finite().then_some(r.error_um);
+                if r.target >= 0 && r.error_um.is_finite() && r.flags == 0 {
+                    self.dwell(r.run, r.direction, r.target, r.scale_mm, r.error_um);
+                }
+            }
+            SessionEvent::Problem(p) => {
+                let name = format!("{:?}", p.kind);
+                let name = name.split([' ', '{', '(']).next().unwrap_or("").to_string();
+                *self.snap.problems.entry(name).or_default() += 1;
+            }
+            SessionEvent::Hello(_) | SessionEvent::Text { .. } => {}
+        }
+        self.publish();
+    }
+
+    fn dwell(&mut self, run: u32, direction: i8, target: i32, pos: f64, e: f64) {
+        let key = (run, direction, target);
+        let rows = &mut self.snap.targets;
+        match self.index.get(&key).copied().filter(|&k| k < rows.len()) {
+            Some(k) if rows[k].run == run && rows[k].target == target => {
+                let t = &mut rows[k];
+                t.n += 1;
+                t.error_um += (e - t.error_um) / t.n as f64;
+                t.position_mm += (pos - t.position_mm) / t.n as f64;
+            }
+            _ => {
+                if rows.len() == MAX_TARGET_ROWS {
+                    rows.remove(0);
+                    self.index.values_mut().for_each(|k| *k = k.wrapping_sub(1));
+                }
+                rows.push(TargetRow {
+                    run,
+                    direction,
+                    target,
+                    position_mm: pos,
+                    error_um: e,
+                    n: 1,
+                });
+                self.index.insert(key, rows.len() - 1);
+            }
+        }
+    }
+
+    fn progress(&mut self, p: &Progress) {
+        self.snap.bytes = p.bytes;
+        self.snap.elapsed_s = p.elapsed_s;
+        self.publish();
+    }
+
+    fn publish(&mut self) {
+        if self.last.elapsed() < Duration::from_millis(100) {
+            return;
+        }
+        if let Ok(mut g) = self.shared.try_lock() {
+            let keep = (g.session.take(), g.source.take());
+            *g = self.snap.clone();
+            (g.session, g.source) = keep;
+            self.last = Instant::now();
+        }
+    }
+}
