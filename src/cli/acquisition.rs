@@ -395,7 +395,9 @@ pub(crate) fn reduce_session(
     report: Option<&Path>,
 ) -> Result<Reduced> {
     let path = session_file(session_arg)?;
-    super::guard::refuse_aliases(&[("--out", out)], &[("SESSION", &path)])?;
+    let mut outputs = vec![("--out", out)];
+    outputs.extend(report.map(|r| ("--report", r)));
+    super::guard::refuse_aliases(&outputs, &[("SESSION", &path)])?;
     if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {
         bail!(
             "--report {}: exists and is not a directory (nothing was written)",
