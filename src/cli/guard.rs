@@ -253,6 +253,7 @@ pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>)
     }
     let tmp = errmap::table::temporary(dir);
     let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir(&tmp).map_err(io_err(&tmp, FileOp::Write))?;
     let staged = fill(&tmp).and_then(|v| {
         let files = files_under(&tmp, Path::new(""))?;
         let flag = flag_of(dir, "--report");
