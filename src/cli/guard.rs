@@ -258,7 +258,15 @@ pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>)
         let files = files_under(&tmp, Path::new(""))?;
         let flag = flag_of(dir, "--report");
         for rel in &files {
-            check_target(&flag, dir, &dir.join(rel))?;
+            let to = dir.join(rel);
+            check_target(&flag, dir, &to)?;
+            // A directory in the way would stop the move half-way: refused before it.
+            if to.is_dir() {
+                bail!(
+                    "{}: cannot write the report's file: a directory is in the way (nothing was written)",
+                    to.display()
+                );
+            }
         }
         Ok((v, files))
     });
