@@ -233,7 +233,8 @@ pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// Writes a report directory through `fill`, whole or not at all: `fill` writes a
+/// Writes a report directory through `fill`. An existing directory holding no input or
+/// other output of the run is written in place. Otherwise, whole or not at all: `fill` writes a
 /// temporary sibling (same parent, so the same relative paths); then every file it wrote
 /// is checked as `dir`'s file against the run's plan ([`check_target`]: an input lying in
 /// the report folder, or another output there, refuses the whole report), and only then
@@ -250,6 +251,11 @@ pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>)
             path: dir.to_path_buf(),
             dir: parent.to_path_buf(),
         });
+    }
+    // An existing folder that holds no input or other output of the run is written in
+    // place, as before (its writers tidy what they wrote there earlier).
+    if dir.exists() && !holds_planned_file(dir) {
+        return fill(dir);
     }
     let tmp = errmap::table::temporary(dir);
     let _ = std::fs::remove_dir_all(&tmp);
@@ -291,6 +297,19 @@ pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>)
     let _ = std::fs::remove_dir_all(&tmp);
     moved.with_context(|| format!("cannot move the report {} into place", dir.display()))?;
     Ok(v)
+}
+
+/// Whether an input or another output of the run lies inside the folder `dir`.
+fn holds_planned_file(dir: &Path) -> bool {
+    let Some(d) = std::fs::canonicalize(dir).ok() else {
+        return false;
+    };
+    let p = plan();
+    p.inputs
+        .iter()
+        .chain(p.outputs.iter())
+        .filter(|(_, path)| path != dir)
+        .any(|(_, path)| resolved(path).is_some_and(|r| r.starts_with(&d)))
 }
 
 /// The files under `root/rel`, relative to `root`.
