@@ -2,6 +2,11 @@
 //! `A+L/K`, `min(A+L/K,B)` or `B`, A and B in µm, K > 0 (mm per µm). Blanks anywhere are
 //! ignored; nothing else parses (no `±`, no units, no other letters). The same grammar
 //! gives a length-dependent expanded uncertainty (`--u-um`).
+//!
+//! Plausible values only (issue 40 item 5: `2+L/1e-300` passed every measurement): A and
+//! B at most 10⁴ µm, K within 0.1 … 10⁶ mm/µm (`base::MPE_K_MM_PER_UM`); an MPE
+//! ([`Mpe::parse_limit`]) is a limit, so its B is at least 10⁻³ µm and, without B, its A
+//! or its slope makes it positive (`base::TOLERANCE_UM`). Each part is refused by name.
 
 use serde::Serialize;
 
@@ -30,8 +35,11 @@ fn number(s: &str, what: &str) -> Result<f64, String> {
     if v < 0.0 {
         return Err(format!("{what} = {v} is negative"));
     }
-    if v > 1e6 {
-        return Err(format!("{what} = {v} is beyond 10⁶"));
+    if v > crate::base::TOLERANCE_UM.hi {
+        return Err(format!(
+            "{what} = {v} µm is beyond {} µm, no plausible limit",
+            crate::base::TOLERANCE_UM.hi
+        ));
     }
     Ok(v)
 }
@@ -42,9 +50,17 @@ fn linear(s: &str) -> Result<(f64, f64), String> {
         .split_once("+L/")
         .ok_or_else(|| format!("`{s}` is not of the form A+L/K"))?;
     let a = number(a, "A")?;
-    let k = number(k, "K")?;
-    if k <= 0.0 {
-        return Err("K must be > 0".into());
+    let k: f64 = k.parse().map_err(|_| format!("K `{k}` is not a number"))?;
+    let kb = crate::base::MPE_K_MM_PER_UM;
+    if !kb.contains(k) {
+        return Err(format!(
+            "K = {k} is outside {} … {} mm/µm (K must be > 0; below {} the MPE would grow by \
+             more than {} µm per mm of length)",
+            kb.lo,
+            kb.hi,
+            kb.lo,
+            1.0 / kb.lo
+        ));
     }
     Ok((a, k))
 }
@@ -82,6 +98,25 @@ impl Mpe {
             k,
             b_um,
         })
+    }
+
+    /// Parses an MPE: as [`Mpe::parse`], and positive, a limit being a limit: B (when
+    /// given) at least 10⁻³ µm (`base::TOLERANCE_UM`).
+    pub fn parse_limit(formula: &str, option: &str) -> Result<Mpe, AcceptanceError> {
+        let m = Mpe::parse(formula, option)?;
+        if let Some(b) = m.b_um
+            && b < crate::base::TOLERANCE_UM.lo
+        {
+            return Err(AcceptanceError::Formula {
+                option: option.to_string(),
+                formula: formula.to_string(),
+                problem: format!(
+                    "B = {b} µm: a maximum permissible error must be at least {} µm",
+                    crate::base::TOLERANCE_UM.lo
+                ),
+            });
+        }
+        Ok(m)
     }
 
     /// A constant (the form `B`).
@@ -138,6 +173,10 @@ mod tests {
             "1.5+L/3+1",
             "max(1+L/3,2)",
             "1,5+L/3",
+            "2+L/1e-300",
+            "1e308+L/333",
+            "2e4",
+            "min(2+L/333,1e5)",
         ] {
             assert!(Mpe::parse(bad, "--mpe").is_err(), "{bad} parsed");
         }

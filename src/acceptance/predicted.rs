@@ -15,7 +15,13 @@
 //! E_after = E − E_table with E_table the same projection of the tables' error vector at
 //! P1 and P2 with p = 0: the tables' interpolation error and the angular errors times the
 //! probe offset, which a table at the tool point cannot represent. Its σ is that of E —
-//! after compensation, the model's own uncertainty is what is left to know.
+//! after compensation, the model's own uncertainty is what is left to know. A model
+//! compensating itself predicts E_after near 0 (issue 40: "0.000 µm"), which says nothing
+//! of the machine: what is left is what the model does not know and what the table
+//! cannot hold, so [`Compensated::floor_um`] states it, the largest over the lengths of
+//! √((2σ)² + q²), 2σ the model's expanded uncertainty of the length and
+//! q = [`TABLE_RESOLUTION_UM`] the value step of a controller's table (two entries, each
+//! off by up to q/2). A compensated |E| below the floor is "within the floor", not zero.
 //!
 //! **Default plan** over the model's measured range [lo, hi]: positions `1`–`4` the space
 //! diagonals (lo,lo,lo)→(hi,hi,hi), (hi,lo,lo)→(lo,hi,hi), (lo,hi,lo)→(hi,lo,hi),
@@ -340,6 +346,11 @@ pub struct VirtualPosition {
     pub verdict: Option<ConformityVerdict>,
 }
 
+/// The value step of a controller's compensation table, µm: 0.1 µm, the finest unit of
+/// the tables errmap writes (HEIDENHAIN and ISG lists hold 0.1 µm steps; see
+/// `docs/import.md`).
+pub const TABLE_RESOLUTION_UM: f64 = 0.1;
+
 /// The test after compensation.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Compensated {
@@ -348,6 +359,10 @@ pub struct Compensated {
     pub measurements: Vec<VirtualMeasurement>,
     pub positions: Vec<VirtualPosition>,
     pub max_abs_e_um: f64,
+    /// What the compensation cannot be shown to remove, µm: the largest √((2σ)² + q²)
+    /// over the lengths (σ the model's one-sigma of the length, q the table's value step
+    /// [`TABLE_RESOLUTION_UM`]). A predicted |E| below it is not evidence of zero error.
+    pub floor_um: f64,
     pub verdict: Option<ConformityVerdict>,
 }
 
@@ -734,11 +749,16 @@ impl VirtualRun<'_> {
         let mut ms = self.expand(&after);
         judge(&mut ms, config)?;
         let (positions, max_abs_e_um, verdict) = summarise(plan, &ms);
+        let floor_um = after
+            .iter()
+            .map(|&(_, s)| (4.0 * s * s + TABLE_RESOLUTION_UM * TABLE_RESOLUTION_UM).sqrt())
+            .fold(0.0, f64::max);
         Ok(Compensated {
             table_points: n,
             measurements: ms,
             positions,
             max_abs_e_um,
+            floor_um,
             verdict,
         })
     }

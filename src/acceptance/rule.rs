@@ -106,6 +106,13 @@ impl Limits {
             if !v.is_finite() {
                 return Err(format!("limit {v} is not finite"));
             }
+            // Plausible sizes only (issue 40 item 5: 1e300 µm certified "pass").
+            let hi = crate::base::TOLERANCE_UM.hi;
+            if v.abs() > hi {
+                return Err(format!(
+                    "limit {v} µm is beyond ±{hi} µm, no plausible tolerance"
+                ));
+            }
         }
         if let (Some(l), Some(u)) = (lower, upper)
             && l > u

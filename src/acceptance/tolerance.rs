@@ -194,7 +194,23 @@ fn params_of(
                 ),
             ));
         };
-        out[i] = Some(limit_of(path, &name, v)?);
+        let limits = limit_of(path, &name, v)?;
+        // Every parameter but the signed mean reversal is a size (≥ 0): its upper limit
+        // must be a positive, plausible tolerance (a negative one failed everything).
+        if k != "B_mean"
+            && let Some(u) = limits.upper
+            && u < crate::base::TOLERANCE_UM.lo
+        {
+            return Err(AcceptanceError::key(
+                path,
+                name,
+                format!(
+                    "upper limit {u} µm: {k} is a size, its tolerance must be positive (at least {} µm)",
+                    crate::base::TOLERANCE_UM.lo
+                ),
+            ));
+        }
+        out[i] = Some(limits);
     }
     Ok(out)
 }

@@ -13,6 +13,8 @@
 //! | relative humidity (`_pct`) | 0 … 100 % | by definition |
 //! | time (`_s`) | ±10⁹ s | 31 years |
 //! | feed (`_mm_s`) | 0 … 10⁵ mm/s | 100 m/s; the fastest linear axes reach a few m/s |
+//! | a tolerance, an MPE's A or B (`_um`) | 10⁻³ … 10⁴ µm | from a nanometre (a laser's resolution) to 10 mm; a limit outside it decides nothing (issue 40 item 5: 10³⁰⁰ µm passed everything) |
+//! | an MPE's K (mm per µm, `A+L/K`) | 0.1 … 10⁶ | at most 10 µm more per mm of length (1 %); K = 10⁻³⁰⁰ made the MPE infinite |
 //!
 //! The ranges are deliberately generous: they catch 1e308, −273.15 °C and mm given as m,
 //! never a real measurement. Sums and squares of values inside them stay far from the
@@ -132,6 +134,22 @@ pub const UNCERTAINTY_UM: Bound = Bound {
     hi: 1e6,
     unit: "µm",
     what: "a standard uncertainty",
+};
+
+/// Tolerances and maximum permissible errors (a limit's size, an MPE's A or B), µm.
+pub const TOLERANCE_UM: Bound = Bound {
+    lo: 1e-3,
+    hi: 1e4,
+    unit: "µm",
+    what: "a tolerance",
+};
+
+/// K of an MPE `A+L/K`, mm per µm.
+pub const MPE_K_MM_PER_UM: Bound = Bound {
+    lo: 0.1,
+    hi: 1e6,
+    unit: "mm/µm",
+    what: "K of A+L/K",
 };
 
 /// Feeds, mm/s.

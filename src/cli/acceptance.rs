@@ -36,7 +36,13 @@ impl RuleArgs {
         let base = file.unwrap_or_default();
         let rule = self.rule.unwrap_or(base.rule);
         let r = self.guard_fraction.unwrap_or(base.guard_fraction);
-        DecisionRule::new(rule, r).context("--guard-fraction")
+        match DecisionRule::new(rule, r) {
+            // A flag value out of range is a usage error (exit 2, docs/cli.md).
+            Err(e) if self.guard_fraction.is_some() => {
+                Err(super::guard::usage(format!("--guard-fraction {r}: {e:#}")))
+            }
+            other => other.context("--guard-fraction"),
+        }
     }
 }
 
@@ -181,21 +187,34 @@ fn decide_cmd(a: DecideArgs) -> Result<()> {
     Ok(())
 }
 
+/// A formula flag (`--u-um`); a value that does not parse or is out of range is a usage
+/// error (exit 2), as every bad flag value is (docs/cli.md).
 fn formula(option: &str, f: Option<&str>) -> Result<Option<Mpe>> {
-    Ok(f.map(|f| Mpe::parse(f, option)).transpose()?)
+    f.map(|f| Mpe::parse(f, option).map_err(|e| super::guard::usage(e.to_string())))
+        .transpose()
+}
+
+/// The `--mpe` flag: a positive, plausible limit ([`Mpe::parse_limit`]), else exit 2.
+fn mpe_flag(f: &str) -> Result<Mpe> {
+    Mpe::parse_limit(f, "--mpe").map_err(|e| super::guard::usage(e.to_string()))
 }
 
 /// The ISO 10360-2 options as the library's configuration, checked.
 pub(crate) fn length_config(a: &LengthArgs, rule: &RuleArgs) -> Result<TestConfig> {
-    let mpe = Mpe::parse(&a.mpe, "--mpe")?;
+    let mpe = mpe_flag(&a.mpe)?;
     let u = formula("--u-um", a.u_um.as_deref())?;
     if let Some(m) = a.mpl_r0
         && !(m.is_finite() && m >= 0.0)
     {
-        anyhow::bail!("--mpl-r0 {m}: must be finite and ≥ 0 µm");
+        return Err(super::guard::usage(format!(
+            "--mpl-r0 {m}: must be finite and ≥ 0 µm"
+        )));
     }
     if !(a.u_r0_um.is_finite() && a.u_r0_um >= 0.0) {
-        anyhow::bail!("--u-r0-um {}: U must be finite and ≥ 0 µm", a.u_r0_um);
+        return Err(super::guard::usage(format!(
+            "--u-r0-um {}: U must be finite and ≥ 0 µm",
+            a.u_r0_um
+        )));
     }
     Ok(TestConfig {
         mpe,
@@ -247,7 +266,7 @@ pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
     if let Some(dir) = &a.report {
         super::guard::refuse_aliases(&[("--report", dir)], &inputs)?;
     }
-    let mpe = formula("--mpe", a.mpe.as_deref())?;
+    let mpe = a.mpe.as_deref().map(mpe_flag).transpose()?;
     let u = formula("--u-um", a.u_um.as_deref())?;
     let rule = a.rule.resolve(None)?;
     let model = Model::read(&a.model)?;
@@ -288,8 +307,10 @@ pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
         t.compensated
             .as_ref()
             .map(|c| format!(
-                "; after compensation max |E| {:.3} µm{}",
+                "; after compensation max |E| {:.3} µm (not resolved below ±{:.3} µm: the \
+                 model's 2σ and the table's 0.1 µm step){}",
                 c.max_abs_e_um,
+                c.floor_um,
                 c.verdict.map(|v| format!(": {v}")).unwrap_or_default()
             ))
             .unwrap_or_default()

@@ -367,10 +367,9 @@ pub(crate) fn reduce_session(
     let path = session_file(session_arg)?;
     let mut inputs = vec![("SESSION", path.as_path())];
     inputs.extend(info_file.map(|p| ("--info", p)));
-    super::guard::refuse_aliases(&[("--out", out)], &inputs)?;
-    if let Some(dir) = report {
-        super::guard::refuse_aliases(&[("--report", dir)], &inputs)?;
-    }
+    let mut outputs = vec![("--out", out)];
+    outputs.extend(report.map(|r| ("--report", r)));
+    super::guard::refuse_aliases(&outputs, &inputs)?;
     let info = match info_file {
         Some(p) => errmap::report::certificate::info::CertificateInfo::read(p)?,
         None => Default::default(),

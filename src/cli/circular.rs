@@ -60,6 +60,10 @@ pub(crate) fn circular_cmd(a: CircularArgs) -> Result<()> {
 }
 
 fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
+    let meta = errmap::circular::input::meta_path(&a.trace);
+    let mut inputs: Vec<(&str, &Path)> = vec![("TRACE", &a.trace), ("the trace's TOML", &meta)];
+    inputs.extend(a.model.as_deref().map(|m| ("--model", m)));
+    super::guard::refuse_aliases(&[("--report", &a.report)], &inputs)?;
     let test = read_test(&a.trace)?;
     let config = DiagnoseConfig {
         use_overshoot: a.overshoot,
@@ -97,6 +101,12 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
 }
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
+    // The trace's TOML is written beside it: an output as much as --out is.
+    let meta = errmap::circular::input::meta_path(&a.out);
+    super::guard::refuse_aliases(
+        &[("--out", &a.out), ("the TOML beside --out", &meta)],
+        &[("--model", &a.model)],
+    )?;
     let model = MachineModel::read(&a.model)?;
     let test = simulate(&model)?;
     write_test(&test, &a.out)?;

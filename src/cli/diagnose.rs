@@ -71,6 +71,13 @@ pub(crate) fn run_diagnosis_with(
     max_dead_path_mm: Option<f64>,
     max_rows: usize,
 ) -> Result<(Diagnosis, Option<IsoEffect>)> {
+    let mut inputs: Vec<(&str, &Path)> = vec![("--recorded", recorded)];
+    match against {
+        Against::Simulated(p) => inputs.push(("--simulated", p)),
+        Against::Model(p) => inputs.push(("--model", p)),
+        Against::Nothing => {}
+    }
+    super::guard::refuse_aliases(&[("--report", report)], &inputs)?;
     let job = DiagnoseJob {
         recorded: recorded.to_path_buf(),
         against: against.clone(),

@@ -14,7 +14,11 @@
 //! - **Outputs are never inputs.** [`refuse_aliases`] compares every output path that
 //!   already exists with every input by device and inode (so a hard link, a symbolic link
 //!   or `./x` vs `x` are the same file) and refuses with both flags named, before anything
-//!   is written.
+//!   is written. It also records the run's inputs and outputs (the run's plan), and every
+//!   file the binary puts in place — a named output ([`write_file`]) and each file of a
+//!   report directory ([`into_new_dir`]) — is checked against that plan first
+//!   ([`check_target`]): a file inside a report folder that is an input, or another named
+//!   output, is refused and nothing of that folder is written (issue 40 item 2).
 //! - **Whole files.** [`write_file`] writes text and bytes outputs atomically, like the
 //!   library's table writers (a device, pipe or link is written through or followed, never
 //!   replaced: `errmap::table::output_target`); [`into_new_dir`] does the same for a new
@@ -133,9 +137,95 @@ pub(crate) fn print_json<T: serde::Serialize + ?Sized>(value: &T) -> Result<()> 
     print_stdout(&text)
 }
 
+/// The run's inputs and outputs as (flag, path), recorded by [`refuse_aliases`] (and
+/// [`plan_inputs`]); one command runs per process, so the plan is the process's.
+static PLAN: std::sync::Mutex<Plan> = std::sync::Mutex::new(Plan {
+    inputs: Vec::new(),
+    outputs: Vec::new(),
+});
+
+#[derive(Debug)]
+struct Plan {
+    inputs: Vec<(String, std::path::PathBuf)>,
+    outputs: Vec<(String, std::path::PathBuf)>,
+}
+
+fn plan() -> std::sync::MutexGuard<'static, Plan> {
+    PLAN.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Records more inputs of the run (a ledger, a tolerance file) without outputs to compare
+/// them with yet: every later write is checked against them ([`check_target`]).
+pub(crate) fn plan_inputs(inputs: &[(&str, &Path)]) {
+    let mut p = plan();
+    for &(flag, path) in inputs {
+        p.inputs.push((flag.to_string(), path.to_path_buf()));
+    }
+}
+
+/// Whether two paths name one file: the same path once normalised ([`resolved`]), or the
+/// same device and inode.
+fn same_file(a: &Path, b: &Path) -> bool {
+    matches!((resolved(a), resolved(b)), (Some(x), Some(y)) if x == y)
+        || matches!((file_id(a), file_id(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// The one check every file the binary writes goes through before it is put in place:
+/// `target`, written on behalf of output `flag` (`own` being that output's own path,
+/// the file itself or its report directory), must be no input of the run (exit 1) and no
+/// other output of it (a usage error, exit 2). Devices and pipes are written through and
+/// never refused.
+pub(crate) fn check_target(flag: &str, own: &Path, target: &Path) -> Result<()> {
+    if through(target) {
+        return Ok(());
+    }
+    let p = plan();
+    let shown = |path: &Path| {
+        if path == own {
+            format!("{flag} {}", own.display())
+        } else {
+            format!(
+                "{flag} {} would write {}, which",
+                own.display(),
+                path.display()
+            )
+        }
+    };
+    for (in_flag, input) in &p.inputs {
+        if same_file(target, input) {
+            bail!(
+                "{} is the input {in_flag} {}: writing it would destroy the input; choose another output path (nothing was written)",
+                shown(target),
+                input.display()
+            );
+        }
+    }
+    for (out_flag, out) in &p.outputs {
+        if out != own && out_flag != flag && same_file(target, out) {
+            return Err(usage(format!(
+                "{} is also the output {out_flag} {}: the second output would replace the first; give each its own path (nothing was written)",
+                shown(target),
+                out.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The flag a planned output was given, for the messages of [`check_target`].
+fn flag_of(path: &Path, default: &str) -> String {
+    plan()
+        .outputs
+        .iter()
+        .find(|(_, p)| p == path)
+        .map_or_else(|| default.to_string(), |(f, _)| f.clone())
+}
+
 /// Writes `bytes` to `path` whole or not at all (a temporary file beside it, renamed into
-/// place: `errmap::table::write_atomically`).
+/// place: `errmap::table::write_atomically`), after [`check_target`].
 pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    check_target(&flag_of(path, "output"), path, path)?;
     errmap::table::write_atomically::<errmap::table::TableError>(path, |f| {
         f.write_all(bytes)
             .map_err(|e| io_err(path, FileOp::Write)(e).into())
@@ -143,16 +233,18 @@ pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// Writes a report directory through `fill`. A directory that does not exist yet is
-/// written whole or not at all: `fill` writes a temporary sibling (same parent, so the
-/// same relative paths), renamed to `dir` on success and removed on error. An existing
-/// directory may hold the user's own files, so it is written in place.
+/// Writes a report directory through `fill`. An existing directory holding no input or
+/// other output of the run is written in place. Otherwise, whole or not at all: `fill` writes a
+/// temporary sibling (same parent, so the same relative paths); then every file it wrote
+/// is checked as `dir`'s file against the run's plan ([`check_target`]: an input lying in
+/// the report folder, or another output there, refuses the whole report), and only then
+/// put in place — the temporary directory renamed to `dir` when `dir` is new, each file
+/// moved into `dir` when it exists (it may hold the user's own files, which stay). On any
+/// error the temporary directory is removed and `dir` is as it was.
 pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
-    if dir.exists() {
-        return fill(dir);
-    }
     // A new directory, not a tree: its parent must exist, as a new file's must.
-    if let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty())
+    if !dir.exists()
+        && let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty())
         && !parent.exists()
     {
         bail!(errmap::table::TableError::MissingDirectory {
@@ -160,19 +252,87 @@ pub(crate) fn into_new_dir<T>(dir: &Path, fill: impl FnOnce(&Path) -> Result<T>)
             dir: parent.to_path_buf(),
         });
     }
+    // An existing folder that holds no input or other output of the run is written in
+    // place, as before (its writers tidy what they wrote there earlier).
+    if dir.exists() && !holds_planned_file(dir) {
+        return fill(dir);
+    }
     let tmp = errmap::table::temporary(dir);
     let _ = std::fs::remove_dir_all(&tmp);
-    match fill(&tmp) {
-        Ok(v) => {
-            std::fs::rename(&tmp, dir)
-                .with_context(|| format!("cannot move the report {} into place", dir.display()))?;
-            Ok(v)
+    std::fs::create_dir(&tmp).map_err(io_err(&tmp, FileOp::Write))?;
+    let staged = fill(&tmp).and_then(|v| {
+        let files = files_under(&tmp, Path::new(""))?;
+        let flag = flag_of(dir, "--report");
+        for rel in &files {
+            let to = dir.join(rel);
+            check_target(&flag, dir, &to)?;
+            // A directory in the way would stop the move half-way: refused before it.
+            if to.is_dir() {
+                bail!(
+                    "{}: cannot write the report's file: a directory is in the way (nothing was written)",
+                    to.display()
+                );
+            }
         }
+        Ok((v, files))
+    });
+    let (v, files) = match staged {
+        Ok(x) => x,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
-            Err(e)
+            return Err(e);
+        }
+    };
+    let moved = if dir.exists() {
+        files.iter().try_for_each(|rel| {
+            let to = dir.join(rel);
+            if let Some(parent) = to.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            std::fs::rename(tmp.join(rel), to)
+        })
+    } else {
+        std::fs::rename(&tmp, dir)
+    };
+    let _ = std::fs::remove_dir_all(&tmp);
+    moved.with_context(|| format!("cannot move the report {} into place", dir.display()))?;
+    Ok(v)
+}
+
+/// Whether an input or another output of the run lies inside the folder `dir`.
+fn holds_planned_file(dir: &Path) -> bool {
+    let Some(d) = std::fs::canonicalize(dir).ok() else {
+        return false;
+    };
+    let p = plan();
+    p.inputs
+        .iter()
+        .chain(p.outputs.iter())
+        .filter(|(_, path)| path != dir)
+        .any(|(_, path)| resolved(path).is_some_and(|r| r.starts_with(&d)))
+}
+
+/// The files under `root/rel`, relative to `root`.
+fn files_under(root: &Path, rel: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let mut out = Vec::new();
+    let here = root.join(rel);
+    if !here.exists() {
+        return Ok(out);
+    }
+    for entry in std::fs::read_dir(&here).map_err(io_err(&here, FileOp::Read))? {
+        let entry = entry.map_err(io_err(&here, FileOp::Read))?;
+        let r = rel.join(entry.file_name());
+        if entry
+            .file_type()
+            .map_err(io_err(&here, FileOp::Read))?
+            .is_dir()
+        {
+            out.extend(files_under(root, &r)?);
+        } else {
+            out.push(r);
         }
     }
+    Ok(out)
 }
 
 /// A spinner with the elapsed time on stderr while long work runs (issue 28: `compare` on
@@ -228,6 +388,12 @@ pub(crate) fn threads(flag: &str, requested: usize) -> usize {
 /// path are refused first, as a usage error ([`distinct_outputs`]).
 pub(crate) fn refuse_aliases(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<()> {
     distinct_outputs(outputs)?;
+    plan_inputs(inputs);
+    plan().outputs.extend(
+        outputs
+            .iter()
+            .map(|&(f, p)| (f.to_string(), p.to_path_buf())),
+    );
     for &(out_flag, out) in outputs {
         let Some(out_id) = file_id(out) else { continue };
         for &(in_flag, input) in inputs {

@@ -198,6 +198,17 @@ fn report(a: ReportArgs) -> Result<()> {
             a.report.display()
         );
     }
+    // The ledger (a file) and the tolerances are inputs: no file of the report may land
+    // on them (issue 40 item 2: `--ledger R/report.md --report R` replaced the ledger).
+    let mut inputs: Vec<(&str, &Path)> = a
+        .tolerances
+        .iter()
+        .map(|t| ("--tolerances", t.as_path()))
+        .collect();
+    if !history::is_postgres(&a.ledger) {
+        inputs.push(("--ledger", Path::new(&a.ledger)));
+    }
+    guard::refuse_aliases(&[("--report", &a.report)], &inputs)?;
     let tolerances = match &a.tolerances {
         Some(p) => Tolerances::read(p)?,
         None => Tolerances::default(),

@@ -294,6 +294,10 @@ fn scattered_methods(
 }
 
 pub(crate) fn compare_cmd(a: CompareArgs) -> Result<()> {
+    super::guard::refuse_aliases(
+        &[("--report", &a.report)],
+        &[("TABLE", &a.table), ("--test", &a.test)],
+    )?;
     let table = ErrorTable::read(&a.table)?;
     let test = ErrorTable::read(&a.test)?;
     let busy = super::guard::busy(format!(

@@ -329,10 +329,8 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     if let Some(path) = first_output {
         errmap::report::check_json(path, &doc)?;
     }
-    if let Some(out) = &a.out {
-        let text = errmap::report::json_text(out, &doc, true)?;
-        super::guard::write_file(out, text.as_bytes())?;
-    }
+    // The report first: its files are checked against --out before anything is put in
+    // place (`--out R/model.json --report R` is two outputs on one path).
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
             Ok(errmap::report::write_volumetric_report(
@@ -341,6 +339,10 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
                 d,
             )?)
         })?;
+    }
+    if let Some(out) = &a.out {
+        let text = errmap::report::json_text(out, &doc, true)?;
+        super::guard::write_file(out, text.as_bytes())?;
     }
     if a.json {
         super::guard::print_json(&id.doc(config.positions, false))?;

@@ -63,6 +63,11 @@ pub struct DiagnoseConfig {
     /// path beyond it (or below zero) decides for the drift. `None` (default): the axis
     /// travel, stated as an assumption. Range ≥ 0.
     pub max_dead_path_mm: Option<f64>,
+    /// The smallest factor χ²/ν the parameters' covariances are scaled by. 0 (default):
+    /// the fit's own χ²/ν. The diagnosis sets 1 when the residual is quieter than the
+    /// recording alone (a simulation sharing the recording's noise): the group σ are
+    /// then the recording's own noise, and a residual below it must not shrink them.
+    pub min_variance_factor: f64,
 }
 
 impl Default for DiagnoseConfig {
@@ -82,6 +87,7 @@ impl Default for DiagnoseConfig {
             laser_wavelength_um: HENE_WAVELENGTH_UM,
             model_dead_path_mm: None,
             max_dead_path_mm: None,
+            min_variance_factor: 0.0,
         }
     }
 }

@@ -53,6 +53,8 @@ pub(crate) struct Obs {
     pub axis: Axis,
     /// r = recorded − simulated error, µm.
     pub r: Vec<f64>,
+    /// The recorded error alone, µm (its own noise: [`shared_noise_floor`]).
+    pub rec: Vec<f64>,
     /// Position along the measured axis, mm.
     pub x: Vec<f64>,
     /// Direction ±1 (0 outside a run).
@@ -478,9 +480,11 @@ pub(crate) fn build(
     let air_t = column(&|row| row.air_temp_c);
     let air_p = column(&|row| row.air_pressure_hpa);
     let air_rh = column(&|row| row.air_rh_pct);
+    let rec: Vec<f64> = rows.iter().map(|row| row.error_um).collect();
     let obs = Obs {
         axis,
         r,
+        rec,
         x,
         d,
         moving,
@@ -697,6 +701,31 @@ fn time_order(obs: &Obs, n: usize) -> Vec<usize> {
 /// before any model is fitted. Groups with fewer than 10 differences take the pooled
 /// moving or dwell value.
 pub(crate) fn noise_from_differences(obs: &Obs, g: &Groups) -> Vec<f64> {
+    noise_of_series(obs, &obs.r, g)
+}
+
+/// The recording's own noise on its dwells, when the residual is much quieter than it:
+/// `Some(σ)` to floor every group's σ at, else `None`. Independent noises add
+/// (σ_r² = σ_rec² + σ_sim²), so a residual quieter than the recording alone means the
+/// simulation reproduced the recording's noise — a simulated "recording" made with the
+/// simulation's own noise seed — and the residual's σ would claim a precision the
+/// measurement does not have (issue 40). Compared on the dwell groups only (on a dwell the
+/// recorded error is constant but for noise and drift, which first differences cancel); a
+/// residual below half the recording's own σ counts as shared.
+pub(crate) fn shared_noise_floor(obs: &Obs, g: &Groups, sigma: &[f64]) -> Option<f64> {
+    let own = noise_of_series(obs, &obs.rec, g);
+    let dwell: Vec<usize> = (0..g.labels.len())
+        .filter(|&k| !g.labels[k].ends_with("moving"))
+        .collect();
+    let own_dwell = median(&dwell.iter().map(|&k| own[k]).collect::<Vec<_>>());
+    let resid_dwell = median(&dwell.iter().map(|&k| sigma[k]).collect::<Vec<_>>());
+    (own_dwell.is_finite() && resid_dwell.is_finite() && resid_dwell < 0.5 * own_dwell)
+        .then_some(own_dwell)
+}
+
+/// [`noise_from_differences`] of any series on the rows of `obs` (the residual, or the
+/// recording alone).
+fn noise_of_series(obs: &Obs, series: &[f64], g: &Groups) -> Vec<f64> {
     let target_of = &obs.target;
     let n = obs.len();
     let order = time_order(obs, n);
@@ -713,7 +742,7 @@ pub(crate) fn noise_from_differences(obs: &Obs, g: &Groups) -> Vec<f64> {
         {
             continue;
         }
-        let dr = (obs.r[b] - obs.r[a]) / std::f64::consts::SQRT_2;
+        let dr = (series[b] - series[a]) / std::f64::consts::SQRT_2;
         diffs[g.id[a]].push(dr);
         pooled[usize::from(obs.moving[a])].push(dr);
     }
@@ -721,7 +750,7 @@ pub(crate) fn noise_from_differences(obs: &Obs, g: &Groups) -> Vec<f64> {
     let global = if all.len() >= 5 {
         mad_sigma(&all)
     } else {
-        mad_sigma(&obs.r)
+        mad_sigma(series)
     };
     let pooled_sigma = pooled
         .each_ref()

@@ -197,6 +197,25 @@ fn run(
     let (fold, nfolds, fold_kind) = data::folds(&obs);
     let mut sigma = data::noise_from_differences(&obs, &groups);
     data::floor_sigmas(&mut sigma);
+    // A residual quieter than the recording alone: the simulation shares its noise (the
+    // same seed); the recording's own noise is the floor of every group's σ.
+    let shared = data::shared_noise_floor(&obs, &groups, &sigma);
+    let floor_shared = |s: &mut [f64]| {
+        if let Some(f) = shared {
+            s.iter_mut().for_each(|v| *v = v.max(f));
+        }
+    };
+    floor_shared(&mut sigma);
+    let shared_config;
+    let config = if shared.is_some() {
+        shared_config = DiagnoseConfig {
+            min_variance_factor: 1.0,
+            ..config.clone()
+        };
+        &shared_config
+    } else {
+        config
+    };
     let weights =
         |s: &[f64]| -> Vec<f64> { groups.id.iter().map(|&g| 1.0 / (s[g] * s[g])).collect() };
     let w = weights(&sigma);
@@ -239,6 +258,7 @@ fn run(
         })
         .collect();
     data::floor_sigmas(&mut sigma2);
+    floor_shared(&mut sigma2);
     let changed = sigma
         .iter()
         .zip(&sigma2)
@@ -288,6 +308,16 @@ fn run(
                 ),
             );
         }
+    }
+    if let Some(f) = shared {
+        out.log.insert(
+            0,
+            format!(
+                "the residual is quieter than the recording alone (its own noise on dwells {f:.4} µm): \
+                 the simulation reproduces the recording's noise (the same noise seed?), so every \
+                 group's σ is at least the recording's own"
+            ),
+        );
     }
     untestable.sort();
     untestable.dedup();

@@ -80,6 +80,16 @@ impl Tolerances {
             if !(x.is_finite() && x > 0.0) {
                 return Err(bad(key, "a tolerance must be positive and finite"));
             }
+            let plausible = crate::base::TOLERANCE_UM;
+            if !plausible.contains(x) {
+                return Err(bad(
+                    key,
+                    &format!(
+                        "a tolerance of {x} µm is outside the plausible {} … {} µm",
+                        plausible.lo, plausible.hi
+                    ),
+                ));
+            }
             Ok(Some(x))
         };
         let table = |key: &str, v: &toml::Value| -> Result<toml::Table, HistoryError> {

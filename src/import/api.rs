@@ -261,11 +261,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     }
     check_compensation_table(&lines, closed_at, &rows, layout.inch, &mut warnings);
     let (axis, at_mm) = placement(&header, axis_override, layout.k, &mut warnings);
-    let dt_s = header
-        .first("Dwell")
-        .and_then(|(_, v)| number(v))
-        .filter(|&d| d > 0.0)
-        .unwrap_or(1.0);
+    let dt_s = dwell_s(&header, readings.len())?;
     let machine = header
         .first("MachName")
         .or_else(|| header.first("MachID"))
@@ -286,6 +282,32 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
         },
         rows: rows_out,
     })
+}
+
+/// The time between readings: the header's `Dwell` (s), 1 s without one. The readings'
+/// times t = k·Dwell must stay inside the documented range of a time
+/// (`base::TIME_S`, ±10⁹ s): a Dwell of 1e300 imported to times `table` then refused
+/// (issue 40 item 6), so it is refused here, at its line.
+fn dwell_s(header: &Header, readings: usize) -> Result<f64, At> {
+    let Some((line, v)) = header.first("Dwell") else {
+        return Ok(1.0);
+    };
+    // No number, or 0 (no dwell stated): one second, as before.
+    let Some(d) = number(v).filter(|&d| d != 0.0) else {
+        return Ok(1.0);
+    };
+    let span = d * readings.saturating_sub(1) as f64;
+    let bound = crate::base::TIME_S;
+    if !(d.is_finite() && d > 0.0 && bound.contains(span)) {
+        return Err(At::new(
+            line,
+            format!(
+                "Dwell {v} s: must be positive and keep the {readings} readings' times within                  {} s (the range of a time)",
+                bound.hi
+            ),
+        ));
+    }
+    Ok(d)
 }
 
 /// Refuses a file whose first line is not the Linear Data Table title, naming the API

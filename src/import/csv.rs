@@ -385,6 +385,8 @@ pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported
     }
     if mapped.direction.is_none() {
         set_directions(&mut readings, &lines)?;
+    } else {
+        check_directions(&readings, &lines)?;
     }
     let axis = axis.unwrap_or(Axis::X);
     let rows = assemble(&readings, axis, [0.0; 3], 1.0);
@@ -577,6 +579,31 @@ fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Resul
             part_temp_c: m.part_t.as_ref().map(cell).transpose()?.flatten().map(temp),
         },
     })
+}
+
+/// With a direction column: within a run, the rows of one direction are a pass in the
+/// order it was measured, so each step between them must go that way (or stay). A column
+/// that says +1 where the rows visit the targets downwards contradicts the visiting
+/// order (issue 40 item 9: read as valid, `table` then found no statistics); refused at
+/// the row where it first shows.
+fn check_directions(readings: &[Reading], lines: &[usize]) -> Result<(), At> {
+    let mut last: std::collections::HashMap<(u32, i8), usize> = std::collections::HashMap::new();
+    for (i, r) in readings.iter().enumerate() {
+        if let Some(&j) = last.get(&(r.run, r.direction)) {
+            let step = r.target_mm - readings[j].target_mm;
+            if step * f64::from(r.direction) < 0.0 {
+                return Err(At::new(
+                    lines[i],
+                    format!(
+                        "direction {:+} contradicts the visiting order: run {} goes from {} to {} mm                          here (a pass is read in the order it was measured; fix the direction                          column or the order of the rows)",
+                        r.direction, r.run, readings[j].target_mm, r.target_mm
+                    ),
+                ));
+            }
+        }
+        last.insert((r.run, r.direction), i);
+    }
+    Ok(())
 }
 
 /// Without a direction column: each run must be monotonic in its target; its direction

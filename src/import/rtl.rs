@@ -1,19 +1,30 @@
 //! Renishaw Laser10 / LaserXL linear data, `.rtl` (CRLF text).
 //!
 //! The layout is taken from the project's import contract, which describes it from public
-//! descriptions of the format; **no genuine `.rtl` file has been read by this reader yet**
+//! descriptions of the format, and from a public parser written against genuine Laser10
+//! files (the Java `RtlParser` of the AxisCorection project on GitHub, read to learn the
+//! layout: no code taken); **no genuine `.rtl` file has been read by this reader yet**
 //! (see `docs/import.md`). Sections start with a line `NAME::`; inside one, `Key : value`
-//! lines are split at the first `:`.
+//! lines are split at the first `:`. Two layouts are accepted, each with a test file of
+//! ours (`tests/it/rtl.rs`): the contract's (target positions on the `Targets :` line,
+//! deviations straight after `DEVIATIONS::`) and the one genuine files show (`Targets :`
+//! alone, the positions on the lines after it; a `Run Target Data:` line opening the
+//! deviations; `Version no`, `Filetype`, `Env factor`, `Exp coeff` and `Final Data` lines,
+//! which errmap reads past).
 //!
 //! | section | keys | errmap |
 //! |---|---|---|
-//! | `HEADER::` | `File type : rtl`, `Owner : Linear` (anything else is refused) | — |
-//! | `TARGET DATA::` | `Target-count` N, `Targets :` N positions (mm, may continue on the next lines), `Flags:` (second field 1 = unidirectional) | target positions |
+//! | `HEADER::` | `File type : rtl`, `Owner : Linear` (anything else is refused), `Version no` | — |
+//! | `TARGET DATA::` | `Target-count` N, `Targets :` N positions (mm, on that line and/or the next lines), `Flags:` (second field 1 = unidirectional) | target positions |
 //! | `RUNS::` | `Run-count` R = the number of passes | — |
-//! | `DEVIATIONS::` | `run target deviation`, R·N lines, each pair once; deviation x in µm | e_um = −x, laser_mm = P + x/1000 |
+//! | `DEVIATIONS::` | an optional `Run Target Data:` line, then `run target deviation`, R·N lines, each pair once; deviation x in µm | e_um = −x, laser_mm = P + x/1000 |
 //! | `ENVIRONMENT::` (optional) | `Air temp` °C, `Air press` kPa, `Air humid` %, `Mat temp 1..3` °C: values at the first and the last reading | interpolated over the readings |
-//! | `Date Time` | "start" "end" | Δt = span / (K − 1) |
+//! | `Date Time` | "start" "end" (times of day hh:mm:ss, checked: hours 0–23, minutes and seconds 0–59) | Δt = span / (K − 1) |
 //! | `USER-TEXT::` | `Axis` | the axis (else X, with a warning) |
+//!
+//! A Run-count that disagrees with complete deviations (R' whole runs of N targets
+//! listed, R' ≠ R) is blamed on the `Run-count` line; a deviation line that breaks the
+//! pattern is blamed on itself.
 //!
 //! The ISO run is r (unidirectional) or ⌈r/2⌉ (bidirectional: passes out and back); a
 //! pass' direction is the order in which it lists its targets. Unknown sections
@@ -215,6 +226,7 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
         .ok_or_else(|| At::new(rc.line, format!("Run-count `{}`", rc.value)))?;
     let dev = section(&secs, "DEVIATIONS")
         .ok_or_else(|| At::new(lines.len().max(1), "no DEVIATIONS:: section"))?;
+    check_run_count(dev, r, n, rc.line)?;
     let raw = read_deviations(dev, r, n)?;
     if raw.len() != r * n {
         return Err(At::new(
@@ -231,9 +243,11 @@ pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     let k_total = raw.len();
     let env_sec = section(&secs, "ENVIRONMENT");
     let environment = Environment::read(env_sec, k_total)?;
-    let dt_s = env_sec
-        .and_then(|s| s.get("Date Time"))
-        .and_then(|e| span_s(e.value))
+    let span = match env_sec.and_then(|s| s.get("Date Time")) {
+        Some(e) => span_s(e.value).map_err(|m| At::new(e.line, format!("Date Time: {m}")))?,
+        None => None,
+    };
+    let dt_s = span
         .map(|span| span / (k_total.max(2) - 1) as f64)
         .filter(|d| *d > 0.0)
         .unwrap_or(1.0);
@@ -340,12 +354,53 @@ fn read_targets(targets_sec: &Section) -> Result<Vec<f64>, At> {
     Ok(positions)
 }
 
+/// The deviation lines of DEVIATIONS::, the `Run Target Data:` line that opens them in
+/// genuine files left out (numbers after its colon, if any, are a deviation).
+fn deviation_lines<'a>(dev: &Section<'a>) -> impl Iterator<Item = (usize, &'a str)> {
+    dev.lines
+        .iter()
+        .filter_map(|&(line, l)| match l.split_once(':') {
+            Some((k, rest)) if k.trim().eq_ignore_ascii_case("Run Target Data") => {
+                let rest = rest.trim();
+                (!rest.is_empty()).then_some((line, rest))
+            }
+            _ => Some((line, l)),
+        })
+}
+
+/// Refuses a Run-count that the deviations contradict as a whole: every line
+/// `run target deviation` with whole numbers, targets within 1..n, the runs 1..R' each
+/// complete (R'·n lines) and R' ≠ `r`. The Run-count line is then the wrong one.
+fn check_run_count(dev: &Section, r: usize, n: usize, count_line: usize) -> Result<(), At> {
+    let mut runs = Vec::new();
+    for (_, l) in deviation_lines(dev) {
+        let f: Vec<&str> = l.split_whitespace().collect();
+        let run = f.first().and_then(|v| number(v)).and_then(whole);
+        let target = f.get(1).and_then(|v| number(v)).and_then(whole);
+        match (f.len(), run, target) {
+            (3, Some(run), Some(t)) if t <= n => runs.push(run),
+            _ => return Ok(()),
+        }
+    }
+    let seen = runs.iter().copied().max().unwrap_or(0);
+    let complete = (1..=seen).all(|k| runs.iter().filter(|&&x| x == k).count() == n);
+    if seen != r && complete && runs.len() == seen * n {
+        return Err(At::new(
+            count_line,
+            format!(
+                "Run-count {r}, but DEVIATIONS:: lists {seen} complete run(s) of the {n} targets"
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// The DEVIATIONS:: lines, each run and target within 1..r / 1..n and each pair once (the
 /// caller checks that every pair is there).
 fn read_deviations(dev: &Section, r: usize, n: usize) -> Result<Vec<Deviation>, At> {
     let mut seen = vec![false; r * n];
     let mut raw: Vec<Deviation> = Vec::with_capacity(r * n);
-    for &(line, l) in &dev.lines {
+    for (line, l) in deviation_lines(dev) {
         let f: Vec<&str> = l.split_whitespace().collect();
         if f.len() != 3 {
             return Err(At::new(
@@ -434,14 +489,35 @@ fn to_readings(
 
 /// Seconds between the first and the second quoted time of day (`"… hh:mm:ss" "… hh:mm:ss"`),
 /// a day added when the second is earlier (a test past midnight). `None` when either
-/// has no time of day.
-fn span_s(value: &str) -> Option<f64> {
+/// has no time of day; an error when one is not a time of day (hours 0–23, minutes and
+/// seconds 0–59: "25:00:00" is refused, not read as a day and an hour).
+fn span_s(value: &str) -> Result<Option<f64>, String> {
     let quoted: Vec<&str> = value.split('"').skip(1).step_by(2).collect();
-    let tod = |s: &str| -> Option<f64> {
-        let t = s.split_whitespace().find(|w| w.matches(':').count() == 2)?;
+    let tod = |s: &str| -> Result<Option<f64>, String> {
+        let Some(t) = s.split_whitespace().find(|w| w.matches(':').count() == 2) else {
+            return Ok(None);
+        };
         let p: Vec<f64> = t.split(':').filter_map(number).collect();
-        (p.len() == 3).then(|| p[0] * 3600.0 + p[1] * 60.0 + p[2])
+        match p.as_slice() {
+            [h, m, sec]
+                if (0.0..24.0).contains(h)
+                    && h.fract() == 0.0
+                    && (0.0..60.0).contains(m)
+                    && m.fract() == 0.0
+                    && (0.0..60.0).contains(sec) =>
+            {
+                Ok(Some(h * 3600.0 + m * 60.0 + sec))
+            }
+            _ => Err(format!(
+                "`{t}` is not a time of day (hh:mm:ss, hours 0–23, minutes and seconds 0–59)"
+            )),
+        }
     };
-    let (a, b) = (tod(quoted.first()?)?, tod(quoted.get(1)?)?);
-    Some(if b >= a { b - a } else { b + 86_400.0 - a })
+    let (Some(a), Some(b)) = (quoted.first(), quoted.get(1)) else {
+        return Ok(None);
+    };
+    let (Some(a), Some(b)) = (tod(a)?, tod(b)?) else {
+        return Ok(None);
+    };
+    Ok(Some(if b >= a { b - a } else { b + 86_400.0 - a }))
 }

@@ -36,8 +36,19 @@ pub(crate) fn is_parquet(path: &Path) -> Result<bool, TableError> {
 /// The format an output table is written in: by extension, as [`is_parquet`]; a target
 /// without one that is a character device or a pipe (`--out /dev/null`, `/dev/stdout`)
 /// gets CSV, the text a reader at the other end expects. A regular file still needs its
-/// extension, so that the file says what it holds.
+/// extension, so that the file says what it holds: `.csv`, `.parquet` or `.pq` — a
+/// `.txt` is read as CSV but never written (the contract's tables are CSV or Parquet by
+/// extension; issue 40 item 11).
 pub(crate) fn output_is_parquet(path: &Path) -> Result<bool, TableError> {
+    let txt = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("txt"));
+    if txt {
+        return Err(TableError::Extension {
+            path: path.to_path_buf(),
+        });
+    }
     match is_parquet(path) {
         Err(TableError::Extension { .. })
             if matches!(

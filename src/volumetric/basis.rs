@@ -1,11 +1,19 @@
 //! The linear parameterisation of the 21 errors that identification fits and prediction
 //! evaluates, with the gauge convention built in. Two families ([`BasisKind`]):
 //!
-//! **Polynomials** (`poly`). Each axis k is normalised, ξ = a/L_k with L_k the largest
-//! |a| of its range (the range always contains 0). A positioning or angular component of
-//! degree D is Σ_{d=1..D} θ_d·ξ^d (no constant: components are zero at 0). A straightness
-//! component of degree D is Σ_{d=2..max(D,2)} θ_d·(ξ^d − β_d·ξ), where β_d is the
-//! least-squares slope of ξ^d over the axis' range [lo, hi] (continuous, uniform weight).
+//! **Polynomials** (`poly`). Each axis k is mapped onto t = (2a − lo − hi)/(hi − lo) ∈
+//! [−1, 1] over its range [lo, hi] (which always contains 0, at t₀). A positioning or
+//! angular component of degree D is Σ_{d=1..D} θ_d·(P_d(t) − P_d(t₀)), P_d the Legendre
+//! polynomial of degree d (no constant: components are zero at 0). A straightness
+//! component of degree D is Σ_{d=2..max(D,2)} θ_d·(P_d(t) − P_d(t₀)): for d ≥ 2, P_d is
+//! orthogonal to t on [−1, 1] (uniform weight), so each function already has zero
+//! least-squares slope over the range. The span is that of the monomials ξ^d of earlier
+//! versions (same fits, same predictions), but the columns stay well conditioned up to
+//! the largest degree (12): monomials on a range [0, L] reach a condition number near
+//! 10¹⁶ at degree 12 and their fit broke down (issue 40 item 3). A model file written
+//! before this change says nothing of `polynomials` and is read with its monomials
+//! ([`Polynomials::Monomial`]); the Legendre polynomials are Abramowitz & Stegun,
+//! *Handbook of Mathematical Functions* (1964), 22.7.10 (the three-term recurrence).
 //!
 //! **Tables at knots** (`spline`, [`super::spline`]). Each component is a piecewise-linear
 //! table over its axis' knots t_0 < … < t_{K−1} (0 among them): Σ_j v_j·φ_j(a), φ_j the
@@ -68,6 +76,45 @@ pub struct Basis {
     /// Knots of each axis, mm, increasing, 0 among them (tables at knots only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub knots_mm: Option<Box<[Vec<f64>; 3]>>,
+    /// The polynomial family of `poly` (a file without the key holds monomials).
+    #[serde(default)]
+    pub polynomials: Polynomials,
+}
+
+/// The functions of a `poly` basis (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Polynomials {
+    /// ξ^d, ξ = a/L: model files written before Legendre polynomials (read, never made).
+    #[default]
+    Monomial,
+    /// P_d(t) − P_d(t₀) on the range mapped to [−1, 1]: every basis made now.
+    Legendre,
+}
+
+/// P_1(t) … P_n(t) by the three-term recurrence (d+1)·P_{d+1} = (2d+1)·t·P_d − d·P_{d−1},
+/// into `out` from index 1 (`out[0]` = P_0 = 1).
+fn legendre(t: f64, n: usize, out: &mut [f64; MAX_LEGENDRE + 1]) {
+    out[0] = 1.0;
+    if n >= 1 {
+        out[1] = t;
+    }
+    for d in 1..n.min(MAX_LEGENDRE) {
+        let df = d as f64;
+        out[d + 1] = ((2.0 * df + 1.0) * t * out[d] - df * out[d - 1]) / (df + 1.0);
+    }
+}
+
+/// The largest polynomial degree a basis evaluates (`volumetric identify` takes 1–12).
+const MAX_LEGENDRE: usize = super::identify::MAX_DEGREE;
+
+/// The range of an axis mapped onto [−1, 1]: t of a position, mm.
+fn unit_coordinate(range_mm: [f64; 2], a_mm: f64, scale_mm: f64) -> f64 {
+    let [lo, hi] = range_mm;
+    let half = 0.5 * (hi - lo);
+    // An axis that does not move is only ever evaluated at 0.
+    let half = if half > 0.0 { half } else { scale_mm };
+    (a_mm - 0.5 * (lo + hi)) / half
 }
 
 /// L_k per axis: the largest |a| of the range, 1 mm for an axis that does not move.
@@ -104,6 +151,7 @@ impl Basis {
             scale_mm: scales(range_mm),
             degrees,
             knots_mm: None,
+            polynomials: Polynomials::Legendre,
         }
     }
 
@@ -115,6 +163,7 @@ impl Basis {
             scale_mm: scales(range_mm),
             degrees: Vec::new(),
             knots_mm: Some(Box::new(knots_mm)),
+            polynomials: Polynomials::Legendre,
         }
     }
 
@@ -171,6 +220,20 @@ impl Basis {
             return;
         }
         let l = self.scale_mm[k];
+        let first = if comp.is_straightness() { 2 } else { 1 };
+        let top = if comp.is_straightness() {
+            self.degrees[c].max(2)
+        } else {
+            self.degrees[c]
+        };
+        if self.polynomials == Polynomials::Legendre {
+            let range = self.range_mm[k];
+            let (mut p, mut p0) = ([0.0; MAX_LEGENDRE + 1], [0.0; MAX_LEGENDRE + 1]);
+            legendre(unit_coordinate(range, a_mm, l), top, &mut p);
+            legendre(unit_coordinate(range, 0.0, l), top, &mut p0);
+            out.extend((first..=top.min(MAX_LEGENDRE)).map(|d| p[d] - p0[d]));
+            return;
+        }
         let xi = a_mm / l;
         if comp.is_straightness() {
             let [lo, hi] = self.range_mm[k].map(|v| v / l);
@@ -303,5 +366,48 @@ mod tests {
         assert!((ls_slope(-0.3, 0.8, 1) - 1.0).abs() < 1e-12);
         // ξ³ on [−1, 1]: cov(ξ, ξ³)/var ξ = (1/5)/(1/3) = 0.6.
         assert!((ls_slope(-1.0, 1.0, 3) - 0.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn legendre_functions_vanish_at_zero_and_straightness_has_no_slope() {
+        // P_2 = (3t² − 1)/2, P_3 = (5t³ − 3t)/2 (Abramowitz & Stegun 22.3.8).
+        let mut p = [0.0; MAX_LEGENDRE + 1];
+        legendre(0.5, 3, &mut p);
+        assert!((p[2] - (3.0 * 0.25 - 1.0) / 2.0).abs() < 1e-15);
+        assert!((p[3] - (5.0 * 0.125 - 1.5) / 2.0).abs() < 1e-15);
+        let b = Basis::new(
+            "YXZ".parse().expect("topology"),
+            [[0.0, 800.0], [-100.0, 500.0], [0.0, 0.0]],
+            vec![12; 18],
+        );
+        // E_YX (straightness of x, index 1) and E_XX (positioning, 0) along x.
+        for c in [0, 1] {
+            assert!(b.functions(c, 0.0).iter().all(|v| *v == 0.0));
+        }
+        let n = 2000;
+        let xs: Vec<f64> = (0..=n)
+            .map(|i| 800.0 * f64::from(i) / f64::from(n))
+            .collect();
+        let fs: Vec<Vec<f64>> = xs.iter().map(|&x| b.functions(1, x)).collect();
+        assert_eq!(fs[0].len(), 11);
+        let mx = xs.iter().sum::<f64>() / xs.len() as f64;
+        for j in 0..11 {
+            let mf = fs.iter().map(|f| f[j]).sum::<f64>() / xs.len() as f64;
+            let cov: f64 = xs
+                .iter()
+                .zip(&fs)
+                .map(|(x, f)| (x - mx) * (f[j] - mf))
+                .sum();
+            let var: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+            // Trapezoid sums of orthogonal polynomials: zero to the quadrature's error.
+            assert!(
+                (cov / var).abs() < 1e-5,
+                "degree {} slope {}",
+                j + 2,
+                cov / var
+            );
+        }
+        // An axis that does not move: every function 0 at its only position.
+        assert!(b.functions(12, 0.0).iter().all(|v| *v == 0.0));
     }
 }

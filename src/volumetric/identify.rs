@@ -868,6 +868,7 @@ pub fn identify(
     table: &LineTable,
     config: &IdentifyConfig,
 ) -> Result<Identification, VolumetricError> {
+    table.check_identify_size()?;
     let range = axis_range(table);
     let w = weights(table);
     let weighted = w.is_some();

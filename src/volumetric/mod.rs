@@ -118,7 +118,7 @@ mod smooth;
 mod spline;
 mod thermal;
 
-pub use basis::{Basis, BasisKind, GaugeTruth};
+pub use basis::{Basis, BasisKind, GaugeTruth, Polynomials};
 pub use compensation::{ComponentTables, axis_positions, component_tables, positioning_profile};
 pub use error::{
     ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
@@ -128,7 +128,7 @@ pub use identify::{
     Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS, Z_MISSING,
     identify,
 };
-pub use lines::{Line, LineTable, Target};
+pub use lines::{Line, LineTable, MAX_IDENTIFY_ROWS, Target};
 pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology, squareness_effect};
 pub use predict::{Prediction, Predictor, write_grid, write_predictions};
 pub use simulate::{MAX_READINGS, Plan, PlanFile, PlannedLine, ThermalHistory, preset, simulate};

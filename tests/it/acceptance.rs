@@ -265,7 +265,8 @@ fn decide_prints_every_result_in_file_order_and_refuses_bad_rows() -> TestResult
         "--guard-fraction",
         "-1",
     ]);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // A flag value out of range: a usage error (docs/cli.md's one rule).
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let o = errmap(&["acceptance", "decide", &s(&v), "--rule", "strict"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     Ok(())
@@ -798,11 +799,22 @@ fn bad_iso10360_files_exit_1_naming_file_and_rows() -> TestResult {
         e.contains("both.csv") && e.contains("give one of them"),
         "{e}"
     );
-    // An unparsable MPE.
-    for bad in ["2+L", "2 + L/0", "two", "max(1+L/3,2)", "2+L/300 µm"] {
+    // An unparsable or implausible MPE: a bad flag value, exit 2 (docs/cli.md). Issue 40
+    // item 5: `2+L/1e-300` passed all 105 measurements, a zero MPE failed them all.
+    for (bad, part) in [
+        ("2+L", ""),
+        ("2 + L/0", "K"),
+        ("two", ""),
+        ("max(1+L/3,2)", ""),
+        ("2+L/300 µm", ""),
+        ("2+L/1e-300", "K"),
+        ("1e308+L/333", "A"),
+        ("0", "B"),
+        ("min(2+L/333,-1)", "B"),
+    ] {
         let (c, e) = run("ok.csv", &csv, bad);
-        assert_eq!(c, Some(1), "{bad}: {e}");
-        assert!(e.contains("--mpe"), "{bad}: {e}");
+        assert_eq!(c, Some(2), "{bad}: {e}");
+        assert!(e.contains("--mpe") && e.contains(part), "{bad}: {e}");
     }
     Ok(())
 }
@@ -889,6 +901,22 @@ fn the_virtual_test_is_the_projection_of_the_error_vector_difference() -> TestRe
     let before = doc["max_abs_e_um"].as_f64().ok_or("max")?;
     let after = c["max_abs_e_um"].as_f64().ok_or("after")?;
     assert!(before > 1.0 && after < 0.05 * before, "{before} → {after}");
+    // What is left is stated, not 0: the largest √((2σ)² + 0.1²) over the lengths
+    // (issue 40: the model compensating itself reported 0.000 µm).
+    let floor = c["measurements"]
+        .as_array()
+        .ok_or("after")?
+        .iter()
+        .map(|m| {
+            let s = m["sigma_um"].as_f64().unwrap_or(f64::NAN);
+            (4.0 * s * s + 0.01).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let stated = c["floor_um"].as_f64().ok_or("floor")?;
+    assert!(
+        (stated - floor).abs() < 1e-12 && stated > 0.1,
+        "{stated} vs {floor}"
+    );
     assert!(dir.path().join("virtual/report.md").is_file());
     assert!(dir.path().join("virtual/e_vs_length.svg").is_file());
     Ok(())
@@ -930,6 +958,8 @@ fn after_compensation_only_the_probe_offsets_abbe_terms_remain() -> TestResult {
     ]));
     assert_eq!(doc["model_residual"], "exact");
     assert_eq!(doc["verdict"], Value::Null);
+    // An exact model (σ = 0) leaves the table's 0.1 µm step.
+    assert_eq!(doc["compensated"]["floor_um"], 0.1);
     let before = doc["measurements"].as_array().ok_or("before")?;
     let after = doc["compensated"]["measurements"]
         .as_array()
@@ -1037,7 +1067,8 @@ fn virtual_plans_refuse_unknown_keys_and_gauges_outside_the_model() -> TestResul
         "--mpe",
         "1+L/",
     ]);
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // A flag value that does not parse: exit 2 (docs/cli.md's one rule).
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--mpe"));
     Ok(())
 }

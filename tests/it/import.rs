@@ -352,6 +352,11 @@ fn broken_api_files_name_their_line() {
         format: SessionFormat::ApiXd,
         axis: None,
     };
+    let dwell_line = lines
+        .iter()
+        .position(|l| l.contains("Dwell:"))
+        .expect("dwell")
+        + 1;
     let cases = [
         (edit(first_reading + 2, ""), first_reading + 3, "fields"),
         (
@@ -387,6 +392,17 @@ fn broken_api_files_name_their_line() {
             }),
             first_reading + 2,
             "LasRead",
+        ),
+        // Issue 40 item 6: a Dwell that puts the readings' times beyond 10⁹ s, or negative.
+        (
+            text.replace("Dwell: 2", "Dwell: 1e300"),
+            dwell_line,
+            "Dwell 1e300 s",
+        ),
+        (
+            text.replace("Dwell: 2", "Dwell: -3"),
+            dwell_line,
+            "must be positive",
         ),
     ];
     for (bad, line, what) in cases {
@@ -488,6 +504,21 @@ fn csv_reference_columns_and_refusals() {
         .expect_err("not monotonic");
     assert!(
         e.starts_with("m.csv: line 4:") && e.contains("not monotonic"),
+        "{e}"
+    );
+    // A direction column the visiting order contradicts (issue 40 item 9): refused there.
+    let flipped = t.replace(
+        "100,99.997,100,down\n0,0.002,0,down\n",
+        "0,0.002,0,down\n100,99.997,100,down\n",
+    );
+    assert_ne!(flipped, t);
+    let e = csv_import(
+        flipped.as_bytes(),
+        csv_opts("target=target,reference=laser,indicated=scale,direction=dir"),
+    )
+    .expect_err("contradiction");
+    assert!(
+        e.starts_with("m.csv: line 5:") && e.contains("contradicts the visiting order"),
         "{e}"
     );
     let bad = "target,laser\n0,0.001\n100,x\n";

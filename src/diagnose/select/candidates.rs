@@ -188,7 +188,7 @@ impl Selector<'_> {
         let bic = bic(fit.chi2, self.n(), fit.rank + nl + variant.nonlinear());
         let dof =
             (self.n() as f64 - fit.rank as f64 - 1.0 - self.engine.absorbed() as f64).max(1.0);
-        let s2 = fit.chi2 / dof;
+        let s2 = (fit.chi2 / dof).max(self.cfg.min_variance_factor);
         let mut th: Vec<f64> = (k0..k0 + k).map(|i| fit.coef[i]).collect();
         let mut cov: Vec<Vec<f64>> = (k0..k0 + k)
             .map(|i| (k0..k0 + k).map(|j| fit.cov[i][j] * s2).collect())

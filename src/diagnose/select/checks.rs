@@ -154,7 +154,7 @@ impl Selector<'_> {
             }
             let f = small_fit(resid, w, &[s, c], Some(&rows));
             let dof = (rows.len() as f64 - 3.0).max(1.0);
-            let s2 = f.chi2 / dof;
+            let s2 = (f.chi2 / dof).max(self.cfg.min_variance_factor);
             let (sc, cc) = (f.coef[1], f.coef[2]);
             let ap = sc.hypot(cc).max(1e-300);
             let var = ((sc / ap).powi(2) * f.cov[1][1]
@@ -306,7 +306,7 @@ impl Selector<'_> {
         }
         let inv = pinv_sym(&jtj);
         let dof = (n as f64 - p as f64 - self.engine.absorbed() as f64).max(1.0);
-        let s2 = fit.chi2 / dof;
+        let s2 = (fit.chi2 / dof).max(self.cfg.min_variance_factor);
         let inflate = if self.engine.absorbed() > 0 {
             self.cluster_inflation(&ids, &fit, &jac, &inv, s2)
         } else {
