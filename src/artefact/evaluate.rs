@@ -119,7 +119,7 @@ pub struct GaugeEvaluation {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum Evaluation {
-    Plate(PlateEvaluation),
+    Plate(Box<PlateEvaluation>),
     Gauge(GaugeEvaluation),
 }
 
@@ -171,7 +171,7 @@ pub fn fit_map(
     }
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.max();
-    if !(smax > 0.0) || svd.singular_values.min() <= 1e-9 * smax {
+    if smax.is_nan() || smax <= 0.0 || svd.singular_values.min() <= 1e-9 * smax {
         return None;
     }
     let p = svd.solve(&b, 0.0).ok()?;
@@ -215,7 +215,7 @@ fn decompose_map(m: &Matrix2<f64>, t: [f64; 2], model: MapModel) -> Option<MapFi
     let rt = Matrix2::new(c_, s_, -s_, c_);
     let s_mat = rt * m;
     let s = (s_mat[(0, 0)] + s_mat[(1, 1)]) / 2.0;
-    if !(s > 0.0) {
+    if s.is_nan() || s <= 0.0 {
         return None;
     }
     let distortion = match model {
@@ -385,7 +385,8 @@ pub fn evaluate(
 ) -> Result<Evaluation, ArtefactError> {
     match art.kind {
         Kind::BallPlate | Kind::HolePlate => {
-            evaluate_plate(art, meas, against, model, plane, temp_c).map(Evaluation::Plate)
+            evaluate_plate(art, meas, against, model, plane, temp_c)
+                .map(|p| Evaluation::Plate(Box::new(p)))
         }
         Kind::BallBeam | Kind::StepGauge => {
             evaluate_gauge(art, meas, temp_c).map(Evaluation::Gauge)

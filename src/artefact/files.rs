@@ -613,12 +613,12 @@ impl Measurement {
             }
             let mut x_mm = [0.0; 3];
             let has_z = idx[3] != usize::MAX;
-            for k in 0..3 {
+            for (k, xk) in x_mm.iter_mut().enumerate() {
                 if k == 2 && !has_z {
                     continue;
                 }
                 let s = cell(k + 1).ok_or_else(|| bad(k + 1, "missing".into()))?;
-                x_mm[k] = s
+                *xk = s
                     .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())

@@ -150,10 +150,10 @@ fn measured_range(campaign: &Campaign, meas: &[Measurement]) -> [[f64; 2]; 3] {
     let mut r = [[0.0f64; 2]; 3];
     for (pos, m) in campaign.positions.iter().zip(meas) {
         for row in &m.rows {
-            for k in 0..3 {
+            for (k, rk) in r.iter_mut().enumerate() {
                 let a = row.x_mm[k] - pos.probe_mm[k];
-                r[k][0] = r[k][0].min(a);
-                r[k][1] = r[k][1].max(a);
+                rk[0] = rk[0].min(a);
+                rk[1] = rk[1].max(a);
             }
         }
     }
@@ -584,6 +584,7 @@ pub(crate) fn model_verdict(z: f64) -> ResidualVerdict {
 }
 
 /// The volumetric model of the fit.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn model_of(
     opts: &IdentifyOptions,
     basis: Basis,

@@ -1,5 +1,5 @@
 //! The hook for other kinds of observation of the same model (artefact feature centres,
-//! `crate::artefact`): a caller builds rows that see the error vector along a direction
+//! the artefact stage): a caller builds rows that see the error vector along a direction
 //! ([`super::Basis::line_row`], −u·E as a laser line) plus columns of its own (placements,
 //! artefact deviations), and fits them with the line fit's pieces: the equilibrated SVD
 //! with its rank rule and null space, the identified-component rule, and the residual's

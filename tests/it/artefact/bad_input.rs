@@ -17,7 +17,7 @@ fn refused(args: &[&str], code: i32, words: &[&str]) {
 
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
+    std::fs::write(&p, text).expect("test data");
     p.display().to_string()
 }
 
@@ -147,7 +147,7 @@ fn campaigns_are_checked_by_key_and_placement() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     // The output directory exists now: refused, nothing replaced.
-    let before = std::fs::read(meas.join("XY_low.csv")).unwrap();
+    let before = std::fs::read(meas.join("XY_low.csv")).expect("test data");
     refused(
         &[
             "artefact",
@@ -161,10 +161,13 @@ fn campaigns_are_checked_by_key_and_placement() {
         1,
         &["exists"],
     );
-    assert_eq!(std::fs::read(meas.join("XY_low.csv")).unwrap(), before);
-    let text = std::fs::read_to_string(&c).unwrap();
+    assert_eq!(
+        std::fs::read(meas.join("XY_low.csv")).expect("test data"),
+        before
+    );
+    let text = std::fs::read_to_string(&c).expect("test data");
     let id = |t: &str, words: &[&str]| {
-        std::fs::write(&c, t).unwrap();
+        std::fs::write(&c, t).expect("test data");
         refused(
             &["artefact", "identify", s(&c), "--topology", "YXZ"],
             1,
@@ -199,15 +202,15 @@ fn campaigns_are_checked_by_key_and_placement() {
         &text.replacen("XY_low.csv", "nothing.csv", 1),
         &["nothing.csv"],
     );
-    std::fs::write(&c, &text).unwrap();
+    std::fs::write(&c, &text).expect("test data");
     // A ball 0.8 mm off: named by file, row and id.
     let f = meas.join("XY_high.csv");
-    let csv = std::fs::read_to_string(&f).unwrap();
+    let csv = std::fs::read_to_string(&f).expect("test data");
     let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
     let cells: Vec<String> = lines[5].split(',').map(str::to_string).collect();
-    let x: f64 = cells[1].parse().unwrap();
+    let x: f64 = cells[1].parse().expect("test data");
     lines[5] = format!("{},{},{},{}", cells[0], x + 0.8, cells[2], cells[3]);
-    std::fs::write(&f, lines.join("\n") + "\n").unwrap();
+    std::fs::write(&f, lines.join("\n") + "\n").expect("test data");
     refused(
         &["artefact", "identify", s(&c), "--topology", "YXZ"],
         1,

@@ -127,7 +127,10 @@ fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize 
             let p = v["components"][axis]["positions_mm"]
                 .as_array()
                 .expect("positions");
-            [p[0].as_f64().unwrap(), p[p.len() - 1].as_f64().unwrap()]
+            [
+                p[0].as_f64().expect("test data"),
+                p[p.len() - 1].as_f64().expect("test data"),
+            ]
         })
         .collect();
     let truth = GaugeTruth::of(machine, [range[0], range[1], range[2]]);
@@ -137,11 +140,11 @@ fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize 
         if e["identified"] != true {
             continue;
         }
-        let pos = e["positions_mm"].as_array().unwrap();
+        let pos = e["positions_mm"].as_array().expect("test data");
         for (i, p) in pos.iter().enumerate() {
-            let a = p.as_f64().unwrap();
-            let est = e["values"][i].as_f64().unwrap();
-            let sig = e["sigma"][i].as_f64().unwrap();
+            let a = p.as_f64().expect("test data");
+            let est = e["values"][i].as_f64().expect("test data");
+            let sig = e["sigma"][i].as_f64().expect("test data");
             let t = truth.value(machine, c, a);
             assert!(
                 (est - t).abs() <= tol + k * sig,
@@ -154,8 +157,8 @@ fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize 
     for (i, name) in ["E_C0Y", "E_B0Z", "E_A0Z"].iter().enumerate() {
         let e = &v["components"][*name];
         if e["identified"] == true {
-            let est = e["value"].as_f64().unwrap();
-            let sig = e["sigma"].as_f64().unwrap();
+            let est = e["value"].as_f64().expect("test data");
+            let sig = e["sigma"].as_f64().expect("test data");
             let t = truth.squareness_urad[i];
             assert!(
                 (est - t).abs() <= tol + k * sig,
@@ -175,8 +178,8 @@ fn eight_positions_of_a_calibrated_plate_give_the_21_errors() {
     let m = Machine::read(&machine()).expect("machine");
     // Noise-free: the cubic basis holds the machine, the fit is exact.
     assert_eq!(compare(&v, &m, 2e-3, 0.0), 21, "{}", v["unidentified"]);
-    assert!(v["unidentified"].as_array().unwrap().is_empty());
-    assert!(v["rms_residual_um"].as_f64().unwrap() < 1e-3);
+    assert!(v["unidentified"].as_array().expect("test data").is_empty());
+    assert!(v["rms_residual_um"].as_f64().expect("test data") < 1e-3);
     assert_eq!(v["positions"], 8);
     assert_eq!(v["features"], 200);
     assert!(v["self_calibration"].is_null());
@@ -184,11 +187,11 @@ fn eight_positions_of_a_calibrated_plate_give_the_21_errors() {
     let p = &v["placements"][2];
     assert_eq!(p["position"], "XY_turned");
     assert!(
-        (p["rotation"][0][1].as_f64().unwrap() + 1.0).abs() < 1e-6,
+        (p["rotation"][0][1].as_f64().expect("test data") + 1.0).abs() < 1e-6,
         "{p}"
     );
     assert!(
-        (p["translation_mm"][0].as_f64().unwrap() - 600.0).abs() < 1e-3,
+        (p["translation_mm"][0].as_f64().expect("test data") - 600.0).abs() < 1e-3,
         "{p}"
     );
     // With noise: within 4 σ, and the residual consistent with it.
@@ -197,7 +200,13 @@ fn eight_positions_of_a_calibrated_plate_give_the_21_errors() {
     let v = run(dir.path(), &c, &machine(), 0.2, &[]);
     assert_eq!(compare(&v, &m, 0.0, 4.0), 21);
     assert_eq!(v["residual"]["verdict"], "consistent", "{}", v["residual"]);
-    assert_eq!(v["residual"]["carriers"].as_array().unwrap().len(), 8);
+    assert_eq!(
+        v["residual"]["carriers"]
+            .as_array()
+            .expect("test data")
+            .len(),
+        8
+    );
 }
 
 #[test]
@@ -209,15 +218,15 @@ fn four_positions_name_what_they_cannot_determine() {
     let m = Machine::read(&machine()).expect("machine");
     // Weakly determined components carry their (large) σ.
     let n = compare(&v, &m, 2e-3, 4.0);
-    let un = v["unidentified"].as_array().unwrap();
+    let un = v["unidentified"].as_array().expect("test data");
     let named: Vec<&str> = un
         .iter()
         .flat_map(|u| {
             u["components"]
                 .as_array()
-                .unwrap()
+                .expect("test data")
                 .iter()
-                .map(|c| c.as_str().unwrap())
+                .map(|c| c.as_str().expect("test data"))
         })
         .collect();
     // No stylus offset: the ram's (last axis') rotations have no lever arm, nor has X's yaw
@@ -232,7 +241,7 @@ fn four_positions_name_what_they_cannot_determine() {
     // position determines the group, and the report says so with an empty list.
     for u in un {
         assert!(u["suggest"].is_array(), "{u}");
-        assert!(!u["why"].as_str().unwrap().is_empty());
+        assert!(!u["why"].as_str().expect("test data").is_empty());
     }
 }
 
@@ -265,14 +274,15 @@ fn the_model_is_volumetrics_model() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(&model).expect("test data"))
+            .expect("test data");
     assert_eq!(doc["basis"], "poly");
     assert_eq!(doc["topology"], "YXZ");
     let d2 = tempdir();
     let c2 = campaign(d2.path(), &dataset("artefact/plate.toml"), &eight(), 0.2);
     let v = run(d2.path(), &c2, &model, 0.0, &[]);
     assert!(
-        v["rms_residual_um"].as_f64().unwrap() < 1e-3,
+        v["rms_residual_um"].as_f64().expect("test data") < 1e-3,
         "{}",
         v["rms_residual_um"]
     );
@@ -285,12 +295,12 @@ fn the_model_is_volumetrics_model() {
 fn a_rigid_machine_is_a_null() {
     let dir = tempdir();
     let rigid = dir.path().join("rigid.toml");
-    std::fs::write(&rigid, "topology = \"YXZ\"\n[components]\n").unwrap();
+    std::fs::write(&rigid, "topology = \"YXZ\"\n[components]\n").expect("test data");
     let c = campaign(dir.path(), &dataset("artefact/plate.toml"), &eight(), 0.2);
     let v = run(dir.path(), &c, &rigid, 0.2, &[]);
     let m = Machine::read(&rigid).expect("rigid");
     assert_eq!(compare(&v, &m, 0.0, 4.0), 21);
     assert_eq!(v["residual"]["verdict"], "consistent", "{}", v["residual"]);
-    let z = v["residual"]["z"].as_f64().unwrap();
+    let z = v["residual"]["z"].as_f64().expect("test data");
     assert!(z.abs() < 3.09, "{z}");
 }

@@ -123,15 +123,15 @@ fn least_squares_similarity_reproduces_the_reference_fits() {
         let (off, scale, rot_deg, rms_mm) = reference(&fit_p);
         let f = &v["fit"];
         let ours_off = [
-            round(f["shift_um"][0].as_f64().unwrap() / 1000.0, 3),
-            round(f["shift_um"][1].as_f64().unwrap() / 1000.0, 3),
+            round(f["shift_um"][0].as_f64().expect("test data") / 1000.0, 3),
+            round(f["shift_um"][1].as_f64().expect("test data") / 1000.0, 3),
         ];
-        let ours_scale = round(1.0 + f["scale_ppm"].as_f64().unwrap() * 1e-6, 6);
+        let ours_scale = round(1.0 + f["scale_ppm"].as_f64().expect("test data") * 1e-6, 6);
         let ours_rot = round(
-            f["rotation_urad"].as_f64().unwrap() * 1e-6_f64.to_degrees(),
+            f["rotation_urad"].as_f64().expect("test data") * 1e-6_f64.to_degrees(),
             3,
         );
-        let ours_rms = v["rms_um"].as_f64().unwrap() / 1000.0;
+        let ours_rms = v["rms_um"].as_f64().expect("test data") / 1000.0;
         if meas == "D8132_1" {
             // Σr⁴ moved the last printed digits: offset x one unit, the scale 4 ppm.
             assert_eq!(ours_off, [0.267, off[1]], "{meas}");
@@ -181,7 +181,11 @@ fn full_plates_residuals_and_the_distortion_fit() {
         let dir = tempdir();
         let (plate, csv) = convert(&p, dir.path(), "meas");
         let sim = evaluate(&["artefact", "evaluate", s(&plate), s(&csv), "--json"]);
-        assert_eq!(round(sim["rms_um"].as_f64().unwrap(), 1), rms, "{name}");
+        assert_eq!(
+            round(sim["rms_um"].as_f64().expect("test data"), 1),
+            rms,
+            "{name}"
+        );
         let dist = evaluate(&[
             "artefact",
             "evaluate",
@@ -194,20 +198,23 @@ fn full_plates_residuals_and_the_distortion_fit() {
         // Two more parameters: the residual cannot grow, and the similarity part stays
         // within what the stretch can move on a ±300 mm plate.
         let (r_sim, r_dist) = (
-            sim["rms_um"].as_f64().unwrap(),
-            dist["rms_um"].as_f64().unwrap(),
+            sim["rms_um"].as_f64().expect("test data"),
+            dist["rms_um"].as_f64().expect("test data"),
         );
         assert!(r_dist <= r_sim + 1e-9, "{name}: {r_dist} > {r_sim}");
         let d = &dist["fit"]["distortion"];
-        let q = d["q_ppm"].as_f64().unwrap();
-        let phi = d["angle_deg"].as_f64().unwrap();
+        let q = d["q_ppm"].as_f64().expect("test data");
+        let phi = d["angle_deg"].as_f64().expect("test data");
         assert!(q >= 0.0 && phi > -90.0 && phi <= 90.0, "{name}: {d}");
         // What the stretch removes is its own size: q·(spread of the plate).
         assert!(
             r_sim * r_sim - r_dist * r_dist <= (q * 0.35).powi(2) + 1e-6,
             "{name}"
         );
-        assert_eq!(dist["residuals"].as_array().unwrap().len(), holes(&p).len());
+        assert_eq!(
+            dist["residuals"].as_array().expect("test data").len(),
+            holes(&p).len()
+        );
     }
 }
 
@@ -221,8 +228,8 @@ fn the_2003_plate_against_its_2010_remeasurement() {
     let (plate_b, old) = convert(&b, dir.path(), "m2003");
     // Same plate, same nominals, same order: the artefact files are identical.
     assert_eq!(
-        std::fs::read_to_string(&plate).unwrap(),
-        std::fs::read_to_string(&plate_b).unwrap()
+        std::fs::read_to_string(&plate).expect("test data"),
+        std::fs::read_to_string(&plate_b).expect("test data")
     );
     let v = evaluate(&[
         "artefact",
@@ -236,11 +243,18 @@ fn the_2003_plate_against_its_2010_remeasurement() {
     let ag = &v["against"];
     assert_eq!(ag["features"], 650);
     // Recomputed independently (PROVENANCE.md): 4.8 µm RMS between the two.
-    assert_eq!(round(ag["rms_um"].as_f64().unwrap(), 1), 4.8, "{ag}");
-    assert_eq!(round(v["rms_um"].as_f64().unwrap(), 1), 9.3);
+    assert_eq!(
+        round(ag["rms_um"].as_f64().expect("test data"), 1),
+        4.8,
+        "{ag}"
+    );
+    assert_eq!(round(v["rms_um"].as_f64().expect("test data"), 1), 9.3);
     // Each hole's change is smaller than either measurement's own residual sum.
-    let r = ag["residuals"].as_array().unwrap();
+    let r = ag["residuals"].as_array().expect("test data");
     assert_eq!(r.len(), 650);
-    let max = ag["max_um"].as_f64().unwrap();
-    assert!(r.iter().all(|x| x["e_um"].as_f64().unwrap() <= max + 1e-12));
+    let max = ag["max_um"].as_f64().expect("test data");
+    assert!(
+        r.iter()
+            .all(|x| x["e_um"].as_f64().expect("test data") <= max + 1e-12)
+    );
 }

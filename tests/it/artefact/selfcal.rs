@@ -37,28 +37,28 @@ fn self_calibrate(dir: &Path, plate: &Path, positions: &[Pos]) -> serde_json::Va
 
 /// The example plate without its certificate; returns (path, true deviations µm).
 fn uncertified(dir: &Path) -> (std::path::PathBuf, Vec<[f64; 3]>) {
-    let text = std::fs::read_to_string(dataset("artefact/plate.toml")).unwrap();
-    let t: toml::Table = text.parse().unwrap();
+    let text = std::fs::read_to_string(dataset("artefact/plate.toml")).expect("test data");
+    let t: toml::Table = text.parse().expect("test data");
     let mut out = String::from("id = \"BP-free\"\nkind = \"ball_plate\"\n");
     let mut dev = Vec::new();
-    for f in t["feature"].as_array().unwrap() {
+    for f in t["feature"].as_array().expect("test data") {
         let n: Vec<f64> = f["nominal_mm"]
             .as_array()
-            .unwrap()
+            .expect("test data")
             .iter()
-            .map(|v| v.as_float().unwrap())
+            .map(|v| v.as_float().expect("test data"))
             .collect();
         let c: Vec<f64> = f["certificate_mm"]
             .as_array()
-            .unwrap()
+            .expect("test data")
             .iter()
-            .map(|v| v.as_float().unwrap())
+            .map(|v| v.as_float().expect("test data"))
             .collect();
         // The certificate is the plate: its coordinates become the nominal ones shifted
         // back, and the truth is what the file no longer says.
         out.push_str(&format!(
             "[[feature]]\nid = \"{}\"\nnominal_mm = [{}, {}, {}]\n",
-            f["id"].as_str().unwrap(),
+            f["id"].as_str().expect("test data"),
             n[0],
             n[1],
             n[2]
@@ -70,7 +70,7 @@ fn uncertified(dir: &Path) -> (std::path::PathBuf, Vec<[f64; 3]>) {
         ]);
     }
     let p = dir.join("free.toml");
-    std::fs::write(&p, out).unwrap();
+    std::fs::write(&p, out).expect("test data");
     (p, dev)
 }
 
@@ -90,13 +90,17 @@ fn beyond_invariants(v: &serde_json::Value, truth: &[[f64; 3]]) -> f64 {
     let mut worst: f64 = 0.0;
     for c in 0..3 {
         let d = nalgebra::DVector::from_fn(25, |i, _| {
-            truth[i][c] - f[i]["dev_um"][c].as_f64().unwrap()
+            truth[i][c] - f[i]["dev_um"][c].as_f64().expect("test data")
         });
         let a = nalgebra::DMatrix::from_fn(25, 7, |i, j| {
             let [x, y] = pts[i];
             [1.0, x, y, x * x, x * x * x, y * y, y * y * y][j]
         });
-        let sol = a.clone().svd(true, true).solve(&d, 1e-12).unwrap();
+        let sol = a
+            .clone()
+            .svd(true, true)
+            .solve(&d, 1e-12)
+            .expect("test data");
         let r = d - a * sol;
         worst = worst.max(r.amax());
     }
@@ -108,7 +112,7 @@ fn invariant_kinds(v: &serde_json::Value) -> Vec<String> {
         .as_array()
         .expect("invariants")
         .iter()
-        .map(|i| i["kind"].as_str().unwrap().to_string())
+        .map(|i| i["kind"].as_str().expect("test data").to_string())
         .collect()
 }
 
@@ -151,7 +155,7 @@ fn a_step_gauge_set_gives_the_three_scales() {
             "[[feature]]\nid = \"S{i:02}\"\nnominal_mm = [{x}, 0.0, 0.0]\ncertificate_mm = [{x}, 0.0, 0.0]\nu_um = 0.2\n"
         ));
     }
-    std::fs::write(&gauge, t).unwrap();
+    std::fs::write(&gauge, t).expect("test data");
     let mut set = Vec::new();
     for (id, d, o) in [
         ("X1", "[1.0, 0.0, 0.0]", [100.0, 100.0, 100.0]),
@@ -172,13 +176,13 @@ fn a_step_gauge_set_gives_the_three_scales() {
     for name in ["E_YX", "E_ZX", "E_XY"] {
         assert_eq!(v["components"][name]["identified"], false, "{name}");
     }
-    let m = errmap::volumetric::Machine::read(&machine()).unwrap();
+    let m = errmap::volumetric::Machine::read(&machine()).expect("test data");
     let e = &v["components"]["E_XX"];
-    let pos = e["positions_mm"].as_array().unwrap();
+    let pos = e["positions_mm"].as_array().expect("test data");
     for (i, a) in pos.iter().enumerate() {
-        let a = a.as_f64().unwrap();
-        let est = e["values"][i].as_f64().unwrap();
-        let truth = m.value("E_XX".parse().unwrap(), a);
+        let a = a.as_f64().expect("test data");
+        let est = e["values"][i].as_f64().expect("test data");
+        let truth = m.value("E_XX".parse().expect("test data"), a);
         assert!((est - truth).abs() < 2e-3, "E_XX at {a}: {est} vs {truth}");
     }
 }
