@@ -215,6 +215,7 @@
 
 pub mod acceptance;
 pub mod acquire;
+pub mod artefact;
 pub mod base;
 pub mod bench;
 pub mod circular;

@@ -27,6 +27,7 @@ use clap::{Parser, Subcommand};
 pub(crate) mod acceptance;
 pub(crate) mod acquisition;
 pub(crate) mod args;
+pub(crate) mod artefact;
 pub(crate) mod certificate;
 pub(crate) mod circular;
 pub(crate) mod demo;
@@ -98,6 +99,9 @@ pub(crate) enum Command {
     /// Volumetric error from laser line measurements: the 21 geometric errors, identified,
     /// predicted and exported.
     Volumetric(volumetric::VolumetricArgs),
+    /// Artefacts (ball and hole plates, ball beams, step gauges): plate fits, and the 21
+    /// errors identified from positions of an artefact.
+    Artefact(artefact::ArtefactArgs),
     /// Ballbar circular tests (ISO 230-4): evaluate, diagnose, simulate.
     Circular(circular::CircularArgs),
     /// Write the calibration certificate (PDF) of a session.
@@ -187,6 +191,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Volumetric(a) => volumetric::volumetric_cmd(a),
         Command::Certificate(a) => certificate::certificate_cmd(a),
         Command::Circular(a) => circular::circular_cmd(a),
+        Command::Artefact(a) => artefact::artefact_cmd(a),
         Command::GenCapture(a) => stream::gen_capture(a),
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),

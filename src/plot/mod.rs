@@ -58,12 +58,14 @@
 //! each of them import its parent and close a cycle. The legend sits in `draw.rs` beside
 //! the marker and bar primitives it draws its samples with.
 
+mod arrows;
 mod draw;
 mod error;
 mod polar;
 mod render;
 mod scale;
 pub mod sphere;
+pub use arrows::{Arrow, ArrowMap, LONGEST_SHARE, MAX_ARROWS, SIDE_PX, arrow_map};
 mod text;
 
 pub use error::{DrawFailure, PlotError};

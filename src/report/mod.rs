@@ -31,6 +31,7 @@ use crate::plot::PlotError;
 use crate::table::TableError;
 
 mod acceptance;
+mod artefact;
 pub mod certificate;
 mod circular;
 mod compare;
@@ -50,6 +51,7 @@ mod uncertainty;
 mod volumetric;
 
 pub use acceptance::{write_iso10360_report, write_virtual_report};
+pub use artefact::{write_evaluation_report, write_report as write_artefact_report};
 pub use circular::{
     CCW_COLOUR, CW_COLOUR, chart as circular_chart, write_report as write_circular_report,
 };

@@ -19,6 +19,7 @@
 //! | `simulate` | plans (TOML, presets `zhang22`, `rich`), timing, thermal history, simulated line tables | O(rows) |
 //! | `compensation` | TwinCAT 3 CNC TF5280 `ISG_CSV` component tables; 1-D positioning profiles for `export` | O(positions · params²) |
 //! | `degree` | a degree per component by leave-one-line-out CV (coordinate descent) | ≈ 18·(max − 1) CV fits a sweep |
+//! | `observe` | the hook for other observations of the model (artefact features): SVD, identified components, χ² test | as `identify` |
 //! | `thermal` | the scale-expansion column, its t-test and its effect | one more SVD of the design |
 //!
 //! # Model and signs
@@ -111,6 +112,7 @@ mod identifiability;
 mod identify;
 mod lines;
 mod model;
+mod observe;
 mod predict;
 mod residual;
 mod simulate;
@@ -120,16 +122,18 @@ mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth, Polynomials};
 pub use compensation::{ComponentTables, axis_positions, component_tables, positioning_profile};
+pub use doc::{ComponentDoc, ModelDoc};
 pub use error::{
     ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
 };
 pub use from_session::SessionLines;
 pub use identify::{
-    Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS, Z_MISSING,
-    identify,
+    Degree, FitState, Identification, IdentifyConfig, MAX_DEGREE, MAX_REPORT_POSITIONS,
+    ResidualVerdict, Unidentified, Z_MISSING, identify,
 };
 pub use lines::{Line, LineTable, MAX_IDENTIFY_ROWS, Target};
 pub use model::{Component, ComponentFn, Machine, SQUARENESS, Topology, squareness_effect};
+pub use observe::{chi_square_z, decompose_design, identified_components};
 pub use predict::{Prediction, Predictor, write_grid, write_predictions};
 pub use simulate::{MAX_READINGS, Plan, PlanFile, PlannedLine, ThermalHistory, preset, simulate};
 pub use thermal::ThermalTest;

@@ -42,11 +42,13 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &["base", "table", "interp", "session", "volumetric"],
     ),
     ("circular", &["table", "volumetric", "base"]),
+    ("artefact", &["volumetric", "base"]),
     (
         "report",
         &[
             "history",
             "acceptance",
+            "artefact",
             "circular",
             "base",
             "plot",

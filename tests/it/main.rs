@@ -4,6 +4,7 @@
 
 mod acceptance;
 mod acquisition;
+mod artefact;
 mod campaign;
 mod certificate;
 mod circular;

@@ -1,0 +1,241 @@
+//! A residual map on a plate: each feature a dot at its place (mm, the artefact's frame,
+//! equal scales on both axes), its residual an arrow from it, magnified so that the
+//! largest arrow is [`LONGEST_SHARE`] of the plate's span; a key arrow gives the
+//! magnification in µm. PNG and SVG.
+
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::draw::de;
+use super::error::{DrawFailure, PlotError};
+use super::render::{png_and_svg, whole};
+use super::text::{font, fonts_ready};
+
+/// The image's side, pixels.
+pub const SIDE_PX: u32 = 800;
+/// The largest arrow's length as a share of the plate's larger span.
+pub const LONGEST_SHARE: f64 = 0.12;
+/// At most this many arrows (a bound on the drawing).
+pub const MAX_ARROWS: usize = 100_000;
+
+/// One feature: place (mm) and residual (µm) along the map's two axes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arrow {
+    pub x_mm: f64,
+    pub y_mm: f64,
+    pub dx_um: f64,
+    pub dy_um: f64,
+}
+
+/// What to draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArrowMap {
+    pub title: String,
+    /// Lines under the title.
+    pub notes: Vec<String>,
+    /// The axes' names (e.g. "artefact x, mm").
+    pub x_label: String,
+    pub y_label: String,
+    pub arrows: Vec<Arrow>,
+}
+
+const HEADER_PX: f64 = 80.0;
+const MARGIN_PX: f64 = 70.0;
+const ARROW: RGBColor = RGBColor(0xd6, 0x27, 0x28);
+
+/// The geometry: mm → pixel, and µm → pixel of the arrows.
+struct Geometry {
+    x0: f64,
+    y0: f64,
+    px_per_mm: f64,
+    px_per_um: f64,
+    um_key: f64,
+    span_px: f64,
+}
+
+fn geometry(map: &ArrowMap) -> Geometry {
+    let ok = |a: &&Arrow| a.x_mm.is_finite() && a.y_mm.is_finite();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for a in map.arrows.iter().filter(ok) {
+        lo = [lo[0].min(a.x_mm), lo[1].min(a.y_mm)];
+        hi = [hi[0].max(a.x_mm), hi[1].max(a.y_mm)];
+    }
+    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
+    let span_px = f64::from(SIDE_PX) - HEADER_PX - 2.0 * MARGIN_PX;
+    let px_per_mm = span_px / span;
+    let longest = map
+        .arrows
+        .iter()
+        .map(|a| a.dx_um.hypot(a.dy_um))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let px_per_um = if longest > 0.0 {
+        LONGEST_SHARE * span_px / longest
+    } else {
+        1.0
+    };
+    // The key: a round number of µm near the longest arrow.
+    let um_key = if longest > 0.0 {
+        let mag = 10f64.powf(longest.log10().floor());
+        [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * mag)
+            .rfind(|v| *v <= longest)
+            .unwrap_or(mag)
+    } else {
+        1.0
+    };
+    let cx = (lo[0] + hi[0]) / 2.0;
+    let cy = (lo[1] + hi[1]) / 2.0;
+    let mid = f64::from(SIDE_PX) / 2.0;
+    Geometry {
+        x0: mid - px_per_mm * cx,
+        y0: HEADER_PX + MARGIN_PX + span_px / 2.0 + px_per_mm * cy,
+        px_per_mm,
+        px_per_um,
+        um_key,
+        span_px,
+    }
+}
+
+impl Geometry {
+    fn px(&self, x_mm: f64, y_mm: f64) -> (f64, f64) {
+        (
+            self.x0 + self.px_per_mm * x_mm,
+            self.y0 - self.px_per_mm * y_mm,
+        )
+    }
+}
+
+/// Writes `<stem>.png` and `<stem>.svg`.
+pub fn arrow_map(stem: &Path, map: &ArrowMap) -> Result<Vec<PathBuf>, PlotError> {
+    if map.arrows.is_empty() {
+        return Err(PlotError::Empty("arrows"));
+    }
+    if map.arrows.len() > MAX_ARROWS {
+        return Err(PlotError::Invalid(format!(
+            "{} arrows: at most {MAX_ARROWS} are drawn",
+            map.arrows.len()
+        )));
+    }
+    fonts_ready()?;
+    let (png, svg) = png_and_svg(stem)?;
+    whole(&png, |p| {
+        let root = BitMapBackend::new(p, (SIDE_PX, SIDE_PX)).into_drawing_area();
+        draw(&root, map)?;
+        root.present().map_err(de)
+    })?;
+    whole(&svg, |p| {
+        let root = SVGBackend::new(p, (SIDE_PX, SIDE_PX)).into_drawing_area();
+        draw(&root, map)?;
+        root.present().map_err(de)
+    })?;
+    Ok(vec![png, svg])
+}
+
+fn style(size: f64) -> TextStyle<'static> {
+    TextStyle::from(font(size, FontStyle::Normal)).color(&RGBColor(0x22, 0x22, 0x22))
+}
+
+fn ip(p: (f64, f64)) -> (i32, i32) {
+    (p.0.round() as i32, p.1.round() as i32)
+}
+
+/// A line from `a` to `b` with a head at `b`.
+fn arrow<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    a: (f64, f64),
+    b: (f64, f64),
+    colour: RGBColor,
+) -> Result<(), DrawFailure> {
+    root.draw(&PathElement::new(
+        vec![ip(a), ip(b)],
+        colour.stroke_width(2),
+    ))
+    .map_err(de)?;
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len = dx.hypot(dy);
+    if len < 3.0 {
+        return Ok(());
+    }
+    let head = len.min(10.0) * 0.6;
+    let (ux, uy) = (dx / len, dy / len);
+    let left = (b.0 - head * (ux - 0.5 * uy), b.1 - head * (uy + 0.5 * ux));
+    let right = (b.0 - head * (ux + 0.5 * uy), b.1 - head * (uy - 0.5 * ux));
+    root.draw(&Polygon::new(
+        vec![ip(b), ip(left), ip(right)],
+        colour.filled(),
+    ))
+    .map_err(de)
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    map: &ArrowMap,
+) -> Result<(), DrawFailure> {
+    root.fill(&WHITE).map_err(de)?;
+    root.draw(&Text::new(map.title.clone(), (16, 10), style(20.0)))
+        .map_err(de)?;
+    for (i, line) in map.notes.iter().enumerate() {
+        root.draw(&Text::new(
+            line.clone(),
+            (16, 38 + 18 * i as i32),
+            style(14.0),
+        ))
+        .map_err(de)?;
+    }
+    let g = geometry(map);
+    let grey = RGBColor(0x99, 0x99, 0x99);
+    // The frame of the plot area with its axis names.
+    let lo = (
+        f64::from(SIDE_PX) / 2.0 - g.span_px / 2.0 - 30.0,
+        HEADER_PX + MARGIN_PX - 30.0,
+    );
+    let hi = (lo.0 + g.span_px + 60.0, lo.1 + g.span_px + 60.0);
+    root.draw(&Rectangle::new(
+        [ip(lo), ip(hi)],
+        RGBColor(0xdd, 0xdd, 0xdd).stroke_width(1),
+    ))
+    .map_err(de)?;
+    root.draw(&Text::new(
+        map.x_label.clone(),
+        (hi.0 as i32 - 140, hi.1 as i32 + 6),
+        style(12.0),
+    ))
+    .map_err(de)?;
+    root.draw(&Text::new(
+        map.y_label.clone(),
+        (lo.0 as i32, lo.1 as i32 - 18),
+        style(12.0),
+    ))
+    .map_err(de)?;
+    for a in &map.arrows {
+        if !(a.x_mm.is_finite() && a.y_mm.is_finite()) {
+            continue;
+        }
+        let p = g.px(a.x_mm, a.y_mm);
+        root.draw(&Circle::new(ip(p), 3, grey.filled()))
+            .map_err(de)?;
+        if a.dx_um.is_finite() && a.dy_um.is_finite() {
+            let q = (p.0 + g.px_per_um * a.dx_um, p.1 - g.px_per_um * a.dy_um);
+            arrow(root, p, q, ARROW)?;
+        }
+    }
+    // The key: an arrow of um_key µm, and the mm scale.
+    let ky = f64::from(SIDE_PX) - 22.0;
+    let kx = 20.0;
+    arrow(root, (kx, ky), (kx + g.px_per_um * g.um_key, ky), ARROW)?;
+    root.draw(&Text::new(
+        format!(
+            "arrow: {} µm (magnified {:.0}×; the plate {:.0} mm wide)",
+            g.um_key,
+            g.px_per_um / g.px_per_mm * 1000.0,
+            g.span_px / g.px_per_mm
+        ),
+        ((kx + g.px_per_um * g.um_key + 12.0) as i32, ky as i32 - 7),
+        style(13.0),
+    ))
+    .map_err(de)
+}
