@@ -88,13 +88,7 @@ pub fn reduce_session_with(path: &Path, inputs: &BudgetInputs) -> Result<Reduced
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_with(
-                &inputs.config,
-                &environment,
-                s,
-                &sources,
-            )
-            .map(|(b, _)| b)
+            uncertainty::line_budget_with(&inputs.config, &environment, s, &sources).map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let expanded = budgets.iter().map(Budget::expanded).collect();

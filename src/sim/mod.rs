@@ -41,9 +41,9 @@ pub use physics::{
 };
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
 pub use program::{LinesProgram, ProgramLine};
+pub use rotary::{RotaryAxisModel, RotaryCycle, simulate_rotary};
+pub use rotary_plan::{MAX_PLAN_TARGETS, RotaryPlan, RotaryPlanConfig, RotaryPlanError};
 pub use testplan::{
     CycleStep, PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError,
 };
-pub use rotary::{RotaryAxisModel, RotaryCycle, simulate_rotary};
-pub use rotary_plan::{MAX_PLAN_TARGETS, RotaryPlan, RotaryPlanConfig, RotaryPlanError};
 pub use update::apply_found_effects;
