@@ -61,7 +61,7 @@ pub(crate) struct PlanArgs {
     /// The part program to write.
     #[arg(long)]
     pub program: Option<PathBuf>,
-    /// The controller whose part-program syntax --program is written in.
+    /// The controller whose part-program syntax --program uses.
     #[arg(long, default_value = program::default_dialect().name(), value_parser = values::dialect())]
     pub dialect: &'static dyn ProgramSyntax,
     /// LinuxCNC: switch this motion digital output on at each dwell (M64/M65 P n).

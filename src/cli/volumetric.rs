@@ -41,7 +41,7 @@ pub(crate) struct ProgramArgs {
     /// Measurement plan (TOML, e.g. datasets/volumetric/plan.toml).
     #[arg(long)]
     pub plan: PathBuf,
-    /// The controller whose part-program syntax the program is written in.
+    /// The controller whose part-program syntax the program uses.
     #[arg(long, default_value = errmap::controller::program::default_dialect().name(), value_parser = super::values::dialect())]
     pub dialect: &'static dyn errmap::controller::program::ProgramSyntax,
     /// The part program to write.

@@ -984,7 +984,7 @@ fn what_the_campaign_found_stays_fixed() {
         ),
         ("rep", d.join("rep")),
         ("rep2", d.join("rep2")),
-        ("out", d.join("out.txt")),
+        ("out", d.join("out.csv")),
     ];
     let before: Vec<Vec<u8>> = [&session, &lines, &vj, &vp]
         .iter()

@@ -928,7 +928,7 @@ fn flag_case(rng: &mut Rng, f: &Fixtures, d: &Path) -> Case {
         ("m", s(&f.models[0])),
         ("l", s(&f.lines)),
         ("vj", s(&f.vol_json)),
-        ("out", s(&d.join("out.txt"))),
+        ("out", s(&d.join("out.csv"))),
         ("rep", s(&d.join("rep"))),
     ];
     let vars: Vec<(&str, &str)> = vars.iter().map(|(k, v)| (*k, v.as_str())).collect();
@@ -952,7 +952,7 @@ fn flag_case(rng: &mut Rng, f: &Fixtures, d: &Path) -> Case {
         ),
         args,
         names,
-        outputs: vec![d.join("out.txt"), d.join("rep")],
+        outputs: vec![d.join("out.csv"), d.join("rep")],
         expect: if use_edge {
             Expect::Flag
         } else {
