@@ -10,7 +10,7 @@ use plotters::style::FontStyle;
 
 use super::draw::de;
 use super::error::{DrawFailure, PlotError};
-use super::render::{png_and_svg, whole};
+use super::render::{Figure, figure_pair};
 use super::text::{font, fonts_ready};
 
 /// The image's side, pixels.
@@ -121,18 +121,16 @@ pub fn arrow_map(stem: &Path, map: &ArrowMap) -> Result<Vec<PathBuf>, PlotError>
         )));
     }
     fonts_ready()?;
-    let (png, svg) = png_and_svg(stem)?;
-    whole(&png, |p| {
-        let root = BitMapBackend::new(p, (SIDE_PX, SIDE_PX)).into_drawing_area();
-        draw(&root, map)?;
-        root.present().map_err(de)
-    })?;
-    whole(&svg, |p| {
-        let root = SVGBackend::new(p, (SIDE_PX, SIDE_PX)).into_drawing_area();
-        draw(&root, map)?;
-        root.present().map_err(de)
-    })?;
-    Ok(vec![png, svg])
+    figure_pair(stem, (SIDE_PX, SIDE_PX), map)
+}
+
+impl Figure for ArrowMap {
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<(), DrawFailure> {
+        draw(root, self)
+    }
 }
 
 fn style(size: f64) -> TextStyle<'static> {

@@ -55,6 +55,33 @@ pub(super) fn png_and_svg(stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> 
     Ok((png, svg))
 }
 
+/// A picture drawn the same way on the PNG and the SVG backend.
+pub(super) trait Figure {
+    fn draw_on<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>)
+    -> Result<(), DrawFailure>;
+}
+
+/// Writes `<stem>.png` and `<stem>.svg` of `figure`, `size` pixels, each whole or not at
+/// all ([`whole`]); returns their paths.
+pub(super) fn figure_pair(
+    stem: &Path,
+    size: (u32, u32),
+    figure: &impl Figure,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let (png, svg) = png_and_svg(stem)?;
+    whole(&png, |p| {
+        let root = BitMapBackend::new(p, size).into_drawing_area();
+        figure.draw_on(&root)?;
+        root.present().map_err(de)
+    })?;
+    whole(&svg, |p| {
+        let root = SVGBackend::new(p, size).into_drawing_area();
+        figure.draw_on(&root)?;
+        root.present().map_err(de)
+    })?;
+    Ok(vec![png, svg])
+}
+
 /// Writes `path` whole or not at all: `draw` writes a temporary sibling, which is renamed
 /// into place when it succeeded and removed when it failed, so an error (or a kill)
 /// never leaves a half-drawn figure in a report directory, nor destroys the old one.

@@ -13,7 +13,7 @@ use plotters::style::FontStyle;
 
 use super::draw::de;
 use super::error::{DrawFailure, PlotError};
-use super::render::{png_and_svg, whole};
+use super::render::{Figure, figure_pair};
 use super::text::{font, fonts_ready};
 
 /// One panel's side, pixels.
@@ -134,18 +134,16 @@ pub fn sphere_map(stem: &Path, map: &SphereMap) -> Result<Vec<PathBuf>, PlotErro
     }
     fonts_ready()?;
     let (w, h) = size(map.panels.len(), map.notes.len());
-    let (png, svg) = png_and_svg(stem)?;
-    whole(&png, |p| {
-        let root = BitMapBackend::new(p, (w, h)).into_drawing_area();
-        draw(&root, map)?;
-        root.present().map_err(de)
-    })?;
-    whole(&svg, |p| {
-        let root = SVGBackend::new(p, (w, h)).into_drawing_area();
-        draw(&root, map)?;
-        root.present().map_err(de)
-    })?;
-    Ok(vec![png, svg])
+    figure_pair(stem, (w, h), map)
+}
+
+impl Figure for SphereMap {
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<(), DrawFailure> {
+        draw(root, self)
+    }
 }
 
 fn style(size: f64) -> TextStyle<'static> {
