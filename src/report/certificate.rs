@@ -25,7 +25,7 @@ use std::path::Path;
 use errmap_drivers::SessionRow;
 
 use self::info::{CertificateInfo, Instrument};
-use self::layout::{Align, BODY, Decimals, Sheet, fixed};
+use self::layout::{Align, BODY, Decimals, Sheet, fixed, second_digit_place};
 use self::pdf::{PdfError, Weight};
 use super::iso230::decimals;
 use super::uncertainty::{STANDARDS_NOTE, budget_rows, conditions_text, not_evaluated_text};
@@ -117,18 +117,18 @@ pub fn line_name(axis: &str, line_mm: (f64, f64)) -> String {
 /// 1 and 4 decimals. A test read with a 0.079 µm laser count and a 0.1 µm scale whose
 /// smallest U is 0.104 µm prints 0.01 µm, not the 1 pm its arithmetic carries.
 pub fn certificate_decimals(lines: &[LineResult]) -> usize {
-    let place =
-        |v: f64| -> Option<i32> { (v.is_finite() && v > 0.0).then(|| -(v.log10().floor() as i32)) };
     let smallest_u = lines
         .iter()
         .map(|l| l.budget.expanded().at_one_target_um)
         .fold(f64::INFINITY, f64::min);
-    let by_u = place(smallest_u).map(|p| p + 1);
-    let by_resolution = lines
-        .iter()
-        .map(|l| l.budget.resolution_floor_um)
-        .fold(0.0, f64::max);
-    let by_resolution = place(by_resolution).map(|p| p + 1);
+    let by_u = second_digit_place(smallest_u);
+    // A tenth of the coarsest step: the place of its second significant digit.
+    let by_resolution = second_digit_place(
+        lines
+            .iter()
+            .map(|l| l.budget.resolution_floor_um)
+            .fold(0.0, f64::max),
+    );
     let d = match (by_u, by_resolution) {
         (Some(u), Some(r)) => u.min(r),
         (Some(u), None) => u,

@@ -13,7 +13,7 @@
 use std::path::Path;
 
 use super::CertificateError;
-use super::layout::{Align, BODY, Sheet, fixed};
+use super::layout::{Align, BODY, Sheet, fixed, second_digit_place};
 use super::pdf::Weight;
 use crate::acceptance::cmm::CmmCertificate;
 use crate::acceptance::iso10360::TestResult;
@@ -47,11 +47,7 @@ impl Um {
         let smallest = us
             .filter(|u| u.is_finite() && *u > 0.0)
             .fold(f64::INFINITY, f64::min);
-        if smallest.is_finite() {
-            Um((1 - smallest.log10().floor() as i64).clamp(1, 3) as usize)
-        } else {
-            Um(3)
-        }
+        Um(second_digit_place(smallest).map_or(3, |d| d.clamp(1, 3) as usize))
     }
 
     fn f(self, v: f64) -> String {

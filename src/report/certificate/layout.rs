@@ -62,6 +62,13 @@ pub fn zone_words(z: [Option<f64>; 2], num: &dyn Fn(f64) -> String) -> String {
     }
 }
 
+/// The decimal place of the second significant digit of `v` (0.104 → 2, 1.5 → 1, 12 → 0):
+/// where an uncertainty stated to two significant digits ends (JCGM 100:2008 7.2.6).
+/// `None` for 0, a negative or a non-finite value.
+pub fn second_digit_place(v: f64) -> Option<i32> {
+    (v.is_finite() && v > 0.0).then(|| 1 - v.log10().floor() as i32)
+}
+
 /// The decimals a quantity is printed to, the same wherever it appears.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Decimals {
@@ -380,6 +387,15 @@ mod tests {
         );
         assert_eq!(runs("plain"), vec![("plain", false)]);
         assert_eq!(runs("x_{open"), vec![("x", false), ("open", true)]);
+    }
+
+    #[test]
+    fn the_second_significant_digit_has_its_place() {
+        assert_eq!(second_digit_place(0.104), Some(2));
+        assert_eq!(second_digit_place(1.5), Some(1));
+        assert_eq!(second_digit_place(12.0), Some(0));
+        assert_eq!(second_digit_place(0.0), None);
+        assert_eq!(second_digit_place(f64::NAN), None);
     }
 
     #[test]
