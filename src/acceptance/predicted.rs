@@ -39,9 +39,9 @@ use crate::volumetric::{
 };
 
 /// A gauge end may lie this far outside the model's measured range, mm.
-pub const RANGE_TOL_MM: f64 = 1e-3;
+pub(crate) const RANGE_TOL_MM: f64 = 1e-3;
 /// The default plan's fractions of the line length.
-pub const FRACTIONS: [f64; 5] = [0.10, 0.25, 0.40, 0.55, 0.70];
+pub(crate) const FRACTIONS: [f64; 5] = [0.10, 0.25, 0.40, 0.55, 0.70];
 /// Positions per axis of the compensation tables by default (as `volumetric export`).
 pub const TABLE_POINTS: usize = 21;
 

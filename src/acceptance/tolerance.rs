@@ -32,10 +32,10 @@ use crate::base::Axis;
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::session::AxisStats;
-use crate::session::uncertainty::StatUncertainty;
+use crate::session::StatUncertainty;
 
 /// How close a `[[line]]`'s `line_mm` must be to a session line's, mm.
-pub const LINE_TOL_MM: f64 = 1e-3;
+pub(crate) const LINE_TOL_MM: f64 = 1e-3;
 
 /// Which U judges a parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

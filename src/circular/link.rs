@@ -55,7 +55,7 @@ const TERMS: [(CircularId, Slot, ParamName); 4] = [
 
 /// A point of the circle may lie this far outside an identified model's measured range,
 /// mm (as for a gauge of the predicted ISO 10360-2 test).
-pub const RANGE_TOL_MM: f64 = 1e-3;
+pub(crate) const RANGE_TOL_MM: f64 = 1e-3;
 
 /// The points of the test's circle at angles θ (rad) about `centre_mm`, machine coordinates.
 fn circle_points(meta: &TestMeta, centre_mm: [f64; 3], thetas: &[f64]) -> Vec<[f64; 3]> {
@@ -100,7 +100,7 @@ fn check_in_range(predictor: &Predictor, pts: &[[f64; 3]]) -> Result<(), String>
 }
 
 /// The predicted radial trace at angles θ (rad) of the test's circle.
-pub fn predicted_trace(
+pub(crate) fn predicted_trace(
     predictor: &Predictor,
     meta: &TestMeta,
     centre_mm: [f64; 3],

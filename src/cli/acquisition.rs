@@ -12,7 +12,7 @@ use errmap::drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use errmap::drivers::serve::{pty_pair, serve_paced};
 use errmap::drivers::sim::{Faults, SimStream};
 use errmap::drivers::transport::{SerialSource, list_ports};
-use errmap::session::{self, uncertainty};
+use errmap::session;
 
 use super::args::{CaptureArgs, FaultArgs, PortsArgs, ReplayArgs, ServeSimArgs, TableArgs};
 
@@ -384,7 +384,7 @@ pub(crate) struct Reduced {
     pub summary: session::ReductionSummary,
     pub iso: Vec<((f64, f64), session::AxisStats)>,
     /// The uncertainty budget of each line of `iso` (default configuration).
-    pub budgets: Vec<errmap::session::uncertainty::Budget>,
+    pub budgets: Vec<errmap::session::Budget>,
 }
 
 /// Reduces a session (table or capture directory) to the error table `out`, with the
@@ -405,8 +405,8 @@ pub(crate) fn reduce_session(
     // One pass in batches: memory bounded by a batch and the dwell accumulators.
     let mut reducer = session::Reducer::new();
     let mut environment = session::EnvironmentStats::default();
-    let mut recorded = uncertainty::RecordedResolution::default();
-    let mut drift = uncertainty::DriftFinder::default();
+    let mut recorded = session::RecordedResolution::default();
+    let mut drift = session::DriftFinder::default();
     session::for_each_batch(&path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);
@@ -451,7 +451,7 @@ pub(crate) fn reduce_session(
             );
         }
     }
-    let sources = uncertainty::BudgetSources::choose(
+    let sources = session::BudgetSources::choose(
         device,
         None,
         &recorded,
@@ -466,8 +466,8 @@ pub(crate) fn reduce_session(
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_with(
-                &uncertainty::UncertaintyConfig::default(),
+            session::line_budget_with(
+                &session::UncertaintyConfig::default(),
                 &environment,
                 s,
                 &sources,

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 
-use errmap::circular::simulate::{MachineModel, simulate, write_test};
-use errmap::circular::{DiagnoseConfig, diagnose, link::link, read_test};
+use errmap::circular::{DiagnoseConfig, diagnose, link, read_test};
+use errmap::circular::{MachineModel, simulate, write_test};
 
 #[derive(Debug, Args)]
 pub(crate) struct CircularArgs {
@@ -69,7 +69,7 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     if let Some(model) = &a.model {
         let centre = test.meta.centre_mm.ok_or_else(|| {
             errmap::base::ConfigError::key(
-                &errmap::circular::input::meta_path(&a.trace),
+                &errmap::circular::meta_path(&a.trace),
                 "centre_mm",
                 "missing; --model needs the test centre in machine coordinates",
             )
@@ -103,7 +103,7 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     eprintln!(
         "wrote {} and {}",
         a.out.display(),
-        errmap::circular::input::meta_path(&a.out).display()
+        errmap::circular::meta_path(&a.out).display()
     );
     Ok(())
 }

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use errmap::history::tolerance::Tolerances;
 use errmap::history::{
     self, DEFAULT_HORIZON_DAYS, Ledger, MachineId, NewRecord, ReportConfig, Run, State, Supersede,
-    time,
+    Tolerances,
 };
 
 use super::guard;
@@ -38,7 +37,7 @@ fn machine(s: &str) -> Result<MachineId, String> {
 }
 
 fn utc(s: &str) -> Result<i64, String> {
-    time::parse_utc(s).map_err(|e| e.to_string())
+    history::parse_utc(s).map_err(|e| e.to_string())
 }
 
 fn state(s: &str) -> Result<State, String> {
@@ -133,7 +132,7 @@ fn add(a: AddArgs) -> Result<()> {
         machine: a.machine,
         site: a.site,
         state: a.state,
-        at: a.at.unwrap_or_else(time::now_utc),
+        at: a.at.unwrap_or_else(history::now_utc),
         supersede: a
             .supersede
             .zip(a.reason)
@@ -360,7 +359,7 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
                 machine: machine.clone(),
                 site: Some("demo".into()),
                 state: State::AsFound,
-                at: time::now_utc(),
+                at: history::now_utc(),
                 supersede: None,
                 content: ingested.content,
                 sources: ingested.sources,

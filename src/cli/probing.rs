@@ -1,15 +1,14 @@
 //! `errmap acceptance iso10360-5` and `errmap acceptance cmm-certificate`: flags,
 //! validation into library configuration, and glue. The work is in
-//! `errmap::acceptance::{probing, cmm}`, the reports in `errmap::report::probing` and
-//! `errmap::report::certificate::cmm`.
+//! `errmap::acceptance::{probing, CmmCertificate}`, the reports by
+//! `errmap::report::write_probing_report` and `errmap::report::certificate::write_cmm`.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use errmap::acceptance::cmm::CmmCertificate;
-use errmap::acceptance::iso10360;
-use errmap::acceptance::probing::{self, PerQuantity, ProbingOptions, ProbingResult, simulate};
+use errmap::acceptance::probing::{self, PerQuantity, ProbingOptions, ProbingResult};
+use errmap::acceptance::{self, CmmCertificate};
 
 use super::acceptance::{LengthArgs, RuleArgs, length_config};
 
@@ -96,7 +95,7 @@ pub(crate) fn probing_cmd(a: ProbingArgs) -> Result<()> {
             a.sphere.display().to_string(),
         );
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::probing::write_probing_report(d, &p, &s, &r).map_err(Into::into)
+            errmap::report::write_probing_report(d, &p, &s, &r).map_err(Into::into)
         })?;
         eprintln!("acceptance iso10360-5: report in {}", dir.display());
     }
@@ -152,7 +151,7 @@ pub(crate) fn cmm_certificate_cmd(a: CmmCertificateArgs) -> Result<()> {
         ],
     )?;
     let config = length_config(&a.length_args, &a.rule)?;
-    let length = iso10360::evaluate_file(&a.length, &config)?;
+    let length = acceptance::evaluate_file(&a.length, &config)?;
     let probing = probing::evaluate_files(&a.probing, &a.sphere, &a.mpe.options(&a.rule))?;
     let cert = CmmCertificate::new(
         a.cmm.clone(),
@@ -161,12 +160,12 @@ pub(crate) fn cmm_certificate_cmd(a: CmmCertificateArgs) -> Result<()> {
         length,
         probing,
     );
-    let sources = errmap::report::certificate::cmm::Sources {
+    let sources = errmap::report::certificate::CmmSources {
         length: a.length.display().to_string(),
         probing: a.probing.display().to_string(),
         sphere: a.sphere.display().to_string(),
     };
-    errmap::report::certificate::cmm::write(&a.out, &cert, &sources)?;
+    errmap::report::certificate::write_cmm(&a.out, &cert, &sources)?;
     if a.json {
         super::guard::print_json(&cert)?;
     }
@@ -189,8 +188,8 @@ pub(crate) struct SimulateArgs {
 
 /// Writes the simulator's example test (`datasets/acceptance/probing-example.csv`).
 pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    let points = simulate::simulate(&simulate::example());
-    super::guard::write_file(&a.out, simulate::to_csv(&points).as_bytes())?;
+    let points = probing::simulate(&probing::example());
+    super::guard::write_file(&a.out, probing::to_csv(&points).as_bytes())?;
     eprintln!(
         "acceptance simulate-probing: {} points in {}",
         points.len(),

@@ -8,8 +8,8 @@
 //! | `ingest` | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
 //! | `stats` | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
 //! | `report` | series, segments, charts, forecasts, advice and the fleet ranking |
-//! | [`tolerance`] | the tolerance file |
-//! | [`time`] | UTC instants as stored |
+//! | `tolerance` | the tolerance file ([`Tolerances`]) |
+//! | `time` | UTC instants as stored ([`parse_utc`], [`format_utc`]) |
 //!
 //! An add is one transaction ([`add`]); a report reads one machine at a time
 //! ([`Run`]), so its memory is bounded by the largest machine, not the ledger.
@@ -20,8 +20,8 @@ mod ingest;
 mod ledger;
 mod report;
 mod stats;
-pub mod time;
-pub mod tolerance;
+mod time;
+mod tolerance;
 
 use crate::base::{ConfigError, FileError};
 
@@ -39,6 +39,8 @@ pub use report::{
     machine_report, report,
 };
 pub use stats::{Trend, t_cdf, t_quantile};
+pub use time::{CLOCK_SKEW_S, TimeError, format_utc, now_utc, parse_utc};
+pub use tolerance::Tolerances;
 
 /// Why a history command failed.
 #[derive(Debug, thiserror::Error)]

@@ -8,31 +8,35 @@
 //! layout with the VDI/DGQ 3441 values and the deviation chart, the uncertainty budget with
 //! the source of every contribution, the statement of conformity, the signatures.
 //!
-//! The page layout ([`layout`]) is shared with other certificates. Rendering is
-//! self-contained ([`pdf`]): DejaVu Sans is embedded, the chart is drawn as vector
+//! The page layout ([`Sheet`]) is shared with other certificates. Rendering is
+//! self-contained (`pdf.rs`): DejaVu Sans is embedded, the chart is drawn as vector
 //! graphics. Deviations and uncertainties are printed to one number of decimals over the
 //! whole certificate ([`certificate_decimals`]).
 
 mod chart;
-pub mod cmm;
-pub mod conformity;
+mod cmm;
+mod conformity;
 mod flow;
-pub mod info;
-pub mod layout;
-pub mod pdf;
+mod info;
+mod layout;
+mod pdf;
+
+pub use self::cmm::{Sources as CmmSources, render as render_cmm, write as write_cmm};
+pub use self::info::{CertificateInfo, Controller, InfoError, Instrument, Laser, Sensors};
+pub use self::layout::{Align, Decimals, Sheet, fixed};
+pub use self::pdf::PdfError;
 
 use std::path::Path;
 
 use errmap_drivers::SessionRow;
 
-use self::info::{CertificateInfo, Instrument};
-use self::layout::{Align, BODY, Decimals, Sheet, fixed};
-use self::pdf::{PdfError, Weight};
+use self::layout::BODY;
+use self::pdf::Weight;
 use super::iso230::decimals;
 use super::uncertainty::{STANDARDS_NOTE, budget_rows, conditions_text, not_evaluated_text};
-use crate::acceptance::tolerance::Conformity;
-use crate::session::uncertainty::{Budget, Origin};
+use crate::acceptance::Conformity;
 use crate::session::{AxisStats, TargetStats};
+use crate::session::{Budget, Origin};
 
 /// Smallest type a table is set in.
 pub use self::layout::MIN_SIZE;

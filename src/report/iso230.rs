@@ -8,8 +8,8 @@ use super::md::Md;
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
-use crate::session::uncertainty::{Budget, StatUncertainty};
 use crate::session::{AxisStats, TargetStats};
+use crate::session::{Budget, StatUncertainty};
 
 /// Decimals (of µm) to print a line's statistics with: three significant digits of the
 /// smallest non-zero spread the test measured (the axis values `B`, `R`, `E`, `M`, `A` and
@@ -43,7 +43,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
 }
 
 /// [`markdown`], with the expanded uncertainty `U` beside each axis value when `u` is given
-/// (see [`crate::session::uncertainty`]).
+/// (see [`crate::session::Budget`]).
 pub(crate) fn markdown_with_uncertainty(
     stats: &AxisStats,
     axis_name: &str,

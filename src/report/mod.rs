@@ -44,7 +44,7 @@ mod history;
 mod iso230;
 mod json;
 mod md;
-pub mod probing;
+mod probing;
 mod uncertainty;
 mod volumetric;
 
@@ -70,6 +70,7 @@ pub use json::{
     CompareJson, CompareJsonRow, DiagnoseJson, GB_T_17421_2, GridJson, MethodJson, RefusedJson,
     ReplayJson, TableJson, TableLineJson, TableUncertaintyJson,
 };
+pub use probing::write_probing_report;
 pub use volumetric::write_report as write_volumetric_report;
 
 /// Why a report could not be written.

@@ -1,7 +1,7 @@
 //! The ISO 10360-5 probing test's report (`acceptance iso10360-5 --report`): `report.md`,
 //! `residuals.csv` and the map of the residuals on the sphere, one disc per stylus
 //! (`sphere_map.png`/`.svg`: each stylus's hemisphere seen from its pole, every point's
-//! residual of the judged fit magnified; see [`crate::plot::sphere`]).
+//! residual of the judged fit magnified; see [`crate::plot::sphere_map`]).
 
 use std::path::{Path, PathBuf};
 
@@ -9,24 +9,24 @@ use polars::prelude::*;
 
 use super::ReportError;
 use super::md::Md;
-use crate::acceptance::probing::simulate::frame;
+use crate::acceptance::probing::frame;
 use crate::acceptance::probing::{Judged, ProbingResult, Residual};
 use crate::base::FileOp;
 use crate::base::io_err;
-use crate::plot::sphere::{MapPanel, MapPoint, SphereMap, sphere_map};
+use crate::plot::{MapPanel, MapPoint, SphereMap, sphere_map};
 
 /// µm as every probing output prints them (1 nm).
-pub fn um(v: f64) -> String {
+pub(crate) fn um(v: f64) -> String {
     format!("{v:.3}")
 }
 
 /// mm as every probing output prints them (1 nm).
-pub fn mm6(v: f64) -> String {
+pub(crate) fn mm6(v: f64) -> String {
     format!("{v:.6}")
 }
 
 /// The zone [lo, hi] in words: `≤ 1.700`, `−1.200 … 1.200`.
-pub fn zone(z: [Option<f64>; 2]) -> String {
+pub(crate) fn zone(z: [Option<f64>; 2]) -> String {
     match z {
         [Some(l), Some(h)] if l > h => "empty (nothing can pass)".into(),
         [Some(l), Some(h)] => format!("{} … {}", um(l), um(h)),
@@ -38,7 +38,7 @@ pub fn zone(z: [Option<f64>; 2]) -> String {
 
 /// The 2010 and 2020 symbols of form, size and location for a single- or multi-stylus
 /// test (ISO 10360-5:2010 / :2020), `_{…}` marking a subscript.
-pub fn symbols(multi: bool) -> [(&'static str, &'static str); 3] {
+pub(crate) fn symbols(multi: bool) -> [(&'static str, &'static str); 3] {
     if multi {
         [
             ("P_{FTj}", "P_{Form.Sph.5×25:j:Tact}"),
@@ -61,7 +61,7 @@ fn md_symbol(s: &str) -> String {
 
 /// Each stylus's points as (θ, φ) about its pole — the mean direction of its points from
 /// the all-points centre — with their residuals; and its largest θ.
-pub fn map_points(r: &ProbingResult) -> Vec<(String, Vec<MapPoint>, f64)> {
+pub(crate) fn map_points(r: &ProbingResult) -> Vec<(String, Vec<MapPoint>, f64)> {
     let c = r.fit.centre_mm;
     let dir = |p: &[f64; 3]| -> [f64; 3] {
         let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
@@ -193,7 +193,7 @@ fn residuals_csv(dir: &Path, r: &ProbingResult) -> Result<PathBuf, ReportError> 
 }
 
 /// The header of [`result_rows`].
-pub const RESULT_HEADER: [&str; 7] = [
+pub(crate) const RESULT_HEADER: [&str; 7] = [
     "quantity",
     "symbol (2010 / 2020)",
     "value / µm",
@@ -205,7 +205,7 @@ pub const RESULT_HEADER: [&str; 7] = [
 
 /// Form, size and (with several styli) location: quantity, symbols (`_{…}` subscripts),
 /// value, MPE, U, acceptance zone, verdict.
-pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
+pub(crate) fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
     let sym = symbols(r.styli.len() > 1);
     let q = |name: &str, sy: (&str, &str), j: &Judged| {
         vec![

@@ -82,11 +82,12 @@
 //! A dozen evaluations of the Edlén equation per budget, `O(N)` over the session's rows
 //! for the test conditions.
 
-pub mod sources;
+mod sources;
 
+use sources::Span;
 pub use sources::{
-    BudgetSources, DeclaredConditions, DriftCheck, DriftFinder, Eve, RecordedResolution,
-    Resolution, Span,
+    BudgetSources, DeclaredConditions, DriftCheck, DriftFinder, Eve, MIN_DRIFT_ROWS, MIN_DRIFT_S,
+    RecordedResolution, Resolution,
 };
 
 use super::environment::EnvironmentStats;

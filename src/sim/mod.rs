@@ -22,7 +22,7 @@ mod physics;
 mod plan;
 pub mod program;
 mod testplan;
-pub mod update;
+mod update;
 
 pub(crate) use bounds::check_numbers;
 pub use concealed::{

@@ -299,7 +299,7 @@ pub struct ProbePoint {
 }
 
 /// The largest target number accepted (a bound, not a design rule).
-pub const MAX_POINT: f64 = 1e6;
+pub(crate) const MAX_POINT: f64 = 1e6;
 
 /// Reads POINTS: every column present first, then every row (refusals 2 of the contract).
 pub fn read_points(path: &Path) -> Result<Vec<ProbePoint>, AcceptanceError> {

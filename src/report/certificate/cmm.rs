@@ -14,8 +14,8 @@ use super::CertificateError;
 use super::flow::{Flow, signatures};
 use super::layout::{Align, BODY, GREY, MARGIN, MIN_SIZE};
 use super::pdf::{Doc, PAGE_H, PAGE_W, Weight};
-use crate::acceptance::cmm::CmmCertificate;
-use crate::acceptance::iso10360::TestResult;
+use crate::acceptance::CmmCertificate;
+use crate::acceptance::TestResult;
 use crate::acceptance::probing::{Judged, ProbingResult};
 use crate::report::probing::{RESULT_HEADER, mm6, result_rows, symbols, um};
 
@@ -140,7 +140,7 @@ fn new_page(flow: &mut Flow) {
 }
 
 /// The row of the largest |E0| (its MPE and U), if any.
-fn worst_e0(t: &TestResult) -> Option<&crate::acceptance::iso10360::Measurement> {
+fn worst_e0(t: &TestResult) -> Option<&crate::acceptance::Measurement> {
     t.measurements
         .iter()
         .max_by(|a, b| a.e0_um.abs().total_cmp(&b.e0_um.abs()))

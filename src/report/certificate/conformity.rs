@@ -4,7 +4,7 @@
 
 use super::layout::{Align, BODY, Decimals, Sheet, fixed};
 use super::{CertificateData, line_name, session_name};
-use crate::acceptance::tolerance::Conformity;
+use crate::acceptance::Conformity;
 
 /// The zone [lo, hi] in words: `≤ 6.00`, `≥ −0.50`, `−0.50 … 0.50`.
 fn zone(lo: Option<f64>, hi: Option<f64>, num: &dyn Fn(f64) -> String) -> String {

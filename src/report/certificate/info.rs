@@ -41,7 +41,7 @@
 //! calibrated = "2026-03-01"
 //! # also air_pressure, humidity, material_temperature
 //!
-//! [uncertainty]          # any key of errmap::session::uncertainty::UncertaintyConfig
+//! [uncertainty]          # any key of errmap::session::UncertaintyConfig
 //! air_temp_k = 0.05
 //! ```
 
@@ -51,9 +51,7 @@ use serde::Deserialize;
 
 use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
-use crate::session::uncertainty::{
-    DeclaredConditions, DriftCheck, UncertaintyConfig, UncertaintyError,
-};
+use crate::session::{DeclaredConditions, DriftCheck, UncertaintyConfig, UncertaintyError};
 
 /// One instrument: what it is and when it was calibrated.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
