@@ -397,3 +397,24 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
     );
     Ok(())
 }
+
+/// A ledger error in the command line's words: the flag that names the record or the
+/// machine, or that would amend the record (`None`: the library's words stand).
+pub(crate) fn in_flags(e: &history::HistoryError) -> Option<String> {
+    use history::HistoryError as E;
+    Some(match e {
+        E::Duplicate { record, .. } => {
+            format!("{e} (to amend that record: --supersede {record} --reason TEXT)")
+        }
+        E::NoSuchRecord { ledger, record } => {
+            format!("{ledger}: --supersede {record}: there is no record {record}")
+        }
+        E::NotCurrent { ledger, record, by } => format!(
+            "{ledger}: --supersede {record}: record {record} is not current (record {by} supersedes it)"
+        ),
+        E::UnknownMachine { ledger, machine } => {
+            format!("--machine {machine}: no current record of this machine in {ledger}")
+        }
+        _ => return None,
+    })
+}

@@ -120,19 +120,20 @@ pub enum HistoryError {
     /// The result is already recorded.
     #[error(
         "{ledger}: this result is already in the ledger as record {record} (sha256 {sha256}); \
-         nothing was added (to amend that record: --supersede {record} --reason TEXT)"
+         nothing was added"
     )]
     Duplicate {
         ledger: String,
         record: i64,
         sha256: String,
     },
-    /// `--supersede N` names no record.
-    #[error("{ledger}: --supersede {record}: there is no record {record}")]
+    /// The record to supersede does not exist.
+    #[error("{ledger}: record {record} to supersede: there is no record {record}")]
     NoSuchRecord { ledger: String, record: i64 },
-    /// `--supersede N` names a record already superseded.
+    /// The record to supersede is already superseded.
     #[error(
-        "{ledger}: --supersede {record}: record {record} is not current (record {by} supersedes it)"
+        "{ledger}: record {record} to supersede: record {record} is not current (record {by} \
+         supersedes it)"
     )]
     NotCurrent {
         ledger: String,
@@ -145,8 +146,8 @@ pub enum HistoryError {
     /// A bad input file (the whole file) or a bad key of the tolerance file.
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// `--machine` names no machine of the current records.
-    #[error("--machine {machine}: no current record of this machine in {ledger}")]
+    /// The machine asked for has no current record.
+    #[error("machine {machine}: no current record of this machine in {ledger}")]
     UnknownMachine { ledger: String, machine: String },
 }
 
