@@ -46,15 +46,17 @@ mod tolerance;
 
 pub use cmm::CmmCertificate;
 pub use decide::{DecideReport, DecidedResult, decide_file};
-pub use error::AcceptanceError;
+pub use error::{AcceptanceError, ProbingSetting, SettingProblem};
 pub use iso10360::{
     Counts, Gauge, Measurement, Position, Summary, TestConfig, TestResult, evaluate_file,
 };
-pub use mpe::Mpe;
+pub use mpe::{FormulaProblem, Mpe};
 pub use predicted::{
     Compensated, Model as VirtualModel, Placement, PlannedPosition,
     TABLE_POINTS as VIRTUAL_TABLE_POINTS, VirtualConfig, VirtualMeasurement, VirtualPlan,
     VirtualPosition, VirtualTest, default_lines, predict,
 };
-pub use rule::{ConformityVerdict, Decision, DecisionRule, Limits, Rule, aggregate};
+pub use rule::{
+    ConformityVerdict, Decision, DecisionRule, Limits, LimitsError, Rule, UnknownRule, aggregate,
+};
 pub use tolerance::{Conformity, LineConformity, ParameterVerdict, Tolerances};

@@ -35,7 +35,8 @@ use crate::base::io_err;
 use crate::interp::Method;
 use crate::volumetric::component_tables;
 use crate::volumetric::{
-    Component, ComponentFn, Line, LineTable, Machine, Predictor, Target, Topology,
+    Component, ComponentFn, ComponentTableError, Line, LineTable, Machine, Predictor, Target,
+    Topology, Undetermined,
 };
 
 /// A gauge end may lie this far outside the model's measured range, mm.
@@ -476,13 +477,29 @@ fn planned(plan: &VirtualPlan) -> Vec<Planned> {
     out
 }
 
+/// Why the compensation tables could not be made into a machine.
+#[derive(Debug, thiserror::Error)]
+enum TableMachineError {
+    #[error(transparent)]
+    Undetermined(#[from] Undetermined),
+    #[error("compensation table of {component}: {source}")]
+    Table {
+        component: String,
+        source: ComponentTableError,
+    },
+}
+
 /// The compensation tables as a machine (probe offset 0, squareness folded into the
 /// straightness as the exported tables carry it).
-fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Machine, String> {
+fn table_machine(
+    model: &Model,
+    volume_mm: [[f64; 3]; 2],
+    n: usize,
+) -> Result<Machine, TableMachineError> {
     type Tables = (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]);
     let (topology, positions, values): Tables = match &model.predictor {
         Predictor::Fit(f) => {
-            let t = component_tables(f, n).map_err(|e| e.to_string())?;
+            let t = component_tables(f, n)?;
             (t.topology, t.positions_mm, t.values)
         }
         Predictor::Machine(m) => {
@@ -531,8 +548,12 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
         for kind in 0..6 {
             let column: Vec<f64> = vals.iter().map(|r| r[kind]).collect();
             let c = Component { axis: k, kind };
-            let f = ComponentFn::table(&pos, &column, Method::Trilinear)
-                .map_err(|e| format!("compensation table of {}: {e}", c.name()))?;
+            let f = ComponentFn::table(&pos, &column, Method::Trilinear).map_err(|source| {
+                TableMachineError::Table {
+                    component: c.name(),
+                    source,
+                }
+            })?;
             machine.set(c, f);
         }
     }
@@ -720,7 +741,8 @@ impl VirtualRun<'_> {
     /// each gauge's error less what the table corrects between its ends.
     fn compensated(&self, n: usize, base: &[(f64, f64)]) -> Result<Compensated, AcceptanceError> {
         let (plan, config) = (self.plan, self.config);
-        let tab = table_machine(self.model, plan.volume_mm, n).map_err(|p| self.err(p))?;
+        let tab =
+            table_machine(self.model, plan.volume_mm, n).map_err(|p| self.err(p.to_string()))?;
         let after: Vec<(f64, f64)> = self
             .gauges
             .iter()

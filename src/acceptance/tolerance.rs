@@ -168,7 +168,7 @@ fn limit_of(path: &Path, key: &str, v: &toml::Value) -> Result<Limits, Acceptanc
         }
         v => (None, Some(num(v, key)?)),
     };
-    Limits::new(lower, upper).map_err(|p| AcceptanceError::key(path, key, p))
+    Limits::new(lower, upper).map_err(|p| AcceptanceError::key(path, key, p.to_string()))
 }
 
 /// The parameters of a table (`[axis.X]` or a `[[line]]`), `skip` keys left to the caller.
@@ -295,7 +295,7 @@ impl Tolerances {
                 ("rule", toml::Value::String(s)) => {
                     rule_name = Some(
                         s.parse::<Rule>()
-                            .map_err(|p| AcceptanceError::key(path, k, p))?,
+                            .map_err(|p| AcceptanceError::key(path, k, p.to_string()))?,
                     )
                 }
                 ("guard_fraction", toml::Value::Float(f)) => fraction = Some(*f),

@@ -37,6 +37,6 @@ pub use effects::{
 pub use error::CircularError;
 pub use input::{CircularTest, MAX_SAMPLES, Plane, Run, Sense, TestMeta, meta_path, read_test};
 pub use iso::{Iso230_4, Lsc, evaluate, nominal_samples};
-pub use link::{Link, LinkRow, link};
+pub use link::{Link, LinkProblem, LinkRow, link};
 pub use signature::{Geometry, Slot, dr_um, points as signature_points};
 pub use simulate::{MachineModel, SimEffect, SimSetup, simulate, write_test};

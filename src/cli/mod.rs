@@ -154,6 +154,16 @@ fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
     if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
         return format!("{cause}; choose another --out");
     }
+    if let Some(e) = cause.downcast_ref::<errmap::acceptance::AcceptanceError>()
+        && let Some(text) = probing::in_flags(e)
+    {
+        return text;
+    }
+    if let Some(e) = cause.downcast_ref::<errmap::history::HistoryError>()
+        && let Some(text) = history::in_flags(e)
+    {
+        return text;
+    }
     if let Some(errmap::volumetric::VolumetricError::NoFit { .. }) = cause.downcast_ref() {
         return format!(
             "{cause}: write the model with `errmap volumetric identify … --out MODEL.json`"

@@ -197,3 +197,30 @@ pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     );
     Ok(())
 }
+
+/// A probing setting's error in the command line's words: the flag that sets it.
+pub(crate) fn in_flags(e: &errmap::acceptance::AcceptanceError) -> Option<String> {
+    use errmap::acceptance::{AcceptanceError, ProbingSetting as S, SettingProblem as P};
+    let AcceptanceError::Setting {
+        path,
+        setting,
+        problem,
+    } = e
+    else {
+        return None;
+    };
+    let flag = match setting {
+        S::MpeForm => "--mpe-form",
+        S::MpeSize => "--mpe-size",
+        S::MpeLocation => "--mpe-location",
+        S::GuardFraction => "--guard-fraction",
+    };
+    let path = path.display();
+    Some(match problem {
+        P::Missing => {
+            let key = setting.key();
+            format!("{path}: {key}: missing: give {flag} or `{key}` in [mpe]")
+        }
+        P::NotPositive(_) | P::Fraction(_) => format!("{path}: {flag}: {problem}"),
+    })
+}
