@@ -300,6 +300,38 @@ fn markdown(
             ))
             .unwrap_or_default()
     ));
+    styli_table(&mut md, r, maps);
+    md.nl().heading(2, "Deviations from the standard's design");
+    if r.deviations.is_empty() {
+        md.para("None: the number of styli, the 25 points per stylus and the sphere's diameter are the standard's.");
+    } else {
+        md.bullets(&r.deviations).nl();
+    }
+    let narrow: Vec<String> = r
+        .styli
+        .iter()
+        .zip(maps)
+        .filter(|(_, m)| m.2 < 85.0)
+        .map(|(s, m)| format!("`{}` ({:.1}°)", s.stylus, m.2))
+        .collect();
+    if !narrow.is_empty() {
+        md.para(format_args!(
+            "Note: the points of stylus {} stay within a cap narrower than the standard's \
+             hemisphere (largest angle from the pole in brackets). errmap evaluates a cap as \
+             given; its size and centre are less well determined than a hemisphere's.",
+            narrow.join(", ")
+        ));
+    }
+    md.heading(2, "Residuals on the sphere")
+        .para("![residuals on the sphere, one disc per stylus](sphere_map.png)")
+        .line(
+            "Each disc is one stylus's hemisphere seen from its pole (the mean direction of its points from the fitted centre): the distance from the centre is the angle θ from the pole, rings every 22.5°; the direction is the azimuth φ. Each point's residual of the least-squares sphere of all points (the one form and size are judged on) is a dot, red outside the sphere and blue inside, its radius proportional to |r| on one scale for every stylus, its value beside it in µm. `residuals.csv` lists them.",
+        );
+    md.finish()
+}
+
+/// The styli's own spheres, reported and not judged.
+fn styli_table(md: &mut Md, r: &ProbingResult, maps: &[(String, Vec<MapPoint>, f64)]) {
     md.heading(
         2,
         "Styli (each on its own least-squares sphere; reported, not judged)",
@@ -331,31 +363,4 @@ fn markdown(
             format!("{tmax:.1}°"),
         ]);
     }
-    md.nl().heading(2, "Deviations from the standard's design");
-    if r.deviations.is_empty() {
-        md.para("None: the number of styli, the 25 points per stylus and the sphere's diameter are the standard's.");
-    } else {
-        md.bullets(&r.deviations).nl();
-    }
-    let narrow: Vec<String> = r
-        .styli
-        .iter()
-        .zip(maps)
-        .filter(|(_, m)| m.2 < 85.0)
-        .map(|(s, m)| format!("`{}` ({:.1}°)", s.stylus, m.2))
-        .collect();
-    if !narrow.is_empty() {
-        md.para(format_args!(
-            "Note: the points of stylus {} stay within a cap narrower than the standard's \
-             hemisphere (largest angle from the pole in brackets). errmap evaluates a cap as \
-             given; its size and centre are less well determined than a hemisphere's.",
-            narrow.join(", ")
-        ));
-    }
-    md.heading(2, "Residuals on the sphere")
-        .para("![residuals on the sphere, one disc per stylus](sphere_map.png)")
-        .line(
-            "Each disc is one stylus's hemisphere seen from its pole (the mean direction of its points from the fitted centre): the distance from the centre is the angle θ from the pole, rings every 22.5°; the direction is the azimuth φ. Each point's residual of the least-squares sphere of all points (the one form and size are judged on) is a dot, red outside the sphere and blue inside, its radius proportional to |r| on one scale for every stylus, its value beside it in µm. `residuals.csv` lists them.",
-        );
-    md.finish()
 }
