@@ -33,11 +33,11 @@ use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::interp::Method;
-use crate::volumetric::component_tables;
 use crate::volumetric::{
     Component, ComponentFn, ComponentTableError, Line, LineTable, Machine, Predictor, Target,
     Topology, Undetermined,
 };
+use crate::volumetric::{component_tables, fold_squareness};
 
 /// A gauge end may lie this far outside the model's measured range, mm.
 pub(crate) const RANGE_TOL_MM: f64 = 1e-3;
@@ -515,14 +515,7 @@ fn table_machine(
                     for (kind, slot) in row.iter_mut().enumerate() {
                         *slot = m.value(Component { axis: k, kind }, a);
                     }
-                    match k {
-                        1 => row[0] += -1e-3 * sq[0] * a,
-                        2 => {
-                            row[0] += 1e-3 * sq[1] * a;
-                            row[1] += -1e-3 * sq[2] * a;
-                        }
-                        _ => {}
-                    }
+                    fold_squareness(&mut row, k, sq, a);
                     positions[k].push(a);
                     values[k].push(row);
                 }

@@ -120,7 +120,8 @@ mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth};
 pub use compensation::{
-    ComponentTables, axis_positions, component_tables, positioning_profile, render_twincat,
+    ComponentTables, axis_positions, component_tables, fold_squareness, positioning_profile,
+    render_twincat,
 };
 pub use error::{
     ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,
