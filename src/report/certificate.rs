@@ -32,7 +32,7 @@ use errmap_drivers::SessionRow;
 
 use self::layout::BODY;
 use self::pdf::Weight;
-use super::iso230::decimals;
+use super::iso230::{decimals, target_values};
 use super::uncertainty::{STANDARDS_NOTE, budget_rows, conditions_text, not_evaluated_text};
 use crate::acceptance::Conformity;
 use crate::session::{AxisStats, TargetStats};
@@ -127,18 +127,10 @@ pub fn target_rows(stats: &AxisStats, d: usize) -> Vec<Vec<String>> {
         .targets
         .iter()
         .map(|t: &TargetStats| {
-            vec![
-                t.target.to_string(),
-                mm(t.position_mm),
-                f(t.mean_up_um),
-                f(t.mean_down_um),
-                f(t.reversal_um),
-                f(2.0 * t.s_up_um),
-                f(2.0 * t.s_down_um),
-                f(t.repeat_up_um),
-                f(t.repeat_down_um),
-                f(t.repeat_bidir_um),
-            ]
+            [t.target.to_string(), mm(t.position_mm)]
+                .into_iter()
+                .chain(target_values(t, &f))
+                .collect()
         })
         .collect()
 }

@@ -76,21 +76,29 @@ fn target_table(md: &mut Md, stats: &AxisStats, f: &dyn Fn(f64) -> String) {
     ];
     md.table_aligned(header, &"r".repeat(header.len()));
     for t in &stats.targets {
-        md.row([
+        let head = [
             t.target.to_string(),
             t.position_mm.to_string(),
             t.n_up.to_string(),
             t.n_down.to_string(),
-            f(t.mean_up_um),
-            f(t.mean_down_um),
-            f(t.reversal_um),
-            f(2.0 * t.s_up_um),
-            f(2.0 * t.s_down_um),
-            f(t.repeat_up_um),
-            f(t.repeat_down_um),
-            f(t.repeat_bidir_um),
-        ]);
+        ];
+        md.row(head.into_iter().chain(target_values(t, f)));
     }
+}
+
+/// A target's values in µm as `f` prints them, in the order of every per-target table:
+/// the means ↑ and ↓, the reversal, 2s ↑ and ↓, the repeatabilities ↑, ↓ and bidirectional.
+pub(super) fn target_values(t: &TargetStats, f: &dyn Fn(f64) -> String) -> [String; 8] {
+    [
+        f(t.mean_up_um),
+        f(t.mean_down_um),
+        f(t.reversal_um),
+        f(2.0 * t.s_up_um),
+        f(2.0 * t.s_down_um),
+        f(t.repeat_up_um),
+        f(t.repeat_down_um),
+        f(t.repeat_bidir_um),
+    ]
 }
 
 /// The axis values E, M, A, R, B and B̄, with U beside each when it is given.
