@@ -25,8 +25,8 @@ fn main() {
 /// The least-squares sphere of 5 × 25 probed points (goal: under 1 ms).
 #[divan::bench(sample_count = 100)]
 fn sphere_fit_125_points(bencher: Bencher) {
-    use errmap::acceptance::probing::fit::fit_sphere;
-    use errmap::acceptance::probing::simulate::{example, simulate};
+    use errmap::acceptance::probing::fit_sphere;
+    use errmap::acceptance::probing::{example, simulate};
     let points: Vec<[f64; 3]> = simulate(&example()).iter().map(|p| p.p_mm).collect();
     bencher
         .counter(ItemsCount::new(points.len()))

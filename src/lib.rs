@@ -10,6 +10,8 @@
 //!               that explain the residual     evaluate: comparison   export: controller tables
 //!
 //! laser line table ──volumetric──▶ the 21 geometric errors, predictions, compensation tables
+//! ballbar trace ──circular──▶ ISO 230-4 numbers, the machine errors behind the trace
+//! results ──acceptance──▶ decisions of conformity      records ──history──▶ trends, forecasts
 //!
 //! report: words and figures for every stage          base, plot: shared leaves
 //! ```
@@ -30,6 +32,7 @@
 //! | [`controller`] | 8 controllers | one file per controller dialect: its table's writer, reader, in-place update, limits, sign and unit; the dialect registry; the export job |
 //! | [`import`] | import | laser exports and spreadsheets into session tables, controller tables into error tables |
 //! | [`sim`] | simulator | the machine model and plans, the other side of the diagnosis |
+//! | [`circular`] | circular test | the ballbar test (ISO 230-4): the trace, its numbers, the circular effects behind it (their own typed family), a simulator, the link to a volumetric model |
 //! | [`volumetric`] | 9 volumetric | the 21 geometric errors from laser line measurements: model, line tables (simulated or from captured sessions), identification, identifiability, the campaign's own faults (scale expansion, drift, a bad line), prediction |
 //! | [`history`] | 10 history | the calibration ledger of a fleet (SQLite or PostgreSQL, append-only): trends, EWMA charts, tolerance forecasts, advice |
 //! | [`acceptance`] | 10 decisions | conformity with a decision rule (ISO 14253-1, ILAC-G8); tolerances on ISO 230-2 results; the ISO 10360-2 length test measured and predicted from the volumetric model |

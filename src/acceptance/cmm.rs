@@ -1,7 +1,7 @@
 //! The CMM verification certificate's document: the ISO 10360-2 length test and the
 //! ISO 10360-5 probing test, evaluated under one decision rule and joined with a
 //! statement of conformity (ISO/IEC 17025:2017 7.8.6.2). The PDF is
-//! `report::certificate::cmm`'s; this is what it shows and what `--json` prints.
+//! `report::certificate::write_cmm`'s; this is what it shows and what `--json` prints.
 
 use serde::Serialize;
 

@@ -96,8 +96,8 @@ pub fn decide_file(path: &Path, rule: &DecisionRule) -> Result<DecideReport, Acc
         }
         let lower = opt(&lowers, "lower")?;
         let upper = opt(&uppers, "upper")?;
-        let limits =
-            Limits::new(lower, upper).map_err(|p| AcceptanceError::row(path, row, None, p))?;
+        let limits = Limits::new(lower, upper)
+            .map_err(|p| AcceptanceError::row(path, row, None, p.to_string()))?;
         let d = rule
             .decide(value, u.unwrap_or(0.0), limits)
             .map_err(|e| AcceptanceError::row(path, row, None, e.to_string()))?;

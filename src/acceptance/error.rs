@@ -22,13 +22,21 @@ pub enum AcceptanceError {
     Formula {
         option: String,
         formula: String,
-        problem: String,
+        problem: super::mpe::FormulaProblem,
     },
     /// The volumetric model cannot give what the plan needs.
     #[error("{}: {problem}", path.display())]
     Model {
         path: std::path::PathBuf,
         problem: String,
+    },
+    /// A setting of the probing test out of range or given nowhere, named with the SPHERE
+    /// file it completes (the command line names the flag that sets it).
+    #[error("{}: {setting}: {problem}", path.display())]
+    Setting {
+        path: std::path::PathBuf,
+        setting: ProbingSetting,
+        problem: SettingProblem,
     },
     /// A file that cannot be read (the shared [`FileError`] shape).
     #[error(transparent)]
@@ -67,4 +75,46 @@ impl AcceptanceError {
     ) -> Self {
         ConfigError::key(path, key, problem).into()
     }
+}
+
+/// A setting of the probing test that the SPHERE file's `[mpe]` table or the caller's
+/// options give; shown as its key in the SPHERE file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProbingSetting {
+    MpeForm,
+    MpeSize,
+    MpeLocation,
+    GuardFraction,
+}
+
+impl ProbingSetting {
+    /// The key in the SPHERE file (`guard_fraction` is the rule's).
+    pub fn key(self) -> &'static str {
+        match self {
+            ProbingSetting::MpeForm => "mpe.form_um",
+            ProbingSetting::MpeSize => "mpe.size_um",
+            ProbingSetting::MpeLocation => "mpe.location_um",
+            ProbingSetting::GuardFraction => "guard_fraction",
+        }
+    }
+}
+
+impl std::fmt::Display for ProbingSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.key())
+    }
+}
+
+/// What is wrong with a [`ProbingSetting`].
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum SettingProblem {
+    /// An MPE that is not finite and positive.
+    #[error("{0}: an MPE must be finite and > 0 µm")]
+    NotPositive(f64),
+    /// A guard-band fraction that is not finite and ≥ 0.
+    #[error("r = {0} must be finite and ≥ 0")]
+    Fraction(f64),
+    /// An MPE given neither by the options nor in `[mpe]`.
+    #[error("missing")]
+    Missing,
 }

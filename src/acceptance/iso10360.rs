@@ -25,18 +25,18 @@ use super::rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
 use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_frame};
 
 /// The standard's name as the outputs print it.
-pub const STANDARD: &str = "ISO 10360-2:2009";
+pub(crate) const STANDARD: &str = "ISO 10360-2:2009";
 /// Two calibrated lengths closer than this are one test length, mm.
-pub const LENGTH_TOL_MM: f64 = 1e-6;
+pub(crate) const LENGTH_TOL_MM: f64 = 1e-6;
 /// End points whose distance differs from the calibrated length by more are refused, mm;
 /// so are measured and calibrated lengths differing by more.
-pub const GAUGE_TOL_MM: f64 = 1.0;
+pub(crate) const GAUGE_TOL_MM: f64 = 1.0;
 /// Tolerance on |u| − 1.
-pub const UNIT_TOL: f64 = 1e-6;
+pub(crate) const UNIT_TOL: f64 = 1e-6;
 /// The standard's design.
-pub const POSITIONS: usize = 7;
-pub const LENGTHS: usize = 5;
-pub const REPETITIONS: usize = 3;
+pub(crate) const POSITIONS: usize = 7;
+pub(crate) const LENGTHS: usize = 5;
+pub(crate) const REPETITIONS: usize = 3;
 
 /// How the test is judged.
 #[derive(Debug, Clone, PartialEq)]

@@ -3,14 +3,14 @@
 //!
 //! | module | does | cost |
 //! |---|---|---|
-//! | [`rule`] | the decision rules: ISO 14253-1:2017 default rule, ILAC-G8:09/2019 simple acceptance and binary guard band; one-sided zones; aggregation; the rule in words | O(1) per result |
-//! | [`decide`] | `acceptance decide`: a CSV of results judged one by one | O(rows) |
-//! | [`mpe`] | the MPE formula `A+L/K`, `min(A+L/K,B)`, `B` | O(1) |
-//! | [`tolerance`] | tolerances on ISO 230-2 results (TOML) and the per-line judgement | O(lines · 12) |
-//! | [`iso10360`] | ISO 10360-2:2009 from a measured file: E0, R0, MPE(L), verdicts, deviations from the 7 × 5 × 3 design | O(rows log rows) |
+//! | `rule` | the decision rules: ISO 14253-1:2017 default rule, ILAC-G8:09/2019 simple acceptance and binary guard band; one-sided zones; aggregation; the rule in words | O(1) per result |
+//! | `decide` | `acceptance decide`: a CSV of results judged one by one | O(rows) |
+//! | `mpe` | the MPE formula `A+L/K`, `min(A+L/K,B)`, `B` | O(1) |
+//! | `tolerance` | tolerances on ISO 230-2 results (TOML) and the per-line judgement | O(lines · 12) |
+//! | `iso10360` | ISO 10360-2:2009 from a measured file: E0, R0, MPE(L), verdicts, deviations from the 7 × 5 × 3 design | O(rows log rows) |
 //! | [`probing`] | ISO 10360-5:2010's probing test from a measured file: the least-squares sphere, form, size, multi-stylus location, verdicts; and a simulator of the test | O(points) |
-//! | [`cmm`] | the CMM verification certificate's document: ISO 10360-2 and 10360-5 joined under one rule | O(1) |
-//! | [`predicted`] | the same test predicted from an identified volumetric model (a virtual CMM), before and after compensation | O(gauges · params²) |
+//! | `cmm` | the CMM verification certificate's document: ISO 10360-2 and 10360-5 joined under one rule | O(1) |
+//! | `predicted` | the same test predicted from an identified volumetric model (a virtual CMM), before and after compensation | O(gauges · params²) |
 //!
 //! # The rules
 //!
@@ -34,16 +34,29 @@
 //! dimensions*. The standards' own texts were not at hand: `docs/acceptance.md` says
 //! which clauses were read from secondary sources and what was assumed.
 
-pub mod cmm;
-pub mod decide;
+mod cmm;
+mod decide;
 mod error;
-pub mod iso10360;
-pub mod mpe;
-pub mod predicted;
+mod iso10360;
+mod mpe;
+mod predicted;
 pub mod probing;
-pub mod rule;
-pub mod tolerance;
+mod rule;
+mod tolerance;
 
-pub use error::AcceptanceError;
-pub use mpe::Mpe;
-pub use rule::{ConformityVerdict, DecisionRule, Limits, Rule, aggregate};
+pub use cmm::CmmCertificate;
+pub use decide::{DecideReport, DecidedResult, decide_file};
+pub use error::{AcceptanceError, ProbingSetting, SettingProblem};
+pub use iso10360::{
+    Counts, Gauge, Measurement, Position, Summary, TestConfig, TestResult, evaluate_file,
+};
+pub use mpe::{FormulaProblem, Mpe};
+pub use predicted::{
+    Compensated, Model as VirtualModel, Placement, PlannedPosition,
+    TABLE_POINTS as VIRTUAL_TABLE_POINTS, VirtualConfig, VirtualMeasurement, VirtualPlan,
+    VirtualPosition, VirtualTest, default_lines, predict,
+};
+pub use rule::{
+    ConformityVerdict, Decision, DecisionRule, Limits, LimitsError, Rule, UnknownRule, aggregate,
+};
+pub use tolerance::{Conformity, LineConformity, ParameterVerdict, Tolerances};

@@ -25,42 +25,81 @@ pub struct Mpe {
     pub b_um: Option<f64>,
 }
 
-fn number(s: &str, what: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .parse()
-        .map_err(|_| format!("{what} `{s}` is not a number"))?;
+/// What is wrong with an MPE formula (the formula and where it came from are named by
+/// [`AcceptanceError::Formula`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FormulaProblem {
+    #[error("empty")]
+    Empty,
+    #[error("`min(` without its closing `)`")]
+    Unclosed,
+    #[error("min( needs two arguments, A+L/K and B")]
+    MinArguments,
+    #[error("`{0}` is not of the form A+L/K")]
+    NotLinear(String),
+    #[error("{term} `{text}` is not a number")]
+    NotNumber { term: &'static str, text: String },
+    #[error("{term} `{text}` is not finite")]
+    NotFinite { term: &'static str, text: String },
+    #[error("{term} = {value} is negative")]
+    Negative { term: &'static str, value: f64 },
+    #[error("{term} = {value} µm is beyond {limit} µm, no plausible limit")]
+    TooLarge {
+        term: &'static str,
+        value: f64,
+        limit: f64,
+    },
+    #[error(
+        "K = {k} is outside {lo} … {hi} mm/µm (K must be > 0; below {lo} the MPE would grow by \
+         more than {per_mm} µm per mm of length)",
+        per_mm = 1.0 / lo
+    )]
+    KOutside { k: f64, lo: f64, hi: f64 },
+    #[error("B = {b} µm: a maximum permissible error must be at least {least} µm")]
+    BelowLeast { b: f64, least: f64 },
+}
+
+fn number(s: &str, term: &'static str) -> Result<f64, FormulaProblem> {
+    let v: f64 = s.parse().map_err(|_| FormulaProblem::NotNumber {
+        term,
+        text: s.to_string(),
+    })?;
     if !v.is_finite() {
-        return Err(format!("{what} `{s}` is not finite"));
+        return Err(FormulaProblem::NotFinite {
+            term,
+            text: s.to_string(),
+        });
     }
     if v < 0.0 {
-        return Err(format!("{what} = {v} is negative"));
+        return Err(FormulaProblem::Negative { term, value: v });
     }
     if v > crate::base::TOLERANCE_UM.hi {
-        return Err(format!(
-            "{what} = {v} µm is beyond {} µm, no plausible limit",
-            crate::base::TOLERANCE_UM.hi
-        ));
+        return Err(FormulaProblem::TooLarge {
+            term,
+            value: v,
+            limit: crate::base::TOLERANCE_UM.hi,
+        });
     }
     Ok(v)
 }
 
 /// `A+L/K` → (A, K).
-fn linear(s: &str) -> Result<(f64, f64), String> {
+fn linear(s: &str) -> Result<(f64, f64), FormulaProblem> {
     let (a, k) = s
         .split_once("+L/")
-        .ok_or_else(|| format!("`{s}` is not of the form A+L/K"))?;
+        .ok_or_else(|| FormulaProblem::NotLinear(s.to_string()))?;
     let a = number(a, "A")?;
-    let k: f64 = k.parse().map_err(|_| format!("K `{k}` is not a number"))?;
+    let k: f64 = k.parse().map_err(|_| FormulaProblem::NotNumber {
+        term: "K",
+        text: k.to_string(),
+    })?;
     let kb = crate::base::MPE_K_MM_PER_UM;
     if !kb.contains(k) {
-        return Err(format!(
-            "K = {k} is outside {} … {} mm/µm (K must be > 0; below {} the MPE would grow by \
-             more than {} µm per mm of length)",
-            kb.lo,
-            kb.hi,
-            kb.lo,
-            1.0 / kb.lo
-        ));
+        return Err(FormulaProblem::KOutside {
+            k,
+            lo: kb.lo,
+            hi: kb.hi,
+        });
     }
     Ok((a, k))
 }
@@ -68,22 +107,22 @@ fn linear(s: &str) -> Result<(f64, f64), String> {
 impl Mpe {
     /// Parses `formula`; `option` names the flag or key in the error.
     pub fn parse(formula: &str, option: &str) -> Result<Mpe, AcceptanceError> {
-        let err = |problem: String| AcceptanceError::Formula {
+        let err = |problem: FormulaProblem| AcceptanceError::Formula {
             option: option.to_string(),
             formula: formula.to_string(),
             problem,
         };
         let s: String = formula.chars().filter(|c| !c.is_whitespace()).collect();
         if s.is_empty() {
-            return Err(err("empty".into()));
+            return Err(err(FormulaProblem::Empty));
         }
         let (a_um, k, b_um) = if let Some(inner) = s.strip_prefix("min(") {
             let inner = inner
                 .strip_suffix(')')
-                .ok_or_else(|| err("`min(` without its closing `)`".into()))?;
+                .ok_or_else(|| err(FormulaProblem::Unclosed))?;
             let (lin, b) = inner
                 .split_once(',')
-                .ok_or_else(|| err("min( needs two arguments, A+L/K and B".into()))?;
+                .ok_or_else(|| err(FormulaProblem::MinArguments))?;
             let (a, k) = linear(lin).map_err(err)?;
             (Some(a), Some(k), Some(number(b, "B").map_err(err)?))
         } else if s.contains('L') {
@@ -110,10 +149,10 @@ impl Mpe {
             return Err(AcceptanceError::Formula {
                 option: option.to_string(),
                 formula: formula.to_string(),
-                problem: format!(
-                    "B = {b} µm: a maximum permissible error must be at least {} µm",
-                    crate::base::TOLERANCE_UM.lo
-                ),
+                problem: FormulaProblem::BelowLeast {
+                    b,
+                    least: crate::base::TOLERANCE_UM.lo,
+                },
             });
         }
         Ok(m)
@@ -150,13 +189,13 @@ mod tests {
 
     #[test]
     fn the_three_forms_and_their_values() {
-        let m = Mpe::parse(" 1.5 + L / 333 ", "--mpe").expect("parses");
+        let m = Mpe::parse(" 1.5 + L / 333 ", "mpe").expect("parses");
         assert_eq!((m.a_um, m.k, m.b_um), (Some(1.5), Some(333.0), None));
         assert!((m.at(666.0) - 3.5).abs() < 1e-12);
-        let m = Mpe::parse("min(2+L/100, 5)", "--mpe").expect("parses");
+        let m = Mpe::parse("min(2+L/100, 5)", "mpe").expect("parses");
         assert_eq!(m.at(100.0), 3.0);
         assert_eq!(m.at(1000.0), 5.0);
-        let m = Mpe::parse("4", "--mpe").expect("parses");
+        let m = Mpe::parse("4", "mpe").expect("parses");
         assert_eq!(m.at(1e3), 4.0);
         for bad in [
             "",
@@ -178,7 +217,7 @@ mod tests {
             "2e4",
             "min(2+L/333,1e5)",
         ] {
-            assert!(Mpe::parse(bad, "--mpe").is_err(), "{bad} parsed");
+            assert!(Mpe::parse(bad, "mpe").is_err(), "{bad} parsed");
         }
     }
 }

@@ -39,15 +39,16 @@ use super::rule::{ConformityVerdict, DecisionRule, Limits, aggregate};
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::interp::Method;
-use crate::volumetric::component_tables;
 use crate::volumetric::{
-    Component, ComponentFn, Line, LineTable, Machine, Predictor, Target, Topology,
+    Component, ComponentFn, ComponentTableError, Line, LineTable, Machine, Predictor, Target,
+    Topology, Undetermined,
 };
+use crate::volumetric::{component_tables, fold_squareness};
 
 /// A gauge end may lie this far outside the model's measured range, mm.
-pub const RANGE_TOL_MM: f64 = 1e-3;
+pub(crate) const RANGE_TOL_MM: f64 = 1e-3;
 /// The default plan's fractions of the line length.
-pub const FRACTIONS: [f64; 5] = [0.10, 0.25, 0.40, 0.55, 0.70];
+pub(crate) const FRACTIONS: [f64; 5] = [0.10, 0.25, 0.40, 0.55, 0.70];
 /// Positions per axis of the compensation tables by default (as `volumetric export`).
 pub const TABLE_POINTS: usize = 21;
 
@@ -349,7 +350,7 @@ pub struct VirtualPosition {
 /// The value step of a controller's compensation table, µm: 0.1 µm, the finest unit of
 /// the tables errmap writes (HEIDENHAIN and ISG lists hold 0.1 µm steps; see
 /// `docs/import.md`).
-pub const TABLE_RESOLUTION_UM: f64 = 0.1;
+pub(crate) const TABLE_RESOLUTION_UM: f64 = 0.1;
 
 /// The test after compensation.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -491,13 +492,29 @@ fn planned(plan: &VirtualPlan) -> Vec<Planned> {
     out
 }
 
+/// Why the compensation tables could not be made into a machine.
+#[derive(Debug, thiserror::Error)]
+enum TableMachineError {
+    #[error(transparent)]
+    Undetermined(#[from] Undetermined),
+    #[error("compensation table of {component}: {source}")]
+    Table {
+        component: String,
+        source: ComponentTableError,
+    },
+}
+
 /// The compensation tables as a machine (probe offset 0, squareness folded into the
 /// straightness as the exported tables carry it).
-fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Machine, String> {
+fn table_machine(
+    model: &Model,
+    volume_mm: [[f64; 3]; 2],
+    n: usize,
+) -> Result<Machine, TableMachineError> {
     type Tables = (Topology, [Vec<f64>; 3], [Vec<[f64; 6]>; 3]);
     let (topology, positions, values): Tables = match &model.predictor {
         Predictor::Fit(f) => {
-            let t = component_tables(f, n).map_err(|e| e.to_string())?;
+            let t = component_tables(f, n)?;
             (t.topology, t.positions_mm, t.values)
         }
         Predictor::Machine(m) => {
@@ -513,14 +530,7 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
                     for (kind, slot) in row.iter_mut().enumerate() {
                         *slot = m.value(Component { axis: k, kind }, a);
                     }
-                    match k {
-                        1 => row[0] += -1e-3 * sq[0] * a,
-                        2 => {
-                            row[0] += 1e-3 * sq[1] * a;
-                            row[1] += -1e-3 * sq[2] * a;
-                        }
-                        _ => {}
-                    }
+                    fold_squareness(&mut row, k, sq, a);
                     positions[k].push(a);
                     values[k].push(row);
                 }
@@ -546,8 +556,12 @@ fn table_machine(model: &Model, volume_mm: [[f64; 3]; 2], n: usize) -> Result<Ma
         for kind in 0..6 {
             let column: Vec<f64> = vals.iter().map(|r| r[kind]).collect();
             let c = Component { axis: k, kind };
-            let f = ComponentFn::table(&pos, &column, Method::Trilinear)
-                .map_err(|e| format!("compensation table of {}: {e}", c.name()))?;
+            let f = ComponentFn::table(&pos, &column, Method::Trilinear).map_err(|source| {
+                TableMachineError::Table {
+                    component: c.name(),
+                    source,
+                }
+            })?;
             machine.set(c, f);
         }
     }
@@ -735,7 +749,8 @@ impl VirtualRun<'_> {
     /// each gauge's error less what the table corrects between its ends.
     fn compensated(&self, n: usize, base: &[(f64, f64)]) -> Result<Compensated, AcceptanceError> {
         let (plan, config) = (self.plan, self.config);
-        let tab = table_machine(self.model, plan.volume_mm, n).map_err(|p| self.err(p))?;
+        let tab =
+            table_machine(self.model, plan.volume_mm, n).map_err(|p| self.err(p.to_string()))?;
         let after: Vec<(f64, f64)> = self
             .gauges
             .iter()

@@ -79,13 +79,18 @@ impl Rule {
     }
 }
 
+/// A name that is not one of [`Rule::ALL`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{0}` is not a rule (iso14253, simple, guard)")]
+pub struct UnknownRule(pub String);
+
 impl FromStr for Rule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Rule, String> {
+    type Err = UnknownRule;
+    fn from_str(s: &str) -> Result<Rule, UnknownRule> {
         Rule::ALL
             .into_iter()
             .find(|r| r.name() == s.trim())
-            .ok_or_else(|| format!("`{s}` is not a rule (iso14253, simple, guard)"))
+            .ok_or_else(|| UnknownRule(s.to_string()))
     }
 }
 
@@ -98,29 +103,40 @@ pub struct Limits {
 
 impl Limits {
     /// Checked: at least one limit, finite, lower ≤ upper.
-    pub fn new(lower: Option<f64>, upper: Option<f64>) -> Result<Limits, String> {
+    pub fn new(lower: Option<f64>, upper: Option<f64>) -> Result<Limits, LimitsError> {
         if lower.is_none() && upper.is_none() {
-            return Err("neither a lower nor an upper limit".into());
+            return Err(LimitsError::Neither);
         }
-        for v in lower.iter().chain(upper.iter()) {
+        for &v in lower.iter().chain(upper.iter()) {
             if !v.is_finite() {
-                return Err(format!("limit {v} is not finite"));
+                return Err(LimitsError::NotFinite(v));
             }
             // Plausible sizes only (issue 40 item 5: 1e300 µm certified "pass").
             let hi = crate::base::TOLERANCE_UM.hi;
             if v.abs() > hi {
-                return Err(format!(
-                    "limit {v} µm is beyond ±{hi} µm, no plausible tolerance"
-                ));
+                return Err(LimitsError::Implausible { value: v, hi });
             }
         }
-        if let (Some(l), Some(u)) = (lower, upper)
-            && l > u
+        if let (Some(lower), Some(upper)) = (lower, upper)
+            && lower > upper
         {
-            return Err(format!("lower limit {l} is above the upper limit {u}"));
+            return Err(LimitsError::Crossed { lower, upper });
         }
         Ok(Limits { lower, upper })
     }
+}
+
+/// Why two limits do not make a zone.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LimitsError {
+    #[error("neither a lower nor an upper limit")]
+    Neither,
+    #[error("limit {0} is not finite")]
+    NotFinite(f64),
+    #[error("limit {value} µm is beyond ±{hi} µm, no plausible tolerance")]
+    Implausible { value: f64, hi: f64 },
+    #[error("lower limit {lower} is above the upper limit {upper}")]
+    Crossed { lower: f64, upper: f64 },
 }
 
 /// A rule with its guard-band fraction (used by [`Rule::Guard`] only).

@@ -32,10 +32,10 @@ use crate::base::Axis;
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::session::AxisStats;
-use crate::session::uncertainty::StatUncertainty;
+use crate::session::StatUncertainty;
 
 /// How close a `[[line]]`'s `line_mm` must be to a session line's, mm.
-pub const LINE_TOL_MM: f64 = 1e-3;
+pub(crate) const LINE_TOL_MM: f64 = 1e-3;
 
 /// Which U judges a parameter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -168,7 +168,7 @@ fn limit_of(path: &Path, key: &str, v: &toml::Value) -> Result<Limits, Acceptanc
         }
         v => (None, Some(num(v, key)?)),
     };
-    Limits::new(lower, upper).map_err(|p| AcceptanceError::key(path, key, p))
+    Limits::new(lower, upper).map_err(|p| AcceptanceError::key(path, key, p.to_string()))
 }
 
 /// The parameters of a table (`[axis.X]` or a `[[line]]`), `skip` keys left to the caller.
@@ -311,7 +311,7 @@ impl Tolerances {
                 ("rule", toml::Value::String(s)) => {
                     rule_name = Some(
                         s.parse::<Rule>()
-                            .map_err(|p| AcceptanceError::key(path, k, p))?,
+                            .map_err(|p| AcceptanceError::key(path, k, p.to_string()))?,
                     )
                 }
                 ("guard_fraction", toml::Value::Float(f)) => fraction = Some(*f),

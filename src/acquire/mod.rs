@@ -147,8 +147,8 @@ pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
 /// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
 /// `session` is the session table or the capture directory; `None` when there is no
 /// `session.json` beside it, or it has no `hello`.
-pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertainty::Resolution>> {
-    use crate::session::uncertainty::Resolution;
+pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::Resolution>> {
+    use crate::session::Resolution;
     #[derive(serde::Deserialize)]
     struct Partial {
         hello: Option<HelloJson>,

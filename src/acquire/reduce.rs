@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
-use crate::session::uncertainty::{self, Budget, StatUncertainty};
 use crate::session::{
     self, AxisStats, EnvironmentStats, IsoError, ReductionError, ReductionSummary,
 };
+use crate::session::{Budget, StatUncertainty};
 use crate::table::{ErrorTable, TableError};
 
 /// Why a session could not be reduced.
@@ -19,7 +19,7 @@ pub enum ReduceError {
     #[error(transparent)]
     Reduction(#[from] ReductionError),
     #[error(transparent)]
-    Uncertainty(#[from] uncertainty::UncertaintyError),
+    Uncertainty(#[from] session::UncertaintyError),
 }
 
 /// A session reduced to an error table, with ISO 230-2 statistics per line.
@@ -46,10 +46,10 @@ pub struct Reduced {
 /// declares for what no sensor recorded. The default adds nothing.
 #[derive(Debug, Clone, Default)]
 pub struct BudgetInputs {
-    pub config: uncertainty::UncertaintyConfig,
+    pub config: session::UncertaintyConfig,
     pub stated_laser_um: Option<f64>,
-    pub drift_check: uncertainty::DriftCheck,
-    pub declared: uncertainty::DeclaredConditions,
+    pub drift_check: session::DriftCheck,
+    pub declared: session::DeclaredConditions,
 }
 
 /// Reduces the session table at `path` (a table file; see `sim::session_file` for a
@@ -62,8 +62,8 @@ pub fn reduce_session(path: &Path) -> Result<Reduced, ReduceError> {
 pub fn reduce_session_with(path: &Path, inputs: &BudgetInputs) -> Result<Reduced, ReduceError> {
     let mut reducer = session::Reducer::new();
     let mut environment = EnvironmentStats::default();
-    let mut recorded = uncertainty::RecordedResolution::default();
-    let mut drift = uncertainty::DriftFinder::default();
+    let mut recorded = session::RecordedResolution::default();
+    let mut drift = session::DriftFinder::default();
     session::for_each_batch(path, session::BATCH_ROWS, &mut |rows| {
         for r in rows {
             reducer.push(r);
@@ -76,7 +76,7 @@ pub fn reduce_session_with(path: &Path, inputs: &BudgetInputs) -> Result<Reduced
     let (table, summary) = reducer.error_table(&path.display().to_string())?;
     let device = super::device_resolutions(path);
     let device_known = device.is_some();
-    let sources = uncertainty::BudgetSources::choose(
+    let sources = session::BudgetSources::choose(
         device,
         inputs.stated_laser_um,
         &recorded,
@@ -88,7 +88,7 @@ pub fn reduce_session_with(path: &Path, inputs: &BudgetInputs) -> Result<Reduced
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_with(&inputs.config, &environment, s, &sources).map(|(b, _)| b)
+            session::line_budget_with(&inputs.config, &environment, s, &sources).map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let expanded = budgets.iter().map(Budget::expanded).collect();

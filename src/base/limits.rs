@@ -33,6 +33,11 @@ pub struct Bound {
 }
 
 impl Bound {
+    /// The range [lo, hi] of `what`, in `unit`.
+    pub const fn new(lo: f64, hi: f64, unit: &'static str, what: &'static str) -> Bound {
+        Bound { lo, hi, unit, what }
+    }
+
     /// Whether `v` is finite and inside the range.
     pub fn contains(&self, v: f64) -> bool {
         v.is_finite() && self.lo <= v && v <= self.hi
@@ -79,62 +84,27 @@ impl fmt::Display for Bound {
 }
 
 /// Positions and lengths, mm.
-pub const POSITION_MM: Bound = Bound {
-    lo: -1e6,
-    hi: 1e6,
-    unit: "mm",
-    what: "a position",
-};
+pub const POSITION_MM: Bound = Bound::new(-1e6, 1e6, "mm", "a position");
 
 /// Errors and deviations, µm.
-pub const ERROR_UM: Bound = Bound {
-    lo: -1e6,
-    hi: 1e6,
-    unit: "µm",
-    what: "an error",
-};
+pub const ERROR_UM: Bound = Bound::new(-1e6, 1e6, "µm", "an error");
 
 /// Air, scale and part temperatures, °C.
-pub const TEMPERATURE_C: Bound = Bound {
-    lo: -50.0,
-    hi: 100.0,
-    unit: "°C",
-    what: "a temperature",
-};
+pub const TEMPERATURE_C: Bound = Bound::new(-50.0, 100.0, "°C", "a temperature");
 
 /// Air pressure, hPa.
-pub const PRESSURE_HPA: Bound = Bound {
-    lo: 300.0,
-    hi: 1300.0,
-    unit: "hPa",
-    what: "an air pressure",
-};
+pub const PRESSURE_HPA: Bound = Bound::new(300.0, 1300.0, "hPa", "an air pressure");
 
 /// Relative humidity, %.
-pub const HUMIDITY_PCT: Bound = Bound {
-    lo: 0.0,
-    hi: 100.0,
-    unit: "%",
-    what: "a relative humidity",
-};
+pub const HUMIDITY_PCT: Bound = Bound::new(0.0, 100.0, "%", "a relative humidity");
 
 /// Times, s.
-pub const TIME_S: Bound = Bound {
-    lo: -1e9,
-    hi: 1e9,
-    unit: "s",
-    what: "a time",
-};
+pub const TIME_S: Bound = Bound::new(-1e9, 1e9, "s", "a time");
 
 /// Standard (one-sigma) uncertainties of a measured error, µm: from 1 pm (a thousandth of
 /// a laser interferometer's 1 nm resolution; below it a weight 1/σ² is no longer a
 /// number a fit can use) to a metre.
-pub const UNCERTAINTY_UM: Bound = Bound {
-    lo: 1e-6,
-    hi: 1e6,
-    unit: "µm",
-    what: "a standard uncertainty",
-};
+pub const UNCERTAINTY_UM: Bound = Bound::new(1e-6, 1e6, "µm", "a standard uncertainty");
 
 /// Tolerances and maximum permissible errors (a limit's size, an MPE's A or B), µm.
 pub const TOLERANCE_UM: Bound = Bound {
@@ -153,12 +123,7 @@ pub const MPE_K_MM_PER_UM: Bound = Bound {
 };
 
 /// Feeds, mm/s.
-pub const FEED_MM_S: Bound = Bound {
-    lo: 0.0,
-    hi: 1e5,
-    unit: "mm/s",
-    what: "a feed",
-};
+pub const FEED_MM_S: Bound = Bound::new(0.0, 1e5, "mm/s", "a feed");
 
 #[cfg(test)]
 mod tests {

@@ -7,8 +7,8 @@
 //! |---|---|
 //! | `axis` | the one [`Axis`] of the library (error-table columns, messages, indices) and the one [`Direction`] of approach |
 //! | `stats` | rms, median, centred rms, peak-to-peak, the Gaussian generator |
-//! | [`vocabulary`] | the diagnosis vocabulary: effect ids and parameter names, spelt once; the one [`Verdict`] |
-//! | [`effect`] | the vocabulary's payload: one typed [`Effect`] per id, in the contract's JSON shape |
+//! | `vocabulary` | the diagnosis vocabulary: effect ids and parameter names, spelt once; the one [`Verdict`] |
+//! | `effect` | the vocabulary's payload: one typed [`Effect`] per id, in the contract's JSON shape |
 //! | `optim` | L-BFGS and golden-section minimisers |
 //! | `consts` | physical constants used in more than one stage (the HeNe wavelength) |
 //! | `limits` | the physical ranges every reader checks its numbers against |
@@ -16,17 +16,17 @@
 
 mod axis;
 mod consts;
-pub mod effect;
+mod effect;
 mod error;
 mod limits;
 mod optim;
 mod rotary;
 mod stats;
-pub mod vocabulary;
+mod vocabulary;
 
 pub use axis::{Axis, Direction};
 pub use consts::HENE_WAVELENGTH_UM;
-pub use effect::{Drift, Effect, ParamValue};
+pub use effect::{Drift, Effect, EffectParamError, ParamValue, Params, ParamsMap};
 pub use error::{ConfigError, FileError, FileOp, Location, io_err, parse_error, read_toml};
 pub use limits::{
     Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, MPE_K_MM_PER_UM, OutOfBound, POSITION_MM,
@@ -35,4 +35,4 @@ pub use limits::{
 pub use optim::{golden, lbfgs};
 pub use rotary::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, ParseRotaryAxisError, RotaryAxis};
 pub use stats::{centred_rms, gaussian, median, peak_to_peak, rms};
-pub use vocabulary::{EffectId, ParamName, Verdict};
+pub use vocabulary::{EffectId, ParamName, UnknownEffect, Verdict};

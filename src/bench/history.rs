@@ -14,7 +14,7 @@ use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
 use crate::base::{gaussian, median};
-use crate::history::tolerance::Tolerances;
+use crate::history::Tolerances;
 use crate::history::{
     self, Content, HistoryError, Ledger, LineStat, MachineId, NewRecord, ReportConfig, Role, Run,
     SourceFile, State,
@@ -96,7 +96,7 @@ fn reset_peak() -> bool {
 pub fn run(ledger_spec: &str, machines: usize, tests: usize) -> Result<HistoryBench, HistoryError> {
     let mut ledger = Ledger::open(ledger_spec, true)?;
     let mut rng = StdRng::seed_from_u64(2027);
-    let t0 = crate::history::time::parse_utc("2016-01-04").unwrap_or(0);
+    let t0 = crate::history::parse_utc("2016-01-04").unwrap_or(0);
     let month = 30 * 86_400;
     let mut serial: u64 = 0;
     let start = Instant::now();

@@ -39,7 +39,10 @@ pub enum CircularError {
     TooManySamples { samples: f64, max: usize },
     /// The volumetric model of the link could not be read or could not predict.
     #[error("{path}: {problem}")]
-    Link { path: PathBuf, problem: String },
+    Link {
+        path: PathBuf,
+        problem: super::link::LinkProblem,
+    },
 }
 
 /// A TOML key that is missing or has an invalid value (the shared [`ConfigError`] shape).

@@ -25,14 +25,14 @@ use crate::table::{Cells, column_cells, optional_column_cells, parse_cell, read_
 /// the diagnosis costs about 40 µs a sample in the test profile (docs/circular-test.md).
 pub const MAX_SAMPLES: usize = 500_000;
 /// The largest nominal radius, mm: longer than any ballbar with its extensions.
-pub const MAX_RADIUS_MM: f64 = 2000.0;
+pub(crate) const MAX_RADIUS_MM: f64 = 2000.0;
 /// The fastest contouring feed, mm/min (2 m/s).
-pub const MAX_FEED_MM_PER_MIN: f64 = 120_000.0;
+pub(crate) const MAX_FEED_MM_PER_MIN: f64 = 120_000.0;
 /// The highest sample rate, Hz.
-pub const MAX_SAMPLE_RATE_HZ: f64 = 10_000.0;
+pub(crate) const MAX_SAMPLE_RATE_HZ: f64 = 10_000.0;
 /// The largest radial deviation a trace may hold, µm: ten times a ballbar's measuring
 /// range of about a millimetre.
-pub const MAX_DR_UM: f64 = 10_000.0;
+pub(crate) const MAX_DR_UM: f64 = 10_000.0;
 
 /// The plane of a test: its first axis A lies at angle 0, its second B at +90°.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

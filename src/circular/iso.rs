@@ -67,7 +67,7 @@ pub fn nominal_samples(run: &Run, meta: &TestMeta) -> Vec<(f64, f64)> {
 }
 
 /// The least-squares circle of samples (θ rad, dr µm) on a nominal radius R (mm).
-pub fn lsc(samples: &[(f64, f64)], radius_mm: f64) -> Lsc {
+pub(crate) fn lsc(samples: &[(f64, f64)], radius_mm: f64) -> Lsc {
     let pts: Vec<[f64; 2]> = samples
         .iter()
         .map(|&(th, dr)| {
@@ -138,7 +138,7 @@ fn interpolate(sorted: &[(f64, f64)], theta: f64) -> Option<f64> {
 }
 
 /// H: max |dr_ccw − dr_cw| at every nominal sample of each run, the other interpolated.
-pub fn hysteresis_um(ccw: &[(f64, f64)], cw: &[(f64, f64)]) -> f64 {
+pub(crate) fn hysteresis_um(ccw: &[(f64, f64)], cw: &[(f64, f64)]) -> f64 {
     let mut sorted_cw = cw.to_vec();
     sorted_cw.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut sorted_ccw = ccw.to_vec();
@@ -185,7 +185,7 @@ pub fn evaluate(test: &CircularTest) -> Iso230_4 {
 }
 
 /// The LSC the contract's `rms_before_um` is about: one common circle of all runs.
-pub fn common_lsc(test: &CircularTest) -> Lsc {
+pub(crate) fn common_lsc(test: &CircularTest) -> Lsc {
     let all: Vec<(f64, f64)> = test
         .runs
         .iter()

@@ -18,8 +18,9 @@ use super::effects::CircularId;
 use super::error::CircularError;
 use super::input::TestMeta;
 use super::signature::{Geometry, Point, Slot, setup_columns};
+use crate::base::Axis;
 use crate::base::ParamName;
-use crate::volumetric::Predictor;
+use crate::volumetric::{Predictor, Undetermined, VolumetricError};
 
 /// One geometric term: predicted by the volumetric model, measured by the ballbar.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -55,7 +56,7 @@ const TERMS: [(CircularId, Slot, ParamName); 4] = [
 
 /// A point of the circle may lie this far outside an identified model's measured range,
 /// mm (as for a gauge of the predicted ISO 10360-2 test).
-pub const RANGE_TOL_MM: f64 = 1e-3;
+pub(crate) const RANGE_TOL_MM: f64 = 1e-3;
 
 /// The points of the test's circle at angles θ (rad) about `centre_mm`, machine coordinates.
 fn circle_points(meta: &TestMeta, centre_mm: [f64; 3], thetas: &[f64]) -> Vec<[f64; 3]> {
@@ -72,47 +73,69 @@ fn circle_points(meta: &TestMeta, centre_mm: [f64; 3], thetas: &[f64]) -> Vec<[f
         .collect()
 }
 
+/// Why the link could not be made from a volumetric model (the file is named by
+/// [`CircularError::Link`]).
+#[derive(Debug, thiserror::Error)]
+pub enum LinkProblem {
+    /// The model file could not be read.
+    #[error(transparent)]
+    Model(VolumetricError),
+    /// The test's circle leaves the identified model's measured range.
+    #[error(
+        "the test's circle reaches ({}, {}, {}) mm, outside the model's measured range \
+         of {axis} [{}, {}] mm: a prediction there is an extrapolation (move centre_mm or \
+         measure the volume the circle covers)",
+        .point_mm[0], .point_mm[1], .point_mm[2], .range_mm[0], .range_mm[1]
+    )]
+    OutOfRange {
+        point_mm: [f64; 3],
+        axis: Axis,
+        range_mm: [f64; 2],
+    },
+    /// The identified model cannot give the error vector.
+    #[error(transparent)]
+    Undetermined(Undetermined),
+    /// The setup terms could not be solved for.
+    #[error("{0}")]
+    Solve(&'static str),
+}
+
 /// Refuses a circle that leaves an identified model's measured range (a prediction there
 /// is an extrapolation its σ does not cover); a machine model holds everywhere.
-fn check_in_range(predictor: &Predictor, pts: &[[f64; 3]]) -> Result<(), String> {
+fn check_in_range(predictor: &Predictor, pts: &[[f64; 3]]) -> Result<(), LinkProblem> {
     let Predictor::Fit(fit) = predictor else {
         return Ok(());
     };
     let range = fit.basis.range_mm;
     for p in pts {
-        if let Some(k) =
-            (0..3).find(|&k| p[k] < range[k][0] - RANGE_TOL_MM || p[k] > range[k][1] + RANGE_TOL_MM)
-        {
-            return Err(format!(
-                "the test's circle reaches ({}, {}, {}) mm, outside the model's measured range \
-                 of {} [{}, {}] mm: a prediction there is an extrapolation (move centre_mm or \
-                 measure the volume the circle covers)",
-                p[0],
-                p[1],
-                p[2],
-                ["x", "y", "z"][k],
-                range[k][0],
-                range[k][1]
-            ));
+        if let Some(axis) = Axis::ALL.into_iter().find(|a| {
+            let k = a.index();
+            p[k] < range[k][0] - RANGE_TOL_MM || p[k] > range[k][1] + RANGE_TOL_MM
+        }) {
+            return Err(LinkProblem::OutOfRange {
+                point_mm: *p,
+                axis,
+                range_mm: range[axis.index()],
+            });
         }
     }
     Ok(())
 }
 
 /// The predicted radial trace at angles θ (rad) of the test's circle.
-pub fn predicted_trace(
+pub(crate) fn predicted_trace(
     predictor: &Predictor,
     meta: &TestMeta,
     centre_mm: [f64; 3],
     thetas: &[f64],
-) -> Result<Vec<f64>, String> {
+) -> Result<Vec<f64>, LinkProblem> {
     let (a, b) = meta.plane.axes();
     let (ia, ib) = (a.index(), b.index());
     let pts = circle_points(meta, centre_mm, thetas);
     check_in_range(predictor, &pts)?;
     let e = predictor
         .predict_grid(&pts, [0.0; 3])
-        .map_err(|e| e.to_string())?;
+        .map_err(LinkProblem::Undetermined)?;
     Ok(thetas
         .iter()
         .zip(&e)
@@ -127,11 +150,11 @@ pub fn link(
     centre_mm: [f64; 3],
     diagnosis: &CircularDiagnosis,
 ) -> Result<Link, CircularError> {
-    let err = |problem: String| CircularError::Link {
+    let err = |problem: LinkProblem| CircularError::Link {
         path: path.to_path_buf(),
         problem,
     };
-    let predictor = Predictor::read(path).map_err(|e| err(e.to_string()))?;
+    let predictor = Predictor::read(path).map_err(|e| err(LinkProblem::Model(e)))?;
     let (lo, _) = meta.arc_deg_range();
     let thetas: Vec<f64> = (0..=720)
         .map(|k| (lo + meta.arc_deg * k as f64 / 720.0).to_radians())
@@ -164,7 +187,7 @@ pub fn link(
         .clone()
         .svd(true, true)
         .solve(&atb, 1e-12)
-        .map_err(|e| err(e.to_string()))?;
+        .map_err(|e| err(LinkProblem::Solve(e)))?;
     let mut resid = dr.clone();
     for (c, col) in coef.iter().take(3).zip(&cols) {
         for (r, v) in resid.iter_mut().zip(col) {

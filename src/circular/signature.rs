@@ -160,7 +160,7 @@ fn interp(xs: &[f64], y: &[f64], x: f64, s: f64) -> f64 {
 }
 
 /// The setup terms' columns at a point: 1, cos θ, sin θ.
-pub fn setup_columns(p: &Point) -> [f64; 3] {
+pub(crate) fn setup_columns(p: &Point) -> [f64; 3] {
     [1.0, p.cos_theta, p.sin_theta]
 }
 

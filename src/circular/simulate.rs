@@ -142,12 +142,12 @@ impl MachineModel {
 }
 
 /// The sample rate the simulator takes when the model gives none, Hz.
-pub const DEFAULT_SAMPLE_RATE_HZ: f64 = 200.0;
+pub(crate) const DEFAULT_SAMPLE_RATE_HZ: f64 = 200.0;
 
 /// The samples one simulated run has: the nominal arc and both overshoots at the
 /// model's feed and sample rate (a float, so that an absurd count is seen before any
 /// allocation).
-pub fn samples_per_run(meta: &TestMeta) -> f64 {
+pub(crate) fn samples_per_run(meta: &TestMeta) -> f64 {
     let omega = meta.omega_rad_per_s();
     let fs = meta.sample_rate_hz.unwrap_or(DEFAULT_SAMPLE_RATE_HZ);
     let (lo, hi) = sim_arc_rad(meta);
@@ -255,7 +255,7 @@ fn bar_reading(model: &MachineModel, theta: f64, s: f64, t: f64, start: f64) -> 
 
 /// The largest centring offset, bar error and noise a simulated setup may have, µm: a
 /// ballbar reads about a millimetre either side of its length.
-pub const MAX_SETUP_UM: f64 = 1000.0;
+pub(crate) const MAX_SETUP_UM: f64 = 1000.0;
 
 /// Refuses a setup term that is not finite or outside ±[`MAX_SETUP_UM`] (the noise's σ
 /// also negative), by its key.

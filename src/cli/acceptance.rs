@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Subcommand};
-use errmap::acceptance::iso10360::{self, TestConfig};
-use errmap::acceptance::predicted::{self, Model, VirtualConfig, VirtualPlan};
-use errmap::acceptance::tolerance::Tolerances;
-use errmap::acceptance::{DecisionRule, Mpe, Rule, decide};
+use errmap::acceptance::{
+    self, DecisionRule, Mpe, Rule, TestConfig, Tolerances, VirtualConfig, VirtualModel as Model,
+    VirtualPlan,
+};
 
 /// `--rule`: a rule name from the library's list.
 pub(crate) fn rule() -> impl TypedValueParser<Value = Rule> {
@@ -139,7 +139,7 @@ pub(crate) struct VirtualArgs {
     #[arg(long)]
     pub compensated: bool,
     /// Positions per axis of that table (as `volumetric export --points`).
-    #[arg(long, default_value_t = predicted::TABLE_POINTS, value_parser = super::values::at_least_two)]
+    #[arg(long, default_value_t = acceptance::VIRTUAL_TABLE_POINTS, value_parser = super::values::at_least_two)]
     pub table_points: usize,
     /// Write report.md, measurements.csv and the chart here.
     #[arg(long)]
@@ -162,7 +162,7 @@ pub(crate) fn acceptance_cmd(a: AcceptanceArgs) -> Result<()> {
 
 fn decide_cmd(a: DecideArgs) -> Result<()> {
     let rule = a.rule.resolve(None)?;
-    let r = decide::decide_file(&a.values, &rule)?;
+    let r = acceptance::decide_file(&a.values, &rule)?;
     if a.json {
         super::guard::print_json(&r)?;
     } else {
@@ -231,7 +231,7 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
         super::guard::refuse_aliases(&[("--report", dir)], &[("TEST", &a.test)])?;
     }
     let config = length_config(&a.length, &a.rule)?;
-    let r = iso10360::evaluate_file(&a.test, &config)?;
+    let r = acceptance::evaluate_file(&a.test, &config)?;
     if let Some(dir) = &a.report {
         let source = a.test.display().to_string();
         super::guard::into_new_dir(dir, |d| {
@@ -285,7 +285,7 @@ pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
         rule,
         compensated: a.compensated.then_some(a.table_points),
     };
-    let t = predicted::predict(&a.model, &model, &plan, &config)?;
+    let t = acceptance::predict(&a.model, &model, &plan, &config)?;
     for w in &t.warnings {
         eprintln!("volumetric iso10360: warning: {w}");
     }

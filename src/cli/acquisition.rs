@@ -371,7 +371,7 @@ pub(crate) fn reduce_session(
     outputs.extend(report.map(|r| ("--report", r)));
     super::guard::refuse_aliases(&outputs, &inputs)?;
     let info = match info_file {
-        Some(p) => errmap::report::certificate::info::CertificateInfo::read(p)?,
+        Some(p) => errmap::report::certificate::CertificateInfo::read(p)?,
         None => Default::default(),
     };
     if let Some(dir) = report.filter(|d| d.exists() && !d.is_dir()) {

@@ -1,13 +1,13 @@
 //! `errmap certificate SESSION [--info INFO.toml] --out certificate.pdf`: the calibration
 //! certificate of a session. Glue only: the statistics are `errmap::session`'s, the budget
-//! `errmap::session::uncertainty`'s, the PDF `errmap::report::certificate`'s.
+//! `errmap::session::Budget`'s, the PDF `errmap::report::certificate`'s.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use errmap::report::certificate::{self, CertificateData, LineResult, info::CertificateInfo};
-use errmap::session::{self, uncertainty};
+use errmap::report::certificate::{self, CertificateData, CertificateInfo, LineResult};
+use errmap::session;
 
 use super::acquisition::session_file;
 
@@ -61,20 +61,19 @@ pub(crate) fn certificate_cmd(a: CertificateArgs) -> Result<()> {
             path.display()
         );
     }
-    let sources = uncertainty::BudgetSources::choose(
+    let sources = session::BudgetSources::choose(
         errmap::acquire::device_resolutions(&path),
         info.laser.resolution_um,
-        &uncertainty::RecordedResolution::of(&rows),
+        &session::RecordedResolution::of(&rows),
         &info.drift_check,
-        &uncertainty::DriftFinder::of(&rows),
+        &session::DriftFinder::of(&rows),
         &info.conditions,
     );
     let environment = session::EnvironmentStats::of(&rows);
     let budgets = iso
         .iter()
         .map(|(_, s)| {
-            uncertainty::line_budget_with(&info.uncertainty, &environment, s, &sources)
-                .map(|(b, _)| b)
+            session::line_budget_with(&info.uncertainty, &environment, s, &sources).map(|(b, _)| b)
         })
         .collect::<Result<Vec<_>, _>>()?;
     let axis = summary.axis.clone().unwrap_or_default();

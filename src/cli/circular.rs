@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 
-use errmap::circular::simulate::{MachineModel, simulate, write_test};
-use errmap::circular::{DiagnoseConfig, diagnose, link::link, read_test};
+use errmap::circular::{DiagnoseConfig, diagnose, link, read_test};
+use errmap::circular::{MachineModel, simulate, write_test};
 
 #[derive(Debug, Args)]
 pub(crate) struct CircularArgs {
@@ -60,7 +60,7 @@ pub(crate) fn circular_cmd(a: CircularArgs) -> Result<()> {
 }
 
 fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
-    let meta = errmap::circular::input::meta_path(&a.trace);
+    let meta = errmap::circular::meta_path(&a.trace);
     let mut inputs: Vec<(&str, &Path)> = vec![("TRACE", &a.trace), ("the trace's TOML", &meta)];
     inputs.extend(a.model.as_deref().map(|m| ("--model", m)));
     super::guard::refuse_aliases(&[("--report", &a.report)], &inputs)?;
@@ -73,7 +73,7 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
     if let Some(model) = &a.model {
         let centre = test.meta.centre_mm.ok_or_else(|| {
             errmap::base::ConfigError::key(
-                &errmap::circular::input::meta_path(&a.trace),
+                &errmap::circular::meta_path(&a.trace),
                 "centre_mm",
                 "missing; --model needs the test centre in machine coordinates",
             )
@@ -102,7 +102,7 @@ fn diagnose_cmd(a: DiagnoseArgs) -> Result<()> {
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     // The trace's TOML is written beside it: an output as much as --out is.
-    let meta = errmap::circular::input::meta_path(&a.out);
+    let meta = errmap::circular::meta_path(&a.out);
     super::guard::refuse_aliases(
         &[("--out", &a.out), ("the TOML beside --out", &meta)],
         &[("--model", &a.model)],
@@ -113,7 +113,7 @@ fn simulate_cmd(a: SimulateArgs) -> Result<()> {
     eprintln!(
         "wrote {} and {}",
         a.out.display(),
-        errmap::circular::input::meta_path(&a.out).display()
+        errmap::circular::meta_path(&a.out).display()
     );
     Ok(())
 }

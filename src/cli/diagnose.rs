@@ -139,7 +139,7 @@ pub(crate) fn print_summary(d: &Diagnosis, report: &Path) -> Result<()> {
         eprintln!(
             "  {}: {} — {}",
             e.id(),
-            serde_json::to_string(&errmap::base::effect::ParamsMap(&e.effect))?,
+            serde_json::to_string(&errmap::base::ParamsMap(&e.effect))?,
             e.where_
         );
     }

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
-use errmap::history::tolerance::Tolerances;
 use errmap::history::{
     self, DEFAULT_HORIZON_DAYS, Ledger, MachineId, NewRecord, ReportConfig, Run, State, Supersede,
-    time,
+    Tolerances,
 };
 
 use super::guard;
@@ -38,7 +37,7 @@ fn machine(s: &str) -> Result<MachineId, String> {
 }
 
 fn utc(s: &str) -> Result<i64, String> {
-    time::parse_utc(s).map_err(|e| e.to_string())
+    history::parse_utc(s).map_err(|e| e.to_string())
 }
 
 fn state(s: &str) -> Result<State, String> {
@@ -133,7 +132,7 @@ fn add(a: AddArgs) -> Result<()> {
         machine: a.machine,
         site: a.site,
         state: a.state,
-        at: a.at.unwrap_or_else(time::now_utc),
+        at: a.at.unwrap_or_else(history::now_utc),
         supersede: a
             .supersede
             .zip(a.reason)
@@ -371,7 +370,7 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
                 machine: machine.clone(),
                 site: Some("demo".into()),
                 state: State::AsFound,
-                at: time::now_utc(),
+                at: history::now_utc(),
                 supersede: None,
                 content: ingested.content,
                 sources: ingested.sources,
@@ -408,4 +407,25 @@ pub(crate) fn demo_step(out: &Path, session_dir: &Path, model: Option<&Path>) ->
         report_dir.join("report.md").display()
     );
     Ok(())
+}
+
+/// A ledger error in the command line's words: the flag that names the record or the
+/// machine, or that would amend the record (`None`: the library's words stand).
+pub(crate) fn in_flags(e: &history::HistoryError) -> Option<String> {
+    use history::HistoryError as E;
+    Some(match e {
+        E::Duplicate { record, .. } => {
+            format!("{e} (to amend that record: --supersede {record} --reason TEXT)")
+        }
+        E::NoSuchRecord { ledger, record } => {
+            format!("{ledger}: --supersede {record}: there is no record {record}")
+        }
+        E::NotCurrent { ledger, record, by } => format!(
+            "{ledger}: --supersede {record}: record {record} is not current (record {by} supersedes it)"
+        ),
+        E::UnknownMachine { ledger, machine } => {
+            format!("--machine {machine}: no current record of this machine in {ledger}")
+        }
+        _ => return None,
+    })
 }

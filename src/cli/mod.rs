@@ -47,9 +47,31 @@ pub(crate) mod workbench;
 
 use args::*;
 
+/// The map at the foot of `errmap --help`: every stage of the library (`src/lib.rs`), in
+/// pipeline order, with the commands that run it.
+const STAGES: &str = "\
+Stages of the pipeline and the commands that run them:
+  acquire      capture, replay, serve-sim, ports: board bytes into a session
+  session      table: session tables, error tables, ISO 230-2 / VDI 3441 numbers
+  table        the error tables every model is fitted to
+  interp       fit: models of the error field
+  evaluate     compare, fuzzy-sim: cross-validation and comparison of models
+  diagnose     diagnose: the named effects a simulation left out of a recording
+  sim          simulate, plan: the machine simulator and test plans
+  export       export: a model sampled along a line or over a volume
+  controller   export, import: controller tables written, read back, updated
+  import       import: laser exports, spreadsheets and controller tables in
+  volumetric   volumetric: the 21 geometric errors from laser line measurements
+  circular     circular: ballbar tests (ISO 230-4)
+  history      history: the calibration ledger of a fleet
+  acceptance   acceptance: decisions of conformity, ISO 10360-2 and 10360-5
+  report       certificate, and every --report: words, tables and figures
+  bench        bench: throughput of the models and the decoder
+docs/cli.md describes every command and flag.";
+
 /// Measure and model the volumetric error of coordinate measuring machines.
 #[derive(Debug, Parser)]
-#[command(name = "errmap", version, about)]
+#[command(name = "errmap", version, about, after_help = STAGES)]
 pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -164,6 +186,16 @@ fn message(e: &anyhow::Error) -> String {
 fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
     if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
         return format!("{cause}; choose another --out");
+    }
+    if let Some(e) = cause.downcast_ref::<errmap::acceptance::AcceptanceError>()
+        && let Some(text) = probing::in_flags(e)
+    {
+        return text;
+    }
+    if let Some(e) = cause.downcast_ref::<errmap::history::HistoryError>()
+        && let Some(text) = history::in_flags(e)
+    {
+        return text;
     }
     if let Some(errmap::volumetric::VolumetricError::NoFit { .. }) = cause.downcast_ref() {
         return format!(

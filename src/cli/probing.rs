@@ -1,15 +1,14 @@
 //! `errmap acceptance iso10360-5` and `errmap acceptance cmm-certificate`: flags,
 //! validation into library configuration, and glue. The work is in
-//! `errmap::acceptance::{probing, cmm}`, the reports in `errmap::report::probing` and
-//! `errmap::report::certificate::cmm`.
+//! `errmap::acceptance::{probing, CmmCertificate}`, the reports by
+//! `errmap::report::write_probing_report` and `errmap::report::certificate::write_cmm`.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use errmap::acceptance::cmm::CmmCertificate;
-use errmap::acceptance::iso10360;
-use errmap::acceptance::probing::{self, PerQuantity, ProbingOptions, ProbingResult, simulate};
+use errmap::acceptance::probing::{self, PerQuantity, ProbingOptions, ProbingResult};
+use errmap::acceptance::{self, CmmCertificate};
 
 use super::acceptance::{LengthArgs, RuleArgs, length_config};
 
@@ -96,7 +95,7 @@ pub(crate) fn probing_cmd(a: ProbingArgs) -> Result<()> {
             a.sphere.display().to_string(),
         );
         super::guard::into_new_dir(dir, |d| {
-            errmap::report::probing::write_probing_report(d, &p, &s, &r).map_err(Into::into)
+            errmap::report::write_probing_report(d, &p, &s, &r).map_err(Into::into)
         })?;
         eprintln!("acceptance iso10360-5: report in {}", dir.display());
     }
@@ -152,7 +151,7 @@ pub(crate) fn cmm_certificate_cmd(a: CmmCertificateArgs) -> Result<()> {
         ],
     )?;
     let config = length_config(&a.length_args, &a.rule)?;
-    let length = iso10360::evaluate_file(&a.length, &config)?;
+    let length = acceptance::evaluate_file(&a.length, &config)?;
     let probing = probing::evaluate_files(&a.probing, &a.sphere, &a.mpe.options(&a.rule))?;
     let cert = CmmCertificate::new(
         a.cmm.clone(),
@@ -161,12 +160,12 @@ pub(crate) fn cmm_certificate_cmd(a: CmmCertificateArgs) -> Result<()> {
         length,
         probing,
     );
-    let sources = errmap::report::certificate::cmm::Sources {
+    let sources = errmap::report::certificate::CmmSources {
         length: a.length.display().to_string(),
         probing: a.probing.display().to_string(),
         sphere: a.sphere.display().to_string(),
     };
-    errmap::report::certificate::cmm::write(&a.out, &cert, &sources)?;
+    errmap::report::certificate::write_cmm(&a.out, &cert, &sources)?;
     if a.json {
         super::guard::print_json(&cert)?;
     }
@@ -189,14 +188,41 @@ pub(crate) struct SimulateArgs {
 
 /// Writes the simulator's example test (`datasets/acceptance/probing-example.csv`).
 pub(crate) fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    let points = simulate::simulate(&simulate::example());
-    super::guard::write_file(&a.out, simulate::to_csv(&points).as_bytes())?;
+    let points = probing::simulate(&probing::example());
+    super::guard::write_file(&a.out, probing::to_csv(&points).as_bytes())?;
     eprintln!(
         "acceptance simulate-probing: {} points in {}",
         points.len(),
         a.out.display()
     );
     Ok(())
+}
+
+/// A probing setting's error in the command line's words: the flag that sets it.
+pub(crate) fn in_flags(e: &errmap::acceptance::AcceptanceError) -> Option<String> {
+    use errmap::acceptance::{AcceptanceError, ProbingSetting as S, SettingProblem as P};
+    let AcceptanceError::Setting {
+        path,
+        setting,
+        problem,
+    } = e
+    else {
+        return None;
+    };
+    let flag = match setting {
+        S::MpeForm => "--mpe-form",
+        S::MpeSize => "--mpe-size",
+        S::MpeLocation => "--mpe-location",
+        S::GuardFraction => "--guard-fraction",
+    };
+    let path = path.display();
+    Some(match problem {
+        P::Missing => {
+            let key = setting.key();
+            format!("{path}: {key}: missing: give {flag} or `{key}` in [mpe]")
+        }
+        P::NotPositive(_) | P::Fraction(_) => format!("{path}: {flag}: {problem}"),
+    })
 }
 
 /// The demo's CMM verification: the ISO 10360-2 example and the simulated ISO 10360-5
@@ -216,9 +242,9 @@ pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
         &length_file,
         include_bytes!("../../datasets/acceptance/iso10360-example.csv"),
     )?;
-    let points = simulate::simulate(&simulate::example());
-    super::guard::write_file(&points_file, simulate::to_csv(&points).as_bytes())?;
-    super::guard::write_file(&sphere_file, simulate::EXAMPLE_SPHERE.as_bytes())?;
+    let points = probing::simulate(&probing::example());
+    super::guard::write_file(&points_file, probing::to_csv(&points).as_bytes())?;
+    super::guard::write_file(&sphere_file, probing::EXAMPLE_SPHERE.as_bytes())?;
     let length_args = LengthArgs {
         mpe: "1.5+L/333".into(),
         u_um: Some("0.3+L/2000".into()),
@@ -231,7 +257,7 @@ pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
         guard_fraction: None,
     };
     let config = length_config(&length_args, &rule)?;
-    let length = iso10360::evaluate_file(&length_file, &config)?;
+    let length = acceptance::evaluate_file(&length_file, &config)?;
     let length_report = dir.join("iso10360");
     let source = length_file.display().to_string();
     super::guard::into_new_dir(&length_report, |d| {
@@ -244,7 +270,7 @@ pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
         sphere_file.display().to_string(),
     );
     super::guard::into_new_dir(&probing_report, |d| {
-        errmap::report::probing::write_probing_report(d, &p, &s, &probing).map_err(Into::into)
+        errmap::report::write_probing_report(d, &p, &s, &probing).map_err(Into::into)
     })?;
     eprintln!("  ISO 10360-5: {}", summary(&probing));
     let cert = CmmCertificate::new(
@@ -255,12 +281,12 @@ pub(crate) fn demo_step(out: &std::path::Path) -> Result<CmmCertificate> {
         probing,
     );
     let pdf = dir.join("cmm-certificate.pdf");
-    let sources = errmap::report::certificate::cmm::Sources {
+    let sources = errmap::report::certificate::CmmSources {
         length: "iso10360-example.csv".into(),
         probing: "probing-example.csv".into(),
         sphere: "probing-sphere.toml".into(),
     };
-    errmap::report::certificate::cmm::write(&pdf, &cert, &sources)?;
+    errmap::report::certificate::write_cmm(&pdf, &cert, &sources)?;
     eprintln!(
         "  ISO 10360-2 {}, ISO 10360-5 {}: {}; certificate → {}",
         cert.iso10360_2.verdict,
@@ -284,7 +310,7 @@ mod tests {
         let cert = demo_step(dir.path())?;
         assert_eq!(
             serde_json::to_value(&cert.iso10360_5)?,
-            serde_json::to_value(simulate::evaluate_example()?)?
+            serde_json::to_value(probing::evaluate_example()?)?
         );
         assert_eq!(cert.iso10360_2.verdict.to_string(), "indeterminate");
         assert_eq!(cert.verdict.to_string(), "indeterminate");

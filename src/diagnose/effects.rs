@@ -20,7 +20,7 @@
 //! [`separation_advice`] names the measurement that would tell two effects apart when these
 //! data cannot.
 
-use crate::base::vocabulary::{EffectId, ParamName, ParamName as P};
+use crate::base::{EffectId, ParamName, ParamName as P};
 use std::f64::consts::{PI, TAU};
 
 use super::data::Obs;

@@ -68,5 +68,5 @@ pub enum DiagnoseError {
     },
     /// A fit's parameters do not make the effect its variant names: a bug of the fit.
     #[error("bug in errmap: {0}; nothing was written")]
-    Effect(#[from] crate::base::effect::EffectParamError),
+    Effect(#[from] crate::base::EffectParamError),
 }

@@ -3,8 +3,8 @@
 //! scores), each found effect's parameters and `where` text, and the per-row series behind
 //! the report's charts.
 
-use crate::base::effect::Effect;
-use crate::base::vocabulary::ParamName as P;
+use crate::base::Effect;
+use crate::base::ParamName as P;
 use std::collections::BTreeMap;
 
 use super::data::{self, Matching};

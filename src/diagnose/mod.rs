@@ -69,7 +69,7 @@
 //! | `locate` | where the residual is significant, which covariates it follows |
 //! | `explain` | the selection's outcome as a [`Diagnosis`]: `where` texts, ambiguities, chart series |
 //! | `words` | numbers and lists in words |
-//! | [`synth`] | seeded synthetic sessions for tests |
+//! | `synth` | seeded synthetic sessions for tests ([`Synth`], [`synthesize`]) |
 
 // Index loops mirror the formulas of the small dense linear algebra (normal equations,
 // triangular solves) and read better than iterator chains there.
@@ -86,7 +86,7 @@ mod outcome;
 pub mod rotary;
 mod select;
 mod spectral;
-pub mod synth;
+mod synth;
 mod words;
 
 use errmap_drivers::SessionRow;
@@ -98,6 +98,11 @@ pub use locate::{Correlation, GroupStat, Locate, SpectralPeak};
 pub use outcome::{
     CandidateScore, Diagnosis, EffectSeries, FoundEffect, NoiseGroup, ReportSeries, SeparatingPlan,
     StaticMapSummary, Verdict,
+};
+
+pub use synth::{
+    Synth, SynthEnv, SynthError, SynthNoise, SynthOutput, SynthPlan, generate as synthesize,
+    truth as synth_truth,
 };
 
 use select::Selector;
@@ -368,7 +373,7 @@ mod non_finite_tests {
     use super::effects::{Kind, Param, Variant};
     use super::select::{FittedTerm, Term};
     use super::*;
-    use crate::base::vocabulary::ParamName;
+    use crate::base::ParamName;
     use std::collections::BTreeMap;
 
     fn term(value: f64, sigma: f64, fitted: bool) -> FittedTerm {

@@ -2,8 +2,8 @@
 //! its [`Verdict`], the [`FoundEffect`]s, and the per-row series behind the report's charts.
 
 use crate::base::Axis;
-use crate::base::effect::{Effect, ParamValue, ParamsMap};
-use crate::base::vocabulary::{EffectId, ParamName};
+use crate::base::{Effect, ParamValue, ParamsMap};
+use crate::base::{EffectId, ParamName};
 use std::collections::BTreeMap;
 
 use serde::Serialize;

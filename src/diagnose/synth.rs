@@ -12,9 +12,9 @@
 //! [`SynthNoise`], what makes real sessions untidy: latch-timing jitter, coloured
 //! (time-correlated) noise and occasional outliers ([`SynthNoise::untidy`]).
 
-use crate::base::effect::{Drift, Effect};
+use crate::base::EffectId;
 use crate::base::gaussian;
-use crate::base::vocabulary::EffectId;
+use crate::base::{Drift, Effect};
 use std::f64::consts::TAU;
 
 use errmap_drivers::{Axis, SessionRow, edlen};

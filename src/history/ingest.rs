@@ -12,7 +12,7 @@ use sha2::{Digest, Sha256};
 use super::HistoryError;
 use crate::base::io_err;
 use crate::base::{ConfigError, FileOp};
-use crate::session::{self, uncertainty};
+use crate::session;
 
 /// The squareness components (a value and a σ, µrad).
 pub const SQUARENESS: [&str; 3] = ["E_C0Y", "E_B0Z", "E_A0Z"];
@@ -261,10 +261,10 @@ pub(super) fn session_content(path: &Path) -> Result<(Content, Vec<String>), His
             "no line with computable ISO 230-2 statistics (every target needs 2 runs in each direction)",
         ));
     }
-    let config = uncertainty::UncertaintyConfig::default();
+    let config = session::UncertaintyConfig::default();
     let mut lines = Vec::with_capacity(iso.len() * PARAMETERS.len());
     for (line, s) in &iso {
-        let u_um = match uncertainty::line_budget_of(&config, &environment, s) {
+        let u_um = match session::line_budget_of(&config, &environment, s) {
             Ok((_, u)) if u.along_travel_um.is_finite() => Some(u.along_travel_um),
             Ok(_) => None,
             Err(e) => {

@@ -8,8 +8,8 @@
 //! | `ingest` | a session's ISO 230-2 statistics or a model's components, and the files' sha256 |
 //! | `stats` | trend, Fieller interval, EWMA chart, moving-range σ, Student t |
 //! | `report` | series, segments, charts, forecasts, advice and the fleet ranking |
-//! | [`tolerance`] | the tolerance file |
-//! | [`time`] | UTC instants as stored |
+//! | `tolerance` | the tolerance file ([`Tolerances`]) |
+//! | `time` | UTC instants as stored ([`parse_utc`], [`format_utc`]) |
 //!
 //! An add is one transaction ([`add`]); a report reads one machine at a time
 //! ([`Run`]), so its memory is bounded by the largest machine, not the ledger.
@@ -20,8 +20,8 @@ mod ingest;
 mod ledger;
 mod report;
 mod stats;
-pub mod time;
-pub mod tolerance;
+mod time;
+mod tolerance;
 
 use crate::base::{ConfigError, FileError};
 
@@ -39,6 +39,8 @@ pub use report::{
     machine_report, report,
 };
 pub use stats::{Trend, t_cdf, t_quantile};
+pub use time::{CLOCK_SKEW_S, TimeError, format_utc, now_utc, parse_utc};
+pub use tolerance::Tolerances;
 
 /// Why a history command failed.
 #[derive(Debug, thiserror::Error)]
@@ -118,19 +120,20 @@ pub enum HistoryError {
     /// The result is already recorded.
     #[error(
         "{ledger}: this result is already in the ledger as record {record} (sha256 {sha256}); \
-         nothing was added (to amend that record: --supersede {record} --reason TEXT)"
+         nothing was added"
     )]
     Duplicate {
         ledger: String,
         record: i64,
         sha256: String,
     },
-    /// `--supersede N` names no record.
-    #[error("{ledger}: --supersede {record}: there is no record {record}")]
+    /// The record to supersede does not exist.
+    #[error("{ledger}: record {record} to supersede: there is no record {record}")]
     NoSuchRecord { ledger: String, record: i64 },
-    /// `--supersede N` names a record already superseded.
+    /// The record to supersede is already superseded.
     #[error(
-        "{ledger}: --supersede {record}: record {record} is not current (record {by} supersedes it)"
+        "{ledger}: record {record} to supersede: record {record} is not current (record {by} \
+         supersedes it)"
     )]
     NotCurrent {
         ledger: String,
@@ -143,8 +146,8 @@ pub enum HistoryError {
     /// A bad input file (the whole file) or a bad key of the tolerance file.
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// `--machine` names no machine of the current records.
-    #[error("--machine {machine}: no current record of this machine in {ledger}")]
+    /// The machine asked for has no current record.
+    #[error("machine {machine}: no current record of this machine in {ledger}")]
     UnknownMachine { ledger: String, machine: String },
 }
 

@@ -4,11 +4,11 @@
 //! H. Hinnant, "chrono-Compatible Low-Level Date Algorithms" (2013).
 
 /// Seconds in a day.
-pub const DAY_S: i64 = 86_400;
+pub(crate) const DAY_S: i64 = 86_400;
 
 /// The earliest test time a ledger takes: 1970-01-01T00:00:00Z (no result errmap reads
 /// is older; a year 0001 is a typing slip, and would bend every trend through it).
-pub const EARLIEST_S: i64 = 0;
+pub(crate) const EARLIEST_S: i64 = 0;
 
 /// How far a test time may lie after the ledger's clock: one day, more than the largest
 /// UTC offset (14 h) so that a local time given as UTC, or a measuring computer whose
@@ -16,7 +16,7 @@ pub const EARLIEST_S: i64 = 0;
 pub const CLOCK_SKEW_S: i64 = DAY_S;
 
 /// The latest test time a ledger takes when its clock reads `now_s`.
-pub fn latest_at(now_s: i64) -> i64 {
+pub(crate) fn latest_at(now_s: i64) -> i64 {
     now_s.saturating_add(CLOCK_SKEW_S)
 }
 
@@ -31,7 +31,7 @@ pub struct TimeError {
 }
 
 /// Days since 1970-01-01 of a proleptic Gregorian date.
-pub fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
+pub(crate) fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
     let y = if m <= 2 { y - 1 } else { y };
     let era = y.div_euclid(400);
     let yoe = y - era * 400;
@@ -42,7 +42,7 @@ pub fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
 }
 
 /// The date (year, month, day) of a day count since 1970-01-01.
-pub fn civil_from_days(z: i64) -> (i64, i64, i64) {
+pub(crate) fn civil_from_days(z: i64) -> (i64, i64, i64) {
     let z = z + 719_468;
     let era = z.div_euclid(146_097);
     let doe = z - era * 146_097;
@@ -141,7 +141,7 @@ pub fn format_utc(t: i64) -> String {
 
 /// The UTC date `YYYY-MM-DD` of a time in seconds (fractional allowed), `None` when it is
 /// not finite or falls outside years 1–9999.
-pub fn format_date(t_s: f64) -> Option<String> {
+pub(crate) fn format_date(t_s: f64) -> Option<String> {
     if !t_s.is_finite() || t_s.abs() > 4e11 {
         return None;
     }

@@ -64,12 +64,13 @@ mod error;
 mod polar;
 mod render;
 mod scale;
-pub mod sphere;
+mod sphere;
 pub use arrows::{Arrow, ArrowMap, LONGEST_SHARE, MAX_ARROWS, SIDE_PX, arrow_map};
 mod text;
 
 pub use error::{DrawFailure, PlotError};
 pub use polar::{PolarChart, PolarTrace, colour, pixel, polar};
+pub use sphere::{MapPanel, MapPoint, SphereMap, size as sphere_size, sphere_map};
 pub use text::register_fonts;
 
 use std::path::{Path, PathBuf};

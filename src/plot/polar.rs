@@ -13,7 +13,7 @@ use plotters::prelude::*;
 
 use super::draw::{PALETTE, de};
 use super::error::{DrawFailure, PlotError};
-use super::render::{whole, with_suffix};
+use super::render::{png_and_svg, whole};
 use super::text::{font, fonts_ready};
 use plotters::style::FontStyle;
 
@@ -96,14 +96,7 @@ pub fn polar(stem: &Path, chart: &PolarChart) -> Result<Vec<PathBuf>, PlotError>
         return Err(PlotError::Empty("traces"));
     }
     fonts_ready()?;
-    let png = with_suffix(stem, ".png");
-    let svg = with_suffix(stem, ".svg");
-    if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| PlotError::CreateDir {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
+    let (png, svg) = png_and_svg(stem)?;
     whole(&png, |p| {
         let root = BitMapBackend::new(p, (SIZE, HEIGHT)).into_drawing_area();
         draw(&root, chart, true)?;

@@ -17,15 +17,15 @@ use super::render::{Figure, figure_pair};
 use super::text::{font, fonts_ready};
 
 /// One panel's side, pixels.
-pub const PANEL_PX: u32 = 400;
+pub(crate) const PANEL_PX: u32 = 400;
 /// The disc's radius at θ = the map's largest angle, pixels.
-pub const DISC_PX: f64 = 150.0;
+pub(crate) const DISC_PX: f64 = 150.0;
 /// The radius of the largest residual's dot, pixels.
-pub const MAX_DOT_PX: f64 = 16.0;
+pub(crate) const MAX_DOT_PX: f64 = 16.0;
 /// Panels per row.
-pub const COLUMNS: usize = 3;
+pub(crate) const COLUMNS: usize = 3;
 /// At most this many panels (a bound on the image size).
-pub const MAX_PANELS: usize = 24;
+pub(crate) const MAX_PANELS: usize = 24;
 
 const OUTSIDE: RGBColor = RGBColor(0xd6, 0x27, 0x28);
 const INSIDE: RGBColor = RGBColor(0x1f, 0x77, 0xb4);
@@ -69,7 +69,7 @@ pub fn size(panels: usize, notes: usize) -> (u32, u32) {
 }
 
 /// The narrowest image, pixels (room for the title, the notes and the key).
-pub const MIN_WIDTH_PX: u32 = 680;
+pub(crate) const MIN_WIDTH_PX: u32 = 680;
 
 fn columns(panels: usize) -> u32 {
     panels.clamp(1, COLUMNS) as u32
@@ -90,7 +90,7 @@ fn theta_max(p: &MapPanel) -> f64 {
 }
 
 /// The pixel of (θ, φ) in panel `k`: φ = 0 to the right, 90° up.
-pub fn pixel(map: &SphereMap, k: usize, theta_deg: f64, phi_deg: f64) -> (i32, i32) {
+pub(crate) fn pixel(map: &SphereMap, k: usize, theta_deg: f64, phi_deg: f64) -> (i32, i32) {
     let (cx, cy) = centre(map, k);
     let rho = DISC_PX * theta_deg / theta_max(&map.panels[k]);
     let p = phi_deg.to_radians();
@@ -113,7 +113,7 @@ fn centre(map: &SphereMap, k: usize) -> (f64, f64) {
 }
 
 /// The largest |r| over all panels, µm (the magnification's reference).
-pub fn max_abs_um(map: &SphereMap) -> f64 {
+pub(crate) fn max_abs_um(map: &SphereMap) -> f64 {
     map.panels
         .iter()
         .flat_map(|p| p.points.iter().map(|q| q.r_um.abs()))

@@ -9,9 +9,9 @@ use polars::prelude::*;
 
 use super::ReportError;
 use super::md::Md;
-use crate::acceptance::iso10360::TestResult;
-use crate::acceptance::predicted::{VirtualMeasurement, VirtualTest};
+use crate::acceptance::TestResult;
 use crate::acceptance::{DecisionRule, Mpe, Rule};
+use crate::acceptance::{VirtualMeasurement, VirtualTest};
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::plot::{self, XySeries, XyStyle};

@@ -8,30 +8,34 @@
 //! layout with the VDI/DGQ 3441 values and the deviation chart, the uncertainty budget with
 //! the source of every contribution, the statement of conformity, the signatures.
 //!
-//! The page layout ([`layout`]) is shared with other certificates. Rendering is
-//! self-contained ([`pdf`]): DejaVu Sans is embedded, the chart is drawn as vector
+//! The page layout ([`Sheet`]) is shared with other certificates. Rendering is
+//! self-contained (`pdf.rs`): DejaVu Sans is embedded, the chart is drawn as vector
 //! graphics. Deviations and uncertainties are printed to one number of decimals over the
 //! whole certificate ([`certificate_decimals`]).
 
 mod chart;
-pub mod cmm;
-pub mod conformity;
-pub mod info;
-pub mod layout;
-pub mod pdf;
+mod cmm;
+mod conformity;
+mod info;
+mod layout;
+mod pdf;
+
+pub use self::cmm::{Sources as CmmSources, render as render_cmm, write as write_cmm};
+pub use self::info::{CertificateInfo, Controller, InfoError, Instrument, Laser, Sensors};
+pub use self::layout::{Align, Decimals, Sheet, fixed, zone_words};
+pub use self::pdf::PdfError;
 
 use std::path::Path;
 
 use errmap_drivers::SessionRow;
 
-use self::info::{CertificateInfo, Instrument};
-use self::layout::{Align, BODY, Decimals, Sheet, fixed, second_digit_place};
-use self::pdf::{PdfError, Weight};
-use super::iso230::decimals;
+use self::layout::{BODY, second_digit_place};
+use self::pdf::Weight;
+use super::iso230::{decimals, target_values};
 use super::uncertainty::{STANDARDS_NOTE, budget_rows, conditions_text, not_evaluated_text};
-use crate::acceptance::tolerance::Conformity;
-use crate::session::uncertainty::{Budget, Origin};
+use crate::acceptance::Conformity;
 use crate::session::{AxisStats, TargetStats};
+use crate::session::{Budget, Origin};
 
 /// Smallest type a table is set in.
 pub use self::layout::MIN_SIZE;
@@ -146,18 +150,10 @@ pub fn target_rows(stats: &AxisStats, d: usize) -> Vec<Vec<String>> {
         .targets
         .iter()
         .map(|t: &TargetStats| {
-            vec![
-                t.target.to_string(),
-                mm(t.position_mm),
-                f(t.mean_up_um),
-                f(t.mean_down_um),
-                f(t.reversal_um),
-                f(2.0 * t.s_up_um),
-                f(2.0 * t.s_down_um),
-                f(t.repeat_up_um),
-                f(t.repeat_down_um),
-                f(t.repeat_bidir_um),
-            ]
+            [t.target.to_string(), mm(t.position_mm)]
+                .into_iter()
+                .chain(target_values(t, &f))
+                .collect()
         })
         .collect()
 }

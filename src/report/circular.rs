@@ -10,7 +10,7 @@ use std::path::Path;
 use super::ReportError;
 use crate::base::FileOp;
 use crate::base::io_err;
-use crate::circular::iso::nominal_samples;
+use crate::circular::nominal_samples;
 use crate::circular::{CircularDiagnosis, CircularTest, Sense};
 use crate::plot::{PolarChart, PolarTrace, polar};
 
@@ -220,7 +220,7 @@ fn cannot_separate(md: &mut Md, d: &CircularDiagnosis) {
 }
 
 /// The circle a volumetric model implies, term by term against the ballbar's.
-fn against_model(md: &mut Md, link: &crate::circular::link::Link) {
+fn against_model(md: &mut Md, link: &crate::circular::Link) {
     md.nl()
         .heading(
             2,

@@ -67,11 +67,17 @@ pub fn write_report(
     environment: Option<&str>,
 ) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(dir).map_err(io_err(dir, FileOp::Write))?;
-    let mut files: Vec<PathBuf> = Vec::new();
-    let mut figs: Vec<(String, String)> = Vec::new();
-    residual_charts(d, dir, &mut files, &mut figs)?;
-    effect_charts(d, dir, &mut files, &mut figs)?;
-    periodogram_chart(d, dir, &mut files, &mut figs)?;
+    let mut charts = Charts {
+        dir,
+        files: Vec::new(),
+        figs: Vec::new(),
+    };
+    residual_charts(d, &mut charts)?;
+    effect_charts(d, &mut charts)?;
+    periodogram_chart(d, &mut charts)?;
+    let Charts {
+        mut files, figs, ..
+    } = charts;
 
     let mut md = Md::new();
     markdown(&mut md, d, &figs);
@@ -113,14 +119,40 @@ pub fn write_report(
     Ok(files)
 }
 
+/// The charts of a report as they are drawn: the files written and each figure's caption
+/// and PNG for the Markdown.
+struct Charts<'a> {
+    dir: &'a Path,
+    files: Vec<PathBuf>,
+    figs: Vec<(String, String)>,
+}
+
+impl Charts<'_> {
+    /// Draws `series` as `stem` (PNG and SVG) with `title` and the axes' labels, and lists
+    /// it under `caption`.
+    fn add(
+        &mut self,
+        stem: &str,
+        caption: String,
+        title: &str,
+        [x_label, y_label]: [&str; 2],
+        series: &[XySeries],
+    ) -> Result<(), ReportError> {
+        self.files.extend(plot::xy(
+            &self.dir.join(stem),
+            title,
+            x_label,
+            y_label,
+            series,
+        )?);
+        self.figs.push((caption, format!("{stem}.png")));
+        Ok(())
+    }
+}
+
 /// The residual before and after the found effects, against position and against time
 /// (none for an empty recording).
-fn residual_charts(
-    d: &Diagnosis,
-    dir: &Path,
-    files: &mut Vec<PathBuf>,
-    figs: &mut Vec<(String, String)>,
-) -> Result<(), ReportError> {
+fn residual_charts(d: &Diagnosis, charts: &mut Charts) -> Result<(), ReportError> {
     let s = &d.series;
     let all: Vec<usize> = (0..s.x_mm.len()).collect();
     if all.is_empty() {
@@ -132,32 +164,23 @@ fn residual_charts(
         ("time", "time", "t / s".to_string(), &s.t_s),
     ];
     for (stem, what, x_label, x) in against {
-        files.extend(plot::xy(
-            &dir.join(format!("residual_vs_{stem}")),
+        charts.add(
+            &format!("residual_vs_{stem}"),
+            format!("Residual against {what}"),
             &format!("Residual recorded − simulated against {what}"),
-            &x_label,
-            "residual / µm",
+            [&x_label, "residual / µm"],
             &[
                 points("before (about its mean)", x, &s.before_um, &all),
                 points("after the found effects", x, &s.after_um, &all),
             ],
-        )?);
-        figs.push((
-            format!("Residual against {what}"),
-            format!("residual_vs_{stem}.png"),
-        ));
+        )?;
     }
     Ok(())
 }
 
 /// One chart per found effect: the residual without the other effects against the
 /// covariate the effect follows, with the fitted effect (per group when it has groups).
-fn effect_charts(
-    d: &Diagnosis,
-    dir: &Path,
-    files: &mut Vec<PathBuf>,
-    figs: &mut Vec<(String, String)>,
-) -> Result<(), ReportError> {
+fn effect_charts(d: &Diagnosis, charts: &mut Charts) -> Result<(), ReportError> {
     let s = &d.series;
     let all: Vec<usize> = (0..s.x_mm.len()).collect();
     for (k, e) in s.effects.iter().enumerate() {
@@ -189,44 +212,36 @@ fn effect_charts(
             }
         }
         let name = format!("effect_{}_{}", k + 1, slug(e.id.as_str()));
-        files.extend(plot::xy(
-            &dir.join(&name),
+        charts.add(
+            &name,
+            format!("Effect {}: {}", k + 1, e.id),
             &format!("{}: residual without the other effects", e.id),
-            &e.covariate_label,
-            "partial residual / µm",
+            [&e.covariate_label, "partial residual / µm"],
             &series,
-        )?);
-        figs.push((format!("Effect {}: {}", k + 1, e.id), format!("{name}.png")));
+        )?;
     }
     Ok(())
 }
 
 /// The broad periodogram of the last search, when there was one.
-fn periodogram_chart(
-    d: &Diagnosis,
-    dir: &Path,
-    files: &mut Vec<PathBuf>,
-    figs: &mut Vec<(String, String)>,
-) -> Result<(), ReportError> {
+fn periodogram_chart(d: &Diagnosis, charts: &mut Charts) -> Result<(), ReportError> {
     let s = &d.series;
     if s.broad_period_mm.is_empty() {
         return Ok(());
     }
     let idx: Vec<usize> = (0..s.broad_period_mm.len()).collect();
-    files.extend(plot::xy(
-        &dir.join("periodogram"),
+    charts.add(
+        "periodogram",
+        "Broad periodogram".into(),
         "Broad periodogram of the residual (last search)",
-        "period / mm",
-        "Δχ² of a sine",
+        ["period / mm", "Δχ² of a sine"],
         &[curve(
             "Lomb–Scargle",
             &s.broad_period_mm,
             &s.broad_power,
             &idx,
         )],
-    )?);
-    figs.push(("Broad periodogram".into(), "periodogram.png".into()));
-    Ok(())
+    )
 }
 
 /// ISO 230-2 figures of one line, µm.

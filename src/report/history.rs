@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use crate::base::FileOp;
 use crate::base::io_err;
-use crate::history::time;
+use crate::history::parse_utc;
 use crate::history::{Advice, FleetEntry, Head, MachineReport, ParameterReport};
 use crate::plot::{self, XySeries, XyStyle};
 
@@ -285,7 +285,7 @@ pub(crate) fn machine_figure(stem: &Path, m: &MachineReport) -> Result<Vec<PathB
     let t: Vec<i64> = p
         .series
         .iter()
-        .map(|s| time::parse_utc(&s.at).unwrap_or(0))
+        .map(|s| parse_utc(&s.at).unwrap_or(0))
         .collect();
     let origin = t.first().copied().unwrap_or(0);
     let x: Vec<f64> = t.iter().map(|&v| (v - origin) as f64 / YEAR_S).collect();

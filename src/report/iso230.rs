@@ -8,8 +8,8 @@ use super::md::Md;
 use crate::base::FileOp;
 use crate::base::io_err;
 use crate::plot::{self, PlotError, XySeries, XyStyle};
-use crate::session::uncertainty::{Budget, StatUncertainty};
 use crate::session::{AxisStats, TargetStats};
+use crate::session::{Budget, StatUncertainty};
 
 /// Decimals (of µm) to print a line's statistics with: three significant digits of the
 /// smallest non-zero spread the test measured (the axis values `B`, `R`, `E`, `M`, `A` and
@@ -43,7 +43,7 @@ pub fn markdown(stats: &AxisStats, axis_name: &str) -> String {
 }
 
 /// [`markdown`], with the expanded uncertainty `U` beside each axis value when `u` is given
-/// (see [`crate::session::uncertainty`]).
+/// (see [`crate::session::Budget`]).
 pub(crate) fn markdown_with_uncertainty(
     stats: &AxisStats,
     axis_name: &str,
@@ -76,21 +76,29 @@ fn target_table(md: &mut Md, stats: &AxisStats, f: &dyn Fn(f64) -> String) {
     ];
     md.table_aligned(header, &"r".repeat(header.len()));
     for t in &stats.targets {
-        md.row([
+        let head = [
             t.target.to_string(),
             t.position_mm.to_string(),
             t.n_up.to_string(),
             t.n_down.to_string(),
-            f(t.mean_up_um),
-            f(t.mean_down_um),
-            f(t.reversal_um),
-            f(2.0 * t.s_up_um),
-            f(2.0 * t.s_down_um),
-            f(t.repeat_up_um),
-            f(t.repeat_down_um),
-            f(t.repeat_bidir_um),
-        ]);
+        ];
+        md.row(head.into_iter().chain(target_values(t, f)));
     }
+}
+
+/// A target's values in µm as `f` prints them, in the order of every per-target table:
+/// the means ↑ and ↓, the reversal, 2s ↑ and ↓, the repeatabilities ↑, ↓ and bidirectional.
+pub(super) fn target_values(t: &TargetStats, f: &dyn Fn(f64) -> String) -> [String; 8] {
+    [
+        f(t.mean_up_um),
+        f(t.mean_down_um),
+        f(t.reversal_um),
+        f(2.0 * t.s_up_um),
+        f(2.0 * t.s_down_um),
+        f(t.repeat_up_um),
+        f(t.repeat_down_um),
+        f(t.repeat_bidir_um),
+    ]
 }
 
 /// The axis values E, M, A, R, B and B̄, with U beside each when it is given.

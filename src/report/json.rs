@@ -133,7 +133,7 @@ pub struct ReplayJson<'a> {
 pub struct TableLineJson<'a> {
     /// With tolerances: the line's conformity (null when no tolerance applies to it).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub conformity: Option<Option<&'a crate::acceptance::tolerance::LineConformity>>,
+    pub conformity: Option<Option<&'a crate::acceptance::LineConformity>>,
     pub gb_t_17421_2: &'static str,
     pub iso230: &'a crate::session::AxisStats,
     pub line_mm: [f64; 2],
@@ -143,8 +143,8 @@ pub struct TableLineJson<'a> {
 /// A line's uncertainty budget and the expanded uncertainties of its figures.
 #[derive(Debug, Serialize)]
 pub struct TableUncertaintyJson<'a> {
-    pub budget: &'a crate::session::uncertainty::Budget,
-    pub expanded: &'a crate::session::uncertainty::StatUncertainty,
+    pub budget: &'a crate::session::Budget,
+    pub expanded: &'a crate::session::StatUncertainty,
 }
 
 /// The JSON document of `table --json` (keys in the order they were always printed).
@@ -152,7 +152,7 @@ pub struct TableUncertaintyJson<'a> {
 pub struct TableJson<'a> {
     /// With tolerances: the statement of conformity.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub conformity: Option<&'a crate::acceptance::tolerance::Conformity>,
+    pub conformity: Option<&'a crate::acceptance::Conformity>,
     pub lines: Vec<TableLineJson<'a>>,
     pub nodes: usize,
     pub summary: &'a crate::session::ReductionSummary,
@@ -162,7 +162,7 @@ pub struct TableJson<'a> {
 /// conformity when tolerances were given): the command's and the workbench's.
 pub fn table_json<'a>(
     reduced: &'a crate::acquire::Reduced,
-    conformity: Option<&'a crate::acceptance::tolerance::Conformity>,
+    conformity: Option<&'a crate::acceptance::Conformity>,
 ) -> TableJson<'a> {
     let lines = reduced
         .iso

@@ -45,7 +45,7 @@ mod history;
 mod iso230;
 mod json;
 mod md;
-pub mod probing;
+mod probing;
 pub mod rotary;
 mod uncertainty;
 mod volumetric;
@@ -73,6 +73,7 @@ pub use json::{
     CompareJson, CompareJsonRow, DiagnoseJson, GB_T_17421_2, GridJson, MethodJson, RefusedJson,
     ReplayJson, TableJson, TableLineJson, TableUncertaintyJson, table_json,
 };
+pub use probing::write_probing_report;
 pub use volumetric::write_report as write_volumetric_report;
 
 /// Why a report could not be written.

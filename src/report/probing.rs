@@ -1,39 +1,34 @@
 //! The ISO 10360-5 probing test's report (`acceptance iso10360-5 --report`): `report.md`,
 //! `residuals.csv` and the map of the residuals on the sphere, one disc per stylus
 //! (`sphere_map.png`/`.svg`: each stylus's hemisphere seen from its pole, every point's
-//! residual of the judged fit magnified; see [`crate::plot::sphere`]).
+//! residual of the judged fit magnified; see [`crate::plot::sphere_map`]).
 
 use std::path::{Path, PathBuf};
 
 use polars::prelude::*;
 
 use super::ReportError;
-use super::certificate::layout::zone_words;
+use super::certificate::zone_words;
 use super::md::Md;
-use crate::acceptance::probing::simulate::frame;
+use crate::acceptance::probing::frame;
 use crate::acceptance::probing::{Judged, ProbingResult, Residual};
 use crate::base::FileOp;
 use crate::base::io_err;
-use crate::plot::sphere::{MapPanel, MapPoint, SphereMap, sphere_map};
+use crate::plot::{MapPanel, MapPoint, SphereMap, sphere_map};
 
 /// µm as every probing output prints them (1 nm).
-pub fn um(v: f64) -> String {
+pub(crate) fn um(v: f64) -> String {
     format!("{v:.3}")
 }
 
 /// mm as every probing output prints them (1 nm).
-pub fn mm6(v: f64) -> String {
+pub(crate) fn mm6(v: f64) -> String {
     format!("{v:.6}")
-}
-
-/// The zone [lo, hi] in words: `≤ 1.700`, `−1.200 … 1.200`.
-pub fn zone(z: [Option<f64>; 2]) -> String {
-    zone_words(z, &um)
 }
 
 /// The 2010 and 2020 symbols of form, size and location for a single- or multi-stylus
 /// test (ISO 10360-5:2010 / :2020), `_{…}` marking a subscript.
-pub fn symbols(multi: bool) -> [(&'static str, &'static str); 3] {
+pub(crate) fn symbols(multi: bool) -> [(&'static str, &'static str); 3] {
     if multi {
         [
             ("P_{FTj}", "P_{Form.Sph.5×25:j:Tact}"),
@@ -56,7 +51,7 @@ fn md_symbol(s: &str) -> String {
 
 /// Each stylus's points as (θ, φ) about its pole — the mean direction of its points from
 /// the all-points centre — with their residuals; and its largest θ.
-pub fn map_points(r: &ProbingResult) -> Vec<(String, Vec<MapPoint>, f64)> {
+pub(crate) fn map_points(r: &ProbingResult) -> Vec<(String, Vec<MapPoint>, f64)> {
     let c = r.fit.centre_mm;
     let dir = |p: &[f64; 3]| -> [f64; 3] {
         let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
@@ -188,7 +183,7 @@ fn residuals_csv(dir: &Path, r: &ProbingResult) -> Result<PathBuf, ReportError> 
 }
 
 /// The header of [`result_rows`].
-pub const RESULT_HEADER: [&str; 7] = [
+pub(crate) const RESULT_HEADER: [&str; 7] = [
     "quantity",
     "symbol (2010 / 2020)",
     "value / µm",
@@ -200,12 +195,12 @@ pub const RESULT_HEADER: [&str; 7] = [
 
 /// Form, size and (with several styli) location: quantity, symbols (`_{…}` subscripts),
 /// value, MPE, U, acceptance zone, verdict.
-pub fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
+pub(crate) fn result_rows(r: &ProbingResult) -> Vec<Vec<String>> {
     result_rows_in(r, &um)
 }
 
 /// [`result_rows`] with µm printed by `um`.
-pub fn result_rows_in(r: &ProbingResult, um: &dyn Fn(f64) -> String) -> Vec<Vec<String>> {
+pub(crate) fn result_rows_in(r: &ProbingResult, um: &dyn Fn(f64) -> String) -> Vec<Vec<String>> {
     let sym = symbols(r.styli.len() > 1);
     let q = |name: &str, sy: (&str, &str), j: &Judged| {
         vec![
@@ -300,6 +295,38 @@ fn markdown(
             ))
             .unwrap_or_default()
     ));
+    styli_table(&mut md, r, maps);
+    md.nl().heading(2, "Deviations from the standard's design");
+    if r.deviations.is_empty() {
+        md.para("None: the number of styli, the 25 points per stylus and the sphere's diameter are the standard's.");
+    } else {
+        md.bullets(&r.deviations).nl();
+    }
+    let narrow: Vec<String> = r
+        .styli
+        .iter()
+        .zip(maps)
+        .filter(|(_, m)| m.2 < 85.0)
+        .map(|(s, m)| format!("`{}` ({:.1}°)", s.stylus, m.2))
+        .collect();
+    if !narrow.is_empty() {
+        md.para(format_args!(
+            "Note: the points of stylus {} stay within a cap narrower than the standard's \
+             hemisphere (largest angle from the pole in brackets). errmap evaluates a cap as \
+             given; its size and centre are less well determined than a hemisphere's.",
+            narrow.join(", ")
+        ));
+    }
+    md.heading(2, "Residuals on the sphere")
+        .para("![residuals on the sphere, one disc per stylus](sphere_map.png)")
+        .line(
+            "Each disc is one stylus's hemisphere seen from its pole (the mean direction of its points from the fitted centre): the distance from the centre is the angle θ from the pole, rings every 22.5°; the direction is the azimuth φ. Each point's residual of the least-squares sphere of all points (the one form and size are judged on) is a dot, red outside the sphere and blue inside, its radius proportional to |r| on one scale for every stylus, its value beside it in µm. `residuals.csv` lists them.",
+        );
+    md.finish()
+}
+
+/// The styli's own spheres, reported and not judged.
+fn styli_table(md: &mut Md, r: &ProbingResult, maps: &[(String, Vec<MapPoint>, f64)]) {
     md.heading(
         2,
         "Styli (each on its own least-squares sphere; reported, not judged)",
@@ -331,31 +358,4 @@ fn markdown(
             format!("{tmax:.1}°"),
         ]);
     }
-    md.nl().heading(2, "Deviations from the standard's design");
-    if r.deviations.is_empty() {
-        md.para("None: the number of styli, the 25 points per stylus and the sphere's diameter are the standard's.");
-    } else {
-        md.bullets(&r.deviations).nl();
-    }
-    let narrow: Vec<String> = r
-        .styli
-        .iter()
-        .zip(maps)
-        .filter(|(_, m)| m.2 < 85.0)
-        .map(|(s, m)| format!("`{}` ({:.1}°)", s.stylus, m.2))
-        .collect();
-    if !narrow.is_empty() {
-        md.para(format_args!(
-            "Note: the points of stylus {} stay within a cap narrower than the standard's \
-             hemisphere (largest angle from the pole in brackets). errmap evaluates a cap as \
-             given; its size and centre are less well determined than a hemisphere's.",
-            narrow.join(", ")
-        ));
-    }
-    md.heading(2, "Residuals on the sphere")
-        .para("![residuals on the sphere, one disc per stylus](sphere_map.png)")
-        .line(
-            "Each disc is one stylus's hemisphere seen from its pole (the mean direction of its points from the fitted centre): the distance from the centre is the angle θ from the pole, rings every 22.5°; the direction is the azimuth φ. Each point's residual of the least-squares sphere of all points (the one form and size are judged on) is a dot, red outside the sphere and blue inside, its radius proportional to |r| on one scale for every stylus, its value beside it in µm. `residuals.csv` lists them.",
-        );
-    md.finish()
 }

@@ -1,9 +1,9 @@
 //! The measurement-uncertainty budget as a table, and the note on which positioning
-//! standards errmap evaluates, from the numbers of [`crate::session::uncertainty`].
+//! standards errmap evaluates, from the numbers of [`crate::session::Budget`].
 
 use super::md::Md;
 
-use crate::session::uncertainty::{Budget, Kind, Origin};
+use crate::session::{Budget, ContributionKind as Kind, Origin};
 
 /// One row of the budget as printed: influence, input, sensitivity, contribution in its own
 /// unit, and the contribution in µm over the travel. Shared by the markdown and the PDF.

@@ -37,7 +37,7 @@ mod iso230;
 mod reduce;
 pub mod rotary;
 mod stream;
-pub mod uncertainty;
+mod uncertainty;
 
 pub(crate) use columns::{Columns, ParquetSink};
 pub use environment::{EnvironmentStats, Range};
@@ -48,6 +48,13 @@ pub use reduce::{
 };
 pub use stream::{
     BATCH_ROWS, SessionWriter, Thinned, for_each_batch, read_session_every, read_session_thinned,
+};
+pub use uncertainty::{
+    Budget, BudgetSources, Contribution, DeclaredConditions, DriftCheck, DriftFinder,
+    EdlenSensitivities, Eve, Kind as ContributionKind, MIN_DRIFT_ROWS, MIN_DRIFT_S, Origin,
+    REFERENCE_TEMP_C, RecordedResolution, Resolution, STANDARD_AIR, StatUncertainty,
+    TestConditions, UncertaintyConfig, UncertaintyError, edlen_sensitivities, line_budget,
+    line_budget_of, line_budget_with, travel_mm,
 };
 
 use std::io::Write;

@@ -82,11 +82,12 @@
 //! A dozen evaluations of the Edlén equation per budget, `O(N)` over the session's rows
 //! for the test conditions.
 
-pub mod sources;
+mod sources;
 
+use sources::Span;
 pub use sources::{
-    BudgetSources, DeclaredConditions, DriftCheck, DriftFinder, Eve, RecordedResolution,
-    Resolution, Span,
+    BudgetSources, DeclaredConditions, DriftCheck, DriftFinder, Eve, MIN_DRIFT_ROWS, MIN_DRIFT_S,
+    RecordedResolution, Resolution,
 };
 
 use super::environment::EnvironmentStats;
@@ -702,6 +703,31 @@ fn length_contributions(
             ),
         ),
     ];
+    air_contributions(c, cond, sens, &mut out, missing);
+    material_contributions(c, cond, &mut out, missing);
+    out.push(length(
+        ("cosine", "cosine error (misalignment)"),
+        (c.misalignment_urad, "µrad"),
+        (theta / (4.0 * SQRT3), "ppm/µrad"),
+        config_source(
+            "misalignment_urad",
+            c.misalignment_urad,
+            d.misalignment_urad,
+        ),
+    ));
+    out
+}
+
+/// The air's terms (temperature, pressure, humidity) through the refractive index: from
+/// the session's sensors, a declared range, or named as missing.
+fn air_contributions(
+    c: &UncertaintyConfig,
+    cond: &TestConditions,
+    sens: &EdlenSensitivities,
+    out: &mut Vec<Contribution>,
+    missing: &mut Vec<String>,
+) {
+    let d = UncertaintyConfig::default();
     let air = [
         (
             ("air_temp", "air temperature"),
@@ -754,6 +780,17 @@ fn length_contributions(
             )),
         }
     }
+}
+
+/// The material's terms (its temperature, the expansion coefficient): from the session's
+/// sensor, a declared range, or named as missing.
+fn material_contributions(
+    c: &UncertaintyConfig,
+    cond: &TestConditions,
+    out: &mut Vec<Contribution>,
+    missing: &mut Vec<String>,
+) {
+    let d = UncertaintyConfig::default();
     let d_theta = cond
         .material_temp_c
         .map_or(0.0, |t| (t - REFERENCE_TEMP_C).abs());
@@ -809,17 +846,6 @@ fn length_contributions(
                 .to_string(),
         ),
     }
-    out.push(length(
-        ("cosine", "cosine error (misalignment)"),
-        (c.misalignment_urad, "µrad"),
-        (theta / (4.0 * SQRT3), "ppm/µrad"),
-        config_source(
-            "misalignment_urad",
-            c.misalignment_urad,
-            d.misalignment_urad,
-        ),
-    ));
-    out
 }
 
 /// A reading term (µm).

@@ -11,11 +11,11 @@
 //! lines are absent because their position is unknown), `truth.json` (the hidden parameters, for the tests — the diagnosis never
 //! reads it) and a README saying what is hidden and how big it is.
 
-use crate::base::effect::{Drift, Effect, ParamValue};
+use crate::base::EffectId;
 use crate::base::io_err;
 use crate::base::peak_to_peak;
-use crate::base::vocabulary::EffectId;
 use crate::base::{ConfigError, FileOp};
+use crate::base::{Drift, Effect, ParamValue};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

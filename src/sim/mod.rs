@@ -24,7 +24,7 @@ mod program;
 mod rotary;
 mod rotary_plan;
 mod testplan;
-pub mod update;
+mod update;
 
 pub(crate) use bounds::check_numbers;
 pub use concealed::{

@@ -1,7 +1,7 @@
 //! Writing what a diagnosis found back into a machine model, so that `simulate`
 //! reproduces the recording (`diagnose --model … --out DIR` writes `updated-model.toml`).
 
-use crate::base::effect::{Drift, Effect};
+use crate::base::{Drift, Effect};
 
 use super::physics::{
     Abbe, LatchDelay, MachineModel, PeriodicScale, Refraction, Reversal, Scale, ScaleFactor,

@@ -40,8 +40,8 @@ use nalgebra::DVector;
 
 use super::identify::{Design, augment, centre_per_line, decompose};
 use super::lines::LineTable;
-use crate::base::effect::{Drift, Effect};
-use crate::base::vocabulary::ParamName;
+use crate::base::ParamName;
+use crate::base::{Drift, Effect};
 use crate::diagnose::FoundEffect;
 
 /// The t above which a common drift is kept (two-sided p ≈ 0.001).

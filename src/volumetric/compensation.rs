@@ -97,15 +97,7 @@ pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, Und
                 *slot = v;
                 max_sigma[k][kind] = max_sigma[k][kind].max(s);
             }
-            // Δ_sq = 1e−3·(−E_C0Y·y + E_B0Z·z, −E_A0Z·z, 0) as straightness of Y and Z.
-            match k {
-                1 => row[0] += -1e-3 * sq[0] * a,
-                2 => {
-                    row[0] += 1e-3 * sq[1] * a;
-                    row[1] += -1e-3 * sq[2] * a;
-                }
-                _ => {}
-            }
+            fold_squareness(&mut row, k, [sq[0], sq[1], sq[2]], a);
             values[k].push(row);
         }
     }
@@ -115,6 +107,20 @@ pub fn component_tables(fit: &FitState, n: usize) -> Result<ComponentTables, Und
         values,
         max_sigma,
     })
+}
+
+/// Folds the squareness errors `sq_urad` (E_C0Y, E_B0Z, E_A0Z) into the straightness
+/// columns of a table row of axis `axis` at position `a_mm`, as the exported tables carry
+/// them: Δ_sq = 1e−3·(−E_C0Y·y + E_B0Z·z, −E_A0Z·z, 0) as straightness of Y and Z.
+pub fn fold_squareness(row: &mut [f64; 6], axis: usize, sq_urad: [f64; 3], a_mm: f64) {
+    match axis {
+        1 => row[0] += -1e-3 * sq_urad[0] * a_mm,
+        2 => {
+            row[0] += 1e-3 * sq_urad[1] * a_mm;
+            row[1] += -1e-3 * sq_urad[2] * a_mm;
+        }
+        _ => {}
+    }
 }
 
 /// The positioning profile of axis `k` through `at_mm` (probe offset 0) at `positions`:

@@ -121,7 +121,9 @@ mod spline;
 mod thermal;
 
 pub use basis::{Basis, BasisKind, GaugeTruth, Polynomials};
-pub use compensation::{ComponentTables, axis_positions, component_tables, positioning_profile};
+pub use compensation::{
+    ComponentTables, axis_positions, component_tables, fold_squareness, positioning_profile,
+};
 pub use doc::{ComponentDoc, ModelDoc};
 pub use error::{
     ComponentTableError, Undetermined, Unfit, UnknownComponent, UnknownPreset, VolumetricError,

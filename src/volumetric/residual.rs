@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::identify::{LineResidual, ResidualVerdict};
-use crate::base::effect::Effect;
-use crate::base::vocabulary::Verdict;
+use crate::base::Effect;
+use crate::base::Verdict;
 use crate::diagnose::FoundEffect;
 
 /// A line that carries part of a residual the test rejects (JSON `residual.carriers`).

@@ -35,8 +35,8 @@ use serde::{Deserialize, Serialize};
 
 use super::lines::LineTable;
 use super::model::dot;
-use crate::base::effect::Effect;
-use crate::base::vocabulary::ParamName;
+use crate::base::Effect;
+use crate::base::ParamName;
 use crate::diagnose::FoundEffect;
 
 /// The t threshold above which the scale-expansion term is kept.

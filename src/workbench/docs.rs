@@ -213,9 +213,9 @@ pub(crate) fn iso10360(
     ws: &Workspace,
     id: &str,
     mpe: &str,
-) -> Result<(crate::acceptance::iso10360::TestResult, String), DocError> {
+) -> Result<(crate::acceptance::TestResult, String), DocError> {
     use crate::acceptance::Mpe;
-    use crate::acceptance::iso10360::{TestConfig, evaluate_file};
+    use crate::acceptance::{TestConfig, evaluate_file};
     let p = ws.resolve(id)?;
     let mpe = Mpe::parse(mpe, "mpe").map_err(bad)?;
     let config = TestConfig {

@@ -205,7 +205,7 @@ impl Workspace {
             .and_then(|m| m.modified().ok())
             .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
             .map_or_else(String::new, |d| {
-                crate::history::time::format_utc(i64::try_from(d.as_secs()).unwrap_or(0))
+                crate::history::format_utc(i64::try_from(d.as_secs()).unwrap_or(0))
             });
         let id = self.id_of(p);
         let axis = match kind {

@@ -181,8 +181,8 @@ impl Live {
 fn new_session_dir(root: &Path) -> Result<PathBuf, String> {
     let base = root.join("live");
     std::fs::create_dir_all(&base).map_err(|e| format!("{}: {e}", base.display()))?;
-    let now = crate::history::time::now_utc();
-    let stamp: String = crate::history::time::format_utc(now)
+    let now = crate::history::now_utc();
+    let stamp: String = crate::history::format_utc(now)
         .chars()
         .filter(|c| c.is_ascii_alphanumeric())
         .collect();

@@ -741,8 +741,7 @@ fn history_body(h: &docs::History) -> String {
 }
 
 fn parameter_chart(machine: &str, axis: &str, p: &crate::history::ParameterReport) -> String {
-    let day =
-        |at: &str| crate::history::time::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
+    let day = |at: &str| crate::history::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
     let line = |name: &str,
                 colour,
                 dashed,

@@ -10,7 +10,7 @@
 mod against_truth {
     use std::path::{Path, PathBuf};
 
-    use errmap::base::effect::ParamValue;
+    use errmap::base::ParamValue;
     use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
     use errmap::session::read_session;
     use errmap::sim::ConcealedTruth;

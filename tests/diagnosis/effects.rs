@@ -1,11 +1,11 @@
 //! The diagnosis finds each hidden effect of the vocabulary, two at once, none in clean
 //! recordings (also with uneven noise), and states the ambiguities of poor designs.
-//! Synthetic sessions from `errmap::diagnose::synth` (seeded).
+//! Synthetic sessions from `errmap::diagnose::synthesize` (seeded).
 
 use crate::common::diagnosis_text;
 use errmap::base::{Axis, Drift, Effect};
-use errmap::diagnose::synth::{Synth, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
+use errmap::diagnose::{Synth, synth_truth as truth, synthesize as generate};
 
 pub(crate) fn config() -> DiagnoseConfig {
     DiagnoseConfig {

@@ -1,13 +1,13 @@
 //! The gaps a metrologist would still find (issue 16): every parameter of a named effect
 //! with its σ, drift against dead path decided by physics, position-dependent reversal,
 //! and a recording diagnosed without a simulation. Synthetic sessions from
-//! `errmap::diagnose::synth` (seeded).
+//! `errmap::diagnose::synthesize` (seeded).
 
 use crate::common::diagnosis_text;
 use crate::effects::{config, with};
 use errmap::base::{Axis, Drift, Effect};
-use errmap::diagnose::synth::{Synth, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, FoundEffect, diagnose};
+use errmap::diagnose::{Synth, synthesize as generate};
 
 fn run(s: &Synth) -> Diagnosis {
     let out = generate(s).expect("a positioning pair");

@@ -4,8 +4,8 @@
 use std::time::Instant;
 
 use errmap::base::{Drift, Effect};
-use errmap::diagnose::synth::{Synth, SynthPlan, generate};
 use errmap::diagnose::{DiagnoseConfig, diagnose};
+use errmap::diagnose::{Synth, SynthPlan, synthesize as generate};
 
 #[test]
 #[cfg_attr(

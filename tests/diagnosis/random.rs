@@ -11,8 +11,8 @@
 //! before those terms existed, for comparison).
 
 use errmap::base::{Axis, Drift, Effect};
-use errmap::diagnose::synth::{Synth, SynthNoise, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
+use errmap::diagnose::{Synth, SynthNoise, synth_truth as truth, synthesize as generate};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 

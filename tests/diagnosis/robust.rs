@@ -1,8 +1,8 @@
 //! Matching, bad input, the JSON contract shape, the report files, random pairs of effects.
 
 use errmap::base::{Axis, Drift, Effect};
-use errmap::diagnose::synth::{Synth, generate, truth};
 use errmap::diagnose::{DiagnoseConfig, DiagnoseError, diagnose};
+use errmap::diagnose::{Synth, synth_truth as truth, synthesize as generate};
 use errmap::report::write_diagnosis_report;
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;

@@ -5,8 +5,8 @@
 
 use crate::common::diagnosis_text;
 use errmap::base::Effect;
-use errmap::diagnose::synth::{Synth, SynthNoise, generate};
 use errmap::diagnose::{DiagnoseConfig, Diagnosis, diagnose};
+use errmap::diagnose::{Synth, SynthNoise, synthesize as generate};
 
 fn config() -> DiagnoseConfig {
     DiagnoseConfig {

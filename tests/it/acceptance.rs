@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use errmap::acceptance::predicted::default_lines;
+use errmap::acceptance::default_lines;
 use errmap::acceptance::{ConformityVerdict, DecisionRule, Limits, Mpe, Rule, aggregate};
 use errmap::volumetric::{IdentifyConfig, Machine, Predictor, identify, simulate};
 use rand::SeedableRng;

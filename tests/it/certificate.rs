@@ -9,12 +9,12 @@ use std::path::Path;
 use std::process::Command;
 
 use errmap::report::certificate::{
-    self, CertificateData, LineResult, axis_rows, certificate_decimals, info::CertificateInfo, mm,
+    self, CertificateData, CertificateInfo, LineResult, axis_rows, certificate_decimals, mm,
     target_rows,
 };
 use errmap::session::AxisStats;
-use errmap::session::uncertainty::{Budget, UncertaintyConfig, line_budget};
 use errmap::session::{self, read_session};
+use errmap::session::{Budget, UncertaintyConfig, line_budget};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 

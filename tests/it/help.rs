@@ -135,3 +135,28 @@ fn no_help_text_uses_an_internal_name() {
         }
     }
 }
+
+/// The foot of `errmap --help` names every stage of the library, as `src/lib.rs` declares
+/// them (`pub mod`), but the two shared leaves `base` and `plot`.
+#[test]
+fn help_names_every_stage() {
+    let text = help(&["--help"]);
+    let lib = std::fs::read_to_string(crate::util::root().join("src/lib.rs")).expect("lib.rs");
+    let stages: Vec<&str> = lib
+        .lines()
+        .filter_map(|l| l.strip_prefix("pub mod ")?.strip_suffix(';'))
+        .filter(|m| !["base", "plot"].contains(m))
+        .collect();
+    assert!(stages.len() >= 16, "{stages:?}");
+    let foot: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("Stages of the pipeline"))
+        .filter_map(|l| l.strip_prefix("  ")?.split_whitespace().next())
+        .collect();
+    for s in &stages {
+        assert!(
+            foot.contains(s),
+            "errmap --help does not name the stage {s}: {text}"
+        );
+    }
+}

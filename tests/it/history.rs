@@ -13,9 +13,9 @@ use std::time::Instant;
 use errmap::base::Axis;
 use errmap::base::gaussian;
 use errmap::drivers::SessionRow;
-use errmap::history::time::{format_utc, parse_utc};
-use errmap::history::tolerance::Tolerances;
+use errmap::history::Tolerances;
 use errmap::history::{MachineRows, RawPoint, ReportConfig, machine_report};
+use errmap::history::{format_utc, parse_utc};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use errmap::base::Axis;
-use errmap::history::time::{CLOCK_SKEW_S, format_utc, now_utc};
+use errmap::history::{CLOCK_SKEW_S, format_utc, now_utc};
 
 use crate::history::{
     add, add_ok, assert_whole, model_json, records, scalar, session, stalled_add, write_session,
@@ -473,7 +473,7 @@ fn fault_child() {
         machine: MachineId::parse("F").expect("id"),
         site: None,
         state: State::AsFound,
-        at: errmap::history::time::parse_utc("2025-05-01").expect("at"),
+        at: errmap::history::parse_utc("2025-05-01").expect("at"),
         supersede: None,
         content: ingested.content,
         sources: ingested.sources,

@@ -8,12 +8,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use errmap::acceptance::probing::fit::fit_sphere;
-use errmap::acceptance::probing::simulate::{
-    SimStylus, SimTest, direction, frame, simulate, standard_targets_deg, to_csv,
-};
+use errmap::acceptance::probing::fit_sphere;
 use errmap::acceptance::probing::{
     PerQuantity, ProbePoint, ProbingConfig, ProbingOptions, SphereFile, evaluate,
+};
+use errmap::acceptance::probing::{
+    SimStylus, SimTest, direction, frame, simulate, standard_targets_deg, to_csv,
 };
 use errmap::acceptance::{ConformityVerdict, Rule};
 use nalgebra::{DMatrix, DVector};
@@ -760,7 +760,7 @@ fn the_report_holds_the_verdict_the_residuals_and_the_map() -> TestResult {
     let mut reader = img.read_info()?;
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf)?;
-    assert_eq!((info.width, info.height), errmap::plot::sphere::size(5, 2));
+    assert_eq!((info.width, info.height), errmap::plot::sphere_size(5, 2));
     let step = info.line_size / info.width as usize;
     let px = |red: bool| {
         buf.chunks(step)
@@ -794,7 +794,7 @@ fn the_committed_example_and_report_are_the_simulators_and_current() -> TestResu
         std::fs::read_to_string(dataset("acceptance/probing-example.csv"))?
     );
     // The demo's library call gives the command's document.
-    let lib = serde_json::to_value(errmap::acceptance::probing::simulate::evaluate_example()?)?;
+    let lib = serde_json::to_value(errmap::acceptance::probing::evaluate_example()?)?;
     let cli = json(&errmap(&[
         "acceptance",
         "iso10360-5",

@@ -630,7 +630,7 @@ fn identify_positions_are_bounded() {
 /// 8819167232000000000 ppm`, and `dead_path_mm = 1e18` was printed as given.
 #[test]
 fn certificate_uncertainty_inputs_have_physical_bounds() {
-    use errmap::report::certificate::info::CertificateInfo;
+    use errmap::report::certificate::CertificateInfo;
     let p = Path::new("info.toml");
     for (key, value) in [
         ("air_temp_k", "9223372036854775807"),

@@ -5,7 +5,7 @@
 use errmap::drivers::SessionRow;
 use errmap::drivers::edlen::{refractive_index, saturation_vapour_pressure_pa};
 use errmap::drivers::frame::Axis as WireAxis;
-use errmap::session::uncertainty::{
+use errmap::session::{
     Budget, DeclaredConditions, Eve, Origin, RecordedResolution, Resolution, TestConditions,
     UncertaintyConfig, UncertaintyError, edlen_sensitivities,
 };

@@ -17,9 +17,9 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix4, Vector3, Vector4};
 
 /// The iteration stops when a step moves the centre and radius by less than this, mm.
-pub const STEP_TOL_MM: f64 = 1e-13;
+pub(crate) const STEP_TOL_MM: f64 = 1e-13;
 /// At most this many iterations.
-pub const MAX_ITERATIONS: usize = 200;
+pub(crate) const MAX_ITERATIONS: usize = 200;
 
 /// A fitted sphere.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,7 +67,7 @@ fn mean(points: &[[f64; 3]]) -> Vector3<f64> {
 }
 
 /// s₁ ≥ s₂ ≥ s₃, the singular values of the points' coordinates minus their mean.
-pub fn singular_values(points: &[[f64; 3]]) -> [f64; 3] {
+pub(crate) fn singular_values(points: &[[f64; 3]]) -> [f64; 3] {
     let m = mean(points);
     let mut a = Matrix3::zeros();
     for p in points {

@@ -3,9 +3,9 @@
 //!
 //! | module | does | cost |
 //! |---|---|---|
-//! | [`fit`] | the least-squares (Gaussian) sphere, exact to 1e-9 mm; the points' singular values | O(n) per iteration, 3–6 iterations |
-//! | [`read`] | SPHERE (the sphere's certificate, `[mpe]`, `[uncertainty]`) and POINTS, refused naming file, key, row, column | O(rows) |
-//! | [`simulate`] | a probing test of a simulated CMM: the 25 targets, tip lobing, size error, noise, stylus offsets | O(points) |
+//! | `fit` | the least-squares (Gaussian) sphere, exact to 1e-9 mm; the points' singular values | O(n) per iteration, 3–6 iterations |
+//! | `read` | SPHERE (the sphere's certificate, `[mpe]`, `[uncertainty]`) and POINTS, refused naming file, key, row, column | O(rows) |
+//! | `simulate` | a probing test of a simulated CMM: the 25 targets, tip lobing, size error, noise, stylus offsets | O(points) |
 //! | this file | form, size, location; their U and verdicts; deviations from the design; the refusals 3–7 | O(n log n) |
 //!
 //! **Form** = max r_i − min r_i of the fit's residuals r_i = |p_i − c| − r, judged against
@@ -17,18 +17,23 @@
 //! U_t,location, or reported unjudged without an MPE. `docs/acceptance.md` says which of
 //! this was read from the standard and which is assumed.
 
-pub mod fit;
-pub mod read;
-pub mod simulate;
+mod fit;
+mod read;
+mod simulate;
 
 use std::path::Path;
 
 use serde::Serialize;
 
-use self::fit::{SphereFit, fit_sphere, singular_values};
+use self::fit::singular_values;
+pub use self::fit::{FitError, SphereFit, fit_sphere};
 pub use self::read::{
     PerQuantity, ProbePoint, ProbingConfig, ProbingOptions, SphereCertificate, SphereFile,
     read_points,
+};
+pub use self::simulate::{
+    EXAMPLE_SPHERE, SimStylus, SimTest, direction, evaluate_example, example, frame, simulate,
+    standard_targets_deg, to_csv,
 };
 use super::AcceptanceError;
 use super::rule::{ConformityVerdict, Limits, Rule, aggregate};

@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
-use super::super::AcceptanceError;
 use super::super::decide::text_cell;
 use super::super::rule::{DecisionRule, Rule};
+use super::super::{AcceptanceError, ProbingSetting, SettingProblem};
 use crate::base::FileOp;
 use crate::base::{io_err, parse_error};
 use crate::table::{column_cells, parse_cell, read_frame, text_or_number_cells};
@@ -232,44 +232,36 @@ impl ProbingConfig {
         file: SphereFile,
         options: &ProbingOptions,
     ) -> Result<ProbingConfig, AcceptanceError> {
+        let setting = |setting, problem| AcceptanceError::Setting {
+            path: path.to_path_buf(),
+            setting,
+            problem,
+        };
         let opt = [
-            ("--mpe-form", options.mpe.form_um),
-            ("--mpe-size", options.mpe.size_um),
-            ("--mpe-location", options.mpe.location_um),
+            (ProbingSetting::MpeForm, options.mpe.form_um),
+            (ProbingSetting::MpeSize, options.mpe.size_um),
+            (ProbingSetting::MpeLocation, options.mpe.location_um),
         ];
-        for (flag, v) in opt {
+        for (which, v) in opt {
             if let Some(x) = v
                 && !(x.is_finite() && x > 0.0)
             {
-                return Err(AcceptanceError::key(
-                    path,
-                    flag,
-                    format!("{x}: an MPE must be finite and > 0 µm"),
-                ));
+                return Err(setting(which, SettingProblem::NotPositive(x)));
             }
         }
         let form = options.mpe.form_um.or(file.mpe.form_um);
         let size = options.mpe.size_um.or(file.mpe.size_um);
         let (Some(mpe_form_um), Some(mpe_size_um)) = (form, size) else {
-            let (flag, key) = if form.is_none() {
-                ("--mpe-form", "mpe.form_um")
+            let which = if form.is_none() {
+                ProbingSetting::MpeForm
             } else {
-                ("--mpe-size", "mpe.size_um")
+                ProbingSetting::MpeSize
             };
-            return Err(AcceptanceError::key(
-                path,
-                key,
-                format!("missing: give {flag} or `{key}` in [mpe]"),
-            ));
+            return Err(setting(which, SettingProblem::Missing));
         };
         let r = options.guard_fraction.unwrap_or(1.0);
-        let rule = DecisionRule::new(options.rule.unwrap_or_default(), r).map_err(|_| {
-            AcceptanceError::key(
-                path,
-                "--guard-fraction",
-                format!("r = {r} must be finite and ≥ 0"),
-            )
-        })?;
+        let rule = DecisionRule::new(options.rule.unwrap_or_default(), r)
+            .map_err(|_| setting(ProbingSetting::GuardFraction, SettingProblem::Fraction(r)))?;
         let u = file.uncertainty;
         Ok(ProbingConfig {
             sphere: file.sphere,
@@ -299,7 +291,7 @@ pub struct ProbePoint {
 }
 
 /// The largest target number accepted (a bound, not a design rule).
-pub const MAX_POINT: f64 = 1e6;
+pub(crate) const MAX_POINT: f64 = 1e6;
 
 /// Reads POINTS: every column present first, then every row (refusals 2 of the contract).
 pub fn read_points(path: &Path) -> Result<Vec<ProbePoint>, AcceptanceError> {
@@ -356,8 +348,8 @@ pub fn read_points(path: &Path) -> Result<Vec<ProbePoint>, AcceptanceError> {
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<SphereFile, String> {
-        SphereFile::parse(text, Path::new("s.toml")).map_err(|e| e.to_string())
+    fn parse(text: &str) -> Result<SphereFile, AcceptanceError> {
+        SphereFile::parse(text, Path::new("s.toml"))
     }
 
     #[test]
@@ -384,7 +376,7 @@ mod tests {
             (&ok.replace("30", "nan"), "sphere.diameter_mm"),
             (&ok.replace("30", "\"30\""), "sphere.diameter_mm"),
         ] {
-            let e = parse(bad).expect_err(bad);
+            let e = parse(bad).expect_err(bad).to_string();
             assert!(e.starts_with(&format!("s.toml: {key}: ")), "{bad}: {e}");
         }
     }

@@ -10,7 +10,7 @@ use super::{
     CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, sgn, within,
 };
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// Lost motion of one axis, µm.

@@ -16,7 +16,7 @@ use super::{
     positive, sd, within,
 };
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// The longest period a cyclic error may have, mm.

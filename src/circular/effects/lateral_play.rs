@@ -9,7 +9,7 @@ use nalgebra::DMatrix;
 
 use super::{CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// The play `p_um` the other axis shows when this one reverses.

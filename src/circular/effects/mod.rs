@@ -36,7 +36,7 @@ use serde::{Serialize, Serializer};
 use super::input::Plane;
 use super::signature::{Geometry, Point, Slot};
 use crate::base::ParamName;
-use crate::base::effect::{EffectParamError, ParamValue, Params};
+use crate::base::{EffectParamError, ParamValue, Params};
 
 mod backlash;
 mod cyclic_error;
@@ -289,7 +289,7 @@ pub struct Kind {
 }
 
 /// [`Family::from_fit`] of an effect, its result as a [`CircularEffect`].
-pub type FromFit = fn(&[f64], f64, &DMatrix<f64>) -> (CircularEffect, Vec<(ParamName, f64)>);
+pub(crate) type FromFit = fn(&[f64], f64, &DMatrix<f64>) -> (CircularEffect, Vec<(ParamName, f64)>);
 
 impl fmt::Debug for Kind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

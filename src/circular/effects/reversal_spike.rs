@@ -14,7 +14,7 @@ use super::{
     positive, sd, within,
 };
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// The longest decay a spike may have, ms.

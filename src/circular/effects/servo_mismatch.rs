@@ -8,7 +8,7 @@ use nalgebra::DMatrix;
 
 use super::{CircularEffect, Contribution, Family, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// The largest lag difference a servo mismatch may have, ms.

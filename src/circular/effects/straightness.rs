@@ -8,7 +8,7 @@ use nalgebra::DMatrix;
 
 use super::{CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
-use crate::base::effect::{EffectParamError, Params};
+use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
 
 /// The bow `bow_um` of the axis' path at its centre (> 0 towards +other axis, relative to

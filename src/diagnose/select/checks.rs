@@ -7,7 +7,7 @@
 //! Called from `candidates` (the periodic support) and from [`Selector::run`]; calls no
 //! other file of `select`.
 
-use crate::base::vocabulary::ParamName as P;
+use crate::base::ParamName as P;
 use std::collections::BTreeMap;
 
 use crate::diagnose::effects::{self, Kind, Variant};

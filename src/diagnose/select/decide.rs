@@ -12,7 +12,7 @@
 //!
 //! Called from [`Selector::run`]; calls `candidates` and `checks`.
 
-use crate::base::vocabulary::ParamName as P;
+use crate::base::ParamName as P;
 use crate::diagnose::effects::{self, Kind};
 use crate::diagnose::words::fixed;
 

@@ -15,8 +15,8 @@ use std::path::Path;
 use super::CertificateError;
 use super::layout::{Align, BODY, Sheet, fixed, second_digit_place};
 use super::pdf::Weight;
-use crate::acceptance::cmm::CmmCertificate;
-use crate::acceptance::iso10360::TestResult;
+use crate::acceptance::CmmCertificate;
+use crate::acceptance::TestResult;
 use crate::acceptance::probing::{Judged, ProbingResult};
 use crate::report::probing::{RESULT_HEADER, mm6, result_rows_in, symbols};
 
@@ -56,7 +56,7 @@ impl Um {
 }
 
 /// The row of the largest |E0| (its MPE and U), if any.
-fn worst_e0(t: &TestResult) -> Option<&crate::acceptance::iso10360::Measurement> {
+fn worst_e0(t: &TestResult) -> Option<&crate::acceptance::Measurement> {
     t.measurements
         .iter()
         .max_by(|a, b| a.e0_um.abs().total_cmp(&b.e0_um.abs()))

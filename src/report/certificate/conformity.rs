@@ -4,7 +4,7 @@
 
 use super::layout::{Align, BODY, Decimals, Sheet, fixed, zone_words};
 use super::{CertificateData, line_name, session_name};
-use crate::acceptance::tolerance::Conformity;
+use crate::acceptance::Conformity;
 
 /// Draws the section.
 pub(super) fn section(flow: &mut Sheet, data: &CertificateData, c: &Conformity, dec: Decimals) {

@@ -41,7 +41,7 @@
 //! calibrated = "2026-03-01"
 //! # also air_pressure, humidity, material_temperature
 //!
-//! [uncertainty]          # any key of errmap::session::uncertainty::UncertaintyConfig
+//! [uncertainty]          # any key of errmap::session::UncertaintyConfig
 //! air_temp_k = 0.05
 //! ```
 
@@ -51,9 +51,7 @@ use serde::Deserialize;
 
 use crate::base::io_err;
 use crate::base::{ConfigError, FileError, FileOp};
-use crate::session::uncertainty::{
-    DeclaredConditions, DriftCheck, UncertaintyConfig, UncertaintyError,
-};
+use crate::session::{DeclaredConditions, DriftCheck, UncertaintyConfig, UncertaintyError};
 
 /// One instrument: what it is and when it was calibrated.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -179,8 +177,21 @@ pub enum InfoError {
     Config(#[from] ConfigError),
 }
 
+/// A date or time in the info file that is not one.
+#[derive(Debug, thiserror::Error)]
+enum CalendarError {
+    #[error("`{0}` is not a time HH:MM")]
+    Time(String),
+    #[error("`{0}` is not a date YYYY-MM-DD")]
+    Date(String),
+    #[error("`{text}`: month {month} does not exist")]
+    Month { text: String, month: u32 },
+    #[error("`{text}`: day {day} does not exist in month {month}")]
+    Day { text: String, day: u32, month: u32 },
+}
+
 /// A time as `HH:MM`.
-fn check_time(s: &str) -> Result<(), String> {
+fn check_time(s: &str) -> Result<(), CalendarError> {
     let ok = s.len() == 5
         && s.as_bytes()[2] == b':'
         && s[..2].parse::<u32>().is_ok_and(|h| h < 24)
@@ -188,14 +199,14 @@ fn check_time(s: &str) -> Result<(), String> {
     if ok {
         Ok(())
     } else {
-        Err(format!("`{s}` is not a time HH:MM"))
+        Err(CalendarError::Time(s.to_string()))
     }
 }
 
 /// A date as `YYYY-MM-DD` with a real month and a day that exists in it (leap years
 /// included).
-fn check_date(s: &str) -> Result<(), String> {
-    let bad = || format!("`{s}` is not a date YYYY-MM-DD");
+fn check_date(s: &str) -> Result<(), CalendarError> {
+    let bad = || CalendarError::Date(s.to_string());
     let parts: Vec<&str> = s.split('-').collect();
     if parts.len() != 3
         || parts[0].len() != 4
@@ -213,10 +224,19 @@ fn check_date(s: &str) -> Result<(), String> {
         4 | 6 | 9 | 11 => 30,
         2 if leap => 29,
         2 => 28,
-        _ => return Err(format!("`{s}`: month {m} does not exist")),
+        _ => {
+            return Err(CalendarError::Month {
+                text: s.to_string(),
+                month: m,
+            });
+        }
     };
     if d == 0 || d > days {
-        return Err(format!("`{s}`: day {d} does not exist in month {m}"));
+        return Err(CalendarError::Day {
+            text: s.to_string(),
+            day: d,
+            month: m,
+        });
     }
     Ok(())
 }
@@ -249,7 +269,7 @@ impl CertificateInfo {
         ];
         for (key, value) in dates {
             if let Some(v) = value {
-                check_date(v).map_err(|m| invalid(key, m))?;
+                check_date(v).map_err(|e| invalid(key, e.to_string()))?;
             }
         }
         for (key, value) in [
@@ -257,7 +277,7 @@ impl CertificateInfo {
             ("end_time", &info.end_time),
         ] {
             if let Some(v) = value {
-                check_time(v).map_err(|m| invalid(key, m))?;
+                check_time(v).map_err(|e| invalid(key, e.to_string()))?;
             }
         }
         if let Some(r) = info.laser.resolution_um

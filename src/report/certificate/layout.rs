@@ -7,8 +7,8 @@
 //! [`Decimals`]).
 //!
 //! ```no_run
-//! # fn main() -> Result<(), errmap::report::certificate::pdf::PdfError> {
-//! use errmap::report::certificate::layout::{Align, Sheet};
+//! # fn main() -> Result<(), errmap::report::certificate::PdfError> {
+//! use errmap::report::certificate::{Align, Sheet};
 //! let mut s = Sheet::new("Calibration certificate — probing", "ISO 10360-5")?;
 //! s.heading("Summary", 12.0);
 //! s.fields(&[("Certificate number".into(), "EX-1".into())]);
@@ -21,15 +21,15 @@
 use super::pdf::{Doc, PAGE_H, PAGE_W, PdfError, Rgb, Weight};
 
 /// Page margin, pt.
-pub const MARGIN: f32 = 48.0;
+pub(crate) const MARGIN: f32 = 48.0;
 /// Body type size, pt.
-pub const BODY: f32 = 9.0;
+pub(crate) const BODY: f32 = 9.0;
 /// Smallest type a table is set in.
 pub const MIN_SIZE: f32 = 5.5;
 /// Table rules and secondary lines.
-pub const GREY: Rgb = (0.6, 0.6, 0.6);
+pub(crate) const GREY: Rgb = (0.6, 0.6, 0.6);
 /// Text and frames.
-pub const INK: Rgb = (0.1, 0.1, 0.1);
+pub(crate) const INK: Rgb = (0.1, 0.1, 0.1);
 
 /// Column alignment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,7 +65,7 @@ pub fn zone_words(z: [Option<f64>; 2], num: &dyn Fn(f64) -> String) -> String {
 /// The decimal place of the second significant digit of `v` (0.104 → 2, 1.5 → 1, 12 → 0):
 /// where an uncertainty stated to two significant digits ends (JCGM 100:2008 7.2.6).
 /// `None` for 0, a negative or a non-finite value.
-pub fn second_digit_place(v: f64) -> Option<i32> {
+pub(super) fn second_digit_place(v: f64) -> Option<i32> {
     (v.is_finite() && v > 0.0).then(|| 1 - v.log10().floor() as i32)
 }
 

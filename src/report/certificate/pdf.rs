@@ -17,9 +17,9 @@ use pdf_writer::types::{CidFontType, FontFlags, SystemInfo};
 use pdf_writer::{Content, Filter, Finish, Name, Pdf, Rect, Ref, Str, TextStr};
 
 /// A4 in points.
-pub const PAGE_W: f32 = 595.28;
+pub(crate) const PAGE_W: f32 = 595.28;
 /// A4 in points.
-pub const PAGE_H: f32 = 841.89;
+pub(crate) const PAGE_H: f32 = 841.89;
 
 /// Why a PDF could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -110,7 +110,7 @@ impl Weight {
 }
 
 /// An RGB colour, components 0…1.
-pub type Rgb = (f32, f32, f32);
+pub(crate) type Rgb = (f32, f32, f32);
 
 impl Doc {
     /// An empty document with one blank page.

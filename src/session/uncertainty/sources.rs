@@ -25,7 +25,7 @@ pub struct Resolution {
 }
 
 /// A declared range `[lo, hi]` of one quantity (info file `[conditions]`).
-pub type Span = [f64; 2];
+pub(crate) type Span = [f64; 2];
 
 /// The conditions an info file declares for a test whose session has no sensor for them.
 /// Each is a range the quantity stayed within (a rectangular distribution over it).

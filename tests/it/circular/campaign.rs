@@ -11,12 +11,12 @@ use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
 use errmap::base::Verdict;
-use errmap::circular::effects::{
+use errmap::circular::Slot;
+use errmap::circular::simulate;
+use errmap::circular::{
     Backlash, CircularEffect, CyclicError, LateralPlay, ReversalSpike, ScaleMismatch,
     ServoMismatch, Squareness, Straightness,
 };
-use errmap::circular::signature::Slot;
-use errmap::circular::simulate::simulate;
 use errmap::circular::{DiagnoseConfig, Plane, diagnose};
 
 use super::{main_param, model};

@@ -3,13 +3,13 @@
 //! each effect alone, on each axis, in each plane, with its parameter inside its σ.
 
 use errmap::base::Verdict;
-use errmap::circular::effects::{
+use errmap::circular::simulate;
+use errmap::circular::{
     Backlash, CircularEffect, CyclicError, LateralPlay, ReversalSpike, ScaleMismatch,
     ServoMismatch, Squareness, Straightness,
 };
-use errmap::circular::signature::{Geometry, Slot, dr_um, points};
-use errmap::circular::simulate::simulate;
 use errmap::circular::{DiagnoseConfig, Plane, diagnose};
+use errmap::circular::{Geometry, Slot, dr_um, signature_points as points};
 
 use super::{main_param, model};
 

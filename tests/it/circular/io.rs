@@ -1,8 +1,8 @@
 //! Reading a test: each bad input refused with its file, line and column (or TOML key);
 //! a simulated test round-trips through CSV and Parquet.
 
-use errmap::circular::simulate::{simulate, write_test};
 use errmap::circular::{Plane, read_test};
+use errmap::circular::{simulate, write_test};
 
 use crate::util::tempdir;
 

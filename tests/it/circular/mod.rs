@@ -12,12 +12,12 @@ mod link;
 mod plot;
 
 use errmap::base::ParamName;
-use errmap::circular::effects::{
+use errmap::circular::Slot;
+use errmap::circular::{
     Backlash, CircularEffect, CyclicError, LateralPlay, ReversalSpike, ScaleMismatch,
     ServoMismatch, Squareness, Straightness,
 };
-use errmap::circular::signature::Slot;
-use errmap::circular::simulate::{MachineModel, SimEffect};
+use errmap::circular::{MachineModel, SimEffect};
 use errmap::circular::{Plane, Sense, TestMeta};
 
 /// A test setup: R = 50 mm, F = 2000 mm/min, 100 Hz, 360° with 45° overshoot.

@@ -1,14 +1,14 @@
 //! The polar plot read back: the two directions' colours sit where the trace puts them.
 
-use errmap::circular::simulate::simulate;
+use errmap::circular::simulate;
 use errmap::circular::{DiagnoseConfig, Plane, diagnose};
 use errmap::plot::{colour, pixel};
 use errmap::report::{CCW_COLOUR, CW_COLOUR, circular_chart, write_circular_report};
 
 use super::model;
 use crate::util::tempdir;
-use errmap::circular::effects::{CircularEffect, ServoMismatch};
-use errmap::circular::signature::Slot;
+use errmap::circular::Slot;
+use errmap::circular::{CircularEffect, ServoMismatch};
 
 fn read_png(path: &std::path::Path) -> (usize, usize, Vec<u8>) {
     let decoder = png::Decoder::new(std::fs::File::open(path).expect("png"));
