@@ -139,7 +139,7 @@
 //! ```
 //! use std::path::Path;
 //! use errmap::base::Axis;
-//! use errmap::controller::{LinuxCncCompType, linuxcnc};
+//! use errmap::controller::{CompType, linuxcnc};
 //! use errmap::export::{Extrapolation, LineSpec, sample_line};
 //! use errmap::interp::Method;
 //!
@@ -148,7 +148,7 @@
 //! let model = Method::Spline.fit(&grid)?;
 //! let line = LineSpec { axis: Axis::X, at_mm: [0.0, 1.0, 200.0], start_mm: 200.0, end_mm: 800.0, step_mm: 100.0 };
 //! let sampled = sample_line(model.as_ref(), &line, Extrapolation::Forbid)?;
-//! let text = linuxcnc::render(&sampled, LinuxCncCompType::ActualPosition, None)?;
+//! let text = linuxcnc::render(&sampled, CompType::ActualPosition, None)?;
 //! assert_eq!(text.lines().filter(|l| !l.starts_with(';') && !l.trim().is_empty()).count(), 7);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

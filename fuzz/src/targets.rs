@@ -216,7 +216,7 @@ fn import_session(data: &[u8]) -> bool {
                 length: import::LengthUnit::Inch,
                 temperature: import::TempUnit::F,
                 pressure: import::PressureUnit::InHg,
-                error_units: import::csv::ErrorUnit::Um,
+                error_units: import::ErrorUnit::Um,
                 error_sign: None,
             })));
         }
@@ -235,7 +235,7 @@ fn import_session(data: &[u8]) -> bool {
 
 /// A controller table read back: finite errors, and a zero residual gives the bytes back.
 fn controller_table(data: &[u8]) -> bool {
-    use errmap::controller::LinuxCncCompType;
+    use errmap::controller::CompType;
     use errmap::controller::{LengthUnit, TableFormat};
     let formats = [
         TableFormat::Fagor8055 {
@@ -245,11 +245,11 @@ fn controller_table(data: &[u8]) -> bool {
             units: LengthUnit::Mm,
         },
         TableFormat::LinuxCnc {
-            comp_type: LinuxCncCompType::Trim,
+            comp_type: CompType::Trim,
             units: LengthUnit::Mm,
         },
         TableFormat::LinuxCnc {
-            comp_type: LinuxCncCompType::ActualPosition,
+            comp_type: CompType::ActualPosition,
             units: LengthUnit::Inch,
         },
         TableFormat::Siemens,

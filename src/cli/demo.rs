@@ -134,7 +134,7 @@ pub(crate) fn demo(a: DemoArgs) -> Result<()> {
     demo_compare(&inputs.t1, &inputs.t2, &a.out.join("table2"))?;
 
     eprintln!(
-        "errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors → TwinCAT tables"
+        "errmap demo [6/6]: a simulated laser campaign → the 21 volumetric errors → volumetric compensation tables"
     );
     super::volumetric::demo_step(&a.out)?;
     eprintln!("errmap demo: a simulated ballbar test (ISO 230-4) and the errors behind its trace");

@@ -11,7 +11,7 @@ use errmap::base::Axis;
 use errmap::base::FileOp;
 use errmap::base::io_err;
 use errmap::controller::{Dialect, SettingsError, TableFormat, TableSettings};
-use errmap::import::csv::ErrorUnit;
+use errmap::import::ErrorUnit;
 use errmap::import::{
     self, ColumnMap, CsvOptions, ErrorSign, ImportOptions, LengthUnit, PressureUnit, SessionFormat,
     TempUnit,
@@ -313,7 +313,7 @@ pub(crate) fn import_cmd(a: ImportArgs) -> Result<()> {
         };
         let rows = table.rows(axis);
         if let Some(out) = &a.out {
-            import::tables::write_error_table(out, &rows)?;
+            import::write_error_table(out, &rows)?;
         }
         let summary = table.summary(axis, warnings);
         report(&summary, a.json)?;

@@ -64,9 +64,11 @@ Stages of the pipeline and the commands that run them:
   volumetric   volumetric: the 21 geometric errors from laser line measurements
   circular     circular: ballbar tests (ISO 230-4)
   history      history: the calibration ledger of a fleet
+  artefact     artefact: ball and hole plates, ball beams, step gauges; plate fits
   acceptance   acceptance: decisions of conformity, ISO 10360-2 and 10360-5
   report       certificate, and every --report: words, tables and figures
   bench        bench: throughput of the models and the decoder
+  workbench    workbench: the same jobs in a browser, with live capture
 docs/cli.md describes every command and flag.";
 
 /// Measure and model the volumetric error of coordinate measuring machines.

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use errmap::base::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, RotaryAxis};
-use errmap::import::csv::{Col, ErrorUnit};
+use errmap::import::{Col, ErrorUnit};
 use errmap::session::rotary::{self, RotaryError, RotaryRow, RotarySession};
 
 use super::args::TableArgs;
@@ -145,7 +145,7 @@ pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
             axis: Some(errmap::base::Axis::X),
         },
     )?;
-    let lines = errmap::import::csv::data_lines(&bytes, options.delimiter)
+    let lines = errmap::import::data_lines(&bytes, options.delimiter)
         .map_err(|e| anyhow::anyhow!("{}: line {}: {}", a.file.display(), e.line, e.message))?;
     let rows = rotary_rows(&a.file, &imported.rows, &options, &lines, arcsec_per_unit)?;
     let session = RotarySession { axis, rows };

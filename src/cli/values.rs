@@ -14,7 +14,7 @@ use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
 use errmap::controller::program::{self as part_program, ProgramSyntax};
-use errmap::controller::{DIALECTS, Dialect as ControllerDialect, LinuxCncCompType};
+use errmap::controller::{CompType, DIALECTS, Dialect as ControllerDialect};
 use errmap::export::Ends;
 use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
@@ -526,11 +526,11 @@ pub enum CompTypeArg {
     Trim,
 }
 
-impl From<CompTypeArg> for LinuxCncCompType {
+impl From<CompTypeArg> for CompType {
     fn from(c: CompTypeArg) -> Self {
         match c {
-            CompTypeArg::Actual => LinuxCncCompType::ActualPosition,
-            CompTypeArg::Trim => LinuxCncCompType::Trim,
+            CompTypeArg::Actual => CompType::ActualPosition,
+            CompTypeArg::Trim => CompType::Trim,
         }
     }
 }

@@ -424,15 +424,11 @@ pub(crate) fn demo_step(out: &Path) -> Result<Identification> {
     eprintln!("  report → {}", dir.join("report.md").display());
     let tables = errmap::volumetric::component_tables(&id.fit, 21)
         .map_err(|m| anyhow::anyhow!("{}: {m}", lines.display()))?;
-    let twincat = dir.join("volcomp_twincat.csv");
-    write_text(
-        &twincat,
-        &errmap::controller::isg::render_volumetric(&tables, &lines.display().to_string()),
-    )?;
-    eprintln!(
-        "  TwinCAT 3 CNC (TF5280) ISG CSV component tables → {}",
-        twincat.display()
-    );
+    for v in errmap::controller::volumetric_tables() {
+        let file = dir.join(v.file_name);
+        write_text(&file, &(v.render)(&tables, &lines.display().to_string()))?;
+        eprintln!("  {} → {}", v.summary, file.display());
+    }
     Ok(id)
 }
 
@@ -514,11 +510,13 @@ fn export_cmd(a: ExportArgs) -> Result<()> {
     if let Some(out) = &a.twincat {
         let tables = component_tables(&fit, a.points)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.model.display()))?;
-        let text =
-            errmap::controller::isg::render_volumetric(&tables, &a.model.display().to_string());
-        write_text(out, &text)?;
+        let v = errmap::controller::volumetric_tables()
+            .next()
+            .ok_or_else(|| anyhow::anyhow!("no controller dialect writes a volumetric table"))?;
+        write_text(out, &(v.render)(&tables, &a.model.display().to_string()))?;
         eprintln!(
-            "volumetric export: TwinCAT 3 CNC ISG CSV component tables ({} positions per axis) → {}",
+            "volumetric export: {} ({} positions per axis) → {}",
+            v.summary,
             a.points,
             out.display()
         );

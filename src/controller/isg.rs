@@ -422,6 +422,13 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Isg {
+    fn volumetric(&self) -> Option<super::VolumetricTable> {
+        Some(super::VolumetricTable {
+            render: render_volumetric,
+            file_name: "volcomp_twincat.csv",
+            summary: "TwinCAT 3 CNC (TF5280) ISG CSV component tables",
+        })
+    }
     fn name(&self) -> &'static str {
         "isg"
     }

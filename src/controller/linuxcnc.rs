@@ -15,8 +15,8 @@
 //!
 //! | type | forward / reverse column | written as |
 //! |---|---|---|
-//! | 0 ([`LinuxCncCompType::ActualPosition`]) | actual position when moving up / down | N + c |
-//! | 1 ([`LinuxCncCompType::Trim`]) | trim added to the command moving up / down | −c = e |
+//! | 0 ([`CompType::ActualPosition`]) | actual position when moving up / down | N + c |
+//! | 1 ([`CompType::Trim`]) | trim added to the command moving up / down | −c = e |
 //!
 //! # Sign convention
 //!
@@ -76,7 +76,7 @@ pub const LINUXCNC_MAX_ENTRIES: usize = 256;
 
 /// LinuxCNC `COMP_FILE_TYPE`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum LinuxCncCompType {
+pub enum CompType {
     /// Type 0: the second and third columns are the actual positions reached when the
     /// nominal is commanded (N + c).
     ActualPosition,
@@ -84,12 +84,12 @@ pub enum LinuxCncCompType {
     Trim,
 }
 
-impl LinuxCncCompType {
+impl CompType {
     /// The value for `COMP_FILE_TYPE`.
     pub fn code(self) -> u8 {
         match self {
-            LinuxCncCompType::ActualPosition => 0,
-            LinuxCncCompType::Trim => 1,
+            CompType::ActualPosition => 0,
+            CompType::Trim => 1,
         }
     }
 }
@@ -101,7 +101,7 @@ impl LinuxCncCompType {
 /// than [`LINUXCNC_MAX_ENTRIES`] samples, naming a step that fits.
 pub fn render(
     forward: &Sampled,
-    comp_type: LinuxCncCompType,
+    comp_type: CompType,
     reverse: Option<&Sampled>,
 ) -> Result<String, ExportError> {
     let rev = crate::export::paired(forward, reverse)?;
@@ -137,8 +137,8 @@ pub fn render(
         let t_fwd_mm = VALUE.sign.of(forward.error_um[i]) * 1e-3;
         let t_rev_mm = VALUE.sign.of(rev.error_um[i]) * 1e-3;
         let (a, b) = match comp_type {
-            LinuxCncCompType::ActualPosition => (nominal - t_fwd_mm, nominal - t_rev_mm),
-            LinuxCncCompType::Trim => (t_fwd_mm, t_rev_mm),
+            CompType::ActualPosition => (nominal - t_fwd_mm, nominal - t_rev_mm),
+            CompType::Trim => (t_fwd_mm, t_rev_mm),
         };
         out.push_str(&format!("{nominal_txt} {} {}\n", fmt_mm(a), fmt_mm(b)));
     }
@@ -148,7 +148,7 @@ pub fn render(
 // ---------------------------------------------------------------------------------------
 // Reading
 
-pub(crate) fn read(text: &Text, k: f64, comp: LinuxCncCompType) -> Result<Vec<TablePoint>, At> {
+pub(crate) fn read(text: &Text, k: f64, comp: CompType) -> Result<Vec<TablePoint>, At> {
     let mut points: Vec<TablePoint> = Vec::new();
     for (i, (off, l)) in text.lines().into_iter().enumerate() {
         let line = i + 1;
@@ -173,8 +173,8 @@ pub(crate) fn read(text: &Text, k: f64, comp: LinuxCncCompType) -> Result<Vec<Ta
         };
         super::read::increasing(&points, line, n)?;
         let e = |v: f64| match comp {
-            LinuxCncCompType::Trim => VALUE.error_um(v, k),
-            LinuxCncCompType::ActualPosition => VALUE.error_um(n - v, k),
+            CompType::Trim => VALUE.error_um(v, k),
+            CompType::ActualPosition => VALUE.error_um(n - v, k),
         };
         check_point(line, n * k, &[e(f), e(r)])?;
         points.push(TablePoint {
@@ -212,7 +212,7 @@ impl Dialect for LinuxCnc {
     fn axis_tables(&self) -> Option<AxisTables> {
         Some(AxisTables {
             format: |_| ExportFormat::LinuxCnc {
-                comp_type: LinuxCncCompType::ActualPosition,
+                comp_type: CompType::ActualPosition,
             },
             extension: "comp",
             about: "A LinuxCNC COMP_FILE of type 0 (the positions actually reached)",
@@ -252,7 +252,7 @@ impl Dialect for LinuxCnc {
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         Ok(ExportFormat::LinuxCnc {
-            comp_type: s.comp_type.unwrap_or(LinuxCncCompType::ActualPosition),
+            comp_type: s.comp_type.unwrap_or(CompType::ActualPosition),
         })
     }
 }

@@ -65,10 +65,10 @@ pub mod linuxcnc;
 pub mod modulo;
 mod options;
 pub mod program;
-pub mod read;
+mod read;
 pub mod siemens;
-pub mod text;
-pub mod update;
+pub(crate) mod text;
+mod update;
 
 use crate::export::{ExportError, Sampled};
 
@@ -77,7 +77,7 @@ pub use fagor::{FAGOR_8055_MAX_POINTS, FAGOR_8065_MAX_POINTS, Fagor8055Spec};
 pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
 pub use heidenhain::HEIDENHAIN_MAX_POINTS;
 pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
-pub use linuxcnc::{LINUXCNC_MAX_ENTRIES, LinuxCncCompType};
+pub use linuxcnc::{CompType, LINUXCNC_MAX_ENTRIES};
 pub use options::{DialectOption, DialectOptions, OptionError, OptionValue, dialect_options};
 pub use read::{At, ControllerTable, Field, TablePoint, read};
 pub use siemens::SIEMENS_808D_MAX_POINTS;
@@ -139,7 +139,7 @@ pub enum TableFormat {
     Fagor8065 { units: LengthUnit },
     /// LinuxCNC `COMP_FILE` (mm unless told); its type is not in the file.
     LinuxCnc {
-        comp_type: LinuxCncCompType,
+        comp_type: CompType,
         units: LengthUnit,
     },
     /// Siemens 840D LEC/MSEC or direction-dependent CEC program (mm).
@@ -195,7 +195,7 @@ impl TableFormat {
 #[derive(Debug, Clone, PartialEq)]
 pub enum ExportFormat {
     /// A LinuxCNC `COMP_FILE` for one joint.
-    LinuxCnc { comp_type: LinuxCncCompType },
+    LinuxCnc { comp_type: CompType },
     /// A SINUMERIK 840D sl LEC/MSEC program for machine axis `axis_name` (e.g. `X1`),
     /// whose MD38000 `MM_ENC_COMP_MAX_POINTS` is `max_points`.
     Siemens {
@@ -466,7 +466,7 @@ pub struct TableSettings {
     /// The file's length unit where the file does not state it.
     pub units: Option<LengthUnit>,
     /// LinuxCNC's `COMP_FILE_TYPE`.
-    pub comp_type: Option<LinuxCncCompType>,
+    pub comp_type: Option<CompType>,
     /// The grid's reference position, mm (FANUC's reference point, parameter 3620).
     pub reference_mm: f64,
     /// The settings each dialect declares for itself ([`Dialect::options`]).
@@ -558,6 +558,27 @@ pub trait Dialect: Sync {
     fn axis_tables(&self) -> Option<AxisTables> {
         None
     }
+    /// The controller's own volumetric compensation file (the 21 component tables), where
+    /// it has one.
+    fn volumetric(&self) -> Option<VolumetricTable> {
+        None
+    }
+}
+
+/// A controller's volumetric compensation file: its writer, the file name the demo gives
+/// it, and its words for the summary line.
+#[derive(Debug, Clone, Copy)]
+pub struct VolumetricTable {
+    /// The file from a model's component tables and the name of its source.
+    pub render: fn(&crate::volumetric::ComponentTables, &str) -> String,
+    pub file_name: &'static str,
+    /// The file's name in the summary line.
+    pub summary: &'static str,
+}
+
+/// Every volumetric compensation file errmap writes, in the registry's order.
+pub fn volumetric_tables() -> impl Iterator<Item = VolumetricTable> {
+    DIALECTS.iter().filter_map(|d| d.volumetric())
 }
 
 /// How a dialect writes a volumetric model's positioning error of each axis as a 1-D

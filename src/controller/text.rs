@@ -133,7 +133,7 @@ impl Text {
 }
 
 /// The lines of `text` (without `\n`/`\r\n`) with their byte offsets.
-pub fn lines_of(text: &str) -> Vec<(usize, &str)> {
+pub(crate) fn lines_of(text: &str) -> Vec<(usize, &str)> {
     let mut out = Vec::new();
     let mut start = 0;
     for (i, b) in text.bytes().enumerate() {
@@ -151,7 +151,7 @@ pub fn lines_of(text: &str) -> Vec<(usize, &str)> {
 }
 
 /// The number of decimals written in a number's text (`-0.00127` → 5, `12` → 0).
-pub fn decimals(token: &str) -> usize {
+pub(crate) fn decimals(token: &str) -> usize {
     token
         .split_once('.')
         .map(|(_, f)| f.chars().take_while(char::is_ascii_digit).count())
@@ -160,7 +160,7 @@ pub fn decimals(token: &str) -> usize {
 
 /// A plain decimal number (`-12.5`, `+3`, `.5`, `1e-3`), finite. Refuses what `f64`'s
 /// parser would also take but no instrument writes (`inf`, `NaN`).
-pub fn number(token: &str) -> Option<f64> {
+pub(crate) fn number(token: &str) -> Option<f64> {
     let t = token.trim();
     if t.is_empty()
         || !t

@@ -28,7 +28,7 @@
 use errmap_drivers::SessionRow;
 use serde::Serialize;
 
-use super::LinuxCncCompType;
+use super::CompType;
 use super::{ControllerTable, Field, TableFormat};
 use crate::base::Axis;
 use crate::session::{ReductionError, error_table, iso_by_line};
@@ -482,8 +482,8 @@ fn edit_point(
         TableFormat::LinuxCnc { comp_type, .. } => {
             let trim = |e_um: f64| table.format.value().file(e_um, k);
             let value = |e_um: f64| match comp_type {
-                LinuxCncCompType::Trim => trim(e_um),
-                LinuxCncCompType::ActualPosition => p.position_file - trim(e_um),
+                CompType::Trim => trim(e_um),
+                CompType::ActualPosition => p.position_file - trim(e_um),
             };
             editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
             editor.rewrite(

@@ -250,19 +250,7 @@ fn run(
     let mut untestable = first.untestable().to_vec();
     let mut out = first.run();
     let resid: Vec<f64> = y.iter().zip(&out.model).map(|(y, m)| y - m).collect();
-    let from_resid = data::noise_from_residuals(&resid, &groups);
-    let mut sigma2: Vec<f64> = sigma
-        .iter()
-        .zip(&from_resid)
-        .map(|(&a, &b)| {
-            if b.is_finite() && b > 0.0 {
-                a.min(b)
-            } else {
-                a
-            }
-        })
-        .collect();
-    data::floor_sigmas(&mut sigma2);
+    let mut sigma2 = noise_after_first_model(&groups, &resid, &sigma);
     floor_shared(&mut sigma2);
     let changed = sigma
         .iter()
@@ -298,32 +286,8 @@ fn run(
         );
         untestable = sel.untestable().to_vec();
         out = sel.run();
-        if changed {
-            out.log.insert(
-                0,
-                "noise re-estimated from the first model's residuals (some group changed by > 15 %); selection repeated".into(),
-            );
-        }
-        if n_spikes > 0 {
-            out.log.insert(
-                0,
-                format!(
-                    "{n_spikes} sample(s) more than {} σ from their neighbours after the first model (outliers) given no weight; selection repeated",
-                    data::OUTLIER_SIGMAS
-                ),
-            );
-        }
     }
-    if let Some(f) = shared {
-        out.log.insert(
-            0,
-            format!(
-                "the residual is quieter than the recording alone (its own noise on dwells {f:.4} µm): \
-                 the simulation reproduces the recording's noise (the same noise seed?), so every \
-                 group's σ is at least the recording's own"
-            ),
-        );
-    }
+    log_passes(&mut out.log, changed, n_spikes, shared);
     untestable.sort();
     untestable.dedup();
     if let Some(e) = non_finite(&out.terms) {
@@ -337,6 +301,55 @@ fn run(
     match non_finite_param(&d.effects) {
         Some(e) => Err(e),
         None => Ok(d),
+    }
+}
+
+/// Each group's σ after the first model: the smaller of the recording's own (`sigma`) and
+/// the first model's residual scatter, floored as every σ is.
+fn noise_after_first_model(groups: &data::Groups, resid: &[f64], sigma: &[f64]) -> Vec<f64> {
+    let from_resid = data::noise_from_residuals(resid, groups);
+    let mut sigma2: Vec<f64> = sigma
+        .iter()
+        .zip(&from_resid)
+        .map(|(&a, &b)| {
+            if b.is_finite() && b > 0.0 {
+                a.min(b)
+            } else {
+                a
+            }
+        })
+        .collect();
+    data::floor_sigmas(&mut sigma2);
+    sigma2
+}
+
+/// Says at the head of the selection log why the selection ran twice (noise re-estimated,
+/// outliers given no weight) and when the residual shares the recording's noise.
+fn log_passes(log: &mut Vec<String>, changed: bool, n_spikes: usize, shared: Option<f64>) {
+    if changed {
+        log.insert(
+            0,
+            "noise re-estimated from the first model's residuals (some group changed by > 15 %); selection repeated".into(),
+        );
+    }
+    if n_spikes > 0 {
+        log.insert(
+            0,
+            format!(
+                "{n_spikes} sample(s) more than {} σ from their neighbours after the first model (outliers) given no weight; selection repeated",
+                data::OUTLIER_SIGMAS
+            ),
+        );
+    }
+    if let Some(f) = shared {
+        log.insert(
+            0,
+            format!(
+                "the residual is quieter than the recording alone (its own noise on dwells {f:.4} µm): \
+                 the simulation reproduces the recording's noise (the same noise seed?), so every \
+                 group's σ is at least the recording's own"
+            ),
+        );
     }
 }
 

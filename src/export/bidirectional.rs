@@ -13,7 +13,7 @@ use super::Sampled;
 
 /// One measured line: where it lies and its ISO 230-2 mean deviations per target.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LineMeans {
+pub(crate) struct LineMeans {
     /// The line's two other coordinates, mm, in the order of [`other_axes`].
     pub at_mm: (f64, f64),
     /// Target positions along the axis, mm (any order).
@@ -41,7 +41,7 @@ pub enum ChooseLineError {
 }
 
 /// The two axes other than `axis`, in index order (for X: Y, Z).
-pub fn other_axes(axis: Axis) -> [Axis; 2] {
+pub(crate) fn other_axes(axis: Axis) -> [Axis; 2] {
     match axis {
         Axis::X => [Axis::Y, Axis::Z],
         Axis::Y => [Axis::X, Axis::Z],
@@ -50,12 +50,12 @@ pub fn other_axes(axis: Axis) -> [Axis; 2] {
 }
 
 /// Coordinates agree with `--at` to this, mm (1 nm).
-pub const AT_TOL_MM: f64 = 1e-6;
+pub(crate) const AT_TOL_MM: f64 = 1e-6;
 
 /// The one line among `lines` whose coordinates match every `(axis, value)` of `at`
 /// (an empty `at` matches every line; a coordinate along the measured axis matches none).
 /// `failed` names lines without statistics, for the message. Returns the line's index.
-pub fn choose_line(
+pub(crate) fn choose_line(
     axis: Axis,
     lines: &[LineMeans],
     at: &[(Axis, f64)],
@@ -99,7 +99,7 @@ pub fn choose_line(
 
 /// The forward (approached in +) and reverse (approached in −) error tables of a line,
 /// targets in increasing position: errors `e = −x̄`.
-pub fn direction_tables(axis: Axis, line: &LineMeans) -> (Sampled, Sampled) {
+pub(crate) fn direction_tables(axis: Axis, line: &LineMeans) -> (Sampled, Sampled) {
     let [a, b] = other_axes(axis);
     let mut at_mm = [0.0; 3];
     at_mm[a.index()] = line.at_mm.0;

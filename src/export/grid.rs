@@ -37,7 +37,7 @@ impl GridRows {
 
 /// Samples the model over a box, x fastest. Refuses more than [`MAX_SAMPLES`] points.
 /// Cost: N predictions.
-pub fn render(
+pub(super) fn render(
     model: &dyn Interpolator,
     spec: &VolumeSpec,
     extrapolation: Extrapolation,

@@ -22,11 +22,11 @@
 //! error naming the mapped range, which is found from `outside` alone by bisection
 //! ([`MappedBox::around`]), so it works for every interpolator.
 
-pub mod bidirectional;
-pub mod csv;
+pub(crate) mod bidirectional;
+mod csv;
 mod error;
-pub mod grid;
-pub mod step;
+mod grid;
+mod step;
 
 use std::path::Path;
 

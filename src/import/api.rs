@@ -237,7 +237,7 @@ impl Layout {
 }
 
 /// Reads an API XD `.pos` export (see the module docs).
-pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
+pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let lines = text.lines();
     check_title(&lines)?;

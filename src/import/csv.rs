@@ -347,7 +347,7 @@ impl Mapped {
 }
 
 /// Reads a CSV through the column map (see the module docs).
-pub fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, At> {
+pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let recs = records(&text.text, o.delimiter)?;
     let Some((header_line, header)) = recs.first() else {

@@ -29,10 +29,10 @@
 //! for CSV, the column: `FILE: line N, column C: what`. The readers return rows or an error
 //! and write nothing; the caller writes the table whole or not at all.
 
-pub mod api;
-pub mod csv;
-pub mod rtl;
-pub mod tables;
+mod api;
+mod csv;
+mod rtl;
+mod tables;
 
 use std::path::{Path, PathBuf};
 
@@ -44,7 +44,11 @@ use crate::base::Axis;
 use crate::table::TableError;
 
 pub use crate::controller::At;
-pub use csv::{ColumnMap, CsvOptions, ErrorSign, LengthUnit, MapError, PressureUnit, TempUnit};
+pub use csv::{
+    Col, ColumnMap, CsvOptions, ErrorSign, ErrorUnit, LengthUnit, MapError, PressureUnit, TempUnit,
+    data_lines,
+};
+pub use tables::write_error_table;
 
 /// Exact unit conversions.
 pub mod units {

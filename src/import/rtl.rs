@@ -93,7 +93,7 @@ fn sections<'a>(lines: &[(usize, &'a str)]) -> Vec<Section<'a>> {
 }
 
 /// The refusal of a `.rtx` dynamic capture.
-pub fn refuse_rtx(_bytes: &[u8]) -> At {
+pub(super) fn refuse_rtx(_bytes: &[u8]) -> At {
     At::new(
         1,
         "a Renishaw dynamic capture (.rtx: samples in time, no targets); errmap imports \
@@ -199,7 +199,7 @@ fn section<'s, 'a>(secs: &'s [Section<'a>], name: &str) -> Option<&'s Section<'a
 }
 
 /// Reads a Renishaw linear `.rtl` (see the module docs).
-pub fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
+pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let lines = text.lines();
     if lines.first().map(|l| l.1.trim()) != Some("HEADER::") {

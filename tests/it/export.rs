@@ -6,7 +6,7 @@
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 
-use errmap::controller::{ExportFormat, LINUXCNC_MAX_ENTRIES, LinuxCncCompType, linuxcnc, siemens};
+use errmap::controller::{CompType, ExportFormat, LINUXCNC_MAX_ENTRIES, linuxcnc, siemens};
 use errmap::export::{
     ExportError, Extrapolation, FILE_RESOLUTION_MM, LineSpec, Sampled, VolumeSpec, csv,
     sample_line, write_grid,
@@ -188,7 +188,7 @@ fn linuxcnc_lines_are_nominal_forward_reverse_without_header() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 10.0), Extrapolation::Forbid)
         .expect("inside the map");
-    for comp_type in [LinuxCncCompType::ActualPosition, LinuxCncCompType::Trim] {
+    for comp_type in [CompType::ActualPosition, CompType::Trim] {
         let text = linuxcnc::render(&s, comp_type, None).expect("81 entries fit");
         let rows = parse_linuxcnc(&text); // also proves: no header, no comments
         assert_eq!(rows.len(), 81);
@@ -202,9 +202,9 @@ fn linuxcnc_lines_are_nominal_forward_reverse_without_header() {
             let c_mm = -model.predict(at_x(x)) * 1e-3;
             let expected = match comp_type {
                 // Type 0: the actual position reached when the nominal is commanded.
-                LinuxCncCompType::ActualPosition => x + c_mm,
+                CompType::ActualPosition => x + c_mm,
                 // Type 1: LinuxCNC's trim, added to the command: −c.
-                LinuxCncCompType::Trim => -c_mm,
+                CompType::Trim => -c_mm,
             };
             assert!((row[0] - x).abs() < FILE_TOL_MM);
             assert!(
@@ -221,9 +221,8 @@ fn linuxcnc_type0_and_type1_load_the_same_trims() {
     // usrmotLoadComp turns a type-0 value into the trim `nominal − value`.
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 20.0), Extrapolation::Forbid).expect("ok");
-    let t0 =
-        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
-    let t1 = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let t0 = parse_linuxcnc(&linuxcnc::render(&s, CompType::ActualPosition, None).expect("ok"));
+    let t1 = parse_linuxcnc(&linuxcnc::render(&s, CompType::Trim, None).expect("ok"));
     for (a, b) in t0.iter().zip(&t1) {
         assert_eq!(a[0], b[0]);
         assert!(
@@ -241,8 +240,7 @@ fn linuxcnc_reverse_column_comes_from_the_reverse_line() {
     // Reverse-direction errors: the forward ones shifted by a 4 µm backlash.
     let mut rev = fwd.clone();
     rev.error_um.iter_mut().for_each(|e| *e -= 4.0);
-    let rows =
-        parse_linuxcnc(&linuxcnc::render(&fwd, LinuxCncCompType::Trim, Some(&rev)).expect("ok"));
+    let rows = parse_linuxcnc(&linuxcnc::render(&fwd, CompType::Trim, Some(&rev)).expect("ok"));
     for (i, row) in rows.iter().enumerate() {
         assert!((row[1] - fwd.error_um[i] * 1e-3).abs() < FILE_TOL_MM);
         assert!((row[2] - rev.error_um[i] * 1e-3).abs() < FILE_TOL_MM);
@@ -250,7 +248,7 @@ fn linuxcnc_reverse_column_comes_from_the_reverse_line() {
     }
     // A reverse line at other positions is refused.
     let other = sample_line(&*model, &line_x(0.0, 750.0, 50.0), Extrapolation::Forbid).expect("ok");
-    let e = linuxcnc::render(&fwd, LinuxCncCompType::Trim, Some(&other)).expect_err("mismatch");
+    let e = linuxcnc::render(&fwd, CompType::Trim, Some(&other)).expect_err("mismatch");
     assert!(matches!(e, ExportError::ReverseMismatch { .. }), "{e}");
 }
 
@@ -259,7 +257,7 @@ fn linuxcnc_refuses_more_than_256_entries_and_names_a_step_that_fits() {
     let model = spline_model();
     let s = sample_line(&*model, &line_x(0.0, 800.0, 1.0), Extrapolation::Forbid).expect("ok");
     assert_eq!(s.len(), 801);
-    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("801 > 256");
+    let e = linuxcnc::render(&s, CompType::Trim, None).expect_err("801 > 256");
     let msg = e.to_string();
     assert!(
         matches!(
@@ -278,7 +276,7 @@ fn linuxcnc_refuses_more_than_256_entries_and_names_a_step_that_fits() {
     assert!(msg.contains("at least 3.137255 mm"), "{msg}");
     assert!(msg.contains("e.g. 3.2 mm (251 entries)"), "{msg}");
     let s = sample_line(&*model, &line_x(0.0, 800.0, 3.2), Extrapolation::Forbid).expect("ok");
-    let rows = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("fits"));
+    let rows = parse_linuxcnc(&linuxcnc::render(&s, CompType::Trim, None).expect("fits"));
     assert_eq!(rows.len(), 251);
 }
 
@@ -424,7 +422,7 @@ fn round_trip_compensation_leaves_fit_plus_table_interpolation_error() {
     let model = spline_model();
     let step = 10.0;
     let s = sample_line(&*model, &line_x(0.0, 800.0, step), Extrapolation::Forbid).expect("ok");
-    let lc = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let lc = parse_linuxcnc(&linuxcnc::render(&s, CompType::Trim, None).expect("ok"));
     let sm = parse_siemens(&siemens::render(&s, "X1", 200).expect("ok"), "X1");
     let [raw, lc_rms, sm_rms, fit] = apply(&*model, truth, &lc, &sm, 0.0, 800.0);
     // Linear interpolation of the table between entries h apart is off by at most
@@ -463,8 +461,7 @@ fn round_trip_on_table_1_with_a_coarse_model() {
     let model = Method::Trilinear.fit(&grid).expect("trilinear");
     let truth = |p: [f64; 3]| machine.predict(p);
     let s = sample_line(&*model, &line_x(10.0, 790.0, 10.0), Extrapolation::Forbid).expect("ok");
-    let lc =
-        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
+    let lc = parse_linuxcnc(&linuxcnc::render(&s, CompType::ActualPosition, None).expect("ok"));
     // Type 0 → LinuxCNC's trim = nominal − actual.
     let lc: Vec<[f64; 3]> = lc
         .iter()
@@ -513,9 +510,8 @@ fn error_k_times_x_gets_compensation_minus_k_times_x() {
             -k * x
         );
     }
-    let t0 =
-        parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::ActualPosition, None).expect("ok"));
-    let t1 = parse_linuxcnc(&linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect("ok"));
+    let t0 = parse_linuxcnc(&linuxcnc::render(&s, CompType::ActualPosition, None).expect("ok"));
+    let t1 = parse_linuxcnc(&linuxcnc::render(&s, CompType::Trim, None).expect("ok"));
     let sm = parse_siemens(&siemens::render(&s, "X1", 200).expect("ok"), "X1");
     for (i, &x) in s.positions_mm.iter().enumerate() {
         let c_mm = -k * x * 1e-3;
@@ -716,7 +712,7 @@ fn samples_built_by_hand_are_checked() {
         error_um: vec![1.0, 2.0, 3.0],
         extrapolated: vec![false; 3],
     };
-    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("repeated nominal");
+    let e = linuxcnc::render(&s, CompType::Trim, None).expect_err("repeated nominal");
     assert!(
         matches!(e, ExportError::NotIncreasing { index: 2, .. }),
         "{e}"
@@ -726,7 +722,7 @@ fn samples_built_by_hand_are_checked() {
         error_um: vec![1.0],
         ..s
     };
-    let e = linuxcnc::render(&s, LinuxCncCompType::Trim, None).expect_err("lengths");
+    let e = linuxcnc::render(&s, CompType::Trim, None).expect_err("lengths");
     assert!(matches!(e, ExportError::LengthMismatch { .. }), "{e}");
     let s = Sampled {
         positions_mm: vec![0.0, 10.0],

@@ -427,7 +427,7 @@ fn csv_opts(map: &str) -> import::CsvOptions {
         length: LengthUnit::Mm,
         temperature: import::TempUnit::C,
         pressure: import::PressureUnit::HPa,
-        error_units: import::csv::ErrorUnit::Um,
+        error_units: import::ErrorUnit::Um,
         error_sign: None,
     }
 }
@@ -861,7 +861,7 @@ fn real_tables_updated_in_their_own_layout() {
 /// file back.
 #[test]
 fn linuxcnc_export_import_round_trip() {
-    use errmap::controller::{LinuxCncCompType, linuxcnc};
+    use errmap::controller::{CompType, linuxcnc};
     use errmap::export::Sampled;
     let positions = vec![-10.0, 0.0, 25.0, 60.0];
     let up = vec![1.5, 0.0, -2.25, 4.0];
@@ -878,7 +878,7 @@ fn linuxcnc_export_import_round_trip() {
         positions.clone(),
         down.clone(),
     );
-    for comp_type in [LinuxCncCompType::Trim, LinuxCncCompType::ActualPosition] {
+    for comp_type in [CompType::Trim, CompType::ActualPosition] {
         let text = linuxcnc::render(&f, comp_type, Some(&r)).expect("render");
         let t = errmap::controller::read(
             text.as_bytes(),

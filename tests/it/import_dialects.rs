@@ -722,7 +722,7 @@ fn every_dialect_refuses_a_session_of_another_axis() {
         ),
         (
             "linuxcnc",
-            controller::linuxcnc::render(&fwd, controller::LinuxCncCompType::Trim, None)
+            controller::linuxcnc::render(&fwd, controller::CompType::Trim, None)
                 .expect("linuxcnc")
                 .into_bytes(),
             &["--comp-type", "trim"],
@@ -942,7 +942,7 @@ fn the_export_job_writes_and_updates_from_typed_settings() {
         }
     }
     let settings = controller::TableSettings {
-        comp_type: Some(controller::LinuxCncCompType::Trim),
+        comp_type: Some(controller::CompType::Trim),
         ..controller::TableSettings::new(Axis::X)
     };
     let placement = Placement {
