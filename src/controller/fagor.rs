@@ -292,12 +292,7 @@ pub(crate) fn read_8055(text: &Text, k: f64) -> Result<(Axis, Vec<TablePoint>), 
             }
             _ => {}
         }
-        super::read::increasing(&points, line, pos)?;
-        check_point(
-            line,
-            pos * k,
-            &[VALUE.error_um(up, k), VALUE.error_um(down, k)],
-        )?;
+        next_point(&points, line, pos, [up, down], k)?;
         let t = super::read::tokens(l, off);
         points.push(TablePoint {
             line,
@@ -418,12 +413,7 @@ pub(crate) fn read_8065(text: &Text, k: f64) -> Result<Read8065, At> {
         let (line, _, pos) = fetch("POSITION")?;
         let (_, up_f, up) = fetch("POSERROR")?;
         let (_, down_f, down) = fetch("NEGERROR")?;
-        super::read::increasing(&points, line, pos)?;
-        check_point(
-            line,
-            pos * k,
-            &[VALUE.error_um(up, k), VALUE.error_um(down, k)],
-        )?;
+        next_point(&points, line, pos, [up, down], k)?;
         let e_up = VALUE.error_um(up, k);
         points.push(TablePoint {
             line,
@@ -569,4 +559,20 @@ impl Dialect for Fagor {
             Fagor::Mp8065 => ExportFormat::Fagor8065 { spec: spec(s) },
         })
     }
+}
+/// A point's checks, as both Fagor readers make them: positions increasing, the position
+/// and both errors (file units × `k`) within the table's limits.
+fn next_point(
+    points: &[TablePoint],
+    line: usize,
+    pos: f64,
+    [up, down]: [f64; 2],
+    k: f64,
+) -> Result<(), At> {
+    super::read::increasing(points, line, pos)?;
+    check_point(
+        line,
+        pos * k,
+        &[VALUE.error_um(up, k), VALUE.error_um(down, k)],
+    )
 }

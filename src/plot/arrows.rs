@@ -6,12 +6,11 @@
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 use super::draw::de;
 use super::error::{DrawFailure, PlotError};
-use super::render::{Figure, figure_pair};
-use super::text::{font, fonts_ready};
+use super::render::{Figure, figure_pair, map_heading, map_text as style};
+use super::text::fonts_ready;
 
 /// The image's side, pixels.
 pub const SIDE_PX: u32 = 800;
@@ -133,10 +132,6 @@ impl Figure for ArrowMap {
     }
 }
 
-fn style(size: f64) -> TextStyle<'static> {
-    TextStyle::from(font(size, FontStyle::Normal)).color(&RGBColor(0x22, 0x22, 0x22))
-}
-
 fn ip(p: (f64, f64)) -> (i32, i32) {
     (p.0.round() as i32, p.1.round() as i32)
 }
@@ -173,17 +168,7 @@ fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     map: &ArrowMap,
 ) -> Result<(), DrawFailure> {
-    root.fill(&WHITE).map_err(de)?;
-    root.draw(&Text::new(map.title.clone(), (16, 10), style(20.0)))
-        .map_err(de)?;
-    for (i, line) in map.notes.iter().enumerate() {
-        root.draw(&Text::new(
-            line.clone(),
-            (16, 38 + 18 * i as i32),
-            style(14.0),
-        ))
-        .map_err(de)?;
-    }
+    map_heading(root, &map.title, &map.notes)?;
     let g = geometry(map);
     let grey = RGBColor(0x99, 0x99, 0x99);
     // The frame of the plot area with its axis names.

@@ -61,6 +61,33 @@ pub(super) trait Figure {
     -> Result<(), DrawFailure>;
 }
 
+/// The dark grey text of the arrow and sphere maps, `size` points.
+pub(super) fn map_text(size: f64) -> TextStyle<'static> {
+    TextStyle::from(super::text::font(size, plotters::style::FontStyle::Normal))
+        .color(&RGBColor(0x22, 0x22, 0x22))
+}
+
+/// A white page with `title` at the top left and `notes` below it, one a line: the head of
+/// the arrow and sphere maps.
+pub(super) fn map_heading<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    notes: &[String],
+) -> Result<(), DrawFailure> {
+    root.fill(&WHITE).map_err(de)?;
+    root.draw(&Text::new(title.to_string(), (16, 10), map_text(20.0)))
+        .map_err(de)?;
+    for (i, line) in notes.iter().enumerate() {
+        root.draw(&Text::new(
+            line.clone(),
+            (16, 38 + 18 * i as i32),
+            map_text(14.0),
+        ))
+        .map_err(de)?;
+    }
+    Ok(())
+}
+
 /// Writes `<stem>.png` and `<stem>.svg` of `figure`, `size` pixels, each whole or not at
 /// all ([`whole`]); returns their paths.
 pub(super) fn figure_pair(

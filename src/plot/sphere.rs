@@ -9,12 +9,11 @@
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 use super::draw::de;
 use super::error::{DrawFailure, PlotError};
-use super::render::{Figure, figure_pair};
-use super::text::{font, fonts_ready};
+use super::render::{Figure, figure_pair, map_heading, map_text as style};
+use super::text::fonts_ready;
 
 /// One panel's side, pixels.
 pub(crate) const PANEL_PX: u32 = 400;
@@ -146,25 +145,11 @@ impl Figure for SphereMap {
     }
 }
 
-fn style(size: f64) -> TextStyle<'static> {
-    TextStyle::from(font(size, FontStyle::Normal)).color(&RGBColor(0x22, 0x22, 0x22))
-}
-
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     map: &SphereMap,
 ) -> Result<(), DrawFailure> {
-    root.fill(&WHITE).map_err(de)?;
-    root.draw(&Text::new(map.title.clone(), (16, 10), style(20.0)))
-        .map_err(de)?;
-    for (i, line) in map.notes.iter().enumerate() {
-        root.draw(&Text::new(
-            line.clone(),
-            (16, 38 + 18 * i as i32),
-            style(14.0),
-        ))
-        .map_err(de)?;
-    }
+    map_heading(root, &map.title, &map.notes)?;
     let max = max_abs_um(map);
     let dot = |r: f64| {
         if max > 0.0 {

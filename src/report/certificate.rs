@@ -69,6 +69,17 @@ pub struct CertificateData<'a> {
     pub info: &'a CertificateInfo,
 }
 
+impl CertificateData<'_> {
+    /// The lines measured, by name, `; `-separated.
+    pub(super) fn line_names(&self) -> String {
+        self.lines
+            .iter()
+            .map(|x| line_name(self.axis, x.line_mm))
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+}
+
 /// Why a certificate could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum CertificateError {
@@ -352,12 +363,7 @@ pub fn render_with(
 fn certificate_fields(sheet: &mut Sheet, data: &CertificateData) {
     let info = data.info;
     let f = |name: &str, v: String| (name.to_string(), v);
-    let lines = data
-        .lines
-        .iter()
-        .map(|x| line_name(data.axis, x.line_mm))
-        .collect::<Vec<_>>()
-        .join("; ");
+    let lines = data.line_names();
     let times = match (&info.start_time, &info.end_time) {
         (Some(a), Some(b)) => format!(", {a} to {b}"),
         (Some(a), None) => format!(", from {a}"),

@@ -10,12 +10,7 @@ use crate::acceptance::Conformity;
 pub(super) fn section(flow: &mut Sheet, data: &CertificateData, c: &Conformity, dec: Decimals) {
     let num = |v: f64| fixed(v, dec.um);
     flow.heading("Statement of conformity", 12.0);
-    let lines = data
-        .lines
-        .iter()
-        .map(|x| line_name(data.axis, x.line_mm))
-        .collect::<Vec<_>>()
-        .join("; ");
+    let lines = data.line_names();
     flow.paragraph(
         &format!(
             "Applies to: the ISO 230-2 results of axis {} on line(s) {lines} given in the axis \
