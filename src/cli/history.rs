@@ -70,10 +70,10 @@ pub(crate) struct AddArgs {
     #[arg(long, value_parser = utc)]
     pub at: Option<i64>,
     /// Amend record N (it must be current); needs --reason.
-    #[arg(long, requires = "reason")]
+    #[arg(long, requires = "reason", value_parser = super::values::record_id)]
     pub supersede: Option<i64>,
     /// Why the record is amended.
-    #[arg(long, requires = "supersede")]
+    #[arg(long, requires = "supersede", value_parser = super::values::reason)]
     pub reason: Option<String>,
     /// Print the new record as JSON on stdout.
     #[arg(long)]
@@ -329,7 +329,7 @@ pub(crate) fn bench(a: &super::args::BenchArgs) -> Result<Vec<errmap::bench::His
     let sqlite = dir.join("bench.sqlite");
     let _ = std::fs::remove_file(&sqlite);
     let mut out = Vec::new();
-    let (m, t) = (a.history_machines.max(1), a.history_tests.max(1));
+    let (m, t) = (a.history_machines, a.history_tests);
     eprintln!("bench: calibration ledger, {m} machines × {t} tests × 3 axes on SQLite …");
     let r = errmap::bench::run_history(&sqlite.display().to_string(), m, t);
     let _ = std::fs::remove_dir_all(&dir);
