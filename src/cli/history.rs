@@ -37,8 +37,21 @@ fn machine(s: &str) -> Result<MachineId, String> {
         .ok_or_else(|| format!("{s:?}: a machine id is 1–64 characters of A-Z a-z 0-9 . _ -"))
 }
 
+/// `--at`, `--as-of`: a time inside the window a ledger takes (from 1970 to now plus the
+/// ledger's clock skew), checked when the flags are parsed (exit 2); the ledger checks its
+/// records' times again when it writes them.
 fn utc(s: &str) -> Result<i64, String> {
-    time::parse_utc(s).map_err(|e| e.to_string())
+    let t = time::parse_utc(s).map_err(|e| e.to_string())?;
+    let latest = time::latest_at(time::now_utc());
+    if !(time::EARLIEST_S..=latest).contains(&t) {
+        return Err(format!(
+            "{s:?} is outside the window a ledger takes, {} … {} (now + a clock skew of {} h)",
+            time::format_utc(time::EARLIEST_S),
+            time::format_utc(latest),
+            time::CLOCK_SKEW_S / 3600
+        ));
+    }
+    Ok(t)
 }
 
 fn state(s: &str) -> Result<State, String> {
