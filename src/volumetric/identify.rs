@@ -417,18 +417,6 @@ pub(crate) fn decompose(a: &DMatrix<f64>) -> Decomposition {
 /// [`RANK_TOL`] × the largest) counted as null.
 pub(crate) fn decompose_with(a: &DMatrix<f64>, abs_tol: Option<f64>) -> Decomposition {
     let (m, n) = a.shape();
-    // A tall design (rows ≫ parameters): the SVD of its n × n triangle R = QᵀA after a
-    // Householder QR, the left vectors mapped back by Q. The singular values and right
-    // vectors are A's own; the SVD's sweeps then run on n × n instead of m × n (issue 40
-    // item 10: 18.7 s at 10 780 rows).
-    if m >= 2 * n && n > 0 {
-        let (q, r) = a.clone().qr().unpack();
-        let inner = decompose_with(&r, abs_tol);
-        return Decomposition {
-            u_range: q * inner.u_range,
-            ..inner
-        };
-    }
     let padded = if m < n {
         let mut p = DMatrix::zeros(n, n);
         p.view_mut((0, 0), (m, n)).copy_from(a);
