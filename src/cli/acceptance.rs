@@ -26,7 +26,7 @@ pub(crate) struct RuleArgs {
     #[arg(long, value_parser = rule())]
     pub rule: Option<Rule>,
     /// r of the guard rule's w = r·U (≥ 0; default 1).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::values::guard_fraction)]
     pub guard_fraction: Option<f64>,
 }
 

@@ -10,8 +10,9 @@ use errmap::interp::{DEFAULT_FUZZY_SIGMA, MethodName};
 
 use super::values::{
     CompTypeArg, EndsArg, ExportFormatArg, LineAt, OrderArg, OrdersArg, SessionFormat, Window,
-    at_least_two, axis, baud, bench_points, coordinate, fuzzy_width, kernel, length, method_name,
-    positive, probability, seconds, trials,
+    at_least_two, axis, axis_number, baud, bench_count, bench_points, controller_name, coordinate,
+    fuzzy_width, kernel, lagrange_max_degree, length, method_name, positive, probability, seconds,
+    trials,
 };
 
 #[derive(Debug, Args)]
@@ -85,14 +86,14 @@ pub(crate) struct ExportArgs {
     pub max_points: Option<usize>,
     /// The axis' name in the controller: HEIDENHAIN column (axis key) and ISG
     /// kopf.log_achs_name (default: the axis letter, upper case).
-    #[arg(long)]
+    #[arg(long, value_parser = controller_name)]
     pub axis_name: Option<String>,
     /// The axis' number in the controller: FANUC axis of parameters 3620–3627 and ISG
     /// kopf.log_achs_nr (default: x 1, y 2, z 3).
-    #[arg(long)]
+    #[arg(long, value_parser = axis_number)]
     pub axis_number: Option<u32>,
     /// HEIDENHAIN table name (default: <axis name>.COM).
-    #[arg(long)]
+    #[arg(long, value_parser = controller_name)]
     pub table_name: Option<String>,
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]
@@ -149,10 +150,10 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     pub history_only: bool,
     /// Machines of the ledger benchmark (each with --history-tests tests of 3 axes).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = bench_count)]
     pub history_machines: usize,
     /// Tests per machine of the ledger benchmark.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = 40, value_parser = bench_count)]
     pub history_tests: usize,
     /// An empty PostgreSQL database for the ledger benchmark (postgres://…); without
     /// it, SQLite only.
@@ -350,7 +351,7 @@ pub(crate) struct ModelArgs {
     #[arg(long, default_value_t = DEFAULT_FUZZY_SIGMA, value_parser = fuzzy_width)]
     pub fuzzy_sigma: f64,
     /// Highest Lagrange degree per axis tried by `auto`/`all`.
-    #[arg(long, default_value_t = DEFAULT_MAX_DEGREE)]
+    #[arg(long, default_value_t = DEFAULT_MAX_DEGREE, value_parser = lagrange_max_degree)]
     pub max_degree: usize,
     /// Gaussian-process kernel of the method `gp`: Matérn 5/2 or squared exponential.
     #[arg(long, default_value = "matern52", value_parser = kernel())]

@@ -39,7 +39,7 @@ pub(crate) struct SimulateArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// One-sigma of the noise added to each coordinate, µm.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = super::values::noise_um)]
     pub sigma_um: f64,
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
@@ -66,7 +66,7 @@ pub(crate) struct IdentifyArgs {
     #[arg(long)]
     pub json: bool,
     /// Report positions per component.
-    #[arg(long, default_value_t = 21)]
+    #[arg(long, default_value_t = 21, value_parser = super::values::artefact_positions)]
     pub positions: usize,
 }
 
@@ -86,7 +86,7 @@ pub(crate) struct EvaluateArgs {
     #[arg(long, default_value = "XY", value_parser = ["XY", "XZ", "YZ"])]
     pub plane: String,
     /// The artefact's temperature, °C (default: its reference temperature).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::values::temperature_c)]
     pub temp_c: Option<f64>,
     /// Write report.md, evaluate.json and the residual map(s) into this directory.
     #[arg(long)]
@@ -107,11 +107,6 @@ pub(crate) fn artefact_cmd(a: ArtefactArgs) -> Result<()> {
 fn evaluate_cmd(a: EvaluateArgs) -> Result<()> {
     let model = MapModel::parse(&a.model).unwrap_or(MapModel::Similarity);
     let plane = Plane::parse(&a.plane).unwrap_or(Plane::XY);
-    if let Some(t) = a.temp_c
-        && !t.is_finite()
-    {
-        return Err(super::guard::usage("--temp-c: not a finite number"));
-    }
     let art = Artefact::read(&a.artefact)?;
     let z_optional = !art.kind.is_1d();
     let meas = Measurement::read(&a.meas, &art, z_optional)?;
@@ -176,9 +171,6 @@ fn evaluate_cmd(a: EvaluateArgs) -> Result<()> {
 }
 
 fn simulate_cmd(a: SimulateArgs) -> Result<()> {
-    if !(a.sigma_um.is_finite() && a.sigma_um >= 0.0) {
-        return Err(super::guard::usage("--sigma-um: a finite number ≥ 0"));
-    }
     let campaign = Campaign::read(&a.campaign)?;
     let model = errmap::volumetric::Predictor::read(&a.model)?;
     let files = errmap::artefact::simulate(&campaign, &model, a.sigma_um, a.seed)?;
@@ -210,7 +202,7 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
     let opts = IdentifyOptions {
         topology,
         self_calibrate: a.self_calibrate,
-        positions: a.positions.max(5),
+        positions: a.positions,
     };
     let id = errmap::artefact::identify(&campaign, &meas, &opts)?;
     let doc = id.doc(opts.positions);

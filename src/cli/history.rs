@@ -36,8 +36,21 @@ fn machine(s: &str) -> Result<MachineId, String> {
         .ok_or_else(|| format!("{s:?}: a machine id is 1–64 characters of A-Z a-z 0-9 . _ -"))
 }
 
+/// `--at`, `--as-of`: a time inside the window a ledger takes (from 1970 to now plus the
+/// ledger's clock skew), checked when the flags are parsed (exit 2); the ledger checks its
+/// records' times again when it writes them.
 fn utc(s: &str) -> Result<i64, String> {
-    history::parse_utc(s).map_err(|e| e.to_string())
+    let t = history::parse_utc(s).map_err(|e| e.to_string())?;
+    let latest = history::latest_at(history::now_utc());
+    if !(history::EARLIEST_S..=latest).contains(&t) {
+        return Err(format!(
+            "{s:?} is outside the window a ledger takes, {} … {} (now + a clock skew of {} h)",
+            history::format_utc(history::EARLIEST_S),
+            history::format_utc(latest),
+            history::CLOCK_SKEW_S / 3600
+        ));
+    }
+    Ok(t)
 }
 
 fn state(s: &str) -> Result<State, String> {
@@ -69,10 +82,10 @@ pub(crate) struct AddArgs {
     #[arg(long, value_parser = utc)]
     pub at: Option<i64>,
     /// Amend record N (it must be current); needs --reason.
-    #[arg(long, requires = "reason")]
+    #[arg(long, requires = "reason", value_parser = super::values::record_id)]
     pub supersede: Option<i64>,
     /// Why the record is amended.
-    #[arg(long, requires = "supersede")]
+    #[arg(long, requires = "supersede", value_parser = super::values::reason)]
     pub reason: Option<String>,
     /// Print the new record as JSON on stdout.
     #[arg(long)]
@@ -328,7 +341,7 @@ pub(crate) fn bench(a: &super::args::BenchArgs) -> Result<Vec<errmap::bench::His
     let sqlite = dir.join("bench.sqlite");
     let _ = std::fs::remove_file(&sqlite);
     let mut out = Vec::new();
-    let (m, t) = (a.history_machines.max(1), a.history_tests.max(1));
+    let (m, t) = (a.history_machines, a.history_tests);
     eprintln!("bench: calibration ledger, {m} machines × {t} tests × 3 axes on SQLite …");
     let r = errmap::bench::run_history(&sqlite.display().to_string(), m, t);
     let _ = std::fs::remove_dir_all(&dir);

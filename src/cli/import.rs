@@ -88,16 +88,16 @@ pub(crate) struct ImportArgs {
     /// CSV: key=COLUMN,… with target and reference (optional indicated) or error; optional
     /// run, direction, air_temp, air_pressure, air_rh, part_temp, scale_temp. COLUMN is a
     /// header name or #n (1-based).
-    #[arg(long)]
+    #[arg(long, value_parser = column_map)]
     pub map: Option<String>,
     /// CSV delimiter: one character or `tab`.
-    #[arg(long, default_value = ",")]
+    #[arg(long, default_value = ",", value_parser = delimiter)]
     pub delimiter: String,
     /// CSV: `,` is the decimal mark in every number.
     #[arg(long)]
     pub decimal_comma: bool,
     /// LEN[,TEMP[,PRESS]]: mm|inch, C|F, hPa|kPa|inHg|mmHg (CSV; Fagor/LinuxCNC: LEN).
-    #[arg(long)]
+    #[arg(long, value_parser = units_flag)]
     pub units: Option<String>,
     /// CSV error column unit: um, mm or inch (default um); arcsec, deg or urad for a rotary
     /// axis (default arcsec).
@@ -127,6 +127,35 @@ pub(crate) enum ErrorSignArg {
     ReferenceMinusIndicated,
     /// indicated − reference (errmap's error): e = +value.
     IndicatedMinusReference,
+}
+
+/// `--map` checked when the flags are parsed (kept as written; [`csv_options_with`] reads it).
+fn column_map(s: &str) -> Result<String, String> {
+    ColumnMap::parse(s)
+        .map(|_| s.to_string())
+        .map_err(|e| e.to_string())
+}
+
+/// `--delimiter` checked when the flags are parsed: one character or `tab`.
+fn delimiter(s: &str) -> Result<String, String> {
+    match s {
+        "tab" | "TAB" | "\\t" => Ok(s.to_string()),
+        s if s.chars().count() == 1 => Ok(s.to_string()),
+        s => Err(format!("`{s}`: one character or `tab`")),
+    }
+}
+
+/// `--units` checked when the flags are parsed: [`units`]' syntax, with `deg` (a rotary
+/// axis' length unit, which [`units`] refuses for a linear one) taken as well.
+fn units_flag(s: &str) -> Result<String, String> {
+    let linear = match s.split_once(',') {
+        Some(("deg", rest)) => format!("mm,{rest}"),
+        None if s.trim() == "deg" => "mm".to_string(),
+        _ => s.to_string(),
+    };
+    units(&linear)
+        .map(|_| s.to_string())
+        .map_err(|e| e.to_string())
 }
 
 /// `--units LEN[,TEMP[,PRESS]]`.

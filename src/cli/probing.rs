@@ -16,13 +16,13 @@ use super::acceptance::{LengthArgs, RuleArgs, length_config};
 #[derive(Debug, Clone, Args)]
 pub(crate) struct ProbingMpeArgs {
     /// MPE of the probing form error, µm (overrides [mpe] form_um).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::values::limit_um)]
     pub mpe_form: Option<f64>,
     /// MPE of the probing size error, µm (overrides [mpe] size_um).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::values::limit_um)]
     pub mpe_size: Option<f64>,
     /// MPE of the multi-stylus location error, µm (overrides [mpe] location_um).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::values::limit_um)]
     pub mpe_location: Option<f64>,
 }
 
@@ -125,10 +125,10 @@ pub(crate) struct CmmCertificateArgs {
     #[command(flatten)]
     pub mpe: ProbingMpeArgs,
     /// The specification the CMM is judged against (named in the statement).
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::text)]
     pub specification: String,
     /// The CMM (make, model, serial).
-    #[arg(long)]
+    #[arg(long, value_parser = super::values::text)]
     pub cmm: Option<String>,
     #[command(flatten)]
     pub rule: RuleArgs,

@@ -267,9 +267,126 @@ pub(crate) fn bench_points(s: &str) -> Result<usize, String> {
     count_within(s, 1, 10_000_000)
 }
 
+/// bench `--history-machines`, `--history-tests`: 1 … 10⁶.
+pub(crate) fn bench_count(s: &str) -> Result<usize, String> {
+    count_within(s, 1, 1_000_000)
+}
+
 /// fuzzy-sim `--trials`: 1 … 10⁵.
 pub(crate) fn trials(s: &str) -> Result<usize, String> {
     count_within(s, 1, 100_000)
+}
+
+/// fit, compare and export `--max-degree`: the highest Lagrange degree tried, 0 …
+/// [`errmap::interp::MAX_DEGREE`] (what the interpolator computes).
+pub(crate) fn lagrange_max_degree(s: &str) -> Result<usize, String> {
+    count_within(s, 0, errmap::interp::MAX_DEGREE)
+}
+
+/// artefact identify `--positions`: 5 … [`MAX_REPORT_POSITIONS`] per component (5 was
+/// the floor the command raised a smaller value to without a word).
+///
+/// [`MAX_REPORT_POSITIONS`]: errmap::volumetric::MAX_REPORT_POSITIONS
+pub(crate) fn artefact_positions(s: &str) -> Result<usize, String> {
+    count_within(s, 5, errmap::volumetric::MAX_REPORT_POSITIONS)
+}
+
+/// A number inside one of the library's physical ranges (`errmap::base::limits`).
+fn within(s: &str, bound: &errmap::base::Bound) -> Result<f64, String> {
+    let v: f64 = parsed(s, "a number")?;
+    bound.check(v).map_err(|e| format!("`{s}`: {e}"))?;
+    Ok(v)
+}
+
+/// A temperature, °C, within the readers' range (artefact `--temp-c`).
+pub(crate) fn temperature_c(s: &str) -> Result<f64, String> {
+    within(s, &errmap::base::TEMPERATURE_C)
+}
+
+/// An MPE or tolerance given alone, µm, within 10⁻³ … 10⁴ (the probing test's
+/// `--mpe-form`, `--mpe-size`, `--mpe-location`; the same range as a tolerance file's).
+pub(crate) fn limit_um(s: &str) -> Result<f64, String> {
+    within(s, &errmap::base::TOLERANCE_UM)
+}
+
+/// A simulated noise σ, µm: 0, or a standard uncertainty's range (artefact simulate
+/// `--sigma-um`).
+pub(crate) fn noise_um(s: &str) -> Result<f64, String> {
+    let v: f64 = parsed(s, "a number")?;
+    if v == 0.0 {
+        return Ok(v);
+    }
+    within(s, &errmap::base::UNCERTAINTY_UM)
+}
+
+/// A record of a ledger, numbered from 1 (history add `--supersede`).
+pub(crate) fn record_id(s: &str) -> Result<i64, String> {
+    match parsed::<i64>(s, "a record number") {
+        Ok(v) if v >= 1 => Ok(v),
+        _ => Err(format!("`{s}` is not a record number (1, 2, …)")),
+    }
+}
+
+/// Text a document states (a certificate's specification, the CMM's name): not only
+/// blanks, at most 200 characters on one line.
+pub(crate) fn text(s: &str) -> Result<String, String> {
+    if s.trim().is_empty() || s.chars().count() > 200 || s.contains(['\n', '\r']) {
+        return Err(format!(
+            "`{s}`: some text on one line, at most 200 characters"
+        ));
+    }
+    Ok(s.to_string())
+}
+
+/// r of a guard band w = r·U (`--guard-fraction`): finite and ≥ 0, checked when the flags
+/// are parsed, before any file is read (a tolerance file's own r is checked by its reader).
+pub(crate) fn guard_fraction(s: &str) -> Result<f64, String> {
+    match parsed::<f64>(s, "a number") {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("`{s}`: r must be finite and ≥ 0")),
+    }
+}
+
+/// Why a record is amended (history add `--reason`): some text, not only blanks.
+pub(crate) fn reason(s: &str) -> Result<String, String> {
+    if s.trim().is_empty() {
+        return Err("an amendment gives its reason: the text is empty".to_string());
+    }
+    Ok(s.to_string())
+}
+
+/// A controller's axis number, from 1 (FANUC 3620–3627, Siemens `AX<n>`, ISG
+/// kopf.log_achs_nr).
+pub(crate) fn axis_number(s: &str) -> Result<u32, String> {
+    match parsed::<u32>(s, "a whole number") {
+        Ok(v) if v >= 1 => Ok(v),
+        _ => Err(format!("`{s}` is not an axis number (1 … 4294967295)")),
+    }
+}
+
+/// A name written into a controller's table (`--axis-name`, `--table-name`): 1–32
+/// letters, digits, `_` or `.`, starting with a letter (`errmap::controller::is_table_name`).
+pub(crate) fn controller_name(s: &str) -> Result<String, String> {
+    if errmap::controller::is_table_name(s) {
+        Ok(s.to_string())
+    } else {
+        Err(format!(
+            "`{s}` is not a controller name (1–32 letters, digits, `_` or `.`, starting with a letter)"
+        ))
+    }
+}
+
+/// workbench `--addr`: HOST:PORT, the port a whole number 0 … 65535 and the host named
+/// (`127.0.0.1:8765`, `localhost:0`, `[::1]:8765`); kept as written, resolved when bound.
+pub(crate) fn host_port(s: &str) -> Result<String, String> {
+    match s.trim().rsplit_once(':') {
+        Some((host, port)) if !host.is_empty() && port.parse::<u16>().is_ok() => {
+            Ok(s.trim().to_string())
+        }
+        _ => Err(format!(
+            "`{s}` is not HOST:PORT with a port 0 … 65535 (e.g. 127.0.0.1:8765)"
+        )),
+    }
 }
 
 /// A baud rate of a serial line: 50 … 10 000 000.

@@ -316,6 +316,14 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
         .collect();
     super::guard::refuse_aliases(&outputs, &[("LINES", &a.lines)])?;
+    // `--out R/model.json --report R`: two outputs on one path, refused before the
+    // identification runs (the report folder's own files are model.json and report.md).
+    if let (Some(out), Some(dir)) = (&a.out, &a.report) {
+        for name in ["model.json", "report.md"] {
+            let file = dir.join(name);
+            super::guard::distinct_outputs(&[("--out", out), ("--report", &file)])?;
+        }
+    }
     let table = LineTable::read(&a.lines, true)?;
     let id = identify(&table, &config)?;
     let doc = id.doc(config.positions, true);

@@ -17,7 +17,7 @@ pub(crate) struct WorkbenchArgs {
     #[arg(long)]
     pub ledger: Option<String>,
     /// HOST:PORT to listen on (port 0: any free port).
-    #[arg(long, default_value = "127.0.0.1:8765")]
+    #[arg(long, default_value = "127.0.0.1:8765", value_parser = super::values::host_port)]
     pub addr: String,
     /// Access token; required when the address is not a loopback address.
     #[arg(long)]

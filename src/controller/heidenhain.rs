@@ -67,6 +67,16 @@ pub const LABEL: &str = "a HEIDENHAIN TNC compensation table (.COM)";
 /// The TNC 407/415/425 limit on entries per `.COM` table.
 pub const HEIDENHAIN_MAX_POINTS: usize = 256;
 
+/// Whether `v` is a name a controller table may carry (a HEIDENHAIN table name or axis
+/// key, an ISG axis name): 1–32 letters, digits, `_` or `.`, starting with a letter.
+pub fn is_table_name(v: &str) -> bool {
+    !v.is_empty()
+        && v.len() <= 32
+        && v.starts_with(|c: char| c.is_ascii_alphabetic())
+        && v.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+}
+
 /// A `.COM` table for axis `axis_key` (e.g. `X`), named `table_name` (e.g. `X.COM`), at
 /// most `max_points` rows, values c in mm.
 pub fn render(
@@ -81,17 +91,10 @@ pub fn render(
             "{what} `{v}` must be letters, digits, `_` or `.`, starting with a letter"
         ),
     };
-    let ok = |v: &str| {
-        !v.is_empty()
-            && v.len() <= 32
-            && v.starts_with(|c: char| c.is_ascii_alphabetic())
-            && v.chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
-    };
-    if !ok(axis_key) {
+    if !is_table_name(axis_key) {
         return Err(bad("the axis key", axis_key));
     }
-    if !ok(table_name) {
+    if !is_table_name(table_name) {
         return Err(bad("the table name", table_name));
     }
     s.check()?;

@@ -75,7 +75,7 @@ use crate::export::{ExportError, Sampled};
 pub use crate::export::compensation_um;
 pub use fagor::{FAGOR_8055_MAX_POINTS, FAGOR_8065_MAX_POINTS, Fagor8055Spec};
 pub use fanuc::{FANUC_MAX_POINT_NUMBER, FanucSpec, FanucTable};
-pub use heidenhain::HEIDENHAIN_MAX_POINTS;
+pub use heidenhain::{HEIDENHAIN_MAX_POINTS, is_table_name};
 pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
 pub use linuxcnc::{CompType, LINUXCNC_MAX_ENTRIES};
 pub use options::{DialectOption, DialectOptions, OptionError, OptionValue, dialect_options};

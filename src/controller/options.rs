@@ -69,6 +69,15 @@ pub(crate) fn number(s: &str) -> Result<OptionValue, OptionError> {
         .map_err(|_| OptionError::new(s, "a whole number from 0 to 4294967295"))
 }
 
+/// A whole number ≥ 1 that fits 32 bits (a parameter that counts: a magnification, the
+/// largest value per point).
+pub(crate) fn from_one(s: &str) -> Result<OptionValue, OptionError> {
+    match s.trim().parse::<u32>() {
+        Ok(v) if v >= 1 => Ok(OptionValue::Number(v)),
+        _ => Err(OptionError::new(s, "a whole number from 1 to 4294967295")),
+    }
+}
+
 /// A finite number > 0.
 pub(crate) fn positive(s: &str) -> Result<OptionValue, OptionError> {
     match s.trim().parse::<f64>() {

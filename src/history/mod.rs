@@ -39,7 +39,7 @@ pub use report::{
     machine_report, report,
 };
 pub use stats::{Trend, t_cdf, t_quantile};
-pub use time::{CLOCK_SKEW_S, TimeError, format_utc, now_utc, parse_utc};
+pub use time::{CLOCK_SKEW_S, EARLIEST_S, TimeError, format_utc, latest_at, now_utc, parse_utc};
 pub use tolerance::Tolerances;
 
 /// Why a history command failed.

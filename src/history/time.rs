@@ -8,7 +8,7 @@ pub(crate) const DAY_S: i64 = 86_400;
 
 /// The earliest test time a ledger takes: 1970-01-01T00:00:00Z (no result errmap reads
 /// is older; a year 0001 is a typing slip, and would bend every trend through it).
-pub(crate) const EARLIEST_S: i64 = 0;
+pub const EARLIEST_S: i64 = 0;
 
 /// How far a test time may lie after the ledger's clock: one day, more than the largest
 /// UTC offset (14 h) so that a local time given as UTC, or a measuring computer whose
@@ -16,7 +16,7 @@ pub(crate) const EARLIEST_S: i64 = 0;
 pub const CLOCK_SKEW_S: i64 = DAY_S;
 
 /// The latest test time a ledger takes when its clock reads `now_s`.
-pub(crate) fn latest_at(now_s: i64) -> i64 {
+pub fn latest_at(now_s: i64) -> i64 {
     now_s.saturating_add(CLOCK_SKEW_S)
 }
 

@@ -487,13 +487,18 @@ fn to_readings(
     Ok(readings)
 }
 
+/// A `Date Time` field whose clock reading is not a time of day.
+#[derive(Debug, thiserror::Error)]
+#[error("`{0}` is not a time of day (hh:mm:ss, hours 0–23, minutes and seconds 0–59)")]
+struct NotTimeOfDay(String);
+
 /// Seconds between the first and the second quoted time of day (`"… hh:mm:ss" "… hh:mm:ss"`),
 /// a day added when the second is earlier (a test past midnight). `None` when either
 /// has no time of day; an error when one is not a time of day (hours 0–23, minutes and
 /// seconds 0–59: "25:00:00" is refused, not read as a day and an hour).
-fn span_s(value: &str) -> Result<Option<f64>, String> {
+fn span_s(value: &str) -> Result<Option<f64>, NotTimeOfDay> {
     let quoted: Vec<&str> = value.split('"').skip(1).step_by(2).collect();
-    let tod = |s: &str| -> Result<Option<f64>, String> {
+    let tod = |s: &str| -> Result<Option<f64>, NotTimeOfDay> {
         let Some(t) = s.split_whitespace().find(|w| w.matches(':').count() == 2) else {
             return Ok(None);
         };
@@ -508,9 +513,7 @@ fn span_s(value: &str) -> Result<Option<f64>, String> {
             {
                 Ok(Some(h * 3600.0 + m * 60.0 + sec))
             }
-            _ => Err(format!(
-                "`{t}` is not a time of day (hh:mm:ss, hours 0–23, minutes and seconds 0–59)"
-            )),
+            _ => Err(NotTimeOfDay(t.to_string())),
         }
     };
     let (Some(a), Some(b)) = (quoted.first(), quoted.get(1)) else {

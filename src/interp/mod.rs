@@ -92,6 +92,12 @@ impl FromStr for Order {
                 text: s.to_string(),
                 part: part.to_string(),
             })?;
+            if *slot > lagrange::MAX_DEGREE {
+                return Err(BadOrder::TooHigh {
+                    text: s.to_string(),
+                    max: lagrange::MAX_DEGREE,
+                });
+            }
         }
         Ok(Order(o))
     }
@@ -106,6 +112,9 @@ pub enum BadOrder {
     /// A part that is not a whole number.
     #[error("order `{text}`: `{part}` is not a whole number")]
     NotWhole { text: String, part: String },
+    /// A degree above what the interpolator computes ([`lagrange::MAX_DEGREE`]).
+    #[error("order `{text}`: a degree above {max}, the highest errmap computes")]
+    TooHigh { text: String, max: usize },
 }
 
 /// Why a model cannot be fitted.

@@ -357,7 +357,7 @@ impl Penalty {
         Some(super::campaign::Residualiser {
             r,
             dof: d.a.nrows() as f64 - n_lines as f64 - edf,
-            project: Box::new(move |g: &DVector<f64>| {
+            project: Box::new(move |g: &DMatrix<f64>| {
                 let x = chol.solve(&a.tr_mul(g));
                 g - a * x
             }),

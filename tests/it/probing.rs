@@ -595,23 +595,12 @@ fn refusals_name_what_is_wrong_in_the_contracts_order() -> TestResult {
             vec![],
             vec!["s6.toml", "sphere.u_form_um", "not finite"],
         ),
-        (
-            pts.clone(),
-            sph.clone(),
-            vec!["--mpe-form", "-1"],
-            vec!["s.toml", "--mpe-form"],
-        ),
+        // A bad --mpe-form or --guard-fraction is the flag's, exit 2 (tests/it/exit_codes.rs).
         (
             pts.clone(),
             write(p, "s7.toml", &sphere_toml(D_CAL, "")),
             vec!["--mpe-form", "2"],
             vec!["s7.toml", "mpe.size_um", "--mpe-size"],
-        ),
-        (
-            pts.clone(),
-            sph.clone(),
-            vec!["--rule", "guard", "--guard-fraction", "-0.5"],
-            vec!["s.toml", "--guard-fraction"],
         ),
         // 2. POINTS: columns first, then row by row.
         (

@@ -8,10 +8,12 @@
 //! - No `.txt` table written (item 11).
 //! - `diagnose --simulated` against a simulation made with the recording's noise seed
 //!   states the recording's own noise, not the near-zero noise of their difference.
-//! - The campaign: `ERRMAP_CAMPAIGN40_RUNS` runs (default 40) from seed
+//! - The campaign: `ERRMAP_CAMPAIGN40_RUNS` runs (default 60) from seed
 //!   `ERRMAP_CAMPAIGN40_SEED` (default 40), each a mutated `.rtl` import, an
 //!   `acceptance iso10360` with a drawn `--mpe` and report folder, a `circular simulate`
-//!   of a mutated model (sometimes writing beside the model it reads) or a `volumetric
+//!   of a mutated model (sometimes writing beside the model it reads), a bad value of one
+//!   flag of one command drawn from `exit_codes::CASES` (exit 2), a `circular diagnose` of
+//!   the example trace with one sample mutated or a `volumetric
 //!   identify` at a drawn degree 1–12 (sometimes with `--out` inside `--report`). Every
 //!   run must exit 0, 1 or 2 (never a panic or a signal), leave every
 //!   input byte for byte, and give the exit status its case expects when it has one. The
@@ -247,6 +249,85 @@ fn a_simulation_sharing_the_recordings_noise_does_not_shrink_its_sigma() {
 // ---------------------------------------------------------------------------------------
 // The campaign.
 
+/// An ISG `kw.ssfk` list that says `bilateral 1` but lacks the negative-direction
+/// entries (`table[i].neg`) is a contradiction, refused with the file and the key's line,
+/// not read as a bidirectional table (issue 40 item 9); one `neg` missing is refused too,
+/// and the list with every `neg` present is read.
+#[test]
+fn an_isg_list_bilateral_without_its_negative_entries_is_refused() {
+    let dir = tempdir();
+    let (table, list) = (dir.path().join("t.csv"), dir.path().join("x.lis"));
+    simulate(
+        &["simulate"],
+        &dataset("sim/model.toml"),
+        &dataset("sim/plan.toml"),
+        &dir.path().join("s.csv"),
+    );
+    let o = errmap(&["table", s(&dir.path().join("s.csv")), "--out", s(&table)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = errmap(&[
+        "export",
+        s(&table),
+        "--format",
+        "isg",
+        "--method",
+        "trilinear",
+        "--step",
+        "100",
+        "--out",
+        s(&list),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&list).expect("list");
+    assert!(
+        text.contains("kw.ssfk.bilateral                   0"),
+        "{text}"
+    );
+    let bilateral = text.replace(
+        "kw.ssfk.bilateral                   0",
+        "kw.ssfk.bilateral                   1",
+    );
+    let import = |name: &str, body: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, body).expect("write");
+        let out = dir.path().join(format!("{name}.csv"));
+        (errmap(&["import", s(&p), "--out", s(&out)]), out)
+    };
+    let without_neg: String = bilateral
+        .lines()
+        .filter(|l| !l.contains("].neg"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let without_one: String = bilateral
+        .lines()
+        .filter(|l| !l.starts_with("kw.ssfk.table[4].neg"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    for (name, body) in [("none.lis", &without_neg), ("one.lis", &without_one)] {
+        let (o, out) = import(name, body);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}: {e}");
+        assert!(
+            e.contains(name) && e.contains("bilateral") && e.contains("table[i].neg"),
+            "{name}: {e}"
+        );
+        assert!(!out.exists(), "{name}: nothing written");
+    }
+    // Every neg present: a bidirectional table, read.
+    let (o, out) = import("both.lis", &bilateral);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.is_file());
+    // bilateral 0 without neg entries: one table for both directions, read.
+    let (o, _) = import(
+        "uni.lis",
+        &without_neg.replace(
+            "kw.ssfk.bilateral                   1",
+            "kw.ssfk.bilateral                   0",
+        ),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// One run: its arguments, the files that must stay byte for byte, and the exit status
 /// expected when the case decides one.
 struct Case {
@@ -459,9 +540,64 @@ fn identify_case(rng: &mut StdRng, dir: &Path, lines: &Path) -> Case {
     }
 }
 
+/// One bad flag value of one command, drawn from `exit_codes::CASES`: a usage error.
+fn flag_case(rng: &mut StdRng, dir: &Path) -> Case {
+    let (line, flags) =
+        crate::exit_codes::CASES[rng.random_range(0..crate::exit_codes::CASES.len())];
+    let (flag, value) = flags[rng.random_range(0..flags.len())];
+    let d = root().join("datasets");
+    let args = crate::exit_codes::with_flag(line, s(&d), s(dir), flag, value);
+    Case {
+        what: format!(
+            "--{flag}={value} of `{}`",
+            line.split(" {").next().unwrap_or(line)
+        ),
+        args,
+        inputs: Vec::new(),
+        expect: Some(2),
+    }
+}
+
+/// `circular diagnose` of the example trace with one sample's `dr_um` mutated (or not).
+fn diagnose_case(rng: &mut StdRng, dir: &Path) -> Case {
+    let text = std::fs::read_to_string(root().join("datasets/circular/xy.csv")).expect("trace");
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let col = lines[0]
+        .split(',')
+        .position(|c| c == "dr_um")
+        .expect("dr_um column");
+    let row = rng.random_range(1..lines.len());
+    const VALUES: [&str; 5] = ["NaN", "1e300", "", "-2e4", "keep"];
+    let value = VALUES[rng.random_range(0..VALUES.len())];
+    if value != "keep" {
+        let mut cells: Vec<String> = lines[row].split(',').map(String::from).collect();
+        cells[col] = value.to_string();
+        lines[row] = cells.join(",");
+    }
+    let trace = dir.join("xy.csv");
+    std::fs::write(&trace, lines.join("\n") + "\n").expect("write");
+    std::fs::copy(
+        root().join("datasets/circular/xy.toml"),
+        dir.join("xy.toml"),
+    )
+    .expect("copy");
+    Case {
+        what: format!("circular diagnose dr_um = {value:?} at row {row}"),
+        args: vec![
+            "circular".into(),
+            "diagnose".into(),
+            s(&trace).into(),
+            "--report".into(),
+            s(&dir.join("R")).into(),
+        ],
+        inputs: vec![trace, dir.join("xy.toml")],
+        expect: Some(if value == "keep" { 0 } else { 1 }),
+    }
+}
+
 #[test]
 fn a_seeded_campaign_over_issue_40s_commands_finds_no_panic_and_loses_no_input() {
-    let runs = env_num("ERRMAP_CAMPAIGN40_RUNS", 40);
+    let runs = env_num("ERRMAP_CAMPAIGN40_RUNS", 60);
     let seed = env_num("ERRMAP_CAMPAIGN40_SEED", 40);
     let mut rng = StdRng::seed_from_u64(seed);
     let base = tempdir();
@@ -472,11 +608,13 @@ fn a_seeded_campaign_over_issue_40s_commands_finds_no_panic_and_loses_no_input()
     for i in 0..runs {
         let dir = base.path().join(format!("run{i}"));
         std::fs::create_dir(&dir).expect("mkdir");
-        // Identification is the slow command: about one run in eight.
-        let case = match rng.random_range(0..8) {
+        // Identification and diagnosis are the slow commands: one run in twelve each.
+        let case = match rng.random_range(0..12) {
             0..=2 => rtl_case(&mut rng, &dir),
             3..=4 => iso10360_case(&mut rng, &dir),
             5..=6 => circular_case(&mut rng, &dir),
+            7..=9 => flag_case(&mut rng, &dir),
+            10 => diagnose_case(&mut rng, &dir),
             _ => identify_case(&mut rng, &dir, &lines),
         };
         let kept: Vec<Vec<u8>> = case

@@ -93,7 +93,7 @@
 mod program;
 pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
 
-use super::options;
+use super::options::{self, OptionError, OptionValue};
 use super::program::ProgramSyntax;
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::{Text, number};
@@ -168,15 +168,15 @@ static OPTIONS: [DialectOption; 7] = [
     },
     DialectOption {
         name: "magnification",
-        help: "FANUC 3623, the pitch error compensation magnification",
+        help: "FANUC 3623, the pitch error compensation magnification (1–100)",
         default: Some("1"),
-        parse: options::number,
+        parse: magnification,
     },
     DialectOption {
         name: "fanuc-max-value",
         help: "FANUC: the largest |value| per compensation point the series accepts",
         default: Some("7"),
-        parse: options::number,
+        parse: options::from_one,
     },
     DialectOption {
         name: "fanuc-max-point",
@@ -197,6 +197,14 @@ static OPTIONS: [DialectOption; 7] = [
         parse: options::positive,
     },
 ];
+
+/// Parameter 3623: a whole number 1 … [`FANUC_MAX_MAGNIFICATION`].
+fn magnification(s: &str) -> Result<OptionValue, OptionError> {
+    match s.trim().parse::<u32>() {
+        Ok(m) if (1..=FANUC_MAX_MAGNIFICATION).contains(&m) => Ok(OptionValue::Number(m)),
+        _ => Err(OptionError::new(s, "a magnification from 1 to 100")),
+    }
+}
 
 impl FanucSpec {
     /// The spec `settings` give: their axis number and reference, and FANUC's own
