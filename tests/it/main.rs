@@ -48,5 +48,7 @@ mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_random;
 mod volumetric_thermal;
+#[cfg(feature = "workbench")]
 mod workbench;
+#[cfg(feature = "workbench")]
 mod workbench_browser;
