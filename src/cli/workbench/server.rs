@@ -574,17 +574,14 @@ fn stem(item: &str) -> String {
 }
 
 /// The session table of a download's item, as the command's argument.
-fn session_arg(st: &Shared, item: &str) -> Result<String, Response> {
-    st.jobs
-        .session_path(item)
-        .map(|p| p.display().to_string())
-        .map_err(|e| json_error(e.status(), &e.to_string()))
+fn session_arg(st: &Shared, item: &str) -> Result<String, DocError> {
+    st.jobs.session_path(item).map(|p| p.display().to_string())
 }
 
 async fn download_table(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let name = format!("{}-errors.csv", stem(&item));
     by_command(
@@ -603,7 +600,7 @@ async fn download_certificate(
 ) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let mut args = vec!["certificate".to_string(), session];
     for (flag, v) in [("--info", &q.info), ("--tolerances", &q.tolerances)] {
@@ -625,7 +622,7 @@ async fn download_export(
 ) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(r) => return r,
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let Some(format) = q.format.filter(|f| {
         errmap::controller::DIALECTS
