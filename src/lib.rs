@@ -38,7 +38,6 @@
 //! | [`acceptance`] | 10 decisions | conformity with a decision rule (ISO 14253-1, ILAC-G8); tolerances on ISO 230-2 results; the ISO 10360-2 length test measured and predicted from the volumetric model |
 //! | [`base`] | shared leaf | the one `Axis`, the diagnosis vocabulary, statistics, optimisers, constants |
 //! | [`plot`] | shared leaf | PNG/SVG charts with a bundled font |
-//! | [`workbench`] | — | `errmap workbench`: the local web application (pages, JSON API, live capture) over the stages above |
 //! | [`bench`](mod@bench) | — | throughput of the models and the decoder (`errmap bench`, `cargo bench`) |
 //! | [`drivers`] | leaf crate | `errmap-drivers`: wire protocol, decoder, capture loop, simulated board |
 //!
@@ -235,6 +234,5 @@ pub mod session;
 pub mod sim;
 pub mod table;
 pub mod volumetric;
-pub mod workbench;
 
 pub use errmap_drivers as drivers;

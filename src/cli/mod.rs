@@ -16,7 +16,7 @@
 //! | [`import`] | import; the flag values a controller table needs (`--units`, `--comp-type`) |
 //! | [`history`] | history add, report, verify: the calibration ledger |
 //! | [`rotary`] | a rotary axis' table, import, diagnosis, export and plan |
-//! | [`workbench`] | workbench: the local web application |
+//! | `workbench` | workbench: the local web application (pages, JSON API, live capture; cargo feature `workbench`) |
 //! | [`acceptance`] | acceptance decide, acceptance iso10360, volumetric iso10360; the rule flags |
 
 use std::process::ExitCode;
@@ -43,6 +43,7 @@ pub(crate) mod stream;
 pub(crate) mod values;
 pub(crate) mod view;
 pub(crate) mod volumetric;
+#[cfg(feature = "workbench")]
 pub(crate) mod workbench;
 
 use args::*;
@@ -144,6 +145,7 @@ pub(crate) enum Command {
     Acceptance(acceptance::AcceptanceArgs),
     /// Serve the workbench: errmap's results in a local web browser (pages, charts, JSON,
     /// live capture).
+    #[cfg(feature = "workbench")]
     Workbench(workbench::WorkbenchArgs),
 }
 
@@ -230,6 +232,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Import(a) => import::import_cmd(a),
         Command::History(a) => history::history_cmd(a),
         Command::Acceptance(a) => acceptance::acceptance_cmd(a),
+        #[cfg(feature = "workbench")]
         Command::Workbench(a) => workbench::workbench_cmd(a),
         Command::Bench(a) => {
             let mut r = if a.history_only {

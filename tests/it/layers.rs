@@ -66,28 +66,6 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     (
-        "workbench",
-        &[
-            "report",
-            "history",
-            "acceptance",
-            "circular",
-            "base",
-            "plot",
-            "table",
-            "interp",
-            "evaluate",
-            "export",
-            "controller",
-            "session",
-            "acquire",
-            "diagnose",
-            "sim",
-            "volumetric",
-            "import",
-        ],
-    ),
-    (
         "bench",
         &[
             "history",

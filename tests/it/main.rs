@@ -49,5 +49,7 @@ mod volumetric_degree;
 mod volumetric_export;
 mod volumetric_random;
 mod volumetric_thermal;
+#[cfg(feature = "workbench")]
 mod workbench;
+#[cfg(feature = "workbench")]
 mod workbench_browser;

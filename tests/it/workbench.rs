@@ -209,6 +209,21 @@ pub(super) fn workspace(dir: &Path) -> PathBuf {
     ws
 }
 
+/// The bidirectional axis values E, A, R and B of every line of an ISO 230-2 report
+/// (`errmap table --report`), as the report prints them: `(symbol, value)`.
+pub(super) fn report_figures(report_md: &str) -> Vec<(String, String)> {
+    report_md
+        .lines()
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            let (sym, value) = (*cells.get(2)?, *cells.get(5)?);
+            ["E", "A", "R", "B"]
+                .contains(&sym)
+                .then(|| (sym.to_string(), value.to_string()))
+        })
+        .collect()
+}
+
 #[test]
 fn every_route_answers_and_the_documents_are_the_commands() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -263,6 +278,8 @@ fn every_route_answers_and_the_documents_are_the_commands() {
         s(&session),
         "--out",
         s(&out.join("t.csv")),
+        "--report",
+        s(&out.join("iso230")),
         "--json",
     ]));
     assert_eq!(get(a, "/api/table/sessions/example.parquet").json(), cli);
@@ -328,12 +345,23 @@ fn every_route_answers_and_the_documents_are_the_commands() {
         cli
     );
 
-    // Every page: 200, HTML, the figures as text.
+    // Every page: 200, HTML, the figures as text, as the reports print them: the session
+    // page's A is the ISO 230-2 report's (its bidirectional column, to its decimals).
+    let report = std::fs::read_to_string(out.join("iso230/report.md")).expect("report.md");
+    let a_report = report_figures(&report)
+        .into_iter()
+        .find(|(sym, _)| sym == "A")
+        .expect("the report's A row")
+        .1;
     let table = get(a, "/api/table/sessions/example.parquet").json();
     let a_um = table["lines"][0]["iso230"]["a_um"].as_f64().expect("A");
+    assert!((a_report.parse::<f64>().expect("a number") - a_um).abs() < 1e-3);
     for (path, needle) in [
         ("/", "sessions/example.parquet".to_string()),
-        ("/session/sessions/example.parquet", format!("{a_um:.4} µm")),
+        (
+            "/session/sessions/example.parquet",
+            format!("<b>{a_report} µm</b>"),
+        ),
         (
             "/table/tables/table1.csv?test=tables/table2.csv",
             "Recommended".into(),
@@ -561,16 +589,21 @@ fn a_live_capture_from_a_simulated_board_equals_the_replay_of_its_bytes() {
     assert_eq!(r.status, 200, "{}", r.text());
     let session = r.json()["session"].as_str().expect("session").to_string();
     assert_eq!(start(body).status, 409, "one capture at a time");
-    // Frames arrive: the sample count grows from event to event, at least twice a second.
+    // Frames arrive: event after event, numbered, the sample count never going back.
+    // (How often: docs/workbench.md, measured; no timing is asserted here.)
     let ev = events(a, Duration::from_secs(30), |v| {
         v["samples"].as_u64() > Some(200)
     });
     assert!(ev.len() >= 3, "{} events", ev.len());
     let last = &ev[ev.len() - 1].1;
     assert!(last["samples"].as_u64() > Some(200), "{last}");
-    let span = ev[ev.len() - 1].0 - ev[0].0;
-    let rate = (ev.len() - 1) as f64 / span.as_secs_f64();
-    assert!(rate >= 2.0, "{rate} events/s");
+    for w in ev.windows(2) {
+        assert_eq!(
+            w[1].1["updates"].as_u64(),
+            w[0].1["updates"].as_u64().map(|n| n + 1)
+        );
+        assert!(w[1].1["samples"].as_u64() >= w[0].1["samples"].as_u64());
+    }
     let r = request(
         a,
         "POST",

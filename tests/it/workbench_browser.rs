@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use serde_json::{Value, json};
 
 use super::util::{errmap, s, stderr};
-use super::workbench::{Server, get, request, workspace};
+use super::workbench::{Server, report_figures, request, workspace};
 
 const ELEMENT: &str = "element-6066-11e4-a52e-4f735466cecf";
 
@@ -241,22 +241,30 @@ fn the_pages_in_a_real_browser() {
         b.screenshot(shots.as_deref(), name);
     }
 
-    // A known session's figures appear as text.
-    let doc = get(&srv.addr, "/api/table/sessions/example.parquet").json();
+    // A known session's figures appear as text, as its ISO 230-2 report prints them.
+    let o = errmap(&[
+        "table",
+        s(&ws.join("sessions/example.parquet")),
+        "--out",
+        s(&dir.path().join("t.csv")),
+        "--report",
+        s(&dir.path().join("iso230")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report = std::fs::read_to_string(dir.path().join("iso230/report.md")).expect("report.md");
+    let figures = report_figures(&report);
+    assert!(figures.len() >= 4, "{figures:?}");
     b.open(&format!("{base}/session/sessions/example.parquet"));
     let text = b
         .script("return document.body.innerText")
         .as_str()
         .expect("text")
         .to_string();
-    for line in doc["lines"].as_array().expect("lines") {
-        for key in ["a_um", "e_um", "r_um", "b_um"] {
-            let v = line["iso230"][key].as_f64().expect("figure");
-            assert!(
-                text.contains(&format!("{v:.4} µm")),
-                "{key} {v:.4} µm not in the page"
-            );
-        }
+    for (sym, v) in &figures {
+        assert!(
+            text.contains(&format!("{v} µm")),
+            "{sym} {v} µm not in the page"
+        );
     }
 
     // Pointing at a chart's point shows its value.

@@ -17,13 +17,13 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use serde::Deserialize;
 
-use super::docs::{self, DocError};
+use super::docs::{self, DocError, Jobs};
 use super::items::Workspace;
-use super::live::{Live, StartRequest};
+use super::live::{Live, LiveError, StartRequest};
 
 /// What `errmap workbench` was given.
 #[derive(Debug, Clone)]
-pub struct Config {
+pub(crate) struct Config {
     /// The workspace.
     pub dir: PathBuf,
     /// A calibration ledger for the history page (SQLite path or `postgres://…`).
@@ -38,7 +38,7 @@ pub struct Config {
 
 /// Why the workbench cannot serve.
 #[derive(Debug, thiserror::Error)]
-pub enum ServeError {
+pub(crate) enum ServeError {
     /// Off loopback without an access token.
     #[error(
         "{0} is not a loopback address: give an access token (every request must then carry it)"
@@ -61,7 +61,8 @@ pub enum ServeError {
 }
 
 pub(crate) struct AppState {
-    pub ws: Workspace,
+    /// The workspace and the results made from its files.
+    pub jobs: Jobs,
     pub ledger: Option<String>,
     pub token: Option<String>,
     /// The per-run form token (in every page; required on every POST).
@@ -73,7 +74,7 @@ pub(crate) struct AppState {
 pub(crate) type Shared = Arc<AppState>;
 
 /// Serves the workbench until `stop` is set; `on_bound` gets the real address first.
-pub fn serve(
+pub(crate) fn serve(
     config: Config,
     stop: &'static AtomicBool,
     on_bound: impl FnOnce(SocketAddr),
@@ -94,7 +95,7 @@ pub fn serve(
         source,
     })?;
     let state = Arc::new(AppState {
-        ws,
+        jobs: Jobs::new(ws),
         ledger: config.ledger,
         token: config.token,
         form_token: form_token(),
@@ -116,6 +117,7 @@ pub fn serve(
         listener.set_nonblocking(true)?;
         let listener = tokio::net::TcpListener::from_std(listener)?;
         on_bound(listener.local_addr()?);
+        warm_up(Arc::clone(&serving))?;
         let app = router(serving);
         axum::serve(listener, app)
             .with_graceful_shutdown(async move {
@@ -129,6 +131,22 @@ pub fn serve(
     // A capture still running ends as Stop would end it: its files whole.
     let _ = state.live.stop();
     Ok(())
+}
+
+/// Makes the workspace's results once in the background while the pages are served
+/// (`Jobs::warm`), and says on stderr when they are made.
+fn warm_up(state: Shared) -> std::io::Result<()> {
+    std::thread::Builder::new()
+        .name("workbench-warm".into())
+        .spawn(move || {
+            let t = std::time::Instant::now();
+            let made = state.jobs.warm();
+            eprintln!(
+                "workbench: {made} results made in {:.1} s",
+                t.elapsed().as_secs_f64()
+            );
+        })
+        .map(drop)
 }
 
 /// 128 random bits, hex.
@@ -263,7 +281,7 @@ fn json_text(text: String) -> Response {
 fn doc_response(r: Result<String, DocError>) -> Response {
     match r {
         Ok(t) => json_text(t),
-        Err(e) => json_error(e.status, &e.message),
+        Err(e) => json_error(e.status(), &e.to_string()),
     }
 }
 
@@ -271,51 +289,53 @@ fn doc_response(r: Result<String, DocError>) -> Response {
 pub(crate) async fn blocking<T: Send + 'static>(
     f: impl FnOnce() -> Result<T, DocError> + Send + 'static,
 ) -> Result<T, DocError> {
-    tokio::task::spawn_blocking(f).await.unwrap_or_else(|e| {
-        Err(DocError {
-            status: 500,
-            message: format!("the job failed: {e}"),
-        })
-    })
+    tokio::task::spawn_blocking(f)
+        .await
+        .unwrap_or_else(|e| Err(DocError::Internal(format!("the job failed: {e}"))))
+}
+
+/// A document made by `job` off the async threads, as the answer.
+async fn document(
+    st: Shared,
+    job: impl FnOnce(&AppState) -> Result<String, DocError> + Send + 'static,
+) -> Response {
+    doc_response(blocking(move || job(&st)).await)
+}
+
+/// A query parameter a document needs, or the refusal naming it (400).
+fn needed(v: Option<String>, what: &str) -> Result<String, DocError> {
+    v.ok_or_else(|| DocError::Bad(format!("{what} is needed")))
 }
 
 async fn not_found() -> Response {
     json_error(404, "no such page")
 }
 
+fn asset(content_type: &'static str, body: &'static str) -> Response {
+    ([(header::CONTENT_TYPE, content_type)], body).into_response()
+}
+
 async fn favicon() -> Response {
-    (
-        [(header::CONTENT_TYPE, "image/svg+xml")],
-        super::html::FAVICON,
-    )
-        .into_response()
+    asset("image/svg+xml", super::html::FAVICON)
 }
 
 async fn style() -> Response {
-    (
-        [(header::CONTENT_TYPE, "text/css; charset=utf-8")],
-        super::html::STYLE,
-    )
-        .into_response()
+    asset("text/css; charset=utf-8", super::html::STYLE)
 }
 
 async fn script() -> Response {
-    (
-        [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
-        super::html::SCRIPT,
-    )
-        .into_response()
+    asset("text/javascript; charset=utf-8", super::html::SCRIPT)
 }
 
 async fn api_items(State(st): State<Shared>) -> Response {
-    let st2 = Arc::clone(&st);
-    doc_response(
-        blocking(move || docs::text(&serde_json::json!({ "items": st2.ws.items() }))).await,
-    )
+    document(st, |st| {
+        docs::text(&serde_json::json!({ "items": st.jobs.ws.items() }))
+    })
+    .await
 }
 
 async fn api_table(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
-    doc_response(blocking(move || docs::table(&st.ws, &item).map(|r| r.2)).await)
+    document(st, move |st| Ok(st.jobs.table(&item)?.text.clone())).await
 }
 
 #[derive(Debug, Deserialize)]
@@ -334,17 +354,18 @@ async fn api_diagnose(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let Some(sim) = q.simulated else {
-        return json_error(
-            400,
-            "?simulated=ITEM is needed: the simulated session to diagnose against",
-        );
-    };
-    doc_response(blocking(move || docs::diagnose(&st.ws, &item, &sim).map(|r| r.1)).await)
+    document(st, move |st| {
+        let sim = needed(
+            q.simulated,
+            "?simulated=ITEM: the simulated session to diagnose against",
+        )?;
+        Ok(st.jobs.diagnose(&item, &sim)?.text.clone())
+    })
+    .await
 }
 
 async fn api_circular(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
-    doc_response(blocking(move || docs::circular(&st.ws, &item).map(|r| r.2)).await)
+    document(st, move |st| Ok(st.jobs.circular(&item)?.text.clone())).await
 }
 
 async fn api_volumetric(
@@ -352,9 +373,14 @@ async fn api_volumetric(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    doc_response(
-        blocking(move || docs::volumetric(&st.ws, &item, q.topology.as_deref()).map(|r| r.1)).await,
-    )
+    document(st, move |st| {
+        Ok(st
+            .jobs
+            .volumetric(&item, q.topology.as_deref())?
+            .text
+            .clone())
+    })
+    .await
 }
 
 async fn api_acceptance(
@@ -362,20 +388,30 @@ async fn api_acceptance(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let Some(mpe) = q.mpe else {
-        return json_error(
-            400,
-            "?mpe=FORMULA is needed (e.g. 1.5+L/333, µm with L in mm)",
-        );
-    };
-    doc_response(blocking(move || docs::iso10360(&st.ws, &item, &mpe).map(|r| r.1)).await)
+    document(st, move |st| {
+        let mpe = needed(q.mpe, "?mpe=FORMULA (e.g. 1.5+L/333, µm with L in mm)")?;
+        Ok(st.jobs.iso10360(&item, &mpe)?.text.clone())
+    })
+    .await
 }
 
 async fn api_history(State(st): State<Shared>) -> Response {
     let Some(ledger) = st.ledger.clone() else {
         return json_error(404, "no ledger: start the workbench with --ledger");
     };
-    doc_response(blocking(move || docs::history(&ledger).map(|h| h.text)).await)
+    document(st, move |_| docs::history(&ledger).map(|h| h.text)).await
+}
+
+/// The answer to a start or stop: the session's id, or the refusal.
+async fn live_answer(
+    st: Shared,
+    act: impl FnOnce(&AppState) -> Result<String, LiveError> + Send + 'static,
+) -> Response {
+    match tokio::task::spawn_blocking(move || act(&st)).await {
+        Ok(Ok(session)) => json_text(serde_json::json!({ "session": session }).to_string()),
+        Ok(Err(e)) => json_error(e.status(), &docs::message(&e)),
+        Err(e) => json_error(500, &e.to_string()),
+    }
 }
 
 async fn live_start(State(st): State<Shared>, body: String) -> Response {
@@ -383,34 +419,26 @@ async fn live_start(State(st): State<Shared>, body: String) -> Response {
         Ok(r) => r,
         Err(e) => return json_error(400, &format!("the request: {e}")),
     };
-    let st2 = Arc::clone(&st);
-    let r = tokio::task::spawn_blocking(move || st2.live.start(&st2.ws, req)).await;
-    match r {
-        Ok(Ok(session)) => json_text(serde_json::json!({ "session": session }).to_string()),
-        Ok(Err((status, m))) => json_error(status, &m),
-        Err(e) => json_error(500, &e.to_string()),
-    }
+    live_answer(st, move |st| st.live.start(&st.jobs.ws, req)).await
 }
 
 async fn live_stop(State(st): State<Shared>) -> Response {
-    let st2 = Arc::clone(&st);
-    match tokio::task::spawn_blocking(move || st2.live.stop()).await {
-        Ok(Ok(session)) => json_text(serde_json::json!({ "session": session }).to_string()),
-        Ok(Err((status, m))) => json_error(status, &m),
-        Err(e) => json_error(500, &e.to_string()),
-    }
+    live_answer(st, |st| st.live.stop()).await
 }
 
 async fn live_state(State(st): State<Shared>) -> Response {
     doc_response(docs::text(&st.live.snapshot()))
 }
 
-/// Server-Sent Events: the live snapshot four times a second, as event `state`.
+/// How often the event stream sends the live snapshot.
+pub(crate) const EVENT_PERIOD: Duration = Duration::from_millis(250);
+
+/// Server-Sent Events: the live snapshot every [`EVENT_PERIOD`], as event `state`.
 async fn live_events(State(st): State<Shared>) -> Response {
     use futures_util::stream;
     let events = stream::unfold((st, 0u64), |(st, n)| async move {
         if n > 0 {
-            tokio::time::sleep(Duration::from_millis(250)).await;
+            tokio::time::sleep(EVENT_PERIOD).await;
         }
         let mut s = st.live.snapshot();
         s.updates = n + 1;
@@ -426,6 +454,44 @@ async fn live_events(State(st): State<Shared>) -> Response {
         Body::from_stream(events),
     )
         .into_response()
+}
+
+/// Why a download could not be made.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum DownloadError {
+    /// The private directory the command writes into.
+    #[error("{path}: cannot create the download's directory: {source}")]
+    TempDir {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The errmap binary could not be run.
+    #[error("{exe}: cannot run: {source}")]
+    Run {
+        exe: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The command refused (its own message, a bad input: 400).
+    #[error("{0}")]
+    Refused(String),
+    /// The command succeeded but its file cannot be read.
+    #[error("{path}: cannot read the command's output: {source}")]
+    Output {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl DownloadError {
+    fn status(&self) -> u16 {
+        match self {
+            DownloadError::Refused(_) => 400,
+            _ => 500,
+        }
+    }
 }
 
 /// Runs `errmap ARGS… --out TMP/NAME` and answers with the file it wrote.
@@ -454,7 +520,7 @@ async fn by_command(
             bytes,
         )
             .into_response(),
-        Ok(Err(m)) => json_error(400, &m),
+        Ok(Err(e)) => json_error(e.status(), &docs::message(&e)),
         Err(e) => json_error(500, &e.to_string()),
     }
 }
@@ -463,9 +529,12 @@ fn run_command(
     exe: &std::path::Path,
     args: &[String],
     name: &str,
-) -> Result<(Vec<u8>, String), String> {
+) -> Result<(Vec<u8>, String), DownloadError> {
     let tmp = std::env::temp_dir().join(format!("errmap-workbench-{}", form_token()));
-    std::fs::create_dir(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::create_dir(&tmp).map_err(|source| DownloadError::TempDir {
+        path: tmp.clone(),
+        source,
+    })?;
     let out = tmp.join(name);
     let result = std::process::Command::new(exe)
         .args(args)
@@ -475,20 +544,22 @@ fn run_command(
         .output();
     let bytes = std::fs::read(&out);
     let _ = std::fs::remove_dir_all(&tmp);
-    let o = result.map_err(|e| format!("{}: {e}", exe.display()))?;
+    let o = result.map_err(|source| DownloadError::Run {
+        exe: exe.to_path_buf(),
+        source,
+    })?;
     if !o.status.success() {
         let text = String::from_utf8_lossy(&o.stderr);
         let line = text
             .lines()
             .find(|l| l.starts_with("errmap: error:") || l.starts_with("error:"))
             .unwrap_or(text.trim());
-        return Err(line.trim_start_matches("errmap: error: ").to_string());
+        return Err(DownloadError::Refused(
+            line.trim_start_matches("errmap: error: ").to_string(),
+        ));
     }
-    Ok((bytes.map_err(|e| e.to_string())?, name.to_string()))
-}
-
-fn session_arg(st: &Shared, item: &str) -> Result<String, DocError> {
-    docs::session_path(&st.ws, item).map(|p| p.display().to_string())
+    let bytes = bytes.map_err(|source| DownloadError::Output { path: out, source })?;
+    Ok((bytes, name.to_string()))
 }
 
 fn stem(item: &str) -> String {
@@ -502,10 +573,15 @@ fn stem(item: &str) -> String {
         .to_string()
 }
 
+/// The session table of a download's item, as the command's argument.
+fn session_arg(st: &Shared, item: &str) -> Result<String, DocError> {
+    st.jobs.session_path(item).map(|p| p.display().to_string())
+}
+
 async fn download_table(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(e) => return json_error(e.status, &e.message),
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let name = format!("{}-errors.csv", stem(&item));
     by_command(
@@ -524,14 +600,14 @@ async fn download_certificate(
 ) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(e) => return json_error(e.status, &e.message),
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let mut args = vec!["certificate".to_string(), session];
     for (flag, v) in [("--info", &q.info), ("--tolerances", &q.tolerances)] {
         if let Some(id) = v.as_deref().filter(|v| !v.is_empty()) {
-            match st.ws.resolve(id) {
+            match st.jobs.ws.resolve(id) {
                 Ok(p) => args.extend([flag.to_string(), p.display().to_string()]),
-                Err(e) => return json_error(DocError::from(e).status, &format!("{flag}: {id}")),
+                Err(e) => return json_error(DocError::from(e).status(), &format!("{flag}: {id}")),
             }
         }
     }
@@ -546,16 +622,17 @@ async fn download_export(
 ) -> Response {
     let session = match session_arg(&st, &item) {
         Ok(s) => s,
-        Err(e) => return json_error(e.status, &e.message),
+        Err(e) => return json_error(e.status(), &e.to_string()),
     };
     let Some(format) = q.format.filter(|f| {
-        crate::controller::DIALECTS
+        errmap::controller::DIALECTS
             .iter()
             .any(|d| d.name() == f.as_str())
     }) else {
         return json_error(400, "?format= one of the controller dialects");
     };
     let axis = st
+        .jobs
         .ws
         .items()
         .into_iter()

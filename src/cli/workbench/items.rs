@@ -10,7 +10,7 @@ use serde::Serialize;
 /// What an item is (the page that shows it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Kind {
+pub(crate) enum Kind {
     /// A capture directory or a session table.
     Session,
     /// An error table (`x_mm,y_mm,z_mm,e_um`).
@@ -29,7 +29,7 @@ pub enum Kind {
 
 impl Kind {
     /// The words the workspace page shows.
-    pub fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             Kind::Session => "session",
             Kind::ErrorTable => "error table",
@@ -42,7 +42,7 @@ impl Kind {
     }
 
     /// The page that shows it (`/{page}/{id}`), where there is one.
-    pub fn page(self) -> Option<&'static str> {
+    pub(crate) fn page(self) -> Option<&'static str> {
         match self {
             Kind::Session => Some("session"),
             Kind::ErrorTable => Some("table"),
@@ -56,7 +56,7 @@ impl Kind {
 
 /// One item of the workspace (a row of `GET /api/items`).
 #[derive(Debug, Clone, Serialize)]
-pub struct Item {
+pub(crate) struct Item {
     /// The path relative to the workspace, `/`-separated: the item's name in URLs.
     pub id: String,
     pub kind: Kind,
@@ -76,7 +76,7 @@ pub struct Item {
 
 /// A path the workspace refuses.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum WorkspaceError {
+pub(crate) enum WorkspaceError {
     /// Not a plain relative path (`..`, absolute, a backslash, a NUL, an encoded separator).
     #[error("`{0}` is not a path inside the workspace")]
     Bad(String),
@@ -87,7 +87,7 @@ pub enum WorkspaceError {
 
 /// The workspace directory.
 #[derive(Debug, Clone)]
-pub struct Workspace {
+pub(crate) struct Workspace {
     root: PathBuf,
 }
 
@@ -97,19 +97,19 @@ const MAX_DEPTH: usize = 8;
 
 impl Workspace {
     /// The workspace at `dir` (made absolute, links resolved).
-    pub fn new(dir: &Path) -> std::io::Result<Workspace> {
+    pub(crate) fn new(dir: &Path) -> std::io::Result<Workspace> {
         Ok(Workspace {
             root: dir.canonicalize()?,
         })
     }
 
-    pub fn root(&self) -> &Path {
+    pub(crate) fn root(&self) -> &Path {
         &self.root
     }
 
     /// The file or directory `rel` names: normal components only, and after following
     /// links still inside the workspace.
-    pub fn resolve(&self, rel: &str) -> Result<PathBuf, WorkspaceError> {
+    pub(crate) fn resolve(&self, rel: &str) -> Result<PathBuf, WorkspaceError> {
         let bad = || WorkspaceError::Bad(rel.to_string());
         if rel.is_empty() || rel.contains(['\\', '\0']) || rel.contains('%') {
             return Err(bad());
@@ -130,7 +130,7 @@ impl Workspace {
     }
 
     /// The relative id of a path under the workspace.
-    pub fn id_of(&self, p: &Path) -> String {
+    pub(crate) fn id_of(&self, p: &Path) -> String {
         p.strip_prefix(&self.root)
             .unwrap_or(p)
             .components()
@@ -141,7 +141,7 @@ impl Workspace {
 
     /// Every item, in path order. Hidden entries (`.name`) and links leading out are left
     /// out; a capture directory is one item (its raw file, table and JSON are its parts).
-    pub fn items(&self) -> Vec<Item> {
+    pub(crate) fn items(&self) -> Vec<Item> {
         let mut out = Vec::new();
         let mut seen = 0usize;
         self.walk(&self.root, 0, &mut seen, &mut out);
@@ -205,7 +205,7 @@ impl Workspace {
             .and_then(|m| m.modified().ok())
             .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
             .map_or_else(String::new, |d| {
-                crate::history::format_utc(i64::try_from(d.as_secs()).unwrap_or(0))
+                errmap::history::format_utc(i64::try_from(d.as_secs()).unwrap_or(0))
             });
         let id = self.id_of(p);
         let axis = match kind {
@@ -255,14 +255,14 @@ fn kind_of(p: &Path) -> Option<(Kind, Option<String>)> {
                 let cols: Vec<&str> = first.split(',').map(str::trim).collect();
                 kind_of_columns(p, &cols).map(|k| (k, None))
             }
-            Err(e) => Some((Kind::ErrorTable, Some(e))),
+            Err(e) => Some((Kind::ErrorTable, Some(e.to_string()))),
         },
         "parquet" => match parquet_columns(p) {
             Ok(cols) => {
                 let cols: Vec<&str> = cols.iter().map(String::as_str).collect();
                 kind_of_columns(p, &cols).map(|k| (k, None))
             }
-            Err(e) => Some((Kind::Session, Some(e))),
+            Err(e) => Some((Kind::Session, Some(e.to_string()))),
         },
         "json" => {
             let text = head(p, 1 << 16).ok()?;
@@ -292,19 +292,28 @@ fn kind_of_columns(p: &Path, cols: &[&str]) -> Option<Kind> {
     }
 }
 
+/// Why a file's kind could not be told (the item is listed with it).
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum ScanError {
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Parquet(#[from] polars::prelude::PolarsError),
+}
+
 /// The first `n` bytes of a file as text.
-fn head(p: &Path, n: u64) -> Result<String, String> {
-    let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
+fn head(p: &Path, n: u64) -> Result<String, ScanError> {
+    let f = std::fs::File::open(p)?;
     let mut buf = Vec::new();
-    f.take(n).read_to_end(&mut buf).map_err(|e| e.to_string())?;
+    f.take(n).read_to_end(&mut buf)?;
     Ok(String::from_utf8_lossy(&buf).into_owned())
 }
 
 /// The column names of a Parquet file (its footer only).
-fn parquet_columns(p: &Path) -> Result<Vec<String>, String> {
+fn parquet_columns(p: &Path) -> Result<Vec<String>, ScanError> {
     use polars::prelude::{ParquetReader, SerReader};
-    let f = std::fs::File::open(p).map_err(|e| e.to_string())?;
-    let schema = ParquetReader::new(f).schema().map_err(|e| e.to_string())?;
+    let f = std::fs::File::open(p)?;
+    let schema = ParquetReader::new(f).schema()?;
     Ok(schema.iter_names().map(|n| n.to_string()).collect())
 }
 

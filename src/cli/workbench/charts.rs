@@ -97,20 +97,7 @@ pub(crate) fn xy(
     series: &[Series],
     bands: &[Band],
 ) -> String {
-    let (x0, x1) = range(
-        series
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.x))
-            .chain(bands.iter().flat_map(|b| b.x.iter().copied())),
-    );
-    let (y0, y1) = range(
-        series
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.y))
-            .chain(bands.iter().flat_map(|b| b.lo.iter().chain(&b.hi).copied())),
-    );
-    let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * (W - LEFT - RIGHT);
-    let py = |y: f64| TOP + (y1 - y) / (y1 - y0) * (H - TOP - BOTTOM);
+    let f = Frame::around(series, bands);
     let mut s = format!(
         "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {W} {H}\" \
          width=\"{W}\" height=\"{H}\" role=\"img\" aria-label=\"{t}\">\
@@ -118,29 +105,151 @@ pub(crate) fn xy(
         t = esc(title),
         cx = W / 2.0
     );
-    for t in ticks(x0, x1) {
-        let x = px(t);
+    f.grid(&mut s);
+    axis_labels(&mut s, x_label, y_label);
+    for b in bands {
+        f.band(&mut s, b);
+    }
+    for se in series {
+        f.line(&mut s, se);
+    }
+    // The points: those without markers first, so a visible marker is on top where two
+    // series meet (pointing at it shows its value).
+    for se in series
+        .iter()
+        .filter(|s| !s.markers)
+        .chain(series.iter().filter(|s| s.markers))
+    {
+        f.points(&mut s, se);
+    }
+    legend(&mut s, series);
+    s.push_str("</svg>");
+    s
+}
+
+/// The data ranges of a chart and their place on the drawing.
+struct Frame {
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+}
+
+impl Frame {
+    /// The ranges covering every point and band, padded.
+    fn around(series: &[Series], bands: &[Band]) -> Frame {
+        let (x0, x1) = range(
+            series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.x))
+                .chain(bands.iter().flat_map(|b| b.x.iter().copied())),
+        );
+        let (y0, y1) = range(
+            series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.y))
+                .chain(bands.iter().flat_map(|b| b.lo.iter().chain(&b.hi).copied())),
+        );
+        Frame { x0, x1, y0, y1 }
+    }
+
+    fn px(&self, x: f64) -> f64 {
+        LEFT + (x - self.x0) / (self.x1 - self.x0) * (W - LEFT - RIGHT)
+    }
+
+    fn py(&self, y: f64) -> f64 {
+        TOP + (self.y1 - y) / (self.y1 - self.y0) * (H - TOP - BOTTOM)
+    }
+
+    /// The grid lines and tick labels of both axes.
+    fn grid(&self, s: &mut String) {
+        for t in ticks(self.x0, self.x1) {
+            let x = self.px(t);
+            let _ = write!(
+                s,
+                "<line class=\"grid\" x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{yb}\"/>\
+                 <text x=\"{x:.1}\" y=\"{ty}\" text-anchor=\"middle\">{l}</text>",
+                yb = H - BOTTOM,
+                ty = H - BOTTOM + 15.0,
+                l = label(t)
+            );
+        }
+        for t in ticks(self.y0, self.y1) {
+            let y = self.py(t);
+            let _ = write!(
+                s,
+                "<line class=\"grid\" x1=\"{LEFT}\" y1=\"{y:.1}\" x2=\"{xr}\" y2=\"{y:.1}\"/>\
+                 <text x=\"{tx}\" y=\"{ty:.1}\" text-anchor=\"end\">{l}</text>",
+                xr = W - RIGHT,
+                tx = LEFT - 6.0,
+                ty = y + 4.0,
+                l = label(t)
+            );
+        }
+    }
+
+    /// A band, shaded between its upper and lower edges.
+    fn band(&self, s: &mut String, b: &Band) {
+        let mut d = String::new();
+        for (k, (x, hi)) in b.x.iter().zip(&b.hi).enumerate() {
+            let _ = write!(
+                d,
+                "{}{:.1},{:.1} ",
+                if k == 0 { "M" } else { "L" },
+                self.px(*x),
+                self.py(*hi)
+            );
+        }
+        for (x, lo) in b.x.iter().zip(&b.lo).rev() {
+            let _ = write!(d, "L{:.1},{:.1} ", self.px(*x), self.py(*lo));
+        }
         let _ = write!(
             s,
-            "<line class=\"grid\" x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{yb}\"/>\
-             <text x=\"{x:.1}\" y=\"{ty}\" text-anchor=\"middle\">{l}</text>",
-            yb = H - BOTTOM,
-            ty = H - BOTTOM + 15.0,
-            l = label(t)
+            "<path d=\"{d}Z\" fill=\"{}\" fill-opacity=\"0.2\" stroke=\"none\"/>",
+            b.colour
         );
     }
-    for t in ticks(y0, y1) {
-        let y = py(t);
+
+    /// A series' line through its finite points.
+    fn line(&self, s: &mut String, se: &Series) {
+        let pts: Vec<String> = se
+            .points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .map(|p| format!("{:.1},{:.1}", self.px(p.x), self.py(p.y)))
+            .collect();
         let _ = write!(
             s,
-            "<line class=\"grid\" x1=\"{LEFT}\" y1=\"{y:.1}\" x2=\"{xr}\" y2=\"{y:.1}\"/>\
-             <text x=\"{tx}\" y=\"{ty:.1}\" text-anchor=\"end\">{l}</text>",
-            xr = W - RIGHT,
-            tx = LEFT - 6.0,
-            ty = y + 4.0,
-            l = label(t)
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.6\"{}/>",
+            pts.join(" "),
+            se.colour,
+            dash(se.dashed)
         );
     }
+
+    /// A series' points with their tips: visible markers, or invisible targets.
+    fn points(&self, s: &mut String, se: &Series) {
+        let (r, opacity) = if se.markers { (4.0, "1") } else { (3.0, "0") };
+        for p in se
+            .points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && !p.tip.is_empty())
+        {
+            let _ = write!(
+                s,
+                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{r}\" fill=\"{}\" fill-opacity=\"{opacity}\" \
+                 stroke=\"none\" data-tip=\"{}\"/>",
+                self.px(p.x),
+                self.py(p.y),
+                se.colour,
+                esc(&p.tip)
+            );
+        }
+    }
+}
+
+/// The plot's frame and the axes' names (with their units).
+fn axis_labels(s: &mut String, x_label: &str, y_label: &str) {
     let _ = write!(
         s,
         "<rect class=\"axis\" x=\"{LEFT}\" y=\"{TOP}\" width=\"{w}\" height=\"{h}\" fill=\"none\"/>\
@@ -154,91 +263,29 @@ pub(crate) fn xy(
         xl = esc(x_label),
         yl = esc(y_label)
     );
-    for b in bands {
-        let mut d = String::new();
-        for (k, (x, hi)) in b.x.iter().zip(&b.hi).enumerate() {
-            let _ = write!(
-                d,
-                "{}{:.1},{:.1} ",
-                if k == 0 { "M" } else { "L" },
-                px(*x),
-                py(*hi)
-            );
-        }
-        for (x, lo) in b.x.iter().zip(&b.lo).rev() {
-            let _ = write!(d, "L{:.1},{:.1} ", px(*x), py(*lo));
-        }
-        let _ = write!(
-            s,
-            "<path d=\"{d}Z\" fill=\"{}\" fill-opacity=\"0.2\" stroke=\"none\"/>",
-            b.colour
-        );
+}
+
+/// The stroke pattern of a dashed line (nothing for a solid one).
+fn dash(dashed: bool) -> &'static str {
+    if dashed {
+        " stroke-dasharray=\"6 4\""
+    } else {
+        ""
     }
-    for se in series {
-        let pts: Vec<String> = se
-            .points
-            .iter()
-            .filter(|p| p.x.is_finite() && p.y.is_finite())
-            .map(|p| format!("{:.1},{:.1}", px(p.x), py(p.y)))
-            .collect();
-        let dash = if se.dashed {
-            " stroke-dasharray=\"6 4\""
-        } else {
-            ""
-        };
-        let _ = write!(
-            s,
-            "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.6\"{dash}/>",
-            pts.join(" "),
-            se.colour
-        );
-    }
-    // The points: those without markers first, so a visible marker is on top where two
-    // series meet (pointing at it shows its value).
-    for se in series
-        .iter()
-        .filter(|s| !s.markers)
-        .chain(series.iter().filter(|s| s.markers))
-    {
-        for p in se
-            .points
-            .iter()
-            .filter(|p| p.x.is_finite() && p.y.is_finite() && !p.tip.is_empty())
-        {
-            let r = if se.markers { 4.0 } else { 3.0 };
-            let opacity = if se.markers { "1" } else { "0" };
-            let _ = write!(
-                s,
-                "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{r}\" fill=\"{}\" fill-opacity=\"{opacity}\" \
-                 stroke=\"none\" data-tip=\"{}\"/>",
-                px(p.x),
-                py(p.y),
-                se.colour,
-                esc(&p.tip)
-            );
-        }
-    }
-    legend(&mut s, series);
-    s.push_str("</svg>");
-    s
 }
 
 fn legend(s: &mut String, series: &[Series]) {
     let mut x = LEFT;
     let y = H - 14.0;
     for se in series {
-        let dash = if se.dashed {
-            " stroke-dasharray=\"6 4\""
-        } else {
-            ""
-        };
         let _ = write!(
             s,
-            "<line x1=\"{x}\" y1=\"{y0}\" x2=\"{x2}\" y2=\"{y0}\" stroke=\"{c}\" stroke-width=\"2\"{dash}/>\
+            "<line x1=\"{x}\" y1=\"{y0}\" x2=\"{x2}\" y2=\"{y0}\" stroke=\"{c}\" stroke-width=\"2\"{d}/>\
              <text x=\"{tx}\" y=\"{y}\">{n}</text>",
             y0 = y - 4.0,
             x2 = x + 22.0,
             c = se.colour,
+            d = dash(se.dashed),
             tx = x + 26.0,
             n = esc(&se.name)
         );
@@ -246,9 +293,21 @@ fn legend(s: &mut String, series: &[Series]) {
     }
 }
 
-/// The polar plot of a ballbar test (the report's chart, [`crate::plot::PolarChart`]),
+/// The points of a polar trace, `(angle, dr)` pairs, placed by `at` (an SVG points list).
+fn polar_points(points: &[(f64, f64)], at: &dyn Fn(f64, f64) -> (f64, f64)) -> String {
+    points
+        .iter()
+        .map(|(t, dr)| {
+            let (x, y) = at(*t, *dr);
+            format!("{x:.1},{y:.1}")
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The polar plot of a ballbar test (the report's chart, [`errmap::plot::PolarChart`]),
 /// with a tip on every `step`-th sample.
-pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
+pub(crate) fn polar(chart: &errmap::plot::PolarChart) -> String {
     const SIZE: f64 = 560.0;
     let (cx, cy, r_px) = (SIZE / 2.0, SIZE / 2.0 + 36.0, 150.0);
     let k = 25.0 / chart.um_per_div;
@@ -285,35 +344,19 @@ pub(crate) fn polar(chart: &crate::plot::PolarChart) -> String {
              <text x=\"{lx:.1}\" y=\"{ly:.1}\" text-anchor=\"middle\">{deg}°</text>"
         );
     }
-    let lsc: Vec<String> = chart
-        .lsc
-        .iter()
-        .map(|(t, dr)| {
-            let (x, y) = at(*t, *dr);
-            format!("{x:.1},{y:.1}")
-        })
-        .collect();
     let _ = write!(
         s,
         "<polyline points=\"{}\" fill=\"none\" stroke=\"#888\" stroke-dasharray=\"5 4\"/>",
-        lsc.join(" ")
+        polar_points(&chart.lsc, &at)
     );
     let mut names = Vec::new();
     for tr in &chart.traces {
         let colour = PALETTE[tr.colour % PALETTE.len()];
         names.push((tr.name.clone(), colour));
-        let pts: Vec<String> = tr
-            .points
-            .iter()
-            .map(|(t, dr)| {
-                let (x, y) = at(*t, *dr);
-                format!("{x:.1},{y:.1}")
-            })
-            .collect();
         let _ = write!(
             s,
             "<polyline points=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.4\"/>",
-            pts.join(" ")
+            polar_points(&tr.points, &at)
         );
         let step = (tr.points.len() / 72).max(1);
         for (t, dr) in tr.points.iter().step_by(step) {

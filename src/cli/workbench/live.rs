@@ -18,7 +18,7 @@ use errmap_drivers::SessionEvent;
 use errmap_drivers::capture::{CaptureConfig, CaptureEnd, Progress};
 use serde::{Deserialize, Serialize};
 
-use super::items::Workspace;
+use super::items::{Workspace, WorkspaceError};
 
 /// How the page asks for a capture (`POST /api/live/start`).
 #[derive(Debug, Clone, Deserialize)]
@@ -98,8 +98,80 @@ impl std::fmt::Debug for Live {
     }
 }
 
-/// Why a start or stop was refused: the status and the message.
-pub(crate) type Refusal = (u16, String);
+/// Why a capture could not be started, stopped or run.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum LiveError {
+    /// One capture at a time (409).
+    #[error("a capture is running into {0}")]
+    Busy(String),
+    /// Stop with nothing running (409).
+    #[error("no capture is running")]
+    Idle,
+    /// The request names neither a port nor a model and plan (400).
+    #[error("give {{\"port\": PATH}} or {{\"model\": ITEM, \"plan\": ITEM}}")]
+    NoSource,
+    /// The port named cannot be looked at (400).
+    #[error("{port}: {source}")]
+    Port {
+        port: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The port named is not a character device (400).
+    #[error("{0}: not a serial port (a character device)")]
+    NotSerial(String),
+    /// A model or plan that is not an item of the workspace (400).
+    #[error(transparent)]
+    Item(#[from] WorkspaceError),
+    /// A simulated board's speed out of range (400).
+    #[error("speed {0}: between 0.01 and 1000 × real time")]
+    Speed(f64),
+    /// The model and plan cannot be simulated (400: the command's message).
+    #[error(transparent)]
+    Simulate(#[from] errmap::sim::SimError),
+    /// The session folder cannot be made (500).
+    #[error("{path}: {source}")]
+    Folder {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A thousand capture folders in the same second (500).
+    #[error("{0}: no free session folder name")]
+    NoFreeFolder(PathBuf),
+    /// The simulated board's pseudo-terminal pair (500).
+    #[error("cannot open a pseudo-terminal pair: {0}")]
+    Pty(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// The port cannot be opened.
+    #[error("{port}: {source}")]
+    Open {
+        port: String,
+        #[source]
+        source: errmap_drivers::transport::TransportError,
+    },
+    /// The capture failed (what it received is on disk).
+    #[error(transparent)]
+    Capture(#[from] errmap::acquire::AcquireError),
+    /// A lock held by a thread that panicked (500).
+    #[error("the live capture's state was poisoned")]
+    Poisoned,
+}
+
+impl LiveError {
+    /// The HTTP status a refusal is answered with.
+    pub(crate) fn status(&self) -> u16 {
+        match self {
+            LiveError::Busy(_) | LiveError::Idle => 409,
+            LiveError::NoSource
+            | LiveError::Port { .. }
+            | LiveError::NotSerial(_)
+            | LiveError::Item(_)
+            | LiveError::Speed(_)
+            | LiveError::Simulate(_) => 400,
+            _ => 500,
+        }
+    }
+}
 
 impl Live {
     /// A copy of the latest snapshot.
@@ -112,18 +184,15 @@ impl Live {
     }
 
     /// Starts a capture into a new session folder of the workspace; its id.
-    pub(crate) fn start(&self, ws: &Workspace, req: StartRequest) -> Result<String, Refusal> {
-        let mut slot = self
-            .running
-            .lock()
-            .map_err(|_| (500, "poisoned".to_string()))?;
-        if let Some(r) = slot.as_ref() {
-            if !r.thread.is_finished() {
-                return Err((409, format!("a capture is running into {}", r.session)));
-            }
+    pub(crate) fn start(&self, ws: &Workspace, req: StartRequest) -> Result<String, LiveError> {
+        let mut slot = self.running.lock().map_err(|_| LiveError::Poisoned)?;
+        if let Some(r) = slot.as_ref()
+            && !r.thread.is_finished()
+        {
+            return Err(LiveError::Busy(r.session.clone()));
         }
         let source = Source::from_request(ws, &req)?;
-        let dir = new_session_dir(ws.root()).map_err(|e| (500, e))?;
+        let dir = new_session_dir(ws.root())?;
         let session = ws.id_of(&dir);
         let stop = Arc::new(AtomicBool::new(false));
         let shared = Arc::clone(&self.shared);
@@ -147,7 +216,7 @@ impl Live {
                     }
                     Err(e) => {
                         g.state = "failed";
-                        g.error = Some(e);
+                        g.error = Some(super::docs::message(&e));
                     }
                 }
             }
@@ -161,14 +230,10 @@ impl Live {
     }
 
     /// Stops the capture and waits until its files are whole; its session id.
-    pub(crate) fn stop(&self) -> Result<String, Refusal> {
-        let running = self
-            .running
-            .lock()
-            .map_err(|_| (500, "poisoned".to_string()))?
-            .take();
+    pub(crate) fn stop(&self) -> Result<String, LiveError> {
+        let running = self.running.lock().map_err(|_| LiveError::Poisoned)?.take();
         let Some(r) = running else {
-            return Err((409, "no capture is running".into()));
+            return Err(LiveError::Idle);
         };
         r.stop.store(true, Ordering::SeqCst);
         let _ = r.thread.join();
@@ -178,11 +243,14 @@ impl Live {
 
 /// A new folder `live/capture-YYYYMMDDTHHMMSSZ[-N]` (created here, so no other start
 /// can take it).
-fn new_session_dir(root: &Path) -> Result<PathBuf, String> {
+fn new_session_dir(root: &Path) -> Result<PathBuf, LiveError> {
     let base = root.join("live");
-    std::fs::create_dir_all(&base).map_err(|e| format!("{}: {e}", base.display()))?;
-    let now = crate::history::now_utc();
-    let stamp: String = crate::history::format_utc(now)
+    std::fs::create_dir_all(&base).map_err(|source| LiveError::Folder {
+        path: base.clone(),
+        source,
+    })?;
+    let now = errmap::history::now_utc();
+    let stamp: String = errmap::history::format_utc(now)
         .chars()
         .filter(|c| c.is_ascii_alphanumeric())
         .collect();
@@ -196,10 +264,10 @@ fn new_session_dir(root: &Path) -> Result<PathBuf, String> {
         match std::fs::create_dir(&dir) {
             Ok(()) => return Ok(dir),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-            Err(e) => return Err(format!("{}: {e}", dir.display())),
+            Err(source) => return Err(LiveError::Folder { path: dir, source }),
         }
     }
-    Err(format!("{}: no free session folder name", base.display()))
+    Err(LiveError::NoFreeFolder(base))
 }
 
 enum Source {
@@ -215,15 +283,15 @@ enum Source {
 }
 
 impl Source {
-    fn from_request(ws: &Workspace, req: &StartRequest) -> Result<Source, Refusal> {
-        let bad = |m: String| (400, m);
+    fn from_request(ws: &Workspace, req: &StartRequest) -> Result<Source, LiveError> {
         match (&req.port, &req.model, &req.plan) {
             (Some(port), None, None) => {
-                let meta = std::fs::metadata(port).map_err(|e| bad(format!("{port}: {e}")))?;
+                let meta = std::fs::metadata(port).map_err(|source| LiveError::Port {
+                    port: port.clone(),
+                    source,
+                })?;
                 if !is_char_device(&meta) {
-                    return Err(bad(format!(
-                        "{port}: not a serial port (a character device)"
-                    )));
+                    return Err(LiveError::NotSerial(port.clone()));
                 }
                 Ok(Source::Port {
                     path: port.clone(),
@@ -231,25 +299,20 @@ impl Source {
                 })
             }
             (None, Some(model), Some(plan)) => {
-                let m = ws.resolve(model).map_err(|e| bad(e.to_string()))?;
-                let p = ws.resolve(plan).map_err(|e| bad(e.to_string()))?;
+                let m = ws.resolve(model)?;
+                let p = ws.resolve(plan)?;
                 let speed = req.speed.unwrap_or(1.0);
                 if !(speed.is_finite() && (0.01..=1000.0).contains(&speed)) {
-                    return Err(bad(format!(
-                        "speed {speed}: between 0.01 and 1000 × real time"
-                    )));
+                    return Err(LiveError::Speed(speed));
                 }
-                let (stream, _) = crate::sim::simulate_stream(&m, Some(&p), &Default::default())
-                    .map_err(|e| bad(super::docs::message(&e)))?;
+                let (stream, _) = errmap::sim::simulate_stream(&m, Some(&p), &Default::default())?;
                 Ok(Source::Simulated {
                     stream: Box::new(stream),
                     speed,
                     what: format!("simulated board ({model}, {plan}, {speed}× real time)"),
                 })
             }
-            _ => Err(bad(
-                "give {\"port\": PATH} or {\"model\": ITEM, \"plan\": ITEM}".into(),
-            )),
+            _ => Err(LiveError::NoSource),
         }
     }
 
@@ -266,12 +329,12 @@ impl Source {
         dir: &Path,
         stop: &Arc<AtomicBool>,
         shared: &Arc<Mutex<Snapshot>>,
-    ) -> Result<String, String> {
+    ) -> Result<String, LiveError> {
         match self {
             Source::Port { path, baud } => capture_port(&path, baud, dir, stop, shared),
             Source::Simulated { stream, speed, .. } => {
-                let (mut master, _slave, port) = errmap_drivers::serve::pty_pair()
-                    .map_err(|e| format!("cannot open a pseudo-terminal pair: {e}"))?;
+                let (mut master, _slave, port) =
+                    errmap_drivers::serve::pty_pair().map_err(|e| LiveError::Pty(Box::new(e)))?;
                 let stop_board = Arc::clone(stop);
                 let board = std::thread::spawn(move || {
                     let r = errmap_drivers::serve::serve_paced(
@@ -310,21 +373,23 @@ fn capture_port(
     dir: &Path,
     stop: &AtomicBool,
     shared: &Arc<Mutex<Snapshot>>,
-) -> Result<String, String> {
+) -> Result<String, LiveError> {
     let mut source =
         errmap_drivers::transport::SerialSource::open(port, baud, Duration::from_millis(100))
-            .map_err(|e| format!("{port}: {e}"))?;
-    let paths = crate::acquire::SessionPaths::new(dir, "csv");
+            .map_err(|source| LiveError::Open {
+                port: port.to_string(),
+                source,
+            })?;
+    let paths = errmap::acquire::SessionPaths::new(dir, "csv");
     let local = std::cell::RefCell::new(Watcher::new(shared));
-    let cap = crate::acquire::capture_session_watched(
+    let cap = errmap::acquire::capture_session_watched(
         &mut source,
         &paths,
         &CaptureConfig::default(),
         stop,
         &mut |p: &Progress| local.borrow_mut().progress(p),
         &mut |e: &SessionEvent| local.borrow_mut().event(e),
-    )
-    .map_err(|e| super::docs::message(&e))?;
+    )?;
     let mut w = local.into_inner();
     w.snap.bytes = cap.bytes;
     w.snap.crc_failures = cap.stats.crc_failures;

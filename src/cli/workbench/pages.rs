@@ -14,7 +14,7 @@ use serde_json::Value;
 use super::charts::{self, Band, PALETTE, Pt, Series};
 use super::docs::{self, DocError};
 use super::html::{esc, num, page, table, url_path};
-use super::server::{Params, Shared, blocking};
+use super::server::{AppState, Params, Shared, blocking};
 
 pub(crate) fn routes() -> Router<Shared> {
     Router::new()
@@ -43,15 +43,35 @@ fn result_page(st: &Shared, title: &str, r: Result<String, DocError>) -> Respons
     match r {
         Ok(body) => html(st, 200, title, &body),
         Err(e) => {
-            let heading = if e.status == 404 { "Not found" } else { title };
-            html(st, e.status, heading, &super::html::error_box(&e.message))
+            let heading = if e.status() == 404 {
+                "Not found"
+            } else {
+                title
+            };
+            html(
+                st,
+                e.status(),
+                heading,
+                &super::html::error_box(&e.to_string()),
+            )
         }
     }
 }
 
+/// The page `title` whose body `body` makes off the async threads (it runs the jobs).
+async fn job_page(
+    st: Shared,
+    title: String,
+    body: impl FnOnce(&AppState) -> Result<String, DocError> + Send + 'static,
+) -> Response {
+    let st2 = Arc::clone(&st);
+    let r = blocking(move || body(&st2)).await;
+    result_page(&st, &title, r)
+}
+
 async fn workspace(State(st): State<Shared>) -> Response {
     let st2 = Arc::clone(&st);
-    let items = blocking(move || Ok(st2.ws.items()))
+    let items = blocking(move || Ok(st2.jobs.ws.items()))
         .await
         .unwrap_or_default();
     let rows: Vec<Vec<String>> = items
@@ -78,7 +98,7 @@ async fn workspace(State(st): State<Shared>) -> Response {
     let mut body = format!(
         "<p class=\"note\">{} item(s) under <code>{}</code>.</p>",
         items.len(),
-        esc(&st.ws.root().display().to_string())
+        esc(&st.jobs.ws.root().display().to_string())
     );
     body.push_str(&table(
         &["kind", "item", "machine", "axis", "modified (UTC)", "size"],
@@ -92,29 +112,27 @@ async fn session(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let st2 = Arc::clone(&st);
-    let id = item.clone();
-    let r = blocking(move || {
-        let (path, reduced, _) = docs::table(&st2.ws, &id)?;
-        Ok(session_body(&st2, &id, &path, &reduced, &q))
+    job_page(st, format!("Session {item}"), move |st| {
+        let doc = st.jobs.table(&item)?;
+        Ok(session_body(st, &item, &doc.path, &doc.reduced, &q))
     })
-    .await;
-    result_page(&st, &format!("Session {item}"), r)
+    .await
 }
 
-fn figure(name: &str, v: f64, unit: &str) -> String {
+/// A figure: its name, and its value to `d` decimals with its unit.
+fn figure(name: &str, v: f64, d: usize, unit: &str) -> String {
     format!(
         "<div class=\"figure\"><span>{}</span><b>{}</b></div>",
         esc(name),
-        esc(&num(v, 4, unit))
+        esc(&num(v, d, unit))
     )
 }
 
 fn session_body(
-    st: &Shared,
+    st: &AppState,
     id: &str,
     path: &std::path::Path,
-    r: &crate::acquire::Reduced,
+    r: &errmap::acquire::Reduced,
     q: &Params,
 ) -> String {
     let s = &r.summary;
@@ -130,7 +148,7 @@ fn session_body(
         s.used,
         s.flagged,
         s.not_dwelling,
-        esc(&st.ws.id_of(path))
+        esc(&st.jobs.ws.id_of(path))
     );
     if let Some(stats) = decoder_stats(path) {
         b.push_str(&stats);
@@ -146,7 +164,7 @@ fn session_body(
             .map(|i| format!("?info={}", url_path(i)))
             .unwrap_or_default()
     );
-    for d in crate::controller::DIALECTS {
+    for d in errmap::controller::DIALECTS {
         let _ = write!(
             downloads,
             "<a href=\"/download/export/{u}?format={n}\">{n}</a>",
@@ -162,6 +180,8 @@ fn session_body(
         );
     }
     for (k, ((line, stats), exp)) in r.iso.iter().zip(&r.expanded).enumerate() {
+        // µm to the decimals the ISO 230-2 report prints this line with.
+        let d = errmap::report::iso230_decimals(stats);
         let _ = write!(
             b,
             "<h2>Line {} at ({:.3}, {:.3}) mm</h2><div class=\"figures\">",
@@ -181,7 +201,7 @@ fn session_body(
             ("B (reversal)", stats.b_um),
             ("B̄ (mean reversal)", stats.mean_reversal_um),
         ] {
-            b.push_str(&figure(name, v, "µm"));
+            b.push_str(&figure(name, v, d, "µm"));
         }
         let vdi = serde_json::to_value(&stats.vdi).unwrap_or(Value::Null);
         if let Some(o) = vdi.as_object() {
@@ -191,7 +211,7 @@ fn session_body(
                         Some(n) => (n, "µm"),
                         None => (name.as_str(), ""),
                     };
-                    b.push_str(&figure(&format!("VDI 3441 {short}"), x, unit));
+                    b.push_str(&figure(&format!("VDI 3441 {short}"), x, d, unit));
                 }
             }
         }
@@ -202,7 +222,7 @@ fn session_body(
              JSON document for each figure's U.</p>",
             exp.k, exp.travel_mm
         );
-        b.push_str(&deviation_chart(stats, k + 1));
+        b.push_str(&deviation_chart(stats, k + 1, d));
         let rows: Vec<Vec<String>> = stats
             .targets
             .iter()
@@ -210,11 +230,11 @@ fn session_body(
                 vec![
                     t.target.to_string(),
                     num(t.position_mm, 3, "mm"),
-                    num(t.mean_up_um, 4, "µm"),
-                    num(t.s_up_um, 4, "µm"),
-                    num(t.mean_down_um, 4, "µm"),
-                    num(t.s_down_um, 4, "µm"),
-                    num(t.reversal_um, 4, "µm"),
+                    num(t.mean_up_um, d, "µm"),
+                    num(t.s_up_um, d, "µm"),
+                    num(t.mean_down_um, d, "µm"),
+                    num(t.s_down_um, d, "µm"),
+                    num(t.reversal_um, d, "µm"),
                 ]
             })
             .collect();
@@ -248,38 +268,42 @@ fn decoder_stats(table: &std::path::Path) -> Option<String> {
     ))
 }
 
-fn environment(e: &crate::session::EnvironmentStats) -> String {
-    let text = crate::report::environment_text(e);
+fn environment(e: &errmap::session::EnvironmentStats) -> String {
+    let text = errmap::report::environment_text(e);
     format!("<h2>Environment</h2><pre>{}</pre>", esc(&text))
 }
 
-/// The ISO 230-2 deviation chart of one line, in the report's style.
-fn deviation_chart(stats: &crate::session::AxisStats, line: usize) -> String {
-    let mut t: Vec<&crate::session::TargetStats> = stats.targets.iter().collect();
+/// The ISO 230-2 deviation chart of one line, in the report's style; tips in µm to `d`
+/// decimals.
+fn deviation_chart(stats: &errmap::session::AxisStats, line: usize, d: usize) -> String {
+    let mut t: Vec<&errmap::session::TargetStats> = stats.targets.iter().collect();
     t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
-    let series =
-        |name: &str, colour, dashed, f: &dyn Fn(&crate::session::TargetStats) -> f64, dir: &str| {
-            Series {
-                name: name.into(),
-                colour,
-                dashed,
-                markers: !dashed,
-                points: t
-                    .iter()
-                    .map(|s| Pt {
-                        x: s.position_mm,
-                        y: f(s),
-                        tip: format!(
-                            "target {} (P = {:.3} mm), {dir}, all runs: {} = {:.4} µm",
-                            s.target,
-                            s.position_mm,
-                            name,
-                            f(s)
-                        ),
-                    })
-                    .collect(),
-            }
-        };
+    let series = |name: &str,
+                  colour,
+                  dashed,
+                  f: &dyn Fn(&errmap::session::TargetStats) -> f64,
+                  dir: &str| {
+        Series {
+            name: name.into(),
+            colour,
+            dashed,
+            markers: !dashed,
+            points: t
+                .iter()
+                .map(|s| Pt {
+                    x: s.position_mm,
+                    y: f(s),
+                    tip: format!(
+                        "target {} (P = {:.3} mm), {dir}, all runs: {} = {:.d$} µm",
+                        s.target,
+                        s.position_mm,
+                        name,
+                        f(s)
+                    ),
+                })
+                .collect(),
+        }
+    };
     let up = "↑ positive approach";
     let down = "↓ negative approach";
     charts::xy(
@@ -327,12 +351,14 @@ async fn error_table(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let st2 = Arc::clone(&st);
-    let id = item.clone();
-    let r = blocking(move || {
-        let p = st2.ws.resolve(&id)?;
-        let t = crate::table::ErrorTable::read(&p).map_err(|e| DocError::bad(docs::message(&e)))?;
-        let tests: String = st2
+    let title = format!("Error table {item}");
+    job_page(st, title, move |st| {
+        let id = item;
+        let p = st.jobs.ws.resolve(&id)?;
+        let t =
+            errmap::table::ErrorTable::read(&p).map_err(|e| DocError::Bad(docs::message(&e)))?;
+        let tests: String = st
+            .jobs
             .ws
             .items()
             .iter()
@@ -352,9 +378,7 @@ async fn error_table(
             t.points.len()
         );
         if let Some(test) = q.test.as_deref() {
-            let (cmp, text) = docs::compare(&st2.ws, &id, test)?;
-            let doc: Value = serde_json::from_str(&text).unwrap_or(Value::Null);
-            b.push_str(&compare_body(&cmp, &doc));
+            b.push_str(&compare_body(&*st.jobs.compare(&id, test)?));
         }
         let rows: Vec<Vec<String>> = t
             .points
@@ -373,18 +397,18 @@ async fn error_table(
         b.push_str(&table(&["x", "y", "z", "e"], &rows));
         Ok(b)
     })
-    .await;
-    result_page(&st, &format!("Error table {item}"), r)
+    .await
 }
 
 /// The comparison of `errmap compare` (its JSON document) as a table and the measured-
 /// vs-predicted chart of the recommended model.
-fn compare_body(cmp: &crate::evaluate::Comparison, doc: &Value) -> String {
-    let rows = doc
+fn compare_body(cmp: &docs::CompareDoc) -> String {
+    let empty = Vec::new();
+    let rows = cmp
+        .doc
         .get("rows")
         .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
+        .unwrap_or(&empty);
     let f = |r: &Value, k: &str| r.get(k).and_then(Value::as_f64).unwrap_or(f64::NAN);
     let t: Vec<Vec<String>> = rows
         .iter()
@@ -413,7 +437,7 @@ fn compare_body(cmp: &crate::evaluate::Comparison, doc: &Value) -> String {
     };
     let label = best.get("label").and_then(Value::as_str).unwrap_or("");
     let _ = write!(s, "<p>Recommended: <b>{}</b>.</p>", esc(label));
-    let measured: Vec<f64> = cmp.test.points.iter().map(|p| p.e_um).collect();
+    let measured = &cmp.measured_um;
     let predicted: Vec<f64> = best
         .get("predictions")
         .and_then(Value::as_array)
@@ -487,25 +511,23 @@ async fn volumetric(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let st2 = Arc::clone(&st);
-    let id = item.clone();
-    let topology = q.topology.clone();
-    let r = blocking(move || {
+    let title = format!("Volumetric {item}");
+    job_page(st, title, move |st| {
+        let (id, topology) = (item, q.topology);
         let form = format!(
             "<form class=\"inline\" method=\"get\">Topology <input name=\"topology\" value=\"{}\" \
              size=\"6\"> <button>Identify</button></form>",
             esc(topology.as_deref().unwrap_or(""))
         );
-        match docs::volumetric(&st2.ws, &id, topology.as_deref()) {
-            Ok((doc, _)) => Ok(volumetric_body(&doc)),
-            Err(e) if e.status == 400 && topology.is_none() && !id.ends_with(".json") => {
-                Ok(format!("<p>{}</p>{form}", esc(&e.message)))
+        match st.jobs.volumetric(&id, topology.as_deref()) {
+            Ok(v) => Ok(volumetric_body(&v.doc)),
+            Err(e @ DocError::Bad(_)) if topology.is_none() && !id.ends_with(".json") => {
+                Ok(format!("<p>{}</p>{form}", esc(&e.to_string())))
             }
             Err(e) => Err(e),
         }
     })
-    .await;
-    result_page(&st, &format!("Volumetric {item}"), r)
+    .await
 }
 
 fn volumetric_body(doc: &Value) -> String {
@@ -518,6 +540,8 @@ fn volumetric_body(doc: &Value) -> String {
         esc(&g("basis").to_string()),
         g("lines"),
         g("targets"),
+        // The volumetric report's decimals: 4 for the residual and the function
+        // components, 3 for the constant (squareness) ones.
         esc(&num(
             g("rms_residual_um").as_f64().unwrap_or(f64::NAN),
             4,
@@ -597,8 +621,8 @@ fn volumetric_body(doc: &Value) -> String {
                 let s = c.get("sigma").and_then(Value::as_f64);
                 constants.push(vec![
                     esc(name),
-                    v.map_or("not identified".into(), |v| num(v, 4, unit)),
-                    s.map_or(String::new(), |s| num(s, 4, unit)),
+                    v.map_or("not identified".into(), |v| num(v, 3, unit)),
+                    s.map_or(String::new(), |s| num(s, 3, unit)),
                 ]);
             }
         }
@@ -609,12 +633,10 @@ fn volumetric_body(doc: &Value) -> String {
 }
 
 async fn circular(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
-    let st2 = Arc::clone(&st);
-    let id = item.clone();
-    let r = blocking(move || {
-        let (test, d, text) = docs::circular(&st2.ws, &id)?;
-        let chart = crate::report::circular_chart(&test, &d);
-        let mut b = charts::polar(&chart);
+    job_page(st, format!("Circular test {item}"), move |st| {
+        let c = st.jobs.circular(&item)?;
+        let d = &c.diagnosis;
+        let mut b = charts::polar(&c.chart);
         let iso = &d.iso230_4;
         b.push_str("<h2>ISO 230-4</h2><div class=\"figures\">");
         for (name, v) in [
@@ -626,7 +648,8 @@ async fn circular(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> R
             ("F max", Some(iso.f_max_um)),
             ("F min", Some(iso.f_min_um)),
         ] {
-            b.push_str(&figure(name, v.unwrap_or(f64::NAN), "µm"));
+            // The ballbar report's decimals (its ISO 230-4 table).
+            b.push_str(&figure(name, v.unwrap_or(f64::NAN), 3, "µm"));
         }
         let _ = write!(
             b,
@@ -636,7 +659,7 @@ async fn circular(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> R
             esc(&num(d.rms_after_um, 3, "µm")),
             esc(&num(d.sigma_um, 3, "µm"))
         );
-        let doc: Value = serde_json::from_str(&text).unwrap_or(Value::Null);
+        let doc: Value = serde_json::from_str(&c.text).unwrap_or(Value::Null);
         let rows: Vec<Vec<String>> = doc
             .get("effects")
             .and_then(Value::as_array)
@@ -648,8 +671,7 @@ async fn circular(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> R
         ));
         Ok(b)
     })
-    .await;
-    result_page(&st, &format!("Circular test {item}"), r)
+    .await
 }
 
 async fn acceptance(
@@ -657,10 +679,8 @@ async fn acceptance(
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
 ) -> Response {
-    let st2 = Arc::clone(&st);
-    let id = item.clone();
-    let r = blocking(move || {
-        let mpe = q.mpe.clone().unwrap_or_default();
+    job_page(st, format!("ISO 10360-2 test {item}"), move |st| {
+        let mpe = q.mpe.unwrap_or_default();
         let mut b = format!(
             "<form method=\"get\">MPE of E0 (µm, L in mm) <input name=\"mpe\" value=\"{}\" \
              placeholder=\"1.5+L/333\"> <button>Evaluate</button></form>",
@@ -669,7 +689,8 @@ async fn acceptance(
         if mpe.is_empty() {
             return Ok(b);
         }
-        let (r, _) = docs::iso10360(&st2.ws, &id, &mpe)?;
+        let doc = st.jobs.iso10360(&item, &mpe)?;
+        let r = &doc.result;
         let _ = write!(
             b,
             "<h2>Verdict: {}</h2><p>{}</p><p>{} measurement(s) in {} position(s); max |E0| {}, max R0 {}.</p>",
@@ -688,8 +709,7 @@ async fn acceptance(
         b.push_str(&table(&["position", "max |E0|", "verdict"], &rows));
         Ok(b)
     })
-    .await;
-    result_page(&st, &format!("ISO 10360-2 test {item}"), r)
+    .await
 }
 
 async fn history(State(st): State<Shared>) -> Response {
@@ -702,8 +722,10 @@ async fn history(State(st): State<Shared>) -> Response {
              <code>postgres://…</code>).</p>",
         );
     };
-    let r = blocking(move || docs::history(&ledger).map(|h| history_body(&h))).await;
-    result_page(&st, "Fleet history", r)
+    job_page(st, "Fleet history".into(), move |_| {
+        docs::history(&ledger).map(|h| history_body(&h))
+    })
+    .await
 }
 
 fn history_body(h: &docs::History) -> String {
@@ -740,13 +762,14 @@ fn history_body(h: &docs::History) -> String {
     b
 }
 
-fn parameter_chart(machine: &str, axis: &str, p: &crate::history::ParameterReport) -> String {
-    let day = |at: &str| crate::history::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
+/// One parameter's EWMA chart and its line, to the history report's 3 decimals.
+fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterReport) -> String {
+    let day = |at: &str| errmap::history::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
     let line = |name: &str,
                 colour,
                 dashed,
                 markers,
-                f: &dyn Fn(&crate::history::SeriesPoint) -> Option<f64>| Series {
+                f: &dyn Fn(&errmap::history::SeriesPoint) -> Option<f64>| Series {
         name: name.into(),
         colour,
         dashed,
@@ -759,7 +782,7 @@ fn parameter_chart(machine: &str, axis: &str, p: &crate::history::ParameterRepor
                     x: day(&s.at),
                     y: v,
                     tip: format!(
-                        "{} record {} ({}): {name} {v:.4} {}",
+                        "{} record {} ({}): {name} {v:.3} {}",
                         s.at, s.record, s.state, p.unit
                     ),
                 })
@@ -779,8 +802,8 @@ fn parameter_chart(machine: &str, axis: &str, p: &crate::history::ParameterRepor
         &[],
     );
     let trend = match (p.rate_per_year, p.rate_sigma) {
-        (Some(r), Some(s)) => format!("trend {r:.4} ± {s:.4} {}/year", p.unit),
-        (Some(r), None) => format!("trend {r:.4} {}/year", p.unit),
+        (Some(r), Some(s)) => format!("trend {r:.3} ± {s:.3} {}/year", p.unit),
+        (Some(r), None) => format!("trend {r:.3} {}/year", p.unit),
         _ => "no trend".into(),
     };
     let forecast = p
@@ -791,21 +814,22 @@ fn parameter_chart(machine: &str, axis: &str, p: &crate::history::ParameterRepor
     format!(
         "{chart}<p>{}: last {} ; {trend}{forecast}; {} alarm(s).</p>",
         esc(&p.name),
-        esc(&num(p.last, 4, &p.unit)),
+        esc(&num(p.last, 3, &p.unit)),
         p.alarms.len()
     )
 }
 
 async fn live(State(st): State<Shared>) -> Response {
-    let items = st.ws.items();
-    let toml: Vec<String> = walk_toml(&st);
+    let st2 = Arc::clone(&st);
+    let toml = blocking(move || Ok(walk_toml(&st2.jobs.ws)))
+        .await
+        .unwrap_or_default();
     let options = |pick: &dyn Fn(&str) -> bool| {
         toml.iter()
             .filter(|t| pick(t))
             .map(|t| format!("<option>{}</option>", esc(t)))
             .collect::<String>()
     };
-    let _ = items;
     let body = format!(
         "<div id=\"live\"><p><label><input type=\"radio\" name=\"source\" value=\"sim\" checked> \
          Simulated board: model <select id=\"model\">{models}</select> plan <select id=\"plan\">{plans}</select> \
@@ -835,7 +859,7 @@ async fn live(State(st): State<Shared>) -> Response {
 }
 
 /// The TOML files of the workspace (machine models and plans for the simulated board).
-fn walk_toml(st: &Shared) -> Vec<String> {
+fn walk_toml(ws: &super::items::Workspace) -> Vec<String> {
     fn walk(dir: &std::path::Path, depth: usize, out: &mut Vec<std::path::PathBuf>) {
         let Ok(rd) = std::fs::read_dir(dir) else {
             return;
@@ -857,9 +881,9 @@ fn walk_toml(st: &Shared) -> Vec<String> {
         }
     }
     let mut out = Vec::new();
-    walk(st.ws.root(), 0, &mut out);
+    walk(ws.root(), 0, &mut out);
     out.into_iter()
-        .filter(|p| st.ws.resolve(&st.ws.id_of(p)).is_ok())
-        .map(|p| st.ws.id_of(&p))
+        .filter(|p| ws.resolve(&ws.id_of(p)).is_ok())
+        .map(|p| ws.id_of(&p))
         .collect()
 }
