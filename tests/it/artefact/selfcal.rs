@@ -132,8 +132,6 @@ fn self_calibration_with_rotations_recovers_the_plate() {
 }
 
 #[test]
-#[ignore = "fails since the volumetric basis became Legendre (issue 40 item 3): without a \
-            turned position only `scale` is named, the plate's squareness is not; to be fixed"]
 fn self_calibration_without_rotations_names_the_squareness() {
     let dir = tempdir();
     let (plate, truth) = uncertified(dir.path());
