@@ -120,7 +120,7 @@ pub(super) fn run(
 
 /// Every identified component against the truth under the gauge: |est − truth| ≤
 /// tol + k·σ at every report position. Returns the number compared.
-fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize {
+pub(super) fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize {
     let range: Vec<[f64; 2]> = (0..3)
         .map(|a| {
             let axis = ["E_XX", "E_YY", "E_ZZ"][a];

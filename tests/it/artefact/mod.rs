@@ -4,5 +4,6 @@
 
 mod bad_input;
 mod identify;
+mod known;
 mod sdss;
 mod selfcal;
