@@ -95,7 +95,7 @@ pub(crate) enum View<'a> {
     /// The fit: the fitted orientation, the components at the measured axis positions.
     Fitted,
     /// The observability analysis: the artefact exactly in the given nominal orientation
-    /// R0 at the fitted translation t, every feature at its nominal place R0·f + t. The
+    /// R0 at the placement's translation t, every feature at its nominal place R0·f + t. The
     /// design is then exactly what the geometry allows: a null direction (an invariant, a
     /// component the positions cannot see) is null to rounding whatever the machine's
     /// errors. Built on the measured places instead, each such direction is lifted by

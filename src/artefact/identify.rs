@@ -6,7 +6,8 @@
 //! [`crate::volumetric::Identification`] and its `model.json` is `volumetric`'s.
 //!
 //! Steps: (1) each position is placed rigidly ([`super::placement::checked_placement`]);
-//! (2) the design is built with every artefact in its nominal orientation R0 and its
+//! (2) the design is built with every artefact in its nominal orientation R0 at its
+//! stated origin, every feature at its nominal place, and its
 //! null space split into directions that move only machine components (those components
 //! are undetermined) and directions that also move a self-calibrated artefact (the
 //! invariants: the artefact is constrained to carry none of them, the machine all);
@@ -445,7 +446,16 @@ pub fn identify(
     let mut nominal = Vec::new();
     let mut rows = Vec::new();
     for (k, pos) in campaign.positions.iter().enumerate() {
+        // The nominal geometry is the plan's: R0 at the stated origin. Positions stated at
+        // the same place then share it exactly, as the invariants assume; their fitted
+        // translations differ by the machine's errors (µm), which would lift each
+        // invariant to ~10⁻⁶ relative, where the rank rule cannot tell it from a weakly
+        // determined direction.
         let r0 = nominal_rotation(&pos.orientation);
+        let stated = Placement {
+            r: r0,
+            t_mm: Vector3::from(pos.origin_mm),
+        };
         nominal.extend(position_rows(
             &basis,
             &layout,
@@ -453,7 +463,7 @@ pub fn identify(
             k,
             &meas[k],
             View::Nominal(&r0),
-            &placements[k],
+            &stated,
         ));
         rows.extend(position_rows(
             &basis,

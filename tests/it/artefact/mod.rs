@@ -3,6 +3,7 @@
 //! answers on simulated campaigns, bad input refused as `artefact.md` says.
 
 mod bad_input;
+mod concealed;
 mod identify;
 mod known;
 mod sdss;
