@@ -7,7 +7,7 @@ use std::path::Path;
 
 use errmap::volumetric::Machine;
 
-use super::identify::{Pos, campaign, compare, eight, machine, pos, run};
+use super::identify::{Pos, campaign, compare, eight, gauge_file, identify_out, machine, pos, run};
 use crate::util::{dataset, errmap, json, s, stderr, tempdir};
 
 /// The measured rows of a simulated file: (id, [x, y, z]).
@@ -136,15 +136,7 @@ fn a_hole_plate_in_eight_positions_gives_the_in_plane_errors() {
 #[test]
 fn a_ball_beam_along_the_axes_gives_straightness_but_no_squareness() {
     let dir = tempdir();
-    let beam = dir.path().join("beam.toml");
-    let mut t = String::from("id = \"BB-800\"\nkind = \"ball_beam\"\n");
-    for i in 0..9 {
-        let x = 100.0 * i as f64;
-        t.push_str(&format!(
-            "[[feature]]\nid = \"K{i}\"\nnominal_mm = [{x}, 0.0, 0.0]\ncertificate_mm = [{x}, 0.0, 0.0]\nu_um = 0.2\n"
-        ));
-    }
-    std::fs::write(&beam, t).expect("test data");
+    let beam = gauge_file(dir.path(), "BB-800", "ball_beam", 9, 100.0);
     const X: &str = "[1.0, 0.0, 0.0]";
     const Y: &str = "[0.0, 1.0, 0.0]";
     const Z: &str = "[0.0, 0.0, 1.0]";
@@ -200,16 +192,7 @@ fn artefact_model(dir: &Path) -> std::path::PathBuf {
     let v = run(dir, &c, &machine(), 0.0, &[]);
     assert!(v["unidentified"].as_array().expect("test data").is_empty());
     let model = dir.join("model.json");
-    let o = errmap(&[
-        "artefact",
-        "identify",
-        s(&c),
-        "--topology",
-        "YXZ",
-        "--out",
-        s(&model),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    identify_out(&c, &model);
     model
 }
 
