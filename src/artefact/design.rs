@@ -89,21 +89,39 @@ pub(crate) struct Row {
     pub sigma_um: f64,
 }
 
-/// The rows of one position. `r_design` orients what the rows see (the fitted R for the
-/// fit, R0 for the observability analysis); `fitted` is the rigid placement the values
-/// are taken against.
-#[allow(clippy::too_many_arguments)]
+/// Which geometry a position's rows are built on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum View<'a> {
+    /// The fit: the fitted orientation, the components at the measured axis positions.
+    Fitted,
+    /// The observability analysis: the artefact exactly in the given nominal orientation
+    /// R0 at the placement's translation t, every feature at its nominal place R0·f + t. The
+    /// design is then exactly what the geometry allows: a null direction (an invariant, a
+    /// component the positions cannot see) is null to rounding whatever the machine's
+    /// errors. Built on the measured places instead, each such direction is lifted by
+    /// the errors' size against the range (µm over hundreds of mm, ~10⁻⁶ relative)
+    /// to where the rank rule's threshold decides it, and whether it is found depends
+    /// on how the basis scales its columns.
+    Nominal(&'a Matrix3<f64>),
+}
+
+/// The rows of one position on `view`'s geometry; `fitted` is the rigid placement the
+/// values are taken against.
 pub(crate) fn position_rows(
     basis: &Basis,
     layout: &Layout,
     campaign: &Campaign,
     k: usize,
     meas: &Measurement,
-    r_design: &Matrix3<f64>,
+    view: View,
     fitted: &Placement,
 ) -> Vec<Row> {
     let pos: &Position = &campaign.positions[k];
     let art: &Artefact = &campaign.artefacts[pos.artefact];
+    let r_design = match view {
+        View::Fitted => &fitted.r,
+        View::Nominal(r0) => r0,
+    };
     let (rot, tr) = placement_params(art.kind, r_design);
     let dirs = observed_directions(art.kind, r_design);
     let coords = observed_coords(art.kind);
@@ -113,9 +131,12 @@ pub(crate) fn position_rows(
     for (mi, m) in meas.rows.iter().enumerate() {
         let f = Vector3::from(art.at_temp_mm(m.feature, pos.temp_c));
         let x = Vector3::from(m.x_mm);
-        let a = x - p;
+        let a = match view {
+            View::Fitted => x - p,
+            View::Nominal(r0) => r0 * f + fitted.t_mm - p,
+        };
         let resid = x - Vector3::from(fitted.apply(f.into()));
-        for (j, u) in dirs.iter().enumerate() {
+        for u in dirs.iter() {
             let uv = Vector3::from(*u);
             let mut coef = vec![0.0; layout.n];
             let g = basis.line_row(a.into(), *u, pos.probe_mm);
@@ -132,7 +153,6 @@ pub(crate) fn position_rows(
                     coef[cc] = uv.dot(&r_design.column(c).into_owned());
                 }
             }
-            let _ = j;
             rows.push(Row {
                 position: k,
                 meas_row: mi,

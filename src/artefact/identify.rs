@@ -6,7 +6,8 @@
 //! [`crate::volumetric::Identification`] and its `model.json` is `volumetric`'s.
 //!
 //! Steps: (1) each position is placed rigidly ([`super::placement::checked_placement`]);
-//! (2) the design is built with every artefact in its nominal orientation R0 and its
+//! (2) the design is built with every artefact in its nominal orientation R0 at its
+//! stated origin, every feature at its nominal place, and its
 //! null space split into directions that move only machine components (those components
 //! are undetermined) and directions that also move a self-calibrated artefact (the
 //! invariants: the artefact is constrained to carry none of them, the machine all);
@@ -20,7 +21,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
 use super::design::{
-    Layout, Row, complement, observed_coords, placement_params, position_rows, prior_rows,
+    Layout, Row, View, complement, observed_coords, placement_params, position_rows, prior_rows,
     rigid_patterns, weighted,
 };
 use super::error::ArtefactError;
@@ -236,13 +237,16 @@ fn known_patterns(campaign: &Campaign, layout: &Layout) -> [DVector<f64>; 2] {
 
 /// Names the invariants spanned by `found` ((null direction, deviation pattern) pairs):
 /// the scale and the squareness when their patterns (within the constraints so far, `z`)
-/// lie in the span, every other dimension `other`.
+/// lie in the span and an earlier round has not named them (`named`: what is left of a
+/// pattern after its own invariant is constrained is another invariant's), every other
+/// dimension `other`.
 fn name_invariants(
     campaign: &Campaign,
     basis: &Basis,
     layout: &Layout,
     z: &DMatrix<f64>,
     found: &[(DVector<f64>, DVector<f64>)],
+    named: &[&str],
 ) -> Vec<Invariant> {
     let d = DMatrix::from_columns(&found.iter().map(|f| f.1.clone()).collect::<Vec<_>>());
     let svd = d.clone().svd(true, true);
@@ -251,6 +255,9 @@ fn name_invariants(
         .into_iter()
         .zip(known_patterns(campaign, layout))
     {
+        if named.contains(&kind) {
+            continue;
+        }
         let p = z * (z.transpose() * p);
         if p.norm() < 1e-12 {
             continue;
@@ -348,7 +355,8 @@ pub(crate) fn observability(
                 .copy_from(&x.rows(dev_start, layout.n - dev_start));
             found.push((v, pattern));
         }
-        invariants.extend(name_invariants(campaign, basis, layout, &z, &found));
+        let named: Vec<&str> = invariants.iter().map(|i: &Invariant| i.kind).collect();
+        invariants.extend(name_invariants(campaign, basis, layout, &z, &found, &named));
         constraints.extend(found.into_iter().map(|(_, p)| p));
     }
     unreachable!("the loop returns on its last round")
@@ -438,15 +446,24 @@ pub fn identify(
     let mut nominal = Vec::new();
     let mut rows = Vec::new();
     for (k, pos) in campaign.positions.iter().enumerate() {
+        // The nominal geometry is the plan's: R0 at the stated origin. Positions stated at
+        // the same place then share it exactly, as the invariants assume; their fitted
+        // translations differ by the machine's errors (µm), which would lift each
+        // invariant to ~10⁻⁶ relative, where the rank rule cannot tell it from a weakly
+        // determined direction.
         let r0 = nominal_rotation(&pos.orientation);
+        let stated = Placement {
+            r: r0,
+            t_mm: Vector3::from(pos.origin_mm),
+        };
         nominal.extend(position_rows(
             &basis,
             &layout,
             campaign,
             k,
             &meas[k],
-            &r0,
-            &placements[k],
+            View::Nominal(&r0),
+            &stated,
         ));
         rows.extend(position_rows(
             &basis,
@@ -454,7 +471,7 @@ pub fn identify(
             campaign,
             k,
             &meas[k],
-            &placements[k].r,
+            View::Fitted,
             &placements[k],
         ));
     }
@@ -467,32 +484,19 @@ pub fn identify(
         ),
     })?;
     let identified = identified_components(&basis, &obs.null_mo);
-    let unidentified = super::observe::unidentified_groups(
-        campaign,
-        meas,
-        &basis,
-        &layout,
-        &nominal,
-        &priors,
-        &obs,
-        &identified,
-        range,
-    );
-    Ok(super::observe::assemble(
-        campaign,
-        meas,
-        opts,
-        basis,
-        &layout,
-        &placements,
-        &rows,
-        &priors,
-        &obs,
-        solved,
+    let unidentified =
+        super::observe::unidentified_groups(campaign, meas, &basis, &obs, &identified, range);
+    let fit = super::observe::Fitted {
+        layout: &layout,
+        placements: &placements,
+        rows: &rows,
+        obs: &obs,
+        sol: solved,
         identified,
         unidentified,
-        &self_cal,
-    ))
+        self_cal: &self_cal,
+    };
+    Ok(super::observe::assemble(campaign, meas, opts, basis, fit))
 }
 
 /// The solution in the unknowns' own coordinates.

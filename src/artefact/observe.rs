@@ -2,10 +2,12 @@
 //! null directions that move them, with the extra positions that would determine them,
 //! and the assembly of the result (placements, deviations, residual test, maps).
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::Vector3;
 
-use super::design::{Layout, Row, observed_coords, position_rows, prior_rows};
-use super::files::{Campaign, MeasuredFeature, Measurement, Orientation, Plane, Position};
+use super::design::{Layout, Row, View, observed_coords, position_rows, prior_rows};
+use super::files::{
+    Artefact, Campaign, Kind, MeasuredFeature, Measurement, Orientation, Plane, Position,
+};
 use super::identify::{
     ArtefactIdentification, CarrierPosition, FeatureDeviation, FittedPlacement, IdentifyOptions,
     MapPoint, Observability, ResidualTest, SelfCalibration, Solution, Suggestion,
@@ -16,14 +18,10 @@ use crate::volumetric::{Basis, Z_MISSING, chi_square_z, identified_components};
 
 /// Groups the undetermined components (components moved by the same null directions
 /// belong together) and finds the extra positions that determine each group.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn unidentified_groups(
     campaign: &Campaign,
     meas: &[Measurement],
     basis: &Basis,
-    _layout: &Layout,
-    _nominal: &[Row],
-    _priors: &[(usize, f64)],
     obs: &Observability,
     identified: &[bool],
     range: [[f64; 2]; 3],
@@ -72,7 +70,7 @@ pub(crate) fn unidentified_groups(
             }
         }
     }
-    let candidates = candidates(campaign, meas, range);
+    let candidates = candidates(campaign, range);
     let determined: Vec<(Suggestion, Vec<bool>)> = candidates
         .into_iter()
         .filter_map(|(s, pos, m)| with_extra(campaign, meas, basis, pos, m).map(|f| (s, f)))
@@ -99,7 +97,6 @@ pub(crate) fn unidentified_groups(
 /// 100 mm along x or y (the offsets that make the last axis' rotations visible).
 fn candidates(
     campaign: &Campaign,
-    _meas: &[Measurement],
     range: [[f64; 2]; 3],
 ) -> Vec<(Suggestion, Position, Measurement)> {
     let Some(a) = campaign.artefacts.iter().position(|x| !x.kind.is_1d()) else {
@@ -191,151 +188,206 @@ fn with_extra(
             r: r0,
             t_mm: Vector3::from(p.origin_mm),
         };
-        rows.extend(position_rows(basis, &layout, &c, k, &all[k], &r0, &placed));
+        rows.extend(position_rows(
+            basis,
+            &layout,
+            &c,
+            k,
+            &all[k],
+            View::Nominal(&r0),
+            &placed,
+        ));
     }
     let obs = observability(&c, basis, &layout, &rows, &priors, &self_cal);
     Some(identified_components(basis, &obs.null_mo))
 }
 
-/// Builds the result from the solution.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn assemble(
-    campaign: &Campaign,
-    meas: &[Measurement],
-    opts: &IdentifyOptions,
-    basis: Basis,
-    layout: &Layout,
-    placements: &[Placement],
-    rows: &[Row],
-    priors: &[(usize, f64)],
-    obs: &Observability,
-    sol: Solution,
-    identified: Vec<bool>,
-    unidentified: Vec<UnidentifiedGroup>,
-    self_cal: &[bool],
-) -> ArtefactIdentification {
-    let np = campaign.positions.len();
-    // Unweighted residual of each data row, µm.
+/// Unweighted residual of each data row and their RMS, µm.
+fn residuals_um(rows: &[Row], sol: &Solution) -> (Vec<f64>, f64) {
     let res_um: Vec<f64> = rows
         .iter()
         .enumerate()
         .map(|(i, r)| sol.res_w[i] * r.sigma_um)
         .collect();
-    let rms_residual_um =
-        (res_um.iter().map(|r| r * r).sum::<f64>() / res_um.len().max(1) as f64).sqrt();
-    let mut fitted = Vec::with_capacity(np);
+    let rms = (res_um.iter().map(|r| r * r).sum::<f64>() / res_um.len().max(1) as f64).sqrt();
+    (res_um, rms)
+}
+
+/// The residual map of one position: each measured feature's residual turned into the
+/// artefact frame (`p` the fitted placement), µm. `mine` are the position's data rows.
+fn residual_map(
+    art: &Artefact,
+    meas: &Measurement,
+    p: &Placement,
+    rows: &[Row],
+    mine: &[usize],
+    res_um: &[f64],
+) -> Vec<MapPoint> {
+    let coords = observed_coords(art.kind);
+    let mut map: Vec<MapPoint> = meas
+        .rows
+        .iter()
+        .map(|m| {
+            let f = art.reference_mm(m.feature);
+            MapPoint {
+                feature: art.features[m.feature].id.clone(),
+                at_mm: [f[0], f[1]],
+                e_um: [0.0; 3],
+            }
+        })
+        .collect();
+    let ball = matches!(art.kind, Kind::BallPlate | Kind::BallBeam);
+    let per = if ball { 3 } else { coords.len() };
+    for (n, &i) in mine.iter().enumerate() {
+        let r = &rows[i];
+        let j = n % per;
+        if ball {
+            // Machine axis j: turned into the artefact frame.
+            for c in 0..3 {
+                map[r.meas_row].e_um[c] += p.r[(j, c)] * res_um[i];
+            }
+        } else {
+            map[r.meas_row].e_um[coords[j]] = res_um[i];
+        }
+    }
+    map
+}
+
+/// What the result says of one position: its share of the residual, its fitted
+/// placement and its residual map.
+fn position_result(
+    campaign: &Campaign,
+    meas: &Measurement,
+    k: usize,
+    placed: &Placement,
+    rows: &[Row],
+    res_um: &[f64],
+    sol: &Solution,
+) -> (CarrierPosition, FittedPlacement, Vec<MapPoint>) {
+    let pos = &campaign.positions[k];
+    let art = &campaign.artefacts[pos.artefact];
+    let mine: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].position == k).collect();
+    let rms =
+        (mine.iter().map(|&i| res_um[i].powi(2)).sum::<f64>() / mine.len().max(1) as f64).sqrt();
+    let share =
+        mine.iter().map(|&i| sol.res_w[i].powi(2)).sum::<f64>() / sol.chi2.max(f64::MIN_POSITIVE);
+    let map = residual_map(art, meas, placed, rows, &mine, res_um);
+    let worst = map
+        .iter()
+        .max_by(|a, b| norm(a.e_um).total_cmp(&norm(b.e_um)))
+        .map(|m| m.feature.clone())
+        .unwrap_or_default();
+    let carrier = CarrierPosition {
+        position: pos.id.clone(),
+        share,
+        rms_um: rms,
+        worst_feature: worst,
+    };
+    let fitted = FittedPlacement {
+        position: pos.id.clone(),
+        rotation: [0, 1, 2].map(|i| [0, 1, 2].map(|j| placed.r[(i, j)])),
+        translation_mm: placed.t_mm.into(),
+        rms_um: rms,
+    };
+    (carrier, fitted, map)
+}
+
+/// The self-calibrated artefact's deviations with their one-sigmas, and the invariants.
+fn self_calibration_of(
+    campaign: &Campaign,
+    layout: &Layout,
+    sol: &Solution,
+    obs: &Observability,
+    self_cal: &[bool],
+) -> Option<SelfCalibration> {
+    let a = self_cal.iter().position(|s| *s)?;
+    let art = &campaign.artefacts[a];
+    let coords = observed_coords(art.kind);
+    let features = (0..art.features.len())
+        .map(|i| {
+            let mut dev_um = [None; 3];
+            let mut sigma_um = [None; 3];
+            for (jj, &c) in coords.iter().enumerate() {
+                if let Some(cc) = layout.dev_col(campaign, a, i, jj) {
+                    dev_um[c] = Some(sol.x[cc]);
+                    sigma_um[c] = Some(sol.cov[(cc, cc)].max(0.0).sqrt());
+                }
+            }
+            FeatureDeviation {
+                id: art.features[i].id.clone(),
+                dev_um,
+                sigma_um,
+            }
+        })
+        .collect();
+    Some(SelfCalibration {
+        artefact: art.id.clone(),
+        features,
+        invariants: obs.invariants.clone(),
+    })
+}
+
+/// What `assemble` takes from the fit.
+pub(crate) struct Fitted<'a> {
+    pub layout: &'a Layout,
+    pub placements: &'a [Placement],
+    pub rows: &'a [Row],
+    pub obs: &'a Observability,
+    pub sol: Solution,
+    pub identified: Vec<bool>,
+    pub unidentified: Vec<UnidentifiedGroup>,
+    pub self_cal: &'a [bool],
+}
+
+/// Builds the result from the solution: residuals, then each position's carrier share,
+/// placement and map, the residual test, the self-calibration, the volumetric model.
+pub(crate) fn assemble(
+    campaign: &Campaign,
+    meas: &[Measurement],
+    opts: &IdentifyOptions,
+    basis: Basis,
+    fit: Fitted,
+) -> ArtefactIdentification {
+    let np = campaign.positions.len();
+    let (res_um, rms_residual_um) = residuals_um(fit.rows, &fit.sol);
+    let mut placements = Vec::with_capacity(np);
     let mut maps = Vec::with_capacity(np);
     let mut carriers = Vec::with_capacity(np);
-    let chi2_data: f64 = (0..rows.len()).map(|i| sol.res_w[i].powi(2)).sum();
-    let chi2_all = sol.chi2.max(f64::MIN_POSITIVE);
-    let _ = chi2_data;
     for (k, pos) in campaign.positions.iter().enumerate() {
-        let art = &campaign.artefacts[pos.artefact];
-        let p = refined_placement(art.kind, &placements[k], layout, k, &sol.x);
-        let mine: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].position == k).collect();
-        let rms = (mine.iter().map(|&i| res_um[i].powi(2)).sum::<f64>() / mine.len().max(1) as f64)
-            .sqrt();
-        let share = mine.iter().map(|&i| sol.res_w[i].powi(2)).sum::<f64>() / chi2_all;
-        // Per feature: the residual vector in the artefact frame.
-        let coords = observed_coords(art.kind);
-        let mut map: Vec<MapPoint> = meas[k]
-            .rows
-            .iter()
-            .map(|m| {
-                let f = art.reference_mm(m.feature);
-                MapPoint {
-                    feature: art.features[m.feature].id.clone(),
-                    at_mm: [f[0], f[1]],
-                    e_um: [0.0; 3],
-                }
-            })
-            .collect();
-        let ball = matches!(
-            art.kind,
-            super::files::Kind::BallPlate | super::files::Kind::BallBeam
-        );
-        for &i in &mine {
-            let r = &rows[i];
-            let j = (i - mine[0]) % if ball { 3 } else { coords.len() };
-            if ball {
-                // Machine axis j: turn into the artefact frame.
-                for c in 0..3 {
-                    map[r.meas_row].e_um[c] += p.r[(j, c)] * res_um[i];
-                }
-            } else {
-                map[r.meas_row].e_um[coords[j]] = res_um[i];
-            }
-        }
-        let worst = map
-            .iter()
-            .max_by(|a, b| norm(a.e_um).total_cmp(&norm(b.e_um)))
-            .map(|m| m.feature.clone())
-            .unwrap_or_default();
-        carriers.push(CarrierPosition {
-            position: pos.id.clone(),
-            share,
-            rms_um: rms,
-            worst_feature: worst,
-        });
-        fitted.push(FittedPlacement {
-            position: pos.id.clone(),
-            rotation: [0, 1, 2].map(|i| [0, 1, 2].map(|j| p.r[(i, j)])),
-            translation_mm: p.t_mm.into(),
-            rms_um: rms,
-        });
+        let kind = campaign.artefacts[pos.artefact].kind;
+        let placed = refined_placement(kind, &fit.placements[k], fit.layout, k, &fit.sol.x);
+        let (carrier, fitted, map) =
+            position_result(campaign, &meas[k], k, &placed, fit.rows, &res_um, &fit.sol);
+        carriers.push(carrier);
+        placements.push(fitted);
         maps.push(map);
     }
     carriers.sort_by(|a, b| b.share.total_cmp(&a.share));
-    let z = chi_square_z(sol.chi2, sol.dof);
+    let z = chi_square_z(fit.sol.chi2, fit.sol.dof);
     let residual = ResidualTest {
         verdict: crate::base::Verdict::from_found(z > Z_MISSING),
         z,
-        chi2: sol.chi2,
-        dof: sol.dof,
+        chi2: fit.sol.chi2,
+        dof: fit.sol.dof,
         carriers,
     };
-    let self_calibration = self_cal.iter().position(|s| *s).map(|a| {
-        let art = &campaign.artefacts[a];
-        let coords = observed_coords(art.kind);
-        let features = (0..art.features.len())
-            .map(|i| {
-                let mut dev_um = [None; 3];
-                let mut sigma_um = [None; 3];
-                for (jj, &c) in coords.iter().enumerate() {
-                    if let Some(cc) = layout.dev_col(campaign, a, i, jj) {
-                        dev_um[c] = Some(sol.x[cc]);
-                        sigma_um[c] = Some(sol.cov[(cc, cc)].max(0.0).sqrt());
-                    }
-                }
-                FeatureDeviation {
-                    id: art.features[i].id.clone(),
-                    dev_um,
-                    sigma_um,
-                }
-            })
-            .collect();
-        SelfCalibration {
-            artefact: art.id.clone(),
-            features,
-            invariants: obs.invariants.clone(),
-        }
-    });
+    let self_calibration =
+        self_calibration_of(campaign, fit.layout, &fit.sol, fit.obs, fit.self_cal);
     let features: usize = meas.iter().map(|m| m.rows.len()).sum();
-    let _ = priors;
     let model = model_of(
         opts,
         basis,
-        obs,
-        &sol,
-        identified,
-        &unidentified,
+        fit.obs,
+        &fit.sol,
+        fit.identified,
+        &fit.unidentified,
         (np, features),
         rms_residual_um,
     );
     ArtefactIdentification {
         model,
-        placements: fitted,
-        unidentified,
+        placements,
+        unidentified: fit.unidentified,
         self_calibration,
         residual,
         rms_residual_um,
@@ -352,6 +404,3 @@ pub(crate) fn assemble(
 fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
-
-#[allow(dead_code)]
-fn _unused(_: DMatrix<f64>, _: DVector<f64>) {}

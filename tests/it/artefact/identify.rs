@@ -80,6 +80,35 @@ pub(super) fn machine() -> PathBuf {
     dataset("artefact/machine.toml")
 }
 
+/// Writes a certified 1-D artefact (`kind` step_gauge or ball_beam): `n` features
+/// `pitch_mm` apart along x, exactly at nominal, `u_um` each; returns its path.
+pub(super) fn gauge_file(dir: &Path, id: &str, kind: &str, n: usize, pitch_mm: f64) -> PathBuf {
+    let mut t = format!("id = \"{id}\"\nkind = \"{kind}\"\n");
+    for i in 0..n {
+        let x = pitch_mm * i as f64;
+        t.push_str(&format!(
+            "[[feature]]\nid = \"F{i:02}\"\nnominal_mm = [{x}, 0.0, 0.0]\ncertificate_mm = [{x}, 0.0, 0.0]\nu_um = 0.2\n"
+        ));
+    }
+    let path = dir.join(format!("{id}.toml"));
+    std::fs::write(&path, t).expect("test data");
+    path
+}
+
+/// `artefact identify CAMPAIGN --topology YXZ --out MODEL` (the measurements in place).
+pub(super) fn identify_out(campaign: &Path, model: &Path) {
+    let o = errmap(&[
+        "artefact",
+        "identify",
+        s(campaign),
+        "--topology",
+        "YXZ",
+        "--out",
+        s(model),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// Simulates into dir/meas and identifies; returns the JSON.
 pub(super) fn run(
     dir: &Path,
@@ -120,7 +149,7 @@ pub(super) fn run(
 
 /// Every identified component against the truth under the gauge: |est − truth| ≤
 /// tol + k·σ at every report position. Returns the number compared.
-fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize {
+pub(super) fn compare(v: &serde_json::Value, machine: &Machine, tol: f64, k: f64) -> usize {
     let range: Vec<[f64; 2]> = (0..3)
         .map(|a| {
             let axis = ["E_XX", "E_YY", "E_ZZ"][a];
@@ -263,16 +292,7 @@ fn the_model_is_volumetrics_model() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let model = dir.path().join("model.json");
-    let o = errmap(&[
-        "artefact",
-        "identify",
-        s(&c),
-        "--topology",
-        "YXZ",
-        "--out",
-        s(&model),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    identify_out(&c, &model);
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).expect("test data"))
             .expect("test data");

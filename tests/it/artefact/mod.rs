@@ -3,6 +3,8 @@
 //! answers on simulated campaigns, bad input refused as `artefact.md` says.
 
 mod bad_input;
+mod concealed;
 mod identify;
+mod known;
 mod sdss;
 mod selfcal;
