@@ -18,7 +18,10 @@ pub use iso::{
     Closure, RotaryIso, RotaryTable, RotaryTableRow, RotaryTargetStats, closure_warning,
     read_rotary_error_table, rotary_error_table, rotary_iso, write_rotary_error_table,
 };
-pub use read::{is_rotary, read_rotary_session, rotary_frame, write_rotary_session};
+pub use read::{
+    is_rotary, read_rotary_session, rotary_csv_header, rotary_csv_line, rotary_frame,
+    write_rotary_session,
+};
 
 use std::path::PathBuf;
 

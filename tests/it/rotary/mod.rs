@@ -2,6 +2,7 @@
 //! check, bad inputs, and the rest of the rotary pipeline.
 
 mod bad;
+mod capture;
 mod export;
 mod modulo;
 mod plan;
