@@ -418,12 +418,6 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
             a.from, a.to
         )));
     }
-    if a.program.is_some() && a.dialect.name() != "linuxcnc" {
-        return Err(guard::usage(format!(
-            "--dialect {}: a rotary plan's program is written for linuxcnc only so far",
-            a.dialect.name()
-        )));
-    }
     if a.mark_output.is_some() {
         return Err(guard::usage("--mark-output is not built for a rotary plan"));
     }
@@ -444,6 +438,12 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
         seed: a.seed,
     })
     .map_err(|e| guard::usage(format!("--{}", e.to_string().replace('_', "-"))))?;
+    // Rendered first: a program the dialect refuses (a dwell too long) writes nothing.
+    let program = a
+        .program
+        .as_ref()
+        .map(|_| errmap::controller::program::render_rotary(&plan, a.dialect))
+        .transpose()?;
     guard::write_file(&a.out, plan.toml().as_bytes())?;
     eprintln!(
         "plan: {} targets of rotary axis {axis}, {}° to {}°, {} runs → {}",
@@ -453,9 +453,9 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
         a.runs,
         a.out.display()
     );
-    if let Some(p) = &a.program {
-        guard::write_file(p, plan.linuxcnc().as_bytes())?;
-        eprintln!("plan: linuxcnc program → {}", p.display());
+    if let (Some(p), Some(text)) = (&a.program, program) {
+        guard::write_file(p, text.as_bytes())?;
+        eprintln!("plan: {} program → {}", a.dialect.name(), p.display());
     }
     Ok(())
 }
