@@ -197,6 +197,28 @@ pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertai
     (!out.is_empty()).then_some(out)
 }
 
+/// One count of a rotary board's axis encoder and of its reference, ″ (from the HELLO in
+/// the `session.json` beside `session`, or in the capture directory `session`); `None`
+/// without one or when it is not a rotary HELLO.
+pub fn rotary_count_arcsec(session: &Path) -> Option<(f64, f64)> {
+    #[derive(serde::Deserialize)]
+    struct Partial {
+        hello: Option<HelloJson>,
+    }
+    let dir = if session.is_dir() {
+        session
+    } else {
+        session.parent()?
+    };
+    let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
+    let h = serde_json::from_str::<Partial>(&text)
+        .ok()?
+        .hello?
+        .to_hello()?;
+    let s = errmap_drivers::rotary::RotaryScaling::from_hello(&h)?.ok()?;
+    Some((s.encoder_count_arcsec(), s.reference_count_arcsec()))
+}
+
 /// Where a capture writes.
 #[derive(Debug, Clone)]
 pub struct SessionPaths {

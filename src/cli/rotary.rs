@@ -459,3 +459,68 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
     }
     Ok(())
 }
+
+/// `errmap certificate` of a rotary session (`docs/rotary.md`, "The rotary certificate").
+pub(crate) fn certificate_cmd(a: super::certificate::CertificateArgs) -> Result<()> {
+    use errmap::report::certificate::info::CertificateInfo;
+    use errmap::report::certificate::rotary::{RotaryCertificate, write};
+    if a.tolerances.is_some() {
+        return Err(guard::usage(
+            "--tolerances judges a linear axis' E, A, B, R, M in µm; a rotary session has none",
+        ));
+    }
+    let path = super::acquisition::session_file(&a.session)?;
+    let mut inputs = vec![("SESSION", path.as_path())];
+    inputs.extend(a.info.as_deref().map(|p| ("--info", p)));
+    guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let info = match &a.info {
+        Some(p) => CertificateInfo::read(p)?,
+        None => CertificateInfo::default(),
+    };
+    let session = rotary::read_rotary_session(&path)?;
+    let (iso, closure) = rotary::rotary_iso(&path, &session)?;
+    let counts = errmap::acquire::rotary_count_arcsec(&path);
+    let budget = rotary::rotary_budget(
+        &iso,
+        &rotary::RotaryBudgetInputs {
+            reference_accuracy_arcsec: info.reference.accuracy_arcsec,
+            centring_arcsec: info.reference.centring_arcsec,
+            encoder_count_arcsec: counts.map(|c| c.0),
+            reference_count_arcsec: counts.map(|c| c.1),
+        },
+    );
+    let dwell: Vec<&RotaryRow> = session.rows.iter().filter(|r| r.is_dwell()).collect();
+    let temps = dwell.iter().filter_map(|r| r.air_temp_c);
+    let air_temp_c = temps.clone().reduce(f64::min).zip(temps.reduce(f64::max));
+    let source = path.display().to_string();
+    let cert = RotaryCertificate {
+        source: &source,
+        axis: session.axis,
+        iso: &iso,
+        closure: closure.as_ref(),
+        budget: &budget,
+        info: &info,
+        dwell_rows: dwell.len(),
+        air_temp_c,
+    };
+    write(&a.out, &cert)?;
+    if let Some(w) = closure.as_ref().and_then(rotary::closure_warning) {
+        eprintln!("certificate: warning: {w}");
+    }
+    if budget.reference_assumed {
+        eprintln!(
+            "certificate: the reference's accuracy is not stated ([reference] accuracy_arcsec \
+             in --info): ±{}″ assumed",
+            rotary::ASSUMED_REFERENCE_ACCURACY_ARCSEC
+        );
+    }
+    eprintln!(
+        "certificate: rotary axis {}: E = {:.2}″, A = {:.2}″, U = {:.2}″ (k = 2) → {}",
+        session.axis,
+        iso.e_arcsec,
+        iso.a_arcsec,
+        budget.expanded_arcsec,
+        a.out.display()
+    );
+    Ok(())
+}

@@ -19,6 +19,7 @@ pub mod conformity;
 pub mod info;
 pub mod layout;
 pub mod pdf;
+pub mod rotary;
 
 use std::path::Path;
 

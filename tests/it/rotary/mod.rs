@@ -3,6 +3,7 @@
 
 mod bad;
 mod capture;
+mod certificate;
 mod export;
 mod modulo;
 mod plan;
