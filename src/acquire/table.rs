@@ -25,7 +25,7 @@ pub(super) const MAX_PARQUET_ROTARY_ROWS: usize = 5_000_000;
 
 /// The capture's table, linear until a rotary row comes.
 pub(super) enum CaptureTable {
-    Linear(SessionWriter),
+    Linear(Box<SessionWriter>),
     RotaryCsv {
         path: PathBuf,
         axis: RotaryAxis,
@@ -68,7 +68,7 @@ fn row(r: &WireRotaryRow) -> RotaryRow {
 
 impl CaptureTable {
     pub(super) fn create(path: &Path) -> Result<Self, AcquireError> {
-        Ok(CaptureTable::Linear(SessionWriter::create(path)?))
+        Ok(CaptureTable::Linear(Box::new(SessionWriter::create(path)?)))
     }
 
     fn mixed(path: &Path, what: &str) -> AcquireError {
@@ -187,7 +187,7 @@ impl CaptureTable {
         self.flush()?;
         let rows = self.rows();
         match self {
-            CaptureTable::Linear(w) => Ok(w.finish()?),
+            CaptureTable::Linear(w) => Ok((*w).finish()?),
             CaptureTable::RotaryCsv { .. } => Ok(rows),
             CaptureTable::RotaryParquet { path, session } => {
                 write_rotary_session(&path, &session)

@@ -350,9 +350,19 @@ pub(crate) fn export(
             "--method is not used with a rotary table (no model is fitted)",
         ));
     }
-    if a.bidirectional || a.existing.is_some() {
+    if a.bidirectional {
         return Err(guard::usage(
-            "--bidirectional and --existing are not built yet for a rotary table",
+            "--bidirectional with a rotary table: siemens, fanuc and heidenhain modulo tables hold \
+             one value per point (no direction); the two-direction rotary tables (linuxcnc \
+             forward/reverse, fagor-8055 err−, each direction detrended by its own closure gap) \
+             are not built: the export writes one correction for both directions",
+        ));
+    }
+    if a.existing.is_some() {
+        return Err(guard::usage(
+            "--existing with a rotary table: an in-place update of a modulo table is not built \
+             (the merged table would have to keep the modulo rules: equal values at 0 and 360, \
+             FANUC's increments summing to 0); write a new table instead",
         ));
     }
     if a.units.is_some() {
