@@ -154,12 +154,9 @@ pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
     Ok(hello)
 }
 
-/// The resolutions of the reading chain a capture's `session.json` describes (its HELLO):
-/// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
-/// `session` is the session table or the capture directory; `None` when there is no
-/// `session.json` beside it, or it has no `hello`.
-pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertainty::Resolution>> {
-    use crate::session::uncertainty::Resolution;
+/// The HELLO in the `session.json` beside the session table `session`, or in the capture
+/// directory `session`; `None` without one.
+fn session_hello(session: &Path) -> Option<HelloJson> {
     #[derive(serde::Deserialize)]
     struct Partial {
         hello: Option<HelloJson>,
@@ -170,7 +167,16 @@ pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertai
         session.parent()?
     };
     let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
-    let h = serde_json::from_str::<Partial>(&text).ok()?.hello?;
+    serde_json::from_str::<Partial>(&text).ok()?.hello
+}
+
+/// The resolutions of the reading chain a capture's `session.json` describes (its HELLO):
+/// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
+/// `session` is the session table or the capture directory; `None` when there is no
+/// `session.json` beside it, or it has no `hello`.
+pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertainty::Resolution>> {
+    use crate::session::uncertainty::Resolution;
+    let h = session_hello(session)?;
     let counts = u32::from(h.optical_fold) * u32::from(h.edges_per_fringe);
     let mut out = Vec::new();
     if counts > 0 && h.laser_wavelength_fm > 0 {
@@ -201,20 +207,7 @@ pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::uncertai
 /// the `session.json` beside `session`, or in the capture directory `session`); `None`
 /// without one or when it is not a rotary HELLO.
 pub fn rotary_count_arcsec(session: &Path) -> Option<(f64, f64)> {
-    #[derive(serde::Deserialize)]
-    struct Partial {
-        hello: Option<HelloJson>,
-    }
-    let dir = if session.is_dir() {
-        session
-    } else {
-        session.parent()?
-    };
-    let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
-    let h = serde_json::from_str::<Partial>(&text)
-        .ok()?
-        .hello?
-        .to_hello()?;
+    let h = session_hello(session)?.to_hello()?;
     let s = errmap_drivers::rotary::RotaryScaling::from_hello(&h)?.ok()?;
     Some((s.encoder_count_arcsec(), s.reference_count_arcsec()))
 }
