@@ -27,6 +27,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::frame::Hello;
+use crate::rotary::RotaryRow;
 use crate::session::{SessionDecoder, SessionEvent, SessionRow};
 use crate::stats::DecoderStats;
 use crate::transport::{ByteSource, ReadOutcome, TransportError};
@@ -119,8 +120,18 @@ pub trait RowSink {
     fn event(&mut self, event: SessionEvent) -> Result<(), SinkError> {
         match event {
             SessionEvent::Row(r) => self.row(r),
+            SessionEvent::Rotary(r) => self.rotary_row(r),
             _ => Ok(()),
         }
+    }
+    /// One decoded rotary row (a rotary board: [`crate::rotary`]). The default refuses
+    /// it: a sink that writes linear session tables cannot hold it.
+    fn rotary_row(&mut self, row: RotaryRow) -> Result<(), SinkError> {
+        Err(format!(
+            "sample {}: a rotary row (axis {}) for a sink that holds linear session rows only",
+            row.sample, row.axis
+        )
+        .into())
     }
     /// Called with every fsync of the raw file (at least every
     /// [`CaptureConfig::fsync_every`] while bytes arrive, at every run end, at the end).
@@ -314,11 +325,11 @@ impl<'a> CaptureRun<'a> {
             &mut *self.sink,
         );
         self.decoder.push_with(bytes, &mut |e| {
-            if let SessionEvent::Row(r) = &e {
-                if r.run < *max_run || (r.run == 0 && *max_run > 0) {
+            if let Some(run) = e.row_run() {
+                if run < *max_run || (run == 0 && *max_run > 0) {
                     run_ended = true;
                 }
-                *max_run = (*max_run).max(r.run);
+                *max_run = (*max_run).max(run);
                 *rows += 1;
             }
             if failed.is_none()
@@ -341,7 +352,7 @@ impl<'a> CaptureRun<'a> {
     fn ask_hello_once(&mut self, source: &mut dyn ByteSource) {
         if !self.hello_asked
             && self.start.elapsed() >= HELLO_WAIT
-            && self.decoder.builder().scaling().is_none()
+            && !self.decoder.builder().converts()
         {
             self.hello_asked = true;
             // Best effort: a port that takes no bytes still gives what it sends.
@@ -387,7 +398,7 @@ impl<'a> CaptureRun<'a> {
     ) -> Result<Captured, CaptureError> {
         let (rows, failed, sink) = (&mut self.rows, &mut self.failed, &mut *self.sink);
         self.decoder.finish_with(&mut |e| {
-            if matches!(e, SessionEvent::Row(_)) {
+            if e.row_run().is_some() {
                 *rows += 1;
             }
             if failed.is_none()

@@ -12,6 +12,7 @@
 //! | [`stats`] | decoder statistics (spec JSON) and problem log | spec "Decoder statistics" | — |
 //! | [`problem`] | typed problems with stream positions | — | — |
 //! | [`longrun`] | a long generated capture (benchmarks, soak) | simulated board, line after line | one line's stream in memory |
+//! | [`rotary`] | the rotary reading of a HELLO (axis codes 3–5): encoder and reference angles, rotary rows | errmap's extension, `docs/rotary.md` | O(1) |
 //! | [`transport`] | byte sources: serial port, reader (replay) | `serialport` | — |
 //!
 //! Bytes flow `ByteSource → Decoder → SessionBuilder → SessionRow`; nothing below
@@ -26,6 +27,7 @@ pub mod frame;
 pub mod longrun;
 pub mod problem;
 pub mod quadrature;
+pub mod rotary;
 pub mod serve;
 pub mod session;
 pub mod sim;

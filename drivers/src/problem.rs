@@ -41,8 +41,8 @@ pub enum Counter {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, thiserror::Error)]
 #[serde(rename_all = "snake_case")]
 pub enum HelloError {
-    /// The axis code is not 0, 1 or 2.
-    #[error("measured axis code {0} is not 0 (X), 1 (Y) or 2 (Z)")]
+    /// The axis code is not 0, 1, 2 (linear) or 3, 4, 5 (rotary).
+    #[error("measured axis code {0} is not 0 (X), 1 (Y), 2 (Z), 3 (A), 4 (B) or 5 (C)")]
     BadAxis(u8),
     /// The optical fold F or the edges per fringe k is zero.
     #[error("optical fold {fold} or edges per fringe {edges} is zero")]
@@ -55,6 +55,9 @@ pub enum HelloError {
     /// The laser wavelength is zero.
     #[error("laser wavelength is zero")]
     ZeroWavelength,
+    /// A rotary HELLO with zero encoder or reference counts per revolution.
+    #[error("a rotary HELLO with zero encoder or reference counts per revolution")]
+    ZeroCountsPerRev,
 }
 
 /// What went wrong (or what is worth reporting) at a position of the stream.

@@ -44,6 +44,7 @@ use crate::edlen;
 use crate::frame::{Axis, Env, Frame, Hello, Mark, MarkKind, Material, RawAb, Sample};
 use crate::problem::{Counter, HelloError, Problem, ProblemKind, StreamPos};
 use crate::quadrature::{AbState, QuadratureDecoder};
+use crate::rotary::{RotaryRow, RotaryScaling, mark_feed_deg_s, mark_target_deg};
 use crate::stats::DecoderStats;
 
 /// One row of the session table (`docs/session-table.md`); field names are the
@@ -218,6 +219,8 @@ pub fn n_air(env: &Env, lambda_vac_um: f64) -> f64 {
 pub enum SessionEvent {
     /// A session-table row.
     Row(SessionRow),
+    /// A rotary session-table row (a HELLO with axis code 3, 4 or 5: [`crate::rotary`]).
+    Rotary(RotaryRow),
     /// A problem (from the decoder or the session layer).
     Problem(Problem),
     /// A HELLO frame arrived.
@@ -229,6 +232,17 @@ pub enum SessionEvent {
         /// The line.
         text: String,
     },
+}
+
+impl SessionEvent {
+    /// The run of a row (linear or rotary); `None` for the other events.
+    pub fn row_run(&self) -> Option<u32> {
+        match self {
+            SessionEvent::Row(r) => Some(r.run),
+            SessionEvent::Rotary(r) => Some(r.run),
+            _ => None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -271,6 +285,8 @@ pub struct SessionBuilder {
     first_hello: Option<Hello>,
     hello_in_force: Option<Hello>,
     scaling: Option<Scaling>,
+    /// The rotary scaling in force (a rotary HELLO); `scaling` is then `None`.
+    rotary: Option<RotaryScaling>,
     t0_us: Option<u64>,
     last_t_us: Option<u64>,
     marks: MarkState,
@@ -302,6 +318,7 @@ impl SessionBuilder {
             first_hello: None,
             hello_in_force: None,
             scaling: None,
+            rotary: None,
             t0_us: None,
             last_t_us: None,
             marks: MarkState {
@@ -332,11 +349,32 @@ impl SessionBuilder {
     /// A usable HELLO in the stream still takes over (a different one is reported as
     /// [`ProblemKind::HelloChanged`]). Refuses a HELLO that gives no scaling.
     pub fn preset_hello(&mut self, h: Hello) -> Result<(), HelloError> {
-        let s = Scaling::from_hello(&h)?;
+        self.set_scaling(&h)?;
         self.first_hello = Some(h);
         self.hello_in_force = Some(h);
-        self.scaling = Some(s);
         Ok(())
+    }
+
+    /// Puts the HELLO's scaling, linear or rotary, in force.
+    fn set_scaling(&mut self, h: &Hello) -> Result<(), HelloError> {
+        if let Some(r) = RotaryScaling::from_hello(h) {
+            self.rotary = Some(r?);
+            self.scaling = None;
+        } else {
+            self.scaling = Some(Scaling::from_hello(h)?);
+            self.rotary = None;
+        }
+        Ok(())
+    }
+
+    /// Whether a usable HELLO (linear or rotary) is in force.
+    pub fn converts(&self) -> bool {
+        self.scaling.is_some() || self.rotary.is_some()
+    }
+
+    /// The rotary scaling in force.
+    pub fn rotary_scaling(&self) -> Option<&RotaryScaling> {
+        self.rotary.as_ref()
     }
 
     /// The first usable HELLO (or, if none was usable, the first HELLO seen).
@@ -344,7 +382,7 @@ impl SessionBuilder {
         self.first_hello.as_ref()
     }
 
-    /// The scaling in force.
+    /// The linear scaling in force.
     pub fn scaling(&self) -> Option<&Scaling> {
         self.scaling.as_ref()
     }
@@ -399,7 +437,7 @@ impl SessionBuilder {
                 self.origin = Some((first.scale, first.laser));
                 self.problem(first.pos, ProblemKind::NoCleanSample, sink);
             }
-            if self.scaling.is_none() {
+            if !self.converts() {
                 let rows_dropped = self.pending.len() as u64;
                 self.pending.clear();
                 self.stats.unconverted_samples += rows_dropped;
@@ -425,8 +463,8 @@ impl SessionBuilder {
                 sink,
             );
         }
-        match Scaling::from_hello(&h) {
-            Ok(s) => {
+        match self.set_scaling(&h) {
+            Ok(()) => {
                 if let Some(prev) = &self.hello_in_force {
                     if *prev != h {
                         self.problem(pos, ProblemKind::HelloChanged, sink);
@@ -436,7 +474,6 @@ impl SessionBuilder {
                     self.first_hello = Some(h);
                 }
                 self.hello_in_force = Some(h);
-                self.scaling = Some(s);
             }
             Err(error) => {
                 if self.first_hello.is_none() {
@@ -638,13 +675,12 @@ impl SessionBuilder {
             material_mc: self.material_mc,
             flags: s.flags.0,
         };
-        if let (true, Some(scaling), Some(origin)) =
-            (self.pending.is_empty(), self.scaling, self.origin)
+        if let (true, true, Some(origin)) = (self.pending.is_empty(), self.converts(), self.origin)
         {
             // Fast path: nothing held back, write the row at once.
-            let row = self.finalize(&row, &scaling, origin);
+            let event = self.emit(&row, origin);
             self.stats.rows += 1;
-            sink(SessionEvent::Row(row));
+            sink(event);
             return;
         }
         self.pending.push_back(row);
@@ -655,7 +691,7 @@ impl SessionBuilder {
                     self.origin = Some((first.scale, first.laser));
                     self.problem(first.pos, ProblemKind::NoCleanSample, sink);
                     self.flush(sink);
-                } else if self.scaling.is_none() {
+                } else if !self.converts() {
                     self.pending.pop_front();
                     self.stats.unconverted_samples += 1;
                     self.problem(first.pos, ProblemKind::NoHello { rows_dropped: 1 }, sink);
@@ -666,13 +702,22 @@ impl SessionBuilder {
 
     /// Write every held row if scaling and origin are known.
     fn flush<F: FnMut(SessionEvent)>(&mut self, sink: &mut F) {
-        let (Some(scaling), Some(origin)) = (self.scaling, self.origin) else {
+        let (true, Some(origin)) = (self.converts(), self.origin) else {
             return;
         };
         while let Some(p) = self.pending.pop_front() {
-            let row = self.finalize(&p, &scaling, origin);
+            let event = self.emit(&p, origin);
             self.stats.rows += 1;
-            sink(SessionEvent::Row(row));
+            sink(event);
+        }
+    }
+
+    /// The row of a held SAMPLE under the scaling in force (one is).
+    fn emit(&mut self, p: &PendingRow, origin: (i64, i64)) -> SessionEvent {
+        match (self.rotary, self.scaling) {
+            (Some(r), _) => SessionEvent::Rotary(rotary_row(p, &r)),
+            (None, Some(s)) => SessionEvent::Row(self.finalize(p, &s, origin)),
+            (None, None) => unreachable!("emit is called only when a scaling is in force"),
         }
     }
 
@@ -734,6 +779,36 @@ impl SessionBuilder {
                 .map(|t| f64::from(t) / 1000.0),
             flags: p.flags,
         }
+    }
+}
+
+/// A rotary row: the counters from zero (a rotary encoder counts from its reference
+/// mark), the MARK's fields in their rotary reading ([`crate::rotary`]).
+fn rotary_row(p: &PendingRow, r: &RotaryScaling) -> RotaryRow {
+    let indicated_deg = r.indicated_deg(p.scale);
+    let reference_deg = r.reference_deg(p.laser);
+    RotaryRow {
+        run: p.run,
+        sample: p.sample,
+        t_s: p.t_s,
+        axis: r.axis,
+        direction: p.direction,
+        target: p.target,
+        target_deg: p
+            .lines_um
+            .filter(|_| p.target >= 0)
+            .map(|l| mark_target_deg(l.0)),
+        indicated_deg,
+        reference_deg,
+        error_arcsec: (indicated_deg - reference_deg) * 3600.0,
+        feed_deg_s: p.feed_um_s.map(mark_feed_deg_s),
+        air_temp_c: p.env.map(|e| f64::from(e.air_temp_mc) / 1000.0),
+        part_temp_c: p
+            .material_mc
+            .and_then(|m| m.1)
+            .map(|t| f64::from(t) / 1000.0),
+        scale_temp_c: p.material_mc.map(|m| f64::from(m.0) / 1000.0),
+        flags: p.flags,
     }
 }
 

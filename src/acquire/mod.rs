@@ -13,6 +13,7 @@
 
 mod measure;
 mod reduce;
+mod table;
 
 pub use measure::{StreamBench, peak_rss_mb, stream_bench};
 pub use reduce::{BudgetInputs, ReduceError, Reduced, reduce_session, reduce_session_with};
@@ -95,15 +96,20 @@ impl From<&Hello> for HelloJson {
             laser_wavelength_fm: h.laser_wavelength_fm,
             optical_fold: h.optical_fold,
             edges_per_fringe: h.edges_per_fringe,
-            axis: h
-                .axis()
-                .map_or_else(|| format!("code {}", h.axis_code), |a| a.to_string()),
+            axis: match (
+                h.axis(),
+                errmap_drivers::rotary::RotaryAxis::from_code(h.axis_code),
+            ) {
+                (Some(a), _) => a.to_string(),
+                (None, Some(r)) => r.to_string(),
+                (None, None) => format!("code {}", h.axis_code),
+            },
         }
     }
 }
 
 impl HelloJson {
-    /// The HELLO these fields describe; `None` when the axis is not X, Y or Z.
+    /// The HELLO these fields describe; `None` when the axis is not X, Y, Z, A, B or C.
     pub fn to_hello(&self) -> Option<Hello> {
         let mut h = Hello {
             protocol_version: self.protocol_version,
@@ -115,9 +121,11 @@ impl HelloJson {
             edges_per_fringe: self.edges_per_fringe,
             axis_code: 0,
         };
-        h.axis_code = (0..3u8).find(|&c| {
+        h.axis_code = (0..6u8).find(|&c| {
             let probe = Hello { axis_code: c, ..h };
             probe.axis().is_some_and(|a| a.to_string() == self.axis)
+                || errmap_drivers::rotary::RotaryAxis::from_code(c)
+                    .is_some_and(|a| a.as_str() == self.axis)
         })?;
         Some(h)
     }
@@ -136,19 +144,19 @@ pub fn hello_from_session_json(path: &Path) -> Result<Hello, AcquireError> {
     let json = p
         .hello
         .ok_or_else(|| bad("no `hello`: that capture had no device description either".into()))?;
-    let hello = json
-        .to_hello()
-        .ok_or_else(|| bad(format!("hello.axis `{}` is not X, Y or Z", json.axis)))?;
-    errmap_drivers::session::Scaling::from_hello(&hello).map_err(|e| bad(format!("hello: {e}")))?;
+    let hello = json.to_hello().ok_or_else(|| {
+        bad(format!(
+            "hello.axis `{}` is not X, Y, Z, A, B or C",
+            json.axis
+        ))
+    })?;
+    errmap_drivers::SessionDecoder::with_hello(hello).map_err(|e| bad(format!("hello: {e}")))?;
     Ok(hello)
 }
 
-/// The resolutions of the reading chain a capture's `session.json` describes (its HELLO):
-/// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
-/// `session` is the session table or the capture directory; `None` when there is no
-/// `session.json` beside it, or it has no `hello`.
-pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::Resolution>> {
-    use crate::session::Resolution;
+/// The HELLO in the `session.json` beside the session table `session`, or in the capture
+/// directory `session`; `None` without one.
+fn session_hello(session: &Path) -> Option<HelloJson> {
     #[derive(serde::Deserialize)]
     struct Partial {
         hello: Option<HelloJson>,
@@ -159,7 +167,16 @@ pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::Resoluti
         session.parent()?
     };
     let text = std::fs::read_to_string(dir.join("session.json")).ok()?;
-    let h = serde_json::from_str::<Partial>(&text).ok()?.hello?;
+    serde_json::from_str::<Partial>(&text).ok()?.hello
+}
+
+/// The resolutions of the reading chain a capture's `session.json` describes (its HELLO):
+/// one laser count `λ_vac/(F·k)` and one scale count, µm, each with its source in words.
+/// `session` is the session table or the capture directory; `None` when there is no
+/// `session.json` beside it, or it has no `hello`.
+pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::Resolution>> {
+    use crate::session::Resolution;
+    let h = session_hello(session)?;
     let counts = u32::from(h.optical_fold) * u32::from(h.edges_per_fringe);
     let mut out = Vec::new();
     if counts > 0 && h.laser_wavelength_fm > 0 {
@@ -184,6 +201,15 @@ pub fn device_resolutions(session: &Path) -> Option<Vec<crate::session::Resoluti
         });
     }
     (!out.is_empty()).then_some(out)
+}
+
+/// One count of a rotary board's axis encoder and of its reference, ″ (from the HELLO in
+/// the `session.json` beside `session`, or in the capture directory `session`); `None`
+/// without one or when it is not a rotary HELLO.
+pub fn rotary_count_arcsec(session: &Path) -> Option<(f64, f64)> {
+    let h = session_hello(session)?.to_hello()?;
+    let s = errmap_drivers::rotary::RotaryScaling::from_hello(&h)?.ok()?;
+    Some((s.encoder_count_arcsec(), s.reference_count_arcsec()))
 }
 
 /// Where a capture writes.
@@ -252,7 +278,7 @@ pub fn capture_session_watched(
                 io_err(&paths.raw, FileOp::Access)(e).into()
             }
         })?;
-    let mut table = SessionWriter::create(&paths.table)?;
+    let mut table = table::CaptureTable::create(&paths.table)?;
     let mut sink = Watched {
         writer: &mut table,
         watch,
@@ -293,21 +319,18 @@ impl RowSink for SessionWriter {
 /// The session writer with an onlooker: every event is shown to `watch`, the rows then go
 /// to the writer.
 struct Watched<'a> {
-    writer: &'a mut SessionWriter,
+    writer: &'a mut table::CaptureTable,
     watch: &'a mut dyn FnMut(&SessionEvent),
 }
 
 impl RowSink for Watched<'_> {
     fn row(&mut self, row: errmap_drivers::SessionRow) -> Result<(), SinkError> {
-        self.writer.push(row).map_err(Into::into)
+        self.writer.linear(row).map_err(Into::into)
     }
 
     fn event(&mut self, event: SessionEvent) -> Result<(), SinkError> {
         (self.watch)(&event);
-        match event {
-            SessionEvent::Row(r) => self.row(r),
-            _ => Ok(()),
-        }
+        self.writer.event(event).map_err(Into::into)
     }
 
     fn flush(&mut self) -> Result<(), SinkError> {
@@ -402,14 +425,13 @@ fn replay_into(
     raw: &Path,
     partial: &Path,
 ) -> Result<Replayed, AcquireError> {
-    let mut writer = SessionWriter::create(partial)?;
+    let mut writer = table::CaptureTable::create(partial)?;
     let mut buf = vec![0u8; REPLAY_CHUNK_BYTES];
-    let mut failed: Option<TableError> = None;
+    let mut failed: Option<AcquireError> = None;
     let mut bytes = 0usize;
     let mut sink = |e: SessionEvent| {
-        if let SessionEvent::Row(r) = e
-            && failed.is_none()
-            && let Err(e) = writer.push(r)
+        if failed.is_none()
+            && let Err(e) = writer.event(e)
         {
             failed = Some(e);
         }
@@ -426,7 +448,7 @@ fn replay_into(
     }
     decoder.finish_with(&mut sink);
     if let Some(e) = failed {
-        return Err(e.into());
+        return Err(e);
     }
     let stats = decoder.stats();
     if stats.frames.total() == 0 {

@@ -65,7 +65,11 @@ pub(crate) fn serve_stream(
 pub(crate) fn serve_sim(a: ServeSimArgs) -> Result<()> {
     install_ctrlc();
     let faults = faults(&a.faults)?;
-    let (stream, _) = errmap::sim::simulate_stream(&a.model, a.plan.as_deref(), &faults)?;
+    let stream = if errmap::sim::is_rotary_model(&a.model) {
+        rotary_stream(&a.model, a.plan.as_deref(), &faults, a.truth_out.is_some())?
+    } else {
+        errmap::sim::simulate_stream(&a.model, a.plan.as_deref(), &faults)?.0
+    };
     if let Some(p) = &a.truth_out {
         write_truth(p, &stream)?;
     }
@@ -84,6 +88,34 @@ pub(crate) fn serve_sim(a: ServeSimArgs) -> Result<()> {
     announced?;
     eprintln!("serve-sim: sent {written} bytes");
     Ok(())
+}
+
+/// A rotary model's board stream (`docs/rotary.md`, "Capture"): no fault injection and no
+/// truth file (the model file is the truth).
+fn rotary_stream(
+    model: &Path,
+    plan: Option<&Path>,
+    faults: &Faults,
+    truth_out: bool,
+) -> Result<SimStream> {
+    let seedless = Faults {
+        seed: 0,
+        ..faults.clone()
+    };
+    if seedless != Faults::default() {
+        bail!(
+            "{}: a rotary model's board takes no fault injection (--garbage, --bit-flips, \
+             --drop-frames, --beam-loss, --near-wrap)",
+            model.display()
+        );
+    }
+    if truth_out {
+        bail!(
+            "{}: --truth-out is for a linear model (a rotary model's effects are its file)",
+            model.display()
+        );
+    }
+    Ok(errmap::sim::simulate_rotary_stream(model, plan)?)
 }
 
 fn write_truth(path: &Path, stream: &SimStream) -> Result<()> {
@@ -199,8 +231,11 @@ pub(crate) fn capture_cmd(a: CaptureArgs) -> Result<()> {
     };
     let cap = match (&a.simulate, &a.port) {
         (Some(model), _) => {
-            let (stream, _) =
-                errmap::sim::simulate_stream(model, a.plan.as_deref(), &Faults::default())?;
+            let stream = if errmap::sim::is_rotary_model(model) {
+                rotary_stream(model, a.plan.as_deref(), &Faults::default(), false)?
+            } else {
+                errmap::sim::simulate_stream(model, a.plan.as_deref(), &Faults::default())?.0
+            };
             capture_simulated(stream, a.speed, a.baud, &paths, &config, display)?
         }
         (None, Some(port)) => capture_from_port(port, a.baud, &paths, &config, display)?,

@@ -32,6 +32,9 @@ pub(crate) struct CertificateArgs {
 }
 
 pub(crate) fn certificate_cmd(a: CertificateArgs) -> Result<()> {
+    if super::rotary::is_rotary_session(&a.session)? {
+        return super::rotary::certificate_cmd(a);
+    }
     let path = session_file(&a.session)?;
     let mut inputs = vec![("SESSION", path.as_path())];
     inputs.extend(a.info.as_deref().map(|p| ("--info", p)));

@@ -350,9 +350,19 @@ pub(crate) fn export(
             "--method is not used with a rotary table (no model is fitted)",
         ));
     }
-    if a.bidirectional || a.existing.is_some() {
+    if a.bidirectional {
         return Err(guard::usage(
-            "--bidirectional and --existing are not built yet for a rotary table",
+            "--bidirectional with a rotary table: siemens, fanuc and heidenhain modulo tables hold \
+             one value per point (no direction); the two-direction rotary tables (linuxcnc \
+             forward/reverse, fagor-8055 err−, each direction detrended by its own closure gap) \
+             are not built: the export writes one correction for both directions",
+        ));
+    }
+    if a.existing.is_some() {
+        return Err(guard::usage(
+            "--existing with a rotary table: an in-place update of a modulo table is not built \
+             (the merged table would have to keep the modulo rules: equal values at 0 and 360, \
+             FANUC's increments summing to 0); write a new table instead",
         ));
     }
     if a.units.is_some() {
@@ -418,12 +428,6 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
             a.from, a.to
         )));
     }
-    if a.program.is_some() && a.dialect.name() != "linuxcnc" {
-        return Err(guard::usage(format!(
-            "--dialect {}: a rotary plan's program is written for linuxcnc only so far",
-            a.dialect.name()
-        )));
-    }
     if a.mark_output.is_some() {
         return Err(guard::usage("--mark-output is not built for a rotary plan"));
     }
@@ -444,6 +448,12 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
         seed: a.seed,
     })
     .map_err(|e| guard::usage(format!("--{}", e.to_string().replace('_', "-"))))?;
+    // Rendered first: a program the dialect refuses (a dwell too long) writes nothing.
+    let program = a
+        .program
+        .as_ref()
+        .map(|_| errmap::controller::program::render_rotary(&plan, a.dialect))
+        .transpose()?;
     guard::write_file(&a.out, plan.toml().as_bytes())?;
     eprintln!(
         "plan: {} targets of rotary axis {axis}, {}° to {}°, {} runs → {}",
@@ -453,9 +463,74 @@ pub(crate) fn plan(a: &super::plan::PlanArgs, axis: RotaryAxis) -> Result<()> {
         a.runs,
         a.out.display()
     );
-    if let Some(p) = &a.program {
-        guard::write_file(p, plan.linuxcnc().as_bytes())?;
-        eprintln!("plan: linuxcnc program → {}", p.display());
+    if let (Some(p), Some(text)) = (&a.program, program) {
+        guard::write_file(p, text.as_bytes())?;
+        eprintln!("plan: {} program → {}", a.dialect.name(), p.display());
     }
+    Ok(())
+}
+
+/// `errmap certificate` of a rotary session (`docs/rotary.md`, "The rotary certificate").
+pub(crate) fn certificate_cmd(a: super::certificate::CertificateArgs) -> Result<()> {
+    use errmap::report::certificate::CertificateInfo;
+    use errmap::report::certificate::rotary::{RotaryCertificate, write};
+    if a.tolerances.is_some() {
+        return Err(guard::usage(
+            "--tolerances judges a linear axis' E, A, B, R, M in µm; a rotary session has none",
+        ));
+    }
+    let path = super::acquisition::session_file(&a.session)?;
+    let mut inputs = vec![("SESSION", path.as_path())];
+    inputs.extend(a.info.as_deref().map(|p| ("--info", p)));
+    guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let info = match &a.info {
+        Some(p) => CertificateInfo::read(p)?,
+        None => CertificateInfo::default(),
+    };
+    let session = rotary::read_rotary_session(&path)?;
+    let (iso, closure) = rotary::rotary_iso(&path, &session)?;
+    let counts = errmap::acquire::rotary_count_arcsec(&path);
+    let budget = rotary::rotary_budget(
+        &iso,
+        &rotary::RotaryBudgetInputs {
+            reference_accuracy_arcsec: info.reference.accuracy_arcsec,
+            centring_arcsec: info.reference.centring_arcsec,
+            encoder_count_arcsec: counts.map(|c| c.0),
+            reference_count_arcsec: counts.map(|c| c.1),
+        },
+    );
+    let dwell: Vec<&RotaryRow> = session.rows.iter().filter(|r| r.is_dwell()).collect();
+    let temps = dwell.iter().filter_map(|r| r.air_temp_c);
+    let air_temp_c = temps.clone().reduce(f64::min).zip(temps.reduce(f64::max));
+    let source = path.display().to_string();
+    let cert = RotaryCertificate {
+        source: &source,
+        axis: session.axis,
+        iso: &iso,
+        closure: closure.as_ref(),
+        budget: &budget,
+        info: &info,
+        dwell_rows: dwell.len(),
+        air_temp_c,
+    };
+    write(&a.out, &cert)?;
+    if let Some(w) = closure.as_ref().and_then(rotary::closure_warning) {
+        eprintln!("certificate: warning: {w}");
+    }
+    if budget.reference_assumed {
+        eprintln!(
+            "certificate: the reference's accuracy is not stated ([reference] accuracy_arcsec \
+             in --info): ±{}″ assumed",
+            rotary::ASSUMED_REFERENCE_ACCURACY_ARCSEC
+        );
+    }
+    eprintln!(
+        "certificate: rotary axis {}: E = {:.2}″, A = {:.2}″, U = {:.2}″ (k = 2) → {}",
+        session.axis,
+        iso.e_arcsec,
+        iso.a_arcsec,
+        budget.expanded_arcsec,
+        a.out.display()
+    );
     Ok(())
 }

@@ -41,7 +41,7 @@ use std::fmt::Write as _;
 
 use super::{DIALECTS, Dialect, names_where};
 use crate::base::Direction;
-use crate::sim::{CycleStep, LinesProgram, TestPlan};
+use crate::sim::{CycleStep, LinesProgram, RotaryPlan, TestPlan};
 
 /// The largest coordinate every dialect writes with 3 decimals (Fanuc IS-B: 8 digits).
 pub const MAX_COORDINATE_MM: f64 = 99_999.999;
@@ -486,4 +486,50 @@ fn other_letters(plan: &TestPlan) -> [&'static str; 2] {
         Axis::Y => ["X", "Z"],
         Axis::Z => ["X", "Y"],
     }
+}
+
+/// The ISO 230-2 cycle of a rotary axis ([`RotaryPlan`], `docs/rotary.md` §5) in dialect
+/// `p`: the header comments, the dialect's set-up, a move to from − overrun, then per run
+/// every target ascending with a dwell, on to to + overrun, every target descending, back
+/// to from − overrun. Moves of the rotary axis only, each with its feed word in °/min
+/// (60 × the plan's °/s; the controls read F of a rotary-only move as degrees per minute
+/// under G94 — an assumption for FANUC, Siemens and HEIDENHAIN, see `docs/rotary.md`).
+/// Angles absolute and unwrapped (below 0, beyond 360) with 3 decimals.
+pub fn render_rotary(plan: &RotaryPlan, p: &dyn ProgramSyntax) -> Result<String, ProgramError> {
+    let c = &plan.config;
+    let letter = c.axis.upper();
+    let feed = feed_mm_min(c.feed_deg_s);
+    let dwell = p.dwell(c.dwell_s)?;
+    let mut blocks = p.begin(ProgramKind::TestCycle);
+    let header = [
+        format!(
+            "errmap plan: ISO 230-2 cycle of rotary axis {letter}, {} targets from {} to {} deg, \
+             {} runs, {} dialect",
+            plan.targets_deg.len(),
+            c.from_deg,
+            c.to_deg,
+            c.runs,
+            p.name()
+        ),
+        format!(
+            "overrun {} deg, dwell {} s, feed {feed} deg/min",
+            c.overrun_deg, c.dwell_s
+        ),
+        "angles absolute and unwrapped, below 0 and beyond 360: the axis must count \
+         continuously; a modulo axis needs the control's directional moves"
+            .to_string(),
+    ];
+    blocks.extend(header.iter().map(|h| p.comment(h)));
+    blocks.extend(p.setup().map(String::from));
+    let start = c.from_deg - c.overrun_deg;
+    blocks.push(p.feed_move(&[(letter, start)], Some(&feed)));
+    for (kind, v) in plan.events() {
+        if kind == 'M' {
+            blocks.push(p.feed_move(&[(letter, v)], Some(&feed)));
+        } else {
+            blocks.extend(dwell.iter().cloned());
+        }
+    }
+    blocks.extend(p.end(ProgramKind::TestCycle));
+    Ok(text(p, &blocks))
 }

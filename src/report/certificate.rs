@@ -19,6 +19,7 @@ mod conformity;
 mod info;
 mod layout;
 mod pdf;
+pub mod rotary;
 
 pub use self::cmm::{Sources as CmmSources, render as render_cmm, write as write_cmm};
 pub use self::info::{CertificateInfo, Controller, InfoError, Instrument, Laser, Sensors};

@@ -118,6 +118,11 @@ impl SessionWriter {
         Ok(())
     }
 
+    /// The table's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Rows pushed so far.
     pub fn rows(&self) -> u64 {
         self.rows

@@ -10,6 +10,7 @@
 //! | `program` | a campaign of lines as a part program visits it (the programs: `controller::program`) |
 //! | [`update`] | writing a diagnosis' found effects back into a model |
 //! | `job` | the diagnosis as one job: read, thin, simulate, diagnose, update the model |
+//! | `rotary`, `rotary_board` | the rotary simulator, and its cycle as a rotary board's frames |
 //! | `concealed` | the concealed-effect cases of `datasets/concealed/` |
 //! | `error` | [`SimError`] |
 //! | `bounds` | the physical range of every number in a model or plan file |
@@ -22,6 +23,7 @@ mod physics;
 mod plan;
 mod program;
 mod rotary;
+mod rotary_board;
 mod rotary_plan;
 mod testplan;
 mod update;
@@ -42,6 +44,10 @@ pub use physics::{
 pub use plan::{PlanSpec, read_plan, simulate_stream, truth_test_points};
 pub use program::{LinesProgram, ProgramLine};
 pub use rotary::{RotaryAxisModel, RotaryCycle, simulate_rotary};
+pub use rotary_board::{
+    is_rotary_model, read_rotary_cycle, read_rotary_model, rotary_hello, rotary_stream,
+    simulate_rotary_stream,
+};
 pub use rotary_plan::{MAX_PLAN_TARGETS, RotaryPlan, RotaryPlanConfig, RotaryPlanError};
 pub use testplan::{
     CycleStep, PlanField, PlanProblem, Spacing, TestPlan, TestPlanConfig, TestPlanError,

@@ -1,13 +1,11 @@
-//! The ISO 230-2 test plan of a rotary axis, in degrees, and its LinuxCNC part program
-//! (`docs/rotary.md` §5).
+//! The ISO 230-2 test plan of a rotary axis, in degrees (`docs/rotary.md` §5); its part
+//! programs are `controller::program::render_rotary`.
 //!
 //! Targets from `from` to `to` (both included; 0 and 360 make the closure pair), inner ones
 //! offset at random by up to `random_offset` of the interval and rounded to 0.001°. Per
 //! run, from `from − overrun`: every target ascending with a dwell at each, on to
 //! `to + overrun`, every target descending, on to `from − overrun`. Angles are absolute
 //! and unwrapped (below 0 and beyond 360): the axis must count continuously.
-
-use std::fmt::Write as _;
 
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -149,35 +147,5 @@ impl RotaryPlan {
             ev.push(('M', c.from_deg - c.overrun_deg));
         }
         ev
-    }
-
-    /// The LinuxCNC program: `G90`, `G0`/`G1 <letter>… F<60·feed>` (°/min), `G4 P<s>`.
-    pub fn linuxcnc(&self) -> String {
-        let c = &self.config;
-        let l = c.axis.upper();
-        let f = 60.0 * c.feed_deg_s;
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "(errmap plan: ISO 230-2 cycle of rotary axis {l}, {} targets, {} runs)",
-            self.targets_deg.len(),
-            c.runs
-        );
-        let _ = writeln!(
-            s,
-            "(angles are absolute and unwrapped, below 0 and beyond 360: the axis must count \
-             continuously; a wrapped modulo axis needs its directional moves)"
-        );
-        let _ = writeln!(s, "G90");
-        let _ = writeln!(s, "G0 {l}{:.3}", c.from_deg - c.overrun_deg);
-        for (kind, v) in self.events() {
-            if kind == 'M' {
-                let _ = writeln!(s, "G1 {l}{v:.3} F{f:.3}");
-            } else {
-                let _ = writeln!(s, "G4 P{v}");
-            }
-        }
-        let _ = writeln!(s, "M2");
-        s
     }
 }

@@ -155,7 +155,8 @@ impl ViewState {
             SessionEvent::Row(r) => self.row(r),
             SessionEvent::Problem(p) => self.problem(p),
             SessionEvent::Hello(h) => self.hello = Some(*h),
-            SessionEvent::Text { .. } => {}
+            // A rotary board's rows are not drawn: the live view is linear.
+            SessionEvent::Rotary(_) | SessionEvent::Text { .. } => {}
         }
     }
 

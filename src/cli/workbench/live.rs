@@ -451,6 +451,12 @@ impl<'a> Watcher<'a> {
                 let name = name.split([' ', '{', '(']).next().unwrap_or("").to_string();
                 *self.snap.problems.entry(name).or_default() += 1;
             }
+            // A rotary board's rows: counted, not drawn (the live chart is linear).
+            SessionEvent::Rotary(r) => {
+                self.snap.samples += 1;
+                self.snap.run = Some(r.run);
+                self.snap.target = Some(r.target);
+            }
             SessionEvent::Hello(_) | SessionEvent::Text { .. } => {}
         }
         self.publish();

@@ -92,6 +92,20 @@ impl Laser {
     }
 }
 
+/// A rotary axis' angle reference (an XR20-style indexer, an autocollimator with a
+/// polygon): the instrument and what its uncertainty budget takes (`docs/rotary.md`).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AngleReference {
+    pub model: Option<String>,
+    pub serial: Option<String>,
+    pub calibrated: Option<String>,
+    /// Its stated accuracy ±″ (its calibration or the maker's class).
+    pub accuracy_arcsec: Option<f64>,
+    /// Its centring on the axis ±″, if assessed.
+    pub centring_arcsec: Option<f64>,
+}
+
 /// The controller's compensation during the test.
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -150,6 +164,9 @@ pub struct CertificateInfo {
     /// The controller's compensation state.
     #[serde(default)]
     pub controller: Controller,
+    /// A rotary axis' angle reference (`[reference]`).
+    #[serde(default)]
+    pub reference: AngleReference,
     /// Conditions declared for what no sensor recorded.
     #[serde(default)]
     pub conditions: DeclaredConditions,
@@ -253,6 +270,7 @@ impl CertificateInfo {
             ("date_of_test", &info.date_of_test),
             ("date_of_issue", &info.date_of_issue),
             ("laser.calibrated", &info.laser.calibrated),
+            ("reference.calibrated", &info.reference.calibrated),
             (
                 "sensors.air_temperature.calibrated",
                 &s.air_temperature.calibrated,
@@ -278,6 +296,16 @@ impl CertificateInfo {
         ] {
             if let Some(v) = value {
                 check_time(v).map_err(|e| invalid(key, e.to_string()))?;
+            }
+        }
+        for (key, value) in [
+            ("reference.accuracy_arcsec", info.reference.accuracy_arcsec),
+            ("reference.centring_arcsec", info.reference.centring_arcsec),
+        ] {
+            if let Some(v) = value
+                && !(v.is_finite() && v > 0.0 && v <= 3600.0)
+            {
+                return Err(invalid(key, format!("{v}: an angle in ″, 0 < v ≤ 3600")));
             }
         }
         if let Some(r) = info.laser.resolution_um

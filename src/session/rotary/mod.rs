@@ -11,14 +11,21 @@
 //! clause 3, whose scope covers rotary axes alike), fed with degrees for millimetres and
 //! arcseconds for micrometres: the formulas hold whatever the unit.
 
+mod budget;
 mod iso;
 mod read;
 
+pub use budget::{
+    ASSUMED_REFERENCE_ACCURACY_ARCSEC, RotaryBudget, RotaryBudgetInputs, RotaryTerm, rotary_budget,
+};
 pub use iso::{
     Closure, RotaryIso, RotaryTable, RotaryTableRow, RotaryTargetStats, closure_warning,
     read_rotary_error_table, rotary_error_table, rotary_iso, write_rotary_error_table,
 };
-pub use read::{is_rotary, read_rotary_session, rotary_frame, write_rotary_session};
+pub use read::{
+    is_rotary, read_rotary_session, rotary_csv_header, rotary_csv_line, rotary_frame,
+    write_rotary_session,
+};
 
 use std::path::PathBuf;
 

@@ -411,3 +411,36 @@ pub fn write_rotary_session(path: &Path, s: &RotarySession) -> Result<(), Rotary
     let mut df = rotary_frame(s).map_err(|e| format_err(path, e))?;
     Ok(write_frame(path, &mut df)?)
 }
+
+/// The header of a rotary session CSV written row by row (a capture): every column of
+/// errmap's, the optional ones included.
+pub fn rotary_csv_header() -> String {
+    let mut s = COLUMNS.join(",");
+    s.push('\n');
+    s
+}
+
+/// One line of a rotary session CSV written row by row (the columns of
+/// [`rotary_csv_header`]; an empty optional value is an empty cell). Floats in Rust's
+/// shortest round-trip form.
+pub fn rotary_csv_line(axis: RotaryAxis, r: &RotaryRow) -> String {
+    let o = |v: Option<f64>| v.map(|v| format!("{v}")).unwrap_or_default();
+    format!(
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+        r.run,
+        r.sample,
+        r.t_s,
+        axis.upper(),
+        r.direction,
+        r.target,
+        o(r.target_deg),
+        r.indicated_deg,
+        r.reference_deg,
+        r.error_arcsec,
+        r.flags,
+        o(r.feed_deg_s),
+        o(r.air_temp_c),
+        o(r.part_temp_c),
+        o(r.scale_temp_c),
+    )
+}

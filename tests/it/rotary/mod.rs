@@ -2,6 +2,8 @@
 //! check, bad inputs, and the rest of the rotary pipeline.
 
 mod bad;
+mod capture;
+mod certificate;
 mod export;
 mod modulo;
 mod plan;

@@ -75,9 +75,10 @@ fn the_iso_cycle_in_degrees_with_overrun_and_dwell() {
             .all(|v| ((v * 1000.0).round() - v * 1000.0).abs() < 1e-6)
     );
     let text = std::fs::read_to_string(&ngc).expect("present");
-    assert!(text.contains("G90") && text.contains("G0 B-5.000"));
+    assert!(text.contains("G90") && text.contains("G1 B-5.000 F1200"));
     let (ev, feeds) = events(&text, 'B');
-    let mut want = Vec::new();
+    // The move to from − overrun, then the cycle.
+    let mut want = vec![('M', -5.0)];
     for _ in 0..2 {
         for &q in &targets {
             want.extend([('M', q), ('D', 1.5)]);
@@ -147,4 +148,131 @@ fn a_rotary_plan_refuses_what_does_not_fit_with_exit_2() {
         assert!(stderr(&o).contains(want), "{extra:?}: {}", stderr(&o));
         assert!(!out.exists());
     }
+}
+
+/// The rotary cycle through each dialect's program syntax: moves and dwells read back
+/// with that dialect's words, in the order of the cycle, every move at 60·feed °/min.
+#[test]
+fn a_rotary_plan_is_a_part_program_in_every_dialect() {
+    let dir = tempdir();
+    // (dialect, move word, dwell word, dwell unit in s, opening, closing)
+    let cases = [
+        ("fanuc", "G01", "G04", 1e-3, "O", "M30"),
+        ("siemens", "G1", "G4", 1.0, "G71 G90 G94", "M30"),
+        (
+            "heidenhain",
+            "L",
+            "CYCL DEF 9.1 DWELL",
+            1.0,
+            "BEGIN PGM",
+            "END PGM",
+        ),
+        ("linuxcnc", "G1", "G4", 1.0, "G21 G90", "M2"),
+    ];
+    for (dialect, mv, dw, unit_s, first, last) in cases {
+        let (toml, prog) = (dir.path().join("p.toml"), dir.path().join(dialect));
+        let o = errmap(&[
+            "plan",
+            "--axis",
+            "c",
+            "--from",
+            "0",
+            "--to",
+            "360",
+            "--interval",
+            "90",
+            "--runs",
+            "2",
+            "--dwell-s",
+            "1.5",
+            "--feed-deg-s",
+            "4",
+            "--random-offset",
+            "0",
+            "--out",
+            s(&toml),
+            "--program",
+            s(&prog),
+            "--dialect",
+            dialect,
+        ]);
+        assert!(o.status.success(), "{dialect}: {}", stderr(&o));
+        let text = std::fs::read_to_string(&prog).expect("program");
+        let mut blocks: Vec<String> = text.lines().map(String::from).collect();
+        if dialect == "heidenhain" {
+            // Every block numbered from 0, in order.
+            for (i, b) in blocks.iter_mut().enumerate() {
+                let rest = b
+                    .strip_prefix(&format!("{i} "))
+                    .unwrap_or_else(|| panic!("block {i} unnumbered: {b}"));
+                *b = rest.to_string();
+            }
+        }
+        assert!(
+            blocks.iter().any(|b| b.contains(first)),
+            "{dialect}: {first}"
+        );
+        assert!(blocks.iter().any(|b| b.contains(last)), "{dialect}: {last}");
+        let mut ev = Vec::new();
+        for b in &blocks {
+            let w: Vec<&str> = b.split_whitespace().collect();
+            let word = |p: &str| {
+                w.iter()
+                    .find_map(|x| x.strip_prefix(p)?.parse::<f64>().ok())
+            };
+            if b.starts_with(&format!("{mv} C")) {
+                ev.push(('M', word("C").expect("angle")));
+                assert_eq!(word("F"), Some(240.0), "{dialect}: 60·4 °/min in {b}");
+                assert!(
+                    !b.contains('X') && !b.contains('Y') && !b.contains('Z'),
+                    "{b}"
+                );
+            } else if let Some(rest) = b.strip_prefix(dw) {
+                let v: f64 = rest
+                    .trim()
+                    .trim_start_matches(['P', 'F'])
+                    .parse()
+                    .expect("dwell");
+                ev.push(('D', v * unit_s));
+            }
+        }
+        let mut want = vec![('M', -5.0)];
+        let targets = [0.0, 90.0, 180.0, 270.0, 360.0];
+        for _ in 0..2 {
+            for t in targets {
+                want.extend([('M', t), ('D', 1.5)]);
+            }
+            want.push(('M', 365.0));
+            for t in targets.iter().rev() {
+                want.extend([('M', *t), ('D', 1.5)]);
+            }
+            want.push(('M', -5.0));
+        }
+        assert_eq!(ev, want, "{dialect}");
+    }
+    // A dwell FANUC cannot write (G04 P in whole ms, at least 1 ms) is refused, nothing
+    // written.
+    let prog = dir.path().join("short.nc");
+    let o = errmap(&[
+        "plan",
+        "--axis",
+        "b",
+        "--from",
+        "0",
+        "--to",
+        "360",
+        "--targets",
+        "5",
+        "--dwell-s",
+        "0.0001",
+        "--out",
+        s(&dir.path().join("short.toml")),
+        "--program",
+        s(&prog),
+        "--dialect",
+        "fanuc",
+    ]);
+    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("dwell"), "{}", stderr(&o));
+    assert!(!prog.exists() && !dir.path().join("short.toml").exists());
 }
