@@ -116,6 +116,41 @@ fn bad(path: &Path, row0: usize, column: &str, problem: impl Into<String>) -> Ta
     }
 }
 
+/// A session row's direction, target and flags cells as the session table defines them
+/// (whole numbers; direction +1, −1 or 0; target an index or −1; flags a byte, 0 when
+/// absent), or the column and the problem of the first that is not. The linear and the
+/// rotary session readers both check their rows with it.
+pub(crate) fn row_indices(
+    direction: f64,
+    target: f64,
+    flags: Option<f64>,
+) -> Result<(i8, i32, u8), (&'static str, String)> {
+    let whole = |v: f64, column: &'static str| {
+        if v.fract() != 0.0 || v.abs() > 9.0e15 {
+            Err((column, format!("{v} is not a whole number")))
+        } else {
+            Ok(v as i64)
+        }
+    };
+    let d = whole(direction, "direction")?;
+    if !(-1..=1).contains(&d) {
+        return Err(("direction", format!("{d} is not +1, −1 or 0")));
+    }
+    let t = whole(target, "target")?;
+    let t = i32::try_from(t)
+        .ok()
+        .filter(|&t| t >= -1)
+        .ok_or_else(|| ("target", format!("{t} is not a target index or −1")))?;
+    let f = match flags {
+        Some(v) => {
+            let f = whole(v, "flags")?;
+            u8::try_from(f).map_err(|_| ("flags", format!("{f} is not a flag byte")))?
+        }
+        None => 0,
+    };
+    Ok((d as i8, t, f))
+}
+
 fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, TableError> {
     if v.fract() != 0.0 || v.abs() > 9.0e15 {
         return Err(bad(
@@ -264,32 +299,8 @@ fn frame_rows_at(
             None => Ok(None),
         };
         let run = integer(path, req(0)?, r, "run")?;
-        let direction = integer(path, req(4)?, r, "direction")?;
-        if !(-1..=1).contains(&direction) {
-            return Err(bad(
-                path,
-                r,
-                "direction",
-                format!("{direction} is not +1, −1 or 0"),
-            ));
-        }
-        let target = integer(path, req(6)?, r, "target")?;
-        if target < -1 || target > i64::from(i32::MAX) {
-            return Err(bad(
-                path,
-                r,
-                "target",
-                format!("{target} is not a target index or −1"),
-            ));
-        }
-        let flags = match extra(5)? {
-            Some(v) => {
-                let f = integer(path, v, r, "flags")?;
-                u8::try_from(f)
-                    .map_err(|_| bad(path, r, "flags", format!("{f} is not a flag byte")))?
-            }
-            None => 0,
-        };
+        let (direction, target, flags) = row_indices(req(4)?, req(6)?, extra(5)?)
+            .map_err(|(column, problem)| bad(path, r, column, problem))?;
         let run =
             u32::try_from(run).map_err(|_| bad(path, r, "run", format!("{run} is negative")))?;
         let sample = integer(path, req(1)?, r, "sample")?;
@@ -309,9 +320,9 @@ fn frame_rows_at(
             sample,
             t_s: req(2)?,
             axis: axis_cell(path, &cells[3], r)?,
-            direction: direction as i8,
+            direction,
             feed_mm_s: opt(5)?,
-            target: target as i32,
+            target,
             x_mm: opt(7)?,
             y_mm: opt(8)?,
             z_mm: opt(9)?,

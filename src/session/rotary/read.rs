@@ -167,38 +167,14 @@ fn frame_rows(path: &Path, df: &DataFrame) -> Result<Parsed, RotaryError> {
                 ),
             ));
         }
-        let direction = integer(path, req(4)?, r, "direction")?;
-        if !(-1..=1).contains(&direction) {
-            return Err(bad(
-                path,
-                r,
-                "direction",
-                format!("{direction} is not +1, −1 or 0"),
-            ));
-        }
-        let target = integer(path, req(5)?, r, "target")?;
-        if target < -1 || target > i64::from(i32::MAX) {
-            return Err(bad(
-                path,
-                r,
-                "target",
-                format!("{target} is not a target index or −1"),
-            ));
-        }
-        let flags = match opt(10)? {
-            Some(v) => {
-                let f = integer(path, v, r, "flags")?;
-                u8::try_from(f)
-                    .map_err(|_| bad(path, r, "flags", format!("{f} is not a flag byte")))?
-            }
-            None => 0,
-        };
+        let (direction, target, flags) = crate::session::row_indices(req(4)?, req(5)?, opt(10)?)
+            .map_err(|(column, problem)| bad(path, r, column, problem))?;
         let row = RotaryRow {
             run,
             sample,
             t_s: req(2)?,
-            direction: direction as i8,
-            target: target as i32,
+            direction,
+            target,
             target_deg: parse_cell(path, &cells[6], r, "target_deg")?,
             indicated_deg: req(7)?,
             reference_deg: req(8)?,
