@@ -70,6 +70,7 @@ mod text;
 
 pub use error::{DrawFailure, PlotError};
 pub use polar::{PolarChart, PolarTrace, colour, pixel, polar};
+pub use scale::round_ticks;
 pub use sphere::{MapPanel, MapPoint, SphereMap, size as sphere_size, sphere_map};
 pub use text::register_fonts;
 

@@ -104,6 +104,22 @@ fn multiples(lo: f64, hi: f64, step: f64) -> Vec<f64> {
     (k0..=k1).map(|k| k as f64 * step).collect()
 }
 
+/// 1-2-5 tick positions, about `n` of them, inside `[lo, hi]`: whole multiples of the
+/// step, so 0 is exactly 0 (the certificate's chart and the workbench's charts).
+pub fn round_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let span = (hi - lo).max(1e-12);
+    let raw = span / n.max(1) as f64;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).take(1000).map(|k| k as f64 * step).collect()
+}
+
 /// Major ticks (about `target` of them), minor ticks and the major step for `[lo, hi]`.
 /// Minor ticks are only used when they are at least `MIN_MINOR_PX` apart on an axis
 /// `length` pixels long.

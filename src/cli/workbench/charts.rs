@@ -48,23 +48,9 @@ const RIGHT: f64 = 20.0;
 const TOP: f64 = 34.0;
 const BOTTOM: f64 = 70.0;
 
-/// Round tick positions covering `[lo, hi]`.
+/// Round tick positions covering `[lo, hi]`, about six (the reports' rule).
 fn ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let span = (hi - lo).abs().max(1e-12);
-    let raw = span / 6.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
-    let mut t = (lo / step).ceil() * step;
-    let mut out = Vec::new();
-    while t <= hi + step * 1e-9 && out.len() < 50 {
-        out.push(if t.abs() < step * 1e-9 { 0.0 } else { t });
-        t += step;
-    }
-    out
+    errmap::plot::round_ticks(lo, hi, 6)
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {

@@ -9,20 +9,7 @@ use crate::session::{AxisStats, TargetStats};
 const UP: Rgb = (0.12, 0.47, 0.71);
 const DOWN: Rgb = (0.84, 0.15, 0.16);
 
-/// 1-2-5 tick spacing giving about `n` ticks over `[lo, hi]`.
-fn ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    let span = (hi - lo).max(1e-12);
-    let raw = span / n as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|k| k as f64 * step).collect()
-}
+use crate::plot::round_ticks as ticks;
 
 /// The deviation chart: ↑ blue, ↓ red; means solid with a dot at each target, ±2s dashed.
 pub(super) fn chart(flow: &mut Sheet, stats: &AxisStats, axis: &str) {

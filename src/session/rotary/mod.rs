@@ -122,52 +122,43 @@ impl RotaryError {
 impl From<TableError> for RotaryError {
     /// A table reader's cell error in the rotary contract's words (line, column).
     fn from(e: TableError) -> Self {
-        match e {
+        let (path, line, column, problem) = match e {
             TableError::NotNumeric {
                 path,
                 line,
                 column,
                 value,
                 ..
-            } => RotaryError::At {
-                path,
-                line,
-                column,
-                problem: format!("`{value}` is not a number"),
-            },
+            } => (path, line, column, format!("`{value}` is not a number")),
             TableError::EmptyCell {
                 path, line, column, ..
-            } => RotaryError::At {
-                path,
-                line,
-                column,
-                problem: "empty cell in a required column".into(),
-            },
+            } => (path, line, column, "empty cell in a required column".into()),
             TableError::NonFinite {
                 path,
                 line,
                 column,
                 value,
                 ..
-            } => RotaryError::At {
+            } => (
                 path,
                 line,
                 column,
-                problem: format!("{value} is not a finite number"),
-            },
+                format!("{value} is not a finite number"),
+            ),
             TableError::BadValue {
                 path,
                 line,
                 column,
                 problem,
                 ..
-            } => RotaryError::At {
-                path,
-                line,
-                column,
-                problem,
-            },
-            other => RotaryError::Table(other),
+            } => (path, line, column, problem),
+            other => return RotaryError::Table(other),
+        };
+        RotaryError::At {
+            path,
+            line,
+            column,
+            problem,
         }
     }
 }
