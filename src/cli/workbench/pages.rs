@@ -764,6 +764,12 @@ fn history_body(h: &docs::History) -> String {
 
 /// One parameter's EWMA chart and its line, to the history report's 3 decimals.
 fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterReport) -> String {
+    // The ledger spells µm in ASCII; a page shows the symbol.
+    let unit = if p.unit == "um" {
+        "µm"
+    } else {
+        p.unit.as_str()
+    };
     let day = |at: &str| errmap::history::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
     let line = |name: &str,
                 colour,
@@ -783,7 +789,7 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
                     y: v,
                     tip: format!(
                         "{} record {} ({}): {name} {v:.3} {}",
-                        s.at, s.record, s.state, p.unit
+                        s.at, s.record, s.state, unit
                     ),
                 })
             })
@@ -792,7 +798,7 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
     let chart = charts::xy(
         &format!("{machine} {axis} {} (EWMA chart)", p.name),
         "days since 1970-01-01 (UTC)",
-        &format!("{} / {}", p.name, p.unit),
+        &format!("{} / {}", p.name, unit),
         &[
             line("value", PALETTE[0], false, true, &|s| Some(s.value)),
             line("EWMA", PALETTE[1], false, false, &|s| s.ewma),
@@ -802,8 +808,8 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
         &[],
     );
     let trend = match (p.rate_per_year, p.rate_sigma) {
-        (Some(r), Some(s)) => format!("trend {r:.3} ± {s:.3} {}/year", p.unit),
-        (Some(r), None) => format!("trend {r:.3} {}/year", p.unit),
+        (Some(r), Some(s)) => format!("trend {r:.3} ± {s:.3} {}/year", unit),
+        (Some(r), None) => format!("trend {r:.3} {}/year", unit),
         _ => "no trend".into(),
     };
     let forecast = p
@@ -812,9 +818,9 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
         .map(|d| format!("; forecast to exceed the tolerance on {d}"))
         .unwrap_or_default();
     format!(
-        "{chart}<p>{}: last {} ; {trend}{forecast}; {} alarm(s).</p>",
+        "{chart}<p>{}: last {}; {trend}{forecast}; {} alarm(s).</p>",
         esc(&p.name),
-        esc(&num(p.last, 3, &p.unit)),
+        esc(&num(p.last, 3, unit)),
         p.alarms.len()
     )
 }
