@@ -550,8 +550,8 @@ fn volumetric_body(doc: &Value) -> String {
     );
     let _ = write!(
         b,
-        "<h2>Residual test</h2><pre>{}</pre>",
-        esc(&serde_json::to_string_pretty(&g("residual")).unwrap_or_default())
+        "<h2>Residual test</h2><p>{}</p>",
+        esc(&residual_words(&g("residual")))
     );
     if let Some(u) = g("unidentified").as_array().filter(|u| !u.is_empty()) {
         b.push_str("<h2>What the lines cannot determine</h2><ul>");
@@ -564,7 +564,7 @@ fn volumetric_body(doc: &Value) -> String {
     let mut constants = Vec::new();
     if let Some(comps) = g("components").as_object() {
         for (name, c) in comps {
-            let unit = c.get("unit").and_then(Value::as_str).unwrap_or("");
+            let unit = unit_symbol(c.get("unit").and_then(Value::as_str).unwrap_or(""));
             let identified = c
                 .get("identified")
                 .and_then(Value::as_bool)
@@ -823,6 +823,39 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
         esc(&num(p.last, 3, unit)),
         p.alarms.len()
     )
+}
+
+/// A unit as a page prints it: the JSON documents spell µ in ASCII (`um`, `urad`).
+fn unit_symbol(unit: &str) -> &str {
+    match unit {
+        "um" => "µm",
+        "urad" => "µrad",
+        other => other,
+    }
+}
+
+/// The volumetric residual test in words: the test, its verdict and z, and the effects it
+/// names (the `residual` object of `volumetric identify --json`).
+fn residual_words(r: &Value) -> String {
+    let test = r.get("test").and_then(Value::as_str).unwrap_or("residual");
+    let verdict = r
+        .get("verdict")
+        .and_then(Value::as_str)
+        .unwrap_or("not run");
+    let mut s = format!("{test} test: {verdict}");
+    if let Some(z) = r.get("z").and_then(Value::as_f64) {
+        let _ = write!(s, " (z = {z:.2})");
+    }
+    if let Some(effects) = r
+        .get("effects")
+        .and_then(Value::as_array)
+        .filter(|e| !e.is_empty())
+    {
+        let named: Vec<String> = effects.iter().map(|e| e.to_string()).collect();
+        let _ = write!(s, "; effects: {}", named.join(", "));
+    }
+    s.push('.');
+    s
 }
 
 async fn live(State(st): State<Shared>) -> Response {
