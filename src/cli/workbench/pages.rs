@@ -764,12 +764,7 @@ fn history_body(h: &docs::History) -> String {
 
 /// One parameter's EWMA chart and its line, to the history report's 3 decimals.
 fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterReport) -> String {
-    // The ledger spells µm in ASCII; a page shows the symbol.
-    let unit = if p.unit == "um" {
-        "µm"
-    } else {
-        p.unit.as_str()
-    };
+    let unit = unit_symbol(&p.unit);
     let day = |at: &str| errmap::history::parse_utc(at).map_or(f64::NAN, |t| t as f64 / 86_400.0);
     let line = |name: &str,
                 colour,
