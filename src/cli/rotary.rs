@@ -323,7 +323,7 @@ pub(crate) fn export(
     rows: &[(f64, f64)],
 ) -> Result<()> {
     use super::values::ExportFormatArg;
-    use errmap::controller::modulo::{ModuloDialect, ModuloSpec, modulo_table};
+    use errmap::controller::modulo::{ModuloDialect, ModuloError, ModuloSpec, modulo_table};
     let dialect = match a.format {
         ExportFormatArg::Table(d) => match d.name() {
             "linuxcnc" => ModuloDialect::LinuxCnc,
@@ -390,7 +390,12 @@ pub(crate) fn export(
     spec.magnification = o.number("magnification").unwrap_or(1);
     spec.fanuc_max_value = o.number("fanuc-max-value").unwrap_or(7);
     spec.axis_name = a.axis_name.clone();
-    let t = modulo_table(rows, &spec).map_err(|e| anyhow::anyhow!("{}: {e}", a.table.display()))?;
+    // A step that does not divide the revolution is the flag's fault alone (exit 2,
+    // docs/cli.md); every other refusal is the table's (exit 1).
+    let t = modulo_table(rows, &spec).map_err(|e| match e {
+        ModuloError::Step { .. } => guard::usage(format!("--step: {e}")),
+        e => anyhow::anyhow!("{}: {e}", a.table.display()),
+    })?;
     errmap::table::write_atomically::<anyhow::Error>(&a.out, |f| {
         use std::io::Write;
         f.write_all(t.text.as_bytes())

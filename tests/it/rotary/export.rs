@@ -55,7 +55,7 @@ fn a_rotary_session_exports_a_siemens_modulo_table_with_its_report() {
         (&["--format", "linuxcnc", "--method", "trilinear"][..], 2),
         (&["--format", "grid"][..], 2),
         (&["--format", "isg"][..], 2),
-        (&["--format", "siemens", "--step", "7"][..], 1),
+        (&["--format", "siemens", "--step", "7"][..], 2),
         (
             &[
                 "--format",
