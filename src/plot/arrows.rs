@@ -63,7 +63,9 @@ fn geometry(map: &ArrowMap) -> Geometry {
     }
     let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
     let span_px = f64::from(SIDE_PX) - HEADER_PX - 2.0 * MARGIN_PX;
-    let px_per_mm = span_px / span;
+    // The features sit inset by the longest arrow on each side, so that every arrow ends
+    // inside the frame (which is drawn around `span_px`).
+    let px_per_mm = span_px * (1.0 - 2.0 * LONGEST_SHARE) / span;
     let longest = map
         .arrows
         .iter()
@@ -215,7 +217,7 @@ fn draw<DB: DrawingBackend>(
             "arrow: {} µm (magnified {:.0}×; the plate {:.0} mm wide)",
             g.um_key,
             g.px_per_um / g.px_per_mm * 1000.0,
-            g.span_px / g.px_per_mm
+            g.span_px * (1.0 - 2.0 * LONGEST_SHARE) / g.px_per_mm
         ),
         ((kx + g.px_per_um * g.um_key + 12.0) as i32, ky as i32 - 7),
         style(13.0),
