@@ -125,13 +125,7 @@ pub(crate) fn row_indices(
     target: f64,
     flags: Option<f64>,
 ) -> Result<(i8, i32, u8), (&'static str, String)> {
-    let whole = |v: f64, column: &'static str| {
-        if v.fract() != 0.0 || v.abs() > 9.0e15 {
-            Err((column, format!("{v} is not a whole number")))
-        } else {
-            Ok(v as i64)
-        }
-    };
+    let whole = |v: f64, column: &'static str| whole_number(v).map_err(|p| (column, p));
     let d = whole(direction, "direction")?;
     if !(-1..=1).contains(&d) {
         return Err(("direction", format!("{d} is not +1, −1 or 0")));
@@ -151,16 +145,17 @@ pub(crate) fn row_indices(
     Ok((d as i8, t, f))
 }
 
-fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, TableError> {
+/// A cell that must hold a whole number (within ±9·10¹⁵, where f64 still counts by ones),
+/// or the problem in words; every integer column of the session tables is read through it.
+pub(crate) fn whole_number(v: f64) -> Result<i64, String> {
     if v.fract() != 0.0 || v.abs() > 9.0e15 {
-        return Err(bad(
-            path,
-            row0,
-            column,
-            format!("{v} is not a whole number"),
-        ));
+        return Err(format!("{v} is not a whole number"));
     }
     Ok(v as i64)
+}
+
+fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, TableError> {
+    whole_number(v).map_err(|p| bad(path, row0, column, p))
 }
 
 fn axis_cell(path: &Path, cells: &Cells, row0: usize) -> Result<WireAxis, TableError> {

@@ -93,15 +93,7 @@ fn bad(path: &Path, row0: usize, column: &str, problem: impl Into<String>) -> Ro
 }
 
 fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, RotaryError> {
-    if v.fract() != 0.0 || v.abs() > 9.0e15 {
-        return Err(bad(
-            path,
-            row0,
-            column,
-            format!("{v} is not a whole number"),
-        ));
-    }
-    Ok(v as i64)
+    crate::session::whole_number(v).map_err(|p| bad(path, row0, column, p))
 }
 
 fn axis_text(cells: &Cells, row0: usize) -> String {
