@@ -48,60 +48,96 @@ fn blank(v: &Option<String>) -> String {
     v.clone().unwrap_or_default()
 }
 
-fn figure_rows(iso: &RotaryIso, u: f64, a: Arcsec) -> Vec<Vec<String>> {
-    let figures: [(&str, &str, f64, bool); 12] = [
-        ("A", "bidirectional accuracy", iso.a_arcsec, true),
-        ("A↑", "unidirectional accuracy, +", iso.a_up_arcsec, true),
-        ("A↓", "unidirectional accuracy, −", iso.a_down_arcsec, true),
+/// Which U a figure carries (`RotaryBudget`'s docs).
+#[derive(Clone, Copy)]
+enum Compares {
+    OneMean,
+    TwoTargets,
+    Reversal,
+    Repeatability,
+}
+
+fn figure_rows(iso: &RotaryIso, b: &RotaryBudget, a: Arcsec) -> Vec<Vec<String>> {
+    use Compares::{OneMean, Repeatability, Reversal, TwoTargets};
+    let figures: [(&str, &str, f64, Compares); 12] = [
+        ("A", "bidirectional accuracy", iso.a_arcsec, TwoTargets),
+        (
+            "A↑",
+            "unidirectional accuracy, +",
+            iso.a_up_arcsec,
+            TwoTargets,
+        ),
+        (
+            "A↓",
+            "unidirectional accuracy, −",
+            iso.a_down_arcsec,
+            TwoTargets,
+        ),
         (
             "E",
             "bidirectional systematic deviation",
             iso.e_arcsec,
-            true,
+            TwoTargets,
         ),
         (
             "E↑",
             "unidirectional systematic deviation, +",
             iso.e_up_arcsec,
-            true,
+            TwoTargets,
         ),
         (
             "E↓",
             "unidirectional systematic deviation, −",
             iso.e_down_arcsec,
-            true,
+            TwoTargets,
         ),
         (
             "M",
             "mean bidirectional positional deviation",
             iso.m_arcsec,
-            true,
+            OneMean,
         ),
-        ("R", "bidirectional repeatability", iso.r_arcsec, false),
+        (
+            "R",
+            "bidirectional repeatability",
+            iso.r_arcsec,
+            Repeatability,
+        ),
         (
             "R↑",
             "unidirectional repeatability, +",
             iso.r_up_arcsec,
-            false,
+            Repeatability,
         ),
         (
             "R↓",
             "unidirectional repeatability, −",
             iso.r_down_arcsec,
-            false,
+            Repeatability,
         ),
-        ("B", "reversal value", iso.b_arcsec, false),
-        ("B̄", "mean reversal value", iso.mean_reversal_arcsec, false),
+        ("B", "reversal value", iso.b_arcsec, Reversal),
+        (
+            "B̄",
+            "mean reversal value",
+            iso.mean_reversal_arcsec,
+            Reversal,
+        ),
     ];
     figures
         .iter()
-        .map(|(sym, name, v, with_u)| {
+        .map(|(sym, name, v, compares)| {
+            let u = match compares {
+                OneMean => Some(b.expanded_arcsec),
+                TwoTargets => Some(b.between_targets_arcsec),
+                Reversal => Some(b.reversal_arcsec),
+                Repeatability => b.repeatability_arcsec,
+            };
             vec![
                 sym.to_string(),
                 name.to_string(),
                 a.f(*v),
                 fixed(v / 3600.0, 7),
-                if *with_u { a.f(u) } else { "—".into() },
+                u.map_or_else(|| "—".into(), |u| a.f(u)),
             ]
         })
         .collect()
@@ -142,20 +178,26 @@ fn summary(sheet: &mut Sheet, c: &RotaryCertificate, a: Arcsec) {
     let (l, r) = (Align::Left, Align::Right);
     sheet.table_sized(
         &["", "figure", "value / ″", "value / °", "U (k = 2) / ″"],
-        &figure_rows(c.iso, c.budget.expanded_arcsec, a),
+        &figure_rows(c.iso, c.budget, a),
         &[l, l, r, r, r],
         BODY,
     );
     sheet.paragraph(
         &format!(
             "Deviation x = −(indicated − reference) at each target, {} targets from {} ° to {} ° \
-             ({} dwell rows); 0 ° and 360 ° are evaluated as two targets. U applies \
-             to a mean deviation and to the ranges A, E, M built from them; repeatability and \
-             reversal are statistics of the same readings and carry no separate U.",
+             ({} dwell rows); 0 ° and 360 ° are evaluated as two targets. U of M is a mean \
+             deviation's; A and E compare two targets (√2 times it); B and B̄ compare two \
+             means at one angle, where the reference's own error cancels; R carries the \
+             counts' U only{}.",
             c.iso.targets.len(),
             c.iso.targets.first().map_or(0.0, |t| t.position_deg),
             c.iso.targets.last().map_or(0.0, |t| t.position_deg),
-            c.dwell_rows
+            c.dwell_rows,
+            if c.budget.repeatability_arcsec.is_none() {
+                " (none is stated: no count of the reference or the encoder is known)"
+            } else {
+                ""
+            }
         ),
         BODY - 1.0,
     );
@@ -265,7 +307,7 @@ fn instruments(sheet: &mut Sheet, c: &RotaryCertificate) {
 }
 
 fn budget(sheet: &mut Sheet, c: &RotaryCertificate, a: Arcsec) {
-    sheet.heading("Measurement uncertainty of a mean deviation (GUM, ″)", 12.0);
+    sheet.heading("Measurement uncertainty (GUM, ″)", 12.0);
     let mut rows: Vec<Vec<String>> = c
         .budget
         .terms
@@ -287,9 +329,29 @@ fn budget(sheet: &mut Sheet, c: &RotaryCertificate, a: Arcsec) {
     ]);
     rows.push(vec![
         "expanded U (k = 2)".into(),
-        String::new(),
+        "of a mean deviation x̄ and of M".into(),
         String::new(),
         a.f(c.budget.expanded_arcsec),
+    ]);
+    rows.push(vec![
+        "expanded U (k = 2)".into(),
+        "of A, E (two targets: √2·U(x̄))".into(),
+        String::new(),
+        a.f(c.budget.between_targets_arcsec),
+    ]);
+    rows.push(vec![
+        "expanded U (k = 2)".into(),
+        "of B, B̄ (counts and repeatability, ×√2)".into(),
+        String::new(),
+        a.f(c.budget.reversal_arcsec),
+    ]);
+    rows.push(vec![
+        "expanded U (k = 2)".into(),
+        "of R (the counts, ×√2)".into(),
+        String::new(),
+        c.budget
+            .repeatability_arcsec
+            .map_or_else(|| "not stated".into(), |u| a.f(u)),
     ]);
     let (l, r) = (Align::Left, Align::Right);
     sheet.table(

@@ -92,10 +92,16 @@ fn the_certificate_prints_the_figures_the_closure_and_an_honest_budget_in_arcsec
             .filter_map(|w| w.replace('−', "-").parse().ok())
             .collect()
     };
-    for (sym, name, key) in [
-        ("A ", "bidirectional accuracy", "a_arcsec"),
-        ("E ", "bidirectional systematic", "e_arcsec"),
-        ("M ", "mean bidirectional", "m_arcsec"),
+    // A and E compare two targets: √2·U(x̄); M is one mean deviation: U(x̄).
+    for (sym, name, key, u) in [
+        ("A ", "bidirectional accuracy", "a_arcsec", 2f64.sqrt() * u),
+        (
+            "E ",
+            "bidirectional systematic",
+            "e_arcsec",
+            2f64.sqrt() * u,
+        ),
+        ("M ", "mean bidirectional", "m_arcsec", u),
     ] {
         let l = line(&format!("{sym}{name}"));
         let v = numbers(&l);
@@ -111,6 +117,16 @@ fn the_certificate_prints_the_figures_the_closure_and_an_honest_budget_in_arcsec
     }
     let r = numbers(&line("R bidirectional repeatability"));
     assert!((r[0] - iso["r_arcsec"].as_f64().expect("R")).abs() <= 0.005 + 1e-9);
+    // No HELLO, so no count is known: R states no U (value ″ and ° only).
+    assert_eq!(r.len(), 2, "R carries no U without a count: {r:?}");
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(flat.contains("no count of the reference or the encoder is known"));
+    // B compares two means at one angle: the reference cancels, the two means'
+    // repeatability stays: 2·√(2·s²/n).
+    let b = numbers(&line("B reversal value"));
+    let u_b = 2.0 * (2.0 * s_max * s_max / 5.0).sqrt();
+    assert!((b[0] - iso["b_arcsec"].as_f64().expect("B")).abs() <= 0.005 + 1e-9);
+    assert!((b[2] - u_b).abs() <= 0.005 + 1e-9, "B: {b:?} U {u_b}");
     let closure = &j["lines"][0]["closure"];
     for (start, key) in [
         ("+ (angle", "diff_up_arcsec"),
