@@ -2,6 +2,7 @@
 //! check, bad inputs, and the rest of the rotary pipeline.
 
 mod bad;
+mod bidirectional;
 mod capture;
 mod certificate;
 mod export;
