@@ -5,6 +5,7 @@ mod bad;
 mod bidirectional;
 mod capture;
 mod certificate;
+mod existing;
 mod export;
 mod modulo;
 mod plan;
