@@ -7,13 +7,13 @@ use super::{import_rotary, rotary_csv};
 use crate::util::{errmap, json, s, stderr, tempdir};
 
 /// The shared shape of both directions, ″.
-fn base(t: f64) -> f64 {
+pub(super) fn base(t: f64) -> f64 {
     6.0 * t.to_radians().sin() + 2.0 * (2.0 * t.to_radians()).cos() + 4.0
 }
 
 /// e moving + and moving −: a reversal of 6″ (±3″ about the shape) and each direction's
 /// own ratio error, 20 ppm (25.92″ a revolution) moving +, 10 ppm (12.96″) moving −.
-fn e(t: f64, d: i8) -> f64 {
+pub(super) fn e(t: f64, d: i8) -> f64 {
     if d > 0 {
         base(t) + 3.0 + 25.92 * t / 360.0
     } else {
@@ -24,7 +24,7 @@ fn e(t: f64, d: i8) -> f64 {
 /// The compensation the contract gives, ″, computed here by hand: e′↑ = base + 3,
 /// e′↓ = base − 3, datum at 0° = (e′↑(0) + e′↓(0))/2 = base(0) = 6, so c↑ = −base + 3
 /// and c↓ = −base + 9.
-fn c(t: f64, d: i8) -> f64 {
+pub(super) fn c(t: f64, d: i8) -> f64 {
     if d > 0 {
         -base(t) + 3.0
     } else {
@@ -32,12 +32,12 @@ fn c(t: f64, d: i8) -> f64 {
     }
 }
 
-fn targets() -> Vec<f64> {
+pub(super) fn targets() -> Vec<f64> {
     (0..=12).map(|k| f64::from(k) * 30.0).collect()
 }
 
 /// The session: three runs, every reading on the model.
-fn session(dir: &std::path::Path) -> std::path::PathBuf {
+pub(super) fn session(dir: &std::path::Path) -> std::path::PathBuf {
     let csv = rotary_csv(dir, "b.csv", &targets(), 3, &|t, _, d| e(t, d));
     let session = dir.join("b_session.csv");
     let o = import_rotary(&csv, &session, "a");

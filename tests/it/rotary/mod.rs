@@ -7,6 +7,7 @@ mod capture;
 mod certificate;
 mod existing;
 mod export;
+mod linuxcnc;
 mod modulo;
 mod plan;
 mod table;
