@@ -651,16 +651,10 @@ pub(super) fn signed6(v: f64) -> String {
     }
 }
 
-/// FANUC: increments of E = e′ − e′(R) in detection units × magnification, rounded as
-/// absolute values then differenced (so a revolution sums to 0 exactly); v₀ = v_last.
-fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
-    let unit_arcsec = spec.detection_unit_deg * 3600.0 * f64::from(spec.magnification.max(1));
-    // E = −c; absolute values rounded.
-    let abs: Vec<i64> = t
-        .c_arcsec
-        .iter()
-        .map(|c| (-c / unit_arcsec).round() as i64)
-        .collect();
+/// FANUC's increments of the absolute curve `abs` (counts): v_j = abs_j − abs_{j−1} for
+/// j ≥ 1 (a revolution sums to abs_last − abs_0), v₀ = v_last; each within
+/// `--fanuc-max-value`, else the refusal naming a magnification that fits.
+pub(super) fn fanuc_increments(abs: &[i64], spec: &ModuloSpec) -> Result<Vec<i64>, ModuloError> {
     let mut v: Vec<i64> = vec![0; abs.len()];
     for j in 1..abs.len() {
         v[j] = abs[j] - abs[j - 1];
@@ -682,6 +676,20 @@ fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError
             fits: fits.max(spec.magnification + 1),
         });
     }
+    Ok(v)
+}
+
+/// FANUC: increments of E = e′ − e′(R) in detection units × magnification, rounded as
+/// absolute values then differenced (so a revolution sums to 0 exactly); v₀ = v_last.
+fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
+    let unit_arcsec = spec.detection_unit_deg * 3600.0 * f64::from(spec.magnification.max(1));
+    // E = −c; absolute values rounded.
+    let abs: Vec<i64> = t
+        .c_arcsec
+        .iter()
+        .map(|c| (-c / unit_arcsec).round() as i64)
+        .collect();
+    let v = fanuc_increments(&abs, spec)?;
     let p = spec.fanuc_reference_number;
     let step = t.step_deg.unwrap_or(0.0);
     let k = v.len().saturating_sub(1) as u32;

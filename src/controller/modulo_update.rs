@@ -29,7 +29,7 @@
 use super::Field;
 use super::modulo::{
     DirectionsSummary, MAX_TARGETS, ModuloDialect, ModuloError, ModuloSpec, ModuloTable,
-    check_revolution, detrended, interp, linuxcnc_value,
+    check_revolution, detrended, fanuc_increments, interp, linuxcnc_value,
 };
 use super::update::{Edit, apply, fixed};
 
@@ -578,25 +578,7 @@ fn fanuc_edits(f: &FanucRead, delta: &[f64], spec: &ModuloSpec) -> Result<Vec<Ed
         }
         absolute.push(sum + (-d / f.unit_arcsec).round() as i64);
     }
-    let mut v: Vec<i64> = vec![0; absolute.len()];
-    for j in 1..absolute.len() {
-        v[j] = absolute[j] - absolute[j - 1];
-    }
-    v[0] = *v.last().unwrap_or(&0);
-    if let Some((point, &value)) = v
-        .iter()
-        .enumerate()
-        .find(|(_, x)| x.unsigned_abs() > u64::from(spec.fanuc_max_value))
-    {
-        let worst = v.iter().map(|x| x.unsigned_abs()).max().unwrap_or(0) as f64;
-        return Err(ModuloError::FanucRange {
-            value,
-            point,
-            max: spec.fanuc_max_value,
-            fits: (worst / f64::from(spec.fanuc_max_value.max(1))).ceil() as u32
-                * spec.magnification.max(1),
-        });
-    }
+    let v = fanuc_increments(&absolute, spec)?;
     Ok(f.increments
         .iter()
         .zip(&v)
