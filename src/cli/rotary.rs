@@ -316,33 +316,62 @@ pub(crate) fn rotary_table(p: &Path) -> Result<Option<rotary::RotaryTable>> {
     Ok(rotary::read_rotary_error_table(&path)?)
 }
 
-/// `export` of a rotary table: a modulo compensation table (`docs/rotary.md` §4).
-pub(crate) fn export(
+/// Each direction's errors of a rotary session, e↑ = −x̄↑ and e↓ = −x̄↓ (ISO 230-2 means
+/// over the runs), at every target; `--bidirectional` needs both at each.
+type Directions = (Vec<(f64, f64)>, Vec<(f64, f64)>);
+
+fn directions(table: &Path) -> Result<Directions> {
+    let path = super::acquisition::session_file(table)?;
+    if !rotary::is_rotary(&path).unwrap_or(false) {
+        return Err(guard::usage(format!(
+            "--bidirectional with a rotary table needs a rotary session (both directions' \
+             means), not the error table {}",
+            path.display()
+        )));
+    }
+    let session = rotary::read_rotary_session(&path)?;
+    let (iso, _) = rotary::rotary_iso(&path, &session)?;
+    if let Some(t) = iso.targets.iter().find(|t| t.n_up == 0 || t.n_down == 0) {
+        anyhow::bail!(
+            "{}: --bidirectional needs both directions at every target; the target at {}° has \
+             {} up and {} down",
+            path.display(),
+            t.position_deg,
+            t.n_up,
+            t.n_down
+        );
+    }
+    Ok((
+        iso.targets
+            .iter()
+            .map(|t| (t.position_deg, -t.mean_up_arcsec))
+            .collect(),
+        iso.targets
+            .iter()
+            .map(|t| (t.position_deg, -t.mean_down_arcsec))
+            .collect(),
+    ))
+}
+
+/// The modulo table's settings from the flags (`docs/rotary.md` §4).
+fn modulo_spec(
     a: &super::args::ExportArgs,
     axis: RotaryAxis,
-    rows: &[(f64, f64)],
-) -> Result<()> {
+) -> Result<errmap::controller::modulo::ModuloSpec> {
     use super::values::ExportFormatArg;
-    use errmap::controller::modulo::{ModuloDialect, ModuloError, ModuloSpec, modulo_table};
+    use errmap::controller::modulo::{ModuloDialect, ModuloSpec};
+    let names = ModuloDialect::ALL.map(ModuloDialect::name).join(", ");
     let dialect = match a.format {
-        ExportFormatArg::Table(d) => match d.name() {
-            "linuxcnc" => ModuloDialect::LinuxCnc,
-            "siemens" => ModuloDialect::Siemens,
-            "fanuc" => ModuloDialect::Fanuc,
-            "heidenhain" => ModuloDialect::Heidenhain,
-            "fagor-8055" => ModuloDialect::Fagor8055,
-            other => {
-                return Err(guard::usage(format!(
-                    "--format {other} has no modulo table for a rotary axis (linuxcnc, siemens, \
-                     fanuc, heidenhain or fagor-8055)"
-                )));
-            }
-        },
+        ExportFormatArg::Table(d) => ModuloDialect::from_name(d.name()).ok_or_else(|| {
+            guard::usage(format!(
+                "--format {} has no modulo table for a rotary axis ({names})",
+                d.name()
+            ))
+        })?,
         _ => {
-            return Err(guard::usage(
-                "a rotary table exports as a controller's modulo table: --format linuxcnc, \
-                 siemens, fanuc, heidenhain or fagor-8055",
-            ));
+            return Err(guard::usage(format!(
+                "a rotary table exports as a controller's modulo table: --format {names}"
+            )));
         }
     };
     if a.method.is_some() || a.order.is_some() {
@@ -350,23 +379,20 @@ pub(crate) fn export(
             "--method is not used with a rotary table (no model is fitted)",
         ));
     }
-    if a.bidirectional {
-        return Err(guard::usage(
-            "--bidirectional with a rotary table: siemens, fanuc and heidenhain modulo tables hold \
-             one value per point (no direction); the two-direction rotary tables (linuxcnc \
-             forward/reverse, fagor-8055 err−, each direction detrended by its own closure gap) \
-             are not built: the export writes one correction for both directions",
-        ));
-    }
-    if a.existing.is_some() {
-        return Err(guard::usage(
-            "--existing with a rotary table: an in-place update of a modulo table is not built \
-             (the merged table would have to keep the modulo rules: equal values at 0 and 360, \
-             FANUC's increments summing to 0); write a new table instead",
-        ));
+    if a.bidirectional && dialect.equidistant() {
+        return Err(guard::usage(format!(
+            "--bidirectional: {} modulo tables hold one value per point for both directions; \
+             the two-direction rotary tables are linuxcnc (forward/reverse) and fagor-8055 (err−)",
+            dialect.name()
+        )));
     }
     if a.units.is_some() {
         return Err(guard::usage("--units: a rotary table is in degrees"));
+    }
+    if a.existing.is_some() && dialect == ModuloDialect::LinuxCnc && a.comp_type.is_none() {
+        return Err(guard::usage(
+            "--existing with linuxcnc needs --comp-type actual|trim (the file does not say)",
+        ));
     }
     let o = &a.dialect_options.0;
     if o.real("detection-unit-um") != Some(1.0) {
@@ -374,7 +400,6 @@ pub(crate) fn export(
             "--detection-unit-um is a length: a rotary FANUC table takes --detection-unit-deg",
         ));
     }
-    guard::refuse_aliases(&[("--out", &a.out)], &[("TABLE", &a.table)])?;
     let mut spec = ModuloSpec::new(dialect, axis);
     spec.step_deg = a.step;
     spec.max_points = a.max_points;
@@ -390,22 +415,91 @@ pub(crate) fn export(
     spec.magnification = o.number("magnification").unwrap_or(1);
     spec.fanuc_max_value = o.number("fanuc-max-value").unwrap_or(7);
     spec.axis_name = a.axis_name.clone();
-    // A step that does not divide the revolution is the flag's fault alone (exit 2,
-    // docs/cli.md); every other refusal is the table's (exit 1).
-    let t = modulo_table(rows, &spec).map_err(|e| match e {
-        ModuloError::Step { .. } => guard::usage(format!("--step: {e}")),
-        e => anyhow::anyhow!("{}: {e}", a.table.display()),
+    Ok(spec)
+}
+
+/// The largest table in use `--existing` reads (a modulo table has at most a few
+/// thousand short lines).
+const MAX_EXISTING_BYTES: u64 = 1 << 20;
+
+/// `export` of a rotary table: a modulo compensation table (`docs/rotary.md` §4), one
+/// correction or both directions (`--bidirectional`), or the table in use updated
+/// (`--existing`).
+pub(crate) fn export(
+    a: &super::args::ExportArgs,
+    axis: RotaryAxis,
+    rows: &[(f64, f64)],
+) -> Result<()> {
+    use errmap::controller::job::{self, ExportJob, JobError, Output, Placement, Source, Written};
+    use errmap::controller::modulo::{ModuloError, ModuloInput};
+    let spec = modulo_spec(a, axis)?;
+    let mut inputs = vec![("TABLE", a.table.as_path())];
+    inputs.extend(a.existing.as_deref().map(|e| ("--existing", e)));
+    guard::refuse_aliases(&[("--out", &a.out)], &inputs)?;
+    let both = if a.bidirectional {
+        Some(directions(&a.table)?)
+    } else {
+        None
+    };
+    let existing = match &a.existing {
+        Some(p) => Some(read_bounded(p)?),
+        None => None,
+    };
+    let residual: Vec<&[(f64, f64)]> = match &both {
+        Some((up, down)) => vec![up, down],
+        None => vec![rows],
+    };
+    let input = match (&existing, &both) {
+        (Some(bytes), _) => ModuloInput::Existing {
+            bytes,
+            residual: &residual,
+        },
+        (None, Some((up, down))) => ModuloInput::Directions { up, down },
+        (None, None) => ModuloInput::Table(rows),
+    };
+    let super::values::ExportFormatArg::Table(d) = a.format else {
+        unreachable!("modulo_spec accepts controller tables only");
+    };
+    let exported = job::run(&ExportJob {
+        output: Output::Table(d),
+        settings: errmap::controller::TableSettings::new(errmap::base::Axis::X),
+        placement: Placement {
+            ends: None,
+            reference_mm: a.reference,
+        },
+        source: Source::Modulo { spec: &spec, input },
+    })
+    .map_err(|e| match (e, &a.existing) {
+        // A step that does not divide the revolution is the flag's fault alone (exit 2,
+        // docs/cli.md); every other refusal is the table's (exit 1).
+        (JobError::Modulo(e @ ModuloError::Step { .. }), _) => guard::usage(format!("--step: {e}")),
+        (JobError::Modulo(e @ ModuloError::Existing { .. }), Some(p)) => {
+            anyhow::anyhow!("{}: {e}", p.display())
+        }
+        (e, _) => anyhow::anyhow!("{}: {e}", a.table.display()),
     })?;
+    let Written::Modulo(t) = &exported.written else {
+        anyhow::bail!("export: a modulo table was asked for");
+    };
     errmap::table::write_atomically::<anyhow::Error>(&a.out, |f| {
         use std::io::Write;
-        f.write_all(t.text.as_bytes())
+        f.write_all(&exported.bytes)
             .map_err(|e| errmap::base::io_err(&a.out, errmap::base::FileOp::Write)(e).into())
     })?;
     for w in &t.warnings {
         eprintln!("export: warning: {w}");
     }
+    let what = match (&a.existing, &t.directions) {
+        (Some(p), _) => format!(
+            "{} updated, largest change {:.3}″,",
+            p.display(),
+            t.max_change_arcsec.unwrap_or(0.0)
+        ),
+        (None, Some(_)) => "two-direction modulo table".into(),
+        (None, None) => "modulo table".into(),
+    };
     eprintln!(
-        "export: {} modulo table of rotary axis {}: {} points, largest residual {:.3}″ → {}",
+        "export: {} {what} of rotary axis {}: {} points, largest residual {:.3}″ → {}",
         t.format,
         axis,
         t.points,
@@ -413,9 +507,26 @@ pub(crate) fn export(
         a.out.display()
     );
     if a.json {
-        guard::print_json(&t)?;
+        guard::print_json(t)?;
     }
     Ok(())
+}
+
+/// The table in use, read whole when it is at most [`MAX_EXISTING_BYTES`].
+fn read_bounded(p: &Path) -> Result<Vec<u8>> {
+    use errmap::base::{FileOp, io_err};
+    let f = std::fs::File::open(p).map_err(io_err(p, FileOp::Read))?;
+    let mut bytes = Vec::new();
+    f.take(MAX_EXISTING_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io_err(p, FileOp::Read))?;
+    if bytes.len() as u64 > MAX_EXISTING_BYTES {
+        anyhow::bail!(
+            "{}: more than {MAX_EXISTING_BYTES} bytes: not a modulo table",
+            p.display()
+        );
+    }
+    Ok(bytes)
 }
 
 /// `plan --axis a|b|c`: the ISO 230-2 cycle in degrees and its part program.

@@ -8,6 +8,7 @@
 //! | [`Source::Model`] | the model sampled along a line (forward values only) | every dialect, and the CSV line |
 //! | [`Source::Session`] | a direction-dependent table from the session's ISO 230-2 means x̄↑, x̄↓ on one of its lines (no model; with a step, the means put on the step's points by the controllers' own linear rule) | those whose [`Limits::bidirectional`] holds (Siemens through its CEC tables) |
 //! | [`Source::Existing`] | the table in use updated by the session's residual, in its own layout ([`super::update`]) | every dialect |
+//! | [`Source::Modulo`] | a rotary axis' modulo table: from a rotary table, from both directions of a session, or the table in use updated ([`super::modulo`]) | [`ModuloDialect::ALL`] (two directions: LinuxCNC, Fagor 8055) |
 //!
 //! Where the points go ([`Placement`]): with `ends` a round grid of the step through the
 //! reference position; without, a table that lists every position ([`Spacing::Listed`],
@@ -16,6 +17,7 @@
 
 use errmap_drivers::SessionRow;
 
+use super::modulo::{ModuloDialect, ModuloError, ModuloInput, ModuloSpec, ModuloTable};
 use super::{
     At, ControllerTable, Dialect, ExportFormat, Residual, SettingsError, Spacing, TableSettings,
     UpdateError, UpdateSummary, read, update_table,
@@ -101,6 +103,11 @@ pub enum Source<'a> {
         rows: &'a [SessionRow],
         bidirectional: bool,
     },
+    /// A rotary axis' modulo table; `spec.dialect` is the output's.
+    Modulo {
+        spec: &'a ModuloSpec,
+        input: ModuloInput<'a>,
+    },
 }
 
 impl std::fmt::Debug for Source<'_> {
@@ -111,6 +118,7 @@ impl std::fmt::Debug for Source<'_> {
             Source::Existing { bytes, rows, .. } => {
                 write!(f, "Existing({} bytes, {} rows)", bytes.len(), rows.len())
             }
+            Source::Modulo { spec, .. } => write!(f, "Modulo({})", spec.dialect.name()),
         }
     }
 }
@@ -139,6 +147,8 @@ pub enum Written {
     },
     /// A table updated in place.
     Updated(UpdateSummary),
+    /// A rotary axis' modulo table (written, or updated in place).
+    Modulo(Box<ModuloTable>),
 }
 
 /// The file's bytes and what they hold.
@@ -169,6 +179,14 @@ pub enum JobError {
     NoReverse { format: &'static str, with: String },
     #[error("the session has no rows")]
     EmptySession,
+    #[error(
+        "{format} has no modulo table for a rotary axis ({})",
+        ModuloDialect::ALL.map(ModuloDialect::name).join(", ")
+    )]
+    NoModulo { format: &'static str },
+    /// The modulo table cannot be made or updated.
+    #[error(transparent)]
+    Modulo(#[from] ModuloError),
     #[error("only a controller table is updated in place: {with}")]
     NotUpdatable { with: String },
     #[error(transparent)]
@@ -198,6 +216,18 @@ pub fn run(job: &ExportJob<'_>) -> Result<Exported, JobError> {
             rows,
             bidirectional,
         } => update(job, bytes, rows, *bidirectional),
+        Source::Modulo { spec, input } => {
+            let format = job.output.name();
+            if ModuloDialect::from_name(format) != Some(spec.dialect) {
+                return Err(JobError::NoModulo { format });
+            }
+            let table = super::modulo::modulo(*input, spec)?;
+            Ok(Exported {
+                bytes: table.text.clone().into_bytes(),
+                format: spec.dialect.name(),
+                written: Written::Modulo(Box::new(table)),
+            })
+        }
     }
 }
 

@@ -38,6 +38,7 @@
 
 use std::fmt::Write as _;
 
+use super::update::fixed;
 use crate::base::RotaryAxis;
 
 /// The most targets a rotary table may hold here (the placement's O(n³) bound).
@@ -54,6 +55,14 @@ pub enum ModuloDialect {
 }
 
 impl ModuloDialect {
+    pub const ALL: [Self; 5] = [
+        Self::LinuxCnc,
+        Self::Siemens,
+        Self::Fanuc,
+        Self::Heidenhain,
+        Self::Fagor8055,
+    ];
+
     /// Whether its points are equidistant.
     pub fn equidistant(self) -> bool {
         matches!(self, Self::Siemens | Self::Fanuc | Self::Heidenhain)
@@ -69,6 +78,11 @@ impl ModuloDialect {
         }
     }
 
+    /// The dialect of `--format NAME`, if it has a modulo table.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|d| d.name() == name)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Self::LinuxCnc => "linuxcnc",
@@ -76,6 +90,35 @@ impl ModuloDialect {
             Self::Fanuc => "fanuc",
             Self::Heidenhain => "heidenhain",
             Self::Fagor8055 => "fagor-8055",
+        }
+    }
+}
+
+/// What a modulo table is made from.
+#[derive(Debug, Clone, Copy)]
+pub enum ModuloInput<'a> {
+    /// A rotary error table (θ °, e ″), ascending: one correction for both directions.
+    Table(&'a [(f64, f64)]),
+    /// e↑ and e↓ at the same targets (`--bidirectional`).
+    Directions {
+        up: &'a [(f64, f64)],
+        down: &'a [(f64, f64)],
+    },
+    /// The table in use, updated by the residual measured with it active: one series,
+    /// or two (moving +, moving −).
+    Existing {
+        bytes: &'a [u8],
+        residual: &'a [&'a [(f64, f64)]],
+    },
+}
+
+/// The table of `input` (see [`ModuloInput`]).
+pub fn modulo(input: ModuloInput<'_>, spec: &ModuloSpec) -> Result<ModuloTable, ModuloError> {
+    match input {
+        ModuloInput::Table(points) => modulo_table(points, spec),
+        ModuloInput::Directions { up, down } => modulo_table_bidirectional(up, down, spec),
+        ModuloInput::Existing { bytes, residual } => {
+            super::modulo_update::update_modulo(bytes, residual, spec)
         }
     }
 }
@@ -138,10 +181,31 @@ pub struct ModuloTable {
     pub ratio_ppm: f64,
     pub datum_offset_arcsec: f64,
     pub max_residual_arcsec: f64,
-    /// The compensation at each point, ″.
+    /// `--existing`: the largest change of a point's correction, ″.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_change_arcsec: Option<f64>,
+    /// The compensation at each point, ″ (with two directions: moving +).
     #[serde(skip)]
     pub c_arcsec: Vec<f64>,
+    /// With two directions: the compensation moving −, ″.
+    #[serde(skip)]
+    pub c_down_arcsec: Option<Vec<f64>>,
+    /// With two directions: each one's closure gap and residual.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub directions: Option<DirectionsSummary>,
     pub warnings: Vec<String>,
+}
+
+/// Each direction of a two-direction table: its own closure gap, its datum e′_d(R) and
+/// its largest residual (`--json`'s `directions`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DirectionsSummary {
+    pub closure_gap_up_arcsec: f64,
+    pub closure_gap_down_arcsec: f64,
+    pub datum_up_arcsec: f64,
+    pub datum_down_arcsec: f64,
+    pub max_residual_up_arcsec: f64,
+    pub max_residual_down_arcsec: f64,
 }
 
 /// Why no modulo table can be written.
@@ -176,10 +240,22 @@ pub enum ModuloError {
         max: u32,
         fits: u32,
     },
+    #[error(
+        "{format} modulo tables hold one value per point for both directions (two-direction \
+         tables: linuxcnc forward/reverse, fagor-8055 err−)"
+    )]
+    OneDirection { format: &'static str },
+    /// The table in use (`--existing`) cannot be read or updated as a modulo table.
+    #[error("line {line}: {problem}")]
+    Existing { line: usize, problem: String },
+    #[error(
+        "the two directions are measured at different targets (moving + {up}, moving − {down})"
+    )]
+    Targets { up: usize, down: usize },
 }
 
 /// The detrended errors e′ at the targets (ascending, 0 first), the gap g.
-fn detrended(points: &[(f64, f64)]) -> (Vec<(f64, f64)>, f64) {
+pub(super) fn detrended(points: &[(f64, f64)]) -> (Vec<(f64, f64)>, f64) {
     let e0 = points[0].1;
     let g = points
         .iter()
@@ -189,14 +265,17 @@ fn detrended(points: &[(f64, f64)]) -> (Vec<(f64, f64)>, f64) {
         .iter()
         .map(|&(q, e)| (q, e - g * q / 360.0))
         .collect();
-    if v.last().is_none_or(|p| (p.0 - 360.0).abs() > 1e-9) {
-        v.push((360.0, v[0].1));
+    // e′(360) = e′(0) exactly (the subtraction above may differ in its last bit), so the
+    // table's two ends get the same correction.
+    match v.last_mut() {
+        Some(p) if (p.0 - 360.0).abs() <= 1e-9 => p.1 = points[0].1,
+        _ => v.push((360.0, points[0].1)),
     }
     (v, g)
 }
 
 /// Linear interpolation through (θ, v), ascending, θ in [first, last].
-fn interp(nodes: &[(f64, f64)], q: f64) -> f64 {
+pub(super) fn interp(nodes: &[(f64, f64)], q: f64) -> f64 {
     let i = nodes
         .partition_point(|p| p.0 <= q)
         .clamp(1, nodes.len() - 1);
@@ -208,7 +287,7 @@ fn interp(nodes: &[(f64, f64)], q: f64) -> f64 {
 }
 
 /// Checks the targets cover the revolution (0 present, no gap over twice the median).
-fn check_revolution(points: &[(f64, f64)]) -> Result<(), ModuloError> {
+pub(super) fn check_revolution(points: &[(f64, f64)]) -> Result<(), ModuloError> {
     if points.len() > MAX_TARGETS {
         return Err(ModuloError::TooMany {
             count: points.len(),
@@ -271,19 +350,23 @@ fn equidistant_step(step: Option<f64>, budget: usize) -> Result<f64, ModuloError
 }
 
 /// The best placement: at most `n` of the targets, the first and last always, minimising
-/// the largest deviation of the targets from the chords (exact, dynamic programming).
-fn best_placement(v: &[(f64, f64)], n: usize) -> Vec<usize> {
-    let m = v.len();
+/// the largest deviation of the targets from the chords over every series (one per
+/// direction, at the same targets; exact, dynamic programming).
+fn best_placement(series: &[Vec<(f64, f64)>], n: usize) -> Vec<usize> {
+    let m = series[0].len();
     // cost[i][j]: the largest |deviation| of the targets strictly between i and j from
     // the chord i–j.
     let mut cost = vec![vec![0.0f64; m]; m];
     for i in 0..m {
         for j in i + 1..m {
-            let (a, b) = (v[i], v[j]);
-            cost[i][j] = (i + 1..j)
-                .map(|k| {
-                    let c = a.1 + (b.1 - a.1) * (v[k].0 - a.0) / (b.0 - a.0);
-                    (v[k].1 - c).abs()
+            cost[i][j] = series
+                .iter()
+                .flat_map(|v| {
+                    let (a, b) = (v[i], v[j]);
+                    (i + 1..j).map(move |k| {
+                        let c = a.1 + (b.1 - a.1) * (v[k].0 - a.0) / (b.0 - a.0);
+                        (v[k].1 - c).abs()
+                    })
                 })
                 .fold(0.0, f64::max);
         }
@@ -319,26 +402,66 @@ fn best_placement(v: &[(f64, f64)], n: usize) -> Vec<usize> {
     path
 }
 
-/// The modulo table of a rotary error table `points` ((θ °, e ″), ascending).
+/// The modulo table of a rotary error table `points` ((θ °, e ″), ascending): one
+/// correction for both directions.
 pub fn modulo_table(points: &[(f64, f64)], spec: &ModuloSpec) -> Result<ModuloTable, ModuloError> {
-    check_revolution(points)?;
-    let (v, g) = detrended(points);
+    build(&[points], spec)
+}
+
+/// The two-direction modulo table (`--bidirectional`, LinuxCNC and Fagor 8055) of the
+/// errors moving + (`up`, e↑ = −x̄↑) and moving − (`down`, e↓ = −x̄↓) at the same targets:
+/// each direction detrended by its own closure gap, both relative to the mean datum
+/// (e′↑(R) + e′↓(R))/2, so the reference position is not moved on average.
+pub fn modulo_table_bidirectional(
+    up: &[(f64, f64)],
+    down: &[(f64, f64)],
+    spec: &ModuloSpec,
+) -> Result<ModuloTable, ModuloError> {
+    if spec.dialect.equidistant() {
+        return Err(ModuloError::OneDirection {
+            format: spec.dialect.name(),
+        });
+    }
+    let same = up.len() == down.len() && up.iter().zip(down).all(|(a, b)| a.0 == b.0);
+    if !same {
+        return Err(ModuloError::Targets {
+            up: up.len(),
+            down: down.len(),
+        });
+    }
+    build(&[up, down], spec)
+}
+
+/// The table's angles and step: the targets (or the best placement) for a free dialect,
+/// else the equidistant points.
+fn place(
+    series: &[Vec<(f64, f64)>],
+    spec: &ModuloSpec,
+) -> Result<(Vec<f64>, Option<f64>), ModuloError> {
     let budget = spec
         .max_points
         .unwrap_or_else(|| spec.dialect.default_max_points());
-    let free = !spec.dialect.equidistant();
-    let (angles, step_deg): (Vec<f64>, Option<f64>) = if free && spec.step_deg.is_none() {
+    let v = &series[0];
+    if !spec.dialect.equidistant() && spec.step_deg.is_none() {
         if v.len() <= budget {
-            (v.iter().map(|p| p.0).collect(), None)
-        } else {
-            let idx = best_placement(&v, budget);
-            (idx.iter().map(|&i| v[i].0).collect(), None)
+            return Ok((v.iter().map(|p| p.0).collect(), None));
         }
-    } else {
-        let s = equidistant_step(spec.step_deg, budget)?;
-        let k = (360.0 / s).round() as usize;
-        ((0..=k).map(|j| j as f64 * s).collect(), Some(s))
-    };
+        let idx = best_placement(series, budget);
+        return Ok((idx.iter().map(|&i| v[i].0).collect(), None));
+    }
+    let s = equidistant_step(spec.step_deg, budget)?;
+    let k = (360.0 / s).round() as usize;
+    Ok(((0..=k).map(|j| j as f64 * s).collect(), Some(s)))
+}
+
+/// The table of one series (both directions) or two (moving +, moving −).
+fn build(inputs: &[&[(f64, f64)]], spec: &ModuloSpec) -> Result<ModuloTable, ModuloError> {
+    for points in inputs {
+        check_revolution(points)?;
+    }
+    let (series, gaps): (Vec<Vec<(f64, f64)>>, Vec<f64>) =
+        inputs.iter().map(|p| detrended(p)).unzip();
+    let (angles, step_deg) = place(&series, spec)?;
     let r = spec.reference_deg;
     if !angles.iter().any(|a| (a - r).abs() <= 1e-9) {
         return Err(ModuloError::Reference {
@@ -349,8 +472,12 @@ pub fn modulo_table(points: &[(f64, f64)], spec: &ModuloSpec) -> Result<ModuloTa
             },
         });
     }
-    let datum = interp(&v, r);
-    let c_arcsec: Vec<f64> = angles.iter().map(|&q| -(interp(&v, q) - datum)).collect();
+    let datums: Vec<f64> = series.iter().map(|v| interp(v, r)).collect();
+    let datum = datums.iter().sum::<f64>() / datums.len() as f64;
+    let c_of = |v: &[(f64, f64)]| -> Vec<f64> {
+        angles.iter().map(|&q| -(interp(v, q) - datum)).collect()
+    };
+    let g = gaps.iter().sum::<f64>() / gaps.len() as f64;
     let mut table = ModuloTable {
         text: String::new(),
         format: spec.dialect.name(),
@@ -362,45 +489,89 @@ pub fn modulo_table(points: &[(f64, f64)], spec: &ModuloSpec) -> Result<ModuloTa
         ratio_ppm: g / 1.296,
         datum_offset_arcsec: datum,
         max_residual_arcsec: 0.0,
+        max_change_arcsec: None,
+        c_arcsec: c_of(&series[0]),
+        c_down_arcsec: series.get(1).map(|v| c_of(v)),
+        directions: None,
         points_deg: angles,
-        c_arcsec,
         warnings: Vec::new(),
     };
     if g.abs() > 1e-9 {
         table.warnings.push(format!(
-            "closure gap {g:.3}″ ({:.3} ppm) left out of the table: a modulo table cannot carry \
-             a ratio error; correct the ratio",
-            g / 1.296
+            "closure gap {g:.3}″ ({:.3} ppm){} left out of the table: a modulo table cannot \
+             carry a ratio error; correct the ratio",
+            g / 1.296,
+            if gaps.len() == 2 {
+                format!(", moving + {:.3}″ and moving − {:.3}″,", gaps[0], gaps[1])
+            } else {
+                String::new()
+            }
         ));
     }
-    let c_table = render(&mut table, spec)?;
-    let nodes: Vec<(f64, f64)> = table.points_deg.iter().copied().zip(c_table).collect();
-    table.max_residual_arcsec = v
+    let applied = render(&mut table, spec)?;
+    let residuals: Vec<f64> = series
         .iter()
-        .map(|&(q, e)| (e - datum + interp(&nodes, q)).abs())
-        .fold(0.0, f64::max);
+        .zip(&applied)
+        .map(|(v, c_table)| {
+            let nodes: Vec<(f64, f64)> = table
+                .points_deg
+                .iter()
+                .copied()
+                .zip(c_table.iter().copied())
+                .collect();
+            v.iter()
+                .map(|&(q, e)| (e - datum + interp(&nodes, q)).abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    table.max_residual_arcsec = residuals.iter().copied().fold(0.0, f64::max);
+    if let ([g_up, g_down], [d_up, d_down], [r_up, r_down]) =
+        (gaps.as_slice(), datums.as_slice(), residuals.as_slice())
+    {
+        table.directions = Some(DirectionsSummary {
+            closure_gap_up_arcsec: *g_up,
+            closure_gap_down_arcsec: *g_down,
+            datum_up_arcsec: *d_up,
+            datum_down_arcsec: *d_down,
+            max_residual_up_arcsec: *r_up,
+            max_residual_down_arcsec: *r_down,
+        });
+    }
     Ok(table)
 }
 
-fn deg6(v: f64) -> String {
+/// A LinuxCNC column's value of correction `c` ″ at `q` °: the trim −c or the actual
+/// position q + c, the correction put on the file's `decimals` grid before q is added
+/// (so the two ends' equal corrections give equal texts, 0 + x and 360 + x).
+pub(super) fn linuxcnc_value(q: f64, c: f64, trim: bool, decimals: usize) -> f64 {
+    let scale = 10f64.powi(decimals as i32);
+    let c_deg = (c / 3600.0 * scale).round() / scale;
+    if trim { -c_deg } else { q + c_deg }
+}
+
+pub(super) fn deg6(v: f64) -> String {
     format!("{:.6}", v + 0.0)
 }
 
 /// Writes the dialect's text; returns the compensation the controller will apply at each
-/// point, ″ (FANUC: from its rounded increments).
-fn render(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
+/// point, ″, per direction (FANUC: from its rounded increments).
+fn render(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
     let letter = spec.axis.upper();
     let mut s = String::new();
     let c = t.c_arcsec.clone();
+    let c_down = t.c_down_arcsec.clone();
+    if c_down.is_some() && spec.dialect.equidistant() {
+        return Err(ModuloError::OneDirection {
+            format: spec.dialect.name(),
+        });
+    }
+    let down = c_down.as_ref().unwrap_or(&c);
     match spec.dialect {
         ModuloDialect::LinuxCnc => {
-            for (q, c) in t.points_deg.iter().zip(&c) {
-                let v = if spec.trim {
-                    -c / 3600.0
-                } else {
-                    q + c / 3600.0
-                };
-                let _ = writeln!(s, "{} {} {}", deg6(*q), deg6(v), deg6(v));
+            let value = |q: f64, c: f64| linuxcnc_value(q, c, spec.trim, 6);
+            for ((q, c), c_down) in t.points_deg.iter().zip(&c).zip(down) {
+                let (fwd, rev) = (value(*q, *c), value(*q, *c_down));
+                let _ = writeln!(s, "{} {} {}", deg6(*q), deg6(fwd), deg6(rev));
             }
         }
         ModuloDialect::Siemens => {
@@ -428,7 +599,7 @@ fn render(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloErro
             let _ = writeln!(s, "$AA_ENC_COMP_IS_MODULO[0,{ax}]=1");
             let _ = writeln!(s, "M17");
         }
-        ModuloDialect::Fanuc => return fanuc(t, spec),
+        ModuloDialect::Fanuc => return fanuc(t, spec).map(|c| vec![c]),
         ModuloDialect::Heidenhain => {
             let key = spec.axis_name.clone().unwrap_or_else(|| letter.to_string());
             let _ = writeln!(s, "BEGIN {key}.COM DEG");
@@ -447,24 +618,31 @@ fn render(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloErro
         ModuloDialect::Fagor8055 => {
             let e = format!("E{letter}");
             for (i, (q, c)) in t.points_deg.iter().zip(&c).enumerate() {
+                // err− 0 everywhere: the same table both ways (Fagor's rule).
+                let minus = c_down
+                    .as_ref()
+                    .map_or_else(|| "0.0000".to_string(), |d| fixed(d[i] / 3600.0, 4));
                 let _ = write!(
                     s,
                     "{:>10}{letter:>11}{:>11}{:>9}{:>11}{:>10}{:>11}\r\n",
                     format!("P{:03}", i + 1),
                     format!("{q:.4}"),
                     e,
-                    format!("{:.4}", c / 3600.0 + 0.0),
+                    fixed(c / 3600.0, 4),
                     e,
-                    "0.0000"
+                    minus
                 );
             }
         }
     }
     t.text = s;
-    Ok(c)
+    Ok(match c_down {
+        Some(d) => vec![c, d],
+        None => vec![c],
+    })
 }
 
-fn signed6(v: f64) -> String {
+pub(super) fn signed6(v: f64) -> String {
     let v = v + 0.0;
     if v >= 0.0 {
         format!("+{v:.6}")
@@ -473,16 +651,10 @@ fn signed6(v: f64) -> String {
     }
 }
 
-/// FANUC: increments of E = e′ − e′(R) in detection units × magnification, rounded as
-/// absolute values then differenced (so a revolution sums to 0 exactly); v₀ = v_last.
-fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
-    let unit_arcsec = spec.detection_unit_deg * 3600.0 * f64::from(spec.magnification.max(1));
-    // E = −c; absolute values rounded.
-    let abs: Vec<i64> = t
-        .c_arcsec
-        .iter()
-        .map(|c| (-c / unit_arcsec).round() as i64)
-        .collect();
+/// FANUC's increments of the absolute curve `abs` (counts): v_j = abs_j − abs_{j−1} for
+/// j ≥ 1 (a revolution sums to abs_last − abs_0), v₀ = v_last; each within
+/// `--fanuc-max-value`, else the refusal naming a magnification that fits.
+pub(super) fn fanuc_increments(abs: &[i64], spec: &ModuloSpec) -> Result<Vec<i64>, ModuloError> {
     let mut v: Vec<i64> = vec![0; abs.len()];
     for j in 1..abs.len() {
         v[j] = abs[j] - abs[j - 1];
@@ -504,6 +676,20 @@ fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError
             fits: fits.max(spec.magnification + 1),
         });
     }
+    Ok(v)
+}
+
+/// FANUC: increments of E = e′ − e′(R) in detection units × magnification, rounded as
+/// absolute values then differenced (so a revolution sums to 0 exactly); v₀ = v_last.
+fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
+    let unit_arcsec = spec.detection_unit_deg * 3600.0 * f64::from(spec.magnification.max(1));
+    // E = −c; absolute values rounded.
+    let abs: Vec<i64> = t
+        .c_arcsec
+        .iter()
+        .map(|c| (-c / unit_arcsec).round() as i64)
+        .collect();
+    let v = fanuc_increments(&abs, spec)?;
     let p = spec.fanuc_reference_number;
     let step = t.step_deg.unwrap_or(0.0);
     let k = v.len().saturating_sub(1) as u32;

@@ -200,15 +200,15 @@ fn trimmed(mut s: String) -> String {
 }
 
 /// A planned value replacement.
-struct Edit {
-    field: Field,
-    text: String,
+pub(crate) struct Edit {
+    pub(crate) field: Field,
+    pub(crate) text: String,
     /// Right-align in the padding before the field (fixed-width layouts).
-    align: bool,
+    pub(crate) align: bool,
 }
 
 /// Applies `edits` to `text`, right-aligning in the padding before each field.
-fn apply(text: &str, mut edits: Vec<Edit>) -> String {
+pub(crate) fn apply(text: &str, mut edits: Vec<Edit>) -> String {
     edits.sort_by_key(|e| std::cmp::Reverse(e.field.start));
     let mut out = text.to_string();
     for e in edits {

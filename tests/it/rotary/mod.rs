@@ -2,9 +2,12 @@
 //! check, bad inputs, and the rest of the rotary pipeline.
 
 mod bad;
+mod bidirectional;
 mod capture;
 mod certificate;
+mod existing;
 mod export;
+mod linuxcnc;
 mod modulo;
 mod plan;
 mod table;
