@@ -75,6 +75,15 @@ fn label(v: f64) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
+/// An x axis given by the page: its name with its unit, the range shown and the ticks
+/// with their labels (angles in degrees, calendar dates).
+#[derive(Debug, Clone)]
+pub(crate) struct XAxis {
+    pub label: String,
+    pub range: (f64, f64),
+    pub ticks: Vec<(f64, String)>,
+}
+
 /// An x–y chart: `series` drawn over `bands`, a legend under the plot.
 pub(crate) fn xy(
     title: &str,
@@ -84,6 +93,29 @@ pub(crate) fn xy(
     bands: &[Band],
 ) -> String {
     let f = Frame::around(series, bands);
+    let ticks = ticks(f.x0, f.x1)
+        .into_iter()
+        .map(|t| (t, label(t)))
+        .collect();
+    draw(title, &f, ticks, x_label, y_label, series, bands)
+}
+
+/// An x–y chart on the x axis `x` (its range and ticks), the y range around the points.
+pub(crate) fn xy_on(title: &str, x: &XAxis, y_label: &str, series: &[Series]) -> String {
+    let mut f = Frame::around(series, &[]);
+    (f.x0, f.x1) = x.range;
+    draw(title, &f, x.ticks.clone(), &x.label, y_label, series, &[])
+}
+
+fn draw(
+    title: &str,
+    f: &Frame,
+    x_ticks: Vec<(f64, String)>,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    bands: &[Band],
+) -> String {
     let mut s = format!(
         "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {W} {H}\" \
          width=\"{W}\" height=\"{H}\" role=\"img\" aria-label=\"{t}\">\
@@ -91,7 +123,7 @@ pub(crate) fn xy(
         t = esc(title),
         cx = W / 2.0
     );
-    f.grid(&mut s);
+    f.grid(&mut s, &x_ticks);
     axis_labels(&mut s, x_label, y_label);
     for b in bands {
         f.band(&mut s, b);
@@ -148,16 +180,16 @@ impl Frame {
     }
 
     /// The grid lines and tick labels of both axes.
-    fn grid(&self, s: &mut String) {
-        for t in ticks(self.x0, self.x1) {
-            let x = self.px(t);
+    fn grid(&self, s: &mut String, x_ticks: &[(f64, String)]) {
+        for (t, l) in x_ticks {
+            let x = self.px(*t);
             let _ = write!(
                 s,
                 "<line class=\"grid\" x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{yb}\"/>\
                  <text x=\"{x:.1}\" y=\"{ty}\" text-anchor=\"middle\">{l}</text>",
                 yb = H - BOTTOM,
                 ty = H - BOTTOM + 15.0,
-                l = label(t)
+                l = esc(l)
             );
         }
         for t in ticks(self.y0, self.y1) {
@@ -260,10 +292,15 @@ fn dash(dashed: bool) -> &'static str {
     }
 }
 
+/// The legend: the series drawn (a series without a finite point draws nothing and is
+/// not listed).
 fn legend(s: &mut String, series: &[Series]) {
     let mut x = LEFT;
     let y = H - 14.0;
-    for se in series {
+    let drawn = series
+        .iter()
+        .filter(|se| se.points.iter().any(|p| p.x.is_finite() && p.y.is_finite()));
+    for se in drawn {
         let _ = write!(
             s,
             "<line x1=\"{x}\" y1=\"{y0}\" x2=\"{x2}\" y2=\"{y0}\" stroke=\"{c}\" stroke-width=\"2\"{d}/>\

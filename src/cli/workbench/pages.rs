@@ -12,7 +12,7 @@ use axum::routing::get;
 use serde_json::Value;
 
 use super::charts::{self, Band, PALETTE, Pt, Series};
-use super::docs::{self, DocError};
+use super::docs::{self, DocError, Reduction};
 use super::html::{esc, num, page, table, url_path};
 use super::server::{AppState, Params, Shared, blocking};
 
@@ -114,7 +114,16 @@ async fn session(
 ) -> Response {
     job_page(st, format!("Session {item}"), move |st| {
         let doc = st.jobs.table(&item)?;
-        Ok(session_body(st, &item, &doc.path, &doc.reduced, &q))
+        Ok(match &doc.reduced {
+            Reduction::Linear(r) => session_body(st, &item, &doc.path, r, &q),
+            Reduction::Rotary(r) => super::rotary::body(
+                r,
+                &item,
+                &st.jobs.ws.id_of(&doc.path),
+                q.info.as_deref(),
+                decoder_stats(&doc.path),
+            ),
+        })
     })
     .await
 }
@@ -880,7 +889,7 @@ async fn live(State(st): State<Shared>) -> Response {
          <div class=\"figure\"><span>samples</span><b id=\"samples\">0</b></div>\
          <div class=\"figure\"><span>run</span><b id=\"run\">—</b></div>\
          <div class=\"figure\"><span>target</span><b id=\"target\">—</b></div>\
-         <div class=\"figure\"><span>scale position</span><b id=\"position\">—</b></div>\
+         <div class=\"figure\"><span id=\"position-label\">scale position</span><b id=\"position\">—</b></div>\
          <div class=\"figure\"><span>error reading</span><b id=\"reading\">—</b></div>\
          </div><p>Decoder health: <span id=\"health\">—</span></p>\
          <h2>Error at each target per pass (mean of its dwell samples)</h2>\
