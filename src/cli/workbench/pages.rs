@@ -799,17 +799,25 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
             })
             .collect(),
     };
-    let chart = charts::xy(
+    let series = [
+        line("value", PALETTE[0], false, true, &|s| Some(s.value)),
+        line("EWMA", PALETTE[1], false, false, &|s| s.ewma),
+        line("UCL", PALETTE[3], true, false, &|s| s.ucl),
+        line("LCL", PALETTE[3], true, false, &|s| s.lcl),
+    ];
+    let (lo, hi) = p
+        .series
+        .iter()
+        .map(|s| day(&s.at))
+        .filter(|d| d.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| {
+            (a.min(d), b.max(d))
+        });
+    let chart = charts::xy_on(
         &format!("{machine} {axis} {} (EWMA chart)", p.name),
-        "days since 1970-01-01 (UTC)",
+        &charts::date_axis("date of the record (UTC)", lo, hi),
         &format!("{} / {}", p.name, unit),
-        &[
-            line("value", PALETTE[0], false, true, &|s| Some(s.value)),
-            line("EWMA", PALETTE[1], false, false, &|s| s.ewma),
-            line("UCL", PALETTE[3], true, false, &|s| s.ucl),
-            line("LCL", PALETTE[3], true, false, &|s| s.lcl),
-        ],
-        &[],
+        &series,
     );
     let trend = match (p.rate_per_year, p.rate_sigma) {
         (Some(r), Some(s)) => format!("trend {r:.3} ± {s:.3} {}/year", unit),
