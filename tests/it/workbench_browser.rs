@@ -151,6 +151,41 @@ impl Browser {
         std::fs::write(dir.join(format!("{name}.png")), png).expect("writes the screenshot");
     }
 
+    /// Opens `url` and waits until it has loaded, within `limit`.
+    fn open_loaded(&self, url: &str, limit: Duration) {
+        self.open(url);
+        assert!(
+            self.wait_for("return document.readyState === 'complete'", limit),
+            "{url} did not load"
+        );
+    }
+
+    /// Moves the pointer onto `element` and returns the tip the page then shows.
+    fn tip_at(&self, element: &str) -> Value {
+        self.call(
+            "POST",
+            "/actions",
+            json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+                "actions": [{"type": "pointerMove", "origin": {ELEMENT: element}, "x": 0, "y": 0, "duration": 0}]}]}),
+        );
+        assert!(self.wait_for(
+            "return !document.getElementById('tip').hidden",
+            Duration::from_secs(5)
+        ));
+        self.script("return document.getElementById('tip').textContent")
+    }
+
+    /// On the live page: picks the simulated board's model and plan, its speed, and Start.
+    fn start_simulated(&self, model: &str, plan: &str, speed: &str) {
+        self.script(&format!(
+            "document.getElementById('model').value = '{model}';\
+             document.getElementById('plan').value = '{plan}';\
+             document.getElementById('speed').value = '{speed}'; return true"
+        ));
+        let start = self.element("#start");
+        self.call("POST", &format!("/element/{start}/click"), json!({}));
+    }
+
     /// Waits until `code` returns true, within `limit`.
     fn wait_for(&self, code: &str, limit: Duration) -> bool {
         let start = Instant::now();
@@ -229,11 +264,7 @@ fn the_pages_in_a_real_browser() {
         ("acceptance", "/acceptance/cmm/iso10360.csv?mpe=1.5%2BL/333"),
         ("history", "/history"),
     ] {
-        b.open(&format!("{base}{path}"));
-        assert!(b.wait_for(
-            "return document.readyState === 'complete'",
-            Duration::from_secs(60)
-        ));
+        b.open_loaded(&format!("{base}{path}"), Duration::from_secs(60));
         // Give the favicon request time to finish and log.
         std::thread::sleep(Duration::from_millis(300));
         let errors = b.console_errors();
@@ -292,35 +323,15 @@ fn the_pages_in_a_real_browser() {
         b.script("return document.getElementById('tip').hidden"),
         json!(true)
     );
-    b.call(
-        "POST",
-        "/actions",
-        json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
-            "actions": [{"type": "pointerMove", "origin": {ELEMENT: point}, "x": 0, "y": 0, "duration": 0}]}]}),
-    );
-    assert!(b.wait_for(
-        "return !document.getElementById('tip').hidden",
-        Duration::from_secs(5)
-    ));
-    let shown = b.script("return document.getElementById('tip').textContent");
+    let shown = b.tip_at(&point);
     assert_eq!(shown, tip_of_point);
     let shown = shown.as_str().expect("tip text");
     assert!(shown.contains("target") && shown.contains("µm"), "{shown}");
     b.screenshot(shots.as_deref(), "session-tooltip");
 
     // The live page: frames arrive from a simulated board; Stop leaves the replay's session.
-    b.open(&format!("{base}/live"));
-    assert!(b.wait_for(
-        "return document.readyState === 'complete'",
-        Duration::from_secs(20)
-    ));
-    b.script(
-        "document.getElementById('model').value = 'sim/model.toml';\
-         document.getElementById('plan').value = 'sim/plan.toml';\
-         document.getElementById('speed').value = '2'; return true",
-    );
-    let start = b.element("#start");
-    b.call("POST", &format!("/element/{start}/click"), json!({}));
+    b.open_loaded(&format!("{base}/live"), Duration::from_secs(20));
+    b.start_simulated("sim/model.toml", "sim/plan.toml", "2");
     assert!(
         b.wait_for(
             "return parseInt(document.getElementById('samples').textContent) > 300",
@@ -374,11 +385,7 @@ fn a_rotary_session_and_a_rotary_capture_in_a_real_browser() {
     let ws = super::workbench_rotary::rotary_workspace(dir.path());
     let srv = Server::start(&ws, &[]);
     let base = format!("http://{}", srv.addr);
-    b.open(&format!("{base}/session/rot/cap"));
-    assert!(b.wait_for(
-        "return document.readyState === 'complete'",
-        Duration::from_secs(60)
-    ));
+    b.open_loaded(&format!("{base}/session/rot/cap"), Duration::from_secs(60));
     std::thread::sleep(Duration::from_millis(300));
     let errors = b.console_errors();
     assert!(errors.is_empty(), "{errors:?}");
@@ -413,34 +420,14 @@ fn a_rotary_session_and_a_rotary_capture_in_a_real_browser() {
     assert!(text.contains(&format!("{:.2}″", c.diff_down_arcsec)));
     // Pointing at a chart's point shows its value in ″ at its angle.
     let point = b.element("svg.chart circle[data-tip]");
-    b.call(
-        "POST",
-        "/actions",
-        json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
-            "actions": [{"type": "pointerMove", "origin": {ELEMENT: point}, "x": 0, "y": 0, "duration": 0}]}]}),
-    );
-    assert!(b.wait_for(
-        "return !document.getElementById('tip').hidden",
-        Duration::from_secs(5)
-    ));
-    let shown = b.script("return document.getElementById('tip').textContent");
+    let shown = b.tip_at(&point);
     let shown = shown.as_str().expect("tip");
     assert!(shown.contains("θ =") && shown.contains('″'), "{shown}");
     b.screenshot(shots.as_deref(), "rotary-session-tooltip");
 
     // The live page with a simulated rotary board.
-    b.open(&format!("{base}/live"));
-    assert!(b.wait_for(
-        "return document.readyState === 'complete'",
-        Duration::from_secs(20)
-    ));
-    b.script(
-        "document.getElementById('model').value = 'rot/rotary-model.toml';\
-         document.getElementById('plan').value = 'rot/rotary-plan.toml';\
-         document.getElementById('speed').value = '5'; return true",
-    );
-    let start = b.element("#start");
-    b.call("POST", &format!("/element/{start}/click"), json!({}));
+    b.open_loaded(&format!("{base}/live"), Duration::from_secs(20));
+    b.start_simulated("rot/rotary-model.toml", "rot/rotary-plan.toml", "5");
     assert!(
         b.wait_for(
             "return document.querySelectorAll('#targets tr').length >= 4",

@@ -163,12 +163,17 @@ fn readings_widget(s: &ViewState) -> Paragraph<'static> {
                 String::new()
             }),
         ]),
-        Line::from(format!(
-            "air       {}  {}  {}",
-            opt(r.air_temp_c, 2, "°C"),
-            opt(r.air_pressure_hpa, 1, "hPa"),
-            opt(r.air_rh_pct, 0, "%RH")
-        )),
+        // A rotary board reports the air's temperature only.
+        Line::from(if rotary {
+            format!("air       {}", opt(r.air_temp_c, 2, "°C"))
+        } else {
+            format!(
+                "air       {}  {}  {}",
+                opt(r.air_temp_c, 2, "°C"),
+                opt(r.air_pressure_hpa, 1, "hPa"),
+                opt(r.air_rh_pct, 0, "%RH")
+            )
+        }),
         Line::from(format!("n air     {n}")),
         Line::from(format!(
             "material  {} {}  {} {}",

@@ -100,6 +100,59 @@ pub(crate) fn xy(
     draw(title, &f, ticks, x_label, y_label, series, bands)
 }
 
+/// One target of an ISO 230-2 deviation chart: its number, its position, and per
+/// direction the mean deviation and its standard deviation (↑, then ↓).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DeviationTarget {
+    pub target: usize,
+    pub x: f64,
+    pub up: (f64, f64),
+    pub down: (f64, f64),
+}
+
+/// The six lines of the ISO 230-2 deviation chart (the report's): x̄↑ (blue) and x̄↓ (red)
+/// solid with a marker per target, x̄ ± 2s dashed in the same colour, in position order;
+/// `tip(target, line, direction, value)` says what each point is.
+pub(crate) fn deviation_series(
+    mut targets: Vec<DeviationTarget>,
+    tip: &dyn Fn(&DeviationTarget, &str, &str, f64) -> String,
+) -> Vec<Series> {
+    targets.sort_by(|a, b| a.x.total_cmp(&b.x));
+    let mut out = Vec::with_capacity(6);
+    for (colour, dir, pick, arrow) in [
+        (PALETTE[0], "↑ positive approach", 0, "↑"),
+        (PALETTE[3], "↓ negative approach", 1, "↓"),
+    ] {
+        let of = |t: &DeviationTarget| if pick == 0 { t.up } else { t.down };
+        for (name, k) in [
+            (format!("mean x{arrow}"), 0.0),
+            (format!("x̄{arrow} + 2s{arrow}"), 2.0),
+            (format!("x̄{arrow} − 2s{arrow}"), -2.0),
+        ] {
+            let points = targets
+                .iter()
+                .map(|t| {
+                    let (mean, s) = of(t);
+                    let y = mean + k * s;
+                    Pt {
+                        x: t.x,
+                        y,
+                        tip: tip(t, &name, dir, y),
+                    }
+                })
+                .collect();
+            out.push(Series {
+                name,
+                colour,
+                dashed: k != 0.0,
+                markers: k == 0.0,
+                points,
+            });
+        }
+    }
+    out
+}
+
 /// A calendar x axis over `lo`..`hi`, days since 1970-01-01 (UTC), padded: ticks at the
 /// first step of 1, 2, 7 or 14 days, 1, 2, 3 or 6 months, or 1, 2, 5, 10, 20, 50… years
 /// that gives at most seven, labelled `YYYY-MM-DD`, `YYYY-MM` or `YYYY`.

@@ -11,7 +11,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use serde_json::Value;
 
-use super::charts::{self, Band, PALETTE, Pt, Series};
+use super::charts::{self, Band, DeviationTarget, PALETTE, Pt, Series};
 use super::docs::{self, DocError, Reduction};
 use super::html::{esc, num, page, table, url_path};
 use super::server::{AppState, Params, Shared, blocking};
@@ -285,72 +285,26 @@ fn environment(e: &errmap::session::EnvironmentStats) -> String {
 /// The ISO 230-2 deviation chart of one line, in the report's style; tips in µm to `d`
 /// decimals.
 fn deviation_chart(stats: &errmap::session::AxisStats, line: usize, d: usize) -> String {
-    let mut t: Vec<&errmap::session::TargetStats> = stats.targets.iter().collect();
-    t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
-    let series = |name: &str,
-                  colour,
-                  dashed,
-                  f: &dyn Fn(&errmap::session::TargetStats) -> f64,
-                  dir: &str| {
-        Series {
-            name: name.into(),
-            colour,
-            dashed,
-            markers: !dashed,
-            points: t
-                .iter()
-                .map(|s| Pt {
-                    x: s.position_mm,
-                    y: f(s),
-                    tip: format!(
-                        "target {} (P = {:.3} mm), {dir}, all runs: {} = {:.d$} µm",
-                        s.target,
-                        s.position_mm,
-                        name,
-                        f(s)
-                    ),
-                })
-                .collect(),
-        }
-    };
-    let up = "↑ positive approach";
-    let down = "↓ negative approach";
+    let targets: Vec<DeviationTarget> = stats
+        .targets
+        .iter()
+        .map(|t| DeviationTarget {
+            target: t.target,
+            x: t.position_mm,
+            up: (t.mean_up_um, t.s_up_um),
+            down: (t.mean_down_um, t.s_down_um),
+        })
+        .collect();
     charts::xy(
         &format!("Line {line}: positional deviation (ISO 230-2)"),
         "target position P_i / mm",
         "positional deviation x = −e / µm",
-        &[
-            series("mean x↑", PALETTE[0], false, &|s| s.mean_up_um, up),
-            series(
-                "x̄↑ + 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_um + 2.0 * s.s_up_um,
-                up,
-            ),
-            series(
-                "x̄↑ − 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_um - 2.0 * s.s_up_um,
-                up,
-            ),
-            series("mean x↓", PALETTE[3], false, &|s| s.mean_down_um, down),
-            series(
-                "x̄↓ + 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_um + 2.0 * s.s_down_um,
-                down,
-            ),
-            series(
-                "x̄↓ − 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_um - 2.0 * s.s_down_um,
-                down,
-            ),
-        ],
+        &charts::deviation_series(targets, &|t, name, dir, v| {
+            format!(
+                "target {} (P = {:.3} mm), {dir}, all runs: {name} = {v:.d$} µm",
+                t.target, t.x
+            )
+        }),
         &[],
     )
 }

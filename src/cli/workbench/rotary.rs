@@ -12,7 +12,7 @@ use std::path::Path;
 use errmap::base::RotaryAxis;
 use errmap::session::rotary::{self, Closure, RotaryIso, RotaryTargetStats};
 
-use super::charts::{self, PALETTE, Pt, Series, XAxis};
+use super::charts::{self, DeviationTarget, XAxis};
 use super::docs::{DocError, message};
 use super::html::{esc, num, table, url_path};
 
@@ -52,23 +52,14 @@ pub(crate) fn reduce(path: &Path, id: &str) -> Result<(RotaryDoc, String), DocEr
         .collect();
     let targets = rotary::rotary_error_table(&session).len();
     let dwell_rows = session.rows.iter().filter(|r| r.is_dwell()).count();
-    use errmap::report::rotary::{RotaryLineJson, RotarySummaryJson, RotaryTableJson};
-    let text = super::docs::text(&RotaryTableJson {
-        summary: RotarySummaryJson {
-            kind: "rotary",
-            axis: session.axis,
-            source: path.display().to_string(),
-            targets,
-            dwell_rows,
-        },
-        nodes: targets,
-        lines: vec![RotaryLineJson {
-            axis: session.axis,
-            iso230: &iso,
-            closure: closure.as_ref(),
-        }],
-        warnings: &warnings,
-    })?;
+    let text = super::docs::text(&super::super::rotary::table_json(
+        path.display().to_string(),
+        session.axis,
+        (targets, dwell_rows),
+        &iso,
+        closure.as_ref(),
+        &warnings,
+    ))?;
     let doc = RotaryDoc {
         axis: session.axis,
         iso,
@@ -190,30 +181,15 @@ fn closure_section(c: Option<&Closure>, warnings: &[String]) -> String {
 /// The ISO 230-2 deviation chart of a rotary axis in the linear chart's style: ″ against
 /// the target angle over the revolution, x̄↑ (blue) and x̄↓ (red) with x̄ ± 2s dashed.
 fn chart(axis: RotaryAxis, targets: &[RotaryTargetStats]) -> String {
-    let mut t: Vec<&RotaryTargetStats> = targets.iter().collect();
-    t.sort_by(|a, b| a.position_deg.total_cmp(&b.position_deg));
-    let series =
-        |name: &str, colour, dashed, f: &dyn Fn(&RotaryTargetStats) -> f64, dir: &str| Series {
-            name: name.into(),
-            colour,
-            dashed,
-            markers: !dashed,
-            points: t
-                .iter()
-                .map(|s| Pt {
-                    x: s.position_deg,
-                    y: f(s),
-                    tip: format!(
-                        "target {} (θ = {:.4}°), {dir}, all runs: {name} = {:.d$}″",
-                        s.target,
-                        s.position_deg,
-                        f(s),
-                        d = ARCSEC_DECIMALS
-                    ),
-                })
-                .collect(),
-        };
-    let (up, down) = ("↑ positive approach", "↓ negative approach");
+    let targets: Vec<DeviationTarget> = targets
+        .iter()
+        .map(|t| DeviationTarget {
+            target: t.target,
+            x: t.position_deg,
+            up: (t.mean_up_arcsec, t.s_up_arcsec),
+            down: (t.mean_down_arcsec, t.s_down_arcsec),
+        })
+        .collect();
     let ticks = (0..=8)
         .map(|k| (f64::from(k) * 45.0, format!("{}°", k * 45)))
         .collect();
@@ -225,38 +201,14 @@ fn chart(axis: RotaryAxis, targets: &[RotaryTargetStats]) -> String {
             ticks,
         },
         "positional deviation x = −e / ″",
-        &[
-            series("mean x↑", PALETTE[0], false, &|s| s.mean_up_arcsec, up),
-            series(
-                "x̄↑ + 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_arcsec + 2.0 * s.s_up_arcsec,
-                up,
-            ),
-            series(
-                "x̄↑ − 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_arcsec - 2.0 * s.s_up_arcsec,
-                up,
-            ),
-            series("mean x↓", PALETTE[3], false, &|s| s.mean_down_arcsec, down),
-            series(
-                "x̄↓ + 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_arcsec + 2.0 * s.s_down_arcsec,
-                down,
-            ),
-            series(
-                "x̄↓ − 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_arcsec - 2.0 * s.s_down_arcsec,
-                down,
-            ),
-        ],
+        &charts::deviation_series(targets, &|t, name, dir, v| {
+            format!(
+                "target {} (θ = {:.4}°), {dir}, all runs: {name} = {v:.d$}″",
+                t.target,
+                t.x,
+                d = ARCSEC_DECIMALS
+            )
+        }),
     )
 }
 
