@@ -27,6 +27,10 @@ pub(crate) enum DocError {
     /// The workbench itself failed (500).
     #[error("{0}")]
     Internal(String),
+    /// Being made by another request (the start-up warm-up): a page says so at once
+    /// (202) and fills in by itself; never kept, never a document's answer.
+    #[error("being computed")]
+    Pending,
 }
 
 impl DocError {
@@ -36,6 +40,7 @@ impl DocError {
             DocError::Bad(_) => 400,
             DocError::NotFound(_) => 404,
             DocError::Internal(_) => 500,
+            DocError::Pending => 202,
         }
     }
 }
@@ -47,6 +52,7 @@ impl DocError {
             DocError::Bad(_) => DocError::Bad(message),
             DocError::NotFound(_) => DocError::NotFound(message),
             DocError::Internal(_) => DocError::Internal(message),
+            DocError::Pending => DocError::Pending,
         }
     }
 }

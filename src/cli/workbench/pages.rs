@@ -42,6 +42,15 @@ fn html(st: &Shared, status: u16, title: &str, body: &str) -> Response {
 fn result_page(st: &Shared, title: &str, r: Result<String, DocError>) -> Response {
     match r {
         Ok(body) => html(st, 200, title, &body),
+        // The page's script reloads it until the result is there.
+        Err(DocError::Pending) => html(
+            st,
+            202,
+            title,
+            "<p class=\"note\" id=\"pending\">Being computed: the workbench is making this \
+             page's result (at start-up it makes the workspace's results once). The page fills \
+             in by itself when it is ready.</p>",
+        ),
         Err(e) => {
             let heading = if e.status() == 404 {
                 "Not found"
@@ -65,7 +74,7 @@ async fn job_page(
     body: impl FnOnce(&AppState) -> Result<String, DocError> + Send + 'static,
 ) -> Response {
     let st2 = Arc::clone(&st);
-    let r = blocking(move || body(&st2)).await;
+    let r = blocking(move || super::cache::without_waiting(|| body(&st2))).await;
     result_page(&st, &title, r)
 }
 

@@ -24,6 +24,8 @@
       body: JSON.stringify(body || {}),
     }).then(function (r) { return r.json().then(function (j) { return { status: r.status, body: j }; }); });
   }
+  // A page whose result is being made: look again shortly (it fills in when ready).
+  if (document.getElementById("pending")) { setTimeout(function () { location.reload(); }, 250); }
   const live = document.getElementById("live");
   if (!live) { return; }
   const $ = function (id) { return document.getElementById(id); };
