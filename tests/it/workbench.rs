@@ -232,6 +232,18 @@ pub(super) fn workspace(dir: &Path) -> PathBuf {
     ws
 }
 
+/// `errmap volumetric identify` of the workspace's lines (topology YXZ), its `--json`.
+fn identify_json(ws: &Path) -> Value {
+    json(&errmap(&[
+        "volumetric",
+        "identify",
+        s(&ws.join("volumetric/lines.csv")),
+        "--topology",
+        "YXZ",
+        "--json",
+    ]))
+}
+
 /// The bidirectional axis values E, A, R and B of every line of an ISO 230-2 report
 /// (`errmap table --report`), as the report prints them: `(symbol, value)`.
 pub(super) fn report_figures(report_md: &str) -> Vec<(String, String)> {
@@ -315,14 +327,7 @@ fn every_route_answers_and_the_documents_are_the_commands() {
         "--json",
     ]));
     assert_eq!(get(a, "/api/circular/ballbar/xy.csv").json(), cli);
-    let cli = json(&errmap(&[
-        "volumetric",
-        "identify",
-        s(&ws.join("volumetric/lines.csv")),
-        "--topology",
-        "YXZ",
-        "--json",
-    ]));
+    let cli = identify_json(&ws);
     assert_eq!(
         get(a, "/api/volumetric/volumetric/lines.csv?topology=YXZ").json(),
         cli
@@ -700,14 +705,7 @@ fn a_page_opened_at_start_up_answers_at_once_and_fills_in() {
     assert!(page.contains("E_XX"), "the filled-in page");
     assert!(pending > 0, "the page waited instead of answering at once");
     // The document waited for the same result and equals the command's.
-    let cli = json(&errmap(&[
-        "volumetric",
-        "identify",
-        s(&ws.join("volumetric/lines.csv")),
-        "--topology",
-        "YXZ",
-        "--json",
-    ]));
+    let cli = identify_json(&ws);
     assert_eq!(doc.join().expect("the document").json(), cli);
     let made = warm
         .recv_timeout(Duration::from_secs(300))
