@@ -73,25 +73,46 @@ pub(crate) fn table_cmd(a: TableArgs) -> Result<()> {
         );
     }
     if a.json {
-        use errmap::report::rotary::{RotaryLineJson, RotarySummaryJson, RotaryTableJson};
-        guard::print_json(&RotaryTableJson {
-            summary: RotarySummaryJson {
-                kind: "rotary",
-                axis: session.axis,
-                source,
-                targets: table.len(),
-                dwell_rows,
-            },
-            nodes: table.len(),
-            lines: vec![RotaryLineJson {
-                axis: session.axis,
-                iso230: &iso,
-                closure: closure.as_ref(),
-            }],
-            warnings: &warnings,
-        })?;
+        let doc = table_json(
+            source,
+            session.axis,
+            (table.len(), dwell_rows),
+            &iso,
+            closure.as_ref(),
+            &warnings,
+        );
+        guard::print_json(&doc)?;
     }
     Ok(())
+}
+
+/// The document of `errmap table ROTARY --json` (also the workbench's `/api/table`):
+/// `counts` are the rotary error table's rows and the dwell rows used.
+pub(crate) fn table_json<'a>(
+    source: String,
+    axis: RotaryAxis,
+    counts: (usize, usize),
+    iso: &'a rotary::RotaryIso,
+    closure: Option<&'a rotary::Closure>,
+    warnings: &'a [String],
+) -> errmap::report::rotary::RotaryTableJson<'a> {
+    use errmap::report::rotary::{RotaryLineJson, RotarySummaryJson, RotaryTableJson};
+    RotaryTableJson {
+        summary: RotarySummaryJson {
+            kind: "rotary",
+            axis,
+            source,
+            targets: counts.0,
+            dwell_rows: counts.1,
+        },
+        nodes: counts.0,
+        lines: vec![RotaryLineJson {
+            axis,
+            iso230: iso,
+            closure,
+        }],
+        warnings,
+    }
 }
 
 /// `import --format csv --axis a|b|c`: a rotary test from a spreadsheet (`docs/rotary.md` §6).

@@ -53,3 +53,5 @@ mod volumetric_thermal;
 mod workbench;
 #[cfg(feature = "workbench")]
 mod workbench_browser;
+#[cfg(feature = "workbench")]
+mod workbench_rotary;

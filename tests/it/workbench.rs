@@ -28,8 +28,23 @@ impl Drop for Server {
 }
 
 impl Server {
-    /// Starts the workbench on `dir` (extra flags after it) and reads its address line.
+    /// Starts the workbench on `dir` (extra flags after it), reads its address line and
+    /// waits until its start-up results are made (so a page answers with its result, not
+    /// the page saying it is being computed).
     pub(super) fn start(dir: &Path, extra: &[&str]) -> Server {
+        let (server, warm) = Server::start_at_once(dir, extra);
+        let made = warm.recv_timeout(Duration::from_secs(300));
+        assert!(made.is_ok(), "the start-up results were not made");
+        server
+    }
+
+    /// Starts the workbench and returns once it listens, with the line that says its
+    /// start-up results are made still to come on the receiver (its stderr is read to
+    /// the end, so the server never writes into a closed pipe).
+    pub(super) fn start_at_once(
+        dir: &Path,
+        extra: &[&str],
+    ) -> (Server, std::sync::mpsc::Receiver<String>) {
         let mut child = errmap_cmd()
             .args(["workbench", "--dir", s(dir), "--addr", "127.0.0.1:0"])
             .args(extra)
@@ -47,7 +62,15 @@ impl Server {
             .and_then(|a| a.strip_suffix('/'))
             .unwrap_or_else(|| panic!("the address line, not {line:?}"))
             .to_string();
-        Server { child, addr }
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for l in err.lines().map_while(Result::ok) {
+                if l.contains("results made") {
+                    let _ = tx.send(l);
+                }
+            }
+        });
+        (Server { child, addr }, rx)
     }
 }
 
@@ -209,6 +232,18 @@ pub(super) fn workspace(dir: &Path) -> PathBuf {
     ws
 }
 
+/// `errmap volumetric identify` of the workspace's lines (topology YXZ), its `--json`.
+fn identify_json(ws: &Path) -> Value {
+    json(&errmap(&[
+        "volumetric",
+        "identify",
+        s(&ws.join("volumetric/lines.csv")),
+        "--topology",
+        "YXZ",
+        "--json",
+    ]))
+}
+
 /// The bidirectional axis values E, A, R and B of every line of an ISO 230-2 report
 /// (`errmap table --report`), as the report prints them: `(symbol, value)`.
 pub(super) fn report_figures(report_md: &str) -> Vec<(String, String)> {
@@ -292,14 +327,7 @@ fn every_route_answers_and_the_documents_are_the_commands() {
         "--json",
     ]));
     assert_eq!(get(a, "/api/circular/ballbar/xy.csv").json(), cli);
-    let cli = json(&errmap(&[
-        "volumetric",
-        "identify",
-        s(&ws.join("volumetric/lines.csv")),
-        "--topology",
-        "YXZ",
-        "--json",
-    ]));
+    let cli = identify_json(&ws);
     assert_eq!(
         get(a, "/api/volumetric/volumetric/lines.csv?topology=YXZ").json(),
         cli
@@ -626,4 +654,61 @@ fn a_live_capture_from_a_simulated_board_equals_the_replay_of_its_bytes() {
     assert!(sdir.join("session.json").is_file());
     // The new session is an item of the workspace with its page.
     assert_eq!(get(a, &format!("/session/{session}")).status, 200);
+}
+
+#[test]
+fn a_page_opened_at_start_up_answers_at_once_and_fills_in() {
+    // While the identification of the lines is being made (here for its document, which
+    // waits for it), its page answers at once with the page saying so (202), which its
+    // script reloads, until the result is there.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let ws = workspace(dir.path());
+    // A model beside the lines makes the warm-up identify them with its topology.
+    let o = errmap(&[
+        "volumetric",
+        "identify",
+        s(&ws.join("volumetric/lines.csv")),
+        "--topology",
+        "YXZ",
+        "--out",
+        s(&ws.join("volumetric/model.json")),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (srv, warm) = Server::start_at_once(&ws, &[]);
+    let a = srv.addr.as_str();
+    let path = "/volumetric/volumetric/lines.csv?topology=YXZ";
+    let doc = {
+        let a = a.to_string();
+        std::thread::spawn(move || get(&a, "/api/volumetric/volumetric/lines.csv?topology=YXZ"))
+    };
+    std::thread::sleep(Duration::from_millis(300));
+    let start = Instant::now();
+    let mut pending = 0;
+    let page = loop {
+        let r = get(a, path);
+        if r.status == 200 {
+            break r.text();
+        }
+        assert_eq!(r.status, 202, "{}", r.text());
+        let t = r.text();
+        assert!(
+            t.contains("id=\"pending\"") && t.contains("Being computed"),
+            "{t}"
+        );
+        pending += 1;
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "never filled in"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(page.contains("E_XX"), "the filled-in page");
+    assert!(pending > 0, "the page waited instead of answering at once");
+    // The document waited for the same result and equals the command's.
+    let cli = identify_json(&ws);
+    assert_eq!(doc.join().expect("the document").json(), cli);
+    let made = warm
+        .recv_timeout(Duration::from_secs(300))
+        .expect("warm-up line");
+    eprintln!("{pending} pending answer(s) before the page filled in; {made}");
 }

@@ -151,6 +151,41 @@ impl Browser {
         std::fs::write(dir.join(format!("{name}.png")), png).expect("writes the screenshot");
     }
 
+    /// Opens `url` and waits until it has loaded, within `limit`.
+    fn open_loaded(&self, url: &str, limit: Duration) {
+        self.open(url);
+        assert!(
+            self.wait_for("return document.readyState === 'complete'", limit),
+            "{url} did not load"
+        );
+    }
+
+    /// Moves the pointer onto `element` and returns the tip the page then shows.
+    fn tip_at(&self, element: &str) -> Value {
+        self.call(
+            "POST",
+            "/actions",
+            json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
+                "actions": [{"type": "pointerMove", "origin": {ELEMENT: element}, "x": 0, "y": 0, "duration": 0}]}]}),
+        );
+        assert!(self.wait_for(
+            "return !document.getElementById('tip').hidden",
+            Duration::from_secs(5)
+        ));
+        self.script("return document.getElementById('tip').textContent")
+    }
+
+    /// On the live page: picks the simulated board's model and plan, its speed, and Start.
+    fn start_simulated(&self, model: &str, plan: &str, speed: &str) {
+        self.script(&format!(
+            "document.getElementById('model').value = '{model}';\
+             document.getElementById('plan').value = '{plan}';\
+             document.getElementById('speed').value = '{speed}'; return true"
+        ));
+        let start = self.element("#start");
+        self.call("POST", &format!("/element/{start}/click"), json!({}));
+    }
+
     /// Waits until `code` returns true, within `limit`.
     fn wait_for(&self, code: &str, limit: Duration) -> bool {
         let start = Instant::now();
@@ -229,17 +264,26 @@ fn the_pages_in_a_real_browser() {
         ("acceptance", "/acceptance/cmm/iso10360.csv?mpe=1.5%2BL/333"),
         ("history", "/history"),
     ] {
-        b.open(&format!("{base}{path}"));
-        assert!(b.wait_for(
-            "return document.readyState === 'complete'",
-            Duration::from_secs(60)
-        ));
+        b.open_loaded(&format!("{base}{path}"), Duration::from_secs(60));
         // Give the favicon request time to finish and log.
         std::thread::sleep(Duration::from_millis(300));
         let errors = b.console_errors();
         assert!(errors.is_empty(), "{path}: {errors:?}");
         b.screenshot(shots.as_deref(), name);
     }
+
+    // The history's charts are on calendar dates, not day numbers.
+    b.open(&format!("{base}/history"));
+    let text = b
+        .script("return document.body.innerText")
+        .as_str()
+        .expect("text")
+        .to_string();
+    assert!(!text.contains("days since"), "{text}");
+    let ticks = b.script(
+        "return Array.from(document.querySelectorAll('svg.chart text')).map(t => t.textContent)         .filter(t => /^\\d{4}(-\\d{2}){0,2}$/.test(t)).length",
+    );
+    assert!(ticks.as_u64() > Some(2), "date ticks: {ticks}");
 
     // A known session's figures appear as text, as its ISO 230-2 report prints them.
     let o = errmap(&[
@@ -279,35 +323,15 @@ fn the_pages_in_a_real_browser() {
         b.script("return document.getElementById('tip').hidden"),
         json!(true)
     );
-    b.call(
-        "POST",
-        "/actions",
-        json!({"actions": [{"type": "pointer", "id": "mouse", "parameters": {"pointerType": "mouse"},
-            "actions": [{"type": "pointerMove", "origin": {ELEMENT: point}, "x": 0, "y": 0, "duration": 0}]}]}),
-    );
-    assert!(b.wait_for(
-        "return !document.getElementById('tip').hidden",
-        Duration::from_secs(5)
-    ));
-    let shown = b.script("return document.getElementById('tip').textContent");
+    let shown = b.tip_at(&point);
     assert_eq!(shown, tip_of_point);
     let shown = shown.as_str().expect("tip text");
     assert!(shown.contains("target") && shown.contains("µm"), "{shown}");
     b.screenshot(shots.as_deref(), "session-tooltip");
 
     // The live page: frames arrive from a simulated board; Stop leaves the replay's session.
-    b.open(&format!("{base}/live"));
-    assert!(b.wait_for(
-        "return document.readyState === 'complete'",
-        Duration::from_secs(20)
-    ));
-    b.script(
-        "document.getElementById('model').value = 'sim/model.toml';\
-         document.getElementById('plan').value = 'sim/plan.toml';\
-         document.getElementById('speed').value = '2'; return true",
-    );
-    let start = b.element("#start");
-    b.call("POST", &format!("/element/{start}/click"), json!({}));
+    b.open_loaded(&format!("{base}/live"), Duration::from_secs(20));
+    b.start_simulated("sim/model.toml", "sim/plan.toml", "2");
     assert!(
         b.wait_for(
             "return parseInt(document.getElementById('samples').textContent) > 300",
@@ -347,4 +371,94 @@ fn the_pages_in_a_real_browser() {
         std::fs::read(sdir.join("session.csv")).expect("session.csv"),
         std::fs::read(&replayed).expect("replayed")
     );
+}
+
+/// A rotary session's page in the browser: the library's figures in ″ with ° beside,
+/// pointing at the chart shows a value in ″ at its angle; the live page shows a rotary
+/// board's readings and target means in ° and ″.
+#[test]
+fn a_rotary_session_and_a_rotary_capture_in_a_real_browser() {
+    use errmap::session::rotary::{read_rotary_session, rotary_iso};
+    let Some(b) = Browser::start() else { return };
+    let shots = std::env::var_os("ERRMAP_SCREENSHOTS").map(std::path::PathBuf::from);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let ws = super::workbench_rotary::rotary_workspace(dir.path());
+    let srv = Server::start(&ws, &[]);
+    let base = format!("http://{}", srv.addr);
+    b.open_loaded(&format!("{base}/session/rot/cap"), Duration::from_secs(60));
+    std::thread::sleep(Duration::from_millis(300));
+    let errors = b.console_errors();
+    assert!(errors.is_empty(), "{errors:?}");
+    b.screenshot(shots.as_deref(), "rotary-session");
+    let text = b
+        .script("return document.body.innerText")
+        .as_str()
+        .expect("text")
+        .to_string();
+    let table = ws.join("rot/cap/session.csv");
+    let session = read_rotary_session(&table).expect("rotary");
+    let (iso, closure) = rotary_iso(&table, &session).expect("ISO 230-2");
+    for v in [
+        iso.a_arcsec,
+        iso.a_up_arcsec,
+        iso.a_down_arcsec,
+        iso.e_arcsec,
+        iso.e_up_arcsec,
+        iso.e_down_arcsec,
+        iso.m_arcsec,
+        iso.r_arcsec,
+        iso.r_up_arcsec,
+        iso.r_down_arcsec,
+        iso.b_arcsec,
+        iso.mean_reversal_arcsec,
+    ] {
+        for shown in [format!("{v:.2}″"), format!("{:.6}°", v / 3600.0)] {
+            assert!(text.contains(&shown), "{shown} not in the page");
+        }
+    }
+    let c = closure.expect("closure");
+    assert!(text.contains(&format!("{:.2}″", c.diff_down_arcsec)));
+    // Pointing at a chart's point shows its value in ″ at its angle.
+    let point = b.element("svg.chart circle[data-tip]");
+    let shown = b.tip_at(&point);
+    let shown = shown.as_str().expect("tip");
+    assert!(shown.contains("θ =") && shown.contains('″'), "{shown}");
+    b.screenshot(shots.as_deref(), "rotary-session-tooltip");
+
+    // The live page with a simulated rotary board.
+    b.open_loaded(&format!("{base}/live"), Duration::from_secs(20));
+    b.start_simulated("rot/rotary-model.toml", "rot/rotary-plan.toml", "5");
+    assert!(
+        b.wait_for(
+            "return document.querySelectorAll('#targets tr').length >= 4",
+            Duration::from_secs(40)
+        ),
+        "no target means: {}",
+        b.script("return document.getElementById('live').innerText")
+    );
+    let field = |id: &str| {
+        b.script(&format!(
+            "return document.getElementById('{id}').textContent"
+        ))
+        .as_str()
+        .expect("text")
+        .to_string()
+    };
+    assert_eq!(field("position-label"), "axis B angle");
+    assert!(field("position").ends_with('°'), "{}", field("position"));
+    assert!(field("reading").ends_with('″'), "{}", field("reading"));
+    let rows = field("targets");
+    assert!(
+        rows.contains('″') && rows.contains('°') && !rows.contains("µm"),
+        "{rows}"
+    );
+    b.screenshot(shots.as_deref(), "live-rotary");
+    let stop = b.element("#stop");
+    b.call("POST", &format!("/element/{stop}/click"), json!({}));
+    assert!(b.wait_for(
+        "return document.getElementById('state').textContent === 'complete'",
+        Duration::from_secs(30)
+    ));
+    let errors = b.console_errors();
+    assert!(errors.is_empty(), "/live: {errors:?}");
 }

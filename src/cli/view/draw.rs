@@ -6,6 +6,7 @@
 //! the chart of mean error against position at each target, one line per pass.
 
 use errmap::drivers::edlen::refractive_index;
+use errmap::drivers::rotary::RotaryAxis;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -13,7 +14,7 @@ use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Axis, Block, Borders, Chart, Dataset, GraphType, Paragraph};
 
-use super::state::{self, Counter, Reading, ViewState};
+use super::state::{self, Counter, Reading, Units, ViewState};
 
 /// A health counter stays highlighted this long after it moved, s.
 pub(crate) const FRESH_S: f64 = 3.0;
@@ -53,16 +54,19 @@ pub(crate) fn draw(f: &mut Frame, s: &ViewState, paused: Option<&state::Chart>) 
             &live
         }
     };
-    draw_chart(f, chart, paused.is_some(), right);
+    draw_chart(f, chart, s.units, paused.is_some(), right);
 }
 
 fn title(s: &ViewState, paused: bool) -> Line<'static> {
     let device = s.hello.map_or_else(
         || "no HELLO yet".to_string(),
         |h| {
+            let rotary = RotaryAxis::from_code(h.axis_code).map(|a| format!("{a} (rotary)"));
             let axis = h
                 .axis()
-                .map_or_else(|| format!("code {}", h.axis_code), |a| a.to_string());
+                .map(|a| a.to_string())
+                .or(rotary)
+                .unwrap_or_else(|| format!("code {}", h.axis_code));
             format!("device {} · axis {axis}", h.device_id.as_string())
         },
     );
@@ -125,32 +129,57 @@ fn readings_widget(s: &ViewState) -> Paragraph<'static> {
     } else {
         Style::new().add_modifier(Modifier::BOLD)
     };
-    let n = n_air(s, &r).map_or_else(|| "—".to_string(), |n| format!("{n:.8}"));
+    let rotary = matches!(s.units, Units::Rotary(_));
+    let n = if rotary {
+        // An angle is a ratio of lengths: no air index enters it.
+        "— (an angle needs none)".to_string()
+    } else {
+        n_air(s, &r).map_or_else(|| "—".to_string(), |n| format!("{n:.8}"))
+    };
+    let (pos_name, ref_name, mat) = if rotary {
+        ("angle     ", "reference ", ("encoder", "table"))
+    } else {
+        ("position  ", "laser     ", ("scale", "part"))
+    };
+    // ° and ″ follow the number; mm and µm after a space.
+    let (pu, eu) = if rotary {
+        ("°".to_string(), "″".to_string())
+    } else {
+        (" mm".to_string(), " µm".to_string())
+    };
+    let err_prec = if rotary { 2 } else { 3 };
     let lines = vec![
         Line::from(format!(
-            "position  {:>12.4} mm   t {:.2} s",
-            r.position_mm, r.t_s
+            "{pos_name}{:>12.4}{pu}   t {:.2} s",
+            r.position, r.t_s
         )),
-        Line::from(format!("laser     {:>12.4} mm", r.laser_mm)),
+        Line::from(format!("{ref_name}{:>12.4}{pu}", r.reference)),
         Line::from(vec![
             Span::raw("error     "),
-            Span::styled(format!("{:>12.3} µm", r.error_um), err_style),
+            Span::styled(format!("{:>12.err_prec$}{eu}", r.error), err_style),
             Span::raw(if r.flags != 0 {
                 format!("   flags {:#04x}", r.flags)
             } else {
                 String::new()
             }),
         ]),
-        Line::from(format!(
-            "air       {}  {}  {}",
-            opt(r.air_temp_c, 2, "°C"),
-            opt(r.air_pressure_hpa, 1, "hPa"),
-            opt(r.air_rh_pct, 0, "%RH")
-        )),
+        // A rotary board reports the air's temperature only.
+        Line::from(if rotary {
+            format!("air       {}", opt(r.air_temp_c, 2, "°C"))
+        } else {
+            format!(
+                "air       {}  {}  {}",
+                opt(r.air_temp_c, 2, "°C"),
+                opt(r.air_pressure_hpa, 1, "hPa"),
+                opt(r.air_rh_pct, 0, "%RH")
+            )
+        }),
         Line::from(format!("n air     {n}")),
         Line::from(format!(
-            "material  scale {}  part {}",
+            "material  {} {}  {} {}",
+            mat.0,
             opt(r.scale_temp_c, 2, "°C"),
+            mat.1,
             opt(r.part_temp_c, 2, "°C")
         )),
     ];
@@ -185,15 +214,21 @@ fn progress_widget(s: &ViewState) -> Paragraph<'static> {
     // The current pass's targets, or the last pass's when between passes.
     if let Some(t) = s.current().or(s.traces.back()) {
         lines.push(Line::from(Span::styled(
-            format!("{:<8}{:>12}{:>12}{:>8}", t.label(), "x mm", "e µm", "n"),
+            format!(
+                "{:<8}{:>12}{:>12}{:>8}",
+                t.label(),
+                format!("{} {}", position_symbol(s.units), s.units.position()),
+                format!("e {}", s.units.error()),
+                "n"
+            ),
             Style::new().add_modifier(Modifier::UNDERLINED),
         )));
         for (k, m) in t.targets.iter().rev().take(12).rev() {
             lines.push(Line::from(format!(
                 "target{:>2}{:>12.3}{:>12.3}{:>8}",
                 k + 1,
-                m.position_mm(),
-                m.error_um(),
+                m.position(),
+                m.error(),
                 m.n
             )));
         }
@@ -258,11 +293,24 @@ fn labels(lo: f64, hi: f64, prec: usize) -> Vec<Span<'static>> {
         .collect()
 }
 
-fn draw_chart(f: &mut Frame, chart: &state::Chart, paused: bool, area: Rect) {
+/// "x" for a linear position, "θ" for an angle.
+fn position_symbol(u: Units) -> &'static str {
+    match u {
+        Units::Linear => "x",
+        Units::Rotary(_) => "θ",
+    }
+}
+
+fn draw_chart(f: &mut Frame, chart: &state::Chart, units: Units, paused: bool, area: Rect) {
+    let (eu, pu) = (units.error(), units.position());
+    let what = match units {
+        Units::Linear => "position",
+        Units::Rotary(_) => "angle",
+    };
     let title = if paused {
-        " error µm against position mm — PAUSED "
+        format!(" error {eu} against {what} {pu} — PAUSED ")
     } else {
-        " error µm against position mm, target means per pass "
+        format!(" error {eu} against {what} {pu}, target means per pass ")
     };
     let block = Block::default().borders(Borders::ALL).title(title);
     let Some(((x0, x1), (y0, y1))) = chart.bounds() else {
@@ -289,13 +337,13 @@ fn draw_chart(f: &mut Frame, chart: &state::Chart, paused: bool, area: Rect) {
         .block(block)
         .x_axis(
             Axis::default()
-                .title("x mm")
+                .title(format!("{} {pu}", position_symbol(units)))
                 .bounds([x0, x1])
                 .labels(labels(x0, x1, 0)),
         )
         .y_axis(
             Axis::default()
-                .title("e µm")
+                .title(format!("e {eu}"))
                 .bounds([y0, y1])
                 .labels(labels(y0, y1, 2)),
         )

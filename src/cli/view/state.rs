@@ -10,6 +10,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use errmap::drivers::frame::{Hello, SampleFlags};
 use errmap::drivers::problem::ProblemKind;
+use errmap::drivers::rotary::{RotaryAxis, RotaryRow};
 use errmap::drivers::{Problem, SessionEvent, SessionRow};
 
 /// Passes (run × direction) kept for the chart and the targets table.
@@ -17,17 +18,46 @@ pub(crate) const MAX_TRACES: usize = 8;
 /// Targets kept per pass (a plan has tens; more would not be readable anyway).
 pub(crate) const MAX_TARGETS: usize = 256;
 
-/// The latest row's readings.
+/// What a capture measures: a linear axis (positions in mm, errors in µm) or a rotary
+/// axis (angles in °, errors in ″). Every position and error of the view is in these.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) enum Units {
+    #[default]
+    Linear,
+    Rotary(RotaryAxis),
+}
+
+impl Units {
+    /// The unit of a position: "mm" or "°".
+    pub(crate) fn position(self) -> &'static str {
+        match self {
+            Units::Linear => "mm",
+            Units::Rotary(_) => "°",
+        }
+    }
+
+    /// The unit of an error: "µm" or "″".
+    pub(crate) fn error(self) -> &'static str {
+        match self {
+            Units::Linear => "µm",
+            Units::Rotary(_) => "″",
+        }
+    }
+}
+
+/// The latest row's readings, in the capture's [`Units`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Reading {
     pub t_s: f64,
     pub run: u32,
     pub direction: i8,
     pub target: i32,
-    /// Scale reading along the measured axis, mm.
-    pub position_mm: f64,
-    pub laser_mm: f64,
-    pub error_um: f64,
+    /// The axis' own reading: a linear scale's position (mm) or a rotary encoder's angle (°).
+    pub position: f64,
+    /// The reference instrument's reading: the laser's length (mm) or the angle reference's (°).
+    pub reference: f64,
+    /// Axis − reference: µm, or ″ on a rotary axis.
+    pub error: f64,
     pub air_temp_c: Option<f64>,
     pub air_pressure_hpa: Option<f64>,
     pub air_rh_pct: Option<f64>,
@@ -51,13 +81,13 @@ impl TargetMean {
         self.sum_err += err;
     }
 
-    /// Mean position, mm (NaN before the first sample).
-    pub(crate) fn position_mm(&self) -> f64 {
+    /// Mean position, mm or ° (NaN before the first sample).
+    pub(crate) fn position(&self) -> f64 {
         self.sum_pos / self.n as f64
     }
 
-    /// Mean error, µm.
-    pub(crate) fn error_um(&self) -> f64 {
+    /// Mean error, µm or ″.
+    pub(crate) fn error(&self) -> f64 {
         self.sum_err / self.n as f64
     }
 }
@@ -81,7 +111,7 @@ impl Trace {
         self.targets
             .values()
             .filter(|m| m.n > 0)
-            .map(|m| (m.position_mm(), m.error_um()))
+            .map(|m| (m.position(), m.error()))
             .collect()
     }
 }
@@ -134,6 +164,8 @@ pub(crate) struct Health {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct ViewState {
     pub hello: Option<Hello>,
+    /// Linear until a rotary board's first row.
+    pub units: Units,
     pub latest: Option<Reading>,
     pub rows: u64,
     pub bytes: u64,
@@ -155,9 +187,29 @@ impl ViewState {
             SessionEvent::Row(r) => self.row(r),
             SessionEvent::Problem(p) => self.problem(p),
             SessionEvent::Hello(h) => self.hello = Some(*h),
-            // A rotary board's rows are not drawn: the live view is linear.
-            SessionEvent::Rotary(_) | SessionEvent::Text { .. } => {}
+            SessionEvent::Rotary(r) => self.rotary_row(r),
+            SessionEvent::Text { .. } => {}
         }
+    }
+
+    /// A rotary board's row: its angle (°) and error (″) in the same readings and passes.
+    fn rotary_row(&mut self, r: &RotaryRow) {
+        self.units = Units::Rotary(r.axis);
+        self.take(Reading {
+            t_s: r.t_s,
+            run: r.run,
+            direction: r.direction,
+            target: r.target,
+            position: r.indicated_deg,
+            reference: r.reference_deg,
+            error: r.error_arcsec,
+            air_temp_c: r.air_temp_c,
+            air_pressure_hpa: None,
+            air_rh_pct: None,
+            scale_temp_c: r.scale_temp_c,
+            part_temp_c: r.part_temp_c,
+            flags: r.flags,
+        });
     }
 
     /// The capture loop's clock and byte count.
@@ -167,15 +219,14 @@ impl ViewState {
     }
 
     fn row(&mut self, r: &SessionRow) {
-        self.rows += 1;
-        self.latest = Some(Reading {
+        self.take(Reading {
             t_s: r.t_s,
             run: r.run,
             direction: r.direction,
             target: r.target,
-            position_mm: r.scale_mm,
-            laser_mm: r.laser_mm,
-            error_um: r.error_um,
+            position: r.scale_mm,
+            reference: r.laser_mm,
+            error: r.error_um,
             air_temp_c: r.air_temp_c,
             air_pressure_hpa: r.air_pressure_hpa,
             air_rh_pct: r.air_rh_pct,
@@ -183,6 +234,12 @@ impl ViewState {
             part_temp_c: r.part_temp_c,
             flags: r.flags,
         });
+    }
+
+    /// One row's readings: the latest, and the passes' target means.
+    fn take(&mut self, r: Reading) {
+        self.rows += 1;
+        self.latest = Some(r);
         if r.run == 0 || r.direction == 0 {
             return;
         }
@@ -221,7 +278,7 @@ impl ViewState {
             t.targets
                 .entry(r.target)
                 .or_default()
-                .push(r.scale_mm, r.error_um);
+                .push(r.position, r.error);
         }
     }
 
@@ -291,7 +348,7 @@ pub(crate) struct Chart {
 pub(crate) struct Series {
     /// "run 2 −".
     pub label: String,
-    /// (mean position mm, mean error µm) per target, in target order.
+    /// (mean position, mean error) per target, in target order ([`Units`]).
     pub points: Vec<(f64, f64)>,
 }
 

@@ -172,8 +172,8 @@ fn target_means_equal_the_means_of_the_rows() {
         assert_eq!(t.targets.len(), 5, "the plan's five targets");
         for ((k, m), (k2, (sx, se, n))) in t.targets.iter().zip(targets) {
             assert_eq!((k, m.n), (k2, *n));
-            assert!((m.position_mm() - sx / *n as f64).abs() < 1e-9);
-            assert!((m.error_um() - se / *n as f64).abs() < 1e-9);
+            assert!((m.position() - sx / *n as f64).abs() < 1e-9);
+            assert!((m.error() - se / *n as f64).abs() < 1e-9);
         }
     }
     assert_eq!(view.targets_per_pass, Some(5));
@@ -223,7 +223,7 @@ fn the_drawing_shows_readings_progress_counters_and_chart() {
     );
     let (k, m) = t.targets.iter().next().unwrap();
     let row = line_with(&screen, &format!("target{:>2}", k + 1));
-    assert!(row.contains(&format!("{:.3}", m.error_um())), "{row}");
+    assert!(row.contains(&format!("{:.3}", m.error())), "{row}");
     // Chart: every kept pass in the legend, braille dots drawn.
     let chart = chart_part(&screen);
     for t in &view.traces {
@@ -238,6 +238,71 @@ fn the_drawing_shows_readings_progress_counters_and_chart() {
         .filter(|c| ('\u{2801}'..='\u{28ff}').contains(c))
         .count();
     assert!(dots > 50, "{dots} braille cells:\n{all}");
+}
+
+/// A rotary board (B axis, eccentricity 4″ and reversal 3″, errmap's simulated rotary
+/// board and its default cycle): the view takes its rows in ° and ″ — the passes' target
+/// means are the rows' dwell means — and draws them with those units, never mm or µm.
+#[test]
+fn a_rotary_board_is_shown_in_degrees_and_arcseconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("rot.toml");
+    std::fs::write(
+        &model,
+        "[rotary]\naxis = \"B\"\nseed = 5\n\n[[rotary.effects]]\nid = \"eccentricity\"\n\
+         amplitude_arcsec = 4.0\nphase_deg = 30.0\n\n[[rotary.effects]]\nid = \"reversal\"\n\
+         b_arcsec = 3.0\n",
+    )
+    .unwrap();
+    let s = errmap::sim::simulate_rotary_stream(&model, None).unwrap();
+    let bytes: Vec<u8> = s.frames.iter().flat_map(|f| f.bytes.clone()).collect();
+    // Stop inside the last run, so the view has a current reading at a target.
+    let part = &bytes[..bytes.len() * 9 / 10];
+    let mut d = SessionDecoder::new();
+    let mut view = ViewState::default();
+    let mut rows = Vec::new();
+    d.push_with(part, &mut |e| {
+        view.event(&e);
+        if let SessionEvent::Rotary(r) = e {
+            rows.push(r);
+        }
+    });
+    assert!(rows.len() > 500, "{} rotary rows", rows.len());
+    assert_eq!(view.units.error(), "″");
+    assert_eq!(view.rows, rows.len() as u64);
+    // The passes' target means: the rows' own dwell means.
+    for t in &view.traces {
+        for (k, m) in &t.targets {
+            let dwell: Vec<_> = rows
+                .iter()
+                .filter(|r| (r.run, r.direction, r.target) == (t.run, t.direction, *k))
+                .filter(|r| r.flags == 0)
+                .collect();
+            let n = dwell.len() as f64;
+            assert_eq!(m.n as usize, dwell.len());
+            let deg = dwell.iter().map(|r| r.indicated_deg).sum::<f64>() / n;
+            let sec = dwell.iter().map(|r| r.error_arcsec).sum::<f64>() / n;
+            assert!((m.position() - deg).abs() < 1e-9 && (m.error() - sec).abs() < 1e-9);
+        }
+    }
+    assert!(view.traces.iter().map(|t| t.targets.len()).sum::<usize>() > 20);
+    let screen = text(&view, None, 120, 40);
+    let all = screen.join("\n");
+    let last = rows.last().unwrap();
+    let value = |label: &str| -> f64 {
+        let l = line_with(&screen, label);
+        let rest = &l[l.find(label).unwrap() + label.len()..];
+        let v = rest.split_whitespace().next().unwrap();
+        v.trim_end_matches(['°', '″']).parse().unwrap()
+    };
+    close(value("│angle"), last.indicated_deg, 0.5e-4);
+    close(value("│reference"), last.reference_deg, 0.5e-4);
+    close(value("│error"), last.error_arcsec, 0.5e-2);
+    assert!(line_with(&screen, "│error").contains('″'));
+    assert!(all.contains("axis B (rotary)"), "{all}");
+    assert!(all.contains("θ °") && all.contains("e ″"), "{all}");
+    assert!(all.contains("error ″ against angle °"), "{all}");
+    assert!(!all.contains("µm") && !all.contains(" mm"), "{all}");
 }
 
 /// Rows of one pass dwelling at `n` targets with error = slope · position.

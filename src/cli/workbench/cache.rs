@@ -4,14 +4,19 @@
 //! next request compute it again. A request for a result being computed waits for it
 //! instead of computing it a second time (the start-up warm-up and a reader share it).
 //!
+//! A page does not wait: on the thread of [`without_waiting`], a result being made by
+//! another request (the warm-up, most often) answers at once [`DocError::Pending`], and
+//! the page says so and fills in by itself (`pages`). The documents wait.
+//!
 //! Errors are kept like results: a file that cannot be read gives the same message until
 //! it changes. Each store holds at most [`MAX_ENTRIES`] results; past that the one used
 //! longest ago is dropped.
 
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, TryLockError};
 use std::time::SystemTime;
 
 use super::docs::DocError;
@@ -49,6 +54,25 @@ fn identity(m: &std::fs::Metadata) -> (u64, u64) {
 #[cfg(not(unix))]
 fn identity(_: &std::fs::Metadata) -> (u64, u64) {
     (0, 0)
+}
+
+thread_local! {
+    /// Whether this thread answers a result being made elsewhere as pending.
+    static NO_WAIT: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f` with every result being made by another thread answered at once as
+/// [`DocError::Pending`] instead of waited for (a kept result, or one nobody is making,
+/// is served or made as always).
+pub(crate) fn without_waiting<R>(f: impl FnOnce() -> R) -> R {
+    struct Reset(bool);
+    impl Drop for Reset {
+        fn drop(&mut self) {
+            NO_WAIT.with(|w| w.set(self.0));
+        }
+    }
+    let _reset = Reset(NO_WAIT.with(|w| w.replace(true)));
+    f()
 }
 
 type Kept<T> = Option<(Vec<FileStamp>, Result<Arc<T>, DocError>)>;
@@ -90,10 +114,15 @@ impl<T> Memo<T> {
         compute: impl FnOnce() -> Result<T, DocError>,
     ) -> Result<Arc<T>, DocError> {
         let slot = self.slot(key)?;
-        let mut kept = slot
-            .kept
-            .lock()
-            .map_err(|_| DocError::Internal("a result store was poisoned".into()))?;
+        let poisoned = || DocError::Internal("a result store was poisoned".into());
+        let mut kept = match slot.kept.try_lock() {
+            Ok(k) => k,
+            Err(TryLockError::WouldBlock) if NO_WAIT.with(Cell::get) => {
+                return Err(DocError::Pending);
+            }
+            Err(TryLockError::WouldBlock) => slot.kept.lock().map_err(|_| poisoned())?,
+            Err(TryLockError::Poisoned(_)) => return Err(poisoned()),
+        };
         // The stamps are taken before computing: a file changed while it is read makes
         // the next request compute again.
         let stamps: Vec<FileStamp> = inputs.iter().map(|p| FileStamp::of(p)).collect();
@@ -138,7 +167,6 @@ impl<T> Memo<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::cell::Cell;
 
     #[test]
     fn a_result_is_made_once_per_state_of_its_files() {
@@ -169,6 +197,55 @@ mod tests {
         assert_eq!(runs.get(), 3);
         let _ = get();
         assert_eq!(runs.get(), 3);
+    }
+
+    #[test]
+    fn a_page_does_not_wait_for_a_result_being_made_and_a_document_does() {
+        let memo: Arc<Memo<u32>> = Arc::default();
+        let (started_tx, started) = std::sync::mpsc::channel();
+        let (release, release_rx) = std::sync::mpsc::channel::<()>();
+        let maker = {
+            let memo = Arc::clone(&memo);
+            std::thread::spawn(move || {
+                memo.get("k", &[], || {
+                    started_tx.send(()).expect("started");
+                    release_rx.recv().expect("released");
+                    Ok(7)
+                })
+            })
+        };
+        started.recv().expect("the maker holds the slot");
+        let runs = Cell::new(0);
+        let second = || {
+            runs.set(runs.get() + 1);
+            Ok(8)
+        };
+        // A page: at once, pending; nothing made a second time.
+        assert_eq!(
+            without_waiting(|| memo.get("k", &[], second)),
+            Err(DocError::Pending)
+        );
+        assert_eq!(runs.get(), 0);
+        // Another key nobody is making is made as always, even for a page.
+        assert_eq!(
+            without_waiting(|| memo.get("other", &[], || Ok(1))),
+            Ok(Arc::new(1))
+        );
+        // A document waits, and gets the maker's result.
+        let waiter = {
+            let memo = Arc::clone(&memo);
+            std::thread::spawn(move || memo.get("k", &[], || Ok(9)))
+        };
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        release.send(()).expect("release");
+        assert_eq!(maker.join().expect("maker"), Ok(Arc::new(7)));
+        assert_eq!(waiter.join().expect("waiter"), Ok(Arc::new(7)));
+        // Once made, a page gets it too; the flag ends with the call.
+        assert_eq!(
+            without_waiting(|| memo.get("k", &[], second)),
+            Ok(Arc::new(7))
+        );
+        assert!(!NO_WAIT.with(Cell::get));
     }
 
     #[test]

@@ -75,6 +75,15 @@ fn label(v: f64) -> String {
     if s == "-0" { "0".into() } else { s.into() }
 }
 
+/// An x axis given by the page: its name with its unit, the range shown and the ticks
+/// with their labels (angles in degrees, calendar dates).
+#[derive(Debug, Clone)]
+pub(crate) struct XAxis {
+    pub label: String,
+    pub range: (f64, f64),
+    pub ticks: Vec<(f64, String)>,
+}
+
 /// An x–y chart: `series` drawn over `bands`, a legend under the plot.
 pub(crate) fn xy(
     title: &str,
@@ -84,6 +93,169 @@ pub(crate) fn xy(
     bands: &[Band],
 ) -> String {
     let f = Frame::around(series, bands);
+    let ticks = ticks(f.x0, f.x1)
+        .into_iter()
+        .map(|t| (t, label(t)))
+        .collect();
+    draw(title, &f, ticks, x_label, y_label, series, bands)
+}
+
+/// One target of an ISO 230-2 deviation chart: its number, its position, and per
+/// direction the mean deviation and its standard deviation (↑, then ↓).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DeviationTarget {
+    pub target: usize,
+    pub x: f64,
+    pub up: (f64, f64),
+    pub down: (f64, f64),
+}
+
+/// The six lines of the ISO 230-2 deviation chart (the report's): x̄↑ (blue) and x̄↓ (red)
+/// solid with a marker per target, x̄ ± 2s dashed in the same colour, in position order;
+/// `tip(target, line, direction, value)` says what each point is.
+pub(crate) fn deviation_series(
+    mut targets: Vec<DeviationTarget>,
+    tip: &dyn Fn(&DeviationTarget, &str, &str, f64) -> String,
+) -> Vec<Series> {
+    targets.sort_by(|a, b| a.x.total_cmp(&b.x));
+    let mut out = Vec::with_capacity(6);
+    for (colour, dir, pick, arrow) in [
+        (PALETTE[0], "↑ positive approach", 0, "↑"),
+        (PALETTE[3], "↓ negative approach", 1, "↓"),
+    ] {
+        let of = |t: &DeviationTarget| if pick == 0 { t.up } else { t.down };
+        for (name, k) in [
+            (format!("mean x{arrow}"), 0.0),
+            (format!("x̄{arrow} + 2s{arrow}"), 2.0),
+            (format!("x̄{arrow} − 2s{arrow}"), -2.0),
+        ] {
+            let points = targets
+                .iter()
+                .map(|t| {
+                    let (mean, s) = of(t);
+                    let y = mean + k * s;
+                    Pt {
+                        x: t.x,
+                        y,
+                        tip: tip(t, &name, dir, y),
+                    }
+                })
+                .collect();
+            out.push(Series {
+                name,
+                colour,
+                dashed: k != 0.0,
+                markers: k == 0.0,
+                points,
+            });
+        }
+    }
+    out
+}
+
+/// A calendar x axis over `lo`..`hi`, days since 1970-01-01 (UTC), padded: ticks at the
+/// first step of 1, 2, 7 or 14 days, 1, 2, 3 or 6 months, or 1, 2, 5, 10, 20, 50… years
+/// that gives at most seven, labelled `YYYY-MM-DD`, `YYYY-MM` or `YYYY`.
+pub(crate) fn date_axis(label: &str, lo: f64, hi: f64) -> XAxis {
+    let (lo, hi) = if !(lo.is_finite() && hi.is_finite()) {
+        (0.0, 1.0)
+    } else if hi - lo < 2.0 {
+        (lo - 1.0, hi + 1.0)
+    } else {
+        let pad = (hi - lo) * 0.05;
+        (lo - pad, hi + pad)
+    };
+    let mut candidates: Vec<Vec<(f64, String)>> = Vec::new();
+    for step in [1.0, 2.0, 7.0, 14.0] {
+        let first = (lo / step).ceil() * step;
+        let n = ((hi - first) / step).floor() as i64 + 1;
+        if (1..=MAX_DATE_TICKS as i64).contains(&n) {
+            let date = |t: f64| errmap::history::format_utc(t as i64 * 86_400)[..10].to_string();
+            candidates.push(
+                (0..n)
+                    .map(|k| first + k as f64 * step)
+                    .map(|t| (t, date(t)))
+                    .collect(),
+            );
+        }
+    }
+    candidates.extend(
+        [1, 2, 3, 6]
+            .into_iter()
+            .filter_map(|k| month_ticks(lo, hi, k, false)),
+    );
+    let mut step = 1;
+    while step <= 5000 {
+        candidates.extend(month_ticks(lo, hi, step, true));
+        // 1, 2, 5, 10, 20, 50, …
+        step = if step.to_string().starts_with('2') {
+            step * 5 / 2
+        } else {
+            step * 2
+        };
+    }
+    XAxis {
+        label: label.into(),
+        range: (lo, hi),
+        ticks: candidates
+            .into_iter()
+            .find(|t| !t.is_empty())
+            .unwrap_or_default(),
+    }
+}
+
+/// The most ticks a date axis takes.
+const MAX_DATE_TICKS: usize = 7;
+
+/// Ticks on the first of every `step`-th month (or of January of every `step`-th year)
+/// within `lo`..`hi` (days since 1970-01-01), or None past [`MAX_DATE_TICKS`].
+fn month_ticks(lo: f64, hi: f64, step: i64, years: bool) -> Option<Vec<(f64, String)>> {
+    let start = errmap::history::format_utc((lo.max(0.0).floor() as i64) * 86_400);
+    let (mut y, mut m): (i64, i64) = (start[0..4].parse().ok()?, start[5..7].parse().ok()?);
+    let mut out = Vec::new();
+    loop {
+        let t = errmap::history::parse_utc(&format!("{y:04}-{m:02}-01")).ok()? as f64 / 86_400.0;
+        if t > hi {
+            return Some(out);
+        }
+        let on_step = if years {
+            m == 1 && y % step == 0
+        } else {
+            (m - 1) % step == 0
+        };
+        if t >= lo && on_step {
+            out.push((
+                t,
+                if years {
+                    format!("{y:04}")
+                } else {
+                    format!("{y:04}-{m:02}")
+                },
+            ));
+            if out.len() > MAX_DATE_TICKS {
+                return None;
+            }
+        }
+        (y, m) = if m == 12 { (y + 1, 1) } else { (y, m + 1) };
+    }
+}
+
+/// An x–y chart on the x axis `x` (its range and ticks), the y range around the points.
+pub(crate) fn xy_on(title: &str, x: &XAxis, y_label: &str, series: &[Series]) -> String {
+    let mut f = Frame::around(series, &[]);
+    (f.x0, f.x1) = x.range;
+    draw(title, &f, x.ticks.clone(), &x.label, y_label, series, &[])
+}
+
+fn draw(
+    title: &str,
+    f: &Frame,
+    x_ticks: Vec<(f64, String)>,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    bands: &[Band],
+) -> String {
     let mut s = format!(
         "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 {W} {H}\" \
          width=\"{W}\" height=\"{H}\" role=\"img\" aria-label=\"{t}\">\
@@ -91,7 +263,7 @@ pub(crate) fn xy(
         t = esc(title),
         cx = W / 2.0
     );
-    f.grid(&mut s);
+    f.grid(&mut s, &x_ticks);
     axis_labels(&mut s, x_label, y_label);
     for b in bands {
         f.band(&mut s, b);
@@ -148,16 +320,16 @@ impl Frame {
     }
 
     /// The grid lines and tick labels of both axes.
-    fn grid(&self, s: &mut String) {
-        for t in ticks(self.x0, self.x1) {
-            let x = self.px(t);
+    fn grid(&self, s: &mut String, x_ticks: &[(f64, String)]) {
+        for (t, l) in x_ticks {
+            let x = self.px(*t);
             let _ = write!(
                 s,
                 "<line class=\"grid\" x1=\"{x:.1}\" y1=\"{TOP}\" x2=\"{x:.1}\" y2=\"{yb}\"/>\
                  <text x=\"{x:.1}\" y=\"{ty}\" text-anchor=\"middle\">{l}</text>",
                 yb = H - BOTTOM,
                 ty = H - BOTTOM + 15.0,
-                l = label(t)
+                l = esc(l)
             );
         }
         for t in ticks(self.y0, self.y1) {
@@ -260,10 +432,22 @@ fn dash(dashed: bool) -> &'static str {
     }
 }
 
+/// Whether a series shows on the chart: a marker at one finite point, or a line through
+/// two (a line series with fewer points draws nothing).
+fn drawn(se: &Series) -> bool {
+    let finite = se
+        .points
+        .iter()
+        .filter(|p| p.x.is_finite() && p.y.is_finite())
+        .count();
+    finite >= if se.markers { 1 } else { 2 }
+}
+
+/// The legend: the series drawn, and only those.
 fn legend(s: &mut String, series: &[Series]) {
     let mut x = LEFT;
     let y = H - 14.0;
-    for se in series {
+    for se in series.iter().filter(|se| drawn(se)) {
         let _ = write!(
             s,
             "<line x1=\"{x}\" y1=\"{y0}\" x2=\"{x2}\" y2=\"{y0}\" stroke=\"{c}\" stroke-width=\"2\"{d}/>\
@@ -275,7 +459,8 @@ fn legend(s: &mut String, series: &[Series]) {
             tx = x + 26.0,
             n = esc(&se.name)
         );
-        x += 40.0 + 6.5 * se.name.chars().count() as f64;
+        // About 7.5 px a character at 12 px: wide capitals (EWMA) do not run into the next key.
+        x += 40.0 + 7.5 * se.name.chars().count() as f64;
     }
 }
 
@@ -400,6 +585,68 @@ pub(crate) fn polar(chart: &errmap::plot::PolarChart) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn date_axes_tick_at_calendar_steps() {
+        let day = |d: &str| errmap::history::parse_utc(d).expect("a date") as f64 / 86_400.0;
+        let labels = |a: &XAxis| a.ticks.iter().map(|t| t.1.clone()).collect::<Vec<_>>();
+        // Three days: every day.
+        let a = date_axis("d", day("2025-03-01"), day("2025-03-04"));
+        assert_eq!(
+            labels(&a),
+            ["2025-03-01", "2025-03-02", "2025-03-03", "2025-03-04"]
+        );
+        // Half a year: the first of every month, each tick at its date.
+        let a = date_axis("d", day("2025-01-20"), day("2025-07-10"));
+        assert_eq!(
+            labels(&a),
+            [
+                "2025-02", "2025-03", "2025-04", "2025-05", "2025-06", "2025-07"
+            ]
+        );
+        assert_eq!(a.ticks[0].0, day("2025-02-01"));
+        // Thirty years: every five years, on the first of January.
+        let a = date_axis("d", day("1995-06-01"), day("2025-06-01"));
+        assert_eq!(
+            labels(&a),
+            ["1995", "2000", "2005", "2010", "2015", "2020", "2025"]
+        );
+        assert!(
+            a.ticks
+                .iter()
+                .all(|t| (a.range.0..=a.range.1).contains(&t.0))
+        );
+    }
+
+    #[test]
+    fn the_legend_lists_only_what_is_drawn() {
+        let pt = |x: f64, y: f64| Pt {
+            x,
+            y,
+            tip: "p".into(),
+        };
+        let s = |name: &str, markers, points| Series {
+            name: name.into(),
+            colour: PALETTE[0],
+            dashed: false,
+            markers,
+            points,
+        };
+        let svg = xy(
+            "t",
+            "x",
+            "y",
+            &[
+                s("value", true, vec![pt(0.0, 1.0)]),
+                s("EWMA", false, vec![pt(0.0, 1.0)]),
+                s("UCL", false, vec![]),
+                s("LCL", false, vec![pt(0.0, 1.0), pt(1.0, 2.0)]),
+            ],
+            &[],
+        );
+        assert!(svg.contains(">value</text>") && svg.contains(">LCL</text>"));
+        assert!(!svg.contains(">EWMA</text>") && !svg.contains(">UCL</text>"));
+    }
 
     #[test]
     fn ticks_are_round_and_cover_the_range() {

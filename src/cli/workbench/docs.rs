@@ -27,6 +27,10 @@ pub(crate) enum DocError {
     /// The workbench itself failed (500).
     #[error("{0}")]
     Internal(String),
+    /// Being made by another request (the start-up warm-up): a page says so at once
+    /// (202) and fills in by itself; never kept, never a document's answer.
+    #[error("being computed")]
+    Pending,
 }
 
 impl DocError {
@@ -36,7 +40,28 @@ impl DocError {
             DocError::Bad(_) => 400,
             DocError::NotFound(_) => 404,
             DocError::Internal(_) => 500,
+            DocError::Pending => 202,
         }
+    }
+}
+
+impl DocError {
+    /// The same answer (status) with another message.
+    pub(crate) fn with_message(&self, message: String) -> DocError {
+        match self {
+            DocError::Bad(_) => DocError::Bad(message),
+            DocError::NotFound(_) => DocError::NotFound(message),
+            DocError::Internal(_) => DocError::Internal(message),
+            DocError::Pending => DocError::Pending,
+        }
+    }
+}
+
+/// A refusal answers `{"error": MESSAGE}` with its status, so a handler returns
+/// `Result<Response, DocError>` and `?` does the rest.
+impl axum::response::IntoResponse for DocError {
+    fn into_response(self) -> axum::response::Response {
+        super::server::json_error(self.status(), &self.to_string())
     }
 }
 
@@ -79,8 +104,15 @@ pub(crate) fn text<T: Serialize + ?Sized>(doc: &T) -> Result<String, DocError> {
 pub(crate) struct TableDoc {
     /// The session table read.
     pub path: PathBuf,
-    pub reduced: errmap::acquire::Reduced,
+    pub reduced: Reduction,
     pub text: String,
+}
+
+/// A session's reduction: a linear axis' lines, or a rotary axis (A, B, C) in ″.
+#[derive(Debug)]
+pub(crate) enum Reduction {
+    Linear(Box<errmap::acquire::Reduced>),
+    Rotary(Box<super::rotary::RotaryDoc>),
 }
 
 /// `errmap circular diagnose ITEM --json`, and the report's polar chart of the trace.
@@ -175,12 +207,23 @@ impl Jobs {
         let path = self.session_path(id)?;
         let key = path.display().to_string();
         self.tables.get(&key, &[&path, &capture_json(&path)], || {
+            let id = self.ws.id_of(&path);
+            let rotary = errmap::session::rotary::is_rotary(&path)
+                .map_err(|e| DocError::Bad(format!("{id}: {}", message(&e))))?;
+            if rotary {
+                let (doc, text) = super::rotary::reduce(&path, &id)?;
+                return Ok(TableDoc {
+                    path: path.clone(),
+                    reduced: Reduction::Rotary(Box::new(doc)),
+                    text,
+                });
+            }
             let reduced = errmap::acquire::reduce_session(&path)
-                .map_err(|e| DocError::Bad(format!("{}: {}", self.ws.id_of(&path), message(&e))))?;
+                .map_err(|e| DocError::Bad(format!("{id}: {}", message(&e))))?;
             let text = text(&errmap::report::table_json(&reduced, None))?;
             Ok(TableDoc {
                 path: path.clone(),
-                reduced,
+                reduced: Reduction::Linear(Box::new(reduced)),
                 text,
             })
         })

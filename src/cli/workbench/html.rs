@@ -81,9 +81,12 @@ pub(crate) fn table(head: &[&str], rows: &[Vec<String>]) -> String {
     s
 }
 
-/// A number with `d` decimals and its unit, as text.
+/// A number with `d` decimals and its unit, as text (an angle's °, ′ and ″ follow the
+/// number without a space, as the SI brochure writes them).
 pub(crate) fn num(v: f64, d: usize, unit: &str) -> String {
-    if v.is_finite() {
+    if v.is_finite() && matches!(unit, "°" | "′" | "″") {
+        format!("{v:.d$}{unit}")
+    } else if v.is_finite() {
         format!("{v:.d$} {unit}")
     } else {
         "—".into()

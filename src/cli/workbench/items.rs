@@ -275,7 +275,8 @@ fn kind_of(p: &Path) -> Option<(Kind, Option<String>)> {
 
 fn kind_of_columns(p: &Path, cols: &[&str]) -> Option<Kind> {
     let has = |c: &str| cols.contains(&c);
-    if has("laser_mm") || (has("run") && has("target") && has("error_um")) {
+    let error = has("error_um") || has("error_arcsec");
+    if has("laser_mm") || (has("run") && has("target") && error) {
         Some(Kind::Session)
     } else if has("line") && has("ux") && has("e_um") {
         Some(Kind::VolumetricLines)

@@ -35,15 +35,69 @@ pub(crate) struct StartRequest {
     pub baud: Option<u32>,
 }
 
-/// The error at one target in one pass: the mean of its dwell samples so far.
+/// The error at one target in one pass: the mean of its dwell samples so far. A linear
+/// axis' in mm and µm, a rotary axis' in ° and ″ (the other pair is left out).
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub(crate) struct TargetRow {
     pub run: u32,
     pub direction: i8,
     pub target: i32,
-    pub position_mm: f64,
-    pub error_um: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_mm: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_um: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error_arcsec: Option<f64>,
     pub n: u64,
+}
+
+impl TargetRow {
+    fn new(run: u32, direction: i8, target: i32, reading: Reading) -> TargetRow {
+        let (pos, err) = (Some(reading.position), Some(reading.error));
+        let mut row = TargetRow {
+            run,
+            direction,
+            target,
+            position_mm: None,
+            error_um: None,
+            position_deg: None,
+            error_arcsec: None,
+            n: 1,
+        };
+        if reading.rotary {
+            (row.position_deg, row.error_arcsec) = (pos, err);
+        } else {
+            (row.position_mm, row.error_um) = (pos, err);
+        }
+        row
+    }
+
+    /// Adds one dwell sample to the running means.
+    fn push(&mut self, reading: Reading) {
+        self.n += 1;
+        let n = self.n as f64;
+        let (pos, err) = if reading.rotary {
+            (&mut self.position_deg, &mut self.error_arcsec)
+        } else {
+            (&mut self.position_mm, &mut self.error_um)
+        };
+        for (mean, v) in [(pos, reading.position), (err, reading.error)] {
+            if let Some(m) = mean {
+                *m += (v - *m) / n;
+            }
+        }
+    }
+}
+
+/// One dwell sample: a linear axis' position (mm) and error (µm), or a rotary axis'
+/// angle (°) and error (″).
+#[derive(Debug, Clone, Copy)]
+struct Reading {
+    rotary: bool,
+    position: f64,
+    error: f64,
 }
 
 /// What the page shows of a capture (one Server-Sent Event).
@@ -60,6 +114,13 @@ pub(crate) struct Snapshot {
     pub target: Option<i32>,
     pub position_mm: Option<f64>,
     pub error_um: Option<f64>,
+    /// A rotary board's axis (A, B or C); its readings are `angle_deg` and `error_arcsec`
+    /// and its target rows in ° and ″.
+    pub rotary_axis: Option<String>,
+    /// The rotary axis' indicated angle, °.
+    pub angle_deg: Option<f64>,
+    /// The rotary axis' error (indicated − reference), ″.
+    pub error_arcsec: Option<f64>,
     pub elapsed_s: f64,
     pub crc_failures: u64,
     pub resyncs: u64,
@@ -305,7 +366,11 @@ impl Source {
                 if !(speed.is_finite() && (0.01..=1000.0).contains(&speed)) {
                     return Err(LiveError::Speed(speed));
                 }
-                let (stream, _) = errmap::sim::simulate_stream(&m, Some(&p), &Default::default())?;
+                let stream = if errmap::sim::is_rotary_model(&m) {
+                    errmap::sim::simulate_rotary_stream(&m, Some(&p))?
+                } else {
+                    errmap::sim::simulate_stream(&m, Some(&p), &Default::default())?.0
+                };
                 Ok(Source::Simulated {
                     stream: Box::new(stream),
                     speed,
@@ -443,7 +508,12 @@ impl<'a> Watcher<'a> {
                 self.snap.position_mm = Some(r.scale_mm);
                 self.snap.error_um = r.error_um.is_finite().then_some(r.error_um);
                 if r.target >= 0 && r.error_um.is_finite() && r.flags == 0 {
-                    self.dwell(r.run, r.direction, r.target, r.scale_mm, r.error_um);
+                    let reading = Reading {
+                        rotary: false,
+                        position: r.scale_mm,
+                        error: r.error_um,
+                    };
+                    self.dwell(r.run, r.direction, r.target, reading);
                 }
             }
             SessionEvent::Problem(p) => {
@@ -451,40 +521,39 @@ impl<'a> Watcher<'a> {
                 let name = name.split([' ', '{', '(']).next().unwrap_or("").to_string();
                 *self.snap.problems.entry(name).or_default() += 1;
             }
-            // A rotary board's rows: counted, not drawn (the live chart is linear).
+            // A rotary board's rows: its angle in ° and its error in ″.
             SessionEvent::Rotary(r) => {
                 self.snap.samples += 1;
                 self.snap.run = Some(r.run);
                 self.snap.target = Some(r.target);
+                self.snap.rotary_axis = Some(r.axis.to_string());
+                self.snap.angle_deg = r.indicated_deg.is_finite().then_some(r.indicated_deg);
+                self.snap.error_arcsec = r.error_arcsec.is_finite().then_some(r.error_arcsec);
+                if r.target >= 0 && r.error_arcsec.is_finite() && r.flags == 0 {
+                    let reading = Reading {
+                        rotary: true,
+                        position: r.indicated_deg,
+                        error: r.error_arcsec,
+                    };
+                    self.dwell(r.run, r.direction, r.target, reading);
+                }
             }
             SessionEvent::Hello(_) | SessionEvent::Text { .. } => {}
         }
         self.publish();
     }
 
-    fn dwell(&mut self, run: u32, direction: i8, target: i32, pos: f64, e: f64) {
+    fn dwell(&mut self, run: u32, direction: i8, target: i32, reading: Reading) {
         let key = (run, direction, target);
         let rows = &mut self.snap.targets;
         match self.index.get(&key).copied().filter(|&k| k < rows.len()) {
-            Some(k) if rows[k].run == run && rows[k].target == target => {
-                let t = &mut rows[k];
-                t.n += 1;
-                t.error_um += (e - t.error_um) / t.n as f64;
-                t.position_mm += (pos - t.position_mm) / t.n as f64;
-            }
+            Some(k) if rows[k].run == run && rows[k].target == target => rows[k].push(reading),
             _ => {
                 if rows.len() == MAX_TARGET_ROWS {
                     rows.remove(0);
                     self.index.values_mut().for_each(|k| *k = k.wrapping_sub(1));
                 }
-                rows.push(TargetRow {
-                    run,
-                    direction,
-                    target,
-                    position_mm: pos,
-                    error_um: e,
-                    n: 1,
-                });
+                rows.push(TargetRow::new(run, direction, target, reading));
                 self.index.insert(key, rows.len() - 1);
             }
         }

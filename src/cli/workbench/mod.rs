@@ -15,6 +15,7 @@
 //! | `cache` | results kept by their input files' identity (path, modification time, size) |
 //! | `pages` | the server-rendered pages |
 //! | `html` | the page shell and HTML escaping |
+//! | `rotary` | a rotary session's document and page (″ against °, the closure check) |
 //! | `charts` | inline SVG charts (deviation chart, polar plot, component bands) with hover values |
 //! | `live` | the live capture: a serial port or a simulated board, Server-Sent Events |
 //! | `server` | the router, the access token, the per-run form token, the downloads, the warm-up |
@@ -34,6 +35,7 @@ mod html;
 mod items;
 mod live;
 mod pages;
+mod rotary;
 mod server;
 
 use std::path::PathBuf;

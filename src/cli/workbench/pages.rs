@@ -11,8 +11,8 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use serde_json::Value;
 
-use super::charts::{self, Band, PALETTE, Pt, Series};
-use super::docs::{self, DocError};
+use super::charts::{self, Band, DeviationTarget, PALETTE, Pt, Series};
+use super::docs::{self, DocError, Reduction};
 use super::html::{esc, num, page, table, url_path};
 use super::server::{AppState, Params, Shared, blocking};
 
@@ -42,6 +42,15 @@ fn html(st: &Shared, status: u16, title: &str, body: &str) -> Response {
 fn result_page(st: &Shared, title: &str, r: Result<String, DocError>) -> Response {
     match r {
         Ok(body) => html(st, 200, title, &body),
+        // The page's script reloads it until the result is there.
+        Err(DocError::Pending) => html(
+            st,
+            202,
+            title,
+            "<p class=\"note\" id=\"pending\">Being computed: the workbench is making this \
+             page's result (at start-up it makes the workspace's results once). The page fills \
+             in by itself when it is ready.</p>",
+        ),
         Err(e) => {
             let heading = if e.status() == 404 {
                 "Not found"
@@ -65,7 +74,7 @@ async fn job_page(
     body: impl FnOnce(&AppState) -> Result<String, DocError> + Send + 'static,
 ) -> Response {
     let st2 = Arc::clone(&st);
-    let r = blocking(move || body(&st2)).await;
+    let r = blocking(move || super::cache::without_waiting(|| body(&st2))).await;
     result_page(&st, &title, r)
 }
 
@@ -114,7 +123,16 @@ async fn session(
 ) -> Response {
     job_page(st, format!("Session {item}"), move |st| {
         let doc = st.jobs.table(&item)?;
-        Ok(session_body(st, &item, &doc.path, &doc.reduced, &q))
+        Ok(match &doc.reduced {
+            Reduction::Linear(r) => session_body(st, &item, &doc.path, r, &q),
+            Reduction::Rotary(r) => super::rotary::body(
+                r,
+                &item,
+                &st.jobs.ws.id_of(&doc.path),
+                q.info.as_deref(),
+                decoder_stats(&doc.path),
+            ),
+        })
     })
     .await
 }
@@ -276,72 +294,26 @@ fn environment(e: &errmap::session::EnvironmentStats) -> String {
 /// The ISO 230-2 deviation chart of one line, in the report's style; tips in µm to `d`
 /// decimals.
 fn deviation_chart(stats: &errmap::session::AxisStats, line: usize, d: usize) -> String {
-    let mut t: Vec<&errmap::session::TargetStats> = stats.targets.iter().collect();
-    t.sort_by(|a, b| a.position_mm.total_cmp(&b.position_mm));
-    let series = |name: &str,
-                  colour,
-                  dashed,
-                  f: &dyn Fn(&errmap::session::TargetStats) -> f64,
-                  dir: &str| {
-        Series {
-            name: name.into(),
-            colour,
-            dashed,
-            markers: !dashed,
-            points: t
-                .iter()
-                .map(|s| Pt {
-                    x: s.position_mm,
-                    y: f(s),
-                    tip: format!(
-                        "target {} (P = {:.3} mm), {dir}, all runs: {} = {:.d$} µm",
-                        s.target,
-                        s.position_mm,
-                        name,
-                        f(s)
-                    ),
-                })
-                .collect(),
-        }
-    };
-    let up = "↑ positive approach";
-    let down = "↓ negative approach";
+    let targets: Vec<DeviationTarget> = stats
+        .targets
+        .iter()
+        .map(|t| DeviationTarget {
+            target: t.target,
+            x: t.position_mm,
+            up: (t.mean_up_um, t.s_up_um),
+            down: (t.mean_down_um, t.s_down_um),
+        })
+        .collect();
     charts::xy(
         &format!("Line {line}: positional deviation (ISO 230-2)"),
         "target position P_i / mm",
         "positional deviation x = −e / µm",
-        &[
-            series("mean x↑", PALETTE[0], false, &|s| s.mean_up_um, up),
-            series(
-                "x̄↑ + 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_um + 2.0 * s.s_up_um,
-                up,
-            ),
-            series(
-                "x̄↑ − 2s↑",
-                PALETTE[0],
-                true,
-                &|s| s.mean_up_um - 2.0 * s.s_up_um,
-                up,
-            ),
-            series("mean x↓", PALETTE[3], false, &|s| s.mean_down_um, down),
-            series(
-                "x̄↓ + 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_um + 2.0 * s.s_down_um,
-                down,
-            ),
-            series(
-                "x̄↓ − 2s↓",
-                PALETTE[3],
-                true,
-                &|s| s.mean_down_um - 2.0 * s.s_down_um,
-                down,
-            ),
-        ],
+        &charts::deviation_series(targets, &|t, name, dir, v| {
+            format!(
+                "target {} (P = {:.3} mm), {dir}, all runs: {name} = {v:.d$} µm",
+                t.target, t.x
+            )
+        }),
         &[],
     )
 }
@@ -790,17 +762,25 @@ fn parameter_chart(machine: &str, axis: &str, p: &errmap::history::ParameterRepo
             })
             .collect(),
     };
-    let chart = charts::xy(
+    let series = [
+        line("value", PALETTE[0], false, true, &|s| Some(s.value)),
+        line("EWMA", PALETTE[1], false, false, &|s| s.ewma),
+        line("UCL", PALETTE[3], true, false, &|s| s.ucl),
+        line("LCL", PALETTE[3], true, false, &|s| s.lcl),
+    ];
+    let (lo, hi) = p
+        .series
+        .iter()
+        .map(|s| day(&s.at))
+        .filter(|d| d.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| {
+            (a.min(d), b.max(d))
+        });
+    let chart = charts::xy_on(
         &format!("{machine} {axis} {} (EWMA chart)", p.name),
-        "days since 1970-01-01 (UTC)",
+        &charts::date_axis("date of the record (UTC)", lo, hi),
         &format!("{} / {}", p.name, unit),
-        &[
-            line("value", PALETTE[0], false, true, &|s| Some(s.value)),
-            line("EWMA", PALETTE[1], false, false, &|s| s.ewma),
-            line("UCL", PALETTE[3], true, false, &|s| s.ucl),
-            line("LCL", PALETTE[3], true, false, &|s| s.lcl),
-        ],
-        &[],
+        &series,
     );
     let trend = match (p.rate_per_year, p.rate_sigma) {
         (Some(r), Some(s)) => format!("trend {r:.3} ± {s:.3} {}/year", unit),
@@ -880,7 +860,7 @@ async fn live(State(st): State<Shared>) -> Response {
          <div class=\"figure\"><span>samples</span><b id=\"samples\">0</b></div>\
          <div class=\"figure\"><span>run</span><b id=\"run\">—</b></div>\
          <div class=\"figure\"><span>target</span><b id=\"target\">—</b></div>\
-         <div class=\"figure\"><span>scale position</span><b id=\"position\">—</b></div>\
+         <div class=\"figure\"><span id=\"position-label\">scale position</span><b id=\"position\">—</b></div>\
          <div class=\"figure\"><span>error reading</span><b id=\"reading\">—</b></div>\
          </div><p>Decoder health: <span id=\"health\">—</span></p>\
          <h2>Error at each target per pass (mean of its dwell samples)</h2>\

@@ -279,10 +279,7 @@ fn json_text(text: String) -> Response {
 }
 
 fn doc_response(r: Result<String, DocError>) -> Response {
-    match r {
-        Ok(t) => json_text(t),
-        Err(e) => json_error(e.status(), &e.to_string()),
-    }
+    r.map_or_else(IntoResponse::into_response, json_text)
 }
 
 /// Runs a job off the async threads (the jobs read files and compute).
@@ -573,82 +570,93 @@ fn stem(item: &str) -> String {
         .to_string()
 }
 
-/// The session table of a download's item, as the command's argument.
-fn session_arg(st: &Shared, item: &str) -> Result<String, DocError> {
-    st.jobs.session_path(item).map(|p| p.display().to_string())
+/// The session table of a download's item, as the command's argument, and whether it is
+/// a rotary session.
+fn session_arg(st: &Shared, item: &str) -> Result<(String, bool), DocError> {
+    let p = st.jobs.session_path(item)?;
+    let rotary = errmap::session::rotary::is_rotary(&p)
+        .map_err(|e| DocError::Bad(format!("{item}: {}", docs::message(&e))))?;
+    Ok((p.display().to_string(), rotary))
 }
 
-async fn download_table(State(st): State<Shared>, UrlPath(item): UrlPath<String>) -> Response {
-    let session = match session_arg(&st, &item) {
-        Ok(s) => s,
-        Err(e) => return json_error(e.status(), &e.to_string()),
-    };
+async fn download_table(
+    State(st): State<Shared>,
+    UrlPath(item): UrlPath<String>,
+) -> Result<Response, DocError> {
+    let (session, _) = session_arg(&st, &item)?;
     let name = format!("{}-errors.csv", stem(&item));
-    by_command(
+    Ok(by_command(
         st,
         vec!["table".into(), session],
         name,
         "text/csv; charset=utf-8",
     )
-    .await
+    .await)
 }
 
 async fn download_certificate(
     State(st): State<Shared>,
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
-) -> Response {
-    let session = match session_arg(&st, &item) {
-        Ok(s) => s,
-        Err(e) => return json_error(e.status(), &e.to_string()),
-    };
+) -> Result<Response, DocError> {
+    let (session, _) = session_arg(&st, &item)?;
     let mut args = vec!["certificate".to_string(), session];
     for (flag, v) in [("--info", &q.info), ("--tolerances", &q.tolerances)] {
         if let Some(id) = v.as_deref().filter(|v| !v.is_empty()) {
-            match st.jobs.ws.resolve(id) {
-                Ok(p) => args.extend([flag.to_string(), p.display().to_string()]),
-                Err(e) => return json_error(DocError::from(e).status(), &format!("{flag}: {id}")),
-            }
+            let p = st.jobs.ws.resolve(id).map_err(|e| {
+                let status = DocError::from(e);
+                status.with_message(format!("{flag}: {id}"))
+            })?;
+            args.extend([flag.to_string(), p.display().to_string()]);
         }
     }
     let name = format!("{}-certificate.pdf", stem(&item));
-    by_command(st, args, name, "application/pdf").await
+    Ok(by_command(st, args, name, "application/pdf").await)
 }
 
+/// `errmap export`: a linear session with `--bidirectional --axis AXIS`, a rotary one as
+/// its controller's modulo table (one value per point, the axis from the session).
 async fn download_export(
     State(st): State<Shared>,
     UrlPath(item): UrlPath<String>,
     Query(q): Query<Params>,
-) -> Response {
-    let session = match session_arg(&st, &item) {
-        Ok(s) => s,
-        Err(e) => return json_error(e.status(), &e.to_string()),
+) -> Result<Response, DocError> {
+    let (session, rotary) = session_arg(&st, &item)?;
+    let known = |f: &str| {
+        if rotary {
+            super::rotary::MODULO_DIALECTS.contains(&f)
+        } else {
+            errmap::controller::DIALECTS.iter().any(|d| d.name() == f)
+        }
     };
-    let Some(format) = q.format.filter(|f| {
-        errmap::controller::DIALECTS
-            .iter()
-            .any(|d| d.name() == f.as_str())
-    }) else {
-        return json_error(400, "?format= one of the controller dialects");
+    let Some(format) = q.format.filter(|f| known(f)) else {
+        return Err(DocError::Bad(if rotary {
+            format!(
+                "?format= one of the controllers with a modulo table: {}",
+                super::rotary::MODULO_DIALECTS.join(", ")
+            )
+        } else {
+            "?format= one of the controller dialects".into()
+        }));
     };
-    let axis = st
-        .jobs
-        .ws
-        .items()
-        .into_iter()
-        .find(|i| i.id == item)
-        .and_then(|i| i.axis)
-        .unwrap_or_else(|| "x".into())
-        .to_ascii_lowercase();
-    let args = vec![
+    let mut args = vec![
         "export".to_string(),
         session,
         "--format".into(),
         format.clone(),
-        "--bidirectional".into(),
-        "--axis".into(),
-        axis,
     ];
+    if !rotary {
+        let axis = st
+            .jobs
+            .ws
+            .items()
+            .into_iter()
+            .find(|i| i.id == item)
+            .and_then(|i| i.axis)
+            .unwrap_or_else(|| "x".into())
+            .to_ascii_lowercase();
+        args.extend(["--bidirectional".into(), "--axis".into(), axis]);
+    }
     let name = format!("{}-{format}.txt", stem(&item));
-    by_command(st, args, name, "text/plain; charset=utf-8").await
+    Ok(by_command(st, args, name, "text/plain; charset=utf-8").await)
 }

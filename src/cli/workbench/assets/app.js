@@ -24,6 +24,8 @@
       body: JSON.stringify(body || {}),
     }).then(function (r) { return r.json().then(function (j) { return { status: r.status, body: j }; }); });
   }
+  // A page whose result is being made: look again shortly (it fills in when ready).
+  if (document.getElementById("pending")) { setTimeout(function () { location.reload(); }, 250); }
   const live = document.getElementById("live");
   if (!live) { return; }
   const $ = function (id) { return document.getElementById(id); };
@@ -51,15 +53,25 @@
     $("samples").textContent = String(s.samples);
     $("run").textContent = s.run === null ? "—" : String(s.run);
     $("target").textContent = s.target === null ? "—" : String(s.target);
-    $("position").textContent = s.position_mm === null ? "—" : s.position_mm.toFixed(4) + " mm";
-    $("reading").textContent = s.error_um === null ? "—" : s.error_um.toFixed(3) + " µm";
+    // A rotary board's readings are an angle (°) and an angular error (″).
+    const rotary = s.rotary_axis !== null;
+    $("position-label").textContent = rotary ? "axis " + s.rotary_axis + " angle" : "scale position";
+    if (rotary) {
+      $("position").textContent = s.angle_deg === null ? "—" : s.angle_deg.toFixed(4) + "°";
+      $("reading").textContent = s.error_arcsec === null ? "—" : s.error_arcsec.toFixed(2) + "″";
+    } else {
+      $("position").textContent = s.position_mm === null ? "—" : s.position_mm.toFixed(4) + " mm";
+      $("reading").textContent = s.error_um === null ? "—" : s.error_um.toFixed(3) + " µm";
+    }
     $("health").textContent = s.crc_failures + " CRC failures, " + s.resyncs + " resyncs, " + s.seq_gaps + " seq gaps, " + s.flagged + " flagged";
     $("start").disabled = s.state === "running";
     $("stop").disabled = s.state !== "running";
     if (s.error) { say(s.error, true); }
     const rows = s.targets.map(function (t) {
       return "<tr><td class=n>" + t.run + "</td><td>" + (t.direction > 0 ? "↑" : "↓") + "</td><td class=n>" + t.target +
-        "</td><td class=n>" + t.position_mm.toFixed(3) + " mm</td><td class=n>" + t.error_um.toFixed(3) + " µm</td><td class=n>" + t.n + "</td></tr>";
+        "</td><td class=n>" + (rotary ? t.position_deg.toFixed(4) + "°" : t.position_mm.toFixed(3) + " mm") +
+        "</td><td class=n>" + (rotary ? t.error_arcsec.toFixed(2) + "″" : t.error_um.toFixed(3) + " µm") +
+        "</td><td class=n>" + t.n + "</td></tr>";
     });
     $("targets").innerHTML = rows.join("");
   });
