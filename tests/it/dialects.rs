@@ -207,20 +207,27 @@ fn flags(d: &dyn Dialect) -> Vec<&'static str> {
     }
 }
 
+/// A session along x measured at `positions` (mm) with zero error: it leaves a table as
+/// it is.
+pub(crate) fn zero_session(dir: &std::path::Path, positions: &[f64]) -> std::path::PathBuf {
+    let session = dir.join("s.csv");
+    let mut sess = String::from(
+        "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
+    );
+    for (k, p) in positions.iter().enumerate() {
+        sess.push_str(&format!("1,{k},{k},X,1,,{k},{p},0,0,{p},{p},0,0\n"));
+    }
+    std::fs::write(&session, sess).expect("session");
+    session
+}
+
 /// The command line takes every dialect's name: `import --format` reads its table, and
 /// `export --existing --format` with a session that leaves no residual writes the file
 /// back byte for byte; `--help` lists every dialect.
 #[test]
 fn every_dialect_through_the_command_line() {
     let dir = tempdir();
-    let session = dir.path().join("s.csv");
-    let mut sess = String::from(
-        "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
-    );
-    for (k, p) in POS.iter().enumerate() {
-        sess.push_str(&format!("1,{k},{k},X,1,,{k},{p},0,0,{p},{p},0,0\n"));
-    }
-    std::fs::write(&session, sess).expect("session");
+    let session = zero_session(dir.path(), &POS);
     for d in controller::DIALECTS {
         let name = d.name();
         let format = d.export_format(&settings(), false).expect("format");

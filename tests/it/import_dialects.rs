@@ -432,14 +432,7 @@ fn fanuc_round_trip_and_update() {
 fn every_dialect_through_the_cli() {
     let dir = tempfile::tempdir().expect("tempdir");
     // A session measured at 0, 10, 20 mm with zero error (a table with no residual).
-    let session = dir.path().join("s.csv");
-    let mut sess = String::from(
-        "run,sample,t_s,axis,direction,feed_mm_s,target,x_mm,y_mm,z_mm,scale_mm,laser_mm,error_um,flags\n",
-    );
-    for (k, p) in POS.iter().enumerate() {
-        sess.push_str(&format!("1,{k},{k},X,1,,{k},{p},0,0,{p},{p},0,0\n"));
-    }
-    std::fs::write(&session, sess).expect("session");
+    let session = super::dialects::zero_session(dir.path(), &POS);
     let axis = IsgAxis {
         number: 1,
         name: "X".into(),
