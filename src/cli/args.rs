@@ -64,8 +64,7 @@ pub(crate) struct ExportArgs {
     /// the offsets). Required with --existing.
     #[arg(long, value_enum)]
     pub comp_type: Option<CompTypeArg>,
-    /// The controller table in use (fagor-8055, fagor-8065, linuxcnc, siemens, fanuc,
-    /// heidenhain, isg): write it back
+    /// The controller table in use (a dialect of --format): write it back
     /// updated by the session's residual (the session measured with it active), in its
     /// own layout, values only.
     #[arg(long, conflicts_with_all = ["method", "order"])]

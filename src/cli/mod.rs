@@ -116,8 +116,9 @@ pub(crate) enum Command {
     Bench(BenchArgs),
     /// Find and model what the simulation left out of a recording.
     Diagnose(DiagnoseArgs),
-    /// Export compensation tables (LinuxCNC, Siemens 840D, FANUC, HEIDENHAIN, ISG/TwinCAT,
-    /// Fagor 8055, Fagor 8065, CSV) or a volumetric grid; --existing updates a table in use.
+    // Export compensation tables (every controller of the registry, CSV) or a volumetric
+    // grid; --existing updates a table in use: `values::export_about`, from the registry.
+    #[command(about = values::export_about())]
     Export(ExportArgs),
     /// Write an ISO 230-2 test plan along one axis and its part program.
     Plan(plan::PlanArgs),

@@ -621,8 +621,7 @@ fn export_bidirectional(
             "",
         ));
     }
-    let path = super::acquisition::session_file(&a.table)?;
-    let rows = errmap::session::read_session(&path)?;
+    let (path, rows) = session_rows(a)?;
     let job = ExportJob {
         output,
         settings,
@@ -669,6 +668,13 @@ fn export_bidirectional(
     Ok(())
 }
 
+/// The session table `export SESSION` names, and its rows.
+fn session_rows(a: &ExportArgs) -> Result<(std::path::PathBuf, Vec<errmap_drivers::SessionRow>)> {
+    let path = super::acquisition::session_file(&a.table)?;
+    let rows = errmap::session::read_session(&path)?;
+    Ok((path, rows))
+}
+
 /// `export SESSION --existing TABLE --format F --out NEW`: the table updated by the
 /// session's residual, in the table's own layout (`errmap::controller::update`).
 fn export_existing(
@@ -692,8 +698,7 @@ fn export_existing(
         &[("SESSION", &a.table), ("--existing", existing)],
     )?;
     let bytes = std::fs::read(existing).map_err(io_err(existing, FileOp::Read))?;
-    let path = super::acquisition::session_file(&a.table)?;
-    let rows = errmap::session::read_session(&path)?;
+    let (path, rows) = session_rows(a)?;
     let job = ExportJob {
         output,
         settings,

@@ -516,6 +516,17 @@ impl FromStr for LineAt {
     }
 }
 
+/// `export`'s line in `errmap --help`: the controllers as a user knows them, from the
+/// registry.
+pub(crate) fn export_about() -> String {
+    let controllers: Vec<&str> = DIALECTS.iter().map(|d| d.controller()).collect();
+    format!(
+        "Export compensation tables ({}, CSV) or a volumetric grid; --existing updates a \
+         table in use",
+        controllers.join(", ")
+    )
+}
+
 /// `--format` of export: a controller dialect from the registry
 /// (`errmap::controller::DIALECTS`), or errmap's own CSV line and volumetric grid.
 #[derive(Clone, Copy)]

@@ -59,8 +59,8 @@ use super::read::{At, Field, TablePoint, check_point};
 use super::text::{Text, number};
 use super::update::fixed;
 use super::{
-    AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, Dialect, Digits, Editor, ExportFormat, Limits, Parsed, PointUpdate, SettingsError,
+    Sign, Spacing, TableFormat, TableSettings, UpdateStyle, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled};
@@ -558,6 +558,65 @@ impl Dialect for Fagor {
             Fagor::Al8055 => ExportFormat::Fagor8055 { spec: spec(s) },
             Fagor::Mp8065 => ExportFormat::Fagor8065 { spec: spec(s) },
         })
+    }
+    fn read(&self, text: &Text, format: TableFormat) -> Result<Parsed, At> {
+        let k = format.units().mm();
+        Ok(match self {
+            Fagor::Al8055 => {
+                let (axis, points) = read_8055(text, k)?;
+                Parsed {
+                    axis: Some(axis),
+                    bidirectional: points.iter().any(|p| p.down_file != 0.0),
+                    points,
+                    ..Parsed::default()
+                }
+            }
+            Fagor::Mp8065 => {
+                let (axis, points, bidirectional, bidir_value, bidir_comment) = read_8065(text, k)?;
+                Parsed {
+                    axis,
+                    points,
+                    bidirectional,
+                    bidir_value,
+                    bidir_comment,
+                    ..Parsed::default()
+                }
+            }
+        })
+    }
+    fn update_style(&self) -> UpdateStyle {
+        UpdateStyle::ALIGNED
+    }
+    /// err+ and err− in the file's unit, each at its own decimals: err+ − r⁺, and err−
+    /// (err+ where the table was one for both directions) − r⁻ when there is a reverse.
+    fn edit_point(&self, editor: &mut Editor, u: &PointUpdate) {
+        let (p, k) = (u.point, editor.k());
+        let own = |f: Field| Digits {
+            decimals: f.decimals,
+            trim: false,
+        };
+        editor.edit(
+            p.up,
+            p.up_file,
+            p.up_file,
+            p.up_file + VALUE.file(u.r_up, k),
+            own(p.up),
+        );
+        if u.bidirectional || u.table.bidirectional {
+            let base = if u.table.bidirectional {
+                p.down_file
+            } else {
+                p.up_file
+            };
+            let r = if u.bidirectional { u.r_down } else { u.r_up };
+            editor.edit(
+                p.down,
+                p.down_file,
+                base,
+                base + VALUE.file(r, k),
+                own(p.down),
+            );
+        }
     }
 }
 /// A point's checks, as both Fagor readers make them: positions increasing, the position

@@ -56,7 +56,7 @@ use super::read::{At, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
     AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    TableSettings, UpdateStyle, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled, fmt_mm};
@@ -308,6 +308,17 @@ impl Dialect for Heidenhain {
     }
     fn table_format(&self, _: &TableSettings) -> Result<TableFormat, SettingsError> {
         Ok(TableFormat::Heidenhain)
+    }
+    fn read(&self, text: &Text, _: TableFormat) -> Result<Parsed, At> {
+        read(text)
+    }
+    fn update_style(&self) -> UpdateStyle {
+        // Written at 1e-6 mm with trailing zeros trimmed, `+` on positive values.
+        UpdateStyle {
+            trimmed_decimals: Some(6),
+            plus: true,
+            ..UpdateStyle::default()
+        }
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         let axis_key = s.axis_name();

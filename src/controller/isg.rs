@@ -457,6 +457,9 @@ impl Dialect for Isg {
     fn table_format(&self, _: &TableSettings) -> Result<TableFormat, SettingsError> {
         Ok(TableFormat::Isg)
     }
+    fn read(&self, text: &Text, _: TableFormat) -> Result<Parsed, At> {
+        read(text)
+    }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         Ok(ExportFormat::Isg {
             axis: IsgAxis {

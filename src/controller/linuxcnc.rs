@@ -57,8 +57,8 @@ use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds
 use super::read::{At, TablePoint, check_point};
 use super::text::{Text, number};
 use super::{
-    AxisKind, AxisTables, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
-    TableSettings, Value, ValueUnit,
+    AxisKind, AxisTables, Dialect, Editor, ExportFormat, Limits, Parsed, PointUpdate,
+    SettingsError, Sign, Spacing, TableFormat, TableSettings, UpdateStyle, Value, ValueUnit,
 };
 use crate::export::{ExportError, Sampled, fmt_mm};
 
@@ -201,6 +201,15 @@ pub(crate) fn read(text: &Text, k: f64, comp: CompType) -> Result<Vec<TablePoint
 // ---------------------------------------------------------------------------------------
 // The dialect
 
+/// The type of a LinuxCNC table format (trim for any other format: only LinuxCNC's
+/// own formats reach this dialect's reader and update).
+fn comp_type(format: TableFormat) -> CompType {
+    match format {
+        TableFormat::LinuxCnc { comp_type, .. } => comp_type,
+        _ => CompType::Trim,
+    }
+}
+
 /// LinuxCNC's `COMP_FILE` ([`super::DIALECTS`]).
 #[derive(Debug, Clone, Copy)]
 pub struct LinuxCnc;
@@ -254,6 +263,29 @@ impl Dialect for LinuxCnc {
         Ok(ExportFormat::LinuxCnc {
             comp_type: s.comp_type.unwrap_or(CompType::ActualPosition),
         })
+    }
+    fn read(&self, text: &Text, format: TableFormat) -> Result<Parsed, At> {
+        let points = read(text, format.units().mm(), comp_type(format))?;
+        Ok(Parsed {
+            bidirectional: points.iter().any(|p| p.e_up_um != p.e_down_um),
+            points,
+            ..Parsed::default()
+        })
+    }
+    fn update_style(&self) -> UpdateStyle {
+        UpdateStyle::ALIGNED
+    }
+    /// The trim e + r, or the actual position N − (e + r), in the file's unit.
+    fn edit_point(&self, editor: &mut Editor, u: &PointUpdate) {
+        let (p, k) = (u.point, editor.k());
+        let (up_digits, down_digits) = editor.digits();
+        let value = |e_um: f64| match comp_type(u.table.format) {
+            CompType::Trim => VALUE.file(e_um, k),
+            CompType::ActualPosition => p.position_file - VALUE.file(e_um, k),
+        };
+        editor.rewrite(p.up, p.up_file, value(p.e_up_um + u.r_up), up_digits);
+        let down = value(p.e_down_um + u.r_down);
+        editor.rewrite(p.down, p.down_file, down, down_digits);
     }
 }
 

@@ -81,9 +81,12 @@ pub use isg::{ISG_DEFAULT_MAX_POINTS, IsgAxis};
 pub use linuxcnc::{CompType, LINUXCNC_MAX_ENTRIES};
 pub use modulo_update::update_modulo;
 pub use options::{DialectOption, DialectOptions, OptionError, OptionValue, dialect_options};
-pub use read::{At, ControllerTable, Field, TablePoint, read};
+pub use read::{At, ControllerTable, Field, Parsed, TablePoint, read};
 pub use siemens::SIEMENS_808D_MAX_POINTS;
-pub use update::{Residual, UpdateError, UpdateSummary, Updated, update_table};
+pub use update::{
+    Digits, Editor, PointUpdate, Residual, UpdateError, UpdateStyle, UpdateSummary, Updated,
+    update_table,
+};
 
 /// The refusal of a table of more entries than the controller takes: `samples` of
 /// `s` plus `padding` entries the format adds, against `limit`, naming a step that fits
@@ -155,28 +158,26 @@ pub enum TableFormat {
 }
 
 impl TableFormat {
-    pub fn name(self) -> &'static str {
+    /// The dialect whose table this is: its reader and its update.
+    pub fn dialect(self) -> &'static dyn Dialect {
         match self {
-            TableFormat::Fagor8055 { .. } => "fagor-8055",
-            TableFormat::Fagor8065 { .. } => "fagor-8065",
-            TableFormat::LinuxCnc { .. } => "linuxcnc",
-            TableFormat::Siemens => "siemens",
-            TableFormat::Fanuc => "fanuc",
-            TableFormat::Heidenhain => "heidenhain",
-            TableFormat::Isg => "isg",
+            TableFormat::Fagor8055 { .. } => &fagor::Fagor::Al8055,
+            TableFormat::Fagor8065 { .. } => &fagor::Fagor::Mp8065,
+            TableFormat::LinuxCnc { .. } => &linuxcnc::LinuxCnc,
+            TableFormat::Siemens => &siemens::Siemens,
+            TableFormat::Fanuc => &fanuc::Fanuc,
+            TableFormat::Heidenhain => &heidenhain::Heidenhain,
+            TableFormat::Isg => &isg::Isg,
         }
+    }
+
+    pub fn name(self) -> &'static str {
+        self.dialect().name()
     }
 
     /// The sign and unit of the table's values (its dialect's [`Value`]).
     pub fn value(self) -> Value {
-        match self {
-            TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => fagor::VALUE,
-            TableFormat::LinuxCnc { .. } => linuxcnc::VALUE,
-            TableFormat::Siemens => siemens::VALUE,
-            TableFormat::Fanuc => fanuc::VALUE,
-            TableFormat::Heidenhain => heidenhain::VALUE,
-            TableFormat::Isg => isg::VALUE,
-        }
+        self.dialect().limits().value
     }
 
     pub fn units(self) -> LengthUnit {
@@ -545,6 +546,28 @@ pub trait Dialect: Sync {
         settings: &TableSettings,
         bidirectional: bool,
     ) -> Result<ExportFormat, SettingsError>;
+    /// The reader: the table in `text` (in `format`, this dialect's [`TableFormat`]),
+    /// every point in errmap's sign with the [`Field`] where each value sits; refused at
+    /// the line that does not fit. [`read`] dispatches here.
+    fn read(&self, text: &text::Text, format: TableFormat) -> Result<Parsed, At>;
+    /// How the common update writes this dialect's values.
+    fn update_style(&self) -> UpdateStyle {
+        UpdateStyle::default()
+    }
+    /// One point's new values in the common update. The default writes the dialect's [`Value`] of e + r in one column, or two
+    /// (a second column that repeats the first keeps doing so); a dialect whose values
+    /// are stored otherwise (LinuxCNC's actual positions, Fagor's reversal columns)
+    /// overrides it.
+    fn edit_point(&self, editor: &mut Editor, point: &PointUpdate) {
+        update::edit_values(editor, point)
+    }
+    /// The in-place update of `table` by `residual` ([`update_table`] checks the axis and
+    /// the directions first, then dispatches here). The default is the common update:
+    /// every point through [`Dialect::edit_point`], in the file's own style, nothing
+    /// else changed; a table that is not a list of values (FANUC's increments) overrides it.
+    fn update(&self, table: &ControllerTable, residual: &Residual, bidirectional: bool) -> Updated {
+        update::update_values(table, residual, bidirectional)
+    }
     /// The dialect's part-program syntax for test plans and campaigns of lines, where
     /// errmap writes programs for this controller.
     fn program(&self) -> Option<&dyn program::ProgramSyntax> {

@@ -1,6 +1,6 @@
 //! Reading a controller table back: the shared shapes ([`ControllerTable`], [`TablePoint`],
-//! [`Field`], a reader's refusal [`At`]) and the dispatch to each dialect's reader
-//! ([`read`]). Each reader gives the table points in errmap's sign (e = indicated −
+//! [`Field`], a reader's refusal [`At`]) and the dispatch to each dialect's reader through
+//! the registry's trait ([`read`], [`super::Dialect::read`]). Each reader gives the table points in errmap's sign (e = indicated −
 //! reference, µm) and where each value sits in the text, so that [`super::update`]
 //! rewrites the values and nothing else.
 //!
@@ -39,17 +39,24 @@ impl At {
     }
 }
 
-/// What a dialect reader found (see [`ControllerTable`]).
+/// What a dialect's reader found.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Parsed {
+    /// The axis the file names (8055's letter, 8065's first line, errmap's comment in a
+    /// Siemens or FANUC file, the HEIDENHAIN column, the ISG axis name); `None` when it
+    /// names none (LinuxCNC). [`ControllerTable::assume_axis`] gives one to such a table.
     pub axis: Option<Axis>,
     pub points: Vec<TablePoint>,
+    /// Whether the table has separate values for the two directions.
     pub bidirectional: bool,
-    /// The field saying whether the table is direction-dependent (ISG `bilateral`).
+    /// The field saying whether the table is direction-dependent (ISG `bilateral`, the
+    /// 8065's `BIDIR`) and its comment (the 8065's `No`/`Yes`).
     pub bidir_value: Option<Field>,
+    pub bidir_comment: Option<Field>,
     /// One value per point and no way to hold a second direction (Siemens LEC, a CEC
     /// table without direction, HEIDENHAIN, an ISG list without `neg`).
     pub one_column: bool,
+    /// FANUC: the increments and where they sit.
     pub fanuc: Option<super::fanuc::FanucLayout>,
 }
 
@@ -79,27 +86,22 @@ pub struct TablePoint {
     pub down: Field,
 }
 
-/// A controller table as read (see the module docs).
+/// A controller table as read: its format, its text, and what its dialect's reader
+/// found ([`Parsed`], whose fields it gives through `Deref`: `table.points`, …).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ControllerTable {
     pub format: TableFormat,
     pub text: Text,
-    /// The axis the file names (8055's letter, 8065's first line, errmap's comment in a
-    /// Siemens or FANUC file, the HEIDENHAIN column, the ISG axis name); `None` when it
-    /// names none (LinuxCNC). [`ControllerTable::assume_axis`] gives one to such a table.
-    pub axis: Option<Axis>,
     /// Whether `axis` was given by the caller rather than read from the file.
     pub axis_assumed: bool,
-    pub points: Vec<TablePoint>,
-    /// Whether the table has separate values for the two directions.
-    pub bidirectional: bool,
-    /// 8065: the `/LSCRWDATA/BIDIR` value and its comment (`No`/`Yes`), when present.
-    pub bidir_value: Option<Field>,
-    pub bidir_comment: Option<Field>,
-    /// One value per point, no second direction possible (Siemens LEC, HEIDENHAIN, …).
-    pub one_column: bool,
-    /// FANUC: the increments and where they sit.
-    pub fanuc: Option<super::fanuc::FanucLayout>,
+    pub read: Parsed,
+}
+
+impl std::ops::Deref for ControllerTable {
+    type Target = Parsed;
+    fn deref(&self) -> &Parsed {
+        &self.read
+    }
 }
 
 pub(crate) fn field_at(start: usize, token: &str) -> Field {
@@ -179,56 +181,16 @@ pub(crate) fn field(text: &str, (start, end): (usize, usize)) -> Field {
     }
 }
 
-/// Reads a controller table from `bytes`.
+/// Reads a controller table from `bytes`: the text decoded, then read by `format`'s
+/// dialect ([`super::Dialect::read`]).
 pub fn read(bytes: &[u8], format: TableFormat) -> Result<ControllerTable, At> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
-    let k = format.units().mm();
-    let dialect = match format {
-        TableFormat::Siemens => Some(super::siemens::read(&text)?),
-        TableFormat::Fanuc => Some(super::fanuc::read(&text)?),
-        TableFormat::Heidenhain => Some(super::heidenhain::read(&text)?),
-        TableFormat::Isg => Some(super::isg::read(&text)?),
-        _ => None,
-    };
-    if let Some(d) = dialect {
-        return Ok(ControllerTable {
-            format,
-            text,
-            axis: d.axis,
-            axis_assumed: false,
-            points: d.points,
-            bidirectional: d.bidirectional,
-            bidir_value: d.bidir_value,
-            bidir_comment: None,
-            one_column: d.one_column,
-            fanuc: d.fanuc,
-        });
-    }
-    let (axis, points, bidirectional, bidir_value, bidir_comment) = match format {
-        TableFormat::Fagor8055 { .. } => {
-            let (axis, points) = super::fagor::read_8055(&text, k)?;
-            let bidir = points.iter().any(|p| p.down_file != 0.0);
-            (Some(axis), points, bidir, None, None)
-        }
-        TableFormat::Fagor8065 { .. } => super::fagor::read_8065(&text, k)?,
-        TableFormat::LinuxCnc { comp_type, .. } => {
-            let points = super::linuxcnc::read(&text, k, comp_type)?;
-            let bidir = points.iter().any(|p| p.e_up_um != p.e_down_um);
-            (None, points, bidir, None, None)
-        }
-        _ => return Err(At::new(1, "not a table format")),
-    };
+    let read = format.dialect().read(&text, format)?;
     Ok(ControllerTable {
         format,
         text,
-        axis,
         axis_assumed: false,
-        points,
-        bidirectional,
-        bidir_value,
-        bidir_comment,
-        one_column: false,
-        fanuc: None,
+        read,
     })
 }
 
@@ -251,8 +213,8 @@ impl ControllerTable {
     /// The table's axis: the file's, else `axis` (a file that names none, as a LinuxCNC
     /// `COMP_FILE`, is the table of the axis its user says).
     pub fn assume_axis(mut self, axis: Axis) -> Self {
-        if self.axis.is_none() {
-            self.axis = Some(axis);
+        if self.read.axis.is_none() {
+            self.read.axis = Some(axis);
             self.axis_assumed = true;
         }
         self

@@ -80,7 +80,7 @@ use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
 use super::{
     AxisKind, AxisTables, Dialect, DialectOption, ExportFormat, Limits, OptionValue, SettingsError,
-    Sign, Spacing, TableFormat, TableSettings, Value, ValueUnit,
+    Sign, Spacing, TableFormat, TableSettings, UpdateStyle, Value, ValueUnit,
 };
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled, fmt_mm, fmt_point};
@@ -636,6 +636,16 @@ impl Dialect for Siemens {
     }
     fn table_format(&self, _: &TableSettings) -> Result<TableFormat, SettingsError> {
         Ok(TableFormat::Siemens)
+    }
+    fn read(&self, text: &Text, _: TableFormat) -> Result<Parsed, At> {
+        read(text)
+    }
+    fn update_style(&self) -> UpdateStyle {
+        // Written at 1e-6 mm with trailing zeros trimmed (`export`'s files).
+        UpdateStyle {
+            trimmed_decimals: Some(6),
+            ..UpdateStyle::default()
+        }
     }
     fn export_format(
         &self,

@@ -28,8 +28,7 @@
 use errmap_drivers::SessionRow;
 use serde::Serialize;
 
-use super::CompType;
-use super::{ControllerTable, Field, TableFormat};
+use super::{ControllerTable, Field, ValueUnit};
 use crate::base::Axis;
 use crate::session::{ReductionError, error_table, iso_by_line};
 
@@ -200,6 +199,7 @@ fn trimmed(mut s: String) -> String {
 }
 
 /// A planned value replacement.
+#[derive(Debug)]
 pub(crate) struct Edit {
     pub(crate) field: Field,
     pub(crate) text: String,
@@ -235,14 +235,37 @@ pub(crate) fn apply(text: &str, mut edits: Vec<Edit>) -> String {
 
 /// How a column's new values are written: the decimals and whether trailing zeros are
 /// trimmed.
-#[derive(Clone, Copy)]
-struct Digits {
-    decimals: usize,
-    trim: bool,
+#[derive(Debug, Clone, Copy)]
+pub struct Digits {
+    pub decimals: usize,
+    pub trim: bool,
+}
+
+impl UpdateStyle {
+    /// Fixed-width columns (Fagor, LinuxCNC): each column's decimals, right-aligned.
+    pub const ALIGNED: UpdateStyle = UpdateStyle {
+        trimmed_decimals: None,
+        align: true,
+        plus: false,
+    };
+}
+
+/// How a dialect's values are written by the common update ([`super::Dialect::update_style`]):
+/// the default keeps each column's decimals as the file shows them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct UpdateStyle {
+    /// The values are written at this many decimals with trailing zeros trimmed (the text
+    /// shows fewer decimals than the field holds: Siemens, HEIDENHAIN).
+    pub trimmed_decimals: Option<usize>,
+    /// Fixed-width columns: a new number stays right-aligned in its padding.
+    pub align: bool,
+    /// A `+` written on positive values is kept (HEIDENHAIN).
+    pub plus: bool,
 }
 
 /// The file's writing style, read once from the table: the two columns' digits, file
 /// units per µm, right-alignment and HEIDENHAIN's `+`.
+#[derive(Debug)]
 struct Style {
     /// mm per file length unit.
     k: f64,
@@ -254,73 +277,86 @@ struct Style {
 }
 
 impl Style {
-    /// The style of `table` (see the comments for each format's conventions).
+    /// The style of `table`: its dialect's [`UpdateStyle`] and the table's own digits.
     fn of(table: &ControllerTable) -> Style {
         let text = &table.text.text;
-        // LinuxCNC files written by errmap trim trailing zeros: keep that style per column.
-        let column_style = |pick: &dyn Fn(&super::TablePoint) -> Field| {
+        let format = table.format;
+        let style = format.dialect().update_style();
+        // Files written by errmap may trim trailing zeros: keep that style per column.
+        let column = |pick: &dyn Fn(&super::TablePoint) -> Field| {
             let d: Vec<usize> = table.points.iter().map(|p| pick(p).decimals).collect();
             let max = d.iter().copied().max().unwrap_or(0);
-            (max, d.iter().any(|&x| x < max))
+            match style.trimmed_decimals {
+                Some(decimals) => Digits {
+                    decimals,
+                    trim: true,
+                },
+                None => Digits {
+                    decimals: max,
+                    trim: d.iter().any(|&x| x < max),
+                },
+            }
         };
-        let (mut up_dec, mut up_trim) = column_style(&|p| p.up);
-        let (mut down_dec, mut down_trim) = column_style(&|p| p.down);
-        // Siemens and HEIDENHAIN values are written at 1e-6 mm with trailing zeros trimmed
-        // (`export`'s files): the text shows fewer decimals than the field holds.
-        if matches!(table.format, TableFormat::Siemens | TableFormat::Heidenhain) {
-            (up_dec, up_trim, down_dec, down_trim) = (6, true, 6, true);
-        }
-        // File units per µm of e, and the layout: fixed-width columns (Fagor, LinuxCNC) keep
-        // numbers right-aligned; HEIDENHAIN writes `+` on positive values.
-        let (scale_um, align, plus) = match table.format {
-            TableFormat::Fagor8055 { .. }
-            | TableFormat::Fagor8065 { .. }
-            | TableFormat::LinuxCnc { .. } => (1000.0, true, false),
-            TableFormat::Siemens | TableFormat::Fanuc => (1000.0, false, false),
-            TableFormat::Heidenhain => (
-                1000.0,
-                false,
-                table
+        // File units per µm of e.
+        let scale_um = match format.value().unit {
+            ValueUnit::TenthMicrometre => 0.1,
+            ValueUnit::Length | ValueUnit::Units => 1000.0,
+        };
+        Style {
+            k: format.units().mm(),
+            up: column(&|p| p.up),
+            down: column(&|p| p.down),
+            scale_um,
+            align: style.align,
+            plus: style.plus
+                && table
                     .points
                     .iter()
                     .any(|p| text[p.up.start..].starts_with('+')),
-            ),
-            TableFormat::Isg => (0.1, false, false),
-        };
-        Style {
-            k: table.format.units().mm(),
-            up: Digits {
-                decimals: up_dec,
-                trim: up_trim,
-            },
-            down: Digits {
-                decimals: down_dec,
-                trim: down_trim,
-            },
-            scale_um,
-            align,
-            plus,
         }
     }
 }
 
-/// Collects the value replacements and the largest change while the points are walked.
-struct Editor {
+/// One point of the common update: the table, the point, the residual there (r⁺, r⁻, µm)
+/// and whether both directions are updated (`--bidirectional`).
+#[derive(Debug, Clone, Copy)]
+pub struct PointUpdate<'a> {
+    pub table: &'a ControllerTable,
+    pub point: &'a super::TablePoint,
+    pub r_up: f64,
+    pub r_down: f64,
+    pub bidirectional: bool,
+}
+
+/// Collects the value replacements and the largest change while the points are walked
+/// (a dialect's [`super::Dialect::edit_point`] plans its point's edits on it).
+#[derive(Debug)]
+pub struct Editor {
     style: Style,
     edits: Vec<Edit>,
     max_change_um: f64,
 }
 
 impl Editor {
+    /// mm per file length unit.
+    pub fn k(&self) -> f64 {
+        self.style.k
+    }
+
+    /// How the up and the down column's new values are written.
+    pub fn digits(&self) -> (Digits, Digits) {
+        (self.style.up, self.style.down)
+    }
+
     /// [`Self::edit`] of a field whose value is the one the controller used.
-    fn rewrite(&mut self, field: Field, old: f64, new: f64, digits: Digits) {
+    pub fn rewrite(&mut self, field: Field, old: f64, new: f64, digits: Digits) {
         self.edit(field, old, old, new, digits);
     }
 
     /// Plans writing `new` over `field` (whose value is `old`) unless it rounds to the same
     /// text; the change is measured from `effective`, the value the controller used before
     /// (err+ for the err− of a table that was one table for both directions).
-    fn edit(&mut self, field: Field, old: f64, effective: f64, new: f64, digits: Digits) {
+    pub fn edit(&mut self, field: Field, old: f64, effective: f64, new: f64, digits: Digits) {
         let Digits { decimals, trim } = digits;
         let s = fixed(new, decimals);
         let rounded: f64 = s.parse().unwrap_or(new);
@@ -343,16 +379,28 @@ impl Editor {
     }
 }
 
-/// Updates `table` by `residual` (see the module docs).
+/// Updates `table` by `residual` (see the module docs), through its dialect's
+/// [`super::Dialect::update`].
 pub fn update_table(
     table: &ControllerTable,
     residual: &Residual,
     bidirectional: bool,
 ) -> Result<Updated, UpdateError> {
     check_update(table, residual, bidirectional)?;
-    if let Some(layout) = &table.fanuc {
-        return Ok(update_fanuc(table, layout, residual, bidirectional));
-    }
+    Ok(table
+        .format
+        .dialect()
+        .update(table, residual, bidirectional))
+}
+
+/// The common update ([`super::Dialect::update`]'s default): each point's values
+/// rewritten by its dialect's [`super::Dialect::edit_point`] in the file's own style.
+pub(crate) fn update_values(
+    table: &ControllerTable,
+    residual: &Residual,
+    bidirectional: bool,
+) -> Updated {
+    let dialect = table.format.dialect();
     let text = &table.text.text;
     let mut outside_mm = Vec::new();
     let mut editor = Editor {
@@ -374,7 +422,14 @@ pub fn update_table(
         if r_up == 0.0 && r_down == 0.0 && !becomes_bidirectional {
             continue;
         }
-        edit_point(&mut editor, table, p, (r_up, r_down), bidirectional);
+        let point = PointUpdate {
+            table,
+            point: p,
+            r_up,
+            r_down,
+            bidirectional,
+        };
+        dialect.edit_point(&mut editor, &point);
     }
     let Editor {
         mut edits,
@@ -404,7 +459,7 @@ pub fn update_table(
     } else {
         1
     };
-    Ok(Updated {
+    Updated {
         bytes: table.text.encode(&new_text),
         summary: UpdateSummary {
             format: table.format.name(),
@@ -414,7 +469,7 @@ pub fn update_table(
             max_change_um,
             warnings,
         },
-    })
+    }
 }
 
 /// Refuses an update the table cannot take: another axis, or two directions into a
@@ -444,185 +499,40 @@ fn check_update(
     Ok(())
 }
 
-/// Plans one point's new values, `r` = (r_up, r_down) the residual there, in the
-/// format's own convention (FANUC's increments are done by `update_fanuc`).
-fn edit_point(
-    editor: &mut Editor,
-    table: &ControllerTable,
-    p: &super::TablePoint,
-    r: (f64, f64),
-    bidirectional: bool,
-) {
-    let (r_up, r_down) = r;
-    let k = editor.style.k;
-    let (up_digits, down_digits) = (editor.style.up, editor.style.down);
-    match table.format {
-        TableFormat::Fagor8055 { .. } | TableFormat::Fagor8065 { .. } => {
-            let value = table.format.value();
-            let new_up = p.up_file + value.file(r_up, k);
-            let own = Digits {
-                decimals: p.up.decimals,
-                trim: false,
-            };
-            editor.edit(p.up, p.up_file, p.up_file, new_up, own);
-            if bidirectional || table.bidirectional {
-                let base = if table.bidirectional {
-                    p.down_file
-                } else {
-                    p.up_file
-                };
-                let r = if bidirectional { r_down } else { r_up };
-                let own = Digits {
-                    decimals: p.down.decimals,
-                    trim: false,
-                };
-                editor.edit(p.down, p.down_file, base, base + value.file(r, k), own);
-            }
-        }
-        TableFormat::LinuxCnc { comp_type, .. } => {
-            let trim = |e_um: f64| table.format.value().file(e_um, k);
-            let value = |e_um: f64| match comp_type {
-                CompType::Trim => trim(e_um),
-                CompType::ActualPosition => p.position_file - trim(e_um),
-            };
-            editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
-            editor.rewrite(
-                p.down,
-                p.down_file,
-                value(p.e_down_um + r_down),
-                down_digits,
-            );
-        }
-        TableFormat::Siemens | TableFormat::Heidenhain | TableFormat::Isg => {
-            // c = −e in the file's unit: mm (Siemens, HEIDENHAIN ·k) or 0.1 µm (ISG).
-            let value = |e_um: f64| table.format.value().file(e_um, k);
-            editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
-            if table.one_column {
-                return;
-            }
-            // A one-table list (ISG bilateral 0) whose neg repeats pos keeps it so.
-            let down_e = if table.bidirectional {
-                p.e_down_um + r_down
-            } else if bidirectional {
-                p.e_up_um + r_down
-            } else if p.down_file == p.up_file {
-                p.e_up_um + r_up
-            } else {
-                return;
-            };
-            editor.rewrite(p.down, p.down_file, value(down_e), down_digits);
-        }
-        TableFormat::Fanuc => {}
+/// The common plan of one point's new values ([`super::Dialect::edit_point`]'s default),
+/// `r` = (r_up, r_down) the residual there: each value is its dialect's [`super::Value`]
+/// of e + r in the file's unit (c = −e in mm for Siemens and HEIDENHAIN, in 0.1 µm for
+/// ISG); a one-column table has no second value, and a second column that repeats the
+/// first (an ISG list with `bilateral` 0) keeps doing so.
+pub(crate) fn edit_values(editor: &mut Editor, u: &PointUpdate) {
+    let PointUpdate {
+        table,
+        point: p,
+        r_up,
+        r_down,
+        bidirectional,
+    } = *u;
+    let k = editor.k();
+    let (up_digits, down_digits) = editor.digits();
+    let value = |e_um: f64| table.format.value().file(e_um, k);
+    editor.rewrite(p.up, p.up_file, value(p.e_up_um + r_up), up_digits);
+    if table.one_column {
+        return;
     }
-}
-
-/// FANUC: the absolute curves (the sums of the increments from the reference position,
-/// where the positive-travel curve is 0) get r in units of the table, less r at the
-/// reference position (a datum offset the table cannot hold: warned about), are rounded
-/// and differenced again; only the increments that change are rewritten, and 3627 when the
-/// negative-travel curve moves at the reference position.
-fn update_fanuc(
-    table: &ControllerTable,
-    layout: &super::fanuc::FanucLayout,
-    residual: &Residual,
-    bidirectional: bool,
-) -> Updated {
-    let unit = layout.unit_um;
-    let k0 = layout.reference_index;
-    let mut outside_mm = Vec::new();
-    // `None`: outside the measured targets, the point keeps its value.
-    let r: Vec<Option<(f64, f64)>> = table
-        .points
-        .iter()
-        .map(|p| {
-            let r = residual.at(p.position_mm);
-            if r.is_none() {
-                outside_mm.push(p.position_mm);
-            }
-            r
-        })
-        .collect();
-    let shift_um = r[k0].map_or(0.0, |r| r.0);
-    let mut warnings = outside_warning(&outside_mm, residual);
-    if shift_um != 0.0 {
-        warnings.push(format!(
-            "the residual at the reference position, {shift_um:.4} µm, is a datum offset \
-             FANUC's pitch error table cannot hold (it is 0 there): it is left out"
-        ));
-    }
-    let mut edits = Vec::new();
-    let mut max_change_um: f64 = 0.0;
-    let mut biggest: i64 = 0;
-    // A kept point keeps its value in the table's own frame (relative to the reference
-    // position): the datum shift applies only to the points the residual reaches. (Issue
-    // 40: shifting a kept point by the shift turned its 0 into −1 µm on read-back.)
-    let mut redo = |inc: &[(Field, i64)], old: &[f64], add: &dyn Fn(usize) -> Option<f64>| {
-        let new: Vec<i64> = old
-            .iter()
-            .enumerate()
-            .map(|(j, &a)| {
-                let d = add(j).map_or(0.0, |r| r - shift_um);
-                if d == 0.0 {
-                    a as i64
-                } else {
-                    (a + d / unit).round() as i64
-                }
-            })
-            .collect();
-        for j in 0..new.len() {
-            max_change_um = max_change_um.max((new[j] as f64 - old[j]).abs() * unit);
-            if j > 0 {
-                let v = new[j] - new[j - 1];
-                biggest = biggest.max(v.abs());
-                if v != inc[j - 1].1 {
-                    edits.push(Edit {
-                        field: inc[j - 1].0,
-                        text: v.to_string(),
-                        align: false,
-                    });
-                }
-            }
-        }
-        new
+    let down_e = if table.bidirectional {
+        p.e_down_um + r_down
+    } else if bidirectional {
+        p.e_up_um + r_down
+    } else if p.down_file == p.up_file {
+        p.e_up_um + r_up
+    } else {
+        return;
     };
-    let up: Vec<f64> = table.points.iter().map(|p| p.up_file).collect();
-    redo(&layout.forward, &up, &|j| r[j].map(|r| r.0));
-    if let Some((inc, (f3627, v3627))) = &layout.reverse {
-        let down: Vec<f64> = table.points.iter().map(|p| p.down_file).collect();
-        let new = redo(inc, &down, &|j| {
-            r[j].map(|r| if bidirectional { r.1 } else { r.0 })
-        });
-        if new[k0] != *v3627 {
-            edits.push(Edit {
-                field: *f3627,
-                text: new[k0].to_string(),
-                align: false,
-            });
-        }
-    }
-    let limit = i64::from(super::fanuc::FANUC_DEFAULT_MAX_VALUE);
-    if biggest > limit {
-        warnings.push(format!(
-            "an increment of ±{biggest} units: beyond ±{limit}, the range of the older series; \
-             check the control's limit"
-        ));
-    }
-    let new_text = apply(&table.text.text, edits);
-    Updated {
-        bytes: table.text.encode(&new_text),
-        summary: UpdateSummary {
-            format: table.format.name(),
-            points: table.points.len(),
-            directions: if layout.reverse.is_some() { 2 } else { 1 },
-            outside_mm,
-            max_change_um,
-            warnings,
-        },
-    }
+    editor.rewrite(p.down, p.down_file, value(down_e), down_digits);
 }
 
 /// The warning for table points outside the measured targets.
-fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
+pub(crate) fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
     if outside_mm.is_empty() {
         return Vec::new();
     }
@@ -642,7 +552,7 @@ fn outside_warning(outside_mm: &[f64], residual: &Residual) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::controller::{LengthUnit, read};
+    use crate::controller::{LengthUnit, TableFormat, read};
 
     const ALX: &str = "      P001          X    0.00000       EX    0.00000        EX    0.00000\r\n      P002          X   10.00000       EX   -0.00127        EX    0.00000\r\n      P003          X   20.00000       EX    0.00200        EX    0.00000\r\n";
 

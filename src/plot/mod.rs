@@ -239,9 +239,6 @@ pub fn category_points(
 
     let (lo, hi) = error_extent(series).ok_or(PlotError::NoFiniteValues)?;
     let (lo, hi) = padded_range(lo, hi, true, true)?;
-    let x_area = x_label_area(!x_label.is_empty());
-    let y_axis = Axis::linear(lo, hi, plot_height(HEIGHT, x_area), false);
-
     let hl = |i: usize| highlight.get(i).copied().unwrap_or(false);
     let mut legend: Vec<LegendEntry> = series
         .iter()
@@ -265,17 +262,36 @@ pub fn category_points(
             sample: Sample::Band,
         });
     }
+    let labels = [title, x_label, y_label];
+    write_standard(stem, labels, (lo, hi), legend, |plot_w, _| {
+        let positions: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let x_axis = Axis::category(categories, &positions, -0.5, n as f64 - 0.5, plot_w, None);
+        let mut prims = highlight_bands(n, &hl);
+        category_series_prims(&mut prims, series, &hl);
+        (x_axis, prims)
+    })
+}
+
+/// The standard chart (title, axes with their labels, legend) around what `draw` gives
+/// for a plot `plot_w` × `plot_h` px — its x axis and its primitives — over the y range
+/// `(ylo, yhi)`, written as PNG and SVG.
+fn write_standard(
+    stem: &Path,
+    labels: [&str; 3],
+    (ylo, yhi): (f64, f64),
+    legend: Vec<LegendEntry>,
+    draw: impl FnOnce(f64, f64) -> (Axis, Vec<Prim>),
+) -> Result<Vec<PathBuf>, PlotError> {
+    let [_, x_label, y_label] = labels;
+    let x_area = x_label_area(!x_label.is_empty());
+    let plot_h = plot_height(HEIGHT, x_area);
+    let y_axis = Axis::linear(ylo, yhi, plot_h, false);
     let legend_width = legend_width(&legend);
     let y_area = y_label_area(&y_axis, !y_label.is_empty());
     let plot_w = plot_width(legend_width, y_area);
-    let positions: Vec<f64> = (0..n).map(|i| i as f64).collect();
-    let x_axis = Axis::category(categories, &positions, -0.5, n as f64 - 0.5, plot_w, None);
-
-    let mut prims = highlight_bands(n, &hl);
-    category_series_prims(&mut prims, series, &hl);
-
+    let (x_axis, prims) = draw(plot_w, plot_h);
     let frame = Frame::standard(
-        [title, x_label, y_label],
+        labels,
         (x_axis, x_area),
         (y_axis, y_area),
         legend,
@@ -730,9 +746,6 @@ pub fn xy(
     };
     let (xlo, xhi) = padded_range(xlo, xhi, true, true)?;
     let (ylo, yhi) = padded_range(ylo, yhi, true, true)?;
-    let x_area = x_label_area(!x_label.is_empty());
-    let y_axis = Axis::linear(ylo, yhi, plot_height(HEIGHT, x_area), false);
-
     let legend: Vec<LegendEntry> = series
         .iter()
         .enumerate()
@@ -742,32 +755,22 @@ pub fn xy(
             sample: xy_sample(k, s.style),
         })
         .collect();
-    let legend_width = legend_width(&legend);
-    let y_area = y_label_area(&y_axis, !y_label.is_empty());
-    let plot_w = plot_width(legend_width, y_area);
-    let x_axis = Axis::linear(xlo, xhi, plot_w, true);
-
-    let to_px = PxMap {
-        xlo,
-        xhi,
-        ylo,
-        yhi,
-        w: plot_w,
-        h: plot_height(HEIGHT, x_area),
-    };
-    let mut prims = Vec::new();
-    for (k, s) in series.iter().enumerate() {
-        xy_series_prims(&mut prims, k, s, to_px);
-    }
-
-    let frame = Frame::standard(
-        [title, x_label, y_label],
-        (x_axis, x_area),
-        (y_axis, y_area),
-        legend,
-        legend_width,
-    );
-    write_both(stem, &frame, &prims)
+    let labels = [title, x_label, y_label];
+    write_standard(stem, labels, (ylo, yhi), legend, |plot_w, plot_h| {
+        let to_px = PxMap {
+            xlo,
+            xhi,
+            ylo,
+            yhi,
+            w: plot_w,
+            h: plot_h,
+        };
+        let mut prims = Vec::new();
+        for (k, s) in series.iter().enumerate() {
+            xy_series_prims(&mut prims, k, s, to_px);
+        }
+        (Axis::linear(xlo, xhi, plot_w, true), prims)
+    })
 }
 
 /// A series' points, `None` where x or y is not finite (a break in its line).

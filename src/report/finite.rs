@@ -140,6 +140,14 @@ macro_rules! ok {
     };
 }
 
+/// The serializer's methods that open a sequence, a map or a struct: each walks into a
+/// [`Compound`].
+macro_rules! compound {
+    ($($name:ident($($t:ty),*);)*) => {
+        $(fn $name(self, $(_: $t),*) -> Result<Compound<'a>, Found> { Ok(Compound::new(self)) })*
+    };
+}
+
 impl<'a> ser::Serializer for &'a mut Walk {
     type Ok = ();
     type Error = Found;
@@ -196,38 +204,14 @@ impl<'a> ser::Serializer for &'a mut Walk {
         let seg = self.field(variant);
         self.under(seg, value)
     }
-    fn serialize_seq(self, _: Option<usize>) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_tuple(self, _: usize) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_tuple_struct(self, _: &'static str, _: usize) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_tuple_variant(
-        self,
-        _: &'static str,
-        _: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_map(self, _: Option<usize>) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_struct(self, _: &'static str, _: usize) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
-    }
-    fn serialize_struct_variant(
-        self,
-        _: &'static str,
-        _: u32,
-        _: &'static str,
-        _: usize,
-    ) -> Result<Compound<'a>, Found> {
-        Ok(Compound::new(self))
+    compound! {
+        serialize_seq(Option<usize>);
+        serialize_tuple(usize);
+        serialize_tuple_struct(&'static str, usize);
+        serialize_tuple_variant(&'static str, u32, &'static str, usize);
+        serialize_map(Option<usize>);
+        serialize_struct(&'static str, usize);
+        serialize_struct_variant(&'static str, u32, &'static str, usize);
     }
 }
 

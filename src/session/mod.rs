@@ -263,78 +263,72 @@ fn frame_rows_into(
     rows: &mut Vec<SessionRow>,
 ) -> Result<(), TableError> {
     rows.clear();
-    frame_rows_at(path, df, first, seen, rows).map_err(|e| shifted(e, first))
-}
-
-fn frame_rows_at(
-    path: &Path,
-    df: &DataFrame,
-    first: usize,
-    seen: &mut SampleSet,
-    rows: &mut Vec<SessionRow>,
-) -> Result<(), TableError> {
-    let cells = REQUIRED
-        .iter()
-        .map(|&c| match c {
-            // Text or a number; every other column holds numbers.
-            "axis" => text_or_number_cells(path, df, c),
-            _ => column_cells(path, df, c),
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let optional: Vec<Option<Cells>> = OPTIONAL
-        .iter()
-        .map(|c| optional_column_cells(path, df, c))
-        .collect::<Result<_, _>>()?;
-    rows.reserve(df.height());
-    for r in 0..df.height() {
-        let req = |k: usize| required_cell(path, &cells[k], r, REQUIRED[k]);
-        let opt = |k: usize| parse_cell(path, &cells[k], r, REQUIRED[k]);
-        let extra = |k: usize| match &optional[k] {
-            Some(c) => parse_cell(path, c, r, OPTIONAL[k]),
-            None => Ok(None),
-        };
-        let run = integer(path, req(0)?, r, "run")?;
-        let (direction, target, flags) = row_indices(req(4)?, req(6)?, extra(5)?)
-            .map_err(|(column, problem)| bad(path, r, column, problem))?;
-        let run =
-            u32::try_from(run).map_err(|_| bad(path, r, "run", format!("{run} is negative")))?;
-        let sample = integer(path, req(1)?, r, "sample")?;
-        // The file's rows, not the frame's (`shifted` leaves this error as it is).
-        if let Some(earlier) = seen.insert(run, sample, first + r) {
-            return Err(TableError::DuplicateSample {
-                path: path.to_path_buf(),
-                row: first + r + 1,
-                line: first + r + 2,
-                first_row: earlier + 1,
+    // The frame's rows are numbered from 0; an error names the file's (`shifted`).
+    let mut read = || -> Result<(), TableError> {
+        let cells = REQUIRED
+            .iter()
+            .map(|&c| match c {
+                // Text or a number; every other column holds numbers.
+                "axis" => text_or_number_cells(path, df, c),
+                _ => column_cells(path, df, c),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let optional: Vec<Option<Cells>> = OPTIONAL
+            .iter()
+            .map(|c| optional_column_cells(path, df, c))
+            .collect::<Result<_, _>>()?;
+        rows.reserve(df.height());
+        for r in 0..df.height() {
+            let req = |k: usize| required_cell(path, &cells[k], r, REQUIRED[k]);
+            let opt = |k: usize| parse_cell(path, &cells[k], r, REQUIRED[k]);
+            let extra = |k: usize| match &optional[k] {
+                Some(c) => parse_cell(path, c, r, OPTIONAL[k]),
+                None => Ok(None),
+            };
+            let run = integer(path, req(0)?, r, "run")?;
+            let (direction, target, flags) = row_indices(req(4)?, req(6)?, extra(5)?)
+                .map_err(|(column, problem)| bad(path, r, column, problem))?;
+            let run = u32::try_from(run)
+                .map_err(|_| bad(path, r, "run", format!("{run} is negative")))?;
+            let sample = integer(path, req(1)?, r, "sample")?;
+            // The file's rows, not the frame's (`shifted` leaves this error as it is).
+            if let Some(earlier) = seen.insert(run, sample, first + r) {
+                return Err(TableError::DuplicateSample {
+                    path: path.to_path_buf(),
+                    row: first + r + 1,
+                    line: first + r + 2,
+                    first_row: earlier + 1,
+                    run,
+                    sample,
+                });
+            }
+            let row = SessionRow {
                 run,
                 sample,
-            });
+                t_s: req(2)?,
+                axis: axis_cell(path, &cells[3], r)?,
+                direction,
+                feed_mm_s: opt(5)?,
+                target,
+                x_mm: opt(7)?,
+                y_mm: opt(8)?,
+                z_mm: opt(9)?,
+                scale_mm: req(10)?,
+                laser_mm: req(11)?,
+                error_um: req(12)?,
+                air_temp_c: extra(0)?,
+                air_pressure_hpa: extra(1)?,
+                air_rh_pct: extra(2)?,
+                scale_temp_c: extra(3)?,
+                part_temp_c: extra(4)?,
+                flags,
+            };
+            check_ranges(path, r, &row)?;
+            rows.push(row);
         }
-        let row = SessionRow {
-            run,
-            sample,
-            t_s: req(2)?,
-            axis: axis_cell(path, &cells[3], r)?,
-            direction,
-            feed_mm_s: opt(5)?,
-            target,
-            x_mm: opt(7)?,
-            y_mm: opt(8)?,
-            z_mm: opt(9)?,
-            scale_mm: req(10)?,
-            laser_mm: req(11)?,
-            error_um: req(12)?,
-            air_temp_c: extra(0)?,
-            air_pressure_hpa: extra(1)?,
-            air_rh_pct: extra(2)?,
-            scale_temp_c: extra(3)?,
-            part_temp_c: extra(4)?,
-            flags,
-        };
-        check_ranges(path, r, &row)?;
-        rows.push(row);
-    }
-    Ok(())
+        Ok(())
+    };
+    read().map_err(|e| shifted(e, first))
 }
 
 /// Every number of a session row inside its physical range ([`crate::base::limits`]).

@@ -37,17 +37,7 @@ impl Engine {
         match self {
             Engine::LeastSquares => solve(d, n_lines),
             Engine::Penalised { pen, known_noise } => {
-                let s = pen.fit(d, &pen.lambda, n_lines, *known_noise)?;
-                Ok(Solved {
-                    theta: s.theta,
-                    cov: s.cov,
-                    res_w: s.res_w,
-                    chi2: s.chi2,
-                    dof: s.dof,
-                    sigma0: s.sigma0,
-                    null: DMatrix::zeros(d.a.ncols(), 0),
-                    edf_block: s.edf_block,
-                })
+                pen.fit(d, &pen.lambda, n_lines, *known_noise)
             }
         }
     }

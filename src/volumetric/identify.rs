@@ -497,7 +497,8 @@ pub(crate) fn cv_per_line(d: &Design) -> Vec<Option<f64>> {
         .collect()
 }
 
-/// A solved least-squares problem, parameters unscaled.
+/// A solved least-squares problem (or a penalised one, `smooth.rs`), parameters unscaled.
+#[derive(Debug)]
 pub(crate) struct Solved {
     pub theta: Vec<f64>,
     pub cov: DMatrix<f64>,

@@ -54,7 +54,7 @@
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use super::error::Unfit;
-use super::identify::Design;
+use super::identify::{Design, Solved};
 
 /// Most Fellner–Schall steps.
 pub(super) const MAX_ITER: usize = 30;
@@ -163,21 +163,6 @@ pub(crate) struct Penalty {
     pub lambda: Vec<f64>,
     /// Null directions (rows: the first parameters of the design), equilibrated.
     pub null: DMatrix<f64>,
-}
-
-/// A solved penalised problem, parameters unscaled.
-#[derive(Debug)]
-pub(crate) struct Smoothed {
-    pub theta: Vec<f64>,
-    pub cov: DMatrix<f64>,
-    pub res_w: DVector<f64>,
-    pub chi2: f64,
-    /// ν = rows − lines − edf.
-    pub dof: f64,
-    /// √(χ²/ν).
-    pub sigma0: f64,
-    /// Effective degrees of freedom per block.
-    pub edf_block: Vec<f64>,
 }
 
 /// The normal equations of a design: AᵀA, Aᵀe, eᵀe.
@@ -372,7 +357,7 @@ impl Penalty {
         lambda: &[f64],
         n_lines: usize,
         known_noise: bool,
-    ) -> Result<Smoothed, Unfit> {
+    ) -> Result<Solved, Unfit> {
         let nm = Normal::of(d);
         let chol = self.factor(&nm.g, lambda).ok_or(Unfit::Singular)?;
         let theta_s = chol.solve(&nm.b);
@@ -407,13 +392,15 @@ impl Penalty {
             .iter()
             .map(|blk| fdiag[blk.start..blk.start + blk.s.nrows()].iter().sum())
             .collect();
-        Ok(Smoothed {
+        Ok(Solved {
             theta: (0..p).map(|j| theta_s[j] / d.scale[j]).collect(),
             cov: DMatrix::from_fn(p, p, |i, j| phi * hinv[(i, j)] / (d.scale[i] * d.scale[j])),
             res_w,
             chi2,
             dof,
             sigma0: ratio.sqrt(),
+            // The penalised fit's null directions are the penalty's, not the solution's.
+            null: DMatrix::zeros(p, 0),
             edf_block,
         })
     }

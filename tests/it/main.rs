@@ -9,6 +9,7 @@ mod campaign;
 mod certificate;
 mod circular;
 mod cli;
+mod dialects;
 mod exit_codes;
 mod experiment;
 mod export;

@@ -91,6 +91,7 @@
 //!   the program and rewinds.
 
 mod program;
+mod update;
 pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
 
 use super::options::{self, OptionError, OptionValue};
@@ -101,6 +102,7 @@ use super::{
     AxisKind, Dialect, DialectOption, ExportFormat, Limits, SettingsError, Sign, Spacing,
     TableFormat, TableSettings, Value, ValueUnit,
 };
+use super::{ControllerTable, Residual, Updated};
 use crate::base::Axis;
 use crate::export::{ExportError, Sampled};
 
@@ -965,6 +967,15 @@ impl Dialect for Fanuc {
     }
     fn table_format(&self, _: &TableSettings) -> Result<TableFormat, SettingsError> {
         Ok(TableFormat::Fanuc)
+    }
+    fn read(&self, text: &Text, _: TableFormat) -> Result<Parsed, At> {
+        read(text)
+    }
+    fn update(&self, table: &ControllerTable, residual: &Residual, bidirectional: bool) -> Updated {
+        match &table.fanuc {
+            Some(layout) => update::update(table, layout, residual, bidirectional),
+            None => crate::controller::update::update_values(table, residual, bidirectional),
+        }
     }
     fn export_format(&self, s: &TableSettings, _: bool) -> Result<ExportFormat, SettingsError> {
         Ok(ExportFormat::Fanuc {
