@@ -58,6 +58,10 @@ pub(crate) struct IdentifyArgs {
     /// Fit an uncalibrated artefact's deviations too (self-calibration).
     #[arg(long)]
     pub self_calibrate: bool,
+    /// Laser lines of the same machine (a line table as `volumetric identify` reads, with
+    /// e_um and s_um) fitted jointly with the positions.
+    #[arg(long)]
+    pub laser: Option<PathBuf>,
     /// Write the identified model (what `volumetric predict`, `iso10360`, `export` read).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -194,13 +198,15 @@ fn identify_cmd(a: IdentifyArgs) -> Result<()> {
         .into_iter()
         .filter_map(|(f, p)| p.as_deref().map(|p| (f, p)))
         .collect();
-    super::guard::refuse_aliases(&outputs, &[("CAMPAIGN", &a.campaign)])?;
+    let mut inputs: Vec<(&str, &Path)> = vec![("CAMPAIGN", &a.campaign)];
+    inputs.extend(a.laser.as_deref().map(|p| ("--laser", p)));
+    super::guard::refuse_aliases(&outputs, &inputs)?;
     let opts = IdentifyOptions {
         topology,
         self_calibrate: a.self_calibrate,
         positions: a.positions,
     };
-    let (id, doc, model) = identify_campaign(&a.campaign, &opts)?;
+    let (id, doc, model) = identify_campaign(&a.campaign, a.laser.as_deref(), &opts)?;
     if let Some(out) = &a.out {
         errmap::report::check_json(out, &model)?;
         let text = errmap::report::json_text(out, &model, true)?;
@@ -232,6 +238,7 @@ fn print_identify_summary(doc: &IdentifyDoc) {
 /// identification, its JSON document and the volumetric model document.
 fn identify_campaign(
     campaign: &Path,
+    laser: Option<&Path>,
     opts: &IdentifyOptions,
 ) -> Result<(ArtefactIdentification, IdentifyDoc, ModelDoc)> {
     let campaign = Campaign::read(campaign)?;
@@ -240,7 +247,11 @@ fn identify_campaign(
         .iter()
         .map(|p| Measurement::read(&p.file, &campaign.artefacts[p.artefact], false))
         .collect::<Result<_, _>>()?;
-    let id = errmap::artefact::identify(&campaign, &meas, opts)?;
+    let lines = match laser {
+        Some(p) => Some(errmap::volumetric::LineTable::read(p, true)?),
+        None => None,
+    };
+    let id = errmap::artefact::identify_joint(&campaign, &meas, lines.as_ref(), opts)?;
     let doc = id.doc(opts.positions);
     let model = id.model.doc(opts.positions, true);
     Ok((id, doc, model))
@@ -265,7 +276,7 @@ pub(crate) fn demo_step(out: &Path) -> Result<(IdentifyDoc, errmap::acceptance::
         self_calibrate: false,
         positions: 21,
     };
-    let (id, doc, model) = identify_campaign(&campaign, &opts)?;
+    let (id, doc, model) = identify_campaign(&campaign, None, &opts)?;
     errmap::report::write_artefact_report(&id, &doc, &model, &dir)?;
     eprint!("  {}: ", campaign.display());
     print_identify_summary(&doc);
