@@ -11,7 +11,7 @@ use errmap::volumetric::Machine;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use super::identify::{campaign, compare, eight, machine, run};
+use super::identify::{campaign, compare, eight, machine, run, simulate};
 use crate::util::{dataset, errmap, json, s, stderr, tempdir};
 
 /// The plate's planted scale error, ppm.
@@ -83,21 +83,7 @@ fn self_calibrated(dir: &Path, noise_um: f64, extra: &[&str]) -> serde_json::Val
     let c = campaign(dir, &truth, &eight(), 0.2);
     let meas = dir.join("meas");
     if !meas.exists() {
-        let noise = noise_um.to_string();
-        let o = errmap(&[
-            "artefact",
-            "simulate",
-            s(&c),
-            "--model",
-            s(&machine()),
-            "--out",
-            s(&meas),
-            "--sigma-um",
-            &noise,
-            "--seed",
-            "5",
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
+        simulate(&c, &machine(), &meas, noise_um, 5);
     }
     let c = campaign(dir, &free, &eight(), 0.2);
     let mut args = vec![
@@ -239,17 +225,7 @@ fn a_rigid_machine_with_a_laser_line_is_a_null() {
 fn a_laser_table_without_one_sigmas_is_refused() {
     let dir = tempdir();
     let c = campaign(dir.path(), &dataset("artefact/plate.toml"), &eight(), 0.2);
-    let meas = dir.path().join("meas");
-    let o = errmap(&[
-        "artefact",
-        "simulate",
-        s(&c),
-        "--model",
-        s(&machine()),
-        "--out",
-        s(&meas),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    simulate(&c, &machine(), &dir.path().join("meas"), 0.0, 1);
     let lines = dir.path().join("lines.csv");
     let mut t = String::from("line,x_mm,y_mm,z_mm,ux,uy,uz,e_um\n");
     for i in 0..5 {
