@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::files::{Artefact, Campaign, Kind, Measurement, Position};
 use super::placement::{Placement, col, observed_directions};
-use crate::volumetric::Basis;
+use crate::volumetric::{Basis, LineTable};
 
 /// Where each group of unknowns starts.
 #[derive(Debug, Clone)]
@@ -17,6 +17,9 @@ pub(crate) struct Layout {
     pub n_m: usize,
     /// Per position: first placement column and count.
     pub place: Vec<(usize, usize)>,
+    /// Laser lines of a joint fit: first column of their free constants (one a line)
+    /// and their count.
+    pub lines: (usize, usize),
     /// Per artefact: first deviation column (features × observed coordinates), if its
     /// deviations are unknowns.
     pub dev: Vec<Option<usize>>,
@@ -41,7 +44,12 @@ pub(crate) fn observed_coords(kind: Kind) -> Vec<usize> {
 }
 
 impl Layout {
-    pub(crate) fn new(basis: &Basis, campaign: &Campaign, dev_free: &[bool]) -> Layout {
+    pub(crate) fn new(
+        basis: &Basis,
+        campaign: &Campaign,
+        dev_free: &[bool],
+        n_lines: usize,
+    ) -> Layout {
         let n_m = basis.n_params();
         let mut n = n_m;
         let mut place = Vec::new();
@@ -51,6 +59,8 @@ impl Layout {
             place.push((n, rot.len() + tr.len()));
             n += rot.len() + tr.len();
         }
+        let lines = (n, n_lines);
+        n += n_lines;
         let mut dev = Vec::new();
         for (a, art) in campaign.artefacts.iter().enumerate() {
             if dev_free[a] {
@@ -60,7 +70,13 @@ impl Layout {
                 dev.push(None);
             }
         }
-        Layout { n_m, place, dev, n }
+        Layout {
+            n_m,
+            place,
+            lines,
+            dev,
+            n,
+        }
     }
 
     /// Column of artefact `a`'s feature `i`, observed coordinate number `j` (0-based
@@ -159,6 +175,33 @@ pub(crate) fn position_rows(
                 coef,
                 value_um: 1000.0 * uv.dot(&resid),
                 sigma_um: pos.sigma_um,
+            });
+        }
+    }
+    rows
+}
+
+/// The rows of a joint fit's laser lines, line `l` numbered `first + l` (past the
+/// campaign's positions): each target's reading e = −u·E(a; p) + c_l, c_l the line's free
+/// constant, as the volumetric line fit models it; weighted by the target's `s_um`.
+pub(crate) fn laser_rows(
+    basis: &Basis,
+    layout: &Layout,
+    table: &LineTable,
+    first: usize,
+) -> Vec<Row> {
+    let mut rows = Vec::with_capacity(table.targets());
+    for (l, line) in table.lines.iter().enumerate() {
+        for (i, t) in line.targets.iter().enumerate() {
+            let mut coef = vec![0.0; layout.n];
+            coef[..layout.n_m].copy_from_slice(&basis.line_row(t.pos_mm, line.u, line.probe_mm));
+            coef[layout.lines.0 + l] = 1.0;
+            rows.push(Row {
+                position: first + l,
+                meas_row: i,
+                coef,
+                value_um: t.e_um.unwrap_or(0.0),
+                sigma_um: t.s_um.unwrap_or(1.0),
             });
         }
     }

@@ -21,15 +21,15 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
 use super::design::{
-    Layout, Row, View, complement, observed_coords, placement_params, position_rows, prior_rows,
-    rigid_patterns, weighted,
+    Layout, Row, View, complement, laser_rows, observed_coords, placement_params, position_rows,
+    prior_rows, rigid_patterns, weighted,
 };
 use super::error::ArtefactError;
 use super::files::{Campaign, Kind, Measurement};
 use super::placement::{Placement, checked_placement, nominal_rotation};
 use crate::volumetric::{
-    Basis, Component, FitState, Identification, ResidualVerdict, Topology, Unidentified, Z_MISSING,
-    chi_square_z, decompose_design, identified_components,
+    Basis, Component, FitState, Identification, LineTable, ResidualVerdict, Topology, Unidentified,
+    Z_MISSING, chi_square_z, decompose_design, identified_components,
 };
 
 /// The component degree of the artefact fit (volumetric identify's observability rule).
@@ -425,10 +425,90 @@ pub fn identify(
     meas: &[Measurement],
     opts: &IdentifyOptions,
 ) -> Result<ArtefactIdentification, ArtefactError> {
+    identify_joint(campaign, meas, None, opts)
+}
+
+/// A laser line table a joint fit can weigh: every target with its reading and its
+/// one-sigma (the fit weighs the laser against the artefact by them).
+fn check_lines(table: &LineTable) -> Result<(), ArtefactError> {
+    for line in &table.lines {
+        if let Some(t) = line
+            .targets
+            .iter()
+            .find(|t| t.e_um.is_none() || t.s_um.is_none())
+        {
+            return Err(ArtefactError::Fit {
+                file: table.source.clone().into(),
+                message: format!(
+                    "line {}, data row {}: a joint fit needs e_um and s_um on every target \
+                     (the laser is weighed against the artefact by its one-sigma)",
+                    line.id, t.row
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The laser lines' shares of the residual, as the positions' (`first` the number of
+/// the first line's rows' position).
+fn line_carriers(
+    table: &LineTable,
+    rows: &[Row],
+    sol: &Solution,
+    first: usize,
+) -> Vec<CarrierPosition> {
+    table
+        .lines
+        .iter()
+        .enumerate()
+        .map(|(l, line)| {
+            let mine: Vec<usize> = (0..rows.len())
+                .filter(|&i| rows[i].position == first + l)
+                .collect();
+            let res = |i: usize| sol.res_w[i] * rows[i].sigma_um;
+            let rms = (mine.iter().map(|&i| res(i).powi(2)).sum::<f64>()
+                / mine.len().max(1) as f64)
+                .sqrt();
+            let worst = mine
+                .iter()
+                .max_by(|&&a, &&b| res(a).abs().total_cmp(&res(b).abs()))
+                .map(|&i| format!("target {}", line.targets[rows[i].meas_row].row))
+                .unwrap_or_default();
+            CarrierPosition {
+                position: format!("laser {}", line.id),
+                share: mine.iter().map(|&i| sol.res_w[i].powi(2)).sum::<f64>()
+                    / sol.chi2.max(f64::MIN_POSITIVE),
+                rms_um: rms,
+                worst_feature: worst,
+            }
+        })
+        .collect()
+}
+
+/// Identifies the campaign and, when given, laser lines of the same machine in one fit
+/// (issue #36 item 1's joint fit): the lines' targets are rows of the same design, each
+/// line with its free constant, so what the positions leave undetermined or invariant
+/// (the plate's scale against the machine's) a line along an axis can determine.
+pub fn identify_joint(
+    campaign: &Campaign,
+    meas: &[Measurement],
+    lines: Option<&LineTable>,
+    opts: &IdentifyOptions,
+) -> Result<ArtefactIdentification, ArtefactError> {
+    if let Some(t) = lines {
+        check_lines(t)?;
+    }
     let placements: Vec<Placement> = (0..campaign.positions.len())
         .map(|k| checked_placement(campaign, k, &meas[k]))
         .collect::<Result<_, _>>()?;
-    let range = measured_range(campaign, meas);
+    let mut range = measured_range(campaign, meas);
+    for t in lines.iter().flat_map(|t| &t.lines).flat_map(|l| &l.targets) {
+        for (k, rk) in range.iter_mut().enumerate() {
+            rk[0] = rk[0].min(t.pos_mm[k]);
+            rk[1] = rk[1].max(t.pos_mm[k]);
+        }
+    }
     let basis = Basis::new(opts.topology, range, vec![DEGREE; 18]);
     let self_cal: Vec<bool> = campaign
         .artefacts
@@ -441,7 +521,8 @@ pub fn identify(
         .zip(&self_cal)
         .map(|(a, s)| *s || a.certified())
         .collect();
-    let layout = Layout::new(&basis, campaign, &dev_free);
+    let n_lines = lines.map_or(0, |t| t.lines.len());
+    let layout = Layout::new(&basis, campaign, &dev_free, n_lines);
     let priors = prior_rows(campaign, &layout);
     let mut nominal = Vec::new();
     let mut rows = Vec::new();
@@ -475,6 +556,12 @@ pub fn identify(
             &placements[k],
         ));
     }
+    let np = campaign.positions.len();
+    if let Some(t) = lines {
+        let laser = laser_rows(&basis, &layout, t, np);
+        nominal.extend(laser.iter().cloned());
+        rows.extend(laser);
+    }
     let obs = observability(campaign, &basis, &layout, &nominal, &priors, &self_cal);
     let solved = solve(&rows, &priors, &layout, &obs).ok_or_else(|| ArtefactError::Fit {
         file: campaign.path.clone(),
@@ -483,6 +570,7 @@ pub fn identify(
             rows.len()
         ),
     })?;
+    let laser_carriers = lines.map(|t| line_carriers(t, &rows, &solved, np));
     let identified = identified_components(&basis, &obs.null_mo);
     let unidentified =
         super::observe::unidentified_groups(campaign, meas, &basis, &obs, &identified, range);
@@ -496,7 +584,14 @@ pub fn identify(
         unidentified,
         self_cal: &self_cal,
     };
-    Ok(super::observe::assemble(campaign, meas, opts, basis, fit))
+    let mut id = super::observe::assemble(campaign, meas, opts, basis, fit);
+    if let Some(c) = laser_carriers {
+        id.residual.carriers.extend(c);
+        id.residual
+            .carriers
+            .sort_by(|a, b| b.share.total_cmp(&a.share));
+    }
+    Ok(id)
 }
 
 /// The solution in the unknowns' own coordinates.

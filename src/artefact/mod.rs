@@ -38,7 +38,7 @@ pub use files::{
 pub use identify::{
     ArtefactIdentification, CarrierPosition, DEGREE, FeatureDeviation, FittedPlacement,
     IdentifyOptions, Invariant, MapPoint, ResidualTest, SelfCalibration, Suggestion,
-    UnidentifiedGroup, identify,
+    UnidentifiedGroup, identify, identify_joint,
 };
 pub use placement::{
     FEATURE_OFF_MM, PLACEMENT_OFF_DEG, PLACEMENT_OFF_MM, Placement, checked_placement, frame_along,

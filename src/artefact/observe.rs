@@ -179,7 +179,7 @@ fn with_extra(
     all.push(m);
     let self_cal: Vec<bool> = c.artefacts.iter().map(|_| false).collect();
     let dev_free: Vec<bool> = c.artefacts.iter().map(|a| a.certified()).collect();
-    let layout = Layout::new(basis, &c, &dev_free);
+    let layout = Layout::new(basis, &c, &dev_free, 0);
     let priors = prior_rows(&c, &layout);
     let mut rows = Vec::new();
     for (k, p) in c.positions.iter().enumerate() {

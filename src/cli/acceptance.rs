@@ -261,6 +261,32 @@ fn iso10360_cmd(a: Iso10360Args) -> Result<()> {
 }
 
 pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
+    let t = virtual_test(&a)?;
+    if a.json {
+        super::guard::print_json(&t)?;
+    }
+    eprintln!(
+        "volumetric iso10360: {} predicted measurements, max |E| {:.3} µm{}{}",
+        t.measurements.len(),
+        t.max_abs_e_um,
+        t.verdict.map(|v| format!(": {v}")).unwrap_or_default(),
+        t.compensated
+            .as_ref()
+            .map(|c| format!(
+                "; after compensation max |E| {:.3} µm (not resolved below ±{:.3} µm: the \
+                 model's 2σ and the table's 0.1 µm step){}",
+                c.max_abs_e_um,
+                c.floor_um,
+                c.verdict.map(|v| format!(": {v}")).unwrap_or_default()
+            ))
+            .unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// What `volumetric iso10360` predicts from the flags (the report written when asked),
+/// also the demo's artefact step.
+pub(crate) fn virtual_test(a: &VirtualArgs) -> Result<acceptance::VirtualTest> {
     let mut inputs: Vec<(&str, &Path)> = vec![("--model", &a.model)];
     inputs.extend(a.plan.as_deref().map(|p| ("--plan", p)));
     if let Some(dir) = &a.report {
@@ -296,26 +322,7 @@ pub(crate) fn virtual_cmd(a: VirtualArgs) -> Result<()> {
         })?;
         eprintln!("volumetric iso10360: report in {}", dir.display());
     }
-    if a.json {
-        super::guard::print_json(&t)?;
-    }
-    eprintln!(
-        "volumetric iso10360: {} predicted measurements, max |E| {:.3} µm{}{}",
-        t.measurements.len(),
-        t.max_abs_e_um,
-        t.verdict.map(|v| format!(": {v}")).unwrap_or_default(),
-        t.compensated
-            .as_ref()
-            .map(|c| format!(
-                "; after compensation max |E| {:.3} µm (not resolved below ±{:.3} µm: the \
-                 model's 2σ and the table's 0.1 µm step){}",
-                c.max_abs_e_um,
-                c.floor_um,
-                c.verdict.map(|v| format!(": {v}")).unwrap_or_default()
-            ))
-            .unwrap_or_default()
-    );
-    Ok(())
+    Ok(t)
 }
 
 /// `--tolerances` of `table` and `certificate`: the file read before anything is

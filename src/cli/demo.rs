@@ -144,6 +144,10 @@ pub(crate) fn demo(a: DemoArgs) -> Result<()> {
     );
     super::probing::demo_step(&a.out)?;
     eprintln!(
+        "errmap demo: the CMM mapped with a ball plate in eight positions (artefact identify) → ISO 10360-2 predicted"
+    );
+    super::artefact::demo_step(&a.out)?;
+    eprintln!(
         "errmap demo: the captured session and the volumetric model in a calibration ledger (history add, report)"
     );
     let volumetric_model = a.out.join("volumetric").join("model.json");

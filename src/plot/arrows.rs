@@ -1,11 +1,13 @@
 //! A residual map on a plate: each feature a dot at its place (mm, the artefact's frame,
 //! equal scales on both axes), its residual an arrow from it, magnified so that the
 //! largest arrow is [`LONGEST_SHARE`] of the plate's span; a key arrow gives the
-//! magnification in µm. PNG and SVG.
+//! magnification in µm; round mm values are ticked and labelled on both axes of the
+//! frame. PNG and SVG.
 
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::draw::de;
 use super::error::{DrawFailure, PlotError};
@@ -42,6 +44,8 @@ pub struct ArrowMap {
 
 const HEADER_PX: f64 = 80.0;
 const MARGIN_PX: f64 = 70.0;
+/// Below the frame: its tick labels and the x axis' name, above the key.
+const FOOTER_PX: f64 = 24.0;
 const ARROW: RGBColor = RGBColor(0xd6, 0x27, 0x28);
 
 /// The geometry: mm → pixel, and µm → pixel of the arrows.
@@ -62,7 +66,7 @@ fn geometry(map: &ArrowMap) -> Geometry {
         hi = [hi[0].max(a.x_mm), hi[1].max(a.y_mm)];
     }
     let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1.0);
-    let span_px = f64::from(SIDE_PX) - HEADER_PX - 2.0 * MARGIN_PX;
+    let span_px = f64::from(SIDE_PX) - HEADER_PX - 2.0 * MARGIN_PX - FOOTER_PX;
     // The features sit inset by the longest arrow on each side, so that every arrow ends
     // inside the frame (which is drawn around `span_px`).
     let px_per_mm = span_px * (1.0 - 2.0 * LONGEST_SHARE) / span;
@@ -166,6 +170,78 @@ fn arrow<DB: DrawingBackend>(
     .map_err(de)
 }
 
+/// Round values (1, 2 or 5 × 10ᵏ apart, at most eight steps) inside [lo, hi], with the
+/// decimals their labels need.
+fn ticks(lo: f64, hi: f64) -> (Vec<f64>, usize) {
+    let span = hi - lo;
+    if !(span.is_finite() && span > 0.0) {
+        return (Vec::new(), 0);
+    }
+    let mag = 10f64.powf((span / 8.0).log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| span / s <= 8.0)
+        .unwrap_or(10.0 * mag);
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let (first, last) = ((lo / step).ceil() as i64, (hi / step).floor() as i64);
+    ((first..=last).map(|i| i as f64 * step).collect(), decimals)
+}
+
+/// Tick marks and mm labels under the frame (x) and left of it (y); `lo`, `hi` are the
+/// frame's top-left and bottom-right pixels.
+fn frame_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    g: &Geometry,
+    lo: (f64, f64),
+    hi: (f64, f64),
+) -> Result<(), DrawFailure> {
+    let grey = RGBColor(0x99, 0x99, 0x99);
+    let label = |v: f64, d: usize| {
+        // No "-0" label.
+        let t = format!("{v:.d$}");
+        if t.trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+        {
+            format!("{:.d$}", 0.0)
+        } else {
+            t
+        }
+    };
+    let (xs, dx) = ticks((lo.0 - g.x0) / g.px_per_mm, (hi.0 - g.x0) / g.px_per_mm);
+    for v in xs {
+        let px = g.x0 + g.px_per_mm * v;
+        root.draw(&PathElement::new(
+            vec![ip((px, hi.1)), ip((px, hi.1 + 5.0))],
+            grey.stroke_width(1),
+        ))
+        .map_err(de)?;
+        root.draw(&Text::new(
+            label(v, dx),
+            ip((px, hi.1 + 7.0)),
+            style(11.0).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(de)?;
+    }
+    let (ys, dy) = ticks((g.y0 - hi.1) / g.px_per_mm, (g.y0 - lo.1) / g.px_per_mm);
+    for v in ys {
+        let py = g.y0 - g.px_per_mm * v;
+        root.draw(&PathElement::new(
+            vec![ip((lo.0 - 5.0, py)), ip((lo.0, py))],
+            grey.stroke_width(1),
+        ))
+        .map_err(de)?;
+        root.draw(&Text::new(
+            label(v, dy),
+            ip((lo.0 - 8.0, py)),
+            style(11.0).pos(Pos::new(HPos::Right, VPos::Center)),
+        ))
+        .map_err(de)?;
+    }
+    Ok(())
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     map: &ArrowMap,
@@ -186,10 +262,11 @@ fn draw<DB: DrawingBackend>(
     .map_err(de)?;
     root.draw(&Text::new(
         map.x_label.clone(),
-        (hi.0 as i32 - 140, hi.1 as i32 + 6),
-        style(12.0),
+        (hi.0 as i32, hi.1 as i32 + 22),
+        style(12.0).pos(Pos::new(HPos::Right, VPos::Top)),
     ))
     .map_err(de)?;
+    frame_ticks(root, &g, lo, hi)?;
     root.draw(&Text::new(
         map.y_label.clone(),
         (lo.0 as i32, lo.1 as i32 - 18),
@@ -223,4 +300,27 @@ fn draw<DB: DrawingBackend>(
         style(13.0),
     ))
     .map_err(de)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ticks;
+
+    #[test]
+    fn ticks_are_round_values_inside_the_range() {
+        // 474 mm: steps of 10, 20 and 50 give more than eight intervals, 100 does not.
+        assert_eq!(
+            ticks(-37.0, 437.0),
+            (vec![0.0, 100.0, 200.0, 300.0, 400.0], 0)
+        );
+        let (t, d) = ticks(0.0, 0.45);
+        assert_eq!(d, 1);
+        assert_eq!(t.len(), 5);
+        assert!((t[4] - 0.4).abs() < 1e-12, "{t:?}");
+        assert_eq!(
+            ticks(-160.0, 160.0).0,
+            vec![-150.0, -100.0, -50.0, 0.0, 50.0, 100.0, 150.0]
+        );
+        assert_eq!(ticks(1.0, 1.0), (Vec::new(), 0));
+    }
 }

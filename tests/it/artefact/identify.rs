@@ -109,6 +109,25 @@ pub(super) fn identify_out(campaign: &Path, model: &Path) {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+/// `artefact simulate CAMPAIGN --model MODEL --out MEAS --sigma-um NOISE --seed SEED`.
+pub(super) fn simulate(campaign: &Path, model: &Path, meas: &Path, noise: f64, seed: u64) {
+    let (noise, seed) = (noise.to_string(), seed.to_string());
+    let o = errmap(&[
+        "artefact",
+        "simulate",
+        s(campaign),
+        "--model",
+        s(model),
+        "--out",
+        s(meas),
+        "--sigma-um",
+        &noise,
+        "--seed",
+        &seed,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// Simulates into dir/meas and identifies; returns the JSON.
 pub(super) fn run(
     dir: &Path,
@@ -117,22 +136,7 @@ pub(super) fn run(
     noise: f64,
     extra: &[&str],
 ) -> serde_json::Value {
-    let meas = dir.join("meas");
-    let noise = noise.to_string();
-    let o = errmap(&[
-        "artefact",
-        "simulate",
-        s(campaign),
-        "--model",
-        s(model),
-        "--out",
-        s(&meas),
-        "--sigma-um",
-        &noise,
-        "--seed",
-        "3",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    simulate(campaign, model, &dir.join("meas"), noise, 3);
     let mut args = vec![
         "artefact",
         "identify",

@@ -5,6 +5,7 @@
 mod bad_input;
 mod concealed;
 mod identify;
+mod joint;
 mod known;
 mod sdss;
 mod selfcal;
