@@ -249,16 +249,28 @@ fn too_few(file: &std::path::Path, what: &str) -> ArtefactError {
     }
 }
 
-/// The 2-D evaluation of a plate in `plane` at `temp_c`, with `against` an earlier
-/// measurement of the same artefact.
+/// How a measurement is evaluated: the map fitted, the plate's plane, the temperature the
+/// reference is taken at, and an earlier measurement of the same artefact to compare.
+#[derive(Debug, Clone, Copy)]
+pub struct EvalSettings<'a> {
+    pub against: Option<&'a Measurement>,
+    pub model: MapModel,
+    pub plane: Plane,
+    pub temp_c: f64,
+}
+
+/// The 2-D evaluation of a plate.
 pub fn evaluate_plate(
     art: &Artefact,
     meas: &Measurement,
-    against: Option<&Measurement>,
-    model: MapModel,
-    plane: Plane,
-    temp_c: f64,
+    settings: &EvalSettings,
 ) -> Result<PlateEvaluation, ArtefactError> {
+    let EvalSettings {
+        against,
+        model,
+        plane,
+        temp_c,
+    } = *settings;
     let [a1, a2, _] = plane.axes();
     let ids: Vec<String> = meas
         .rows
@@ -378,18 +390,14 @@ pub fn evaluate_gauge(
 pub fn evaluate(
     art: &Artefact,
     meas: &Measurement,
-    against: Option<&Measurement>,
-    model: MapModel,
-    plane: Plane,
-    temp_c: f64,
+    settings: &EvalSettings,
 ) -> Result<Evaluation, ArtefactError> {
     match art.kind {
         Kind::BallPlate | Kind::HolePlate => {
-            evaluate_plate(art, meas, against, model, plane, temp_c)
-                .map(|p| Evaluation::Plate(Box::new(p)))
+            evaluate_plate(art, meas, settings).map(|p| Evaluation::Plate(Box::new(p)))
         }
         Kind::BallBeam | Kind::StepGauge => {
-            evaluate_gauge(art, meas, temp_c).map(Evaluation::Gauge)
+            evaluate_gauge(art, meas, settings.temp_c).map(Evaluation::Gauge)
         }
     }
 }

@@ -28,8 +28,8 @@ mod simulate;
 pub use doc::IdentifyDoc;
 pub use error::ArtefactError;
 pub use evaluate::{
-    Against, Distortion, Evaluation, Fitted, GaugeEvaluation, GaugeLength, MapFit, MapModel,
-    PlateEvaluation, Residual2, evaluate, evaluate_gauge, evaluate_plate, fit_map,
+    Against, Distortion, EvalSettings, Evaluation, Fitted, GaugeEvaluation, GaugeLength, MapFit,
+    MapModel, PlateEvaluation, Residual2, evaluate, evaluate_gauge, evaluate_plate, fit_map,
 };
 pub use files::{
     Artefact, Campaign, Feature, Kind, MAX_FEATURES, MeasuredFeature, Measurement, Orientation,

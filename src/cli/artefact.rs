@@ -7,8 +7,8 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 
 use errmap::artefact::{
-    Artefact, ArtefactIdentification, Campaign, Evaluation, IdentifyDoc, IdentifyOptions, MapModel,
-    Measurement, Plane, evaluate,
+    Artefact, ArtefactIdentification, Campaign, EvalSettings, Evaluation, IdentifyDoc,
+    IdentifyOptions, MapModel, Measurement, Plane, evaluate,
 };
 use errmap::volumetric::ModelDoc;
 
@@ -121,7 +121,13 @@ fn evaluate_cmd(a: EvaluateArgs) -> Result<()> {
         None => None,
     };
     let temp_c = a.temp_c.unwrap_or(art.reference_temp_c);
-    let ev = evaluate(&art, &meas, old.as_ref(), model, plane, temp_c)?;
+    let settings = EvalSettings {
+        against: old.as_ref(),
+        model,
+        plane,
+        temp_c,
+    };
+    let ev = evaluate(&art, &meas, &settings)?;
     if let Some(dir) = &a.report {
         super::guard::into_new_dir(dir, |d| {
             Ok(errmap::report::write_evaluation_report(&ev, d)?)

@@ -1255,16 +1255,16 @@ mod tests {
         Ok(())
     }
 
+    /// A two-point falling line, the series of the file-handling tests.
+    fn falling_line() -> XySeries {
+        xy_series("s", vec![1.0, 2.0], vec![2.0, 1.0], XyStyle::Line)
+    }
+
     #[test]
     fn stem_with_dots_and_missing_directories() -> TestResult {
         let dir = temp_dir("stem")?;
         let stem = dir.path().join("a").join("b").join("fig.v2");
-        let s = [xy_series(
-            "s",
-            vec![1.0, 2.0],
-            vec![2.0, 1.0],
-            XyStyle::Line,
-        )];
+        let s = [falling_line()];
         let paths = xy(&stem, "Dots", "x", "y", &s)?;
         assert!(paths[0].ends_with("fig.v2.png") && paths[1].ends_with("fig.v2.svg"));
         check_outputs(&paths, &stem, "Dots")?;
@@ -1282,12 +1282,7 @@ mod tests {
     fn a_figure_appears_whole_or_not_at_all() -> TestResult {
         let dir = temp_dir("whole")?;
         let stem = dir.path().join("fig");
-        let s = [xy_series(
-            "s",
-            vec![1.0, 2.0],
-            vec![2.0, 1.0],
-            XyStyle::Line,
-        )];
+        let s = [falling_line()];
         let first = xy(&stem, "First", "x", "y", &s)?;
         let again = xy(&stem, "Again", "x", "y", &s)?;
         assert_eq!(first, again);

@@ -6,6 +6,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use super::history::display_unit;
 use super::{ReportError, write_json, write_text};
 use crate::artefact::{ArtefactIdentification, Evaluation, IdentifyDoc, Kind};
 use crate::base::{FileOp, io_err};
@@ -130,8 +131,11 @@ fn components_table(md: &mut String, doc: &IdentifyDoc) {
         md,
         "## Components\n\nLargest |value| over the measured range with the one-sigma there \
          (cubic polynomials in the volumetric model's basis and gauge; model.json holds every \
-         position).\n\n| component | unit | largest value | σ there |\n|---|---|---|---|"
+         position); `> 2σ` says whether that value stands out of its own noise (a component \
+         that does not is consistent with zero on this campaign).\n\n\
+         | component | unit | largest value | σ there | > 2σ |\n|---|---|---|---|---|"
     );
+    let beyond = |v: f64, s: f64| if v.abs() > 2.0 * s { "yes" } else { "no" };
     for (name, c) in &doc.components {
         match c {
             ComponentDoc::Function {
@@ -143,7 +147,14 @@ fn components_table(md: &mut String, doc: &IdentifyDoc) {
                 let k = (0..v.len())
                     .max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()))
                     .unwrap_or(0);
-                let _ = writeln!(md, "| {name} | {unit} | {:+.3} | {:.3} |", v[k], s[k]);
+                let _ = writeln!(
+                    md,
+                    "| {name} | {} | {:+.3} | {:.3} | {} |",
+                    display_unit(unit),
+                    v[k],
+                    s[k],
+                    beyond(v[k], s[k])
+                );
             }
             ComponentDoc::Constant {
                 unit,
@@ -151,10 +162,19 @@ fn components_table(md: &mut String, doc: &IdentifyDoc) {
                 sigma: Some(s),
                 ..
             } => {
-                let _ = writeln!(md, "| {name} | {unit} | {v:+.3} | {s:.3} |");
+                let _ = writeln!(
+                    md,
+                    "| {name} | {} | {v:+.3} | {s:.3} | {} |",
+                    display_unit(unit),
+                    beyond(*v, *s)
+                );
             }
             ComponentDoc::Function { unit, .. } | ComponentDoc::Constant { unit, .. } => {
-                let _ = writeln!(md, "| {name} | {unit} | not determined | — |");
+                let _ = writeln!(
+                    md,
+                    "| {name} | {} | not determined | — | — |",
+                    display_unit(unit)
+                );
             }
         }
     }

@@ -407,10 +407,12 @@ fn trend_and_tolerance(p: &ParameterReport, origin: i64, x_end: f64) -> Vec<XySe
     series
 }
 
-/// A unit as a reader expects it: the ledger stores micrometres as ASCII `um`.
-fn display_unit(unit: &str) -> &str {
+/// A unit as a reader expects it: the ledger and the JSON documents store micrometres
+/// and microradians as ASCII `um` and `urad`.
+pub(super) fn display_unit(unit: &str) -> &str {
     match unit {
         "um" => "µm",
+        "urad" => "µrad",
         other => other,
     }
 }

@@ -284,6 +284,26 @@ fn the_report_shows_components_placements_observability_and_maps() {
     for name in ["E_XX", "E_C0Y", "E_AZ"] {
         assert!(md.contains(name), "{name} missing");
     }
+    // Each determined component says in µm or µrad whether its value stands beyond 2σ.
+    let rows: Vec<Vec<&str>> = md
+        .lines()
+        .filter(|l| l.starts_with("| E_"))
+        .map(|l| l.split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 21, "{md}");
+    let mut determined = 0;
+    for r in &rows {
+        assert!(r[2] == "µm" || r[2] == "µrad", "{r:?}");
+        if let (Ok(v), Ok(sd)) = (r[3].parse::<f64>(), r[4].parse::<f64>()) {
+            determined += 1;
+            if (v.abs() - 2.0 * sd).abs() < 0.003 {
+                continue; // printed to 3 decimals: too close to tell
+            }
+            let want = if v.abs() > 2.0 * sd { "yes" } else { "no" };
+            assert_eq!(r[5], want, "{r:?}");
+        }
+    }
+    assert!(determined > 0, "{md}");
     for u in v["unidentified"].as_array().expect("unidentified") {
         for c in u["components"].as_array().expect("components") {
             assert!(md.contains(c.as_str().expect("name")), "{c}");
