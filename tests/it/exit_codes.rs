@@ -281,7 +281,7 @@ pub(crate) const CASES: &[(&str, &[(&str, &str)])] = &[
 
 /// Flags whose value is a path, a URL or free text: any text is a value, and a wrong
 /// one is a file that cannot be read or written (exit 1, named).
-const PATHS_AND_TEXT: [&str; 36] = [
+const PATHS_AND_TEXT: [&str; 37] = [
     "against",
     "axis-tables",
     "dir",
@@ -314,6 +314,7 @@ const PATHS_AND_TEXT: [&str; 36] = [
     "twincat",
     // `model` of artefact evaluate is a name (in CASES); of the other commands a path.
     "campaign",
+    "laser",
     "table",
     "result",
     "artefact",
