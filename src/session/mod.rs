@@ -125,7 +125,7 @@ pub(crate) fn row_indices(
     target: f64,
     flags: Option<f64>,
 ) -> Result<(i8, i32, u8), (&'static str, String)> {
-    let whole = |v: f64, column: &'static str| whole_number(v).map_err(|p| (column, p));
+    let whole = |v: f64, column: &'static str| whole_number(v).map_err(|p| (column, p.to_string()));
     let d = whole(direction, "direction")?;
     if !(-1..=1).contains(&d) {
         return Err(("direction", format!("{d} is not +1, −1 or 0")));
@@ -145,17 +145,22 @@ pub(crate) fn row_indices(
     Ok((d as i8, t, f))
 }
 
-/// A cell that must hold a whole number (within ±9·10¹⁵, where f64 still counts by ones),
-/// or the problem in words; every integer column of the session tables is read through it.
-pub(crate) fn whole_number(v: f64) -> Result<i64, String> {
+/// A cell value that is not a whole number.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{0} is not a whole number")]
+pub(crate) struct NotWhole(f64);
+
+/// A cell that must hold a whole number (within ±9·10¹⁵, where f64 still counts by ones);
+/// every integer column of the session tables is read through it.
+pub(crate) fn whole_number(v: f64) -> Result<i64, NotWhole> {
     if v.fract() != 0.0 || v.abs() > 9.0e15 {
-        return Err(format!("{v} is not a whole number"));
+        return Err(NotWhole(v));
     }
     Ok(v as i64)
 }
 
 fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, TableError> {
-    whole_number(v).map_err(|p| bad(path, row0, column, p))
+    whole_number(v).map_err(|p| bad(path, row0, column, p.to_string()))
 }
 
 fn axis_cell(path: &Path, cells: &Cells, row0: usize) -> Result<WireAxis, TableError> {

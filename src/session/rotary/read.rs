@@ -93,7 +93,7 @@ fn bad(path: &Path, row0: usize, column: &str, problem: impl Into<String>) -> Ro
 }
 
 fn integer(path: &Path, v: f64, row0: usize, column: &str) -> Result<i64, RotaryError> {
-    crate::session::whole_number(v).map_err(|p| bad(path, row0, column, p))
+    crate::session::whole_number(v).map_err(|p| bad(path, row0, column, p.to_string()))
 }
 
 fn axis_text(cells: &Cells, row0: usize) -> String {
