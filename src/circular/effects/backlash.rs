@@ -6,9 +6,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{
-    CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, sgn, within,
-};
+use super::{Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, sgn, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -17,12 +15,6 @@ use crate::circular::signature::{Geometry, Point, Slot};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Backlash {
     pub b_um: f64,
-}
-
-impl From<Backlash> for CircularEffect {
-    fn from(e: Backlash) -> Self {
-        CircularEffect::Backlash(e)
-    }
 }
 
 impl Family for Backlash {

@@ -11,10 +11,8 @@ use std::f64::consts::{PI, TAU};
 
 use nalgebra::DMatrix;
 
-use super::{
-    CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Sampling, Scan, Term, Wording,
-    positive, sd, within,
-};
+use super::{Contribution, Family, MAX_TERM_UM, Motion, Sampling, Scan, Term, Wording};
+use super::{positive, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -29,12 +27,6 @@ pub struct CyclicError {
     pub amplitude_um: f64,
     pub period_mm: f64,
     pub phase_rad: f64,
-}
-
-impl From<CyclicError> for CircularEffect {
-    fn from(e: CyclicError) -> Self {
-        CircularEffect::CyclicError(e)
-    }
 }
 
 impl Family for CyclicError {

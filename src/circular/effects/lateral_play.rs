@@ -7,7 +7,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
+use super::{Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -16,12 +16,6 @@ use crate::circular::signature::{Geometry, Point, Slot};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LateralPlay {
     pub p_um: f64,
-}
-
-impl From<LateralPlay> for CircularEffect {
-    fn from(e: LateralPlay) -> Self {
-        CircularEffect::LateralPlay(e)
-    }
 }
 
 impl Family for LateralPlay {

@@ -6,9 +6,10 @@
 //! names, the slots it may act on, its radial signature's linear columns, its scanned
 //! parameter, how a fit's coefficients make it — and [`Term`], what one effect with its
 //! values does — its parameters, its simulated axis errors, its plausible bounds, its words.
-//! [`CircularId`] names the effects and [`CircularEffect`] holds one; the three `match`es
-//! below are the registry, and there is no catch-all arm over effects anywhere in
-//! `circular/`: a new effect is a compile error where it must be handled.
+//! [`CircularId`] names the effects and [`CircularEffect`] holds one; the macro
+//! `circular_vocabulary!` below is the registry, a line an effect, and there is no
+//! catch-all arm over effects anywhere in `circular/`: a new effect is a compile error
+//! where it must be handled.
 //!
 //! | file | id | acts on | parameters |
 //! |---|---|---|---|
@@ -60,46 +61,7 @@ pub use straightness::Straightness;
 /// either side of its length, so a larger term is a typing error, not a machine.
 pub const MAX_TERM_UM: f64 = 1000.0;
 
-/// An effect of the circular vocabulary, by the contract's id.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum CircularId {
-    Backlash,
-    ReversalSpike,
-    LateralPlay,
-    CyclicError,
-    Straightness,
-    ServoMismatch,
-    ScaleMismatch,
-    Squareness,
-}
-
 impl CircularId {
-    /// Every id, in the contract's order (also the diagnosis' order of candidates).
-    pub const ALL: [CircularId; 8] = [
-        CircularId::Backlash,
-        CircularId::ReversalSpike,
-        CircularId::LateralPlay,
-        CircularId::CyclicError,
-        CircularId::Straightness,
-        CircularId::ServoMismatch,
-        CircularId::ScaleMismatch,
-        CircularId::Squareness,
-    ];
-
-    /// What the effect is, whatever its values.
-    pub fn kind(self) -> Kind {
-        match self {
-            CircularId::Backlash => Kind::of::<Backlash>(),
-            CircularId::ReversalSpike => Kind::of::<ReversalSpike>(),
-            CircularId::LateralPlay => Kind::of::<LateralPlay>(),
-            CircularId::CyclicError => Kind::of::<CyclicError>(),
-            CircularId::Straightness => Kind::of::<Straightness>(),
-            CircularId::ServoMismatch => Kind::of::<ServoMismatch>(),
-            CircularId::ScaleMismatch => Kind::of::<ScaleMismatch>(),
-            CircularId::Squareness => Kind::of::<Squareness>(),
-        }
-    }
-
     /// The contract's id.
     pub fn as_str(self) -> &'static str {
         self.kind().name
@@ -144,48 +106,72 @@ impl FromStr for CircularId {
     }
 }
 
-/// One effect of the circular vocabulary with its parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum CircularEffect {
-    Backlash(Backlash),
-    ReversalSpike(ReversalSpike),
-    LateralPlay(LateralPlay),
-    CyclicError(CyclicError),
-    Straightness(Straightness),
-    ServoMismatch(ServoMismatch),
-    ScaleMismatch(ScaleMismatch),
-    Squareness(Squareness),
+/// The registry, one name an effect: its type, whose name is also its variant in
+/// [`CircularId`] and [`CircularEffect`]. It writes the two enums, [`CircularId::ALL`],
+/// [`CircularId::kind`], [`CircularEffect::id`], [`CircularEffect::term`] and
+/// `From<T> for CircularEffect`, each `match` exhaustive.
+macro_rules! circular_vocabulary {
+    ($($t:ident),* $(,)?) => {
+        /// An effect of the circular vocabulary, by the contract's id.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum CircularId {
+            $($t,)*
+        }
+
+        impl CircularId {
+            /// Every id, in the contract's order (also the diagnosis' order of candidates).
+            pub const ALL: [CircularId; [$(CircularId::$t),*].len()] = [$(CircularId::$t),*];
+
+            /// What the effect is, whatever its values.
+            pub fn kind(self) -> Kind {
+                match self {
+                    $(CircularId::$t => Kind::of::<$t>(),)*
+                }
+            }
+        }
+
+        /// One effect of the circular vocabulary with its parameters.
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        pub enum CircularEffect {
+            $($t($t),)*
+        }
+
+        $(impl From<$t> for CircularEffect {
+            fn from(e: $t) -> Self {
+                CircularEffect::$t(e)
+            }
+        })*
+
+        impl CircularEffect {
+            /// The vocabulary id.
+            pub fn id(&self) -> CircularId {
+                match self {
+                    $(CircularEffect::$t(_) => CircularId::$t,)*
+                }
+            }
+
+            /// The effect behind its values' trait.
+            pub fn term(&self) -> &dyn Term {
+                match self {
+                    $(CircularEffect::$t(e) => e,)*
+                }
+            }
+        }
+    };
 }
 
+circular_vocabulary!(
+    Backlash,
+    ReversalSpike,
+    LateralPlay,
+    CyclicError,
+    Straightness,
+    ServoMismatch,
+    ScaleMismatch,
+    Squareness,
+);
+
 impl CircularEffect {
-    /// The vocabulary id.
-    pub fn id(&self) -> CircularId {
-        match self {
-            CircularEffect::Backlash(_) => CircularId::Backlash,
-            CircularEffect::ReversalSpike(_) => CircularId::ReversalSpike,
-            CircularEffect::LateralPlay(_) => CircularId::LateralPlay,
-            CircularEffect::CyclicError(_) => CircularId::CyclicError,
-            CircularEffect::Straightness(_) => CircularId::Straightness,
-            CircularEffect::ServoMismatch(_) => CircularId::ServoMismatch,
-            CircularEffect::ScaleMismatch(_) => CircularId::ScaleMismatch,
-            CircularEffect::Squareness(_) => CircularId::Squareness,
-        }
-    }
-
-    /// The effect behind its values' trait.
-    pub fn term(&self) -> &dyn Term {
-        match self {
-            CircularEffect::Backlash(e) => e,
-            CircularEffect::ReversalSpike(e) => e,
-            CircularEffect::LateralPlay(e) => e,
-            CircularEffect::CyclicError(e) => e,
-            CircularEffect::Straightness(e) => e,
-            CircularEffect::ServoMismatch(e) => e,
-            CircularEffect::ScaleMismatch(e) => e,
-            CircularEffect::Squareness(e) => e,
-        }
-    }
-
     /// The parameters, in the type's order.
     pub fn params(&self) -> Vec<(ParamName, f64)> {
         self.term().params()

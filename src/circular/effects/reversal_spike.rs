@@ -9,10 +9,8 @@ use std::f64::consts::PI;
 
 use nalgebra::DMatrix;
 
-use super::{
-    CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Sampling, Scan, Term, Wording,
-    positive, sd, within,
-};
+use super::{Contribution, Family, MAX_TERM_UM, Motion, Sampling, Scan, Term, Wording};
+use super::{positive, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -25,12 +23,6 @@ const MAX_TAU_MS: f64 = 10_000.0;
 pub struct ReversalSpike {
     pub h_um: f64,
     pub tau_ms: f64,
-}
-
-impl From<ReversalSpike> for CircularEffect {
-    fn from(e: ReversalSpike) -> Self {
-        CircularEffect::ReversalSpike(e)
-    }
 }
 
 impl Family for ReversalSpike {

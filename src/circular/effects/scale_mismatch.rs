@@ -6,7 +6,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{CircularEffect, Contribution, Family, Motion, Term, Wording, sd, within};
+use super::{Contribution, Family, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -18,12 +18,6 @@ const MAX_PPM: f64 = 10_000.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScaleMismatch {
     pub ppm: f64,
-}
-
-impl From<ScaleMismatch> for CircularEffect {
-    fn from(e: ScaleMismatch) -> Self {
-        CircularEffect::ScaleMismatch(e)
-    }
 }
 
 impl Family for ScaleMismatch {

@@ -6,7 +6,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{CircularEffect, Contribution, Family, Motion, Term, Wording, sd, within};
+use super::{Contribution, Family, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -18,12 +18,6 @@ const MAX_DT_MS: f64 = 1000.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ServoMismatch {
     pub dt_ms: f64,
-}
-
-impl From<ServoMismatch> for CircularEffect {
-    fn from(e: ServoMismatch) -> Self {
-        CircularEffect::ServoMismatch(e)
-    }
 }
 
 impl Family for ServoMismatch {

@@ -6,7 +6,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{CircularEffect, Contribution, Family, Motion, Term, Wording, sd, within};
+use super::{Contribution, Family, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -18,12 +18,6 @@ const MAX_URAD: f64 = 10_000.0;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Squareness {
     pub urad: f64,
-}
-
-impl From<Squareness> for CircularEffect {
-    fn from(e: Squareness) -> Self {
-        CircularEffect::Squareness(e)
-    }
 }
 
 impl Family for Squareness {

@@ -6,7 +6,7 @@
 
 use nalgebra::DMatrix;
 
-use super::{CircularEffect, Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
+use super::{Contribution, Family, MAX_TERM_UM, Motion, Term, Wording, sd, within};
 use crate::base::ParamName as P;
 use crate::base::{EffectParamError, Params};
 use crate::circular::signature::{Geometry, Point, Slot};
@@ -16,12 +16,6 @@ use crate::circular::signature::{Geometry, Point, Slot};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Straightness {
     pub bow_um: f64,
-}
-
-impl From<Straightness> for CircularEffect {
-    fn from(e: Straightness) -> Self {
-        CircularEffect::Straightness(e)
-    }
 }
 
 impl Family for Straightness {
