@@ -125,6 +125,74 @@ pub const MPE_K_MM_PER_UM: Bound = Bound {
 /// Feeds, mm/s.
 pub const FEED_MM_S: Bound = Bound::new(0.0, 1e5, "mm/s", "a feed");
 
+/// Where a setting of a configuration file may lie: not a physical quantity's range (a
+/// [`Bound`]) but a setting's own, whose words end the refusal `key = value must be …`.
+/// Every one refuses NaN and the infinities.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Allowed {
+    /// Above zero: "positive".
+    Positive,
+    /// Zero or above: "≥ 0".
+    NonNegative,
+    /// lo < v ≤ hi: "in (lo, hi]".
+    AboveUpTo(f64, f64),
+    /// lo ≤ v < hi: "in [lo, hi)".
+    FromBelow(f64, f64),
+    /// lo ≤ v ≤ hi: "within lo … hi".
+    Within(f64, f64),
+}
+
+impl Allowed {
+    /// Whether `v` is allowed.
+    pub fn contains(self, v: f64) -> bool {
+        v.is_finite()
+            && match self {
+                Allowed::Positive => v > 0.0,
+                Allowed::NonNegative => v >= 0.0,
+                Allowed::AboveUpTo(lo, hi) => lo < v && v <= hi,
+                Allowed::FromBelow(lo, hi) => lo <= v && v < hi,
+                Allowed::Within(lo, hi) => lo <= v && v <= hi,
+            }
+    }
+
+    /// `Ok` when the setting `key` may be `v`, else the refusal naming both.
+    pub fn check(self, key: &str, v: f64) -> Result<(), NotAllowed> {
+        if self.contains(v) {
+            Ok(())
+        } else {
+            Err(NotAllowed {
+                key: key.to_string(),
+                value: v,
+                allowed: self,
+            })
+        }
+    }
+}
+
+impl fmt::Display for Allowed {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Allowed::Positive => f.write_str("positive"),
+            Allowed::NonNegative => f.write_str("≥ 0"),
+            Allowed::AboveUpTo(lo, hi) => write!(f, "in ({lo}, {hi}]"),
+            Allowed::FromBelow(lo, hi) => write!(f, "in [{lo}, {hi})"),
+            Allowed::Within(lo, hi) => write!(f, "within {lo} … {hi}"),
+        }
+    }
+}
+
+/// A setting [`Allowed::check`] refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key} = {value} must be {allowed}")]
+pub struct NotAllowed {
+    /// The setting's key.
+    pub key: String,
+    /// The value refused.
+    pub value: f64,
+    /// Where it may lie.
+    pub allowed: Allowed,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,5 +217,33 @@ mod tests {
         let m = TIME_S.check(f64::INFINITY).expect_err("refused");
         assert!(matches!(m, OutOfBound::NotFinite { value } if value.is_infinite()));
         assert!(m.to_string().contains("not finite"));
+    }
+
+    #[test]
+    fn a_setting_is_refused_outside_its_interval_and_the_words_say_which() {
+        assert!(Allowed::AboveUpTo(0.0, 10.0).contains(10.0));
+        assert!(!Allowed::AboveUpTo(0.0, 10.0).contains(0.0));
+        assert!(Allowed::FromBelow(0.0, 1.0).contains(0.0));
+        assert!(!Allowed::FromBelow(0.0, 1.0).contains(1.0));
+        assert!(Allowed::Within(0.0, 0.1).contains(0.1));
+        assert!(!Allowed::Positive.contains(0.0));
+        assert!(Allowed::NonNegative.contains(0.0));
+        assert!(!Allowed::NonNegative.contains(f64::INFINITY));
+        assert!(!Allowed::Within(0.0, 1.0).contains(f64::NAN));
+        let e = Allowed::AboveUpTo(0.0, 0.1).check("period_window_rel", 0.5);
+        assert_eq!(
+            e.expect_err("refused").to_string(),
+            "period_window_rel = 0.5 must be in (0, 0.1]"
+        );
+        let e = Allowed::NonNegative.check("noise_um", -1.0);
+        assert_eq!(
+            e.expect_err("refused").to_string(),
+            "noise_um = -1 must be ≥ 0"
+        );
+        let e = Allowed::Within(0.0, 0.1).check("outliers.probability", 0.2);
+        assert_eq!(
+            e.expect_err("refused").to_string(),
+            "outliers.probability = 0.2 must be within 0 … 0.1"
+        );
     }
 }

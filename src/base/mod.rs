@@ -29,8 +29,8 @@ pub use consts::HENE_WAVELENGTH_UM;
 pub use effect::{Drift, Effect, EffectParamError, ParamValue, Params, ParamsMap};
 pub use error::{ConfigError, FileError, FileOp, Location, io_err, parse_error, read_toml};
 pub use limits::{
-    Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, MPE_K_MM_PER_UM, OutOfBound, POSITION_MM,
-    PRESSURE_HPA, TEMPERATURE_C, TIME_S, TOLERANCE_UM, UNCERTAINTY_UM,
+    Allowed, Bound, ERROR_UM, FEED_MM_S, HUMIDITY_PCT, MPE_K_MM_PER_UM, NotAllowed, OutOfBound,
+    POSITION_MM, PRESSURE_HPA, TEMPERATURE_C, TIME_S, TOLERANCE_UM, UNCERTAINTY_UM,
 };
 pub use optim::{golden, lbfgs};
 pub use rotary::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, ParseRotaryAxisError, RotaryAxis};

@@ -4,6 +4,7 @@
 
 use super::HENE_WAVELENGTH_UM;
 use super::error::DiagnoseError;
+use crate::base::Allowed;
 
 /// Grating periods searched when the device's is unknown, µm (each with P/2 and P/4).
 pub const COMMON_GRATINGS_UM: [f64; 4] = [20.0, 40.0, 8.0, 4.0];
@@ -106,10 +107,10 @@ impl DiagnoseConfig {
         {
             return bad(format!("max_dead_path_mm = {d} must be a length ≥ 0"));
         }
-        if let Some(p) = self.grating_period_um
-            && !(p.is_finite() && p > 0.0)
-        {
-            return bad(format!("grating_period_um = {p} must be positive"));
+        if let Some(p) = self.grating_period_um {
+            Allowed::Positive
+                .check("grating_period_um", p)
+                .map_err(|e| DiagnoseError::Config(e.to_string()))?;
         }
         if self.max_effects > 12 {
             return bad(format!(
@@ -117,37 +118,37 @@ impl DiagnoseConfig {
                 self.max_effects
             ));
         }
-        for (name, v) in [
-            ("min_delta_bic", self.min_delta_bic),
-            ("ambiguity_delta_bic", self.ambiguity_delta_bic),
+        for (key, v, allowed) in [
+            ("min_delta_bic", self.min_delta_bic, Allowed::NonNegative),
+            (
+                "ambiguity_delta_bic",
+                self.ambiguity_delta_bic,
+                Allowed::NonNegative,
+            ),
+            (
+                "min_effect_fraction_of_noise",
+                self.min_effect_fraction_of_noise,
+                Allowed::FromBelow(0.0, 1.0),
+            ),
+            (
+                "max_relative_uncertainty",
+                self.max_relative_uncertainty,
+                Allowed::AboveUpTo(0.0, 10.0),
+            ),
+            (
+                "period_window_rel",
+                self.period_window_rel,
+                Allowed::AboveUpTo(0.0, 0.1),
+            ),
+            (
+                "broad_min_period_mm",
+                self.broad_min_period_mm,
+                Allowed::Positive,
+            ),
         ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad(format!("{name} = {v} must be ≥ 0"));
-            }
-        }
-        if !(0.0..1.0).contains(&self.min_effect_fraction_of_noise) {
-            return bad(format!(
-                "min_effect_fraction_of_noise = {} must be in [0, 1)",
-                self.min_effect_fraction_of_noise
-            ));
-        }
-        if !(self.max_relative_uncertainty > 0.0 && self.max_relative_uncertainty <= 10.0) {
-            return bad(format!(
-                "max_relative_uncertainty = {} must be in (0, 10]",
-                self.max_relative_uncertainty
-            ));
-        }
-        if !(self.period_window_rel > 0.0 && self.period_window_rel <= 0.1) {
-            return bad(format!(
-                "period_window_rel = {} must be in (0, 0.1]",
-                self.period_window_rel
-            ));
-        }
-        if !(self.broad_min_period_mm.is_finite() && self.broad_min_period_mm > 0.0) {
-            return bad(format!(
-                "broad_min_period_mm = {} must be positive",
-                self.broad_min_period_mm
-            ));
+            allowed
+                .check(key, v)
+                .map_err(|e| DiagnoseError::Config(e.to_string()))?;
         }
         if self.spectral_max_rows < 50 {
             return bad(format!(

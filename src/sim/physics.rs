@@ -48,7 +48,7 @@ use super::error::SimError;
 use crate::base::HENE_WAVELENGTH_UM as HENE_UM;
 use crate::base::gaussian;
 use crate::base::read_toml;
-use crate::base::{Axis, ConfigError};
+use crate::base::{Allowed, Axis, ConfigError};
 use crate::interp::{
     DEFAULT_FUZZY_SIGMA, Interpolator, Method, MethodName, MethodSettings, Order, UnknownMethod,
 };
@@ -433,9 +433,12 @@ impl MachineModel {
                     .into(),
             );
         }
-        if !(self.noise_um.is_finite() && self.noise_um >= 0.0) {
-            return bad(format!("noise_um = {} must be ≥ 0", self.noise_um));
-        }
+        let check = |key: &str, v: f64, allowed: Allowed| {
+            allowed
+                .check(key, v)
+                .map_err(|e| ConfigError::file(path, e.to_string()))
+        };
+        check("noise_um", self.noise_um, Allowed::NonNegative)?;
         let h = &self.environment;
         for (name, hist) in [
             ("environment.air_temp_c", &h.air_temp_c),
@@ -447,29 +450,16 @@ impl MachineModel {
             hist.check(path, name)?;
         }
         if let Some(c) = &self.coloured_noise {
-            if !(c.sigma_um.is_finite() && c.sigma_um >= 0.0) {
-                return bad(format!(
-                    "coloured_noise.sigma_um = {} must be ≥ 0",
-                    c.sigma_um
-                ));
-            }
-            if !(c.tau_s.is_finite() && c.tau_s > 0.0) {
-                return bad(format!(
-                    "coloured_noise.tau_s = {} must be positive",
-                    c.tau_s
-                ));
-            }
+            check("coloured_noise.sigma_um", c.sigma_um, Allowed::NonNegative)?;
+            check("coloured_noise.tau_s", c.tau_s, Allowed::Positive)?;
         }
         if let Some(o) = &self.outliers {
-            if !(0.0..=0.1).contains(&o.probability) {
-                return bad(format!(
-                    "outliers.probability = {} must be within 0 … 0.1",
-                    o.probability
-                ));
-            }
-            if !(o.sigma_um.is_finite() && o.sigma_um >= 0.0) {
-                return bad(format!("outliers.sigma_um = {} must be ≥ 0", o.sigma_um));
-            }
+            check(
+                "outliers.probability",
+                o.probability,
+                Allowed::Within(0.0, 0.1),
+            )?;
+            check("outliers.sigma_um", o.sigma_um, Allowed::NonNegative)?;
         }
         if let Some(p) = &self.periodic_scale
             && p.enabled

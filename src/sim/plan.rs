@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::error::SimError;
 use super::physics::{MachineModel, PhysicsTruth, simulate_plan};
 use crate::base::read_toml;
-use crate::base::{Axis, ConfigError};
+use crate::base::{Allowed, Axis, ConfigError};
 use crate::table::ErrorTable;
 
 /// A measurement plan file.
@@ -82,13 +82,9 @@ impl PlanSpec {
             .parse()
             .map_err(|e| ConfigError::key(path, "axis", format!("{e}")))?;
         let axis = WireAxis::from(axis);
-        if !(self.overrun_mm.is_finite() && self.overrun_mm >= 0.0) {
-            return Err(ConfigError::file(
-                path,
-                format!("overrun_mm = {} must be ≥ 0", self.overrun_mm),
-            )
-            .into());
-        }
+        Allowed::NonNegative
+            .check("overrun_mm", self.overrun_mm)
+            .map_err(|e| ConfigError::file(path, e.to_string()))?;
         let plan = Plan {
             axis,
             lines_mm: self.lines_mm.clone(),
