@@ -142,6 +142,17 @@ pub enum XyStyle {
     },
 }
 
+impl XyStyle {
+    /// The colour and marker of series `k` drawn in this style: a styled series takes its
+    /// palette colour, the others the `k`-th.
+    fn look(self, k: usize) -> (RGBColor, Marker) {
+        match self {
+            XyStyle::Styled { colour, .. } => series_look(colour % PALETTE.len()),
+            XyStyle::Points | XyStyle::Line => series_look(k),
+        }
+    }
+}
+
 /// Dash and gap lengths of [`XyStyle::Styled`] dashed lines, output pixels.
 const DASH_PX: f64 = 9.0;
 const GAP_PX: f64 = 6.0;
@@ -414,7 +425,13 @@ pub fn bars(
 
     let scale = ValueScale::of(values, markers, log_y)?;
     let legend = bars_legend(y_label, markers);
-    let layout = bar_layout(title, y_label, labels, &scale, legend)?;
+    let spec = BarSpec {
+        title,
+        y_label,
+        labels,
+        scale: &scale,
+    };
+    let layout = bar_layout(&spec, legend)?;
     let prims = bar_prims(&layout, &scale, values, markers);
     write_both(stem, &layout.frame, &prims)
 }
@@ -515,6 +532,16 @@ fn bars_legend(y_label: &str, markers: Option<&Series>) -> Vec<LegendEntry> {
     }
 }
 
+/// What a bar chart is drawn from, in either orientation.
+#[derive(Clone, Copy)]
+struct BarSpec<'a> {
+    title: &'a str,
+    /// The value axis' label.
+    y_label: &'a str,
+    labels: &'a [String],
+    scale: &'a ValueScale,
+}
+
 /// A bar chart's frame, its orientation, each label's category coordinate, and the
 /// pixels per category.
 struct BarLayout {
@@ -525,19 +552,16 @@ struct BarLayout {
 }
 
 /// Vertical bars if every label fits under its bar, horizontal bars otherwise.
-fn bar_layout(
-    title: &str,
-    y_label: &str,
-    labels: &[String],
-    scale: &ValueScale,
-    legend: Vec<LegendEntry>,
-) -> Result<BarLayout, PlotError> {
-    let n = labels.len();
+fn bar_layout(spec: &BarSpec<'_>, legend: Vec<LegendEntry>) -> Result<BarLayout, PlotError> {
+    let n = spec.labels.len();
     let legend_width = legend_width(&legend);
-    let vertical_value_axis = scale.axis(plot_height(HEIGHT, x_label_area(false)), false)?;
-    let vertical_y_area = y_label_area(&vertical_value_axis, !y_label.is_empty());
+    let vertical_value_axis = spec
+        .scale
+        .axis(plot_height(HEIGHT, x_label_area(false)), false)?;
+    let vertical_y_area = y_label_area(&vertical_value_axis, !spec.y_label.is_empty());
     let vertical_plot_w = plot_width(legend_width, vertical_y_area);
-    let max_label_w = labels
+    let max_label_w = spec
+        .labels
         .iter()
         .map(|l| text_width(l, TICK_SIZE, FontStyle::Normal))
         .max()
@@ -550,14 +574,14 @@ fn bar_layout(
         .collect();
     let frame = if vertical {
         Frame {
-            title: title.to_owned(),
+            title: spec.title.to_owned(),
             x_desc: String::new(),
-            y_desc: y_label.to_owned(),
+            y_desc: spec.y_label.to_owned(),
             height: HEIGHT,
             x_area: x_label_area(false),
             y_area: vertical_y_area,
             x: Axis::category(
-                labels,
+                spec.labels,
                 &positions,
                 -0.5,
                 n as f64 - 0.5,
@@ -571,7 +595,7 @@ fn bar_layout(
             legend_width,
         }
     } else {
-        horizontal_bar_frame(title, y_label, labels, &positions, scale, legend)?
+        horizontal_bar_frame(spec, &positions, legend)?
     };
     let slot_px = if vertical {
         vertical_plot_w
@@ -589,16 +613,13 @@ fn bar_layout(
 /// The frame of horizontal bars: taller than usual when there are many labels, so that
 /// every one stays readable.
 fn horizontal_bar_frame(
-    title: &str,
-    y_label: &str,
-    labels: &[String],
+    spec: &BarSpec<'_>,
     positions: &[f64],
-    scale: &ValueScale,
     legend: Vec<LegendEntry>,
 ) -> Result<Frame, PlotError> {
-    let n = labels.len();
+    let n = spec.labels.len();
     let legend_width = legend_width(&legend);
-    let x_area = x_label_area(!y_label.is_empty());
+    let x_area = x_label_area(!spec.y_label.is_empty());
     let needed = n as f64 * MIN_ROW_PX;
     let available = plot_height(HEIGHT, x_area);
     let height = if needed > available {
@@ -609,7 +630,7 @@ fn horizontal_bar_frame(
         HEIGHT
     };
     let cat_axis = Axis::category(
-        labels,
+        spec.labels,
         positions,
         -0.5,
         n as f64 - 0.5,
@@ -618,13 +639,13 @@ fn horizontal_bar_frame(
     );
     let y_area = y_label_area(&cat_axis, false);
     Ok(Frame {
-        title: title.to_owned(),
-        x_desc: y_label.to_owned(),
+        title: spec.title.to_owned(),
+        x_desc: spec.y_label.to_owned(),
         y_desc: String::new(),
         height,
         x_area,
         y_area,
-        x: scale.axis(plot_width(legend_width, y_area), true)?,
+        x: spec.scale.axis(plot_width(legend_width, y_area), true)?,
         y: cat_axis,
         x_grid: true,
         y_grid: false,
@@ -804,7 +825,7 @@ impl PxMap {
 
 /// The legend's sample of series `k` drawn in `style`.
 fn xy_sample(k: usize, style: XyStyle) -> Sample {
-    let (color, marker) = series_look(k);
+    let (color, marker) = style.look(k);
     match style {
         XyStyle::Points => Sample::Marker { color, marker },
         XyStyle::Line => Sample::Line {
@@ -812,34 +833,34 @@ fn xy_sample(k: usize, style: XyStyle) -> Sample {
             marker: None,
         },
         XyStyle::Styled {
-            colour,
-            dashed,
+            dashed: true,
             markers,
-        } => {
-            let (color, marker) = series_look(colour % PALETTE.len());
-            let marker = markers.then_some(marker);
-            if dashed {
-                Sample::Dashed { color, marker }
-            } else {
-                Sample::Line { color, marker }
-            }
-        }
+            ..
+        } => Sample::Dashed {
+            color,
+            marker: markers.then_some(marker),
+        },
+        XyStyle::Styled {
+            dashed: false,
+            markers,
+            ..
+        } => Sample::Line {
+            color,
+            marker: markers.then_some(marker),
+        },
     }
 }
 
 /// The primitives of series `k`: its line (solid or dashed), its markers, or its
 /// thinned scatter.
 fn xy_series_prims(prims: &mut Vec<Prim>, k: usize, s: &XySeries, to_px: PxMap) {
-    let (color, marker) = series_look(k);
+    let (color, marker) = s.style.look(k);
     let pts = finite_points(s);
     match s.style {
         XyStyle::Line => push_lines(prims, &pts, color, true),
         XyStyle::Styled {
-            colour,
-            dashed,
-            markers,
+            dashed, markers, ..
         } => {
-            let (color, marker) = series_look(colour % PALETTE.len());
             if dashed {
                 for run in pts.split(|p| p.is_none()) {
                     let run: Vec<(f64, f64)> = run.iter().flatten().copied().collect();
