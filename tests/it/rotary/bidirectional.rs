@@ -168,7 +168,12 @@ fn one_direction_tables_and_error_tables_are_refused() {
     );
     let out = dir.path().join("x.out");
     for (input, format, says) in [
-        (&session, "siemens", "one value per point"),
+        (
+            &session,
+            "siemens",
+            "one value per point for both directions; the two-direction rotary tables are \
+             linuxcnc (forward/reverse) and fagor-8055 (err−)",
+        ),
         (&session, "fanuc", "one value per point"),
         (&session, "heidenhain", "one value per point"),
         (&table, "linuxcnc", "needs a rotary session"),
