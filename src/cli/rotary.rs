@@ -168,7 +168,14 @@ pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
     )?;
     let lines = errmap::import::data_lines(&bytes, options.delimiter)
         .map_err(|e| anyhow::anyhow!("{}: line {}: {}", a.file.display(), e.line, e.message))?;
-    let rows = rotary_rows(&a.file, &imported.rows, &options, &lines, arcsec_per_unit)?;
+    let rows = rotary_rows(
+        &a.file,
+        axis,
+        &imported.rows,
+        &options,
+        &lines,
+        arcsec_per_unit,
+    )?;
     let session = RotarySession { axis, rows };
     if let Some(out) = &a.out {
         rotary::write_rotary_session(out, &session)?;
@@ -195,6 +202,7 @@ pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
 /// checked in [0, 360] at their line, the error converted to ″.
 fn rotary_rows(
     file: &Path,
+    axis: RotaryAxis,
     imported: &[errmap_drivers::SessionRow],
     options: &errmap::import::CsvOptions,
     lines: &[usize],
@@ -230,6 +238,7 @@ fn rotary_rows(
             r.error_um * arcsec_per_unit
         };
         rows.push(RotaryRow {
+            axis: axis.into(),
             run: r.run,
             sample: r.sample,
             t_s: r.t_s,
