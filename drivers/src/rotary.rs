@@ -128,8 +128,9 @@ impl RotaryScaling {
     }
 }
 
-/// One row of a rotary session table (`docs/rotary.md`), as a capture decodes it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// One row of a rotary session table (`docs/rotary.md`), as a capture decodes it and as
+/// errmap's rotary session holds it (`errmap::session::rotary`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RotaryRow {
     pub run: u32,
     pub sample: i64,
@@ -153,6 +154,13 @@ pub struct RotaryRow {
     /// MATERIAL sensor 0 (the encoder), °C.
     pub scale_temp_c: Option<f64>,
     pub flags: u8,
+}
+
+impl RotaryRow {
+    /// A dwell row, used by every evaluation: run ≥ 1, direction ±1, target ≥ 0, no flag.
+    pub fn is_dwell(&self) -> bool {
+        self.run >= 1 && self.direction != 0 && self.target >= 0 && self.flags == 0
+    }
 }
 
 /// The angle a MARK's first line position carries on a rotary board, °.

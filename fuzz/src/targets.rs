@@ -43,8 +43,8 @@ pub(super) enum Target {
     /// A positioning test for `errmap import` (API XD `.pos`, Renishaw `.rtl`, and as a
     /// CSV through a fixed column map), read from bytes.
     ImportSession,
-    /// A controller table (Fagor 8055/8065, LinuxCNC both types), read from bytes; a
-    /// zero residual must give the bytes back.
+    /// A controller table, read from bytes as every dialect's table
+    /// ([`controller_formats`]); a zero residual must give the bytes back.
     ControllerTable,
 }
 
@@ -233,30 +233,34 @@ fn import_session(data: &[u8]) -> bool {
     accepted
 }
 
+/// Every table format of every dialect in the registry (`errmap::controller::DIALECTS`),
+/// each with every setting the file does not state (its length unit, LinuxCNC's type),
+/// so that a new dialect is fuzzed with no edit here.
+pub(super) fn controller_formats() -> Vec<errmap::controller::TableFormat> {
+    use errmap::controller::{CompType, DIALECTS, LengthUnit, TableSettings};
+    let mut formats = Vec::new();
+    for d in DIALECTS {
+        for units in [LengthUnit::Mm, LengthUnit::Inch] {
+            for comp_type in [CompType::ActualPosition, CompType::Trim] {
+                let settings = TableSettings {
+                    units: Some(units),
+                    comp_type: Some(comp_type),
+                    ..TableSettings::new(errmap::base::Axis::X)
+                };
+                if let Ok(f) = d.table_format(&settings)
+                    && !formats.contains(&f)
+                {
+                    formats.push(f);
+                }
+            }
+        }
+    }
+    formats
+}
+
 /// A controller table read back: finite errors, and a zero residual gives the bytes back.
 fn controller_table(data: &[u8]) -> bool {
-    use errmap::controller::CompType;
-    use errmap::controller::{LengthUnit, TableFormat};
-    let formats = [
-        TableFormat::Fagor8055 {
-            units: LengthUnit::Inch,
-        },
-        TableFormat::Fagor8065 {
-            units: LengthUnit::Mm,
-        },
-        TableFormat::LinuxCnc {
-            comp_type: CompType::Trim,
-            units: LengthUnit::Mm,
-        },
-        TableFormat::LinuxCnc {
-            comp_type: CompType::ActualPosition,
-            units: LengthUnit::Inch,
-        },
-        TableFormat::Siemens,
-        TableFormat::Fanuc,
-        TableFormat::Heidenhain,
-        TableFormat::Isg,
-    ];
+    let formats = controller_formats();
     let mut accepted = false;
     for f in formats {
         let Ok(t) = errmap::controller::read(data, f) else {

@@ -9,7 +9,6 @@ use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use errmap_drivers::rotary::{RotaryAxis as WireRotaryAxis, RotaryRow as WireRotaryRow};
 use errmap_drivers::{SessionEvent, SessionRow};
 
 use crate::base::{ConfigError, FileOp, RotaryAxis, io_err};
@@ -37,33 +36,6 @@ pub(super) enum CaptureTable {
         path: PathBuf,
         session: RotarySession,
     },
-}
-
-fn axis(a: WireRotaryAxis) -> RotaryAxis {
-    match a {
-        WireRotaryAxis::A => RotaryAxis::A,
-        WireRotaryAxis::B => RotaryAxis::B,
-        WireRotaryAxis::C => RotaryAxis::C,
-    }
-}
-
-fn row(r: &WireRotaryRow) -> RotaryRow {
-    RotaryRow {
-        run: r.run,
-        sample: r.sample,
-        t_s: r.t_s,
-        direction: r.direction,
-        target: r.target,
-        target_deg: r.target_deg,
-        indicated_deg: r.indicated_deg,
-        reference_deg: r.reference_deg,
-        error_arcsec: r.error_arcsec,
-        feed_deg_s: r.feed_deg_s,
-        air_temp_c: r.air_temp_c,
-        part_temp_c: r.part_temp_c,
-        scale_temp_c: r.scale_temp_c,
-        flags: r.flags,
-    }
 }
 
 impl CaptureTable {
@@ -97,7 +69,7 @@ impl CaptureTable {
         }
     }
 
-    fn rotary(&mut self, r: &WireRotaryRow) -> Result<(), AcquireError> {
+    fn rotary(&mut self, r: &RotaryRow) -> Result<(), AcquireError> {
         if let CaptureTable::Linear(w) = self {
             let path = w.path().to_path_buf();
             if w.rows() > 0 {
@@ -106,7 +78,7 @@ impl CaptureTable {
             *self = if crate::table::is_parquet(&path)? {
                 CaptureTable::RotaryParquet {
                     session: RotarySession {
-                        axis: axis(r.axis),
+                        axis: RotaryAxis::from(r.axis),
                         rows: Vec::new(),
                     },
                     path,
@@ -117,7 +89,7 @@ impl CaptureTable {
                     .map_err(io_err(&path, FileOp::Write))?;
                 CaptureTable::RotaryCsv {
                     path,
-                    axis: axis(r.axis),
+                    axis: RotaryAxis::from(r.axis),
                     file,
                     text: String::new(),
                     rows: 0,
@@ -132,15 +104,15 @@ impl CaptureTable {
                 rows,
                 ..
             } => {
-                if *a != axis(r.axis) {
+                if *a != RotaryAxis::from(r.axis) {
                     return Err(Self::mixed(path, "a rotary row of another axis"));
                 }
-                text.push_str(&rotary_csv_line(*a, &row(r)));
+                text.push_str(&rotary_csv_line(*a, r));
                 *rows += 1;
                 Ok(())
             }
             CaptureTable::RotaryParquet { path, session } => {
-                if session.axis != axis(r.axis) {
+                if session.axis != RotaryAxis::from(r.axis) {
                     return Err(Self::mixed(path, "a rotary row of another axis"));
                 }
                 if session.rows.len() >= MAX_PARQUET_ROTARY_ROWS {
@@ -150,7 +122,7 @@ impl CaptureTable {
                     );
                     return Err(ConfigError::file(path, problem).into());
                 }
-                session.rows.push(row(r));
+                session.rows.push(*r);
                 Ok(())
             }
             CaptureTable::Linear(_) => unreachable!("switched to rotary above"),

@@ -8,6 +8,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+use errmap_drivers::rotary::RotaryAxis as WireRotaryAxis;
+
 /// Arcseconds in one degree.
 pub const ARCSEC_PER_DEG: f64 = 3600.0;
 
@@ -49,6 +51,26 @@ impl RotaryAxis {
             RotaryAxis::A => "a_deg",
             RotaryAxis::B => "b_deg",
             RotaryAxis::C => "c_deg",
+        }
+    }
+}
+
+impl From<WireRotaryAxis> for RotaryAxis {
+    fn from(a: WireRotaryAxis) -> Self {
+        match a {
+            WireRotaryAxis::A => RotaryAxis::A,
+            WireRotaryAxis::B => RotaryAxis::B,
+            WireRotaryAxis::C => RotaryAxis::C,
+        }
+    }
+}
+
+impl From<RotaryAxis> for WireRotaryAxis {
+    fn from(a: RotaryAxis) -> Self {
+        match a {
+            RotaryAxis::A => WireRotaryAxis::A,
+            RotaryAxis::B => WireRotaryAxis::B,
+            RotaryAxis::C => WireRotaryAxis::C,
         }
     }
 }

@@ -168,7 +168,14 @@ pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
     )?;
     let lines = errmap::import::data_lines(&bytes, options.delimiter)
         .map_err(|e| anyhow::anyhow!("{}: line {}: {}", a.file.display(), e.line, e.message))?;
-    let rows = rotary_rows(&a.file, &imported.rows, &options, &lines, arcsec_per_unit)?;
+    let rows = rotary_rows(
+        &a.file,
+        axis,
+        &imported.rows,
+        &options,
+        &lines,
+        arcsec_per_unit,
+    )?;
     let session = RotarySession { axis, rows };
     if let Some(out) = &a.out {
         rotary::write_rotary_session(out, &session)?;
@@ -195,6 +202,7 @@ pub(crate) fn import(a: &ImportArgs, axis: RotaryAxis) -> Result<()> {
 /// checked in [0, 360] at their line, the error converted to ″.
 fn rotary_rows(
     file: &Path,
+    axis: RotaryAxis,
     imported: &[errmap_drivers::SessionRow],
     options: &errmap::import::CsvOptions,
     lines: &[usize],
@@ -230,6 +238,7 @@ fn rotary_rows(
             r.error_um * arcsec_per_unit
         };
         rows.push(RotaryRow {
+            axis: axis.into(),
             run: r.run,
             sample: r.sample,
             t_s: r.t_s,
@@ -381,7 +390,7 @@ fn modulo_spec(
 ) -> Result<errmap::controller::modulo::ModuloSpec> {
     use super::values::ExportFormatArg;
     use errmap::controller::modulo::{ModuloDialect, ModuloSpec};
-    let names = ModuloDialect::ALL.map(ModuloDialect::name).join(", ");
+    let names = ModuloDialect::names();
     let dialect = match a.format {
         ExportFormatArg::Table(d) => ModuloDialect::from_name(d.name()).ok_or_else(|| {
             guard::usage(format!(
@@ -403,38 +412,31 @@ fn modulo_spec(
     if a.bidirectional && dialect.equidistant() {
         return Err(guard::usage(format!(
             "--bidirectional: {} modulo tables hold one value per point for both directions; \
-             the two-direction rotary tables are linuxcnc (forward/reverse) and fagor-8055 (err−)",
-            dialect.name()
+             the two-direction rotary tables are {}",
+            dialect.name(),
+            ModuloDialect::two_direction_tables()
         )));
     }
     if a.units.is_some() {
         return Err(guard::usage("--units: a rotary table is in degrees"));
     }
-    if a.existing.is_some() && dialect == ModuloDialect::LinuxCnc && a.comp_type.is_none() {
-        return Err(guard::usage(
-            "--existing with linuxcnc needs --comp-type actual|trim (the file does not say)",
-        ));
-    }
-    let o = &a.dialect_options.0;
-    if o.real("detection-unit-um") != Some(1.0) {
-        return Err(guard::usage(
-            "--detection-unit-um is a length: a rotary FANUC table takes --detection-unit-deg",
-        ));
+    if a.existing.is_some() && dialect.needs_comp_type() && a.comp_type.is_none() {
+        return Err(guard::usage(format!(
+            "--existing with {} needs --comp-type actual|trim (the file does not say)",
+            dialect.name()
+        )));
     }
     let mut spec = ModuloSpec::new(dialect, axis);
+    spec.set_options(&a.dialect_options.0).map_err(|e| {
+        guard::usage(format!(
+            "--{} is a length: a rotary {} table takes --{}",
+            e.setting, e.controller, e.instead
+        ))
+    })?;
     spec.step_deg = a.step;
     spec.max_points = a.max_points;
     spec.reference_deg = a.reference;
     spec.trim = matches!(a.comp_type, Some(super::values::CompTypeArg::Trim));
-    // X1 is the linear default: a rotary axis defaults to its letter + 1.
-    spec.siemens_axis = o
-        .text("siemens-axis")
-        .filter(|s| *s != "X1")
-        .map(str::to_string);
-    spec.fanuc_reference_number = o.number("fanuc-reference-number").unwrap_or(0);
-    spec.detection_unit_deg = o.real("detection-unit-deg").unwrap_or(0.001);
-    spec.magnification = o.number("magnification").unwrap_or(1);
-    spec.fanuc_max_value = o.number("fanuc-max-value").unwrap_or(7);
     spec.axis_name = a.axis_name.clone();
     Ok(spec)
 }

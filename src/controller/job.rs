@@ -181,7 +181,7 @@ pub enum JobError {
     EmptySession,
     #[error(
         "{format} has no modulo table for a rotary axis ({})",
-        ModuloDialect::ALL.map(ModuloDialect::name).join(", ")
+        ModuloDialect::names()
     )]
     NoModulo { format: &'static str },
     /// The modulo table cannot be made or updated.

@@ -39,6 +39,7 @@
 use std::fmt::Write as _;
 
 use super::update::fixed;
+use super::{Dialect, DialectOptions};
 use crate::base::RotaryAxis;
 
 /// The most targets a rotary table may hold here (the placement's O(n³) bound).
@@ -83,15 +84,67 @@ impl ModuloDialect {
         Self::ALL.into_iter().find(|d| d.name() == name)
     }
 
-    pub fn name(self) -> &'static str {
+    /// The registry's dialect whose modulo table this is.
+    pub fn dialect(self) -> &'static dyn Dialect {
         match self {
-            Self::LinuxCnc => "linuxcnc",
-            Self::Siemens => "siemens",
-            Self::Fanuc => "fanuc",
-            Self::Heidenhain => "heidenhain",
-            Self::Fagor8055 => "fagor-8055",
+            Self::LinuxCnc => &super::linuxcnc::LinuxCnc,
+            Self::Siemens => &super::siemens::Siemens,
+            Self::Fanuc => &super::fanuc::Fanuc,
+            Self::Heidenhain => &super::heidenhain::Heidenhain,
+            Self::Fagor8055 => &super::fagor::Fagor::Al8055,
         }
     }
+
+    /// Its registry name (`--format`).
+    pub fn name(self) -> &'static str {
+        self.dialect().name()
+    }
+
+    /// Every dialect with a modulo table, by name: `a, b, c`.
+    pub fn names() -> String {
+        Self::ALL.map(Self::name).join(", ")
+    }
+
+    /// What the two directions of its table are called, where its table holds both
+    /// (the free ones: LinuxCNC's forward and reverse columns, Fagor's err− column).
+    pub fn direction_columns(self) -> Option<&'static str> {
+        match self {
+            Self::LinuxCnc => Some("forward/reverse"),
+            Self::Fagor8055 => Some("err−"),
+            Self::Siemens | Self::Fanuc | Self::Heidenhain => None,
+        }
+    }
+
+    /// The dialects whose table holds both directions, with what each calls them:
+    /// `a (x) and b (y)`.
+    pub fn two_direction_tables() -> String {
+        let each: Vec<String> = Self::ALL
+            .into_iter()
+            .filter_map(|d| d.direction_columns().map(|c| format!("{} ({c})", d.name())))
+            .collect();
+        match each.as_slice() {
+            [rest @ .., last] if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+            _ => each.concat(),
+        }
+    }
+
+    /// Whether its table in use does not say how it is to be read, so that an update
+    /// must be told ([`ModuloSpec::trim`]: LinuxCNC's `COMP_FILE_TYPE` is not in the file).
+    pub fn needs_comp_type(self) -> bool {
+        matches!(self, Self::LinuxCnc)
+    }
+}
+
+/// A dialect setting given as a length where a rotary table wants an angle.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{setting} is a length: a rotary {controller} table takes {instead}")]
+pub struct LengthSetting {
+    /// The setting given ([`DialectOption::name`](super::DialectOption)).
+    pub setting: &'static str,
+    /// The setting to give instead.
+    pub instead: &'static str,
+    /// The controller whose setting it is.
+    pub controller: &'static str,
 }
 
 /// What a modulo table is made from.
@@ -161,6 +214,28 @@ impl ModuloSpec {
             fanuc_max_value: 7,
             axis_name: None,
         }
+    }
+
+    /// Takes the dialects' settings a modulo table uses from `o` (their defaults
+    /// and what was given); a length where an angle is wanted is refused.
+    pub fn set_options(&mut self, o: &DialectOptions) -> Result<(), LengthSetting> {
+        if o.real("detection-unit-um") != Some(1.0) {
+            return Err(LengthSetting {
+                setting: "detection-unit-um",
+                instead: "detection-unit-deg",
+                controller: super::fanuc::Fanuc.controller(),
+            });
+        }
+        // X1 is the linear default: a rotary axis defaults to its letter + 1.
+        self.siemens_axis = o
+            .text("siemens-axis")
+            .filter(|s| *s != "X1")
+            .map(str::to_string);
+        self.fanuc_reference_number = o.number("fanuc-reference-number").unwrap_or(0);
+        self.detection_unit_deg = o.real("detection-unit-deg").unwrap_or(0.001);
+        self.magnification = o.number("magnification").unwrap_or(1);
+        self.fanuc_max_value = o.number("fanuc-max-value").unwrap_or(7);
+        Ok(())
     }
 }
 

@@ -291,9 +291,9 @@ fn draw<DB: DrawingBackend>(
     arrow(root, (kx, ky), (kx + g.px_per_um * g.um_key, ky), ARROW)?;
     root.draw(&Text::new(
         format!(
-            "arrow: {} µm (magnified {:.0}×; the plate {:.0} mm wide)",
+            "arrow: {} µm (magnified {}×; the plate {:.0} mm wide)",
             g.um_key,
-            g.px_per_um / g.px_per_mm * 1000.0,
+            two_digits(g.px_per_um / g.px_per_mm * 1000.0),
             g.span_px * (1.0 - 2.0 * LONGEST_SHARE) / g.px_per_mm
         ),
         ((kx + g.px_per_um * g.um_key + 12.0) as i32, ky as i32 - 7),
@@ -302,9 +302,52 @@ fn draw<DB: DrawingBackend>(
     .map_err(de)
 }
 
+/// `v` > 0 to two significant digits, the thousands of a number from 10 000 set apart by a
+/// space: 146 150 → `150 000`, 2.345 → `2.3` (the key's magnification, which the map's
+/// scale decides to no more than that).
+fn two_digits(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return format!("{v:.0}");
+    }
+    let exponent = v.log10().floor() as i32;
+    let unit = 10f64.powi(exponent - 1);
+    let rounded = (v / unit).round() * unit;
+    let decimals = (1 - exponent).max(0) as usize;
+    let text = format!("{rounded:.decimals$}");
+    if rounded < 10_000.0 {
+        return text;
+    }
+    let mut grouped = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i > 0 && (text.len() - i) % 3 == 0 {
+            grouped.push(' ');
+        }
+        grouped.push(c);
+    }
+    grouped
+}
+
 #[cfg(test)]
 mod tests {
-    use super::ticks;
+    use super::{ticks, two_digits};
+
+    #[test]
+    fn the_magnification_has_two_significant_digits() {
+        for (v, want) in [
+            (146_150.0, "150 000"),
+            (144_962.0, "140 000"),
+            (1_234_567.0, "1 200 000"),
+            (12_345.0, "12 000"),
+            (9_949.0, "9900"),
+            (987.0, "990"),
+            (99.6, "100"),
+            (42.0, "42"),
+            (2.345, "2.3"),
+            (0.0123, "0.012"),
+        ] {
+            assert_eq!(two_digits(v), want, "{v}");
+        }
+    }
 
     #[test]
     fn ticks_are_round_values_inside_the_range() {

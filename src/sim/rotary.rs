@@ -84,6 +84,7 @@ pub fn simulate_rotary(model: &RotaryAxisModel, cycle: &RotaryCycle) -> RotarySe
                     let e = r + offset + model.noise_arcsec * gaussian(&mut rng);
                     let indicated = theta + offset / 3600.0;
                     rows.push(RotaryRow {
+                        axis: model.axis.into(),
                         run,
                         sample,
                         t_s: t,

@@ -274,3 +274,36 @@ fn every_dialect_through_the_command_line() {
         );
     }
 }
+
+/// `docs/cli.md`'s rows of `export` and `import` name every dialect of the registry, as
+/// `--format` spells it; with a rotary table, `export`'s row names every dialect with a
+/// modulo table.
+#[test]
+fn docs_cli_names_every_dialect_where_it_lists_them() {
+    let text = std::fs::read_to_string(super::util::root().join("docs/cli.md")).expect("docs");
+    let row = |command: &str| {
+        text.lines()
+            .find(|l| l.starts_with(&format!("| `errmap {command} ")))
+            .unwrap_or_else(|| panic!("docs/cli.md has a row for `errmap {command}`"))
+            .to_string()
+    };
+    for command in ["export", "import"] {
+        let r = row(command);
+        for d in controller::DIALECTS {
+            assert!(
+                r.contains(&format!("`{}`", d.name())),
+                "docs/cli.md's `{command}` row leaves out {}",
+                d.name()
+            );
+        }
+    }
+    let rotary = row("export");
+    let rotary = &rotary[rotary.find("rotary").expect("the rotary clause")..];
+    for d in errmap::controller::modulo::ModuloDialect::ALL {
+        assert!(
+            rotary.contains(&format!("`{}`", d.name())),
+            "docs/cli.md's rotary clause leaves out {}",
+            d.name()
+        );
+    }
+}

@@ -89,6 +89,30 @@ fn every_corpus_seed_is_accepted_by_its_reader() {
     }
 }
 
+/// The controller-table target reads every dialect of the registry; each must also have
+/// a seed of its own, or a new dialect's reader is fuzzed from other dialects' bytes only.
+#[test]
+fn every_dialect_of_the_registry_reads_a_seed_of_the_controller_table_corpus() {
+    let seeds = corpus(Target::ControllerTable);
+    let formats = targets::controller_formats();
+    for d in errmap::controller::DIALECTS {
+        let own: Vec<_> = formats.iter().filter(|f| f.name() == d.name()).collect();
+        assert!(
+            !own.is_empty(),
+            "{}: the fuzz target reads no table of it",
+            d.name()
+        );
+        assert!(
+            own.iter().any(|f| seeds
+                .iter()
+                .any(|(_, b)| errmap::controller::read(b, **f).is_ok())),
+            "{}: no seed in fuzz/corpus/{}/ is read as its table",
+            d.name(),
+            Target::ControllerTable.name()
+        );
+    }
+}
+
 #[test]
 fn every_input_that_once_broke_a_reader_replays_without_a_panic() {
     let mut failures = Vec::new();

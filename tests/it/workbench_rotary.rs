@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use super::rotary::{plan_revolution, simulate_capture};
 use super::util::{errmap, json, s, stderr};
 use super::workbench::{Server, events, form_token, get, request};
 use errmap::session::rotary::{read_rotary_session, rotary_iso};
@@ -27,32 +28,19 @@ pub(super) fn rotary_workspace(dir: &Path) -> PathBuf {
     std::fs::create_dir_all(ws.join("rot")).expect("mkdir");
     let model = ws.join("rot/rotary-model.toml");
     std::fs::write(&model, MODEL).expect("model");
-    let o = errmap(&[
-        "plan",
-        "--axis",
+    let o = plan_revolution(
         "b",
-        "--from",
-        "0",
-        "--to",
-        "360",
-        "--interval",
-        "45",
-        "--runs",
-        "2",
-        "--out",
-        s(&ws.join("rot/rotary-plan.toml")),
-    ]);
+        &[
+            "--interval",
+            "45",
+            "--runs",
+            "2",
+            "--out",
+            s(&ws.join("rot/rotary-plan.toml")),
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = errmap(&[
-        "capture",
-        "--simulate",
-        s(&model),
-        "--speed",
-        "500",
-        "--out",
-        s(&ws.join("rot/cap")),
-        "--no-view",
-    ]);
+    let o = simulate_capture(&model, &ws.join("rot/cap"));
     assert!(o.status.success(), "{}", stderr(&o));
     ws
 }

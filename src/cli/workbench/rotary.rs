@@ -4,22 +4,18 @@
 //! rotary_error_table}`), and its page: the ISO 230-2 figures in ″ with ° beside, the
 //! closure check of 0° and 360°, the deviation chart in ″ against ° over the revolution,
 //! the per-target table and the rotary downloads (error table, certificate, the modulo
-//! tables of the five controllers that have one).
+//! tables of the controllers that have one, `ModuloDialect::ALL`).
 
 use std::fmt::Write;
 use std::path::Path;
 
 use errmap::base::RotaryAxis;
+use errmap::controller::modulo::ModuloDialect;
 use errmap::session::rotary::{self, Closure, RotaryIso, RotaryTargetStats};
 
 use super::charts::{self, DeviationTarget, XAxis};
 use super::docs::{DocError, message};
 use super::html::{esc, num, table, url_path};
-
-/// The controllers with a modulo table for a rotary axis (`errmap export` of a rotary
-/// table takes these and refuses the others).
-pub(crate) const MODULO_DIALECTS: [&str; 5] =
-    ["linuxcnc", "siemens", "fanuc", "heidenhain", "fagor-8055"];
 
 /// Decimals of ″ on the page: the rotary ISO 230-2 report's (`table --report`).
 const ARCSEC_DECIMALS: usize = 2;
@@ -224,7 +220,7 @@ fn downloads(id: &str, info: Option<&str>) -> String {
             .map(|i| format!("?info={}", url_path(i)))
             .unwrap_or_default()
     );
-    for d in MODULO_DIALECTS {
+    for d in ModuloDialect::ALL.map(ModuloDialect::name) {
         let _ = write!(s, "<a href=\"/download/export/{u}?format={d}\">{d}</a>");
     }
     s.push_str("</p>");

@@ -35,35 +35,10 @@ use crate::table::TableError;
 /// Two target angles closer than this (1 µ°) are the same nominal angle.
 pub const ANGLE_TOL_DEG: f64 = 1e-6;
 
-/// One latched sample of a rotary session.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RotaryRow {
-    pub run: u32,
-    pub sample: i64,
-    pub t_s: f64,
-    /// +1 angle increasing, −1 decreasing, 0 outside a run.
-    pub direction: i8,
-    /// Target index while dwelling (rank of `target_deg`), −1 while moving.
-    pub target: i32,
-    /// The nominal target angle on dwell rows.
-    pub target_deg: Option<f64>,
-    pub indicated_deg: f64,
-    pub reference_deg: f64,
-    /// (indicated − reference)·3600.
-    pub error_arcsec: f64,
-    pub feed_deg_s: Option<f64>,
-    pub air_temp_c: Option<f64>,
-    pub part_temp_c: Option<f64>,
-    pub scale_temp_c: Option<f64>,
-    pub flags: u8,
-}
-
-impl RotaryRow {
-    /// A dwell row, used by every evaluation: run ≥ 1, direction ±1, target ≥ 0, no flag.
-    pub fn is_dwell(&self) -> bool {
-        self.run >= 1 && self.direction != 0 && self.target >= 0 && self.flags == 0
-    }
-}
+/// One latched sample of a rotary session: the capture's own row (as the linear session
+/// holds the drivers' `SessionRow`); its `axis` is the wire's, and the session's
+/// [`RotarySession::axis`] (every row's: the reader and the capture refuse a second one).
+pub use errmap_drivers::rotary::RotaryRow;
 
 /// A rotary session: its axis and its rows in file order.
 #[derive(Debug, Clone, PartialEq)]

@@ -162,6 +162,7 @@ fn frame_rows(path: &Path, df: &DataFrame) -> Result<Parsed, RotaryError> {
         let (direction, target, flags) = crate::session::row_indices(req(4)?, req(5)?, opt(10)?)
             .map_err(|(column, problem)| bad(path, r, column, problem))?;
         let row = RotaryRow {
+            axis: axis.into(),
             run,
             sample,
             t_s: req(2)?,

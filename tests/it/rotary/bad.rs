@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{every_45, import_rotary, rotary_csv};
+use super::{every_45, import_rotary, rotary_csv, rotary_session};
 use crate::util::{errmap, s, stderr, tempdir};
 
 /// A valid rotary session written through import, as text lines to edit.
@@ -11,10 +11,7 @@ fn session_lines(dir: &Path) -> Vec<String> {
     let csv = rotary_csv(dir, "ok.csv", &every_45(), 2, &|t, _, d| {
         t * 0.01 + f64::from(d)
     });
-    let out = dir.join("ok_session.csv");
-    let o = import_rotary(&csv, &out, "b");
-    assert!(o.status.success(), "{}", stderr(&o));
-    std::fs::read_to_string(out)
+    std::fs::read_to_string(rotary_session(&csv, dir.join("ok_session.csv"), "b"))
         .expect("present")
         .lines()
         .map(str::to_string)

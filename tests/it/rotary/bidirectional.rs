@@ -3,7 +3,7 @@
 //! closure gap, both relative to the mean datum at the reference; checked against a
 //! session built analytically with a known reversal and known per-direction errors.
 
-use super::{import_rotary, rotary_csv};
+use super::{rotary_csv, rotary_session};
 use crate::util::{errmap, json, s, stderr, tempdir};
 
 /// The shared shape of both directions, ″.
@@ -39,10 +39,7 @@ pub(super) fn targets() -> Vec<f64> {
 /// The session: three runs, every reading on the model.
 pub(super) fn session(dir: &std::path::Path) -> std::path::PathBuf {
     let csv = rotary_csv(dir, "b.csv", &targets(), 3, &|t, _, d| e(t, d));
-    let session = dir.join("b_session.csv");
-    let o = import_rotary(&csv, &session, "a");
-    assert!(o.status.success(), "{}", stderr(&o));
-    session
+    rotary_session(&csv, dir.join("b_session.csv"), "a")
 }
 
 fn export(args: &[&str]) -> std::process::Output {
@@ -51,22 +48,32 @@ fn export(args: &[&str]) -> std::process::Output {
     errmap(&a)
 }
 
+/// `export SESSION --format FORMAT --bidirectional --out OUT --json`, which must succeed;
+/// the file's text and the command's output.
+fn both_directions(
+    session: &std::path::Path,
+    format: &str,
+    out: &std::path::Path,
+) -> (String, std::process::Output) {
+    let o = export(&[
+        s(session),
+        "--format",
+        format,
+        "--bidirectional",
+        "--out",
+        s(out),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{format}: {}", stderr(&o));
+    (std::fs::read_to_string(out).expect("written"), o)
+}
+
 #[test]
 fn linuxcnc_forward_and_reverse_carry_each_directions_correction() {
     let dir = tempdir();
     let session = session(dir.path());
     let out = dir.path().join("a.comp");
-    let o = export(&[
-        s(&session),
-        "--format",
-        "linuxcnc",
-        "--bidirectional",
-        "--out",
-        s(&out),
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&out).expect("written");
+    let (text, o) = both_directions(&session, "linuxcnc", &out);
     let rows: Vec<Vec<f64>> = text
         .lines()
         .map(|l| {
@@ -114,17 +121,7 @@ fn fagor_err_minus_is_the_reverse_correction() {
     let dir = tempdir();
     let session = session(dir.path());
     let out = dir.path().join("ALA");
-    let o = export(&[
-        s(&session),
-        "--format",
-        "fagor-8055",
-        "--bidirectional",
-        "--out",
-        s(&out),
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&out).expect("written");
+    let (text, o) = both_directions(&session, "fagor-8055", &out);
     let lines: Vec<&str> = text.split("\r\n").filter(|l| !l.is_empty()).collect();
     assert_eq!(lines.len(), 13);
     for (l, t) in lines.iter().zip(targets()) {
@@ -168,7 +165,12 @@ fn one_direction_tables_and_error_tables_are_refused() {
     );
     let out = dir.path().join("x.out");
     for (input, format, says) in [
-        (&session, "siemens", "one value per point"),
+        (
+            &session,
+            "siemens",
+            "one value per point for both directions; the two-direction rotary tables are \
+             linuxcnc (forward/reverse) and fagor-8055 (err−)",
+        ),
         (&session, "fanuc", "one value per point"),
         (&session, "heidenhain", "one value per point"),
         (&table, "linuxcnc", "needs a rotary session"),

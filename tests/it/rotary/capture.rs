@@ -10,6 +10,7 @@ use std::process::{Command, Stdio};
 
 use errmap::session::rotary::read_rotary_session;
 
+use super::{plan_revolution, simulate_capture};
 use crate::util::{bin, errmap, json, s, stderr, tempdir};
 
 /// A noiseless B axis: eccentricity 4″ at 30°, reversal 3″ (e = 4·sin(θ + 30°) + d·1.5).
@@ -145,16 +146,7 @@ fn a_rotary_board_on_a_pty_gives_the_models_errors_and_the_table_takes_them() {
     );
     // `capture --simulate` serves the same board on its own pty: the same table.
     let sim_out = dir.path().join("sim");
-    let o = errmap(&[
-        "capture",
-        "--simulate",
-        s(&model),
-        "--speed",
-        "500",
-        "--out",
-        s(&sim_out),
-        "--no-view",
-    ]);
+    let o = simulate_capture(&model, &sim_out);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         std::fs::read(sim_out.join("session.csv")).expect("simulated capture"),
@@ -172,21 +164,7 @@ fn a_rotary_plan_drives_the_board_and_a_bad_model_is_refused_by_key() {
     let model = dir.path().join("rot.toml");
     std::fs::write(&model, MODEL).expect("model");
     let plan = dir.path().join("plan.toml");
-    let o = errmap(&[
-        "plan",
-        "--axis",
-        "b",
-        "--from",
-        "0",
-        "--to",
-        "360",
-        "--targets",
-        "9",
-        "--runs",
-        "3",
-        "--out",
-        s(&plan),
-    ]);
+    let o = plan_revolution("b", &["--targets", "9", "--runs", "3", "--out", s(&plan)]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = dir.path().join("cap");
     let o = serve_and_capture(&model, Some(&plan), &out);

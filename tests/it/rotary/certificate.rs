@@ -4,7 +4,7 @@
 
 use std::process::Command;
 
-use super::{import_rotary, rotary_csv};
+use super::{rotary_csv, rotary_session};
 use crate::util::{errmap, json, s, stderr, tempdir};
 
 fn pdftotext(pdf: &std::path::Path) -> Option<String> {
@@ -32,10 +32,7 @@ fn session(dir: &std::path::Path, ratio_ppm: f64) -> std::path::PathBuf {
                 + ratio_ppm * t * 3.6e-3
         },
     );
-    let out = dir.join(format!("r{ratio_ppm}.session.csv"));
-    let o = import_rotary(&csv, &out, "b");
-    assert!(o.status.success(), "{}", stderr(&o));
-    out
+    rotary_session(&csv, dir.join(format!("r{ratio_ppm}.session.csv")), "b")
 }
 
 #[test]

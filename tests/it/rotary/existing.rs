@@ -9,7 +9,7 @@ use errmap::base::RotaryAxis;
 use errmap::controller::modulo::{ModuloDialect, ModuloError, ModuloSpec, modulo_table};
 use errmap::controller::update_modulo;
 
-use super::{import_rotary, rotary_csv};
+use super::{rotary_csv, rotary_session};
 use crate::util::{errmap, s, stderr, tempdir};
 
 fn every_15(f: &dyn Fn(f64) -> f64) -> Vec<(f64, f64)> {
@@ -287,9 +287,7 @@ fn the_command_line_updates_a_rotary_table_beside_the_old_one() {
             2,
             &|t, _, _| f(t),
         );
-        let session = dir.path().join(format!("{name}_session.csv"));
-        assert!(import_rotary(&csv, &session, "a").status.success());
-        session
+        rotary_session(&csv, dir.path().join(format!("{name}_session.csv")), "a")
     };
     let first = make("first", &e1);
     let zero = make("zero", &|_| 0.0);
@@ -306,33 +304,31 @@ fn the_command_line_updates_a_rotary_table_beside_the_old_one() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let before = std::fs::read(&in_use).expect("written");
+    // `export` of the session that leaves no residual, updating `table` into `out`.
+    let update = |format: &str, table: &std::path::Path, out: &std::path::Path, json: bool| {
+        let mut a = vec![
+            "export",
+            s(&zero),
+            "--format",
+            format,
+            "--existing",
+            s(table),
+            "--out",
+            s(out),
+        ];
+        if json {
+            a.push("--json");
+        }
+        errmap(&a)
+    };
     let new = dir.path().join("b.spf");
-    let o = errmap(&[
-        "export",
-        s(&zero),
-        "--format",
-        "siemens",
-        "--existing",
-        s(&in_use),
-        "--out",
-        s(&new),
-        "--json",
-    ]);
+    let o = update("siemens", &in_use, &new, true);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(&new).expect("written"), before);
     let j = crate::util::json(&o);
     assert_eq!(j["max_change_arcsec"], 0.0);
     // Never over the table in use.
-    let o = errmap(&[
-        "export",
-        s(&zero),
-        "--format",
-        "siemens",
-        "--existing",
-        s(&in_use),
-        "--out",
-        s(&in_use),
-    ]);
+    let o = update("siemens", &in_use, &in_use, false);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
         stderr(&o).contains("would destroy the input"),
@@ -350,16 +346,7 @@ fn the_command_line_updates_a_rotary_table_beside_the_old_one() {
             .replace(",A1]", ",B1]"),
     )
     .expect("write");
-    let o = errmap(&[
-        "export",
-        s(&zero),
-        "--format",
-        "siemens",
-        "--existing",
-        s(&bad),
-        "--out",
-        s(&other),
-    ]);
+    let o = update("siemens", &bad, &other, false);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let msg = stderr(&o);
     assert!(
@@ -368,16 +355,7 @@ fn the_command_line_updates_a_rotary_table_beside_the_old_one() {
     );
     assert!(!other.exists());
     // LinuxCNC's file does not say its type.
-    let o = errmap(&[
-        "export",
-        s(&zero),
-        "--format",
-        "linuxcnc",
-        "--existing",
-        s(&in_use),
-        "--out",
-        s(&other),
-    ]);
+    let o = update("linuxcnc", &in_use, &other, false);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--comp-type"), "{}", stderr(&o));
 }

@@ -1,6 +1,6 @@
 //! `export` of a rotary session or table as a modulo table, through the command line.
 
-use super::{every_45, import_rotary, rotary_csv};
+use super::{every_45, rotary_csv, rotary_session};
 use crate::util::{errmap, json, s, stderr, tempdir};
 
 #[test]
@@ -10,8 +10,7 @@ fn a_rotary_session_exports_a_siemens_modulo_table_with_its_report() {
     let csv = rotary_csv(dir.path(), "r.csv", &every_45(), 3, &|t, _, _| {
         8.0 * t.to_radians().sin() + 30.0 * t * 3.6e-3
     });
-    let session = dir.path().join("s.csv");
-    assert!(import_rotary(&csv, &session, "a").status.success());
+    let session = rotary_session(&csv, dir.path().join("s.csv"), "a");
     let table = dir.path().join("t.csv");
     assert!(
         errmap(&["table", s(&session), "--out", s(&table)])

@@ -56,6 +56,35 @@ pub(crate) fn import_rotary(csv: &Path, out: &Path, axis: &str) -> std::process:
     ])
 }
 
+/// [`import_rotary`] that must succeed: the session table `out` (CSV or Parquet by its
+/// extension).
+pub(crate) fn rotary_session(csv: &Path, out: PathBuf, axis: &str) -> PathBuf {
+    let o = import_rotary(csv, &out, axis);
+    assert!(o.status.success(), "{}", crate::util::stderr(&o));
+    out
+}
+
+/// `errmap plan --axis AXIS` over the whole revolution (0 to 360°), with `extra` flags.
+pub(crate) fn plan_revolution(axis: &str, extra: &[&str]) -> std::process::Output {
+    let mut a = vec!["plan", "--axis", axis, "--from", "0", "--to", "360"];
+    a.extend_from_slice(extra);
+    crate::util::errmap(&a)
+}
+
+/// `errmap capture --simulate MODEL` (at 500× speed, no live view) into `out`.
+pub(crate) fn simulate_capture(model: &Path, out: &Path) -> std::process::Output {
+    crate::util::errmap(&[
+        "capture",
+        "--simulate",
+        crate::util::s(model),
+        "--speed",
+        "500",
+        "--out",
+        crate::util::s(out),
+        "--no-view",
+    ])
+}
+
 /// The nine targets of a revolution every 45°, 0 and 360 both.
 pub(crate) fn every_45() -> Vec<f64> {
     (0..=8).map(|k| f64::from(k) * 45.0).collect()

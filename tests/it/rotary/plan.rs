@@ -4,6 +4,7 @@
 
 use std::process::Command;
 
+use super::plan_revolution;
 use crate::util::{errmap, s, stderr, tempdir};
 
 /// The program's moves ('M', angle) and dwells ('D', s), read here independently.
@@ -31,29 +32,25 @@ fn events(ngc: &str, letter: char) -> (Vec<(char, f64)>, Vec<f64>) {
 fn the_iso_cycle_in_degrees_with_overrun_and_dwell() {
     let dir = tempdir();
     let (toml, ngc) = (dir.path().join("p.toml"), dir.path().join("p.ngc"));
-    let o = errmap(&[
-        "plan",
-        "--axis",
+    let o = plan_revolution(
         "b",
-        "--from",
-        "0",
-        "--to",
-        "360",
-        "--targets",
-        "9",
-        "--runs",
-        "2",
-        "--dwell-s",
-        "1.5",
-        "--feed-deg-s",
-        "20",
-        "--seed",
-        "3",
-        "--out",
-        s(&toml),
-        "--program",
-        s(&ngc),
-    ]);
+        &[
+            "--targets",
+            "9",
+            "--runs",
+            "2",
+            "--dwell-s",
+            "1.5",
+            "--feed-deg-s",
+            "20",
+            "--seed",
+            "3",
+            "--out",
+            s(&toml),
+            "--program",
+            s(&ngc),
+        ],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let t = std::fs::read_to_string(&toml).expect("present");
     assert!(t.contains("axis = \"B\"") && t.contains("runs = 2") && t.contains("overrun_deg = 5"));
@@ -171,31 +168,27 @@ fn a_rotary_plan_is_a_part_program_in_every_dialect() {
     ];
     for (dialect, mv, dw, unit_s, first, last) in cases {
         let (toml, prog) = (dir.path().join("p.toml"), dir.path().join(dialect));
-        let o = errmap(&[
-            "plan",
-            "--axis",
+        let o = plan_revolution(
             "c",
-            "--from",
-            "0",
-            "--to",
-            "360",
-            "--interval",
-            "90",
-            "--runs",
-            "2",
-            "--dwell-s",
-            "1.5",
-            "--feed-deg-s",
-            "4",
-            "--random-offset",
-            "0",
-            "--out",
-            s(&toml),
-            "--program",
-            s(&prog),
-            "--dialect",
-            dialect,
-        ]);
+            &[
+                "--interval",
+                "90",
+                "--runs",
+                "2",
+                "--dwell-s",
+                "1.5",
+                "--feed-deg-s",
+                "4",
+                "--random-offset",
+                "0",
+                "--out",
+                s(&toml),
+                "--program",
+                s(&prog),
+                "--dialect",
+                dialect,
+            ],
+        );
         assert!(o.status.success(), "{dialect}: {}", stderr(&o));
         let text = std::fs::read_to_string(&prog).expect("program");
         let mut blocks: Vec<String> = text.lines().map(String::from).collect();
@@ -253,25 +246,21 @@ fn a_rotary_plan_is_a_part_program_in_every_dialect() {
     // A dwell FANUC cannot write (G04 P in whole ms, at least 1 ms) is refused, nothing
     // written.
     let prog = dir.path().join("short.nc");
-    let o = errmap(&[
-        "plan",
-        "--axis",
+    let o = plan_revolution(
         "b",
-        "--from",
-        "0",
-        "--to",
-        "360",
-        "--targets",
-        "5",
-        "--dwell-s",
-        "0.0001",
-        "--out",
-        s(&dir.path().join("short.toml")),
-        "--program",
-        s(&prog),
-        "--dialect",
-        "fanuc",
-    ]);
+        &[
+            "--targets",
+            "5",
+            "--dwell-s",
+            "0.0001",
+            "--out",
+            s(&dir.path().join("short.toml")),
+            "--program",
+            s(&prog),
+            "--dialect",
+            "fanuc",
+        ],
+    );
     assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(stderr(&o).contains("dwell"), "{}", stderr(&o));
     assert!(!prog.exists() && !dir.path().join("short.toml").exists());

@@ -1,7 +1,7 @@
 //! ISO 230-2 in arcseconds against figures computed here from the definitions, the
 //! closure check, the rotary error table.
 
-use super::{every_45, import_rotary, rotary_csv};
+use super::{every_45, rotary_csv, rotary_session};
 use crate::util::{errmap, json, s, stderr, tempdir};
 
 /// Scatter of run j at target i, ″ (deterministic; 0 and 360 share it).
@@ -61,9 +61,7 @@ fn iso_230_2_in_arcsec_matches_the_definitions_with_0_and_360_both_evaluated() {
     let csv = rotary_csv(dir.path(), "a.csv", &targets, 5, &|t, j, d| {
         truth(t, j, d, 0.0)
     });
-    let session = dir.path().join("a.csv.session.csv");
-    let o = import_rotary(&csv, &session, "a");
-    assert!(o.status.success(), "{}", stderr(&o));
+    let session = rotary_session(&csv, dir.path().join("a.csv.session.csv"), "a");
     let table = dir.path().join("a_table.csv");
     let o = errmap(&["table", s(&session), "--out", s(&table), "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -185,9 +183,7 @@ fn a_ratio_error_breaks_the_closure_with_a_named_warning() {
     let csv = rotary_csv(dir.path(), "c.csv", &targets, 5, &|t, j, d| {
         truth(t, j, d, 40.0)
     });
-    let session = dir.path().join("c.parquet");
-    let o = import_rotary(&csv, &session, "c");
-    assert!(o.status.success(), "{}", stderr(&o));
+    let session = rotary_session(&csv, dir.path().join("c.parquet"), "c");
     let o = errmap(&[
         "table",
         s(&session),
