@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use errmap::base::Axis;
+use errmap::controller::TableSetting;
 use errmap::evaluate::DEFAULT_MAX_DEGREE;
 use errmap::interp::Kernel;
 use errmap::interp::{DEFAULT_FUZZY_SIGMA, MethodName};
@@ -14,6 +15,7 @@ use super::values::{
     fuzzy_width, kernel, lagrange_max_degree, length, method_name, positive, probability, seconds,
     trials,
 };
+use super::values::{bidirectional_help, ends_help, setting_help};
 
 #[derive(Debug, Args)]
 pub(crate) struct ExportArgs {
@@ -23,12 +25,8 @@ pub(crate) struct ExportArgs {
     /// squared exponential).
     #[arg(long, value_parser = method_name())]
     pub method: Option<MethodName>,
-    /// Direction-dependent table from a session's per-direction means (ISO 230-2's
-    /// x̄↑ and x̄↓ at each target), no model: LinuxCNC's forward and reverse columns,
-    /// Siemens' two direction-dependent CEC tables, FANUC's bidirectional lists, ISG's
-    /// bilateral pos/neg. With --step (FANUC: a fixed interval)
-    /// the means are interpolated linearly onto the grid through --reference.
-    #[arg(long, conflicts_with_all = ["method", "order"])]
+    // Its help names the two-direction formats, from the registry.
+    #[arg(long, conflicts_with_all = ["method", "order"], help = bidirectional_help())]
     pub bidirectional: bool,
     /// Lagrange degrees MxNxQ (or auto).
     #[arg(long)]
@@ -48,11 +46,8 @@ pub(crate) struct ExportArgs {
     /// Line end, mm (default: the table's highest node on the axis).
     #[arg(long, allow_negative_numbers = true, value_parser = coordinate)]
     pub end: Option<f64>,
-    /// A round grid of --step through --reference covering the range, the points beyond
-    /// it clamped (the value at the range end) or extrapolated. Without it, LinuxCNC, ISG
-    /// and CSV end on the range end (the last interval shorter); Siemens, FANUC and
-    /// HEIDENHAIN need a step that divides the range.
-    #[arg(long, value_enum)]
+    // Its help names the formats of one interval, from the registry.
+    #[arg(long, value_enum, help = ends_help())]
     pub ends: Option<EndsArg>,
     /// The grid's reference position for --ends, mm (e.g. the machine's reference point).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = coordinate)]
@@ -60,17 +55,16 @@ pub(crate) struct ExportArgs {
     /// The table's format.
     #[arg(long, value_parser = super::values::export_format())]
     pub format: ExportFormatArg,
-    /// LinuxCNC COMP_FILE_TYPE: actual (0, the positions reached; the default) or trim (1,
-    /// the offsets). Required with --existing.
-    #[arg(long, value_enum)]
+    // This and the other common settings: their help lists the controllers that read
+    // them, each in its own words, from the registry.
+    #[arg(long, value_enum, help = setting_help(TableSetting::CompType))]
     pub comp_type: Option<CompTypeArg>,
     /// The controller table in use (a dialect of --format): write it back
     /// updated by the session's residual (the session measured with it active), in its
     /// own layout, values only.
     #[arg(long, conflicts_with_all = ["method", "order"])]
     pub existing: Option<PathBuf>,
-    /// --existing: the table's length unit, mm or inch (Fagor 8055: required).
-    #[arg(long)]
+    #[arg(long, help = setting_help(TableSetting::Units))]
     pub units: Option<String>,
     /// --existing: print a JSON summary on stdout.
     #[arg(long)]
@@ -79,20 +73,13 @@ pub(crate) struct ExportArgs {
     /// `--fanuc-max-value`, …), made from the registry.
     #[command(flatten)]
     pub dialect_options: super::values::DialectOptionArgs,
-    /// The control's table size: Siemens MD38000 MM_ENC_COMP_MAX_POINTS (default 200, the
-    /// 808D), HEIDENHAIN entries per .COM (256), ISG P-COMP-00059 kw.ssfk.max_points (1500).
-    #[arg(long, value_parser = at_least_two)]
+    #[arg(long, value_parser = at_least_two, help = setting_help(TableSetting::MaxPoints))]
     pub max_points: Option<usize>,
-    /// The axis' name in the controller: HEIDENHAIN column (axis key) and ISG
-    /// kopf.log_achs_name (default: the axis letter, upper case).
-    #[arg(long, value_parser = controller_name)]
+    #[arg(long, value_parser = controller_name, help = setting_help(TableSetting::AxisName))]
     pub axis_name: Option<String>,
-    /// The axis' number in the controller: FANUC axis of parameters 3620–3627 and ISG
-    /// kopf.log_achs_nr (default: x 1, y 2, z 3).
-    #[arg(long, value_parser = axis_number)]
+    #[arg(long, value_parser = axis_number, help = setting_help(TableSetting::AxisNumber))]
     pub axis_number: Option<u32>,
-    /// HEIDENHAIN table name (default: <axis name>.COM).
-    #[arg(long, value_parser = controller_name)]
+    #[arg(long, value_parser = controller_name, help = setting_help(TableSetting::TableName))]
     pub table_name: Option<String>,
     /// Refuse positions outside the mapped range instead of flagging them.
     #[arg(long)]

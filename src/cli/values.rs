@@ -14,7 +14,7 @@ use clap::ValueEnum;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use errmap::base::Axis;
 use errmap::controller::program::{self as part_program, ProgramSyntax};
-use errmap::controller::{CompType, DIALECTS, Dialect as ControllerDialect};
+use errmap::controller::{CompType, DIALECTS, Dialect as ControllerDialect, Spacing, TableSetting};
 use errmap::export::Ends;
 use errmap::interp::Kernel;
 use errmap::interp::{MethodName, Order};
@@ -524,6 +524,71 @@ pub(crate) fn export_about() -> String {
         "Export compensation tables ({}, CSV) or a volumetric grid; --existing updates a \
          table in use",
         controllers.join(", ")
+    )
+}
+
+/// The help of `export`'s flag for `setting`: what it is, then each controller that reads
+/// it in its own words (from the registry; controllers with the same words share them).
+pub(crate) fn setting_help(setting: TableSetting) -> String {
+    let lead = match setting {
+        TableSetting::AxisName => {
+            "The axis' name in the controller (default: the axis letter, upper case)"
+        }
+        TableSetting::AxisNumber => "The axis' number in the controller (default: x 1, y 2, z 3)",
+        TableSetting::MaxPoints => "The control's table size",
+        TableSetting::TableName => "The table's name in the controller",
+        TableSetting::Units => {
+            "--existing: the table's length unit, mm or inch, where the file does not state it"
+        }
+        TableSetting::CompType => {
+            "The table's type: actual (0, the positions reached; the default) or trim (1, the \
+             offsets). Required with --existing"
+        }
+    };
+    let mut groups: Vec<(Vec<&str>, String)> = Vec::new();
+    for (d, words) in errmap::controller::readers_of(setting) {
+        match groups.iter_mut().find(|(_, w)| *w == words) {
+            Some((names, _)) => names.push(d.controller()),
+            None => groups.push((vec![d.controller()], words)),
+        }
+    }
+    let readers: Vec<String> = groups
+        .iter()
+        .map(|(names, words)| format!("{}: {words}", names.join(", ")))
+        .collect();
+    format!("{lead}. {}.", readers.join("; "))
+}
+
+/// The help of `export --bidirectional`: the formats whose tables hold two directions.
+pub(crate) fn bidirectional_help() -> String {
+    format!(
+        "Direction-dependent table from a session's per-direction means (ISO 230-2's x̄↑ and \
+         x̄↓ at each target), no model: {}. With --step the means are interpolated linearly \
+         onto the grid through --reference",
+        errmap::controller::names_where(|d| d.limits().bidirectional, "or")
+    )
+}
+
+/// The help of `export --ends`: which formats end on the range end without it, which need
+/// a step that divides the range (their tables have one interval).
+pub(crate) fn ends_help() -> String {
+    let equidistant = |d: &dyn ControllerDialect| d.limits().spacing == Spacing::Equidistant;
+    let listed: Vec<&str> = DIALECTS
+        .iter()
+        .filter(|d| !equidistant(**d))
+        .map(|d| d.name())
+        .chain(["csv"])
+        .collect();
+    format!(
+        "A round grid of --step through --reference covering the range, the points beyond it \
+         clamped (the value at the range end) or extrapolated. Without it, {} end on the range \
+         end (the last interval shorter); {} need a step that divides the range",
+        match listed.split_last() {
+            Some((last, [])) => last.to_string(),
+            Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+            None => String::new(),
+        },
+        errmap::controller::names_where(equidistant, "and"),
     )
 }
 

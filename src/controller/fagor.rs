@@ -55,6 +55,7 @@
 //! the table over the whole travel.
 
 use super::LengthUnit;
+use super::TableSetting;
 use super::read::{At, Field, TablePoint, check_point};
 use super::text::{Text, number};
 use super::update::fixed;
@@ -473,7 +474,6 @@ pub const VALUE: Value = Value {
 fn limits(max_points: usize) -> Limits {
     Limits {
         max_points,
-        max_points_is_parameter: false,
         spacing: Spacing::Listed,
         bidirectional: true,
         value: VALUE,
@@ -525,6 +525,22 @@ impl Dialect for Fagor {
             Fagor::Al8055 => FAGOR_8055_MAX_POINTS,
             Fagor::Mp8065 => FAGOR_8065_MAX_POINTS,
         })
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![
+            (
+                TableSetting::AxisName,
+                "the axis letter (its first letter)".into(),
+            ),
+            (
+                TableSetting::Units,
+                match self {
+                    Fagor::Al8055 => "required: the table states none",
+                    Fagor::Mp8065 => "mm unless inch",
+                }
+                .into(),
+            ),
+        ]
     }
     fn detect(&self, bytes: &[u8], text: &Text) -> bool {
         let lines = text.lines();

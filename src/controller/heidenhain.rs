@@ -51,6 +51,7 @@
 //!   `CYCL CALL` needed.
 //! * `;` comment blocks; `M30` ends the program.
 
+use super::TableSetting;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, seconds3, signed_mm3};
 use super::read::{At, Parsed, check_point, field_at, num, point};
 use super::text::Text;
@@ -294,12 +295,24 @@ impl Dialect for Heidenhain {
     fn limits(&self) -> Limits {
         Limits {
             max_points: HEIDENHAIN_MAX_POINTS,
-            max_points_is_parameter: true,
             spacing: Spacing::Equidistant,
             bidirectional: false,
             value: VALUE,
             axes: &[AxisKind::Linear],
         }
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![
+            (TableSetting::AxisName, "the column (axis key)".into()),
+            (
+                TableSetting::MaxPoints,
+                format!("entries per .COM (default {HEIDENHAIN_MAX_POINTS})"),
+            ),
+            (
+                TableSetting::TableName,
+                "the .COM table (default <axis name>.COM)".into(),
+            ),
+        ]
     }
     fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
         let lines = text.lines();

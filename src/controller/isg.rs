@@ -74,6 +74,7 @@
 //! The tables come from `volumetric::component_tables`, which also says what is *not*
 //! sourced (the squareness, folded into straightness) and how the file avoids it.
 
+use super::TableSetting;
 use super::read::{At, Field, Parsed, check_point, field_at, point};
 use super::text::{Text, number};
 use super::{
@@ -441,12 +442,21 @@ impl Dialect for Isg {
     fn limits(&self) -> Limits {
         Limits {
             max_points: ISG_DEFAULT_MAX_POINTS - 1,
-            max_points_is_parameter: true,
             spacing: Spacing::Listed,
             bidirectional: true,
             value: VALUE,
             axes: &[AxisKind::Linear],
         }
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![
+            (TableSetting::AxisName, "kopf.log_achs_name".into()),
+            (TableSetting::AxisNumber, "kopf.log_achs_nr".into()),
+            (
+                TableSetting::MaxPoints,
+                format!("P-COMP-00059 kw.ssfk.max_points (default {ISG_DEFAULT_MAX_POINTS})"),
+            ),
+        ]
     }
     fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
         text.lines()

@@ -53,6 +53,7 @@
 //! `linuxcnc-uspace`) by `tests/it/testplan.rs` when that is installed:
 //! `rs274 -g plan.ngc` prints the canonical moves (`STRAIGHT_FEED`, `DWELL`).
 
+use super::TableSetting;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, TablePoint, check_point};
 use super::text::{Text, number};
@@ -240,12 +241,23 @@ impl Dialect for LinuxCnc {
     fn limits(&self) -> Limits {
         Limits {
             max_points: LINUXCNC_MAX_ENTRIES,
-            max_points_is_parameter: false,
             spacing: Spacing::Listed,
             bidirectional: true,
             value: VALUE,
             axes: &[AxisKind::Linear],
         }
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![
+            (
+                TableSetting::CompType,
+                "COMP_FILE_TYPE (needed to read a table: its file does not state it)".into(),
+            ),
+            (
+                TableSetting::Units,
+                "the unit of a table read (default mm)".into(),
+            ),
+        ]
     }
     fn detect(&self, _bytes: &[u8], _text: &Text) -> bool {
         false

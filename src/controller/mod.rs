@@ -442,8 +442,6 @@ pub enum AxisKind {
 pub struct Limits {
     /// The most points of a table (the default where the control makes it a parameter).
     pub max_points: usize,
-    /// Whether `max_points` is a parameter the user may set (`--max-points`).
-    pub max_points_is_parameter: bool,
     pub spacing: Spacing,
     /// Whether the table can hold a second direction (a reverse line).
     pub bidirectional: bool,
@@ -506,6 +504,37 @@ impl TableSettings {
     }
 }
 
+/// A setting of [`TableSettings`] that several dialects read, each as its controller calls
+/// it ([`Dialect::reads`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TableSetting {
+    /// [`TableSettings::axis_name`].
+    AxisName,
+    /// [`TableSettings::axis_number`].
+    AxisNumber,
+    /// [`TableSettings::max_points`].
+    MaxPoints,
+    /// [`TableSettings::table_name`].
+    TableName,
+    /// [`TableSettings::units`].
+    Units,
+    /// [`TableSettings::comp_type`].
+    CompType,
+}
+
+/// The dialects that read `setting`, each with its words for it, in the registry's order.
+pub fn readers_of(setting: TableSetting) -> Vec<(&'static dyn Dialect, String)> {
+    DIALECTS
+        .iter()
+        .filter_map(|d| {
+            d.reads()
+                .into_iter()
+                .find(|(s, _)| *s == setting)
+                .map(|(_, words)| (*d, words))
+        })
+        .collect()
+}
+
 /// What a dialect needs that its settings do not give.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SettingsError {
@@ -531,6 +560,11 @@ pub trait Dialect: Sync {
     /// One line for `--help`.
     fn about(&self) -> &'static str;
     fn limits(&self) -> Limits;
+    /// The common settings ([`TableSetting`]) its tables read, each in the controller's
+    /// words with its default where it has one; the help lists them from here.
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        Vec::new()
+    }
     /// Whether `text` (decoded from `bytes`) is this dialect's table, by content (never
     /// by file name); `false` for a table that cannot be told by content (LinuxCNC).
     fn detect(&self, bytes: &[u8], text: &text::Text) -> bool;

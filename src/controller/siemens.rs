@@ -75,6 +75,7 @@
 //! Positions are written with 3 decimals: the default input resolution MD10200
 //! `INT_INCR_PER_MM` is 1000 (0.001 mm).
 
+use super::TableSetting;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
@@ -622,12 +623,25 @@ impl Dialect for Siemens {
     fn limits(&self) -> Limits {
         Limits {
             max_points: SIEMENS_808D_MAX_POINTS,
-            max_points_is_parameter: true,
             spacing: Spacing::Equidistant,
             bidirectional: true,
             value: VALUE,
             axes: &[AxisKind::Linear],
         }
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![
+            (
+                TableSetting::MaxPoints,
+                format!(
+                    "MD38000 MM_ENC_COMP_MAX_POINTS (default {SIEMENS_808D_MAX_POINTS}, the 808D)"
+                ),
+            ),
+            (
+                TableSetting::AxisNumber,
+                "the CEC tables' axis AX<n>".into(),
+            ),
+        ]
     }
     fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
         let lines = text.lines();

@@ -6,7 +6,8 @@
 
 use errmap::base::Axis;
 use errmap::controller::{
-    self, CompType, ControllerTable, Dialect, LengthUnit, Residual, SettingsError, TableSettings,
+    self, CompType, ControllerTable, Dialect, LengthUnit, Residual, SettingsError, Spacing,
+    TableSetting, TableSettings,
 };
 use errmap::export::Sampled;
 
@@ -272,6 +273,100 @@ fn every_dialect_through_the_command_line() {
             text.contains(&format!("{n}:")),
             "{n} in export --help:\n{text}"
         );
+    }
+}
+
+/// The help of one flag of `export --help`, its lines joined with single spaces.
+fn flag_help(help: &str, flag: &str) -> String {
+    let mut lines = help
+        .lines()
+        .skip_while(|l| !l.trim_start().starts_with(flag));
+    let first = lines
+        .next()
+        .unwrap_or_else(|| panic!("{flag} in export --help"));
+    // The help is indented deeper than the next flag's line.
+    let rest = lines.take_while(|l| l.trim().is_empty() || l.len() - l.trim_start().len() > 6);
+    std::iter::once(first)
+        .chain(rest)
+        .flat_map(str::split_whitespace)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// `export --help` says the common settings as the registry's dialects read them: each
+/// controller that reads one, in its own words, and no other; `--bidirectional` names the
+/// two-direction formats and `--ends` every format. What `--ends` says holds: a step that
+/// does not divide the range is refused exactly by the formats of one interval.
+#[test]
+fn export_help_is_made_from_the_registry_and_says_what_happens() {
+    let help = errmap(&["export", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout);
+    for (setting, flag) in [
+        (TableSetting::AxisName, "--axis-name"),
+        (TableSetting::AxisNumber, "--axis-number"),
+        (TableSetting::MaxPoints, "--max-points"),
+        (TableSetting::TableName, "--table-name"),
+        (TableSetting::Units, "--units"),
+        (TableSetting::CompType, "--comp-type"),
+    ] {
+        let h = flag_help(&text, flag);
+        let readers = controller::readers_of(setting);
+        assert!(!readers.is_empty(), "{flag}: some dialect reads it");
+        for d in controller::DIALECTS {
+            let words = readers.iter().find(|(r, _)| r.name() == d.name());
+            match words {
+                Some((_, w)) => {
+                    let w = w.split_whitespace().collect::<Vec<_>>().join(" ");
+                    assert!(h.contains(d.controller()), "{flag} names {}: {h}", d.name());
+                    assert!(h.contains(&w), "{flag} says `{w}`: {h}");
+                }
+                None => assert!(
+                    !h.contains(&format!("{}:", d.controller())),
+                    "{flag} does not name {}: {h}",
+                    d.name()
+                ),
+            }
+        }
+    }
+    let bidirectional = flag_help(&text, "--bidirectional");
+    let ends = flag_help(&text, "--ends");
+    let table1 = super::util::root().join("datasets/table1.csv");
+    let dir = tempdir();
+    for d in controller::DIALECTS {
+        let n = d.name();
+        let two = d.limits().bidirectional;
+        let listed = |t: &str| t.split([' ', ',', ':', '.']).any(|w| w == n);
+        assert_eq!(
+            listed(&bidirectional),
+            two,
+            "{n} in --bidirectional: {bidirectional}"
+        );
+        assert!(listed(&ends), "{n} in --ends: {ends}");
+        // 7 mm does not divide table 1's range along x (1.2424 … 800 mm).
+        let out = dir.path().join(format!("{n}.step7"));
+        let mut args = vec![
+            "export",
+            s(&table1),
+            "--method",
+            "trilinear",
+            "--step",
+            "7",
+            "--format",
+            n,
+            "--out",
+            s(&out),
+        ];
+        args.extend(flags(*d));
+        let o = errmap(&args);
+        let one_interval = d.limits().spacing == Spacing::Equidistant;
+        assert_eq!(!o.status.success(), one_interval, "{n}: {}", stderr(&o));
+        if one_interval {
+            assert!(
+                stderr(&o).contains("does not divide"),
+                "{n}: {}",
+                stderr(&o)
+            );
+        }
     }
 }
 

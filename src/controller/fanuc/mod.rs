@@ -94,6 +94,7 @@ mod program;
 mod update;
 pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
 
+use super::TableSetting;
 use super::options::{self, OptionError, OptionValue};
 use super::program::ProgramSyntax;
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
@@ -950,12 +951,17 @@ impl Dialect for Fanuc {
     fn limits(&self) -> Limits {
         Limits {
             max_points: FANUC_MAX_POINT_NUMBER as usize + 1,
-            max_points_is_parameter: true,
             spacing: Spacing::Equidistant,
             bidirectional: true,
             value: VALUE,
             axes: &[AxisKind::Linear],
         }
+    }
+    fn reads(&self) -> Vec<(TableSetting, String)> {
+        vec![(
+            TableSetting::AxisNumber,
+            "the axis of parameters 3620–3627".into(),
+        )]
     }
     fn detect(&self, _bytes: &[u8], text: &Text) -> bool {
         let lines = text.lines();
