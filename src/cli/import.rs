@@ -10,7 +10,7 @@ use clap::{Args, ValueEnum};
 use errmap::base::Axis;
 use errmap::base::FileOp;
 use errmap::base::io_err;
-use errmap::controller::{Dialect, SettingsError, TableFormat, TableSettings};
+use errmap::controller::{Dialect, SettingsError, TableFormat, TableSetting, TableSettings};
 use errmap::import::ErrorUnit;
 use errmap::import::{
     self, ColumnMap, CsvOptions, ErrorSign, ImportOptions, LengthUnit, PressureUnit, SessionFormat,
@@ -96,8 +96,8 @@ pub(crate) struct ImportArgs {
     /// CSV: `,` is the decimal mark in every number.
     #[arg(long)]
     pub decimal_comma: bool,
-    /// LEN[,TEMP[,PRESS]]: mm|inch, C|F, hPa|kPa|inHg|mmHg (CSV; Fagor/LinuxCNC: LEN).
-    #[arg(long, value_parser = units_flag)]
+    // LEN[,TEMP[,PRESS]]; the controllers that take LEN from the registry.
+    #[arg(long, value_parser = units_flag, help = units_help())]
     pub units: Option<String>,
     /// CSV error column unit: um, mm or inch (default um); arcsec, deg or urad for a rotary
     /// axis (default arcsec).
@@ -106,9 +106,27 @@ pub(crate) struct ImportArgs {
     /// CSV error column sign (required with error=).
     #[arg(long, value_enum)]
     pub error_sign: Option<ErrorSignArg>,
-    /// LinuxCNC COMP_FILE_TYPE of the table read: actual (0) or trim (1).
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, help = comp_type_help())]
     pub comp_type: Option<CompTypeArg>,
+}
+
+/// The help of `import --units`: the CSV's units, and the controller tables' length unit
+/// where their files do not state it (from the registry).
+fn units_help() -> String {
+    format!(
+        "LEN[,TEMP[,PRESS]]: mm|inch, C|F, hPa|kPa|inHg|mmHg (CSV); a controller table's \
+         LEN where its file does not state it: {}",
+        values::readers_help(TableSetting::Units)
+    )
+}
+
+/// The help of `import --comp-type` (from the registry).
+fn comp_type_help() -> String {
+    format!(
+        "The type of the table read, where its file does not state it: actual (0) or trim \
+         (1). {}",
+        values::readers_help(TableSetting::CompType)
+    )
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

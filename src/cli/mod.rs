@@ -136,9 +136,9 @@ pub(crate) enum Command {
     /// Developer command.
     #[command(hide = true)]
     GenCapture(stream::GenCaptureArgs),
-    /// Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a
-    /// controller table (Fagor 8055/8065, LinuxCNC, and errmap's Siemens, FANUC, HEIDENHAIN,
-    /// ISG) into errmap's tables.
+    // Read a laser export, a spreadsheet or a controller table (the controllers from the
+    // registry: `values::import_about`).
+    #[command(about = values::import_about())]
     Import(import::ImportArgs),
     /// The calibration history of a fleet in a ledger (SQLite or PostgreSQL): add, report, verify.
     History(history::HistoryArgs),

@@ -64,8 +64,8 @@ pub(crate) struct PlanArgs {
     /// The controller whose part-program syntax --program uses.
     #[arg(long, default_value = program::default_dialect().name(), value_parser = values::dialect())]
     pub dialect: &'static dyn ProgramSyntax,
-    /// LinuxCNC: switch this motion digital output on at each dwell (M64/M65 P n).
-    #[arg(long)]
+    // Its help names the dialects that switch outputs, from the registry.
+    #[arg(long, help = mark_output_help())]
     pub mark_output: Option<u32>,
 }
 
@@ -164,4 +164,26 @@ fn plan_flag(field: PlanField) -> &'static str {
         PlanField::FeedMmS => "--feed-mm-s",
         PlanField::LineMm => "--at",
     }
+}
+
+/// The help of `plan --mark-output`: the dialects whose programs switch a digital output
+/// around each dwell, with their outputs and blocks (from the registry).
+fn mark_output_help() -> String {
+    let with: Vec<String> = program::dialects()
+        .filter_map(|p| {
+            let n = p.mark_outputs()?;
+            Some(format!(
+                "{}: outputs 0…{}, `{}` … `{}`",
+                p.name(),
+                n.saturating_sub(1),
+                p.output(0, true),
+                p.output(0, false)
+            ))
+        })
+        .collect();
+    format!(
+        "Switch this digital output on at each dwell and off after it (a MARK for the \
+         acquisition board), where the program's dialect can: {}",
+        with.join("; ")
+    )
 }

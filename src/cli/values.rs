@@ -545,6 +545,12 @@ pub(crate) fn setting_help(setting: TableSetting) -> String {
              offsets). Required with --existing"
         }
     };
+    format!("{lead}. {}.", readers_help(setting))
+}
+
+/// The controllers that read `setting`, each with its words for it, from the registry
+/// (controllers with the same words share them): `HEIDENHAIN: the column; ISG/TwinCAT: …`.
+pub(crate) fn readers_help(setting: TableSetting) -> String {
     let mut groups: Vec<(Vec<&str>, String)> = Vec::new();
     for (d, words) in errmap::controller::readers_of(setting) {
         match groups.iter_mut().find(|(_, w)| *w == words) {
@@ -556,7 +562,17 @@ pub(crate) fn setting_help(setting: TableSetting) -> String {
         .iter()
         .map(|(names, words)| format!("{}: {words}", names.join(", ")))
         .collect();
-    format!("{lead}. {}.", readers.join("; "))
+    readers.join("; ")
+}
+
+/// `import`'s line in `errmap --help`: the controllers from the registry.
+pub(crate) fn import_about() -> String {
+    let controllers: Vec<&str> = DIALECTS.iter().map(|d| d.controller()).collect();
+    format!(
+        "Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a \
+         controller table ({}) into errmap's tables",
+        controllers.join(", ")
+    )
 }
 
 /// The help of `export --bidirectional`: the formats whose tables hold two directions.
