@@ -389,10 +389,12 @@ fn modulo_spec(
     axis: RotaryAxis,
 ) -> Result<errmap::controller::modulo::ModuloSpec> {
     use super::values::ExportFormatArg;
-    use errmap::controller::modulo::{ModuloDialect, ModuloSpec};
-    let names = ModuloDialect::names();
+    use errmap::controller::modulo::{
+        ModuloSpec, modulo_dialect, modulo_names, two_direction_tables,
+    };
+    let names = modulo_names();
     let dialect = match a.format {
-        ExportFormatArg::Table(d) => ModuloDialect::from_name(d.name()).ok_or_else(|| {
+        ExportFormatArg::Table(d) => modulo_dialect(d.name()).ok_or_else(|| {
             guard::usage(format!(
                 "--format {} has no modulo table for a rotary axis ({names})",
                 d.name()
@@ -409,18 +411,24 @@ fn modulo_spec(
             "--method is not used with a rotary table (no model is fitted)",
         ));
     }
-    if a.bidirectional && dialect.equidistant() {
+    let syntax = dialect.modulo().ok_or_else(|| {
+        guard::usage(format!(
+            "--format {} has no modulo table for a rotary axis ({names})",
+            dialect.name()
+        ))
+    })?;
+    if a.bidirectional && syntax.equidistant() {
         return Err(guard::usage(format!(
             "--bidirectional: {} modulo tables hold one value per point for both directions; \
              the two-direction rotary tables are {}",
             dialect.name(),
-            ModuloDialect::two_direction_tables()
+            two_direction_tables()
         )));
     }
     if a.units.is_some() {
         return Err(guard::usage("--units: a rotary table is in degrees"));
     }
-    if a.existing.is_some() && dialect.needs_comp_type() && a.comp_type.is_none() {
+    if a.existing.is_some() && syntax.needs_comp_type() && a.comp_type.is_none() {
         return Err(guard::usage(format!(
             "--existing with {} needs --comp-type actual|trim (the file does not say)",
             dialect.name()

@@ -54,8 +54,12 @@
 //! CNC applies beyond the first and last points is not stated in the sources found: keep
 //! the table over the whole travel.
 
+use std::fmt::Write as _;
+
 use super::LengthUnit;
 use super::TableSetting;
+use super::modulo::{ModuloError, ModuloRead, ModuloSpec, ModuloSyntax, ModuloTable};
+use super::modulo_update as mu;
 use super::read::{At, Field, TablePoint, check_point};
 use super::text::{Text, number};
 use super::update::fixed;
@@ -494,6 +498,10 @@ fn spec(s: &TableSettings) -> Fagor8055Spec {
 }
 
 impl Dialect for Fagor {
+    /// The 8055's table only.
+    fn modulo(&self) -> Option<&dyn ModuloSyntax> {
+        matches!(self, Fagor::Al8055).then_some(self as &dyn ModuloSyntax)
+    }
     fn name(&self) -> &'static str {
         match self {
             Fagor::Al8055 => "fagor-8055",
@@ -650,4 +658,83 @@ fn next_point(
         pos * k,
         &[VALUE.error_um(up, k), VALUE.error_um(down, k)],
     )
+}
+
+// ---------------------------------------------------------------------------------------
+// The modulo table of a rotary axis ([`super::modulo`])
+
+/// The 8055's leadscrew table of a rotary axis (only [`Fagor::Al8055`] has one): the
+/// targets listed, 0° and 360° first and last with the same error.
+impl ModuloSyntax for Fagor {
+    fn equidistant(&self) -> bool {
+        false
+    }
+    fn default_max_points(&self) -> usize {
+        FAGOR_8055_MAX_POINTS
+    }
+    fn direction_columns(&self) -> Option<&'static str> {
+        Some("err−")
+    }
+    fn render(&self, t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
+        let letter = spec.axis.upper();
+        let mut s = String::new();
+        let (c, c_down) = (t.c_arcsec.clone(), t.c_down_arcsec.clone());
+        let e = format!("E{letter}");
+        for (i, (q, c)) in t.points_deg.iter().zip(&c).enumerate() {
+            // err− 0 everywhere: the same table both ways (Fagor's rule).
+            let minus = c_down
+                .as_ref()
+                .map_or_else(|| "0.0000".to_string(), |d| fixed(d[i] / 3600.0, 4));
+            let _ = write!(
+                s,
+                "{:>10}{letter:>11}{:>11}{:>9}{:>11}{:>10}{:>11}\r\n",
+                format!("P{:03}", i + 1),
+                format!("{q:.4}"),
+                e,
+                fixed(c / 3600.0, 4),
+                e,
+                minus
+            );
+        }
+        Ok(t.written(s))
+    }
+    fn read(&self, text: &str, spec: &ModuloSpec) -> Result<ModuloRead, ModuloError> {
+        let letter = spec.axis.upper().to_string();
+        let e = format!("E{letter}");
+        let mut t = ModuloRead::default();
+        for (line, offset, body) in mu::lines(text) {
+            let w = mu::words(body, offset);
+            if w.is_empty() {
+                continue;
+            }
+            if w.len() != 7 || !w[0].1.starts_with('P') {
+                return Err(mu::at(
+                    line,
+                    format!("a Fagor line is `P<n> {letter} <pos> {e} <err+> {e} <err−>`"),
+                ));
+            }
+            if w[1].1 != letter || w[3].1 != e || w[5].1 != e {
+                return Err(mu::at(
+                    line,
+                    format!("the table is for axis {}, not {letter}", w[1].1),
+                ));
+            }
+            t.angles.push(mu::number(line, w[2].1, "position")?);
+            t.lines.push(line);
+            t.c_up.push(mu::number(line, w[4].1, "err+")? * 3600.0);
+            t.c_down.push(mu::number(line, w[6].1, "err−")? * 3600.0);
+            t.up.push(w[4].0);
+            t.down.push(Some(w[6].0));
+        }
+        // err− all 0: one table for both directions (Fagor's rule).
+        t.two = t.c_down.iter().any(|&c| c != 0.0);
+        if !t.two {
+            t.c_down = t.c_up.clone();
+        }
+        t.step_line = t.lines.get(1).copied().unwrap_or(1);
+        Ok(t)
+    }
+    fn encode(&self, _spec: &ModuloSpec, _q: f64, c: f64, field: Field, _old: &str) -> String {
+        fixed(c / 3600.0, field.decimals)
+    }
 }

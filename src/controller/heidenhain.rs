@@ -51,10 +51,16 @@
 //!   `CYCL CALL` needed.
 //! * `;` comment blocks; `M30` ends the program.
 
+use std::fmt::Write as _;
+
+use super::Field;
 use super::TableSetting;
+use super::modulo::{ModuloError, ModuloRead, ModuloSpec, ModuloSyntax, ModuloTable, deg6};
+use super::modulo_update as mu;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, seconds3, signed_mm3};
 use super::read::{At, Parsed, check_point, field_at, num, point};
 use super::text::Text;
+use super::update::fixed;
 use super::{
     AxisKind, Dialect, ExportFormat, Limits, SettingsError, Sign, Spacing, TableFormat,
     TableSettings, UpdateStyle, Value, ValueUnit,
@@ -280,6 +286,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Heidenhain {
+    fn modulo(&self) -> Option<&dyn ModuloSyntax> {
+        Some(self)
+    }
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }
@@ -400,5 +409,117 @@ impl ProgramSyntax for Heidenhain {
     }
     fn numbered(&self) -> bool {
         true
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The modulo table of a rotary axis ([`super::modulo`])
+
+fn signed6(v: f64) -> String {
+    let v = v + 0.0;
+    if v >= 0.0 {
+        format!("+{v:.6}")
+    } else {
+        format!("{v:.6}")
+    }
+}
+
+/// A rotary `.COM` (`DEG`) table from 0 to 360°, equidistant.
+impl ModuloSyntax for Heidenhain {
+    fn equidistant(&self) -> bool {
+        true
+    }
+    fn default_max_points(&self) -> usize {
+        HEIDENHAIN_MAX_POINTS
+    }
+    fn render(&self, t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
+        let letter = spec.axis.upper();
+        let mut s = String::new();
+        let c = t.c_arcsec.clone();
+        let key = spec.axis_name.clone().unwrap_or_else(|| letter.to_string());
+        let _ = writeln!(s, "BEGIN {key}.COM DEG");
+        let _ = writeln!(s, "{:<6}{:<18}{key}", "NR", "AXISPOS");
+        for (i, (q, c)) in t.points_deg.iter().zip(&c).enumerate() {
+            let _ = writeln!(
+                s,
+                "{:<6}{:<18}{}",
+                i,
+                format!("+{}", deg6(*q)),
+                signed6(c / 3600.0)
+            );
+        }
+        let _ = writeln!(s, "[END]");
+        Ok(t.written(s))
+    }
+    fn read(&self, text: &str, spec: &ModuloSpec) -> Result<ModuloRead, ModuloError> {
+        let key = spec
+            .axis_name
+            .clone()
+            .unwrap_or_else(|| spec.axis.upper().to_string());
+        let all = mu::lines(text);
+        let (_, _, begin) = all.first().copied().unwrap_or((1, 0, ""));
+        let head: Vec<&str> = begin.split_whitespace().collect();
+        if head.first() != Some(&"BEGIN") || !head.iter().any(|w| w.eq_ignore_ascii_case("DEG")) {
+            return Err(mu::at(
+                1,
+                "not a rotary .COM table (its first line is `BEGIN <key>.COM DEG`)",
+            ));
+        }
+        let mut column = None;
+        let mut t = ModuloRead::default();
+        for &(line, offset, body) in &all[1..] {
+            let w = mu::words(body, offset);
+            match w.first().map(|x| x.1) {
+                None => continue,
+                Some("[END]") => break,
+                Some("NR") => {
+                    column = Some(w.iter().position(|x| x.1 == key).ok_or_else(|| {
+                        mu::at(
+                            line,
+                            format!("no column {key} (the table is for another axis: --axis-name)"),
+                        )
+                    })?);
+                    continue;
+                }
+                Some(_) => {}
+            }
+            let c = column.ok_or_else(|| mu::at(line, "a point before the `NR AXISPOS` header"))?;
+            let (q, v) = match (w.get(1), w.get(c)) {
+                (Some(q), Some(v)) => (mu::number(line, q.1, "AXISPOS")?, *v),
+                _ => {
+                    return Err(mu::at(
+                        line,
+                        format!("a row of `NR AXISPOS {key}` has three columns"),
+                    ));
+                }
+            };
+            let value = mu::number(line, v.1, &key)?;
+            t.angles.push(q);
+            t.lines.push(line);
+            t.up.push(v.0);
+            t.down.push(None);
+            t.c_up.push(value * 3600.0);
+            t.c_down.push(value * 3600.0);
+        }
+        t.step_line = t.lines.get(1).copied().unwrap_or(1);
+        if let Some(s) = t.angles.get(1).copied() {
+            if let Some(j) =
+                (0..t.angles.len()).find(|&j| (t.angles[j] - j as f64 * s).abs() > 1e-6)
+            {
+                return Err(mu::at(
+                    t.lines[j],
+                    format!("the points are not equidistant (step {s}°)"),
+                ));
+            }
+        }
+        Ok(t)
+    }
+    fn encode(&self, _spec: &ModuloSpec, _q: f64, c: f64, field: Field, old: &str) -> String {
+        let s = fixed(c / 3600.0, field.decimals.max(6));
+        if old.starts_with('+') && !s.starts_with('-') {
+            format!("+{s}")
+        } else {
+            s
+        }
     }
 }

@@ -8,7 +8,7 @@
 //! | [`Source::Model`] | the model sampled along a line (forward values only) | every dialect, and the CSV line |
 //! | [`Source::Session`] | a direction-dependent table from the session's ISO 230-2 means x̄↑, x̄↓ on one of its lines (no model; with a step, the means put on the step's points by the controllers' own linear rule) | those whose [`Limits::bidirectional`] holds (Siemens through its CEC tables) |
 //! | [`Source::Existing`] | the table in use updated by the session's residual, in its own layout ([`super::update`]) | every dialect |
-//! | [`Source::Modulo`] | a rotary axis' modulo table: from a rotary table, from both directions of a session, or the table in use updated ([`super::modulo`]) | [`ModuloDialect::ALL`] (two directions: LinuxCNC, Fagor 8055) |
+//! | [`Source::Modulo`] | a rotary axis' modulo table: from a rotary table, from both directions of a session, or the table in use updated ([`super::modulo`]) | [`modulo_dialects`](super::modulo::modulo_dialects) (two directions: LinuxCNC, Fagor 8055) |
 //!
 //! Where the points go ([`Placement`]): with `ends` a round grid of the step through the
 //! reference position; without, a table that lists every position ([`Spacing::Listed`],
@@ -17,7 +17,7 @@
 
 use errmap_drivers::SessionRow;
 
-use super::modulo::{ModuloDialect, ModuloError, ModuloInput, ModuloSpec, ModuloTable};
+use super::modulo::{ModuloError, ModuloInput, ModuloSpec, ModuloTable, modulo_dialect};
 use super::{
     At, ControllerTable, Dialect, ExportFormat, Residual, SettingsError, Spacing, TableSettings,
     UpdateError, UpdateSummary, read, update_table,
@@ -181,7 +181,7 @@ pub enum JobError {
     EmptySession,
     #[error(
         "{format} has no modulo table for a rotary axis ({})",
-        ModuloDialect::names()
+        super::modulo::modulo_names()
     )]
     NoModulo { format: &'static str },
     /// The modulo table cannot be made or updated.
@@ -218,7 +218,7 @@ pub fn run(job: &ExportJob<'_>) -> Result<Exported, JobError> {
         } => update(job, bytes, rows, *bidirectional),
         Source::Modulo { spec, input } => {
             let format = job.output.name();
-            if ModuloDialect::from_name(format) != Some(spec.dialect) {
+            if modulo_dialect(format).map(|d| d.name()) != Some(spec.dialect.name()) {
                 return Err(JobError::NoModulo { format });
             }
             let table = super::modulo::modulo(*input, spec)?;

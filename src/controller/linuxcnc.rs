@@ -53,10 +53,16 @@
 //! `linuxcnc-uspace`) by `tests/it/testplan.rs` when that is installed:
 //! `rs274 -g plan.ngc` prints the canonical moves (`STRAIGHT_FEED`, `DWELL`).
 
+use std::fmt::Write as _;
+
+use super::Field;
 use super::TableSetting;
+use super::modulo::{ModuloError, ModuloRead, ModuloSpec, ModuloSyntax, ModuloTable, deg6};
+use super::modulo_update as mu;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, TablePoint, check_point};
 use super::text::{Text, number};
+use super::update::fixed;
 use super::{
     AxisKind, AxisTables, Dialect, Editor, ExportFormat, Limits, Parsed, PointUpdate,
     SettingsError, Sign, Spacing, TableFormat, TableSettings, UpdateStyle, Value, ValueUnit,
@@ -216,6 +222,9 @@ fn comp_type(format: TableFormat) -> CompType {
 pub struct LinuxCnc;
 
 impl Dialect for LinuxCnc {
+    fn modulo(&self) -> Option<&dyn ModuloSyntax> {
+        Some(self)
+    }
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }
@@ -337,5 +346,85 @@ impl ProgramSyntax for LinuxCnc {
     }
     fn output(&self, n: u32, on: bool) -> String {
         format!("{} P{n}", if on { "M64" } else { "M65" })
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The modulo table of a rotary axis ([`super::modulo`])
+
+/// A LinuxCNC column's value of correction `c` ″ at `q` °: the trim −c or the actual
+/// position q + c, the correction put on the file's `decimals` grid before q is added
+/// (so the two ends' equal corrections give equal texts, 0 + x and 360 + x).
+fn modulo_value(q: f64, c: f64, trim: bool, decimals: usize) -> f64 {
+    let scale = 10f64.powi(decimals as i32);
+    let c_deg = (c / 3600.0 * scale).round() / scale;
+    if trim { -c_deg } else { q + c_deg }
+}
+
+impl ModuloSyntax for LinuxCnc {
+    fn equidistant(&self) -> bool {
+        false
+    }
+    fn default_max_points(&self) -> usize {
+        LINUXCNC_MAX_ENTRIES
+    }
+    fn direction_columns(&self) -> Option<&'static str> {
+        Some("forward/reverse")
+    }
+    /// `COMP_FILE_TYPE` is not in the file.
+    fn needs_comp_type(&self) -> bool {
+        true
+    }
+    fn render(&self, t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
+        let mut s = String::new();
+        let c = &t.c_arcsec;
+        let down = t.c_down_arcsec.as_ref().unwrap_or(c);
+        let value = |q: f64, c: f64| modulo_value(q, c, spec.trim, 6);
+        for ((q, c), c_down) in t.points_deg.iter().zip(c).zip(down) {
+            let (fwd, rev) = (value(*q, *c), value(*q, *c_down));
+            let _ = writeln!(s, "{} {} {}", deg6(*q), deg6(fwd), deg6(rev));
+        }
+        Ok(t.written(s))
+    }
+    fn read(&self, text: &str, spec: &ModuloSpec) -> Result<ModuloRead, ModuloError> {
+        let mut t = ModuloRead::default();
+        for (line, offset, body) in mu::lines(text) {
+            let w = mu::words(body, offset);
+            if w.is_empty() || w[0].1.starts_with('#') {
+                continue;
+            }
+            if w.len() != 3 {
+                return Err(mu::at(
+                    line,
+                    "a LinuxCNC comp line is `nominal forward reverse`",
+                ));
+            }
+            let q = mu::number(line, w[0].1, "nominal")?;
+            let decode = |v: f64| {
+                if spec.trim {
+                    -v * 3600.0
+                } else {
+                    (v - q) * 3600.0
+                }
+            };
+            t.angles.push(q);
+            t.lines.push(line);
+            t.c_up.push(decode(mu::number(line, w[1].1, "forward")?));
+            t.c_down.push(decode(mu::number(line, w[2].1, "reverse")?));
+            t.up.push(w[1].0);
+            t.down.push(Some(w[2].0));
+        }
+        t.two = t
+            .c_up
+            .iter()
+            .zip(&t.c_down)
+            .any(|(a, b)| (a - b).abs() > 1e-9);
+        t.repeats = true;
+        t.step_line = t.lines.get(1).copied().unwrap_or(1);
+        Ok(t)
+    }
+    fn encode(&self, spec: &ModuloSpec, q: f64, c: f64, field: Field, _old: &str) -> String {
+        let dec = field.decimals.max(6);
+        fixed(modulo_value(q, c, spec.trim, dec), dec)
     }
 }

@@ -53,8 +53,8 @@
 //!
 //! One new file here implementing [`Dialect`] (writer, reader, limits, sign, unit, and
 //! where the controller has them its settings, part-program syntax and axis tables) and
-//! one line in [`DIALECTS`]; see `CONTRIBUTING.md`. A rotary (modulo) table is a
-//! variant of [`AxisKind`] that a dialect's [`Limits::axes`] lists.
+//! one line in [`DIALECTS`]; see `CONTRIBUTING.md`. A rotary axis' modulo table is the
+//! dialect's [`Dialect::modulo`] ([`modulo::ModuloSyntax`], in the dialect's file).
 
 pub mod fagor;
 pub mod fanuc;
@@ -607,6 +607,10 @@ pub trait Dialect: Sync {
     fn program(&self) -> Option<&dyn program::ProgramSyntax> {
         None
     }
+    /// The modulo table of a rotary axis ([`modulo`]), where this dialect writes one.
+    fn modulo(&self) -> Option<&dyn modulo::ModuloSyntax> {
+        None
+    }
     /// The settings of this dialect's tables beyond [`TableSettings`]' common ones; the
     /// command line makes a flag of each.
     fn options(&self) -> &'static [DialectOption] {
@@ -621,6 +625,20 @@ pub trait Dialect: Sync {
     /// it has one.
     fn volumetric(&self) -> Option<VolumetricTable> {
         None
+    }
+}
+
+/// A dialect shows as its name.
+impl std::fmt::Debug for dyn Dialect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Dialects are the same when their names are: the registry names each once.
+impl PartialEq for dyn Dialect {
+    fn eq(&self, other: &Self) -> bool {
+        self.name() == other.name()
     }
 }
 

@@ -1,5 +1,6 @@
-//! Modulo compensation tables of a rotary axis (`docs/rotary.md` §4): the shared values,
-//! the points, and one renderer per controller.
+//! Modulo compensation tables of a rotary axis (`docs/rotary.md` §4): the shared values
+//! and the points; each controller's table (writer, reader, values) is its dialect's
+//! [`ModuloSyntax`] ([`Dialect::modulo`]), in the dialect's own file.
 //!
 //! **Values.** e_i the rotary table's `e_arcsec` at θ_i; the closure gap g = e(360) − e(0)
 //! (0 without a 360 target); e′_i = e_i − g·θ_i/360: a modulo table repeats every
@@ -36,103 +37,127 @@
 //!   256 lines (LinuxCNC's motion module limit); a modulo joint repeating the table over
 //!   several revolutions is not covered.
 
-use std::fmt::Write as _;
-
-use super::update::fixed;
-use super::{Dialect, DialectOptions};
+use super::{Dialect, DialectOptions, Field};
 use crate::base::RotaryAxis;
 
 /// The most targets a rotary table may hold here (the placement's O(n³) bound).
 pub const MAX_TARGETS: usize = 2000;
 
-/// A rotary controller table's controller.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ModuloDialect {
-    LinuxCnc,
-    Siemens,
-    Fanuc,
-    Heidenhain,
-    Fagor8055,
+/// Every dialect with a modulo table ([`Dialect::modulo`]), in the registry's order.
+pub fn modulo_dialects() -> impl Iterator<Item = &'static dyn Dialect> {
+    super::DIALECTS
+        .iter()
+        .copied()
+        .filter(|d| d.modulo().is_some())
 }
 
-impl ModuloDialect {
-    pub const ALL: [Self; 5] = [
-        Self::LinuxCnc,
-        Self::Siemens,
-        Self::Fanuc,
-        Self::Heidenhain,
-        Self::Fagor8055,
-    ];
+/// The dialect of `--format NAME`, if it has a modulo table.
+pub fn modulo_dialect(name: &str) -> Option<&'static dyn Dialect> {
+    modulo_dialects().find(|d| d.name() == name)
+}
 
-    /// Whether its points are equidistant.
-    pub fn equidistant(self) -> bool {
-        matches!(self, Self::Siemens | Self::Fanuc | Self::Heidenhain)
+/// Every dialect with a modulo table, by name: `a, b, c`.
+pub fn modulo_names() -> String {
+    modulo_dialects()
+        .map(|d| d.name())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The dialects whose table holds both directions, with what each calls them:
+/// `a (x) and b (y)`.
+pub fn two_direction_tables() -> String {
+    let each: Vec<String> = modulo_dialects()
+        .filter_map(|d| {
+            let columns = d.modulo()?.direction_columns()?;
+            Some(format!("{} ({columns})", d.name()))
+        })
+        .collect();
+    match each.as_slice() {
+        [rest @ .., last] if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => each.concat(),
     }
+}
 
+/// What a dialect's modulo table is, where it has one ([`Dialect::modulo`]): how its points
+/// are placed, its budget, its writer, its reader of the table in use and its values in
+/// the update. The shared values, placement and update are this module's and
+/// [`update_modulo`](super::update_modulo)'s.
+pub trait ModuloSyntax: Sync {
+    /// Whether its points are equidistant (else the targets, or the best placement).
+    fn equidistant(&self) -> bool;
     /// The control's point budget.
-    pub fn default_max_points(self) -> usize {
-        match self {
-            Self::Siemens => 200,
-            Self::Fanuc => 1024,
-            Self::LinuxCnc | Self::Heidenhain => 256,
-            Self::Fagor8055 => 255,
-        }
+    fn default_max_points(&self) -> usize;
+    /// What the two directions of its table are called, where its table holds both.
+    fn direction_columns(&self) -> Option<&'static str> {
+        None
     }
-
-    /// The dialect of `--format NAME`, if it has a modulo table.
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|d| d.name() == name)
-    }
-
-    /// The registry's dialect whose modulo table this is.
-    pub fn dialect(self) -> &'static dyn Dialect {
-        match self {
-            Self::LinuxCnc => &super::linuxcnc::LinuxCnc,
-            Self::Siemens => &super::siemens::Siemens,
-            Self::Fanuc => &super::fanuc::Fanuc,
-            Self::Heidenhain => &super::heidenhain::Heidenhain,
-            Self::Fagor8055 => &super::fagor::Fagor::Al8055,
-        }
-    }
-
-    /// Its registry name (`--format`).
-    pub fn name(self) -> &'static str {
-        self.dialect().name()
-    }
-
-    /// Every dialect with a modulo table, by name: `a, b, c`.
-    pub fn names() -> String {
-        Self::ALL.map(Self::name).join(", ")
-    }
-
-    /// What the two directions of its table are called, where its table holds both
-    /// (the free ones: LinuxCNC's forward and reverse columns, Fagor's err− column).
-    pub fn direction_columns(self) -> Option<&'static str> {
-        match self {
-            Self::LinuxCnc => Some("forward/reverse"),
-            Self::Fagor8055 => Some("err−"),
-            Self::Siemens | Self::Fanuc | Self::Heidenhain => None,
-        }
-    }
-
-    /// The dialects whose table holds both directions, with what each calls them:
-    /// `a (x) and b (y)`.
-    pub fn two_direction_tables() -> String {
-        let each: Vec<String> = Self::ALL
-            .into_iter()
-            .filter_map(|d| d.direction_columns().map(|c| format!("{} ({c})", d.name())))
-            .collect();
-        match each.as_slice() {
-            [rest @ .., last] if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
-            _ => each.concat(),
-        }
-    }
-
     /// Whether its table in use does not say how it is to be read, so that an update
-    /// must be told ([`ModuloSpec::trim`]: LinuxCNC's `COMP_FILE_TYPE` is not in the file).
-    pub fn needs_comp_type(self) -> bool {
-        matches!(self, Self::LinuxCnc)
+    /// must be told ([`ModuloSpec::trim`]).
+    fn needs_comp_type(&self) -> bool {
+        false
     }
+    /// Writes the table's text into `t.text` from its points and compensation; returns
+    /// the compensation the controller will apply at each point, ″, per direction.
+    fn render(&self, t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError>;
+    /// Reads the table in use `text` (`--existing`), refused at the line that breaks its
+    /// rules; the rules common to every modulo table are checked after.
+    fn read(&self, text: &str, spec: &ModuloSpec) -> Result<ModuloRead, ModuloError>;
+    /// The value text of correction `c` ″ at `q` ° for `field`, whose old text is `old`.
+    fn encode(&self, spec: &ModuloSpec, q: f64, c: f64, field: Field, old: &str) -> String;
+    /// The update's new texts of the table read `old` (`text`), each point's correction
+    /// changed by `change`: by default every value through [`Self::encode`], a value
+    /// whose number does not change keeping its text.
+    fn edits(
+        &self,
+        old: &ModuloRead,
+        text: &str,
+        change: &ModuloChange<'_>,
+        spec: &ModuloSpec,
+    ) -> Result<Vec<(Field, String)>, ModuloError> {
+        Ok(super::modulo_update::value_edits(
+            self, old, text, change, spec,
+        ))
+    }
+}
+
+/// A modulo table as read ([`ModuloSyntax::read`]): its points and each direction's
+/// compensation, ″, and where each value stands in the text.
+#[derive(Debug, Clone, Default)]
+pub struct ModuloRead {
+    pub angles: Vec<f64>,
+    /// Each point's line.
+    pub lines: Vec<usize>,
+    /// Each point's value field(s): moving + and (two-column tables) moving −.
+    pub up: Vec<Field>,
+    pub down: Vec<Option<Field>>,
+    pub c_up: Vec<f64>,
+    pub c_down: Vec<f64>,
+    /// A two-direction table (its moving − column differs from moving +, or is not all 0).
+    pub two: bool,
+    /// Its moving − column repeats moving + in a one-direction table, so it is always
+    /// written (LinuxCNC's reverse column).
+    pub repeats: bool,
+    /// The line that states the step, else the second point's.
+    pub step_line: usize,
+    /// A table of increments (FANUC): its counts, with the unit of one count.
+    pub counts: Option<Counts>,
+}
+
+/// A table of increments as read: the unit of one count, ″, and each point's increment.
+#[derive(Debug, Clone)]
+pub struct Counts {
+    pub unit_arcsec: f64,
+    pub increments: Vec<(Field, i64)>,
+}
+
+/// The change of each point's correction in an update, ″, per direction, and whether
+/// the result holds two directions.
+#[derive(Debug, Clone, Copy)]
+pub struct ModuloChange<'a> {
+    pub up: &'a [f64],
+    pub down: &'a [f64],
+    pub two: bool,
 }
 
 /// A dialect setting given as a length where a rotary table wants an angle.
@@ -179,7 +204,8 @@ pub fn modulo(input: ModuloInput<'_>, spec: &ModuloSpec) -> Result<ModuloTable, 
 /// What the table is made from and how.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModuloSpec {
-    pub dialect: ModuloDialect,
+    /// The dialect whose modulo table it is ([`modulo_dialects`]).
+    pub dialect: &'static dyn Dialect,
     pub axis: RotaryAxis,
     pub step_deg: Option<f64>,
     pub max_points: Option<usize>,
@@ -199,7 +225,7 @@ pub struct ModuloSpec {
 }
 
 impl ModuloSpec {
-    pub fn new(dialect: ModuloDialect, axis: RotaryAxis) -> Self {
+    pub fn new(dialect: &'static dyn Dialect, axis: RotaryAxis) -> Self {
         ModuloSpec {
             dialect,
             axis,
@@ -214,6 +240,13 @@ impl ModuloSpec {
             fanuc_max_value: 7,
             axis_name: None,
         }
+    }
+
+    /// Its dialect's modulo table ([`Dialect::modulo`]); a dialect without one is refused.
+    pub fn syntax(&self) -> Result<&'static dyn ModuloSyntax, ModuloError> {
+        self.dialect.modulo().ok_or(ModuloError::NoModulo {
+            format: self.dialect.name(),
+        })
     }
 
     /// Takes the dialects' settings a modulo table uses from `o` (their defaults
@@ -271,6 +304,17 @@ pub struct ModuloTable {
     pub warnings: Vec<String>,
 }
 
+impl ModuloTable {
+    /// Takes the written `text`; the compensation the controller applies at each point,
+    /// ″, per direction: the table's own (a renderer whose values are its corrections).
+    pub(super) fn written(&mut self, text: String) -> Vec<Vec<f64>> {
+        self.text = text;
+        let mut c = vec![self.c_arcsec.clone()];
+        c.extend(self.c_down_arcsec.clone());
+        c
+    }
+}
+
 /// Each direction of a two-direction table: its own closure gap, its datum e′_d(R) and
 /// its largest residual (`--json`'s `directions`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -286,6 +330,8 @@ pub struct DirectionsSummary {
 /// Why no modulo table can be written.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModuloError {
+    #[error("{format} has no modulo table for a rotary axis")]
+    NoModulo { format: &'static str },
     #[error("the rotary table has no target at 0°: a modulo table starts there")]
     NoZero,
     #[error(
@@ -492,7 +538,7 @@ pub fn modulo_table_bidirectional(
     down: &[(f64, f64)],
     spec: &ModuloSpec,
 ) -> Result<ModuloTable, ModuloError> {
-    if spec.dialect.equidistant() {
+    if spec.syntax()?.equidistant() {
         return Err(ModuloError::OneDirection {
             format: spec.dialect.name(),
         });
@@ -513,11 +559,10 @@ fn place(
     series: &[Vec<(f64, f64)>],
     spec: &ModuloSpec,
 ) -> Result<(Vec<f64>, Option<f64>), ModuloError> {
-    let budget = spec
-        .max_points
-        .unwrap_or_else(|| spec.dialect.default_max_points());
+    let m = spec.syntax()?;
+    let budget = spec.max_points.unwrap_or_else(|| m.default_max_points());
     let v = &series[0];
-    if !spec.dialect.equidistant() && spec.step_deg.is_none() {
+    if !m.equidistant() && spec.step_deg.is_none() {
         if v.len() <= budget {
             return Ok((v.iter().map(|p| p.0).collect(), None));
         }
@@ -615,15 +660,6 @@ fn build(inputs: &[&[(f64, f64)]], spec: &ModuloSpec) -> Result<ModuloTable, Mod
     Ok(table)
 }
 
-/// A LinuxCNC column's value of correction `c` ″ at `q` °: the trim −c or the actual
-/// position q + c, the correction put on the file's `decimals` grid before q is added
-/// (so the two ends' equal corrections give equal texts, 0 + x and 360 + x).
-pub(super) fn linuxcnc_value(q: f64, c: f64, trim: bool, decimals: usize) -> f64 {
-    let scale = 10f64.powi(decimals as i32);
-    let c_deg = (c / 3600.0 * scale).round() / scale;
-    if trim { -c_deg } else { q + c_deg }
-}
-
 pub(super) fn deg6(v: f64) -> String {
     format!("{:.6}", v + 0.0)
 }
@@ -631,173 +667,11 @@ pub(super) fn deg6(v: f64) -> String {
 /// Writes the dialect's text; returns the compensation the controller will apply at each
 /// point, ″, per direction (FANUC: from its rounded increments).
 fn render(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
-    let letter = spec.axis.upper();
-    let mut s = String::new();
-    let c = t.c_arcsec.clone();
-    let c_down = t.c_down_arcsec.clone();
-    if c_down.is_some() && spec.dialect.equidistant() {
+    let m = spec.syntax()?;
+    if t.c_down_arcsec.is_some() && m.equidistant() {
         return Err(ModuloError::OneDirection {
             format: spec.dialect.name(),
         });
     }
-    let down = c_down.as_ref().unwrap_or(&c);
-    match spec.dialect {
-        ModuloDialect::LinuxCnc => {
-            let value = |q: f64, c: f64| linuxcnc_value(q, c, spec.trim, 6);
-            for ((q, c), c_down) in t.points_deg.iter().zip(&c).zip(down) {
-                let (fwd, rev) = (value(*q, *c), value(*q, *c_down));
-                let _ = writeln!(s, "{} {} {}", deg6(*q), deg6(fwd), deg6(rev));
-            }
-        }
-        ModuloDialect::Siemens => {
-            let ax = spec
-                .siemens_axis
-                .clone()
-                .unwrap_or_else(|| format!("{letter}1"));
-            let _ = writeln!(
-                s,
-                "; errmap: rotary axis {letter}, modulo encoder compensation (EEC), ″→°; \
-                 closure gap {:.3}″ left out (correct the ratio)",
-                t.closure_gap_arcsec
-            );
-            let _ = writeln!(s, "CHANDATA(1)");
-            for (i, c) in c.iter().enumerate() {
-                let _ = writeln!(s, "$AA_ENC_COMP[0,{i},{ax}]={}", deg6(c / 3600.0));
-            }
-            let _ = writeln!(
-                s,
-                "$AA_ENC_COMP_STEP[0,{ax}]={}",
-                deg6(t.step_deg.unwrap_or(0.0))
-            );
-            let _ = writeln!(s, "$AA_ENC_COMP_MIN[0,{ax}]=0.0");
-            let _ = writeln!(s, "$AA_ENC_COMP_MAX[0,{ax}]=360.0");
-            let _ = writeln!(s, "$AA_ENC_COMP_IS_MODULO[0,{ax}]=1");
-            let _ = writeln!(s, "M17");
-        }
-        ModuloDialect::Fanuc => return fanuc(t, spec).map(|c| vec![c]),
-        ModuloDialect::Heidenhain => {
-            let key = spec.axis_name.clone().unwrap_or_else(|| letter.to_string());
-            let _ = writeln!(s, "BEGIN {key}.COM DEG");
-            let _ = writeln!(s, "{:<6}{:<18}{key}", "NR", "AXISPOS");
-            for (i, (q, c)) in t.points_deg.iter().zip(&c).enumerate() {
-                let _ = writeln!(
-                    s,
-                    "{:<6}{:<18}{}",
-                    i,
-                    format!("+{}", deg6(*q)),
-                    signed6(c / 3600.0)
-                );
-            }
-            let _ = writeln!(s, "[END]");
-        }
-        ModuloDialect::Fagor8055 => {
-            let e = format!("E{letter}");
-            for (i, (q, c)) in t.points_deg.iter().zip(&c).enumerate() {
-                // err− 0 everywhere: the same table both ways (Fagor's rule).
-                let minus = c_down
-                    .as_ref()
-                    .map_or_else(|| "0.0000".to_string(), |d| fixed(d[i] / 3600.0, 4));
-                let _ = write!(
-                    s,
-                    "{:>10}{letter:>11}{:>11}{:>9}{:>11}{:>10}{:>11}\r\n",
-                    format!("P{:03}", i + 1),
-                    format!("{q:.4}"),
-                    e,
-                    fixed(c / 3600.0, 4),
-                    e,
-                    minus
-                );
-            }
-        }
-    }
-    t.text = s;
-    Ok(match c_down {
-        Some(d) => vec![c, d],
-        None => vec![c],
-    })
-}
-
-pub(super) fn signed6(v: f64) -> String {
-    let v = v + 0.0;
-    if v >= 0.0 {
-        format!("+{v:.6}")
-    } else {
-        format!("{v:.6}")
-    }
-}
-
-/// FANUC's increments of the absolute curve `abs` (counts): v_j = abs_j − abs_{j−1} for
-/// j ≥ 1 (a revolution sums to abs_last − abs_0), v₀ = v_last; each within
-/// `--fanuc-max-value`, else the refusal naming a magnification that fits.
-pub(super) fn fanuc_increments(abs: &[i64], spec: &ModuloSpec) -> Result<Vec<i64>, ModuloError> {
-    let mut v: Vec<i64> = vec![0; abs.len()];
-    for j in 1..abs.len() {
-        v[j] = abs[j] - abs[j - 1];
-    }
-    v[0] = *v.last().unwrap_or(&0);
-    if let Some((point, &value)) = v
-        .iter()
-        .enumerate()
-        .find(|(_, x)| x.unsigned_abs() > u64::from(spec.fanuc_max_value))
-    {
-        let worst = v.iter().map(|x| x.unsigned_abs()).max().unwrap_or(0) as f64;
-        let fits = (worst * f64::from(spec.magnification.max(1))
-            / f64::from(spec.fanuc_max_value.max(1)))
-        .ceil() as u32;
-        return Err(ModuloError::FanucRange {
-            value,
-            point,
-            max: spec.fanuc_max_value,
-            fits: fits.max(spec.magnification + 1),
-        });
-    }
-    Ok(v)
-}
-
-/// FANUC: increments of E = e′ − e′(R) in detection units × magnification, rounded as
-/// absolute values then differenced (so a revolution sums to 0 exactly); v₀ = v_last.
-fn fanuc(t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<f64>, ModuloError> {
-    let unit_arcsec = spec.detection_unit_deg * 3600.0 * f64::from(spec.magnification.max(1));
-    // E = −c; absolute values rounded.
-    let abs: Vec<i64> = t
-        .c_arcsec
-        .iter()
-        .map(|c| (-c / unit_arcsec).round() as i64)
-        .collect();
-    let v = fanuc_increments(&abs, spec)?;
-    let p = spec.fanuc_reference_number;
-    let step = t.step_deg.unwrap_or(0.0);
-    let k = v.len().saturating_sub(1) as u32;
-    let mut s = String::new();
-    let _ = writeln!(s, "%");
-    let _ = writeln!(
-        s,
-        "(errmap: rotary axis {} pitch error, detection unit {} deg, closure gap {:.3} arcsec left out: correct the ratio)",
-        spec.axis.upper(),
-        spec.detection_unit_deg,
-        t.closure_gap_arcsec
-    );
-    let _ = writeln!(
-        s,
-        "(3620={p} 3621={p} 3622={} 3623={} 3624={} 3625=360)",
-        p + k,
-        spec.magnification,
-        deg6(step)
-    );
-    for (j, x) in v.iter().enumerate() {
-        let _ = writeln!(s, "N{}P{x}", 10000 + p as usize + j);
-    }
-    let _ = writeln!(s, "%");
-    t.text = s;
-    // The compensation the controller applies: −E summed from the increments.
-    let mut sum = 0i64;
-    Ok(v.iter()
-        .enumerate()
-        .map(|(j, x)| {
-            if j > 0 {
-                sum += x;
-            }
-            -(sum as f64) * unit_arcsec
-        })
-        .collect())
+    m.render(t, spec)
 }

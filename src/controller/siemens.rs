@@ -75,10 +75,17 @@
 //! Positions are written with 3 decimals: the default input resolution MD10200
 //! `INT_INCR_PER_MM` is 1000 (0.001 mm).
 
+use std::fmt::Write as _;
+
 use super::TableSetting;
+use super::modulo::{
+    MAX_TARGETS, ModuloError, ModuloRead, ModuloSpec, ModuloSyntax, ModuloTable, deg6,
+};
+use super::modulo_update as mu;
 use super::program::{ProgramError, ProgramKind, ProgramSyntax, iso_move, seconds3};
 use super::read::{At, Field, Parsed, check_point, field_at, num, point};
 use super::text::Text;
+use super::update::fixed;
 use super::{
     AxisKind, AxisTables, Dialect, DialectOption, ExportFormat, Limits, OptionValue, SettingsError,
     Sign, Spacing, TableFormat, TableSettings, UpdateStyle, Value, ValueUnit,
@@ -594,6 +601,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Siemens {
+    fn modulo(&self) -> Option<&dyn ModuloSyntax> {
+        Some(self)
+    }
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }
@@ -710,5 +720,152 @@ impl ProgramSyntax for Siemens {
     }
     fn end(&self, _: ProgramKind) -> Vec<String> {
         vec!["M30".into()]
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The modulo table of a rotary axis ([`super::modulo`])
+
+/// `name[args]=value` of a Siemens line: the name, the arguments, the value's field.
+fn modulo_assignment(body: &str, offset: usize) -> Option<(&str, Vec<&str>, Field, &str)> {
+    let code = body.split(';').next()?.trim_end();
+    let (lhs, rhs) = code.split_once('=')?;
+    let (name, args) = lhs.trim().split_once('[')?;
+    let args = args.strip_suffix(']')?.split(',').map(str::trim).collect();
+    let v = rhs.trim();
+    let start = offset + code.len() - rhs.trim_start().len();
+    Some((name, args, mu::field(start, start + v.len(), v), v))
+}
+
+/// SINUMERIK EEC with `$AA_ENC_COMP_IS_MODULO = 1`: equidistant, one value per point for
+/// both directions; MD38000's default of 200 points assumed.
+impl ModuloSyntax for Siemens {
+    fn equidistant(&self) -> bool {
+        true
+    }
+    fn default_max_points(&self) -> usize {
+        200
+    }
+    fn render(&self, t: &mut ModuloTable, spec: &ModuloSpec) -> Result<Vec<Vec<f64>>, ModuloError> {
+        let letter = spec.axis.upper();
+        let mut s = String::new();
+        let c = t.c_arcsec.clone();
+        let ax = spec
+            .siemens_axis
+            .clone()
+            .unwrap_or_else(|| format!("{letter}1"));
+        let _ = writeln!(
+            s,
+            "; errmap: rotary axis {letter}, modulo encoder compensation (EEC), ″→°; \
+             closure gap {:.3}″ left out (correct the ratio)",
+            t.closure_gap_arcsec
+        );
+        let _ = writeln!(s, "CHANDATA(1)");
+        for (i, c) in c.iter().enumerate() {
+            let _ = writeln!(s, "$AA_ENC_COMP[0,{i},{ax}]={}", deg6(c / 3600.0));
+        }
+        let _ = writeln!(
+            s,
+            "$AA_ENC_COMP_STEP[0,{ax}]={}",
+            deg6(t.step_deg.unwrap_or(0.0))
+        );
+        let _ = writeln!(s, "$AA_ENC_COMP_MIN[0,{ax}]=0.0");
+        let _ = writeln!(s, "$AA_ENC_COMP_MAX[0,{ax}]=360.0");
+        let _ = writeln!(s, "$AA_ENC_COMP_IS_MODULO[0,{ax}]=1");
+        let _ = writeln!(s, "M17");
+        Ok(t.written(s))
+    }
+    fn read(&self, text: &str, spec: &ModuloSpec) -> Result<ModuloRead, ModuloError> {
+        let ax = spec
+            .siemens_axis
+            .clone()
+            .unwrap_or_else(|| format!("{}1", spec.axis.upper()));
+        let mut t = ModuloRead::default();
+        let mut points: Vec<(usize, usize, Field, f64)> = Vec::new();
+        let (mut step, mut min, mut max, mut modulo) = (None, None, None, None);
+        for (line, offset, body) in mu::lines(text) {
+            let Some((name, args, f, v)) = modulo_assignment(body, offset) else {
+                continue;
+            };
+            if !name.starts_with("$AA_ENC_COMP") {
+                continue;
+            }
+            let axis = args.last().copied().unwrap_or("");
+            if axis != ax {
+                return Err(mu::at(
+                    line,
+                    format!("the table is for axis {axis}, not {ax} (--siemens-axis)"),
+                ));
+            }
+            let value = mu::number(line, v, name)?;
+            match name {
+                "$AA_ENC_COMP" => {
+                    let i: usize = args
+                        .get(1)
+                        .and_then(|i| i.parse().ok())
+                        .ok_or_else(|| mu::at(line, "the point index is not a whole number"))?;
+                    points.push((i, line, f, value));
+                }
+                "$AA_ENC_COMP_STEP" => step = Some((line, value)),
+                "$AA_ENC_COMP_MIN" => min = Some((line, value)),
+                "$AA_ENC_COMP_MAX" => max = Some((line, value)),
+                "$AA_ENC_COMP_IS_MODULO" => modulo = Some((line, value)),
+                _ => {}
+            }
+        }
+        let last = mu::lines(text).len();
+        match modulo {
+            Some((_, 1.0)) => {}
+            Some((line, v)) => {
+                return Err(mu::at(
+                    line,
+                    format!("$AA_ENC_COMP_IS_MODULO is {v}: not a modulo table"),
+                ));
+            }
+            None => {
+                return Err(mu::at(
+                    last,
+                    "no $AA_ENC_COMP_IS_MODULO=1: not a modulo table",
+                ));
+            }
+        }
+        for (name, got, want) in [("_MIN", min, 0.0), ("_MAX", max, 360.0)] {
+            match got {
+                Some((_, v)) if (v - want).abs() <= 1e-9 => {}
+                Some((line, v)) => {
+                    return Err(mu::at(
+                        line,
+                        format!("$AA_ENC_COMP{name} is {v}, not {want}"),
+                    ));
+                }
+                None => return Err(mu::at(last, format!("no $AA_ENC_COMP{name}"))),
+            }
+        }
+        let (step_line, s) = step.ok_or_else(|| mu::at(last, "no $AA_ENC_COMP_STEP"))?;
+        if points.len() > MAX_TARGETS {
+            return Err(mu::at(
+                points[MAX_TARGETS].1,
+                format!("more than {MAX_TARGETS} points"),
+            ));
+        }
+        for (k, &(i, line, f, v)) in points.iter().enumerate() {
+            if i != k {
+                return Err(mu::at(
+                    line,
+                    format!("point {i} where point {k} was expected"),
+                ));
+            }
+            t.angles.push(k as f64 * s);
+            t.lines.push(line);
+            t.up.push(f);
+            t.down.push(None);
+            t.c_up.push(v * 3600.0);
+            t.c_down.push(v * 3600.0);
+        }
+        t.step_line = step_line;
+        Ok(t)
+    }
+    fn encode(&self, _spec: &ModuloSpec, _q: f64, c: f64, field: Field, _old: &str) -> String {
+        fixed(c / 3600.0, field.decimals.max(6))
     }
 }

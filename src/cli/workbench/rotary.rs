@@ -4,13 +4,13 @@
 //! rotary_error_table}`), and its page: the ISO 230-2 figures in ″ with ° beside, the
 //! closure check of 0° and 360°, the deviation chart in ″ against ° over the revolution,
 //! the per-target table and the rotary downloads (error table, certificate, the modulo
-//! tables of the controllers that have one, `ModuloDialect::ALL`).
+//! tables of the controllers that have one, `modulo_dialects`).
 
 use std::fmt::Write;
 use std::path::Path;
 
 use errmap::base::RotaryAxis;
-use errmap::controller::modulo::ModuloDialect;
+use errmap::controller::modulo::modulo_dialects;
 use errmap::session::rotary::{self, Closure, RotaryIso, RotaryTargetStats};
 
 use super::charts::{self, DeviationTarget, XAxis};
@@ -220,7 +220,7 @@ fn downloads(id: &str, info: Option<&str>) -> String {
             .map(|i| format!("?info={}", url_path(i)))
             .unwrap_or_default()
     );
-    for d in ModuloDialect::ALL.map(ModuloDialect::name) {
+    for d in modulo_dialects().map(|d| d.name()) {
         let _ = write!(s, "<a href=\"/download/export/{u}?format={d}\">{d}</a>");
     }
     s.push_str("</p>");

@@ -624,7 +624,7 @@ async fn download_export(
     let (session, rotary) = session_arg(&st, &item)?;
     let known = |f: &str| {
         if rotary {
-            errmap::controller::modulo::ModuloDialect::from_name(f).is_some()
+            errmap::controller::modulo::modulo_dialect(f).is_some()
         } else {
             errmap::controller::DIALECTS.iter().any(|d| d.name() == f)
         }
@@ -633,7 +633,7 @@ async fn download_export(
         return Err(DocError::Bad(if rotary {
             format!(
                 "?format= one of the controllers with a modulo table: {}",
-                errmap::controller::modulo::ModuloDialect::names()
+                errmap::controller::modulo::modulo_names()
             )
         } else {
             "?format= one of the controller dialects".into()

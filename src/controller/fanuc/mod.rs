@@ -90,6 +90,7 @@
 //! * `( … )` comments (upper-case letters and digits are safe on every model); `M30` ends
 //!   the program and rewinds.
 
+mod modulo;
 mod program;
 mod update;
 pub use program::{MAX_DWELL_MS, PROGRAM_NUMBER};
@@ -933,6 +934,9 @@ pub const VALUE: Value = Value {
 };
 
 impl Dialect for Fanuc {
+    fn modulo(&self) -> Option<&dyn crate::controller::modulo::ModuloSyntax> {
+        Some(self)
+    }
     fn program(&self) -> Option<&dyn ProgramSyntax> {
         Some(self)
     }

@@ -6,8 +6,8 @@
 //! means for a linear correction.
 
 use errmap::base::RotaryAxis;
-use errmap::controller::modulo::{ModuloDialect, ModuloError, ModuloSpec, modulo_table};
-use errmap::controller::update_modulo;
+use errmap::controller::modulo::{ModuloError, ModuloSpec, modulo_dialects, modulo_table};
+use errmap::controller::{Dialect, dialect, update_modulo};
 
 use super::{rotary_csv, rotary_session};
 use crate::util::{errmap, s, stderr, tempdir};
@@ -29,9 +29,16 @@ fn er(q: f64) -> f64 {
     4.0 * (3.0 * q).to_radians().sin() + 1.5 + 10.0 * q * 3.6e-3
 }
 
-fn spec(d: ModuloDialect) -> ModuloSpec {
+/// The dialect of a modulo table, by name.
+type D = &'static dyn Dialect;
+
+fn named(name: &str) -> D {
+    dialect(name).expect("a dialect")
+}
+
+fn spec(d: D) -> ModuloSpec {
     let mut s = ModuloSpec::new(d, RotaryAxis::A);
-    if d.equidistant() {
+    if d.modulo().expect("a modulo table").equidistant() {
         s.step_deg = Some(15.0);
     }
     s
@@ -39,19 +46,19 @@ fn spec(d: ModuloDialect) -> ModuloSpec {
 
 /// Each point's (θ °, c moving + ″, c moving − ″) read from a table's text, here,
 /// independently of errmap's reader; FANUC's in counts of its unit (c = −Σ v).
-fn values(d: ModuloDialect, text: &str) -> Vec<(f64, f64, f64)> {
+fn values(d: D, text: &str) -> Vec<(f64, f64, f64)> {
     let nums = |l: &str| -> Vec<f64> {
         l.split_whitespace()
             .filter_map(|w| w.trim_start_matches('+').parse().ok())
             .collect()
     };
-    match d {
-        ModuloDialect::LinuxCnc => text
+    match d.name() {
+        "linuxcnc" => text
             .lines()
             .map(nums)
             .map(|v| (v[0], (v[1] - v[0]) * 3600.0, (v[2] - v[0]) * 3600.0))
             .collect(),
-        ModuloDialect::Siemens => text
+        "siemens" => text
             .lines()
             .filter(|l| l.starts_with("$AA_ENC_COMP[0,"))
             .enumerate()
@@ -64,7 +71,7 @@ fn values(d: ModuloDialect, text: &str) -> Vec<(f64, f64, f64)> {
                 (15.0 * i as f64, v * 3600.0, v * 3600.0)
             })
             .collect(),
-        ModuloDialect::Fanuc => {
+        "fanuc" => {
             let mut sum = 0.0;
             text.lines()
                 .filter(|l| l.starts_with('N'))
@@ -78,14 +85,14 @@ fn values(d: ModuloDialect, text: &str) -> Vec<(f64, f64, f64)> {
                 })
                 .collect()
         }
-        ModuloDialect::Heidenhain => text
+        "heidenhain" => text
             .lines()
             .skip(2)
             .take_while(|l| *l != "[END]")
             .map(nums)
             .map(|v| (v[1], v[2] * 3600.0, v[2] * 3600.0))
             .collect(),
-        ModuloDialect::Fagor8055 => text
+        "fagor-8055" => text
             .split("\r\n")
             .filter(|l| !l.is_empty())
             .map(|l| {
@@ -94,24 +101,30 @@ fn values(d: ModuloDialect, text: &str) -> Vec<(f64, f64, f64)> {
                 (v(2), v(4) * 3600.0, v(6) * 3600.0)
             })
             .collect(),
+        other => panic!("{other}: not read here"),
     }
 }
 
 /// One unit of each dialect's last digit, ″ (FANUC: one count).
-fn unit(d: ModuloDialect) -> f64 {
-    match d {
-        ModuloDialect::Fanuc => 1.0,
-        ModuloDialect::Fagor8055 => 1e-4 * 3600.0,
+fn unit(d: D) -> f64 {
+    match d.name() {
+        "fanuc" => 1.0,
+        "fagor-8055" => 1e-4 * 3600.0,
         _ => 1e-6 * 3600.0,
     }
 }
 
-const ALL: [ModuloDialect; 5] = ModuloDialect::ALL;
+/// Every dialect with a modulo table (the five this file reads).
+fn all() -> Vec<D> {
+    let all: Vec<D> = modulo_dialects().collect();
+    assert_eq!(all.len(), 5, "{all:?}");
+    all
+}
 
 #[test]
 fn a_zero_residual_gives_every_dialects_table_back_unchanged() {
     let zero = every_15(&|_| 0.0);
-    for d in ALL {
+    for d in all() {
         let old = modulo_table(&every_15(&e1), &spec(d)).expect("table");
         let new = update_modulo(old.text.as_bytes(), &[&zero], &spec(d))
             .unwrap_or_else(|e| panic!("{d:?}: {e}"));
@@ -122,15 +135,15 @@ fn a_zero_residual_gives_every_dialects_table_back_unchanged() {
     // Two directions, both zero: LinuxCNC's file back (trim as well); Fagor's one table
     // becomes two stated ones, err− = err+, the same compensation.
     for (d, trim) in [
-        (ModuloDialect::LinuxCnc, false),
-        (ModuloDialect::LinuxCnc, true),
-        (ModuloDialect::Fagor8055, false),
+        (named("linuxcnc"), false),
+        (named("linuxcnc"), true),
+        (named("fagor-8055"), false),
     ] {
         let mut sp = spec(d);
         sp.trim = trim;
         let old = modulo_table(&every_15(&e1), &sp).expect("table");
         let new = update_modulo(old.text.as_bytes(), &[&zero, &zero], &sp).expect("update");
-        if d == ModuloDialect::LinuxCnc {
+        if d.name() == "linuxcnc" {
             assert_eq!(new.text, old.text, "{d:?} trim {trim}");
         } else {
             let (o, n) = (values(d, &old.text), values(d, &new.text));
@@ -146,7 +159,7 @@ fn a_zero_residual_gives_every_dialects_table_back_unchanged() {
 fn an_update_adds_the_residual_and_keeps_every_modulo_rule() {
     let residual = every_15(&er);
     let combined = every_15(&|q| e1(q) + er(q));
-    for d in ALL {
+    for d in all() {
         let sp = spec(d);
         let old = modulo_table(&every_15(&e1), &sp).expect("table");
         let new = update_modulo(old.text.as_bytes(), &[&residual], &sp).expect("update");
@@ -172,12 +185,12 @@ fn an_update_adds_the_residual_and_keeps_every_modulo_rule() {
             "{d:?} {}",
             new.max_residual_arcsec
         );
-        match d {
-            ModuloDialect::Siemens => {
+        match d.name() {
+            "siemens" => {
                 assert!(new.text.contains("$AA_ENC_COMP_IS_MODULO[0,A1]=1"));
                 assert!(new.text.contains("$AA_ENC_COMP_MAX[0,A1]=360.0"));
             }
-            ModuloDialect::Fanuc => {
+            "fanuc" => {
                 let v: Vec<i64> = new
                     .text
                     .lines()
@@ -191,7 +204,7 @@ fn an_update_adds_the_residual_and_keeps_every_modulo_rule() {
                         .contains("(3620=0 3621=0 3622=24 3623=1 3624=15.000000 3625=360)")
                 );
             }
-            ModuloDialect::Fagor8055 => {
+            "fagor-8055" => {
                 assert!(got.iter().all(|p| p.2 == 0.0), "err− stays 0 (one table)");
             }
             _ => {}
@@ -205,7 +218,7 @@ fn a_two_direction_update_gives_each_column_its_own_residual() {
     // (±2.5″) on top of er: each column gets its own, the mean datum at 0 kept.
     let up = every_15(&|q| er(q) + 2.5);
     let down = every_15(&|q| er(q) - 2.5);
-    for d in [ModuloDialect::LinuxCnc, ModuloDialect::Fagor8055] {
+    for d in [named("linuxcnc"), named("fagor-8055")] {
         let sp = spec(d);
         let old = modulo_table(&every_15(&e1), &sp).expect("table");
         let new = update_modulo(old.text.as_bytes(), &[&up, &down], &sp).expect("update");
@@ -225,7 +238,7 @@ fn a_two_direction_update_gives_each_column_its_own_residual() {
 }
 
 /// The refusal's line, for a table text edited by `edit`.
-fn refusal(d: ModuloDialect, sp: &ModuloSpec, edit: &dyn Fn(String) -> String) -> (usize, String) {
+fn refusal(d: D, sp: &ModuloSpec, edit: &dyn Fn(String) -> String) -> (usize, String) {
     let old = modulo_table(&every_15(&e1), &spec(d)).expect("table");
     let zero = every_15(&|_| 0.0);
     match update_modulo(edit(old.text).as_bytes(), &[&zero], sp) {
@@ -236,27 +249,33 @@ fn refusal(d: ModuloDialect, sp: &ModuloSpec, edit: &dyn Fn(String) -> String) -
 
 #[test]
 fn a_table_that_is_not_this_axis_modulo_table_is_refused_naming_its_line() {
-    use ModuloDialect::*;
+    let (siemens, fanuc, fagor, heidenhain, linuxcnc) = (
+        named("siemens"),
+        named("fanuc"),
+        named("fagor-8055"),
+        named("heidenhain"),
+        named("linuxcnc"),
+    );
     let same = |d| spec(d);
-    let (line, p) = refusal(Siemens, &same(Siemens), &|t| t.replace(",A1]", ",A2]"));
+    let (line, p) = refusal(siemens, &same(siemens), &|t| t.replace(",A1]", ",A2]"));
     assert_eq!(line, 3, "{p}");
     assert!(p.contains("axis A2, not A1"), "{p}");
-    let (line, p) = refusal(Siemens, &same(Siemens), &|t| {
+    let (line, p) = refusal(siemens, &same(siemens), &|t| {
         t.replace("IS_MODULO[0,A1]=1", "IS_MODULO[0,A1]=0")
     });
     assert_eq!(line, 31, "{p}");
     assert!(p.contains("not a modulo table"), "{p}");
-    let (line, p) = refusal(Fanuc, &same(Fanuc), &|t| {
+    let (line, p) = refusal(fanuc, &same(fanuc), &|t| {
         t.replacen("N10001P", "N10001P1", 1)
     });
     assert!(p.contains("sum to"), "{p}");
     assert_eq!(line, 28, "{p}");
-    let (line, p) = refusal(Fagor8055, &same(Fagor8055), &|t| t.replace(" A ", " B "));
+    let (line, p) = refusal(fagor, &same(fagor), &|t| t.replace(" A ", " B "));
     assert_eq!((line, p.contains("axis B, not A")), (1, true), "{p}");
-    let (line, p) = refusal(Heidenhain, &same(Heidenhain), &|t| t.replace("DEG", "MM"));
+    let (line, p) = refusal(heidenhain, &same(heidenhain), &|t| t.replace("DEG", "MM"));
     assert_eq!((line, p.contains("not a rotary")), (1, true), "{p}");
     // Unequal ends: the last LinuxCNC line's forward value moved by 1e-5°.
-    let (line, p) = refusal(LinuxCnc, &same(LinuxCnc), &|t| {
+    let (line, p) = refusal(linuxcnc, &same(linuxcnc), &|t| {
         let mut lines: Vec<String> = t.lines().map(str::to_string).collect();
         let last = lines.last_mut().expect("line");
         let w: Vec<f64> = last
@@ -269,9 +288,9 @@ fn a_table_that_is_not_this_axis_modulo_table_is_refused_naming_its_line() {
     assert_eq!(line, 25, "{p}");
     assert!(p.contains("equal ends"), "{p}");
     // Another step than --step names.
-    let mut s30 = spec(Heidenhain);
+    let mut s30 = spec(heidenhain);
     s30.step_deg = Some(30.0);
-    let (_, p) = refusal(Heidenhain, &s30, &|t| t);
+    let (_, p) = refusal(heidenhain, &s30, &|t| t);
     assert!(p.contains("not every --step 30"), "{p}");
 }
 

@@ -3,7 +3,13 @@
 //! residual after compensation, and the best placement against a brute-force search.
 
 use errmap::base::RotaryAxis;
-use errmap::controller::modulo::{ModuloDialect, ModuloError, ModuloSpec, modulo_table};
+use errmap::controller::modulo::{ModuloError, ModuloSpec, modulo_dialects, modulo_table};
+use errmap::controller::{Dialect, dialect};
+
+/// The registry's dialect `name`.
+fn d(name: &str) -> &'static dyn Dialect {
+    dialect(name).expect("a dialect")
+}
 
 /// Eccentricity 8″ plus a 20 ppm ratio error (25.92″ over the revolution), every 15°.
 fn table() -> Vec<(f64, f64)> {
@@ -34,15 +40,14 @@ fn numbers(line: &str) -> Vec<f64> {
 fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_place() {
     let t = table();
     let ep = detrended(&t);
-    for d in [
-        ModuloDialect::LinuxCnc,
-        ModuloDialect::Siemens,
-        ModuloDialect::Fanuc,
-        ModuloDialect::Heidenhain,
-        ModuloDialect::Fagor8055,
-    ] {
+    let all: Vec<&str> = modulo_dialects().map(|d| d.name()).collect();
+    assert_eq!(
+        all,
+        ["linuxcnc", "siemens", "fanuc", "heidenhain", "fagor-8055"]
+    );
+    for d in modulo_dialects() {
         let mut spec = ModuloSpec::new(d, RotaryAxis::A);
-        if d.equidistant() {
+        if d.modulo().expect("a modulo table").equidistant() {
             spec.step_deg = Some(15.0);
         }
         let m = modulo_table(&t, &spec).unwrap_or_else(|e| panic!("{d:?}: {e}"));
@@ -58,8 +63,8 @@ fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_plac
             assert!((c + (ep[k].1 - ep[0].1)).abs() < 1e-9, "{d:?} point {k}");
         }
         let lines: Vec<&str> = m.text.lines().collect();
-        match d {
-            ModuloDialect::LinuxCnc => {
+        match d.name() {
+            "linuxcnc" => {
                 let first = numbers(lines[0]);
                 let last = numbers(lines[lines.len() - 1]);
                 assert_eq!(first[0], 0.0);
@@ -68,7 +73,7 @@ fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_plac
                 assert!(lines.len() <= 256);
                 assert!(m.max_residual_arcsec < 0.01, "{}", m.max_residual_arcsec);
             }
-            ModuloDialect::Siemens => {
+            "siemens" => {
                 let v = |i: usize| {
                     let l = lines
                         .iter()
@@ -85,7 +90,7 @@ fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_plac
                 assert!(m.text.contains("$AA_ENC_COMP_MAX[0,A1]=360.0"));
                 assert!(!m.text.contains("$AA_ENC_COMP[0,25,"));
             }
-            ModuloDialect::Fanuc => {
+            "fanuc" => {
                 let v: Vec<i64> = lines
                     .iter()
                     .filter(|l| l.starts_with('N'))
@@ -102,13 +107,13 @@ fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_plac
                     m.max_residual_arcsec
                 );
             }
-            ModuloDialect::Heidenhain => {
+            "heidenhain" => {
                 assert!(lines[0].starts_with("BEGIN") && lines[lines.len() - 1] == "[END]");
                 let first = numbers(lines[2]);
                 let last = numbers(lines[lines.len() - 2]);
                 assert_eq!(first[2], last[2], "equal at 0 and 360");
             }
-            ModuloDialect::Fagor8055 => {
+            "fagor-8055" => {
                 let e = |l: &str| l.split_whitespace().nth(4).map(str::to_string);
                 assert_eq!(
                     e(lines[0]),
@@ -116,6 +121,7 @@ fn every_dialect_keeps_its_rule_removes_the_gap_and_leaves_the_reference_in_plac
                     "Fagor: equal first and last errors"
                 );
             }
+            other => panic!("{other}: no rule checked"),
         }
     }
 }
@@ -162,7 +168,7 @@ fn the_best_placement_matches_a_brute_force_search() {
         idx.push(10);
         best = best.min(residual(&ep, &idx));
     }
-    let mut spec = ModuloSpec::new(ModuloDialect::LinuxCnc, RotaryAxis::B);
+    let mut spec = ModuloSpec::new(d("linuxcnc"), RotaryAxis::B);
     spec.max_points = Some(6);
     let m = modulo_table(&t, &spec).expect("table");
     assert!(m.points <= 6 && m.points_deg[0] == 0.0 && m.points_deg[m.points - 1] == 360.0);
@@ -177,7 +183,7 @@ fn the_best_placement_matches_a_brute_force_search() {
 fn a_table_that_does_not_fit_is_refused_with_the_reason() {
     let t = table();
     let spec = |d| ModuloSpec::new(d, RotaryAxis::C);
-    let mut s = spec(ModuloDialect::Siemens);
+    let mut s = spec(d("siemens"));
     s.step_deg = Some(7.0);
     assert!(matches!(
         modulo_table(&t, &s),
@@ -187,15 +193,15 @@ fn a_table_that_does_not_fit_is_refused_with_the_reason() {
     assert!(e.contains("try"), "{e}");
     let no_zero: Vec<(f64, f64)> = t[1..].to_vec();
     assert_eq!(
-        modulo_table(&no_zero, &spec(ModuloDialect::LinuxCnc)),
+        modulo_table(&no_zero, &spec(d("linuxcnc"))),
         Err(ModuloError::NoZero)
     );
     let half: Vec<(f64, f64)> = t.iter().copied().filter(|p| p.0 <= 180.0).collect();
     assert!(matches!(
-        modulo_table(&half, &spec(ModuloDialect::LinuxCnc)),
+        modulo_table(&half, &spec(d("linuxcnc"))),
         Err(ModuloError::Gap { .. })
     ));
-    let mut r = spec(ModuloDialect::Heidenhain);
+    let mut r = spec(d("heidenhain"));
     r.step_deg = Some(15.0);
     r.reference_deg = 7.0;
     assert!(matches!(
@@ -204,7 +210,7 @@ fn a_table_that_does_not_fit_is_refused_with_the_reason() {
     ));
     // The finest admissible step within Siemens' 200 points: 360/k, k + 1 ≤ 200, a whole
     // multiple of 0.001°: k = 192 (1.875°).
-    let m = modulo_table(&t, &spec(ModuloDialect::Siemens)).expect("table");
+    let m = modulo_table(&t, &spec(d("siemens"))).expect("table");
     assert_eq!(m.step_deg, Some(1.875));
     assert_eq!(m.points, 193);
 }
