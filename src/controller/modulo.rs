@@ -64,6 +64,15 @@ pub fn modulo_names() -> String {
         .join(", ")
 }
 
+/// The dialects whose table holds both directions, each with its columns, as
+/// [`ModuloError::OneDirection`] lists them: `a x, b y`.
+fn two_direction_columns() -> String {
+    modulo_dialects()
+        .filter_map(|d| Some(format!("{} {}", d.name(), d.modulo()?.direction_columns()?)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The dialects whose table holds both directions, with what each calls them:
 /// `a (x) and b (y)`.
 pub fn two_direction_tables() -> String {
@@ -363,7 +372,8 @@ pub enum ModuloError {
     },
     #[error(
         "{format} modulo tables hold one value per point for both directions (two-direction \
-         tables: linuxcnc forward/reverse, fagor-8055 err−)"
+         tables: {})",
+        two_direction_columns()
     )]
     OneDirection { format: &'static str },
     /// The table in use (`--existing`) cannot be read or updated as a modulo table.

@@ -214,3 +214,25 @@ fn a_table_that_does_not_fit_is_refused_with_the_reason() {
     assert_eq!(m.step_deg, Some(1.875));
     assert_eq!(m.points, 193);
 }
+
+#[test]
+fn a_one_direction_table_refuses_two_directions_naming_those_that_hold_both() {
+    let t = table();
+    let e = errmap::controller::modulo::modulo_table_bidirectional(
+        &t,
+        &t,
+        &ModuloSpec::new(d("siemens"), RotaryAxis::C),
+    )
+    .expect_err("one value per point");
+    assert_eq!(
+        e.to_string(),
+        "siemens modulo tables hold one value per point for both directions (two-direction \
+         tables: linuxcnc forward/reverse, fagor-8055 err−)"
+    );
+    // A dialect without a modulo table is refused by name.
+    let isg = ModuloSpec::new(d("isg"), RotaryAxis::C);
+    assert_eq!(
+        modulo_table(&t, &isg),
+        Err(ModuloError::NoModulo { format: "isg" })
+    );
+}
