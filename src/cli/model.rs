@@ -642,6 +642,10 @@ fn export_bidirectional(
                 .with_context(|| format!("{}: {} table", path.display(), output.name()));
         }
         Err(JobError::Line(e)) => return Err(e.into()),
+        // The line's position is named by its flag (`flags::in_flags`).
+        Err(JobError::ChooseLine(e)) => {
+            return Err(anyhow::Error::from(e)).context(path.display().to_string());
+        }
         Err(e) => return Err(anyhow::Error::from(e)).context(path.display().to_string()),
     };
     super::guard::write_file(&a.out, &exported.bytes)?;

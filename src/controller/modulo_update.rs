@@ -26,12 +26,13 @@
 //! the change of E = −c, rounded as absolute values, and is differenced again, so a
 //! revolution still sums to 0 exactly.
 
-use super::Field;
 use super::modulo::{
     DirectionsSummary, MAX_TARGETS, ModuloDialect, ModuloError, ModuloSpec, ModuloTable,
     check_revolution, detrended, fanuc_increments, interp, linuxcnc_value,
 };
 use super::update::{Edit, apply, fixed};
+use super::{ControllerSetting, Field};
+use crate::base::NamesSettings;
 
 /// A modulo table as read: its points and each direction's compensation, ″, and where
 /// each value stands in the text.
@@ -60,6 +61,55 @@ fn at(line: usize, problem: impl Into<String>) -> ModuloError {
     ModuloError::Existing {
         line,
         problem: problem.into(),
+    }
+}
+
+fn mismatch(line: usize, mismatch: TableMismatch) -> ModuloError {
+    ModuloError::Mismatch { line, mismatch }
+}
+
+/// A table in use that does not fit a setting of the update: the step or the axis it
+/// was asked to have (`ModuloError::Mismatch`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TableMismatch {
+    /// Its `points` are not every `step_deg`.
+    Step { step_deg: f64, points: usize },
+    /// A Siemens table for the axis `found`, not `expected`.
+    SiemensAxis { found: String, expected: String },
+    /// A HEIDENHAIN table without the column `key`.
+    AxisName { key: String },
+}
+
+impl TableMismatch {
+    /// The mismatch with the setting called by `name`.
+    pub fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        match self {
+            TableMismatch::Step { step_deg, points } => format!(
+                "the table's points are not every {step_deg}° as {} says ({points} points)",
+                name(ControllerSetting::Step)
+            ),
+            TableMismatch::SiemensAxis { found, expected } => format!(
+                "the table is for axis {found}, not {expected} ({})",
+                name(ControllerSetting::SiemensAxis)
+            ),
+            TableMismatch::AxisName { key } => format!(
+                "no column {key} (the table is for another axis: {})",
+                name(ControllerSetting::AxisName)
+            ),
+        }
+    }
+}
+
+impl NamesSettings for ModuloError {
+    type Setting = ControllerSetting;
+    fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        match self {
+            ModuloError::Mismatch { line, mismatch } => {
+                format!("line {line}: {}", mismatch.render(name))
+            }
+            // The rest name no setting (a variant added to `modulo.rs` falls here).
+            other => other.to_string(),
+        }
     }
 }
 
@@ -177,9 +227,12 @@ fn check_read(t: &mut Read, spec: &ModuloSpec) -> Result<(), ModuloError> {
             .then_some(1)
             .or_else(|| (0..n).find(|&j| (t.angles[j] - j as f64 * s).abs() > 1e-6));
         if let Some(j) = bad {
-            return Err(at(
+            return Err(mismatch(
                 if j == 1 { t.step_line } else { t.lines[j] },
-                format!("the table's points are not every --step {s}° ({n} points)"),
+                TableMismatch::Step {
+                    step_deg: s,
+                    points: n,
+                },
             ));
         }
     }
@@ -265,9 +318,12 @@ fn read_siemens(text: &str, spec: &ModuloSpec) -> Result<Read, ModuloError> {
         }
         let axis = args.last().copied().unwrap_or("");
         if axis != ax {
-            return Err(at(
+            return Err(mismatch(
                 line,
-                format!("the table is for axis {axis}, not {ax} (--siemens-axis)"),
+                TableMismatch::SiemensAxis {
+                    found: axis.to_string(),
+                    expected: ax,
+                },
             ));
         }
         let value = number(line, v, name)?;
@@ -350,12 +406,10 @@ fn read_heidenhain(text: &str, spec: &ModuloSpec) -> Result<Read, ModuloError> {
             None => continue,
             Some("[END]") => break,
             Some("NR") => {
-                column = Some(w.iter().position(|x| x.1 == key).ok_or_else(|| {
-                    at(
-                        line,
-                        format!("no column {key} (the table is for another axis: --axis-name)"),
-                    )
-                })?);
+                column =
+                    Some(w.iter().position(|x| x.1 == key).ok_or_else(|| {
+                        mismatch(line, TableMismatch::AxisName { key: key.clone() })
+                    })?);
                 continue;
             }
             Some(_) => {}
