@@ -7,6 +7,7 @@
 use errmap::base::NamesSettings;
 use errmap::controller::ControllerSetting;
 use errmap::export::ExportSetting;
+use errmap::import::ImportSetting;
 
 /// A library setting's flag.
 pub(crate) trait Flag: Copy {
@@ -35,6 +36,17 @@ impl Flag for ExportSetting {
     }
 }
 
+impl Flag for ImportSetting {
+    fn flag(self) -> &'static str {
+        match self {
+            ImportSetting::ColumnMap => "--map",
+            ImportSetting::ErrorSign => "--error-sign",
+            ImportSetting::Delimiter => "--delimiter",
+            ImportSetting::DecimalComma => "--decimal-comma",
+        }
+    }
+}
+
 /// `e`'s message with its settings called by their flags.
 pub(crate) fn said<E: NamesSettings>(e: &E) -> String
 where
@@ -58,4 +70,6 @@ pub(crate) fn in_flags(cause: &(dyn std::error::Error + 'static)) -> Option<Stri
         .or_else(|| as_flags::<UpdateError>(cause))
         .or_else(|| as_flags::<ModuloError>(cause))
         .or_else(|| as_flags::<errmap::export::ChooseLineError>(cause))
+        .or_else(|| as_flags::<errmap::import::ImportError>(cause))
+        .or_else(|| as_flags::<errmap::import::MapError>(cause))
 }

@@ -19,8 +19,11 @@
 //! message naming `--delimiter ';'` (and `--decimal-comma` when the data show `d,d`).
 
 use super::units::{HPA_PER_INHG, HPA_PER_KPA, HPA_PER_MMHG, fahrenheit_to_c};
-use super::{At, Env, ImportSummary, Imported, Reading, assemble, summary_counts};
+use super::{
+    At, Env, ImportError, ImportSetting, ImportSummary, Imported, Reading, assemble, summary_counts,
+};
 use crate::base::Axis;
+use crate::base::{NamesSettings, Setting};
 use crate::controller::text::{Text, number};
 
 /// A column of the map: a header name or a 1-based column number.
@@ -30,7 +33,7 @@ pub enum Col {
     Number(usize),
 }
 
-/// The column map (`--map`).
+/// The column map ([`ImportSetting::ColumnMap`]).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ColumnMap {
     pub target: Option<Col>,
@@ -46,28 +49,183 @@ pub struct ColumnMap {
     pub scale_temp: Option<Col>,
 }
 
-/// Why a column map (`--map`) is not one; every case is a usage error.
+/// Why a column map is not one; every case is the caller's (a usage error). The map is
+/// named as [`ImportSetting::ColumnMap`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}", self.render(&Setting::words))]
 pub enum MapError {
-    #[error("--map: `{0}` is not key=COLUMN")]
     NotKeyColumn(String),
-    #[error("--map: `{0}` names no column")]
     NoColumn(String),
-    #[error("--map: `{0}` is not a column number #1, #2, …")]
     BadNumber(String),
-    #[error(
-        "--map: unknown key `{0}` (target, reference, indicated, error, run, \
-         direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
-    )]
     UnknownKey(String),
-    #[error("--map: `{0}` is given twice")]
     Twice(String),
-    #[error("--map needs target=COLUMN")]
     NoTarget,
-    #[error("--map takes reference= or error=, not both")]
     ReferenceAndError,
-    #[error("--map needs reference=COLUMN or error=COLUMN")]
     NoReferenceOrError,
+}
+
+impl NamesSettings for MapError {
+    type Setting = ImportSetting;
+    fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        let map = name(ImportSetting::ColumnMap);
+        match self {
+            MapError::NotKeyColumn(p) => format!("{map}: `{p}` is not key=COLUMN"),
+            MapError::NoColumn(p) => format!("{map}: `{p}` names no column"),
+            MapError::BadNumber(v) => format!("{map}: `{v}` is not a column number #1, #2, …"),
+            MapError::UnknownKey(k) => format!(
+                "{map}: unknown key `{k}` (target, reference, indicated, error, run, \
+                 direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
+            ),
+            MapError::Twice(k) => format!("{map}: `{k}` is given twice"),
+            MapError::NoTarget => format!("{map} needs target=COLUMN"),
+            MapError::ReferenceAndError => format!("{map} takes reference= or error=, not both"),
+            MapError::NoReferenceOrError => {
+                format!("{map} needs reference=COLUMN or error=COLUMN")
+            }
+        }
+    }
+}
+
+/// A refusal of a CSV that a setting of the import would fix (the setting named as an
+/// [`ImportSetting`]), at a line and maybe a column: `ImportError::Csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CsvProblem {
+    /// The map names column #`number`; the header has `columns`.
+    ColumnBeyond { number: usize, columns: usize },
+    /// The map names a column the header (`header`, joined) does not have.
+    ColumnMissing { name: String, header: String },
+    /// The map has no target column.
+    NoTarget,
+    /// An error column and no sign for it.
+    NoErrorSign,
+    /// A one-column header holding `found`: an export with another delimiter (and
+    /// decimal commas in its data, when `decimal_comma`).
+    OtherDelimiter { found: char, decimal_comma: bool },
+    /// A `.` in a cell read with decimal commas.
+    PointWithComma { raw: String },
+    /// A decimal comma in a cell read without them.
+    CommaWithout { raw: String },
+}
+
+impl CsvProblem {
+    /// The problem with every setting called by `name`.
+    pub fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        use ImportSetting::{ColumnMap, DecimalComma, Delimiter, ErrorSign};
+        match self {
+            CsvProblem::ColumnBeyond { number, columns } => format!(
+                "{} names column #{number}, but the header has {columns} columns",
+                name(ColumnMap)
+            ),
+            CsvProblem::ColumnMissing {
+                name: column,
+                header,
+            } => format!(
+                "{} names column `{column}`, which is not in the header ({header})",
+                name(ColumnMap)
+            ),
+            CsvProblem::NoTarget => format!("{} has no target", name(ColumnMap)),
+            CsvProblem::NoErrorSign => format!(
+                "an error column needs {} (a sign is never guessed)",
+                name(ErrorSign)
+            ),
+            CsvProblem::OtherDelimiter {
+                found,
+                decimal_comma,
+            } => {
+                let (held, value) = match found {
+                    '\t' => ("TAB".to_string(), "tab".to_string()),
+                    c => (format!("`{c}`"), format!("'{c}'")),
+                };
+                format!(
+                    "the header is one column but holds {held}: this looks like a {}-separated \
+                     export{}; read it with {} {value}{}",
+                    if *found == ';' {
+                        "`;` (European Excel)"
+                    } else {
+                        "differently"
+                    },
+                    if *decimal_comma {
+                        " with decimal commas"
+                    } else {
+                        ""
+                    },
+                    name(Delimiter),
+                    if *decimal_comma {
+                        format!(" and {}", name(DecimalComma))
+                    } else {
+                        String::new()
+                    },
+                )
+            }
+            CsvProblem::PointWithComma { raw } => format!(
+                "`{raw}` has a `.` but {} says `,` is the decimal mark",
+                name(DecimalComma)
+            ),
+            CsvProblem::CommaWithout { raw } => format!(
+                "`{raw}` has a decimal comma; read the file with {}",
+                name(DecimalComma)
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for CsvProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&Setting::words))
+    }
+}
+
+/// A CSV reader's refusal before the path is attached: the shared [`At`], or a
+/// [`CsvProblem`] that names a setting.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Refusal {
+    At(At),
+    Setting {
+        line: usize,
+        column: Option<String>,
+        problem: CsvProblem,
+    },
+}
+
+impl From<At> for Refusal {
+    fn from(at: At) -> Refusal {
+        Refusal::At(at)
+    }
+}
+
+impl Refusal {
+    fn new(line: usize, problem: CsvProblem) -> Refusal {
+        Refusal::Setting {
+            line,
+            column: None,
+            problem,
+        }
+    }
+
+    fn col(line: usize, column: &str, problem: CsvProblem) -> Refusal {
+        Refusal::Setting {
+            line,
+            column: Some(column.to_string()),
+            problem,
+        }
+    }
+
+    /// The refusal with the path attached.
+    pub(super) fn at(self, path: &std::path::Path) -> ImportError {
+        match self {
+            Refusal::At(at) => at.at(path),
+            Refusal::Setting {
+                line,
+                column,
+                problem,
+            } => ImportError::Csv {
+                path: path.to_path_buf(),
+                line,
+                column,
+                problem,
+            },
+        }
+    }
 }
 
 impl ColumnMap {
@@ -292,27 +450,30 @@ struct Mapped {
 }
 
 impl Mapped {
-    /// Finds every `--map` column in the header (by name or number), refusing one that is
-    /// not there and an error column without a sign.
-    fn resolve(header: &[String], header_line: usize, o: &CsvOptions) -> Result<Mapped, At> {
-        let resolve = |c: &Col| -> Result<Resolved, At> {
+    /// Finds every column of the map in the header (by name or number), refusing one that
+    /// is not there and an error column without a sign.
+    fn resolve(header: &[String], header_line: usize, o: &CsvOptions) -> Result<Mapped, Refusal> {
+        let resolve = |c: &Col| -> Result<Resolved, Refusal> {
             match c {
                 Col::Number(n) if *n <= header.len() => Ok((n - 1, header[n - 1].clone())),
-                Col::Number(n) => Err(At::new(
+                Col::Number(n) => Err(Refusal::new(
                     header_line,
-                    format!("--map column #{n}: the header has {} columns", header.len()),
+                    CsvProblem::ColumnBeyond {
+                        number: *n,
+                        columns: header.len(),
+                    },
                 )),
                 Col::Name(name) => header
                     .iter()
                     .position(|h| h == name)
                     .map(|i| (i, name.clone()))
                     .ok_or_else(|| {
-                        At::new(
+                        Refusal::new(
                             header_line,
-                            format!(
-                                "--map column `{name}` is not in the header ({})",
-                                header.join(", ")
-                            ),
+                            CsvProblem::ColumnMissing {
+                                name: name.clone(),
+                                header: header.join(", "),
+                            },
                         )
                     }),
             }
@@ -323,7 +484,7 @@ impl Mapped {
             target: resolve(
                 m.target
                     .as_ref()
-                    .ok_or_else(|| At::new(1, "--map has no target"))?,
+                    .ok_or_else(|| Refusal::new(1, CsvProblem::NoTarget))?,
             )?,
             reference: opt(&m.reference)?,
             indicated: opt(&m.indicated)?,
@@ -337,21 +498,18 @@ impl Mapped {
             scale_t: opt(&m.scale_temp)?,
         };
         if mapped.error.is_some() && o.error_sign.is_none() {
-            return Err(At::new(
-                header_line,
-                "an error column needs --error-sign (a sign is never guessed)",
-            ));
+            return Err(Refusal::new(header_line, CsvProblem::NoErrorSign));
         }
         Ok(mapped)
     }
 }
 
 /// Reads a CSV through the column map (see the module docs).
-pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, At> {
+pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, Refusal> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let recs = records(&text.text, o.delimiter)?;
     let Some((header_line, header)) = recs.first() else {
-        return Err(At::new(1, "no header and no data"));
+        return Err(At::new(1, "no header and no data").into());
     };
     let header: Vec<String> = header.iter().map(|h| h.trim().to_string()).collect();
     check_delimiter(&header, *header_line, &text.text, o)?;
@@ -373,7 +531,8 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
                         o.delimiter.to_string()
                     }
                 ),
-            ));
+            )
+            .into());
         }
         let reading = read_record(line, rec, &mapped, o)?;
         reading.check(line)?;
@@ -381,7 +540,7 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
         lines.push(line);
     }
     if readings.is_empty() {
-        return Err(At::new(*header_line, "a header and no data rows"));
+        return Err(At::new(*header_line, "a header and no data rows").into());
     }
     if mapped.direction.is_none() {
         set_directions(&mut readings, &lines)?;
@@ -402,6 +561,7 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
             axis: axis.upper(),
             machine: None,
             warnings: Vec::new(),
+            axis_warning: None,
         },
         rows,
     })
@@ -419,13 +579,13 @@ pub fn data_lines(bytes: &[u8], delimiter: char) -> Result<Vec<usize>, At> {
 }
 
 /// Refuses a one-column header holding another delimiter: a European-locale export read
-/// with the wrong flags, named with the flags that read it.
+/// with the wrong settings, named with the settings that read it.
 fn check_delimiter(
     header: &[String],
     header_line: usize,
     text: &str,
     o: &CsvOptions,
-) -> Result<(), At> {
+) -> Result<(), Refusal> {
     if header.len() != 1 {
         return Ok(());
     }
@@ -433,47 +593,31 @@ fn check_delimiter(
     let other = [';', '\t', ',']
         .into_iter()
         .find(|&d| d != o.delimiter && h.contains(d));
-    let Some(d) = other else {
+    let Some(found) = other else {
         return Ok(());
     };
-    let name = match d {
-        '\t' => "TAB".to_string(),
-        c => format!("`{c}`"),
-    };
-    let flag = match d {
-        '\t' => "--delimiter tab".to_string(),
-        c => format!("--delimiter '{c}'"),
-    };
-    let comma = d != ',' && has_decimal_comma(text) && !o.decimal_comma;
-    Err(At::new(
+    Err(Refusal::new(
         header_line,
-        format!(
-            "the header is one column but holds {name}: this looks like a {}-separated \
-             export{}; read it with {flag}{}",
-            if d == ';' {
-                "`;` (European Excel)"
-            } else {
-                "differently"
-            },
-            if comma { " with decimal commas" } else { "" },
-            if comma { " --decimal-comma" } else { "" },
-        ),
+        CsvProblem::OtherDelimiter {
+            found,
+            decimal_comma: found != ',' && has_decimal_comma(text) && !o.decimal_comma,
+        },
     ))
 }
 
 /// One cell of a mapped column as a number (`None` when empty), with the decimal-comma
 /// mistakes named in the message.
-fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Option<f64>, At> {
+fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Option<f64>, Refusal> {
     let raw = rec[c.0].trim();
     if raw.is_empty() {
         return Ok(None);
     }
     let parsed = if o.decimal_comma {
         if raw.contains('.') {
-            return Err(At::col(
+            return Err(Refusal::col(
                 line,
                 &c.1,
-                format!("`{raw}` has a `.` but --decimal-comma says `,` is the decimal mark"),
+                CsvProblem::PointWithComma { raw: raw.into() },
             ));
         }
         number(&raw.replace(',', "."))
@@ -482,26 +626,31 @@ fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Opt
     };
     match parsed {
         Some(v) => Ok(Some(v)),
-        None if !o.decimal_comma && has_decimal_comma(raw) => Err(At::col(
+        None if !o.decimal_comma && has_decimal_comma(raw) => Err(Refusal::col(
             line,
             &c.1,
-            format!("`{raw}` has a decimal comma; read the file with --decimal-comma"),
+            CsvProblem::CommaWithout { raw: raw.into() },
         )),
-        None => Err(At::col(line, &c.1, format!("`{raw}` is not a number"))),
+        None => Err(At::col(line, &c.1, format!("`{raw}` is not a number")).into()),
     }
 }
 
 /// One data record as a reading in mm and µm (direction 0 when the map has no direction
 /// column: `set_directions` fills it from the whole run).
-fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Result<Reading, At> {
+fn read_record(
+    line: usize,
+    rec: &[String],
+    m: &Mapped,
+    o: &CsvOptions,
+) -> Result<Reading, Refusal> {
     let k = o.length.mm();
     let temp = |v: f64| match o.temperature {
         TempUnit::C => v,
         TempUnit::F => fahrenheit_to_c(v),
     };
     let cell = |c: &Resolved| cell(line, rec, c, o);
-    let need = |c: &Resolved| -> Result<f64, At> {
-        cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column"))
+    let need = |c: &Resolved| -> Result<f64, Refusal> {
+        cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column").into())
     };
     let t = need(&m.target)?;
     let ind = match &m.indicated {
@@ -527,11 +676,9 @@ fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Resul
         Some(c) => {
             let v = need(c)?;
             if v.fract() != 0.0 || !(1.0..=1e6).contains(&v) {
-                return Err(At::col(
-                    line,
-                    &c.1,
-                    format!("run `{v}` is not a whole number ≥ 1"),
-                ));
+                return Err(
+                    At::col(line, &c.1, format!("run `{v}` is not a whole number ≥ 1")).into(),
+                );
             }
             v as u32
         }

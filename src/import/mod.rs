@@ -40,13 +40,13 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use serde::Serialize;
 
-use crate::base::Axis;
+use crate::base::{Axis, NamesSettings, Setting};
 use crate::table::TableError;
 
 pub use crate::controller::At;
 pub use csv::{
-    Col, ColumnMap, CsvOptions, ErrorSign, ErrorUnit, LengthUnit, MapError, PressureUnit, TempUnit,
-    data_lines,
+    Col, ColumnMap, CsvOptions, CsvProblem, ErrorSign, ErrorUnit, LengthUnit, MapError,
+    PressureUnit, TempUnit, data_lines,
 };
 pub use tables::write_error_table;
 
@@ -66,21 +66,83 @@ pub mod units {
     }
 }
 
+/// The settings of the import stage that its messages name (`base::Setting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImportSetting {
+    /// A CSV's column map ([`ColumnMap`]).
+    ColumnMap,
+    /// What a CSV's error column holds ([`ErrorSign`]).
+    ErrorSign,
+    /// A CSV's field delimiter (`CsvOptions::delimiter`).
+    Delimiter,
+    /// `,` as a CSV's decimal mark (`CsvOptions::decimal_comma`).
+    DecimalComma,
+}
+
+impl Setting for ImportSetting {
+    fn words(self) -> &'static str {
+        match self {
+            ImportSetting::ColumnMap => "the column map",
+            ImportSetting::ErrorSign => "the error sign",
+            ImportSetting::Delimiter => "the delimiter",
+            ImportSetting::DecimalComma => "the decimal-comma option",
+        }
+    }
+}
+
+/// `, column C` when a column is named.
+fn column_text(column: &Option<String>) -> String {
+    column
+        .as_ref()
+        .map(|c| format!(", column {c}"))
+        .unwrap_or_default()
+}
+
 /// A refusal, naming the file, its line and (CSV) its column.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
-    #[error("{path}: line {line}{}: {message}", column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    #[error("{path}: line {line}{}: {message}", column_text(column))]
     Bad {
         path: PathBuf,
         line: usize,
         column: Option<String>,
         message: String,
     },
+    /// A CSV refusal that a setting of the import would fix ([`ImportSetting`]).
+    #[error("{}", self.render(&Setting::words))]
+    Csv {
+        path: PathBuf,
+        line: usize,
+        column: Option<String>,
+        problem: CsvProblem,
+    },
     /// The file cannot be read (the shared [`FileError`] shape).
     #[error(transparent)]
     File(#[from] crate::base::FileError),
     #[error(transparent)]
     Table(#[from] TableError),
+}
+
+impl NamesSettings for ImportError {
+    type Setting = ImportSetting;
+    fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        match self {
+            ImportError::Csv {
+                path,
+                line,
+                column,
+                problem,
+            } => format!(
+                "{}: line {line}{}: {}",
+                path.display(),
+                column_text(column),
+                problem.render(name)
+            ),
+            ImportError::Bad { .. } | ImportError::File(_) | ImportError::Table(_) => {
+                self.to_string()
+            }
+        }
+    }
 }
 
 /// A reader's refusal ([`At`], the controller stage's) with the path attached.
@@ -198,6 +260,10 @@ pub struct ImportSummary {
     pub axis: &'static str,
     pub machine: Option<String>,
     pub warnings: Vec<String>,
+    /// The index in `warnings` of the one saying that the file states no axis and X was
+    /// taken (a caller names the setting that gives the axis: the command line's `--axis`).
+    #[serde(skip)]
+    pub axis_warning: Option<usize>,
 }
 
 /// A positioning test as session rows, with its summary.
@@ -391,7 +457,9 @@ pub fn import_session(
         (Format::ApiXd, _) => api::read(bytes, options.axis),
         (Format::RenishawRtl, _) => rtl::read(bytes, options.axis),
         (Format::RenishawRtx, _) => Err(rtl::refuse_rtx(bytes)),
-        (Format::Csv, SessionFormat::Csv(o)) => csv::read(bytes, o, options.axis),
+        (Format::Csv, SessionFormat::Csv(o)) => {
+            return csv::read(bytes, o, options.axis).map_err(|e| e.at(path));
+        }
         _ => Err(At::new(1, "not a recognised format")),
     };
     result.map_err(|e| e.at(path))
