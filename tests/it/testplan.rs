@@ -526,21 +526,8 @@ fn dialect_limits_are_refused_with_the_flag() {
 fn a_refused_program_setting_is_named_by_its_flag() {
     let dir = tempfile::tempdir().expect("tempdir");
     let plan = |extra: &[&str]| {
-        let mut args = vec![
-            "plan",
-            "--axis",
-            "x",
-            "--from",
-            "0",
-            "--to",
-            "100",
-            "--targets",
-            "5",
-            "--out",
-            "p.toml",
-            "--program",
-            "p.txt",
-        ];
+        let base = "plan --axis x --from 0 --to 100 --targets 5 --out p.toml --program p.txt";
+        let mut args: Vec<&str> = base.split(' ').collect();
         args.extend_from_slice(extra);
         let o = errmap_in(dir.path(), &args);
         assert_eq!(o.status.code(), Some(1), "{extra:?}");
