@@ -43,6 +43,7 @@ impl Flag for ImportSetting {
             ImportSetting::ErrorSign => "--error-sign",
             ImportSetting::Delimiter => "--delimiter",
             ImportSetting::DecimalComma => "--decimal-comma",
+            ImportSetting::Format => "--format",
         }
     }
 }

@@ -20,7 +20,8 @@
 
 use super::units::{HPA_PER_INHG, HPA_PER_KPA, HPA_PER_MMHG, fahrenheit_to_c};
 use super::{
-    At, Env, ImportError, ImportSetting, ImportSummary, Imported, Reading, assemble, summary_counts,
+    At, Env, ImportProblem, ImportRefusal, ImportSetting, ImportSummary, Imported, Reading,
+    assemble, summary_counts,
 };
 use crate::base::Axis;
 use crate::base::{NamesSettings, Setting};
@@ -82,148 +83,6 @@ impl NamesSettings for MapError {
             MapError::NoReferenceOrError => {
                 format!("{map} needs reference=COLUMN or error=COLUMN")
             }
-        }
-    }
-}
-
-/// A refusal of a CSV that a setting of the import would fix (the setting named as an
-/// [`ImportSetting`]), at a line and maybe a column: `ImportError::Csv`.
-#[derive(Debug, Clone, PartialEq)]
-pub enum CsvProblem {
-    /// The map names column #`number`; the header has `columns`.
-    ColumnBeyond { number: usize, columns: usize },
-    /// The map names a column the header (`header`, joined) does not have.
-    ColumnMissing { name: String, header: String },
-    /// The map has no target column.
-    NoTarget,
-    /// An error column and no sign for it.
-    NoErrorSign,
-    /// A one-column header holding `found`: an export with another delimiter (and
-    /// decimal commas in its data, when `decimal_comma`).
-    OtherDelimiter { found: char, decimal_comma: bool },
-    /// A `.` in a cell read with decimal commas.
-    PointWithComma { raw: String },
-    /// A decimal comma in a cell read without them.
-    CommaWithout { raw: String },
-}
-
-impl CsvProblem {
-    /// The problem with every setting called by `name`.
-    pub fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
-        use ImportSetting::{ColumnMap, DecimalComma, Delimiter, ErrorSign};
-        match self {
-            CsvProblem::ColumnBeyond { number, columns } => format!(
-                "{} names column #{number}, but the header has {columns} columns",
-                name(ColumnMap)
-            ),
-            CsvProblem::ColumnMissing {
-                name: column,
-                header,
-            } => format!(
-                "{} names column `{column}`, which is not in the header ({header})",
-                name(ColumnMap)
-            ),
-            CsvProblem::NoTarget => format!("{} has no target", name(ColumnMap)),
-            CsvProblem::NoErrorSign => format!(
-                "an error column needs {} (a sign is never guessed)",
-                name(ErrorSign)
-            ),
-            CsvProblem::OtherDelimiter {
-                found,
-                decimal_comma,
-            } => {
-                let (held, value) = match found {
-                    '\t' => ("TAB".to_string(), "tab".to_string()),
-                    c => (format!("`{c}`"), format!("'{c}'")),
-                };
-                format!(
-                    "the header is one column but holds {held}: this looks like a {}-separated \
-                     export{}; read it with {} {value}{}",
-                    if *found == ';' {
-                        "`;` (European Excel)"
-                    } else {
-                        "differently"
-                    },
-                    if *decimal_comma {
-                        " with decimal commas"
-                    } else {
-                        ""
-                    },
-                    name(Delimiter),
-                    if *decimal_comma {
-                        format!(" and {}", name(DecimalComma))
-                    } else {
-                        String::new()
-                    },
-                )
-            }
-            CsvProblem::PointWithComma { raw } => format!(
-                "`{raw}` has a `.` but {} says `,` is the decimal mark",
-                name(DecimalComma)
-            ),
-            CsvProblem::CommaWithout { raw } => format!(
-                "`{raw}` has a decimal comma; read the file with {}",
-                name(DecimalComma)
-            ),
-        }
-    }
-}
-
-impl std::fmt::Display for CsvProblem {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.render(&Setting::words))
-    }
-}
-
-/// A CSV reader's refusal before the path is attached: the shared [`At`], or a
-/// [`CsvProblem`] that names a setting.
-#[derive(Debug, Clone, PartialEq)]
-pub(super) enum Refusal {
-    At(At),
-    Setting {
-        line: usize,
-        column: Option<String>,
-        problem: CsvProblem,
-    },
-}
-
-impl From<At> for Refusal {
-    fn from(at: At) -> Refusal {
-        Refusal::At(at)
-    }
-}
-
-impl Refusal {
-    fn new(line: usize, problem: CsvProblem) -> Refusal {
-        Refusal::Setting {
-            line,
-            column: None,
-            problem,
-        }
-    }
-
-    fn col(line: usize, column: &str, problem: CsvProblem) -> Refusal {
-        Refusal::Setting {
-            line,
-            column: Some(column.to_string()),
-            problem,
-        }
-    }
-
-    /// The refusal with the path attached.
-    pub(super) fn at(self, path: &std::path::Path) -> ImportError {
-        match self {
-            Refusal::At(at) => at.at(path),
-            Refusal::Setting {
-                line,
-                column,
-                problem,
-            } => ImportError::Csv {
-                path: path.to_path_buf(),
-                line,
-                column,
-                problem,
-            },
         }
     }
 }
@@ -452,13 +311,17 @@ struct Mapped {
 impl Mapped {
     /// Finds every column of the map in the header (by name or number), refusing one that
     /// is not there and an error column without a sign.
-    fn resolve(header: &[String], header_line: usize, o: &CsvOptions) -> Result<Mapped, Refusal> {
-        let resolve = |c: &Col| -> Result<Resolved, Refusal> {
+    fn resolve(
+        header: &[String],
+        header_line: usize,
+        o: &CsvOptions,
+    ) -> Result<Mapped, ImportRefusal> {
+        let resolve = |c: &Col| -> Result<Resolved, ImportRefusal> {
             match c {
                 Col::Number(n) if *n <= header.len() => Ok((n - 1, header[n - 1].clone())),
-                Col::Number(n) => Err(Refusal::new(
+                Col::Number(n) => Err(ImportRefusal::new(
                     header_line,
-                    CsvProblem::ColumnBeyond {
+                    ImportProblem::ColumnBeyond {
                         number: *n,
                         columns: header.len(),
                     },
@@ -468,9 +331,9 @@ impl Mapped {
                     .position(|h| h == name)
                     .map(|i| (i, name.clone()))
                     .ok_or_else(|| {
-                        Refusal::new(
+                        ImportRefusal::new(
                             header_line,
-                            CsvProblem::ColumnMissing {
+                            ImportProblem::ColumnMissing {
                                 name: name.clone(),
                                 header: header.join(", "),
                             },
@@ -484,7 +347,7 @@ impl Mapped {
             target: resolve(
                 m.target
                     .as_ref()
-                    .ok_or_else(|| Refusal::new(1, CsvProblem::NoTarget))?,
+                    .ok_or_else(|| ImportRefusal::new(1, ImportProblem::NoTarget))?,
             )?,
             reference: opt(&m.reference)?,
             indicated: opt(&m.indicated)?,
@@ -498,14 +361,18 @@ impl Mapped {
             scale_t: opt(&m.scale_temp)?,
         };
         if mapped.error.is_some() && o.error_sign.is_none() {
-            return Err(Refusal::new(header_line, CsvProblem::NoErrorSign));
+            return Err(ImportRefusal::new(header_line, ImportProblem::NoErrorSign));
         }
         Ok(mapped)
     }
 }
 
 /// Reads a CSV through the column map (see the module docs).
-pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, Refusal> {
+pub(super) fn read(
+    bytes: &[u8],
+    o: &CsvOptions,
+    axis: Option<Axis>,
+) -> Result<Imported, ImportRefusal> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let recs = records(&text.text, o.delimiter)?;
     let Some((header_line, header)) = recs.first() else {
@@ -585,7 +452,7 @@ fn check_delimiter(
     header_line: usize,
     text: &str,
     o: &CsvOptions,
-) -> Result<(), Refusal> {
+) -> Result<(), ImportRefusal> {
     if header.len() != 1 {
         return Ok(());
     }
@@ -596,9 +463,9 @@ fn check_delimiter(
     let Some(found) = other else {
         return Ok(());
     };
-    Err(Refusal::new(
+    Err(ImportRefusal::new(
         header_line,
-        CsvProblem::OtherDelimiter {
+        ImportProblem::OtherDelimiter {
             found,
             decimal_comma: found != ',' && has_decimal_comma(text) && !o.decimal_comma,
         },
@@ -607,17 +474,22 @@ fn check_delimiter(
 
 /// One cell of a mapped column as a number (`None` when empty), with the decimal-comma
 /// mistakes named in the message.
-fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Option<f64>, Refusal> {
+fn cell(
+    line: usize,
+    rec: &[String],
+    c: &Resolved,
+    o: &CsvOptions,
+) -> Result<Option<f64>, ImportRefusal> {
     let raw = rec[c.0].trim();
     if raw.is_empty() {
         return Ok(None);
     }
     let parsed = if o.decimal_comma {
         if raw.contains('.') {
-            return Err(Refusal::col(
+            return Err(ImportRefusal::col(
                 line,
                 &c.1,
-                CsvProblem::PointWithComma { raw: raw.into() },
+                ImportProblem::PointWithComma { raw: raw.into() },
             ));
         }
         number(&raw.replace(',', "."))
@@ -626,10 +498,10 @@ fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Opt
     };
     match parsed {
         Some(v) => Ok(Some(v)),
-        None if !o.decimal_comma && has_decimal_comma(raw) => Err(Refusal::col(
+        None if !o.decimal_comma && has_decimal_comma(raw) => Err(ImportRefusal::col(
             line,
             &c.1,
-            CsvProblem::CommaWithout { raw: raw.into() },
+            ImportProblem::CommaWithout { raw: raw.into() },
         )),
         None => Err(At::col(line, &c.1, format!("`{raw}` is not a number")).into()),
     }
@@ -642,14 +514,14 @@ fn read_record(
     rec: &[String],
     m: &Mapped,
     o: &CsvOptions,
-) -> Result<Reading, Refusal> {
+) -> Result<Reading, ImportRefusal> {
     let k = o.length.mm();
     let temp = |v: f64| match o.temperature {
         TempUnit::C => v,
         TempUnit::F => fahrenheit_to_c(v),
     };
     let cell = |c: &Resolved| cell(line, rec, c, o);
-    let need = |c: &Resolved| -> Result<f64, Refusal> {
+    let need = |c: &Resolved| -> Result<f64, ImportRefusal> {
         cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column").into())
     };
     let t = need(&m.target)?;

@@ -45,8 +45,8 @@ use crate::table::TableError;
 
 pub use crate::controller::At;
 pub use csv::{
-    Col, ColumnMap, CsvOptions, CsvProblem, ErrorSign, ErrorUnit, LengthUnit, MapError,
-    PressureUnit, TempUnit, data_lines,
+    Col, ColumnMap, CsvOptions, ErrorSign, ErrorUnit, LengthUnit, MapError, PressureUnit, TempUnit,
+    data_lines,
 };
 pub use tables::write_error_table;
 
@@ -77,6 +77,8 @@ pub enum ImportSetting {
     Delimiter,
     /// `,` as a CSV's decimal mark (`CsvOptions::decimal_comma`).
     DecimalComma,
+    /// The format a file is read as (`ImportOptions::format`; detected when not given).
+    Format,
 }
 
 impl Setting for ImportSetting {
@@ -86,6 +88,7 @@ impl Setting for ImportSetting {
             ImportSetting::ErrorSign => "the error sign",
             ImportSetting::Delimiter => "the delimiter",
             ImportSetting::DecimalComma => "the decimal-comma option",
+            ImportSetting::Format => "the format",
         }
     }
 }
@@ -108,13 +111,13 @@ pub enum ImportError {
         column: Option<String>,
         message: String,
     },
-    /// A CSV refusal that a setting of the import would fix ([`ImportSetting`]).
+    /// A refusal that a setting of the import would fix ([`ImportSetting`]).
     #[error("{}", self.render(&Setting::words))]
-    Csv {
+    Setting {
         path: PathBuf,
         line: usize,
         column: Option<String>,
-        problem: CsvProblem,
+        problem: ImportProblem,
     },
     /// The file cannot be read (the shared [`FileError`] shape).
     #[error(transparent)]
@@ -127,7 +130,7 @@ impl NamesSettings for ImportError {
     type Setting = ImportSetting;
     fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
         match self {
-            ImportError::Csv {
+            ImportError::Setting {
                 path,
                 line,
                 column,
@@ -153,6 +156,168 @@ impl At {
             line: self.line,
             column: self.column,
             message: self.message,
+        }
+    }
+}
+
+/// A refusal of a file that a setting of the import would fix (the setting named as an
+/// [`ImportSetting`]), at a line and maybe a column: `ImportError::Setting`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ImportProblem {
+    /// The map names column #`number`; the header has `columns`.
+    ColumnBeyond { number: usize, columns: usize },
+    /// The map names a column the header (`header`, joined) does not have.
+    ColumnMissing { name: String, header: String },
+    /// The map has no target column.
+    NoTarget,
+    /// An error column and no sign for it.
+    NoErrorSign,
+    /// A one-column header holding `found`: an export with another delimiter (and
+    /// decimal commas in its data, when `decimal_comma`).
+    OtherDelimiter { found: char, decimal_comma: bool },
+    /// A `.` in a cell read with decimal commas.
+    PointWithComma { raw: String },
+    /// A decimal comma in a cell read without them.
+    CommaWithout { raw: String },
+    /// No format told by content: the dialects told by content (`by_content`) and those
+    /// that must be named (`by_name`), `or`-joined.
+    Unrecognised { by_content: String, by_name: String },
+    /// A controller table of the dialect `name` where a positioning test was asked for.
+    ControllerTable { name: &'static str },
+}
+
+impl ImportProblem {
+    /// The problem with every setting called by `name`.
+    pub fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        use ImportSetting::{ColumnMap, DecimalComma, Delimiter, ErrorSign, Format};
+        match self {
+            ImportProblem::ColumnBeyond { number, columns } => format!(
+                "{} names column #{number}, but the header has {columns} columns",
+                name(ColumnMap)
+            ),
+            ImportProblem::ColumnMissing {
+                name: column,
+                header,
+            } => format!(
+                "{} names column `{column}`, which is not in the header ({header})",
+                name(ColumnMap)
+            ),
+            ImportProblem::NoTarget => format!("{} has no target", name(ColumnMap)),
+            ImportProblem::NoErrorSign => format!(
+                "an error column needs {} (a sign is never guessed)",
+                name(ErrorSign)
+            ),
+            ImportProblem::OtherDelimiter {
+                found,
+                decimal_comma,
+            } => {
+                let (held, value) = match found {
+                    '\t' => ("TAB".to_string(), "tab".to_string()),
+                    c => (format!("`{c}`"), format!("'{c}'")),
+                };
+                format!(
+                    "the header is one column but holds {held}: this looks like a {}-separated \
+                     export{}; read it with {} {value}{}",
+                    if *found == ';' {
+                        "`;` (European Excel)"
+                    } else {
+                        "differently"
+                    },
+                    if *decimal_comma {
+                        " with decimal commas"
+                    } else {
+                        ""
+                    },
+                    name(Delimiter),
+                    if *decimal_comma {
+                        format!(" and {}", name(DecimalComma))
+                    } else {
+                        String::new()
+                    },
+                )
+            }
+            ImportProblem::PointWithComma { raw } => format!(
+                "`{raw}` has a `.` but {} says `,` is the decimal mark",
+                name(DecimalComma)
+            ),
+            ImportProblem::CommaWithout { raw } => format!(
+                "`{raw}` has a decimal comma; read the file with {}",
+                name(DecimalComma)
+            ),
+            ImportProblem::Unrecognised {
+                by_content,
+                by_name,
+            } => format!(
+                "not a recognised format (API XD .pos, Renishaw .rtl, or a {by_content} table); \
+                 a spreadsheet or CSV needs {format} csv and {}, a table its content does not \
+                 name {format} {by_name}",
+                name(ColumnMap),
+                format = name(Format),
+            ),
+            ImportProblem::ControllerTable { name: dialect } => format!(
+                "a {dialect} compensation table, not a positioning test: read it with {} \
+                 {dialect} into an error table",
+                name(Format)
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for ImportProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&Setting::words))
+    }
+}
+
+/// A refusal of the import stage's readers before the path is attached: the shared
+/// [`At`], or an [`ImportProblem`] that names a setting.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ImportRefusal {
+    At(At),
+    Setting {
+        line: usize,
+        column: Option<String>,
+        problem: ImportProblem,
+    },
+}
+
+impl From<At> for ImportRefusal {
+    fn from(at: At) -> ImportRefusal {
+        ImportRefusal::At(at)
+    }
+}
+
+impl ImportRefusal {
+    fn new(line: usize, problem: ImportProblem) -> ImportRefusal {
+        ImportRefusal::Setting {
+            line,
+            column: None,
+            problem,
+        }
+    }
+
+    fn col(line: usize, column: &str, problem: ImportProblem) -> ImportRefusal {
+        ImportRefusal::Setting {
+            line,
+            column: Some(column.to_string()),
+            problem,
+        }
+    }
+
+    /// The refusal with the path attached.
+    pub fn at(self, path: &Path) -> ImportError {
+        match self {
+            ImportRefusal::At(at) => at.at(path),
+            ImportRefusal::Setting {
+                line,
+                column,
+                problem,
+            } => ImportError::Setting {
+                path: path.to_path_buf(),
+                line,
+                column,
+                problem,
+            },
         }
     }
 }
@@ -183,8 +348,8 @@ impl Format {
 }
 
 /// The format of `bytes` by content (`import.md` §0), or the refusal at line 1. A CSV is
-/// never guessed: it needs `--format csv --map …`.
-pub fn detect(bytes: &[u8]) -> Result<Format, At> {
+/// never guessed: it needs its format and column map given.
+pub fn detect(bytes: &[u8]) -> Result<Format, ImportRefusal> {
     let text =
         crate::controller::text::Text::decode(bytes).map_err(|(line, m)| At::new(line, m))?;
     let lines = text.lines();
@@ -197,7 +362,8 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
             1,
             "an API laser analysis section only (no header, no readings, so no unit); import \
              the whole `.pos` export",
-        ));
+        )
+        .into());
     }
     if first == "HEADER::" {
         let rtl = lines.iter().take(40).any(|(_, l)| {
@@ -214,15 +380,12 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
     if let Some(d) = crate::controller::detect(bytes) {
         return Ok(Format::Table(d.name()));
     }
-    Err(At::new(
+    Err(ImportRefusal::new(
         1,
-        format!(
-            "not a recognised format (API XD .pos, Renishaw .rtl, or a {} table); a \
-             spreadsheet or CSV needs --format csv --map …, a table its content does not \
-             name --format {}",
-            crate::controller::names_where(|d| d.detects_by_content(), "or"),
-            crate::controller::names_where(|d| !d.detects_by_content(), "or"),
-        ),
+        ImportProblem::Unrecognised {
+            by_content: crate::controller::names_where(|d| d.detects_by_content(), "or"),
+            by_name: crate::controller::names_where(|d| !d.detects_by_content(), "or"),
+        },
     ))
 }
 
@@ -435,17 +598,10 @@ pub fn import_session(
             Format::ApiXd => Format::ApiXd,
             Format::RenishawRtl => Format::RenishawRtl,
             Format::RenishawRtx => Format::RenishawRtx,
-            f @ Format::Table(_) => {
-                return Err(At::new(
-                    1,
-                    format!(
-                        "a {} compensation table, not a positioning test: read it with \
-                         --format {} into an error table",
-                        f.name(),
-                        f.name()
-                    ),
-                )
-                .at(path));
+            Format::Table(name) => {
+                return Err(
+                    ImportRefusal::new(1, ImportProblem::ControllerTable { name }).at(path),
+                );
             }
             other => return Err(At::new(1, format!("{} is not detected", other.name())).at(path)),
         },

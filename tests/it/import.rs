@@ -577,7 +577,8 @@ fn csv_reference_columns_and_refusals() {
     let o = errmap(&["import", s(&f), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains(&format!("{}: line 1: not a recognised format", s(&f))),
+        stderr(&o).contains(&format!("{}: line 1: not a recognised format", s(&f)))
+            && stderr(&o).contains("a spreadsheet or CSV needs --format csv and --map,"),
         "{}",
         stderr(&o)
     );
@@ -1026,9 +1027,34 @@ fn detection_is_by_content() {
         import::detect(&utf16),
         Ok(import::Format::Table("fagor-8065"))
     );
+    // A controller table where a positioning test is asked for: the format that reads it
+    // named in the library's words (the command line says `--format`).
+    let e = import::import_session(
+        Path::new("t.mp"),
+        &utf16,
+        &ImportOptions {
+            format: SessionFormat::Auto,
+            axis: None,
+        },
+    )
+    .expect_err("a table is not a positioning test");
+    assert_eq!(
+        e.to_string(),
+        "t.mp: line 1: a fagor-8065 compensation table, not a positioning test: read it with \
+         the format fagor-8065 into an error table"
+    );
     let e = import::detect(b"a,b\n1,2\n").expect_err("csv is not guessed");
-    assert_eq!(e.line, 1);
-    assert!(e.message.contains("not a recognised format"));
+    assert!(
+        matches!(
+            e,
+            import::ImportRefusal::Setting {
+                line: 1,
+                problem: import::ImportProblem::Unrecognised { .. },
+                ..
+            }
+        ),
+        "{e:?}"
+    );
 }
 
 /// The Fagor 8055 dialect: the golden text of a small bidirectional inch table (the real
