@@ -32,6 +32,7 @@ impl Flag for ExportSetting {
     fn flag(self) -> &'static str {
         match self {
             ExportSetting::Line => "--at",
+            ExportSetting::Ends => "--ends",
         }
     }
 }
@@ -71,6 +72,7 @@ pub(crate) fn in_flags(cause: &(dyn std::error::Error + 'static)) -> Option<Stri
         .or_else(|| as_flags::<UpdateError>(cause))
         .or_else(|| as_flags::<ModuloError>(cause))
         .or_else(|| as_flags::<errmap::export::ChooseLineError>(cause))
+        .or_else(|| as_flags::<errmap::export::ExportError>(cause))
         .or_else(|| as_flags::<errmap::import::ImportError>(cause))
         .or_else(|| as_flags::<errmap::import::MapError>(cause))
 }

@@ -517,6 +517,9 @@ fn job_error(e: JobError, comp_type_hint: &str) -> anyhow::Error {
                 }
             ))
         }
+        // The export stage's refusals stay typed: `flags::in_flags` names their settings.
+        JobError::Line(e) | JobError::Table(e) => anyhow::Error::from(e),
+        JobError::ChooseLine(e) => anyhow::Error::from(e),
         other => anyhow::Error::from(other),
     }
 }

@@ -29,12 +29,15 @@ pub(crate) struct LineMeans {
 pub enum ExportSetting {
     /// The coordinates that choose one measured line among a session's lines.
     Line,
+    /// How the grid points beyond a line's range are valued ([`super::Ends`]).
+    Ends,
 }
 
 impl Setting for ExportSetting {
     fn words(self) -> &'static str {
         match self {
             ExportSetting::Line => "the line's position",
+            ExportSetting::Ends => "the ends",
         }
     }
 }
