@@ -8,6 +8,7 @@ use errmap::base::NamesSettings;
 use errmap::controller::ControllerSetting;
 use errmap::export::ExportSetting;
 use errmap::import::ImportSetting;
+use errmap::interp::InterpSetting;
 
 /// A library setting's flag.
 pub(crate) trait Flag: Copy {
@@ -49,6 +50,14 @@ impl Flag for ImportSetting {
     }
 }
 
+impl Flag for InterpSetting {
+    fn flag(self) -> &'static str {
+        match self {
+            InterpSetting::Order => "--order",
+        }
+    }
+}
+
 /// `e`'s message with its settings called by their flags.
 pub(crate) fn said<E: NamesSettings>(e: &E) -> String
 where
@@ -75,4 +84,83 @@ pub(crate) fn in_flags(cause: &(dyn std::error::Error + 'static)) -> Option<Stri
         .or_else(|| as_flags::<errmap::export::ExportError>(cause))
         .or_else(|| as_flags::<errmap::import::ImportError>(cause))
         .or_else(|| as_flags::<errmap::import::MapError>(cause))
+        .or_else(|| as_flags::<errmap::interp::InterpError>(cause))
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// Every long flag of the command line, on any subcommand.
+    fn long_flags() -> Vec<String> {
+        fn walk(cmd: &clap::Command, out: &mut Vec<String>) {
+            out.extend(
+                cmd.get_arguments()
+                    .filter_map(|a| a.get_long().map(|l| format!("--{l}"))),
+            );
+            for sub in cmd.get_subcommands() {
+                walk(sub, out);
+            }
+        }
+        let mut out = Vec::new();
+        walk(&super::super::Cli::command(), &mut out);
+        out
+    }
+
+    /// Each setting's flag is one the command line has (a renamed flag cannot leave a
+    /// message naming the old one).
+    #[test]
+    fn every_setting_names_a_flag_of_the_command_line() {
+        use super::Flag;
+        use errmap::controller::ControllerSetting as C;
+        use errmap::export::ExportSetting as E;
+        use errmap::import::ImportSetting as I;
+        use errmap::interp::InterpSetting as P;
+        let flags = long_flags();
+        let named = [
+            C::ProgramDialect.flag(),
+            C::MarkOutput.flag(),
+            C::Dwell.flag(),
+            C::Bidirectional.flag(),
+            C::Step.flag(),
+            C::SiemensAxis.flag(),
+            C::AxisName.flag(),
+            E::Line.flag(),
+            E::Ends.flag(),
+            I::ColumnMap.flag(),
+            I::ErrorSign.flag(),
+            I::Delimiter.flag(),
+            I::DecimalComma.flag(),
+            I::Format.flag(),
+            P::Order.flag(),
+        ];
+        for f in named {
+            assert!(flags.iter().any(|g| g == f), "{f} is no flag of errmap");
+        }
+    }
+
+    /// A library error that names a setting reaches the user with the flag, in the shape
+    /// `main` prints.
+    #[test]
+    fn the_printed_message_names_the_flag() {
+        let e = anyhow::Error::from(errmap::interp::InterpError::TooLargeForAuto {
+            nodes: 64_000,
+            max: 50_000,
+        });
+        let printed = super::super::message(&e);
+        assert!(
+            printed.ends_with("give the degrees (--order MxNxQ)"),
+            "{printed}"
+        );
+        assert_eq!(
+            e.to_string().rsplit(" (").next(),
+            Some("the Lagrange order MxNxQ)"),
+            "the library's own words"
+        );
+        let e = anyhow::Error::from(errmap::import::MapError::NoTarget).context("import");
+        assert_eq!(
+            super::super::message(&e),
+            "import: --map needs target=COLUMN"
+        );
+    }
 }

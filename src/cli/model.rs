@@ -240,7 +240,16 @@ fn lagrange_orders(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
             .map(Method::Lagrange)
             .collect(),
         OrdersArg::Auto => vec![Method::Lagrange(
-            evaluate::auto_order(grid, a.model.max_degree)?.0,
+            evaluate::auto_order(grid, a.model.max_degree)
+                .map_err(|e| {
+                    // compare's flag for the order is `--orders`.
+                    use errmap::base::NamesSettings;
+                    use errmap::interp::InterpSetting;
+                    anyhow::anyhow!(e.render(&|s| match s {
+                        InterpSetting::Order => "--orders",
+                    }))
+                })?
+                .0,
         )],
         OrdersArg::List(orders) => {
             let mut out = Vec::new();
