@@ -34,6 +34,7 @@ impl Flag for ExportSetting {
         match self {
             ExportSetting::Line => "--at",
             ExportSetting::Ends => "--ends",
+            ExportSetting::Reference => "--reference",
         }
     }
 }
@@ -127,6 +128,7 @@ mod tests {
             C::AxisName.flag(),
             E::Line.flag(),
             E::Ends.flag(),
+            E::Reference.flag(),
             I::ColumnMap.flag(),
             I::ErrorSign.flag(),
             I::Delimiter.flag(),

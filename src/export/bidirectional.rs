@@ -31,6 +31,8 @@ pub enum ExportSetting {
     Line,
     /// How the grid points beyond a line's range are valued ([`super::Ends`]).
     Ends,
+    /// The position a controller counts its table's points from.
+    Reference,
 }
 
 impl Setting for ExportSetting {
@@ -38,6 +40,7 @@ impl Setting for ExportSetting {
         match self {
             ExportSetting::Line => "the line's position",
             ExportSetting::Ends => "the ends",
+            ExportSetting::Reference => "the reference position",
         }
     }
 }

@@ -188,6 +188,18 @@ pub enum ExportError {
         "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
     )]
     BadAxisName { name: String },
+    /// The reference position a FANUC table counts its points from is not one of them
+    /// (`outside`: beyond the table's range).
+    #[error("{}", self.render(&Setting::words))]
+    ReferenceOffGrid {
+        /// The dialect's label.
+        controller: &'static str,
+        reference_mm: f64,
+        outside: bool,
+        first_mm: f64,
+        last_mm: f64,
+        step_mm: f64,
+    },
     #[error("{controller}: {problem}")]
     ControllerLimit {
         /// The dialect's label.
@@ -216,6 +228,26 @@ impl NamesSettings for ExportError {
                 fmt_mm(*length_mm),
                 fmt_mm(*fitting_step_mm),
                 name(ExportSetting::Ends)
+            ),
+            ExportError::ReferenceOffGrid {
+                controller,
+                reference_mm: r,
+                outside,
+                first_mm,
+                last_mm,
+                step_mm,
+            } => format!(
+                "{controller}: the reference position {r} mm {} ({first_mm} to {last_mm} mm every \
+                 {step_mm} mm); FANUC counts the compensation points from the reference position: \
+                 keep the step on the grid through it ({} clamp|extrapolate and {} {r}) and a \
+                 range that contains it",
+                if *outside {
+                    "lies outside the table"
+                } else {
+                    "is not one of its points"
+                },
+                name(ExportSetting::Ends),
+                name(ExportSetting::Reference)
             ),
             // The rest name no setting.
             other => other.to_string(),
