@@ -614,7 +614,9 @@ fn check_directions(readings: &[Reading], lines: &[usize]) -> Result<(), At> {
                 return Err(At::new(
                     lines[i],
                     format!(
-                        "direction {:+} contradicts the visiting order: run {} goes from {} to {} mm                          here (a pass is read in the order it was measured; fix the direction                          column or the order of the rows)",
+                        "direction {:+} contradicts the visiting order: run {} goes from {} to {} mm \
+                         here (a pass is read in the order it was measured; fix the direction \
+                         column or the order of the rows)",
                         r.direction, r.run, readings[j].target_mm, r.target_mm
                     ),
                 ));

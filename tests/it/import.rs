@@ -556,7 +556,10 @@ fn csv_reference_columns_and_refusals() {
     )
     .expect_err("contradiction");
     assert!(
-        e.starts_with("m.csv: line 5:") && e.contains("contradicts the visiting order"),
+        e.starts_with("m.csv: line 5:")
+            && e.contains(
+                "contradicts the visiting order: run 1 goes from 0 to 100 mm here (a pass"
+            ),
         "{e}"
     );
     let bad = "target,laser\n0,0.001\n100,x\n";
