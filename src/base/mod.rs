@@ -12,6 +12,7 @@
 //! | `optim` | L-BFGS and golden-section minimisers |
 //! | `consts` | physical constants used in more than one stage (the HeNe wavelength) |
 //! | `limits` | the physical ranges every reader checks its numbers against |
+//! | `setting` | [`Setting`] and [`NamesSettings`]: a stage's messages name its settings in its own words, a caller renders them in its own |
 //! | `error` | [`FileError`] and [`ConfigError`] (file, [`Location`], message): the one shape of every stage's file and configuration errors |
 
 mod axis;
@@ -21,6 +22,7 @@ mod error;
 mod limits;
 mod optim;
 mod rotary;
+mod setting;
 mod stats;
 mod vocabulary;
 
@@ -34,5 +36,6 @@ pub use limits::{
 };
 pub use optim::{golden, lbfgs};
 pub use rotary::{ARCSEC_PER_DEG, ARCSEC_PER_URAD, ParseRotaryAxisError, RotaryAxis};
+pub use setting::{NamesSettings, Setting};
 pub use stats::{centred_rms, gaussian, median, peak_to_peak, rms};
 pub use vocabulary::{EffectId, ParamName, UnknownEffect, Verdict};

@@ -151,7 +151,7 @@ pub(crate) enum ErrorSignArg {
 fn column_map(s: &str) -> Result<String, String> {
     ColumnMap::parse(s)
         .map(|_| s.to_string())
-        .map_err(|e| e.to_string())
+        .map_err(|e| super::flags::said(&e))
 }
 
 /// `--delimiter` checked when the flags are parsed: one character or `tab`.
@@ -241,7 +241,7 @@ pub(crate) fn csv_options_with(
             "--format csv needs --map target=COL,reference=COL (or error=COL with --error-sign)",
         ));
     };
-    let map = ColumnMap::parse(map).map_err(|e| guard::usage(e.to_string()))?;
+    let map = ColumnMap::parse(map).map_err(|e| guard::usage(super::flags::said(&e)))?;
     if map.error.is_some() && a.error_sign.is_none() {
         return Err(guard::usage(
             "--map error=… needs --error-sign reference-minus-indicated|indicated-minus-reference \
@@ -304,8 +304,12 @@ pub(crate) fn read_bytes(path: &std::path::Path) -> Result<Vec<u8>> {
 }
 
 pub(crate) fn report(summary: &import::ImportSummary, json: bool) -> Result<()> {
-    for w in &summary.warnings {
-        eprintln!("import: warning: {w}");
+    for (i, w) in summary.warnings.iter().enumerate() {
+        if summary.axis_warning == Some(i) {
+            eprintln!("import: warning: {w}; --axis sets it");
+        } else {
+            eprintln!("import: warning: {w}");
+        }
     }
     if json {
         guard::print_json(summary)?;

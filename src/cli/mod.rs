@@ -5,6 +5,7 @@
 //! |---|---|
 //! | [`args`] | every clap struct |
 //! | [`values`] | the flags' value types, parsed once into library types (bad value: exit 2) |
+//! | [`flags`] | the library's settings as flags: a library error that names settings, said with the flags |
 //! | [`model`] | fit, compare, export (its flags → one `controller::job::ExportJob`), simulate, fuzzy-sim |
 //! | [`acquisition`] | serve-sim, capture, replay, table, ports |
 //! | [`diagnose`] | diagnose, gen-concealed, report-concealed |
@@ -32,6 +33,7 @@ pub(crate) mod certificate;
 pub(crate) mod circular;
 pub(crate) mod demo;
 pub(crate) mod diagnose;
+pub(crate) mod flags;
 pub(crate) mod guard;
 pub(crate) mod history;
 pub(crate) mod import;
@@ -189,6 +191,9 @@ fn message(e: &anyhow::Error) -> String {
 /// A library error in the command line's words: where the library's message stops at its
 /// own terms, the flag that would change the outcome is added.
 fn in_flags(cause: &(dyn std::error::Error + 'static)) -> String {
+    if let Some(text) = flags::in_flags(cause) {
+        return text;
+    }
     if let Some(errmap::acquire::AcquireError::Exists { .. }) = cause.downcast_ref() {
         return format!("{cause}; choose another --out");
     }

@@ -240,7 +240,16 @@ fn lagrange_orders(a: &CompareArgs, grid: &errmap::table::Grid) -> Result<Vec<Me
             .map(Method::Lagrange)
             .collect(),
         OrdersArg::Auto => vec![Method::Lagrange(
-            evaluate::auto_order(grid, a.model.max_degree)?.0,
+            evaluate::auto_order(grid, a.model.max_degree)
+                .map_err(|e| {
+                    // compare's flag for the order is `--orders`.
+                    use errmap::base::NamesSettings;
+                    use errmap::interp::InterpSetting;
+                    anyhow::anyhow!(e.render(&|s| match s {
+                        InterpSetting::Order => "--orders",
+                    }))
+                })?
+                .0,
         )],
         OrdersArg::List(orders) => {
             let mut out = Vec::new();
@@ -517,6 +526,9 @@ fn job_error(e: JobError, comp_type_hint: &str) -> anyhow::Error {
                 }
             ))
         }
+        // The export stage's refusals stay typed: `flags::in_flags` names their settings.
+        JobError::Line(e) | JobError::Table(e) => anyhow::Error::from(e),
+        JobError::ChooseLine(e) => anyhow::Error::from(e),
         other => anyhow::Error::from(other),
     }
 }
@@ -642,6 +654,10 @@ fn export_bidirectional(
                 .with_context(|| format!("{}: {} table", path.display(), output.name()));
         }
         Err(JobError::Line(e)) => return Err(e.into()),
+        // The line's position is named by its flag (`flags::in_flags`).
+        Err(JobError::ChooseLine(e)) => {
+            return Err(anyhow::Error::from(e)).context(path.display().to_string());
+        }
         Err(e) => return Err(anyhow::Error::from(e)).context(path.display().to_string()),
     };
     super::guard::write_file(&a.out, &exported.bytes)?;

@@ -507,6 +507,9 @@ pub(crate) fn export(
         (JobError::Modulo(e @ ModuloError::Existing { .. }), Some(p)) => {
             anyhow::anyhow!("{}: {e}", p.display())
         }
+        (JobError::Modulo(e @ ModuloError::Mismatch { .. }), Some(p)) => {
+            anyhow::anyhow!("{}: {}", p.display(), super::flags::said(&e))
+        }
         (e, _) => anyhow::anyhow!("{}: {e}", a.table.display()),
     })?;
     let Written::Modulo(t) = &exported.written else {

@@ -65,7 +65,7 @@ pub(crate) fn any_axis() -> impl TypedValueParser<Value = AnyAxis> {
 /// part programs.
 pub(crate) fn dialect() -> impl TypedValueParser<Value = &'static dyn ProgramSyntax> {
     PossibleValuesParser::new(part_program::dialects().map(|p| p.name()))
-        .try_map(|s| part_program::dialect(&s))
+        .try_map(|s| part_program::dialect(&s).map_err(|e| super::flags::said(&e)))
 }
 
 /// `--gp-kernel`: matern52 (alias matern) or se (alias squared-exponential).

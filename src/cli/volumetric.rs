@@ -238,7 +238,10 @@ fn program_cmd(a: ProgramArgs) -> Result<()> {
     super::guard::refuse_aliases(&[("--out", &a.out)], &[("--plan", &a.plan)])?;
     let plan = PlanFile::read(&a.plan)?;
     let program = plan.lines_program(&a.plan.display().to_string());
-    let text = render_lines(&program, a.dialect)?;
+    // The plan file gives the feed and the dwell: its refusal is the file's, in the
+    // library's words (no flag sets them).
+    let text = render_lines(&program, a.dialect)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.plan.display()))?;
     write_text(&a.out, &text)?;
     eprintln!(
         "volumetric program: {} lines in the {} dialect → {}",

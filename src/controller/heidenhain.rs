@@ -474,10 +474,7 @@ impl ModuloSyntax for Heidenhain {
                 Some("[END]") => break,
                 Some("NR") => {
                     column = Some(w.iter().position(|x| x.1 == key).ok_or_else(|| {
-                        mu::at(
-                            line,
-                            format!("no column {key} (the table is for another axis: --axis-name)"),
-                        )
+                        mu::mismatch(line, mu::TableMismatch::AxisName { key: key.clone() })
                     })?);
                     continue;
                 }

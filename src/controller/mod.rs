@@ -67,6 +67,7 @@ mod modulo_update;
 mod options;
 pub mod program;
 mod read;
+mod setting;
 pub mod siemens;
 pub(crate) mod text;
 mod update;
@@ -82,6 +83,7 @@ pub use linuxcnc::{CompType, LINUXCNC_MAX_ENTRIES};
 pub use modulo_update::update_modulo;
 pub use options::{DialectOption, DialectOptions, OptionError, OptionValue, dialect_options};
 pub use read::{At, ControllerTable, Field, Parsed, TablePoint, read};
+pub use setting::ControllerSetting;
 pub use siemens::SIEMENS_808D_MAX_POINTS;
 pub use update::{
     Digits, Editor, PointUpdate, Residual, UpdateError, UpdateStyle, UpdateSummary, Updated,

@@ -379,6 +379,12 @@ pub enum ModuloError {
     /// The table in use (`--existing`) cannot be read or updated as a modulo table.
     #[error("line {line}: {problem}")]
     Existing { line: usize, problem: String },
+    /// The table in use does not fit a setting of the update (its step, its axis).
+    #[error("line {line}: {}", .mismatch.render(&crate::base::Setting::words))]
+    Mismatch {
+        line: usize,
+        mismatch: super::modulo_update::TableMismatch,
+    },
     #[error(
         "the two directions are measured at different targets (moving + {up}, moving − {down})"
     )]

@@ -26,18 +26,68 @@
 //! the change of E = −c, rounded as absolute values, and is differenced again, so a
 //! revolution still sums to 0 exactly.
 
-use super::Field;
 use super::modulo::{
     DirectionsSummary, MAX_TARGETS, ModuloChange, ModuloError, ModuloRead, ModuloSpec,
     ModuloSyntax, ModuloTable, check_revolution, detrended, interp,
 };
 use super::update::{Edit, apply};
+use super::{ControllerSetting, Field};
+use crate::base::NamesSettings;
 
 /// The refusal of the table in use at `line`.
 pub(super) fn at(line: usize, problem: impl Into<String>) -> ModuloError {
     ModuloError::Existing {
         line,
         problem: problem.into(),
+    }
+}
+
+pub(super) fn mismatch(line: usize, mismatch: TableMismatch) -> ModuloError {
+    ModuloError::Mismatch { line, mismatch }
+}
+
+/// A table in use that does not fit a setting of the update: the step or the axis it
+/// was asked to have (`ModuloError::Mismatch`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TableMismatch {
+    /// Its `points` are not every `step_deg`.
+    Step { step_deg: f64, points: usize },
+    /// A Siemens table for the axis `found`, not `expected`.
+    SiemensAxis { found: String, expected: String },
+    /// A HEIDENHAIN table without the column `key`.
+    AxisName { key: String },
+}
+
+impl TableMismatch {
+    /// The mismatch with the setting called by `name`.
+    pub fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        match self {
+            TableMismatch::Step { step_deg, points } => format!(
+                "the table's points are not every {step_deg}° as {} says ({points} points)",
+                name(ControllerSetting::Step)
+            ),
+            TableMismatch::SiemensAxis { found, expected } => format!(
+                "the table is for axis {found}, not {expected} ({})",
+                name(ControllerSetting::SiemensAxis)
+            ),
+            TableMismatch::AxisName { key } => format!(
+                "no column {key} (the table is for another axis: {})",
+                name(ControllerSetting::AxisName)
+            ),
+        }
+    }
+}
+
+impl NamesSettings for ModuloError {
+    type Setting = ControllerSetting;
+    fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        match self {
+            ModuloError::Mismatch { line, mismatch } => {
+                format!("line {line}: {}", mismatch.render(name))
+            }
+            // The rest name no setting (a variant added to `modulo.rs` falls here).
+            other => other.to_string(),
+        }
     }
 }
 
@@ -149,9 +199,12 @@ fn check_read(t: &mut ModuloRead, spec: &ModuloSpec) -> Result<(), ModuloError> 
             .then_some(1)
             .or_else(|| (0..n).find(|&j| (t.angles[j] - j as f64 * s).abs() > 1e-6));
         if let Some(j) = bad {
-            return Err(at(
+            return Err(mismatch(
                 if j == 1 { t.step_line } else { t.lines[j] },
-                format!("the table's points are not every --step {s}° ({n} points)"),
+                TableMismatch::Step {
+                    step_deg: s,
+                    points: n,
+                },
             ));
         }
     }

@@ -39,8 +39,8 @@
 
 use std::fmt::Write as _;
 
-use super::{DIALECTS, Dialect, names_where};
-use crate::base::Direction;
+use super::{ControllerSetting, DIALECTS, Dialect, names_where};
+use crate::base::{Direction, NamesSettings, Setting};
 use crate::sim::{CycleStep, LinesProgram, RotaryPlan, TestPlan};
 
 /// The largest coordinate every dialect writes with 3 decimals (Fanuc IS-B: 8 digits).
@@ -150,8 +150,20 @@ impl PartialEq for dyn ProgramSyntax {
 
 /// A dialect name that writes no part program.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("--dialect: `{0}` is not {names}", names = names_where(|d: &dyn Dialect| d.program().is_some(), "or"))]
+#[error("{}", self.render(&Setting::words))]
 pub struct ParseDialectError(pub String);
+
+impl NamesSettings for ParseDialectError {
+    type Setting = ControllerSetting;
+    fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        format!(
+            "{}: `{}` is not {}",
+            name(ControllerSetting::ProgramDialect),
+            self.0,
+            names_where(|d: &dyn Dialect| d.program().is_some(), "or")
+        )
+    }
+}
 
 /// Options beyond the plan.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -161,30 +173,25 @@ pub struct ProgramOptions {
     pub mark_output: Option<u32>,
 }
 
-/// Why a program cannot be written.
+/// Why a program cannot be written. A refusal of the mark output or the dwell names the
+/// setting ([`ControllerSetting`]; [`NamesSettings::render`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ProgramError {
-    #[error(
-        "--mark-output: the {dialect} program has no digital-output MARKs (only {with}'s M64/M65)",
-        with = names_where(|d: &dyn Dialect| d.program().is_some_and(|p| p.mark_outputs().is_some()), "and")
-    )]
+    #[error("{}", self.render(&Setting::words))]
     MarkOutputUnsupported { dialect: &'static str },
-    #[error(
-        "--mark-output: output {index} is beyond {controller}'s motion digital outputs 0…{max} \
-         (a default configuration has 4: motmod num_dio)"
-    )]
+    #[error("{}", self.render(&Setting::words))]
     MarkOutputRange {
         controller: &'static str,
         index: u32,
         max: u32,
     },
-    #[error("--dwell-s: {dwell_s} s is beyond the {dialect} dwell limit of {max_s} s")]
+    #[error("{}", self.render(&Setting::words))]
     DwellTooLong {
         dialect: &'static str,
         dwell_s: f64,
         max_s: f64,
     },
-    #[error("--dwell-s: {dwell_s} s is below the {dialect} dwell resolution of {min_s} s")]
+    #[error("{}", self.render(&Setting::words))]
     DwellTooShort {
         dialect: &'static str,
         dwell_s: f64,
@@ -200,6 +207,51 @@ pub enum ProgramError {
          a positive feed and a non-negative dwell"
     )]
     EmptyCampaign,
+}
+
+impl NamesSettings for ProgramError {
+    type Setting = ControllerSetting;
+    fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        use ControllerSetting::{Dwell, MarkOutput};
+        match self {
+            ProgramError::MarkOutputUnsupported { dialect } => format!(
+                "{}: the {dialect} program has no digital-output MARKs (only {}'s M64/M65)",
+                name(MarkOutput),
+                names_where(
+                    |d: &dyn Dialect| d.program().is_some_and(|p| p.mark_outputs().is_some()),
+                    "and"
+                )
+            ),
+            ProgramError::MarkOutputRange {
+                controller,
+                index,
+                max,
+            } => format!(
+                "{}: output {index} is beyond {controller}'s motion digital outputs 0…{max} \
+                 (a default configuration has 4: motmod num_dio)",
+                name(MarkOutput)
+            ),
+            ProgramError::DwellTooLong {
+                dialect,
+                dwell_s,
+                max_s,
+            } => format!(
+                "{}: {dwell_s} s is beyond the {dialect} dwell limit of {max_s} s",
+                name(Dwell)
+            ),
+            ProgramError::DwellTooShort {
+                dialect,
+                dwell_s,
+                min_s,
+            } => format!(
+                "{}: {dwell_s} s is below the {dialect} dwell resolution of {min_s} s",
+                name(Dwell)
+            ),
+            ProgramError::CoordinateTooLarge { .. } | ProgramError::EmptyCampaign => {
+                self.to_string()
+            }
+        }
+    }
 }
 
 /// The blocks written as lines, numbered from 0 where the dialect numbers them.

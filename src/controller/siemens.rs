@@ -792,9 +792,12 @@ impl ModuloSyntax for Siemens {
             }
             let axis = args.last().copied().unwrap_or("");
             if axis != ax {
-                return Err(mu::at(
+                return Err(mu::mismatch(
                     line,
-                    format!("the table is for axis {axis}, not {ax} (--siemens-axis)"),
+                    mu::TableMismatch::SiemensAxis {
+                        found: axis.to_string(),
+                        expected: ax,
+                    },
                 ));
             }
             let value = mu::number(line, v, name)?;

@@ -28,11 +28,12 @@
 use errmap_drivers::SessionRow;
 use serde::Serialize;
 
-use super::{ControllerTable, Field, ValueUnit};
-use crate::base::Axis;
+use super::{ControllerSetting, ControllerTable, Field, ValueUnit};
+use crate::base::{Axis, NamesSettings, Setting};
 use crate::session::{ReductionError, error_table, iso_by_line};
 
-/// Why an update cannot be made.
+/// Why an update cannot be made; a refusal of a table per direction names the setting
+/// ([`ControllerSetting::Bidirectional`], [`NamesSettings::render`]).
 #[derive(Debug, thiserror::Error)]
 pub enum UpdateError {
     #[error(transparent)]
@@ -43,18 +44,13 @@ pub enum UpdateError {
     ManyLines { lines: usize },
     #[error("the session has no ISO 230-2 statistics: {reason}")]
     NoStatistics { reason: String },
-    #[error(
-        "--bidirectional needs both directions at every target; the target at {position_mm} mm has {up} up and {down} down"
-    )]
+    #[error("{}", self.render(&Setting::words))]
     MissingDirection {
         position_mm: f64,
         up: usize,
         down: usize,
     },
-    #[error(
-        "--bidirectional: this {format} table holds one value per point for both directions; \
-         export a direction-dependent table from the session instead (export --bidirectional)"
-    )]
+    #[error("{}", self.render(&Setting::words))]
     OneDirection { format: &'static str },
     #[error(
         "the session measures {session} but the table is for {table}{}",
@@ -66,6 +62,33 @@ pub enum UpdateError {
         /// The file names no axis; `table` is the caller's (or x).
         assumed: bool,
     },
+}
+
+impl NamesSettings for UpdateError {
+    type Setting = ControllerSetting;
+    fn render(&self, name: &dyn Fn(ControllerSetting) -> &'static str) -> String {
+        let bidirectional = name(ControllerSetting::Bidirectional);
+        match self {
+            UpdateError::MissingDirection {
+                position_mm,
+                up,
+                down,
+            } => format!(
+                "{bidirectional} needs both directions at every target; the target at \
+                 {position_mm} mm has {up} up and {down} down"
+            ),
+            UpdateError::OneDirection { format } => format!(
+                "{bidirectional}: this {format} table holds one value per point for both \
+                 directions; export a direction-dependent table from the session instead \
+                 (export {bidirectional})"
+            ),
+            UpdateError::Reduction(_)
+            | UpdateError::Empty
+            | UpdateError::ManyLines { .. }
+            | UpdateError::NoStatistics { .. }
+            | UpdateError::AxisMismatch { .. } => self.to_string(),
+        }
+    }
 }
 
 /// The residual a session measured, per target.

@@ -7,7 +7,7 @@
 //! x̄↓ are negated here, once. Between the measured targets the controller interpolates
 //! linearly (a `--step` regrid uses that same rule, [`super::regrid_measured`]).
 
-use crate::base::Axis;
+use crate::base::{Axis, NamesSettings, Setting};
 
 use super::Sampled;
 
@@ -24,20 +24,55 @@ pub(crate) struct LineMeans {
     pub mean_down_um: Vec<f64>,
 }
 
-/// Why no one line could be chosen.
+/// The settings of the export stage that its messages name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExportSetting {
+    /// The coordinates that choose one measured line among a session's lines.
+    Line,
+    /// How the grid points beyond a line's range are valued ([`super::Ends`]).
+    Ends,
+    /// The position a controller counts its table's points from.
+    Reference,
+}
+
+impl Setting for ExportSetting {
+    fn words(self) -> &'static str {
+        match self {
+            ExportSetting::Line => "the line's position",
+            ExportSetting::Ends => "the ends",
+            ExportSetting::Reference => "the reference position",
+        }
+    }
+}
+
+/// Why no one line could be chosen (the line's position named: [`ExportSetting::Line`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ChooseLineError {
-    #[error(
-        "no line of the session with ISO 230-2 statistics matches --at (lines: {known}{without})"
-    )]
+    #[error("{}", self.render(&Setting::words))]
     NoMatch {
         /// The lines there are, `y=…,z=…` each.
         known: String,
         /// `; without statistics: …` for lines whose statistics failed, else empty.
         without: String,
     },
-    #[error("{count} lines match; choose one with --at {a}=…,{b}=…")]
+    #[error("{}", self.render(&Setting::words))]
     Several { count: usize, a: Axis, b: Axis },
+}
+
+impl NamesSettings for ChooseLineError {
+    type Setting = ExportSetting;
+    fn render(&self, name: &dyn Fn(ExportSetting) -> &'static str) -> String {
+        let line = name(ExportSetting::Line);
+        match self {
+            ChooseLineError::NoMatch { known, without } => format!(
+                "no line of the session with ISO 230-2 statistics matches {line} (lines: \
+                 {known}{without})"
+            ),
+            ChooseLineError::Several { count, a, b } => {
+                format!("{count} lines match; choose one with {line} {a}=…,{b}=…")
+            }
+        }
+    }
 }
 
 /// The two axes other than `axis`, in index order (for X: Y, Z).
@@ -148,7 +183,7 @@ mod tests {
             .expect_err("two lines at z = 0")
             .to_string();
         assert!(
-            e.contains("2 lines match") && e.contains("--at y=…,z=…"),
+            e.contains("2 lines match") && e.contains("the line's position y=…,z=…"),
             "{e}"
         );
         let e = choose_line(

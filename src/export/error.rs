@@ -4,7 +4,8 @@
 
 use std::fmt;
 
-use super::{fmt_fixed, fmt_mm, fmt_point};
+use super::{ExportSetting, fmt_fixed, fmt_mm, fmt_point};
+use crate::base::{NamesSettings, Setting};
 use crate::interp::Interpolator;
 use crate::table::{Axis, TableError};
 
@@ -86,7 +87,8 @@ fn edge(model: &dyn Interpolator, p: [f64; 3], a: usize, dir: f64) -> f64 {
     inside
 }
 
-/// Why a table cannot be exported.
+/// Why a table cannot be exported. A refusal that a setting would fix names it as an
+/// [`ExportSetting`] ([`NamesSettings::render`]).
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     #[error("step {step_mm} mm must be a positive, finite length")]
@@ -101,13 +103,7 @@ pub enum ExportError {
         start_mm: f64,
         end_mm: f64,
     },
-    #[error(
-        "step {step_mm} mm does not divide the {length} mm range along {axis} into whole intervals; \
-         the nearest finer step that does is {fitting} mm; or keep the step on a round grid \
-         with the ends clamped or extrapolated (--ends clamp|extrapolate)",
-        length = fmt_mm(*length_mm),
-        fitting = fmt_mm(*fitting_step_mm)
-    )]
+    #[error("{}", self.render(&Setting::words))]
     StepDoesNotDivide {
         axis: Axis,
         length_mm: f64,
@@ -192,6 +188,18 @@ pub enum ExportError {
         "`{name}` is not a machine axis name (letters, digits and `_`, starting with a letter, at most 32 characters, e.g. X1)"
     )]
     BadAxisName { name: String },
+    /// The reference position a FANUC table counts its points from is not one of them
+    /// (`outside`: beyond the table's range).
+    #[error("{}", self.render(&Setting::words))]
+    ReferenceOffGrid {
+        /// The dialect's label.
+        controller: &'static str,
+        reference_mm: f64,
+        outside: bool,
+        first_mm: f64,
+        last_mm: f64,
+        step_mm: f64,
+    },
     #[error("{controller}: {problem}")]
     ControllerLimit {
         /// The dialect's label.
@@ -202,6 +210,49 @@ pub enum ExportError {
     GridNeedsVolume,
     #[error(transparent)]
     Table(#[from] TableError),
+}
+
+impl NamesSettings for ExportError {
+    type Setting = ExportSetting;
+    fn render(&self, name: &dyn Fn(ExportSetting) -> &'static str) -> String {
+        match self {
+            ExportError::StepDoesNotDivide {
+                axis,
+                length_mm,
+                step_mm,
+                fitting_step_mm,
+            } => format!(
+                "step {step_mm} mm does not divide the {} mm range along {axis} into whole \
+                 intervals; the nearest finer step that does is {} mm; or keep the step on a \
+                 round grid with the ends clamped or extrapolated ({} clamp|extrapolate)",
+                fmt_mm(*length_mm),
+                fmt_mm(*fitting_step_mm),
+                name(ExportSetting::Ends)
+            ),
+            ExportError::ReferenceOffGrid {
+                controller,
+                reference_mm: r,
+                outside,
+                first_mm,
+                last_mm,
+                step_mm,
+            } => format!(
+                "{controller}: the reference position {r} mm {} ({first_mm} to {last_mm} mm every \
+                 {step_mm} mm); FANUC counts the compensation points from the reference position: \
+                 keep the step on the grid through it ({} clamp|extrapolate and {} {r}) and a \
+                 range that contains it",
+                if *outside {
+                    "lies outside the table"
+                } else {
+                    "is not one of its points"
+                },
+                name(ExportSetting::Ends),
+                name(ExportSetting::Reference)
+            ),
+            // The rest name no setting.
+            other => other.to_string(),
+        }
+    }
 }
 
 fn too_many_message(

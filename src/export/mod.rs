@@ -35,6 +35,7 @@ use polars::prelude::{Column, DataFrame};
 use crate::interp::Interpolator;
 use crate::table::{Axis, TableError, write_frame};
 
+pub use bidirectional::{ChooseLineError, ExportSetting};
 pub use csv::render as csv;
 pub use error::{ExportError, MappedBox};
 pub use grid::GridRows;

@@ -260,7 +260,7 @@ pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported
         );
     }
     check_compensation_table(&lines, closed_at, &rows, layout.inch, &mut warnings);
-    let (axis, at_mm) = placement(&header, axis_override, layout.k, &mut warnings);
+    let (axis, at_mm, axis_warning) = placement(&header, axis_override, layout.k, &mut warnings);
     let dt_s = dwell_s(&header, readings.len())?;
     let machine = header
         .first("MachName")
@@ -279,6 +279,7 @@ pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported
             axis: axis.upper(),
             machine,
             warnings,
+            axis_warning,
         },
         rows: rows_out,
     })
@@ -557,24 +558,24 @@ fn to_reading(r: &Row, run: u32, direction: i8, layout: &Layout, rh: Option<f64>
     }
 }
 
-/// The measured axis (the override, else TestAxis, else X with a warning) and the other
-/// axes' coordinates from AxesLoc, in mm.
+/// The measured axis (the override, else TestAxis, else X with a warning), the other
+/// axes' coordinates from AxesLoc, in mm, and the index of that warning.
 fn placement(
     header: &Header,
     axis_override: Option<Axis>,
     k: f64,
     warnings: &mut Vec<String>,
-) -> (Axis, [f64; 3]) {
+) -> (Axis, [f64; 3], Option<usize>) {
     let letter = header
         .first("TestAxis")
         .map(|(_, v)| v.trim_matches(|c| c == '(' || c == ')').trim().to_string());
     let file_axis = letter.as_deref().and_then(|l| l.parse::<Axis>().ok());
-    let axis = match (axis_override, file_axis) {
-        (Some(a), _) => a,
-        (None, Some(a)) => a,
+    let (axis, axis_warning) = match (axis_override, file_axis) {
+        (Some(a), _) => (a, None),
+        (None, Some(a)) => (a, None),
         (None, None) => {
-            warnings.push("the file states no axis (TestAxis): taken as X; --axis sets it".into());
-            Axis::X
+            warnings.push("the file states no axis (TestAxis): taken as X".into());
+            (Axis::X, Some(warnings.len() - 1))
         }
     };
     let mut at_mm = [0.0; 3];
@@ -589,7 +590,7 @@ fn placement(
             at_mm[a.index()] = v * k;
         }
     }
-    (axis, at_mm)
+    (axis, at_mm, axis_warning)
 }
 
 /// Cross-checks the vendor's "API Linear Error Compensation Table" against the readings:

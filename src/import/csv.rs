@@ -19,8 +19,12 @@
 //! message naming `--delimiter ';'` (and `--decimal-comma` when the data show `d,d`).
 
 use super::units::{HPA_PER_INHG, HPA_PER_KPA, HPA_PER_MMHG, fahrenheit_to_c};
-use super::{At, Env, ImportSummary, Imported, Reading, assemble, summary_counts};
+use super::{
+    At, Env, ImportProblem, ImportRefusal, ImportSetting, ImportSummary, Imported, Reading,
+    assemble, summary_counts,
+};
 use crate::base::Axis;
+use crate::base::{NamesSettings, Setting};
 use crate::controller::text::{Text, number};
 
 /// A column of the map: a header name or a 1-based column number.
@@ -30,7 +34,7 @@ pub enum Col {
     Number(usize),
 }
 
-/// The column map (`--map`).
+/// The column map ([`ImportSetting::ColumnMap`]).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct ColumnMap {
     pub target: Option<Col>,
@@ -46,28 +50,41 @@ pub struct ColumnMap {
     pub scale_temp: Option<Col>,
 }
 
-/// Why a column map (`--map`) is not one; every case is a usage error.
+/// Why a column map is not one; every case is the caller's (a usage error). The map is
+/// named as [`ImportSetting::ColumnMap`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}", self.render(&Setting::words))]
 pub enum MapError {
-    #[error("--map: `{0}` is not key=COLUMN")]
     NotKeyColumn(String),
-    #[error("--map: `{0}` names no column")]
     NoColumn(String),
-    #[error("--map: `{0}` is not a column number #1, #2, …")]
     BadNumber(String),
-    #[error(
-        "--map: unknown key `{0}` (target, reference, indicated, error, run, \
-         direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
-    )]
     UnknownKey(String),
-    #[error("--map: `{0}` is given twice")]
     Twice(String),
-    #[error("--map needs target=COLUMN")]
     NoTarget,
-    #[error("--map takes reference= or error=, not both")]
     ReferenceAndError,
-    #[error("--map needs reference=COLUMN or error=COLUMN")]
     NoReferenceOrError,
+}
+
+impl NamesSettings for MapError {
+    type Setting = ImportSetting;
+    fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        let map = name(ImportSetting::ColumnMap);
+        match self {
+            MapError::NotKeyColumn(p) => format!("{map}: `{p}` is not key=COLUMN"),
+            MapError::NoColumn(p) => format!("{map}: `{p}` names no column"),
+            MapError::BadNumber(v) => format!("{map}: `{v}` is not a column number #1, #2, …"),
+            MapError::UnknownKey(k) => format!(
+                "{map}: unknown key `{k}` (target, reference, indicated, error, run, \
+                 direction, air_temp, air_pressure, air_rh, part_temp, scale_temp)"
+            ),
+            MapError::Twice(k) => format!("{map}: `{k}` is given twice"),
+            MapError::NoTarget => format!("{map} needs target=COLUMN"),
+            MapError::ReferenceAndError => format!("{map} takes reference= or error=, not both"),
+            MapError::NoReferenceOrError => {
+                format!("{map} needs reference=COLUMN or error=COLUMN")
+            }
+        }
+    }
 }
 
 impl ColumnMap {
@@ -292,27 +309,34 @@ struct Mapped {
 }
 
 impl Mapped {
-    /// Finds every `--map` column in the header (by name or number), refusing one that is
-    /// not there and an error column without a sign.
-    fn resolve(header: &[String], header_line: usize, o: &CsvOptions) -> Result<Mapped, At> {
-        let resolve = |c: &Col| -> Result<Resolved, At> {
+    /// Finds every column of the map in the header (by name or number), refusing one that
+    /// is not there and an error column without a sign.
+    fn resolve(
+        header: &[String],
+        header_line: usize,
+        o: &CsvOptions,
+    ) -> Result<Mapped, ImportRefusal> {
+        let resolve = |c: &Col| -> Result<Resolved, ImportRefusal> {
             match c {
                 Col::Number(n) if *n <= header.len() => Ok((n - 1, header[n - 1].clone())),
-                Col::Number(n) => Err(At::new(
+                Col::Number(n) => Err(ImportRefusal::new(
                     header_line,
-                    format!("--map column #{n}: the header has {} columns", header.len()),
+                    ImportProblem::ColumnBeyond {
+                        number: *n,
+                        columns: header.len(),
+                    },
                 )),
                 Col::Name(name) => header
                     .iter()
                     .position(|h| h == name)
                     .map(|i| (i, name.clone()))
                     .ok_or_else(|| {
-                        At::new(
+                        ImportRefusal::new(
                             header_line,
-                            format!(
-                                "--map column `{name}` is not in the header ({})",
-                                header.join(", ")
-                            ),
+                            ImportProblem::ColumnMissing {
+                                name: name.clone(),
+                                header: header.join(", "),
+                            },
                         )
                     }),
             }
@@ -323,7 +347,7 @@ impl Mapped {
             target: resolve(
                 m.target
                     .as_ref()
-                    .ok_or_else(|| At::new(1, "--map has no target"))?,
+                    .ok_or_else(|| ImportRefusal::new(1, ImportProblem::NoTarget))?,
             )?,
             reference: opt(&m.reference)?,
             indicated: opt(&m.indicated)?,
@@ -337,21 +361,22 @@ impl Mapped {
             scale_t: opt(&m.scale_temp)?,
         };
         if mapped.error.is_some() && o.error_sign.is_none() {
-            return Err(At::new(
-                header_line,
-                "an error column needs --error-sign (a sign is never guessed)",
-            ));
+            return Err(ImportRefusal::new(header_line, ImportProblem::NoErrorSign));
         }
         Ok(mapped)
     }
 }
 
 /// Reads a CSV through the column map (see the module docs).
-pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<Imported, At> {
+pub(super) fn read(
+    bytes: &[u8],
+    o: &CsvOptions,
+    axis: Option<Axis>,
+) -> Result<Imported, ImportRefusal> {
     let text = Text::decode(bytes).map_err(|(l, m)| At::new(l, m))?;
     let recs = records(&text.text, o.delimiter)?;
     let Some((header_line, header)) = recs.first() else {
-        return Err(At::new(1, "no header and no data"));
+        return Err(At::new(1, "no header and no data").into());
     };
     let header: Vec<String> = header.iter().map(|h| h.trim().to_string()).collect();
     check_delimiter(&header, *header_line, &text.text, o)?;
@@ -373,7 +398,8 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
                         o.delimiter.to_string()
                     }
                 ),
-            ));
+            )
+            .into());
         }
         let reading = read_record(line, rec, &mapped, o)?;
         reading.check(line)?;
@@ -381,7 +407,7 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
         lines.push(line);
     }
     if readings.is_empty() {
-        return Err(At::new(*header_line, "a header and no data rows"));
+        return Err(At::new(*header_line, "a header and no data rows").into());
     }
     if mapped.direction.is_none() {
         set_directions(&mut readings, &lines)?;
@@ -402,6 +428,7 @@ pub(super) fn read(bytes: &[u8], o: &CsvOptions, axis: Option<Axis>) -> Result<I
             axis: axis.upper(),
             machine: None,
             warnings: Vec::new(),
+            axis_warning: None,
         },
         rows,
     })
@@ -419,13 +446,13 @@ pub fn data_lines(bytes: &[u8], delimiter: char) -> Result<Vec<usize>, At> {
 }
 
 /// Refuses a one-column header holding another delimiter: a European-locale export read
-/// with the wrong flags, named with the flags that read it.
+/// with the wrong settings, named with the settings that read it.
 fn check_delimiter(
     header: &[String],
     header_line: usize,
     text: &str,
     o: &CsvOptions,
-) -> Result<(), At> {
+) -> Result<(), ImportRefusal> {
     if header.len() != 1 {
         return Ok(());
     }
@@ -433,47 +460,36 @@ fn check_delimiter(
     let other = [';', '\t', ',']
         .into_iter()
         .find(|&d| d != o.delimiter && h.contains(d));
-    let Some(d) = other else {
+    let Some(found) = other else {
         return Ok(());
     };
-    let name = match d {
-        '\t' => "TAB".to_string(),
-        c => format!("`{c}`"),
-    };
-    let flag = match d {
-        '\t' => "--delimiter tab".to_string(),
-        c => format!("--delimiter '{c}'"),
-    };
-    let comma = d != ',' && has_decimal_comma(text) && !o.decimal_comma;
-    Err(At::new(
+    Err(ImportRefusal::new(
         header_line,
-        format!(
-            "the header is one column but holds {name}: this looks like a {}-separated \
-             export{}; read it with {flag}{}",
-            if d == ';' {
-                "`;` (European Excel)"
-            } else {
-                "differently"
-            },
-            if comma { " with decimal commas" } else { "" },
-            if comma { " --decimal-comma" } else { "" },
-        ),
+        ImportProblem::OtherDelimiter {
+            found,
+            decimal_comma: found != ',' && has_decimal_comma(text) && !o.decimal_comma,
+        },
     ))
 }
 
 /// One cell of a mapped column as a number (`None` when empty), with the decimal-comma
 /// mistakes named in the message.
-fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Option<f64>, At> {
+fn cell(
+    line: usize,
+    rec: &[String],
+    c: &Resolved,
+    o: &CsvOptions,
+) -> Result<Option<f64>, ImportRefusal> {
     let raw = rec[c.0].trim();
     if raw.is_empty() {
         return Ok(None);
     }
     let parsed = if o.decimal_comma {
         if raw.contains('.') {
-            return Err(At::col(
+            return Err(ImportRefusal::col(
                 line,
                 &c.1,
-                format!("`{raw}` has a `.` but --decimal-comma says `,` is the decimal mark"),
+                ImportProblem::PointWithComma { raw: raw.into() },
             ));
         }
         number(&raw.replace(',', "."))
@@ -482,26 +498,31 @@ fn cell(line: usize, rec: &[String], c: &Resolved, o: &CsvOptions) -> Result<Opt
     };
     match parsed {
         Some(v) => Ok(Some(v)),
-        None if !o.decimal_comma && has_decimal_comma(raw) => Err(At::col(
+        None if !o.decimal_comma && has_decimal_comma(raw) => Err(ImportRefusal::col(
             line,
             &c.1,
-            format!("`{raw}` has a decimal comma; read the file with --decimal-comma"),
+            ImportProblem::CommaWithout { raw: raw.into() },
         )),
-        None => Err(At::col(line, &c.1, format!("`{raw}` is not a number"))),
+        None => Err(At::col(line, &c.1, format!("`{raw}` is not a number")).into()),
     }
 }
 
 /// One data record as a reading in mm and µm (direction 0 when the map has no direction
 /// column: `set_directions` fills it from the whole run).
-fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Result<Reading, At> {
+fn read_record(
+    line: usize,
+    rec: &[String],
+    m: &Mapped,
+    o: &CsvOptions,
+) -> Result<Reading, ImportRefusal> {
     let k = o.length.mm();
     let temp = |v: f64| match o.temperature {
         TempUnit::C => v,
         TempUnit::F => fahrenheit_to_c(v),
     };
     let cell = |c: &Resolved| cell(line, rec, c, o);
-    let need = |c: &Resolved| -> Result<f64, At> {
-        cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column"))
+    let need = |c: &Resolved| -> Result<f64, ImportRefusal> {
+        cell(c)?.ok_or_else(|| At::col(line, &c.1, "empty cell in a mapped column").into())
     };
     let t = need(&m.target)?;
     let ind = match &m.indicated {
@@ -527,11 +548,9 @@ fn read_record(line: usize, rec: &[String], m: &Mapped, o: &CsvOptions) -> Resul
         Some(c) => {
             let v = need(c)?;
             if v.fract() != 0.0 || !(1.0..=1e6).contains(&v) {
-                return Err(At::col(
-                    line,
-                    &c.1,
-                    format!("run `{v}` is not a whole number ≥ 1"),
-                ));
+                return Err(
+                    At::col(line, &c.1, format!("run `{v}` is not a whole number ≥ 1")).into(),
+                );
             }
             v as u32
         }
@@ -595,7 +614,9 @@ fn check_directions(readings: &[Reading], lines: &[usize]) -> Result<(), At> {
                 return Err(At::new(
                     lines[i],
                     format!(
-                        "direction {:+} contradicts the visiting order: run {} goes from {} to {} mm                          here (a pass is read in the order it was measured; fix the direction                          column or the order of the rows)",
+                        "direction {:+} contradicts the visiting order: run {} goes from {} to {} mm \
+                         here (a pass is read in the order it was measured; fix the direction \
+                         column or the order of the rows)",
                         r.direction, r.run, readings[j].target_mm, r.target_mm
                     ),
                 ));

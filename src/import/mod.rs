@@ -40,7 +40,7 @@ use errmap_drivers::SessionRow;
 use errmap_drivers::frame::Axis as WireAxis;
 use serde::Serialize;
 
-use crate::base::Axis;
+use crate::base::{Axis, NamesSettings, Setting};
 use crate::table::TableError;
 
 pub use crate::controller::At;
@@ -66,21 +66,86 @@ pub mod units {
     }
 }
 
+/// The settings of the import stage that its messages name (`base::Setting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImportSetting {
+    /// A CSV's column map ([`ColumnMap`]).
+    ColumnMap,
+    /// What a CSV's error column holds ([`ErrorSign`]).
+    ErrorSign,
+    /// A CSV's field delimiter (`CsvOptions::delimiter`).
+    Delimiter,
+    /// `,` as a CSV's decimal mark (`CsvOptions::decimal_comma`).
+    DecimalComma,
+    /// The format a file is read as (`ImportOptions::format`; detected when not given).
+    Format,
+}
+
+impl Setting for ImportSetting {
+    fn words(self) -> &'static str {
+        match self {
+            ImportSetting::ColumnMap => "the column map",
+            ImportSetting::ErrorSign => "the error sign",
+            ImportSetting::Delimiter => "the delimiter",
+            ImportSetting::DecimalComma => "the decimal-comma option",
+            ImportSetting::Format => "the format",
+        }
+    }
+}
+
+/// `, column C` when a column is named.
+fn column_text(column: &Option<String>) -> String {
+    column
+        .as_ref()
+        .map(|c| format!(", column {c}"))
+        .unwrap_or_default()
+}
+
 /// A refusal, naming the file, its line and (CSV) its column.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
-    #[error("{path}: line {line}{}: {message}", column.as_ref().map(|c| format!(", column {c}")).unwrap_or_default())]
+    #[error("{path}: line {line}{}: {message}", column_text(column))]
     Bad {
         path: PathBuf,
         line: usize,
         column: Option<String>,
         message: String,
     },
+    /// A refusal that a setting of the import would fix ([`ImportSetting`]).
+    #[error("{}", self.render(&Setting::words))]
+    Setting {
+        path: PathBuf,
+        line: usize,
+        column: Option<String>,
+        problem: ImportProblem,
+    },
     /// The file cannot be read (the shared [`FileError`] shape).
     #[error(transparent)]
     File(#[from] crate::base::FileError),
     #[error(transparent)]
     Table(#[from] TableError),
+}
+
+impl NamesSettings for ImportError {
+    type Setting = ImportSetting;
+    fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        match self {
+            ImportError::Setting {
+                path,
+                line,
+                column,
+                problem,
+            } => format!(
+                "{}: line {line}{}: {}",
+                path.display(),
+                column_text(column),
+                problem.render(name)
+            ),
+            ImportError::Bad { .. } | ImportError::File(_) | ImportError::Table(_) => {
+                self.to_string()
+            }
+        }
+    }
 }
 
 /// A reader's refusal ([`At`], the controller stage's) with the path attached.
@@ -91,6 +156,168 @@ impl At {
             line: self.line,
             column: self.column,
             message: self.message,
+        }
+    }
+}
+
+/// A refusal of a file that a setting of the import would fix (the setting named as an
+/// [`ImportSetting`]), at a line and maybe a column: `ImportError::Setting`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ImportProblem {
+    /// The map names column #`number`; the header has `columns`.
+    ColumnBeyond { number: usize, columns: usize },
+    /// The map names a column the header (`header`, joined) does not have.
+    ColumnMissing { name: String, header: String },
+    /// The map has no target column.
+    NoTarget,
+    /// An error column and no sign for it.
+    NoErrorSign,
+    /// A one-column header holding `found`: an export with another delimiter (and
+    /// decimal commas in its data, when `decimal_comma`).
+    OtherDelimiter { found: char, decimal_comma: bool },
+    /// A `.` in a cell read with decimal commas.
+    PointWithComma { raw: String },
+    /// A decimal comma in a cell read without them.
+    CommaWithout { raw: String },
+    /// No format told by content: the dialects told by content (`by_content`) and those
+    /// that must be named (`by_name`), `or`-joined.
+    Unrecognised { by_content: String, by_name: String },
+    /// A controller table of the dialect `name` where a positioning test was asked for.
+    ControllerTable { name: &'static str },
+}
+
+impl ImportProblem {
+    /// The problem with every setting called by `name`.
+    pub fn render(&self, name: &dyn Fn(ImportSetting) -> &'static str) -> String {
+        use ImportSetting::{ColumnMap, DecimalComma, Delimiter, ErrorSign, Format};
+        match self {
+            ImportProblem::ColumnBeyond { number, columns } => format!(
+                "{} names column #{number}, but the header has {columns} columns",
+                name(ColumnMap)
+            ),
+            ImportProblem::ColumnMissing {
+                name: column,
+                header,
+            } => format!(
+                "{} names column `{column}`, which is not in the header ({header})",
+                name(ColumnMap)
+            ),
+            ImportProblem::NoTarget => format!("{} has no target", name(ColumnMap)),
+            ImportProblem::NoErrorSign => format!(
+                "an error column needs {} (a sign is never guessed)",
+                name(ErrorSign)
+            ),
+            ImportProblem::OtherDelimiter {
+                found,
+                decimal_comma,
+            } => {
+                let (held, value) = match found {
+                    '\t' => ("TAB".to_string(), "tab".to_string()),
+                    c => (format!("`{c}`"), format!("'{c}'")),
+                };
+                format!(
+                    "the header is one column but holds {held}: this looks like a {}-separated \
+                     export{}; read it with {} {value}{}",
+                    if *found == ';' {
+                        "`;` (European Excel)"
+                    } else {
+                        "differently"
+                    },
+                    if *decimal_comma {
+                        " with decimal commas"
+                    } else {
+                        ""
+                    },
+                    name(Delimiter),
+                    if *decimal_comma {
+                        format!(" and {}", name(DecimalComma))
+                    } else {
+                        String::new()
+                    },
+                )
+            }
+            ImportProblem::PointWithComma { raw } => format!(
+                "`{raw}` has a `.` but {} says `,` is the decimal mark",
+                name(DecimalComma)
+            ),
+            ImportProblem::CommaWithout { raw } => format!(
+                "`{raw}` has a decimal comma; read the file with {}",
+                name(DecimalComma)
+            ),
+            ImportProblem::Unrecognised {
+                by_content,
+                by_name,
+            } => format!(
+                "not a recognised format (API XD .pos, Renishaw .rtl, or a {by_content} table); \
+                 a spreadsheet or CSV needs {format} csv and {}, a table its content does not \
+                 name {format} {by_name}",
+                name(ColumnMap),
+                format = name(Format),
+            ),
+            ImportProblem::ControllerTable { name: dialect } => format!(
+                "a {dialect} compensation table, not a positioning test: read it with {} \
+                 {dialect} into an error table",
+                name(Format)
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for ImportProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&Setting::words))
+    }
+}
+
+/// A refusal of the import stage's readers before the path is attached: the shared
+/// [`At`], or an [`ImportProblem`] that names a setting.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ImportRefusal {
+    At(At),
+    Setting {
+        line: usize,
+        column: Option<String>,
+        problem: ImportProblem,
+    },
+}
+
+impl From<At> for ImportRefusal {
+    fn from(at: At) -> ImportRefusal {
+        ImportRefusal::At(at)
+    }
+}
+
+impl ImportRefusal {
+    fn new(line: usize, problem: ImportProblem) -> ImportRefusal {
+        ImportRefusal::Setting {
+            line,
+            column: None,
+            problem,
+        }
+    }
+
+    fn col(line: usize, column: &str, problem: ImportProblem) -> ImportRefusal {
+        ImportRefusal::Setting {
+            line,
+            column: Some(column.to_string()),
+            problem,
+        }
+    }
+
+    /// The refusal with the path attached.
+    pub fn at(self, path: &Path) -> ImportError {
+        match self {
+            ImportRefusal::At(at) => at.at(path),
+            ImportRefusal::Setting {
+                line,
+                column,
+                problem,
+            } => ImportError::Setting {
+                path: path.to_path_buf(),
+                line,
+                column,
+                problem,
+            },
         }
     }
 }
@@ -121,8 +348,8 @@ impl Format {
 }
 
 /// The format of `bytes` by content (`import.md` §0), or the refusal at line 1. A CSV is
-/// never guessed: it needs `--format csv --map …`.
-pub fn detect(bytes: &[u8]) -> Result<Format, At> {
+/// never guessed: it needs its format and column map given.
+pub fn detect(bytes: &[u8]) -> Result<Format, ImportRefusal> {
     let text =
         crate::controller::text::Text::decode(bytes).map_err(|(line, m)| At::new(line, m))?;
     let lines = text.lines();
@@ -135,7 +362,8 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
             1,
             "an API laser analysis section only (no header, no readings, so no unit); import \
              the whole `.pos` export",
-        ));
+        )
+        .into());
     }
     if first == "HEADER::" {
         let rtl = lines.iter().take(40).any(|(_, l)| {
@@ -152,15 +380,12 @@ pub fn detect(bytes: &[u8]) -> Result<Format, At> {
     if let Some(d) = crate::controller::detect(bytes) {
         return Ok(Format::Table(d.name()));
     }
-    Err(At::new(
+    Err(ImportRefusal::new(
         1,
-        format!(
-            "not a recognised format (API XD .pos, Renishaw .rtl, or a {} table); a \
-             spreadsheet or CSV needs --format csv --map …, a table its content does not \
-             name --format {}",
-            crate::controller::names_where(|d| d.detects_by_content(), "or"),
-            crate::controller::names_where(|d| !d.detects_by_content(), "or"),
-        ),
+        ImportProblem::Unrecognised {
+            by_content: crate::controller::names_where(|d| d.detects_by_content(), "or"),
+            by_name: crate::controller::names_where(|d| !d.detects_by_content(), "or"),
+        },
     ))
 }
 
@@ -198,6 +423,10 @@ pub struct ImportSummary {
     pub axis: &'static str,
     pub machine: Option<String>,
     pub warnings: Vec<String>,
+    /// The index in `warnings` of the one saying that the file states no axis and X was
+    /// taken (a caller names the setting that gives the axis: the command line's `--axis`).
+    #[serde(skip)]
+    pub axis_warning: Option<usize>,
 }
 
 /// A positioning test as session rows, with its summary.
@@ -369,17 +598,10 @@ pub fn import_session(
             Format::ApiXd => Format::ApiXd,
             Format::RenishawRtl => Format::RenishawRtl,
             Format::RenishawRtx => Format::RenishawRtx,
-            f @ Format::Table(_) => {
-                return Err(At::new(
-                    1,
-                    format!(
-                        "a {} compensation table, not a positioning test: read it with \
-                         --format {} into an error table",
-                        f.name(),
-                        f.name()
-                    ),
-                )
-                .at(path));
+            Format::Table(name) => {
+                return Err(
+                    ImportRefusal::new(1, ImportProblem::ControllerTable { name }).at(path),
+                );
             }
             other => return Err(At::new(1, format!("{} is not detected", other.name())).at(path)),
         },
@@ -391,7 +613,9 @@ pub fn import_session(
         (Format::ApiXd, _) => api::read(bytes, options.axis),
         (Format::RenishawRtl, _) => rtl::read(bytes, options.axis),
         (Format::RenishawRtx, _) => Err(rtl::refuse_rtx(bytes)),
-        (Format::Csv, SessionFormat::Csv(o)) => csv::read(bytes, o, options.axis),
+        (Format::Csv, SessionFormat::Csv(o)) => {
+            return csv::read(bytes, o, options.axis).map_err(|e| e.at(path));
+        }
         _ => Err(At::new(1, "not a recognised format")),
     };
     result.map_err(|e| e.at(path))

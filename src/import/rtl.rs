@@ -255,11 +255,11 @@ pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported
     let file_axis = section(&secs, "USER-TEXT")
         .and_then(|s| s.get("Axis"))
         .and_then(|e| e.value.trim().parse::<Axis>().ok());
-    let axis = match (axis_override, file_axis) {
-        (Some(a), _) | (None, Some(a)) => a,
+    let (axis, axis_warning) = match (axis_override, file_axis) {
+        (Some(a), _) | (None, Some(a)) => (a, None),
         (None, None) => {
             warnings.push("the file states no axis (USER-TEXT:: Axis): taken as X".into());
-            Axis::X
+            (Axis::X, Some(warnings.len() - 1))
         }
     };
     let machine = section(&secs, "USER-TEXT")
@@ -278,6 +278,7 @@ pub(super) fn read(bytes: &[u8], axis_override: Option<Axis>) -> Result<Imported
             axis: axis.upper(),
             machine,
             warnings,
+            axis_warning,
         },
         rows,
     })

@@ -55,6 +55,7 @@ impl ControllerTable {
             axis: axis.upper(),
             machine: None,
             warnings,
+            axis_warning: None,
         }
     }
 }

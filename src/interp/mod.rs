@@ -33,6 +33,7 @@ mod trilinear;
 use std::fmt;
 use std::str::FromStr;
 
+use crate::base::{NamesSettings, Setting};
 use crate::table::Axis;
 
 pub use cells::Locator;
@@ -153,11 +154,39 @@ pub enum InterpError {
     Gp(String),
     #[error("no method can be fitted to this table ({why})")]
     NothingFits { why: String },
-    #[error(
-        "choosing the order by cross-validation refits every admissible order once per grid plane; \
-         on {nodes} nodes (more than {max}) that takes too long: give the degrees (--order MxNxQ)"
-    )]
+    #[error("{}", self.render(&Setting::words))]
     TooLargeForAuto { nodes: usize, max: usize },
+}
+
+/// The settings of the interpolation stage that its messages name (`base::Setting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InterpSetting {
+    /// The Lagrange degrees per axis ([`Method::Lagrange`]).
+    Order,
+}
+
+impl Setting for InterpSetting {
+    fn words(self) -> &'static str {
+        match self {
+            InterpSetting::Order => "the Lagrange order",
+        }
+    }
+}
+
+impl NamesSettings for InterpError {
+    type Setting = InterpSetting;
+    fn render(&self, name: &dyn Fn(InterpSetting) -> &'static str) -> String {
+        match self {
+            InterpError::TooLargeForAuto { nodes, max } => format!(
+                "choosing the order by cross-validation refits every admissible order once per \
+                 grid plane; on {nodes} nodes (more than {max}) that takes too long: give the \
+                 degrees ({} MxNxQ)",
+                name(InterpSetting::Order)
+            ),
+            // The rest name no setting.
+            other => other.to_string(),
+        }
+    }
 }
 
 /// Evaluates `model` at every point into `out`, over `threads` worker threads (1: the

@@ -844,7 +844,12 @@ fn bidirectional_linuxcnc_table_carries_the_reversal_of_the_session() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("direction-dependent"));
     let (o, _) = run("reversal", &["--format", "linuxcnc"]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("4 lines match"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    // The library names the line's position; the command line says its flag.
+    assert!(
+        e.contains("4 lines match; choose one with --at y=…,z=…"),
+        "{e}"
+    );
     let (o, _) = run("reversal", &["--format", "linuxcnc", "--method", "spline"]);
     assert_eq!(o.status.code(), Some(2), "--bidirectional takes no model");
 }

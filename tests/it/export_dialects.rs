@@ -314,23 +314,23 @@ fn fanuc_refuses_what_the_control_cannot_hold() {
         reference_mm: 5.0,
         ..FanucSpec::default()
     };
-    let p = limit_problem(
-        fanuc::table(&s, None, &off).expect_err("refused"),
-        fanuc::LABEL,
-    );
+    let p = fanuc::table(&s, None, &off)
+        .expect_err("refused")
+        .to_string();
     assert!(
-        p.contains("not one of its points") && p.contains("--ends"),
+        p.contains("not one of its points")
+            && p.contains("(the ends clamp|extrapolate and the reference position 5)"),
         "{p}"
     );
     let outside = FanucSpec {
         reference_mm: -50.0,
         ..FanucSpec::default()
     };
-    let p = limit_problem(
-        fanuc::table(&s, None, &outside).expect_err("refused"),
-        fanuc::LABEL,
+    let p = fanuc::table(&s, None, &outside).expect_err("refused");
+    assert!(
+        matches!(p, ExportError::ReferenceOffGrid { outside: true, .. }),
+        "{p}"
     );
-    assert!(p.contains("outside the table"), "{p}");
     // 3620 too small for the 20 points (0…380 mm every 20 mm) below the reference.
     let mid = FanucSpec {
         reference_mm: 400.0,
@@ -878,7 +878,10 @@ fn bidirectional_isg_and_fanuc_tables_carry_the_reversal_of_the_session() {
         dir.path(),
     );
     assert_eq!(code, Some(1));
-    assert!(err.contains("--ends"), "{err}");
+    assert!(
+        err.contains("(--ends clamp|extrapolate and --reference 30)"),
+        "{err}"
+    );
 }
 
 #[test]

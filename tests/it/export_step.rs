@@ -140,7 +140,7 @@ fn the_divide_rule_accepts_its_own_rounded_suggestion() {
     };
     let msg = e.to_string();
     assert!(
-        msg.contains("2.991601 mm") && msg.contains("--ends"),
+        msg.contains("2.991601 mm") && msg.ends_with("(the ends clamp|extrapolate)"),
         "{msg}"
     );
     assert!((fitting_step_mm - 798.7576 / 267.0).abs() < 1e-12);
@@ -269,6 +269,8 @@ fn the_issues_export_with_a_round_step_is_accepted() {
     );
     assert_eq!(o.status.code(), Some(1));
     let msg = String::from_utf8_lossy(&o.stderr).to_string();
+    // The library's "the ends" said as the flag.
+    assert!(msg.contains("(--ends clamp|extrapolate)"), "{msg}");
     let suggested = msg
         .split("that does is ")
         .nth(1)

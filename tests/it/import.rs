@@ -332,6 +332,42 @@ fn a_bidirectional_mm_api_export_feeds_every_downstream_command() {
     assert_eq!(plus.rows, rows);
 }
 
+/// An API export that states no axis: taken as X with a warning; the library says so in
+/// its words (the `--json` document's `warnings`), the command line adds the flag that
+/// sets the axis.
+#[test]
+fn an_api_file_without_an_axis_is_x_and_the_warning_names_the_flag() {
+    let (text, _) = api_file(-1.0);
+    let text = text.replace("TestAxis: \t(Z)\r\n", "");
+    let got = import::import_session(
+        Path::new("a.pos"),
+        text.as_bytes(),
+        &ImportOptions {
+            format: SessionFormat::ApiXd,
+            axis: None,
+        },
+    )
+    .expect("imports");
+    assert_eq!(got.summary.axis, "X");
+    let i = got.summary.axis_warning.expect("a warning says so");
+    assert_eq!(
+        got.summary.warnings[i],
+        "the file states no axis (TestAxis): taken as X"
+    );
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("a.pos");
+    std::fs::write(&f, &text).expect("write");
+    let o = errmap(&["import", s(&f), "--out", s(&dir.path().join("s.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(
+            "import: warning: the file states no axis (TestAxis): taken as X; --axis sets it"
+        ),
+        "{}",
+        stderr(&o)
+    );
+}
+
 /// Counts that disagree, a non-numeric cell, a reading whose LasRead fits neither sign, a
 /// pass out of order: exit 1 at that line.
 #[test]
@@ -452,18 +488,20 @@ fn a_european_spreadsheet_with_and_without_its_flags() {
     let sheet = "\u{feff}Lauf;Soll [in];Abw. [µm];Temp\r\n1;0,0;1,5;68,0\r\n1;1,0;-2,25;69,8\r\n\r\n2;1,0;-2,0;68\r\n2;0,0;1,0;68\r\n";
     let mut o = csv_opts("run=Lauf,target=Soll [in],error=#3,air_temp=Temp");
     o.error_sign = Some(import::ErrorSign::ReferenceMinusIndicated);
+    // The library names the settings in its words (the command line's flags:
+    // `a_csv_refusal_names_the_flags_that_read_it`).
     let e = csv_import(sheet.as_bytes(), o.clone()).expect_err("no flags");
     assert!(
         e.starts_with("m.csv: line 1:")
-            && e.contains("--delimiter ';'")
-            && e.contains("--decimal-comma"),
+            && e.ends_with("read it with the delimiter ';' and the decimal-comma option"),
         "{e}"
     );
     let mut o2 = o.clone();
     o2.delimiter = ';';
     let e = csv_import(sheet.as_bytes(), o2.clone()).expect_err("no decimal comma");
     assert!(
-        e.contains("line 2, column Soll [in]") && e.contains("--decimal-comma"),
+        e.contains("line 2, column Soll [in]")
+            && e.contains("read the file with the decimal-comma option"),
         "{e}"
     );
     o2.decimal_comma = true;
@@ -518,7 +556,10 @@ fn csv_reference_columns_and_refusals() {
     )
     .expect_err("contradiction");
     assert!(
-        e.starts_with("m.csv: line 5:") && e.contains("contradicts the visiting order"),
+        e.starts_with("m.csv: line 5:")
+            && e.contains(
+                "contradicts the visiting order: run 1 goes from 0 to 100 mm here (a pass"
+            ),
         "{e}"
     );
     let bad = "target,laser\n0,0.001\n100,x\n";
@@ -539,7 +580,8 @@ fn csv_reference_columns_and_refusals() {
     let o = errmap(&["import", s(&f), "--out", s(&out)]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains(&format!("{}: line 1: not a recognised format", s(&f))),
+        stderr(&o).contains(&format!("{}: line 1: not a recognised format", s(&f)))
+            && stderr(&o).contains("a spreadsheet or CSV needs --format csv and --map,"),
         "{}",
         stderr(&o)
     );
@@ -555,6 +597,55 @@ fn csv_reference_columns_and_refusals() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let o = errmap(&["import", s(&f), "--format", "csv"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}
+
+/// The CSV refusals a flag would fix name that flag on the command line: the library
+/// says its settings in its own words (`import::ImportSetting`), `cli/flags.rs` as flags.
+#[test]
+fn a_csv_refusal_names_the_flags_that_read_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("m.csv");
+    let sheet = "Lauf;Soll;Ist\n1;0,0;0,001\n1;1,0;1,002\n";
+    std::fs::write(&f, sheet).expect("write");
+    let import = |extra: &[&str]| {
+        let mut args = vec!["import", s(&f), "--format", "csv"];
+        args.extend_from_slice(extra);
+        let o = errmap(&args);
+        (o.status.code(), stderr(&o))
+    };
+    let (code, e) = import(&["--map", "target=Soll,reference=Ist"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("line 1: the header is one column but holds `;`")
+            && e.contains("read it with --delimiter ';' and --decimal-comma"),
+        "{e}"
+    );
+    let (code, e) = import(&["--map", "target=Soll,reference=Ist", "--delimiter", ";"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains(
+            "line 2, column Soll: `0,0` has a decimal comma; read the file with --decimal-comma"
+        ),
+        "{e}"
+    );
+    let (code, e) = import(&["--map", "target=Soll,reference=#7", "--delimiter", ";"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("line 1: --map names column #7, but the header has 3 columns"),
+        "{e}"
+    );
+    let (code, e) = import(&["--map", "target=Soll,reference=Laser", "--delimiter", ";"]);
+    assert_eq!(code, Some(1), "{e}");
+    assert!(
+        e.contains("--map names column `Laser`, which is not in the header (Lauf, Soll, Ist)"),
+        "{e}"
+    );
+    let (code, e) = import(&["--map", "target=Soll"]);
+    assert_eq!(code, Some(2), "{e}");
+    assert!(
+        e.contains("--map needs reference=COLUMN or error=COLUMN"),
+        "{e}"
+    );
 }
 
 /// A Renishaw linear `.rtl` written from the contract's layout: bidirectional, 2 runs
@@ -939,9 +1030,34 @@ fn detection_is_by_content() {
         import::detect(&utf16),
         Ok(import::Format::Table("fagor-8065"))
     );
+    // A controller table where a positioning test is asked for: the format that reads it
+    // named in the library's words (the command line says `--format`).
+    let e = import::import_session(
+        Path::new("t.mp"),
+        &utf16,
+        &ImportOptions {
+            format: SessionFormat::Auto,
+            axis: None,
+        },
+    )
+    .expect_err("a table is not a positioning test");
+    assert_eq!(
+        e.to_string(),
+        "t.mp: line 1: a fagor-8065 compensation table, not a positioning test: read it with \
+         the format fagor-8065 into an error table"
+    );
     let e = import::detect(b"a,b\n1,2\n").expect_err("csv is not guessed");
-    assert_eq!(e.line, 1);
-    assert!(e.message.contains("not a recognised format"));
+    assert!(
+        matches!(
+            e,
+            import::ImportRefusal::Setting {
+                line: 1,
+                problem: import::ImportProblem::Unrecognised { .. },
+                ..
+            }
+        ),
+        "{e:?}"
+    );
 }
 
 /// The Fagor 8055 dialect: the golden text of a small bidirectional inch table (the real

@@ -517,7 +517,12 @@ fn every_dialect_through_the_cli() {
         s(&new),
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("one value per point"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("--bidirectional: this heidenhain table holds one value per point")
+            && stderr(&o).contains("(export --bidirectional)"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!new.exists());
 }
 

@@ -468,7 +468,9 @@ fn dialect_limits_are_refused_with_the_flag() {
     for d in [d("fanuc"), d("siemens"), d("heidenhain")] {
         let e = program::render(&plan, d, &marks).expect_err("no marks");
         assert_eq!(e, ProgramError::MarkOutputUnsupported { dialect: d.name() });
-        assert!(e.to_string().starts_with("--mark-output"));
+        // The library names its setting in its own words; the command line says the flag
+        // (`a_refused_program_setting_is_named_by_its_flag`).
+        assert!(e.to_string().starts_with("the mark output: "), "{e}");
     }
     let e = program::render(
         &plan,
@@ -496,7 +498,10 @@ fn dialect_limits_are_refused_with_the_flag() {
     .expect("valid");
     let e = program::render(&long, d("heidenhain"), &ProgramOptions::default())
         .expect_err("cycle 9 stops at 3600 s");
-    assert!(e.to_string().starts_with("--dwell-s"), "{e}");
+    assert!(
+        e.to_string().starts_with("the dwell: 3600.5 s is beyond"),
+        "{e}"
+    );
     assert!(program::render(&long, d("fanuc"), &ProgramOptions::default()).is_ok());
     let short = TestPlan::generate(TestPlanConfig {
         dwell_s: 0.0004,
@@ -513,6 +518,37 @@ fn dialect_limits_are_refused_with_the_flag() {
     .expect("valid");
     let e = program::render(&far, d("siemens"), &ProgramOptions::default()).expect_err("8 digits");
     assert!(matches!(e, ProgramError::CoordinateTooLarge { .. }), "{e}");
+}
+
+/// The program's refusals of a mark output or a dwell reach the user naming the flag
+/// (`cli/flags.rs` says the library's `ControllerSetting` as `--mark-output`, `--dwell-s`).
+#[test]
+fn a_refused_program_setting_is_named_by_its_flag() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plan = |extra: &[&str]| {
+        let base = "plan --axis x --from 0 --to 100 --targets 5 --out p.toml --program p.txt";
+        let mut args: Vec<&str> = base.split(' ').collect();
+        args.extend_from_slice(extra);
+        let o = errmap_in(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(1), "{extra:?}");
+        assert!(
+            !dir.path().join("p.txt").exists(),
+            "{extra:?}: nothing written"
+        );
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = plan(&["--dialect", "fanuc", "--mark-output", "0"]);
+    assert!(
+        e.contains("errmap: error: --mark-output: the fanuc program has no digital-output MARKs"),
+        "{e}"
+    );
+    let e = plan(&["--dialect", "heidenhain", "--dwell-s", "3600.5"]);
+    assert!(
+        e.contains(
+            "errmap: error: --dwell-s: 3600.5 s is beyond the heidenhain dwell limit of 3600 s"
+        ),
+        "{e}"
+    );
 }
 
 // ---- reading the programs back --------------------------------------------------------

@@ -393,18 +393,13 @@ fn reference_index(forward: &Sampled, spec: &FanucSpec, h: f64) -> Result<usize,
         .positions_mm
         .iter()
         .position(|&x| (x - r).abs() <= tol.max(1e-7))
-        .ok_or_else(|| {
-            let where_ = if r < first_mm || r > last_mm {
-                "lies outside the table"
-            } else {
-                "is not one of its points"
-            };
-            limit(format!(
-                "the reference position {r} mm {where_} ({first_mm} to {last_mm} mm every {h} mm); \
-                 FANUC counts the compensation points from the reference position: keep the step on \
-                 the grid through it (--ends clamp|extrapolate --reference {r}) and a range that \
-                 contains it"
-            ))
+        .ok_or(ExportError::ReferenceOffGrid {
+            controller: LABEL,
+            reference_mm: r,
+            outside: r < first_mm || r > last_mm,
+            first_mm,
+            last_mm,
+            step_mm: h,
         })
 }
 

@@ -243,6 +243,10 @@ fn refusal(d: D, sp: &ModuloSpec, edit: &dyn Fn(String) -> String) -> (usize, St
     let zero = every_15(&|_| 0.0);
     match update_modulo(edit(old.text).as_bytes(), &[&zero], sp) {
         Err(ModuloError::Existing { line, problem }) => (line, problem),
+        // Not the step or the axis the spec names: the library's words for the setting.
+        Err(ModuloError::Mismatch { line, mismatch }) => {
+            (line, mismatch.render(&errmap::base::Setting::words))
+        }
         other => panic!("{d:?}: {other:?}"),
     }
 }
@@ -291,7 +295,7 @@ fn a_table_that_is_not_this_axis_modulo_table_is_refused_naming_its_line() {
     let mut s30 = spec(heidenhain);
     s30.step_deg = Some(30.0);
     let (_, p) = refusal(heidenhain, &s30, &|t| t);
-    assert!(p.contains("not every --step 30"), "{p}");
+    assert!(p.contains("not every 30° as the step says"), "{p}");
 }
 
 #[test]
@@ -369,7 +373,7 @@ fn the_command_line_updates_a_rotary_table_beside_the_old_one() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let msg = stderr(&o);
     assert!(
-        msg.contains("bad.spf: line 3:") && msg.contains("axis B1, not A1"),
+        msg.contains("bad.spf: line 3:") && msg.contains("axis B1, not A1 (--siemens-axis)"),
         "{msg}"
     );
     assert!(!other.exists());
