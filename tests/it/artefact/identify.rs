@@ -137,6 +137,12 @@ pub(super) fn run(
     extra: &[&str],
 ) -> serde_json::Value {
     simulate(campaign, model, &dir.join("meas"), noise, 3);
+    identify(campaign, extra)
+}
+
+/// `artefact identify CAMPAIGN --topology YXZ --json` plus `extra`, which must succeed;
+/// returns the JSON.
+pub(super) fn identify(campaign: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec![
         "artefact",
         "identify",

@@ -11,8 +11,9 @@ use errmap::volumetric::Machine;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
-use super::identify::{campaign, compare, eight, machine, run, simulate};
-use crate::util::{dataset, errmap, json, s, stderr, tempdir};
+use super::identify::{campaign, compare, eight, identify, machine, run, simulate};
+use super::selfcal::invariant_kinds;
+use crate::util::{dataset, errmap, s, stderr, tempdir};
 
 /// The plate's planted scale error, ppm.
 const PLATE_PPM: f64 = 5.0;
@@ -86,28 +87,7 @@ fn self_calibrated(dir: &Path, noise_um: f64, extra: &[&str]) -> serde_json::Val
         simulate(&c, &machine(), &meas, noise_um, 5);
     }
     let c = campaign(dir, &free, &eight(), 0.2);
-    let mut args = vec![
-        "artefact",
-        "identify",
-        s(&c),
-        "--topology",
-        "YXZ",
-        "--self-calibrate",
-        "--json",
-    ];
-    args.extend_from_slice(extra);
-    let o = errmap(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    json(&o)
-}
-
-fn invariant_kinds(v: &serde_json::Value) -> Vec<String> {
-    v["self_calibration"]["invariants"]
-        .as_array()
-        .expect("invariants")
-        .iter()
-        .map(|i| i["kind"].as_str().expect("test data").to_string())
-        .collect()
+    identify(&c, &[&["--self-calibrate"], extra].concat())
 }
 
 /// Largest |truth − estimate| of the plate's deviations after the rigid motion the

@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use super::identify::{Pos, campaign, eight, gauge_file, machine, pos, run};
-use crate::util::{dataset, errmap, json, s, stderr, tempdir};
+use super::identify::{Pos, campaign, eight, gauge_file, identify, machine, pos, run};
+use crate::util::{dataset, errmap, s, stderr, tempdir};
 
 /// Simulates `positions` of the certified plate (the truth), then identifies the same
 /// measurements with `plate` (uncertified) and `--self-calibrate`.
@@ -22,17 +22,7 @@ fn self_calibrate(dir: &Path, plate: &Path, positions: &[Pos]) -> serde_json::Va
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let c = campaign(dir, plate, positions, 0.2);
-    let o = errmap(&[
-        "artefact",
-        "identify",
-        s(&c),
-        "--topology",
-        "YXZ",
-        "--self-calibrate",
-        "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    json(&o)
+    identify(&c, &["--self-calibrate"])
 }
 
 /// The example plate without its certificate; returns (path, true deviations µm).
@@ -107,7 +97,8 @@ fn beyond_invariants(v: &serde_json::Value, truth: &[[f64; 3]]) -> f64 {
     worst
 }
 
-fn invariant_kinds(v: &serde_json::Value) -> Vec<String> {
+/// The kinds of the self-calibration's invariants, in the JSON's order.
+pub(super) fn invariant_kinds(v: &serde_json::Value) -> Vec<String> {
     v["self_calibration"]["invariants"]
         .as_array()
         .expect("invariants")
