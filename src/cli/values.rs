@@ -519,12 +519,17 @@ impl FromStr for LineAt {
 /// `export`'s line in `errmap --help`: the controllers as a user knows them, from the
 /// registry.
 pub(crate) fn export_about() -> String {
-    let controllers: Vec<&str> = DIALECTS.iter().map(|d| d.controller()).collect();
     format!(
         "Export compensation tables ({}, CSV) or a volumetric grid; --existing updates a \
          table in use",
-        controllers.join(", ")
+        controllers()
     )
+}
+
+/// Every registered controller as a user knows it: `LinuxCNC, Siemens 840D, …`.
+fn controllers() -> String {
+    let names: Vec<&str> = DIALECTS.iter().map(|d| d.controller()).collect();
+    names.join(", ")
 }
 
 /// The help of `export`'s flag for `setting`: what it is, then each controller that reads
@@ -567,11 +572,10 @@ pub(crate) fn readers_help(setting: TableSetting) -> String {
 
 /// `import`'s line in `errmap --help`: the controllers from the registry.
 pub(crate) fn import_about() -> String {
-    let controllers: Vec<&str> = DIALECTS.iter().map(|d| d.controller()).collect();
     format!(
         "Read a laser export (API XD .pos, Renishaw .rtl), a spreadsheet (--map) or a \
          controller table ({}) into errmap's tables",
-        controllers.join(", ")
+        controllers()
     )
 }
 
@@ -599,11 +603,7 @@ pub(crate) fn ends_help() -> String {
         "A round grid of --step through --reference covering the range, the points beyond it \
          clamped (the value at the range end) or extrapolated. Without it, {} end on the range \
          end (the last interval shorter); {} need a step that divides the range",
-        match listed.split_last() {
-            Some((last, [])) => last.to_string(),
-            Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
-            None => String::new(),
-        },
+        errmap::controller::join_list(&listed, "and"),
         errmap::controller::names_where(equidistant, "and"),
     )
 }

@@ -700,10 +700,19 @@ pub fn names_where(pick: impl Fn(&dyn Dialect) -> bool, conjunction: &str) -> St
         .filter(|d| pick(**d))
         .map(|d| d.name())
         .collect();
-    match names.as_slice() {
+    join_list(&names, conjunction)
+}
+
+/// `items` as a sentence lists them: `a, b, c or d` (`conjunction` = "or"/"and"); one item
+/// alone, none empty.
+pub fn join_list<S: AsRef<str>>(items: &[S], conjunction: &str) -> String {
+    match items {
         [] => String::new(),
-        [one] => one.to_string(),
-        [rest @ .., last] => format!("{} {conjunction} {last}", rest.join(", ")),
+        [one] => one.as_ref().to_string(),
+        [rest @ .., last] => {
+            let rest: Vec<&str> = rest.iter().map(AsRef::as_ref).collect();
+            format!("{} {conjunction} {}", rest.join(", "), last.as_ref())
+        }
     }
 }
 

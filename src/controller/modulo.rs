@@ -82,10 +82,7 @@ pub fn two_direction_tables() -> String {
             Some(format!("{} ({columns})", d.name()))
         })
         .collect();
-    match each.as_slice() {
-        [rest @ .., last] if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
-        _ => each.concat(),
-    }
+    super::join_list(&each, "and")
 }
 
 /// What a dialect's modulo table is, where it has one ([`Dialect::modulo`]): how its points
